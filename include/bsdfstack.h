@@ -1,0 +1,251 @@
+/* bsdfstack.h - the public interface of libbsdfstack.
+ *
+ * bsdfstack computes the bidirectional scattering distribution function (BSDF) of a window system
+ * from the BSDFs of its layers by the matrix (Klems) formalism, in the Klems bases or in RADIANCE's
+ * Shirley-Chiu tensor-tree basis at any resolution k = 1..7.
+ *
+ * Physics contract (every function below relies on it)
+ * ------------------------------------------------------
+ * - Frame: +Z is the surface normal pointing to the interior (room), -Z to the exterior.  X lies in
+ *   the surface plane, Y is "up".  This is RADIANCE's and the BSDF XML files' frame.
+ * - Front = exterior side (-Z), back = interior side (+Z), as in the XML labels.  Layers of a stack
+ *   are listed exterior first.
+ * - Components: Tf (light arrives on the front, leaves through the back), Rf (front -> front),
+ *   Tb (back -> front), Rb (back -> back).
+ * - A component is a matrix over a directional basis: column = incident patch, row = outgoing patch,
+ *   value = BSDF in 1/sr (radiance out per irradiance in; not multiplied by any cosine).
+ * - Index convention: the incident patch is that of the light's PROPAGATION direction (the negated
+ *   vector pointing to the source), the outgoing patch that of its exit direction; patches are
+ *   found from the x, y components of those directions only.  A ray therefore keeps its patch
+ *   index across a gap between two layers, and straight-through transmission and mirror
+ *   reflection both lie on the diagonal.  (RADIANCE's tensor trees use the same convention.)
+ * - Lambda is the diagonal matrix of the patches' projected solid angles (sr): pi/4^k for every
+ *   Shirley-Chiu patch, pi*(cos^2 t0 - cos^2 t1)/n for a Klems patch.  Lambda*M*e_i summed over
+ *   rows is the directional-hemispherical value of incident patch i.
+ *
+ * Conventions of the API
+ * ----------------------
+ * - Every function that can fail returns an int status: 0 = success, < 0 = error, > 0 = warning
+ *   (the result is usable, e.g. an ill-conditioned solve).  The message describing the last
+ *   error or warning is held by the bst_ctx passed in (bst_ctx_message).
+ * - Objects come in _new/_free pairs; every _free accepts NULL.
+ * - The library never prints, never exits and holds no global mutable state: one bst_ctx per
+ *   thread.
+ */
+#ifndef BSDFSTACK_H
+#define BSDFSTACK_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ---------------------------------------------------------------- status and context (ctx) */
+
+enum bst_status {
+    BST_OK = 0,
+    BST_EINVAL = -1,     /* invalid argument (NULL, out of range, NaN) */
+    BST_ENOMEM = -2,     /* allocation failed */
+    BST_ESIZE = -3,      /* operand sizes do not match */
+    BST_EIO = -4,        /* file could not be read or written */
+    BST_EFORMAT = -5,    /* malformed input file */
+    BST_EBASIS = -6,     /* unknown or incompatible basis */
+    BST_ESINGULAR = -7,  /* (I - A) is singular to working precision */
+    BST_ENOTFOUND = -8,  /* a named item (layer, component, channel) does not exist */
+    BST_EINTERNAL = -9,  /* a library routine (BLAS, LAPACK, SuiteSparse) failed unexpectedly */
+    BST_WILLCOND = 1,    /* warning: ill-conditioned solve, see the returned rcond */
+    BST_WENERGY = 2,     /* warning: energy imbalance beyond tolerance in an input */
+    BST_WDATA = 3        /* warning: input data repaired or completed (e.g. reciprocity used) */
+};
+
+/* Short text of a status code ("out of memory", ...); never NULL. */
+const char *bst_strerror(int status);
+
+typedef struct bst_ctx bst_ctx;
+
+/* Allocator hooks: malloc-like and free-like, with the opaque pointer given at registration. */
+typedef void *(*bst_malloc_fn)(size_t size, void *opaque);
+typedef void (*bst_free_fn)(void *ptr, void *opaque);
+
+/* A new context with the system allocator; NULL only if that allocation fails. */
+bst_ctx *bst_ctx_new(void);
+void bst_ctx_free(bst_ctx *ctx);
+
+/* Replace the allocator used for every library-owned buffer created with this context (used by
+ * the tests to inject allocation failures); call it before creating any object.  Every object
+ * remembers the context that created it, which must outlive the object.  SuiteSparse's internal
+ * storage (sparse matrices, factorizations) uses SuiteSparse's own allocator. */
+int bst_ctx_set_allocator(bst_ctx *ctx, bst_malloc_fn m, bst_free_fn f, void *opaque);
+
+/* The message of the last error or warning ("" if none), valid until the next call with ctx. */
+const char *bst_ctx_message(const bst_ctx *ctx);
+/* The status that produced that message (0 if none). */
+int bst_ctx_status(const bst_ctx *ctx);
+void bst_ctx_clear(bst_ctx *ctx);
+
+/* Progress reporting for long operations: called with a fraction in [0, 1] and a short label.
+ * The library calls it at most a few hundred times per operation; NULL disables it. */
+typedef void (*bst_progress_fn)(double fraction, const char *label, void *opaque);
+void bst_ctx_set_progress(bst_ctx *ctx, bst_progress_fn fn, void *opaque);
+
+/* ---------------------------------------------------------------- structured matrices (mat) */
+
+typedef enum {
+    BST_ZERO = 0,    /* no storage: every element is 0 */
+    BST_DIAG = 1,    /* square, only the diagonal is stored: O(N) */
+    BST_SPARSE = 2,  /* compressed sparse column (CHOLMOD), always double */
+    BST_DENSE = 3    /* column-major, double or float */
+} bst_structure;
+
+typedef enum { BST_DOUBLE = 0, BST_FLOAT = 1 } bst_precision;
+
+typedef struct bst_mat bst_mat;
+
+/* Constructors.  Values are copied; the result belongs to the caller (bst_mat_free). */
+int bst_mat_new_zero(bst_ctx *ctx, size_t rows, size_t cols, bst_mat **out);
+int bst_mat_new_diag(bst_ctx *ctx, size_t n, const double *diag, bst_mat **out);
+/* Dense, zero-filled, in the given precision; fill it through bst_mat_dense_data. */
+int bst_mat_new_dense(bst_ctx *ctx, size_t rows, size_t cols, bst_precision prec, bst_mat **out);
+/* Sparse from triplets (row, col, value); duplicates are summed, zeros dropped. */
+int bst_mat_new_sparse(bst_ctx *ctx, size_t rows, size_t cols, size_t nnz,
+                       const size_t *row, const size_t *col, const double *val, bst_mat **out);
+void bst_mat_free(bst_mat *m);
+
+bst_structure bst_mat_structure(const bst_mat *m);
+bst_precision bst_mat_precision(const bst_mat *m);
+size_t bst_mat_rows(const bst_mat *m);
+size_t bst_mat_cols(const bst_mat *m);
+/* Number of stored values (N for diagonal, nnz for sparse, rows*cols for dense, 0 for zero). */
+size_t bst_mat_nnz(const bst_mat *m);
+/* Element (i, j), whatever the structure (O(1) except sparse: O(log nnz in column)). */
+double bst_mat_get(const bst_mat *m, size_t i, size_t j);
+/* Pointer to the column-major storage of a dense matrix (double* or float* by precision);
+ * NULL for any other structure. */
+void *bst_mat_dense_data(bst_mat *m);
+/* The diagonal of a diagonal matrix; NULL otherwise. */
+double *bst_mat_diag_data(bst_mat *m);
+
+/* A copy converted to the given structure and precision.  Converting to DIAG or ZERO fails with
+ * BST_EINVAL when off-diagonal (or any) non-zeros exist.  Sparse is always double. */
+int bst_mat_convert(bst_ctx *ctx, const bst_mat *m, bst_structure s, bst_precision prec,
+                    bst_mat **out);
+/* A copy in the cheapest structure that holds m exactly: zero, diagonal, sparse when the fraction
+ * of non-zeros is at most sparse_max_fill (default BST_SPARSE_MAX_FILL), else dense in m's
+ * precision (double for a sparse input). */
+#define BST_SPARSE_MAX_FILL 0.1
+int bst_mat_compact(bst_ctx *ctx, const bst_mat *m, double sparse_max_fill, bst_mat **out);
+
+/* C = A * B.  Sparse results drop entries with |c| <= drop_tol * max|C| (0 = exact). */
+int bst_mat_mul(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop_tol, bst_mat **out);
+/* C = alpha * A + beta * B. */
+int bst_mat_add(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, const bst_mat *b,
+                bst_mat **out);
+/* C = diag(d_rows) * A * diag(d_cols); either vector may be NULL (= identity). Used for Lambda. */
+int bst_mat_scale(bst_ctx *ctx, const double *d_rows, const bst_mat *a, const double *d_cols,
+                  bst_mat **out);
+int bst_mat_transpose(bst_ctx *ctx, const bst_mat *a, bst_mat **out);
+
+/* ---------------------------------------------------------------- solves (solve) */
+
+/* X = (I - A)^-1 * B  (bst_solve_left) and  Y = B * (I - A)^-1  (bst_solve_right).
+ * A is square; (I - A) is factored once (elementwise for diagonal A, UMFPACK LU for sparse,
+ * LAPACK getrf for dense) and reused for every column of B.  *rcond (may be NULL) receives an
+ * estimate of the reciprocal 1-norm condition number of (I - A).  Returns BST_WILLCOND when
+ * rcond < rcond_warn (default BST_RCOND_WARN), BST_ESINGULAR when (I - A) is singular. */
+#define BST_RCOND_WARN 1e-8
+int bst_solve_left(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double rcond_warn,
+                   bst_mat **x, double *rcond);
+int bst_solve_right(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double rcond_warn,
+                    bst_mat **y, double *rcond);
+
+/* ---------------------------------------------------------------- bases (basis) */
+
+/* A directional basis of one hemisphere.  Patches are numbered 0..N-1:
+ * - Shirley-Chiu of order k (N = 4^k): the square-to-disk (concentric) map of RADIANCE applied to
+ *   the direction's (x, y); square cell (ix, iy) of side 2^-k has index ix * 2^k + iy (ix along
+ *   X slowest, "row-wise" as RADIANCE's full tensor order), every patch has Lambda = pi / N.
+ * - Klems (full 145, half, quarter, or any band table read from a file): band by band from the
+ *   normal outwards; in a band of n patches, patch j is centred on azimuth 360 j / n degrees.
+ * A direction's patch depends only on its x, y components (|z| is implied), so the same function
+ * serves incident propagation directions and exit directions of either hemisphere. */
+typedef struct bst_basis bst_basis;
+typedef enum { BST_BASIS_SHIRLEY_CHIU = 0, BST_BASIS_KLEMS = 1 } bst_basis_kind;
+
+#define BST_K_MIN 1
+#define BST_K_MAX 7
+int bst_basis_new_sc(bst_ctx *ctx, int k, bst_basis **out);
+/* which = "full", "half" or "quarter" (built-in LBNL definitions). */
+int bst_basis_new_klems(bst_ctx *ctx, const char *which, bst_basis **out);
+/* A Klems-type basis from a band table: nbands bands, band b spans theta_bounds_deg[b] ..
+ * theta_bounds_deg[b+1] (theta_bounds_deg[0] = 0, last = 90) with nphi[b] patches. */
+int bst_basis_new_klems_bands(bst_ctx *ctx, const char *name, size_t nbands,
+                              const double *theta_bounds_deg, const int *nphi, bst_basis **out);
+int bst_basis_copy(bst_ctx *ctx, const bst_basis *b, bst_basis **out);
+void bst_basis_free(bst_basis *b);
+
+bst_basis_kind bst_basis_kind_of(const bst_basis *b);
+size_t bst_basis_size(const bst_basis *b);
+/* k of a Shirley-Chiu basis, 0 for Klems. */
+int bst_basis_order(const bst_basis *b);
+/* "LBNL/Shirley-Chiu" or the Klems name ("LBNL/Klems Full", ...). */
+const char *bst_basis_name(const bst_basis *b);
+/* Projected solid angle of every patch (sr), length bst_basis_size. */
+const double *bst_basis_lambda(const bst_basis *b);
+/* Patch of a direction (only dir[0], dir[1] are used; |(x, y)| <= 1). */
+size_t bst_basis_patch(const bst_basis *b, const double dir[3]);
+/* Centre direction of a patch: unit vector with z >= 0. */
+void bst_basis_center(const bst_basis *b, size_t patch, double dir[3]);
+/* 1 when a and b define the same patches. */
+int bst_basis_equal(const bst_basis *a, const bst_basis *b);
+
+/* ---------------------------------------------------------------- layers (layer) */
+
+/* A layer (or a combined stack) is four components per spectral channel over one basis. */
+typedef enum { BST_TF = 0, BST_RF = 1, BST_TB = 2, BST_RB = 3 } bst_comp;
+#define BST_NCOMP 4
+/* "Tf", "Rf", "Tb", "Rb". */
+const char *bst_comp_name(bst_comp c);
+/* BST_TF.. from "Tf" (case-insensitive); -1 if unknown. */
+int bst_comp_parse(const char *name);
+
+typedef struct bst_layer bst_layer;
+
+/* A layer over a copy of basis with the named channels (e.g. "Visible", "Solar", "CIE-X") and no
+ * component set. */
+int bst_layer_new(bst_ctx *ctx, const bst_basis *basis, size_t nchannels,
+                  const char *const *channels, bst_layer **out);
+void bst_layer_free(bst_layer *l);
+
+const bst_basis *bst_layer_basis(const bst_layer *l);
+size_t bst_layer_nchannels(const bst_layer *l);
+const char *bst_layer_channel(const bst_layer *l, size_t channel);
+/* Index of a channel by name (case-insensitive), -1 if the layer has none of that name. */
+int bst_layer_find_channel(const bst_layer *l, const char *name);
+/* The component, or NULL when it is absent. */
+const bst_mat *bst_layer_get(const bst_layer *l, size_t channel, bst_comp c);
+/* Set (or replace) a component: m must be N x N for the layer's basis; the layer takes ownership
+ * of m, also on failure. */
+int bst_layer_set(bst_ctx *ctx, bst_layer *l, size_t channel, bst_comp c, bst_mat *m);
+/* Detach a component (the caller owns it; NULL if absent). */
+bst_mat *bst_layer_take(bst_layer *l, size_t channel, bst_comp c);
+/* Free-form name and description kept with the layer (e.g. the file it came from). */
+int bst_layer_set_name(bst_ctx *ctx, bst_layer *l, const char *name);
+const char *bst_layer_name(const bst_layer *l);
+
+/* ---------------------------------------------------------------- BSDF XML (xml, ttree) */
+/* (declared by the reader module) */
+
+/* ---------------------------------------------------------------- analytic glass (glass) */
+/* (declared by the glass module) */
+
+/* ---------------------------------------------------------------- version */
+
+/* "MAJOR.MINOR.PATCH" of the library actually linked. */
+const char *bst_version(void);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* BSDFSTACK_H */

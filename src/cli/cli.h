@@ -1,0 +1,62 @@
+/* cli.h - shared pieces of the bsdfstack program: the subcommand table, error reporting and
+ * atomic output files.  Every subcommand is a function in its own file, cmd_<name>.c. */
+#ifndef BST_CLI_H
+#define BST_CLI_H
+
+#include <stdio.h>
+#include "bsdfstack.h"
+
+/* Exit statuses of the program. */
+enum { CLI_OK = 0, CLI_FAIL = 1, CLI_USAGE = 2 };
+
+struct cli_command {
+    const char *name;
+    int (*run)(int argc, char **argv); /* argv[0] is the subcommand name */
+    const char *summary;
+};
+
+/* Every subcommand (the table is in main.c; each function in its cmd_<name>.c). */
+extern const struct cli_command cli_commands[];
+int cmd_version(int argc, char **argv);
+
+/* "bsdfstack SUB: message" on stderr, one line.  Returns CLI_FAIL. */
+int cli_fail(const char *sub, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+/* Usage error: the message and a pointer to --help.  Returns CLI_USAGE. */
+int cli_usage(const char *sub, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+/* Report a library error from ctx ("bsdfstack SUB: WHAT: message").  Returns CLI_FAIL. */
+int cli_fail_ctx(const char *sub, const char *what, bst_ctx *ctx);
+/* Print library warnings held by ctx after a call that returned status > 0. */
+void cli_warn_ctx(const char *sub, const char *what, int status, bst_ctx *ctx);
+
+/* A context with a terminal progress bar on stderr when stderr is a terminal. */
+bst_ctx *cli_ctx_new(const char *sub);
+
+/* Atomic output: write to a temporary file in the target's directory, rename on commit.  The path
+ * "-" means standard output. */
+struct cli_out {
+    FILE *fp;
+    char *path;
+    char *tmp;
+};
+int cli_out_open(struct cli_out *o, const char *sub, const char *path);
+/* Flush, close and rename into place; on any failure remove the temporary and fail. */
+int cli_out_commit(struct cli_out *o, const char *sub);
+/* Remove the temporary (on an error path). Safe to call after commit or on a zeroed struct. */
+void cli_out_abort(struct cli_out *o);
+
+/* Parse a double / int option value strictly (the whole string, finite). 0 on success. */
+int cli_parse_double(const char *s, double *out);
+int cli_parse_int(const char *s, int *out);
+
+/* Print a subcommand's help text (the same text as its man page's synopsis and options). */
+void cli_print_help(FILE *fp, const char *text);
+
+#endif

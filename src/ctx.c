@@ -1,0 +1,205 @@
+/* ctx.c - the context object: last status and message, allocator hooks, progress callback, and the
+ * CHOLMOD common block shared by the sparse kernels of one context. */
+#include <config.h>
+
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cholmod.h>
+
+#include "ctx.h"
+
+static void *system_malloc(size_t size, void *opaque)
+{
+    (void)opaque;
+    return malloc(size);
+}
+
+static void system_free(void *p, void *opaque)
+{
+    (void)opaque;
+    free(p);
+}
+
+const char *bst_strerror(int status)
+{
+    switch (status) {
+    case BST_OK: return "success";
+    case BST_EINVAL: return "invalid argument";
+    case BST_ENOMEM: return "out of memory";
+    case BST_ESIZE: return "sizes do not match";
+    case BST_EIO: return "input/output error";
+    case BST_EFORMAT: return "malformed input";
+    case BST_EBASIS: return "unknown or incompatible basis";
+    case BST_ESINGULAR: return "singular matrix";
+    case BST_ENOTFOUND: return "not found";
+    case BST_EINTERNAL: return "internal error in a numerical library";
+    case BST_WILLCOND: return "ill-conditioned solve";
+    case BST_WENERGY: return "energy imbalance";
+    case BST_WDATA: return "input data completed or repaired";
+    default: return status < 0 ? "unknown error" : "unknown warning";
+    }
+}
+
+bst_ctx *bst_ctx_new(void)
+{
+    bst_ctx *ctx = calloc(1, sizeof *ctx);
+    if (!ctx)
+        return NULL;
+    ctx->malloc_fn = system_malloc;
+    ctx->free_fn = system_free;
+    return ctx;
+}
+
+void bst_ctx_free(bst_ctx *ctx)
+{
+    if (!ctx)
+        return;
+    if (ctx->cholmod) {
+        cholmod_l_finish(ctx->cholmod);
+        free(ctx->cholmod);
+    }
+    free(ctx);
+}
+
+int bst_ctx_set_allocator(bst_ctx *ctx, bst_malloc_fn m, bst_free_fn f, void *opaque)
+{
+    if (!ctx)
+        return BST_EINVAL;
+    if (!m != !f)
+        return bsti_error(ctx, BST_EINVAL, "allocator: give both malloc and free hooks, or neither");
+    ctx->malloc_fn = m ? m : system_malloc;
+    ctx->free_fn = f ? f : system_free;
+    ctx->alloc_opaque = m ? opaque : NULL;
+    return BST_OK;
+}
+
+const char *bst_ctx_message(const bst_ctx *ctx)
+{
+    return ctx ? ctx->msg : "no context";
+}
+
+int bst_ctx_status(const bst_ctx *ctx)
+{
+    return ctx ? ctx->status : BST_EINVAL;
+}
+
+void bst_ctx_clear(bst_ctx *ctx)
+{
+    if (!ctx)
+        return;
+    ctx->status = BST_OK;
+    ctx->msg[0] = '\0';
+}
+
+void bst_ctx_set_progress(bst_ctx *ctx, bst_progress_fn fn, void *opaque)
+{
+    if (!ctx)
+        return;
+    ctx->progress_fn = fn;
+    ctx->progress_opaque = opaque;
+}
+
+int bsti_error(bst_ctx *ctx, int status, const char *fmt, ...)
+{
+    if (!ctx)
+        return status;
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(ctx->msg, sizeof ctx->msg, fmt, ap);
+    va_end(ap);
+    ctx->status = status;
+    return status;
+}
+
+void bsti_error_prefix(bst_ctx *ctx, const char *fmt, ...)
+{
+    if (!ctx)
+        return;
+    char prefix[BSTI_MSG_MAX], old[BSTI_MSG_MAX];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(prefix, sizeof prefix, fmt, ap);
+    va_end(ap);
+    memcpy(old, ctx->msg, sizeof old);
+    int n = (int)strnlen(prefix, BSTI_MSG_MAX / 2);
+    snprintf(ctx->msg, sizeof ctx->msg, "%.*s: %.*s", n, prefix, BSTI_MSG_MAX - n - 3, old);
+}
+
+int bsti_size_mul(size_t a, size_t b, size_t *out)
+{
+    if (a != 0 && b > SIZE_MAX / a)
+        return -1;
+    *out = a * b;
+    return 0;
+}
+
+void *bsti_malloc(bst_ctx *ctx, size_t size)
+{
+    void *p = ctx->malloc_fn(size ? size : 1, ctx->alloc_opaque);
+    if (!p)
+        bsti_error(ctx, BST_ENOMEM, "out of memory (allocating %zu bytes)", size);
+    return p;
+}
+
+void *bsti_alloc_array(bst_ctx *ctx, size_t n, size_t size)
+{
+    size_t total;
+    if (bsti_size_mul(n, size, &total)) {
+        bsti_error(ctx, BST_ENOMEM, "out of memory (%zu x %zu bytes overflows)", n, size);
+        return NULL;
+    }
+    return bsti_malloc(ctx, total);
+}
+
+void *bsti_calloc(bst_ctx *ctx, size_t n, size_t size)
+{
+    void *p = bsti_alloc_array(ctx, n, size);
+    if (p)
+        memset(p, 0, n * size);
+    return p;
+}
+
+void bsti_free(bst_ctx *ctx, void *p)
+{
+    if (p)
+        ctx->free_fn(p, ctx->alloc_opaque);
+}
+
+char *bsti_strdup(bst_ctx *ctx, const char *s)
+{
+    size_t n = strlen(s) + 1;
+    char *d = bsti_malloc(ctx, n);
+    if (d)
+        memcpy(d, s, n);
+    return d;
+}
+
+void bsti_progress(bst_ctx *ctx, double fraction, const char *label)
+{
+    if (ctx && ctx->progress_fn)
+        ctx->progress_fn(fraction, label, ctx->progress_opaque);
+}
+
+struct cholmod_common_struct *bsti_cholmod(bst_ctx *ctx)
+{
+    if (ctx->cholmod)
+        return ctx->cholmod;
+    cholmod_common *cc = malloc(sizeof *cc);
+    if (!cc || !cholmod_l_start(cc)) {
+        free(cc);
+        bsti_error(ctx, BST_ENOMEM, "out of memory (starting CHOLMOD)");
+        return NULL;
+    }
+    cc->print = 0; /* the library never prints */
+    cc->error_handler = NULL;
+    ctx->cholmod = cc;
+    return cc;
+}
+
+const char *bst_version(void)
+{
+    return PACKAGE_VERSION;
+}

@@ -1,0 +1,57 @@
+/* ctx.h - internal side of bst_ctx: status messages, the allocator, progress, the CHOLMOD common.
+ *
+ * Internal (non-exported) functions of the library carry the prefix bsti_; only bst_ names are
+ * exported from the shared library. */
+#ifndef BST_CTX_H
+#define BST_CTX_H
+
+#include <stdarg.h>
+#include <stddef.h>
+#include "bsdfstack.h"
+
+#define BSTI_MSG_MAX 1024
+
+struct cholmod_common_struct;
+
+struct bst_ctx {
+    int status;
+    char msg[BSTI_MSG_MAX];
+    bst_malloc_fn malloc_fn;
+    bst_free_fn free_fn;
+    void *alloc_opaque;
+    bst_progress_fn progress_fn;
+    void *progress_opaque;
+    struct cholmod_common_struct *cholmod; /* started on first use, see bsti_cholmod */
+};
+
+/* Record status and a printf-style message in ctx and return status (so: return bsti_error(...)). */
+int bsti_error(bst_ctx *ctx, int status, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+/* Prefix the current message with "prefix: " (to add where an error happened). */
+void bsti_error_prefix(bst_ctx *ctx, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+
+/* Allocation through the context's allocator.  On failure they record BST_ENOMEM in ctx and
+ * return NULL.  bsti_calloc and bsti_alloc_array check n * size for overflow. */
+void *bsti_malloc(bst_ctx *ctx, size_t size);
+void *bsti_calloc(bst_ctx *ctx, size_t n, size_t size);
+void *bsti_alloc_array(bst_ctx *ctx, size_t n, size_t size);
+void bsti_free(bst_ctx *ctx, void *p);
+char *bsti_strdup(bst_ctx *ctx, const char *s);
+/* a * b without overflow: 0 and *out set, or -1 on overflow. */
+int bsti_size_mul(size_t a, size_t b, size_t *out);
+
+/* Report progress of a long operation (no-op without a callback). */
+void bsti_progress(bst_ctx *ctx, double fraction, const char *label);
+
+/* The context's CHOLMOD common (started on first call, finished by bst_ctx_free); NULL with
+ * BST_ENOMEM recorded if it cannot be started. */
+struct cholmod_common_struct *bsti_cholmod(bst_ctx *ctx);
+
+#endif

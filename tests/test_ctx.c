@@ -1,0 +1,82 @@
+/* test_ctx.c - the context: messages, status texts, allocator hooks and their failure paths. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "ctx.h"
+#include "testutil.h"
+
+START_TEST(test_messages)
+{
+    bst_ctx *ctx = bst_ctx_new();
+    ck_assert_ptr_nonnull(ctx);
+    ck_assert_str_eq(bst_ctx_message(ctx), "");
+    ck_assert_int_eq(bst_ctx_status(ctx), BST_OK);
+    int rc = bsti_error(ctx, BST_EFORMAT, "file %s: element <%s> is wrong", "a.xml", "Foo");
+    ck_assert_int_eq(rc, BST_EFORMAT);
+    ck_assert_int_eq(bst_ctx_status(ctx), BST_EFORMAT);
+    ck_assert_str_eq(bst_ctx_message(ctx), "file a.xml: element <Foo> is wrong");
+    bsti_error_prefix(ctx, "layer %d", 2);
+    ck_assert_str_eq(bst_ctx_message(ctx), "layer 2: file a.xml: element <Foo> is wrong");
+    bst_ctx_clear(ctx);
+    ck_assert_str_eq(bst_ctx_message(ctx), "");
+    bst_ctx_free(ctx);
+    bst_ctx_free(NULL);
+}
+END_TEST
+
+START_TEST(test_strerror)
+{
+    int codes[] = {BST_OK, BST_EINVAL, BST_ENOMEM, BST_ESIZE, BST_EIO, BST_EFORMAT, BST_EBASIS,
+                   BST_ESINGULAR, BST_ENOTFOUND, BST_EINTERNAL, BST_WILLCOND, BST_WENERGY,
+                   BST_WDATA};
+    for (size_t i = 0; i < sizeof codes / sizeof codes[0]; i++)
+        for (size_t j = 0; j < i; j++)
+            ck_assert_str_ne(bst_strerror(codes[i]), bst_strerror(codes[j]));
+    ck_assert_str_eq(bst_strerror(-1000), "unknown error");
+    ck_assert_str_eq(bst_strerror(1000), "unknown warning");
+}
+END_TEST
+
+START_TEST(test_allocator)
+{
+    bst_ctx *ctx = bst_ctx_new();
+    tu_alloc a = {.fail_at = 2};
+    ck_assert_int_eq(bst_ctx_set_allocator(ctx, tu_alloc_malloc, NULL, &a), BST_EINVAL);
+    ck_assert_int_eq(bst_ctx_set_allocator(ctx, tu_alloc_malloc, tu_alloc_free, &a), BST_OK);
+    void *p = bsti_malloc(ctx, 10);
+    ck_assert_ptr_nonnull(p);
+    ck_assert_ptr_null(bsti_malloc(ctx, 10));
+    ck_assert_int_eq(bst_ctx_status(ctx), BST_ENOMEM);
+    ck_assert_ptr_null(bsti_calloc(ctx, SIZE_MAX / 2, 4)); /* overflow is caught, not wrapped */
+    ck_assert_int_eq(bst_ctx_status(ctx), BST_ENOMEM);
+    bsti_free(ctx, p);
+    ck_assert_int_eq(a.live, 0);
+    bst_ctx_free(ctx);
+}
+END_TEST
+
+START_TEST(test_size_mul)
+{
+    size_t out;
+    ck_assert_int_eq(bsti_size_mul(16384, 16384, &out), 0);
+    ck_assert_uint_eq(out, 268435456u);
+    ck_assert_int_eq(bsti_size_mul(SIZE_MAX / 2 + 1, 2, &out), -1);
+}
+END_TEST
+
+static Suite *ctx_suite(void)
+{
+    Suite *s = suite_create("ctx");
+    TCase *tc = tcase_create("core");
+    tcase_add_test(tc, test_messages);
+    tcase_add_test(tc, test_strerror);
+    tcase_add_test(tc, test_allocator);
+    tcase_add_test(tc, test_size_mul);
+    suite_add_tcase(s, tc);
+    return s;
+}
+
+int main(void)
+{
+    return tu_run(ctx_suite());
+}

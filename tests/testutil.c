@@ -1,0 +1,81 @@
+/* testutil.c - see testutil.h. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+#include "testutil.h"
+
+int tu_close(double a, double b, double rtol, double scale)
+{
+    if (isnan(a) || isnan(b))
+        return 0;
+    if (isinf(a) || isinf(b))
+        return a == b;
+    double m = fmax(fmax(fabs(a), fabs(b)), scale);
+    return fabs(a - b) <= rtol * m;
+}
+
+void tu_rng_seed(tu_rng *r, uint64_t seed)
+{
+    r->s = seed ? seed : 0x9E3779B97F4A7C15ull;
+}
+
+double tu_rng_uniform(tu_rng *r)
+{
+    r->s ^= r->s >> 12;
+    r->s ^= r->s << 25;
+    r->s ^= r->s >> 27;
+    uint64_t x = r->s * 0x2545F4914F6CDD1Dull;
+    return (double)(x >> 11) * 0x1.0p-53;
+}
+
+const char *tu_ref(const char *name)
+{
+    static char buf[4096];
+    const char *dir = getenv("BST_REFDIR");
+    if (!dir || !*dir)
+        dir = "../shared/reference";
+    snprintf(buf, sizeof buf, "%s/%s", dir, name);
+    return buf;
+}
+
+const char *tu_src(const char *name)
+{
+    static char buf[4096];
+    const char *dir = getenv("BST_SRCDIR");
+    if (!dir || !*dir)
+        dir = ".";
+    snprintf(buf, sizeof buf, "%s/%s", dir, name);
+    return buf;
+}
+
+/* Each block carries its size in front so tu_alloc_free can keep the live count. */
+void *tu_alloc_malloc(size_t size, void *opaque)
+{
+    tu_alloc *a = opaque;
+    a->count++;
+    if (a->fail_at && a->count == a->fail_at)
+        return NULL;
+    void *p = malloc(size);
+    if (p)
+        a->live++;
+    return p;
+}
+
+void tu_alloc_free(void *p, void *opaque)
+{
+    tu_alloc *a = opaque;
+    if (p) {
+        a->live--;
+        free(p);
+    }
+}
+
+int tu_run(Suite *s)
+{
+    SRunner *sr = srunner_create(s);
+    srunner_run_all(sr, CK_NORMAL);
+    int failed = srunner_ntests_failed(sr);
+    srunner_free(sr);
+    return failed == 0 ? EXIT_SUCCESS : EXIT_FAILURE;
+}

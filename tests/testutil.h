@@ -1,0 +1,45 @@
+/* testutil.h - helpers shared by the Check suites: NaN-aware relative comparisons, a seeded random
+ * generator, the reference-data directory, and an allocator that fails on demand. */
+#ifndef BST_TESTUTIL_H
+#define BST_TESTUTIL_H
+
+#include <check.h>
+#include <stddef.h>
+#include <stdint.h>
+#include "bsdfstack.h"
+
+/* |a - b| <= rtol * max(|a|, |b|, scale): relative, with an absolute floor rtol * scale for
+ * values near zero.  NaN never compares equal. */
+int tu_close(double a, double b, double rtol, double scale);
+#define tu_assert_close(a, b, rtol, scale)                                                        \
+    do {                                                                                         \
+        double tu_a_ = (a), tu_b_ = (b);                                                         \
+        ck_assert_msg(tu_close(tu_a_, tu_b_, (rtol), (scale)),                                   \
+                      "%s = %.17g vs %s = %.17g (rtol %g, scale %g)", #a, tu_a_, #b, tu_b_,      \
+                      (double)(rtol), (double)(scale));                                          \
+    } while (0)
+
+/* Deterministic generator (xorshift64*): same sequence on every machine for a given seed. */
+typedef struct { uint64_t s; } tu_rng;
+void tu_rng_seed(tu_rng *r, uint64_t seed);
+double tu_rng_uniform(tu_rng *r); /* [0, 1) */
+
+/* Path of a file in the reference folder ($BST_REFDIR); the returned buffer is static. */
+const char *tu_ref(const char *name);
+/* Path of a file in the source tree ($BST_SRCDIR, default "."); static buffer. */
+const char *tu_src(const char *name);
+
+/* An allocator for bst_ctx_set_allocator that fails the n-th allocation (n >= 1; 0 = never),
+ * and counts live blocks so that leaks show. */
+typedef struct {
+    long fail_at;  /* the allocation number that fails (1-based), 0 = none */
+    long count;    /* allocations attempted so far */
+    long live;     /* blocks allocated and not yet freed */
+} tu_alloc;
+void *tu_alloc_malloc(size_t size, void *opaque);
+void tu_alloc_free(void *p, void *opaque);
+
+/* Run a Check suite; returns the process exit status. */
+int tu_run(Suite *s);
+
+#endif
