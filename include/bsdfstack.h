@@ -197,6 +197,13 @@ const double *bst_basis_lambda(const bst_basis *b);
 size_t bst_basis_patch(const bst_basis *b, const double dir[3]);
 /* Centre direction of a patch: unit vector with z >= 0. */
 void bst_basis_center(const bst_basis *b, size_t patch, double dir[3]);
+/* A direction inside a patch: (u, v) in [0,1)^2 maps uniformly in projected solid angle onto the
+ * patch ((0.5, 0.5) is near its centre); dir gets a unit vector with z >= 0.  Averages over a
+ * patch (resampling, analytic layers) sample it this way. */
+void bst_basis_sample(const bst_basis *b, size_t patch, double u, double v, double dir[3]);
+/* The patch of the point-reflected direction (x, y) -> (-x, -y); used for reciprocity
+ * (f(in, out) = f(out, in) exchanges a propagation direction with an exit direction). */
+size_t bst_basis_antipode(const bst_basis *b, size_t patch);
 /* 1 when a and b define the same patches. */
 int bst_basis_equal(const bst_basis *a, const bst_basis *b);
 
