@@ -1,0 +1,168 @@
+/* layer.c - a layer (or combined stack): per spectral channel the four components Tf, Rf, Tb, Rb,
+ * each an N x N bst_mat over the layer's basis (column = incident patch, row = outgoing patch,
+ * BSDF in 1/sr; index convention in bsdfstack.h).  A component may be absent (NULL): absent is not
+ * the same as zero, a reader decides what an absent component means. */
+#include <config.h>
+
+#include <string.h>
+#include <strings.h>
+
+#include "ctx.h"
+#include "layer.h"
+
+static const char *const comp_names[BST_NCOMP] = {"Tf", "Rf", "Tb", "Rb"};
+
+const char *bst_comp_name(bst_comp c)
+{
+    return (unsigned)c < BST_NCOMP ? comp_names[c] : "?";
+}
+
+int bst_comp_parse(const char *name)
+{
+    if (!name)
+        return -1;
+    for (int c = 0; c < BST_NCOMP; c++)
+        if (strcasecmp(name, comp_names[c]) == 0)
+            return c;
+    return -1;
+}
+
+int bst_layer_new(bst_ctx *ctx, const bst_basis *basis, size_t nchannels,
+                  const char *const *channels, bst_layer **out)
+{
+    if (!ctx || !out)
+        return BST_EINVAL;
+    *out = NULL;
+    if (!basis || nchannels == 0 || !channels)
+        return bsti_error(ctx, BST_EINVAL, "layer: a basis and at least one channel are required");
+    for (size_t c = 0; c < nchannels; c++) {
+        if (!channels[c] || !*channels[c])
+            return bsti_error(ctx, BST_EINVAL, "layer: channel %zu has no name", c);
+        for (size_t d = 0; d < c; d++)
+            if (strcasecmp(channels[c], channels[d]) == 0)
+                return bsti_error(ctx, BST_EINVAL, "layer: channel '%s' given twice", channels[c]);
+    }
+    bst_layer *l = bsti_calloc(ctx, 1, sizeof *l);
+    if (!l)
+        return BST_ENOMEM;
+    l->ctx = ctx;
+    l->nchannels = nchannels;
+    l->channels = bsti_calloc(ctx, nchannels, sizeof *l->channels);
+    l->comp = bsti_calloc(ctx, nchannels * BST_NCOMP, sizeof *l->comp);
+    int rc = (l->channels && l->comp) ? BST_OK : BST_ENOMEM;
+    for (size_t c = 0; rc == BST_OK && c < nchannels; c++)
+        if (!(l->channels[c] = bsti_strdup(ctx, channels[c])))
+            rc = BST_ENOMEM;
+    if (rc == BST_OK)
+        rc = bst_basis_copy(ctx, basis, &l->basis);
+    if (rc < 0) {
+        if (!l->channels) /* nothing else to free beyond the struct's own arrays */
+            l->nchannels = 0;
+        bst_layer_free(l);
+        return rc;
+    }
+    *out = l;
+    return BST_OK;
+}
+
+void bst_layer_free(bst_layer *l)
+{
+    if (!l)
+        return;
+    bst_ctx *ctx = l->ctx;
+    if (l->comp)
+        for (size_t i = 0; i < l->nchannels * BST_NCOMP; i++)
+            bst_mat_free(l->comp[i]);
+    if (l->channels)
+        for (size_t c = 0; c < l->nchannels; c++)
+            bsti_free(ctx, l->channels[c]);
+    bsti_free(ctx, l->comp);
+    bsti_free(ctx, l->channels);
+    bsti_free(ctx, l->name);
+    bst_basis_free(l->basis);
+    bsti_free(ctx, l);
+}
+
+const bst_basis *bst_layer_basis(const bst_layer *l)
+{
+    return l ? l->basis : NULL;
+}
+
+size_t bst_layer_nchannels(const bst_layer *l)
+{
+    return l ? l->nchannels : 0;
+}
+
+const char *bst_layer_channel(const bst_layer *l, size_t channel)
+{
+    return (l && channel < l->nchannels) ? l->channels[channel] : NULL;
+}
+
+int bst_layer_find_channel(const bst_layer *l, const char *name)
+{
+    if (!l || !name)
+        return -1;
+    for (size_t c = 0; c < l->nchannels; c++)
+        if (strcasecmp(l->channels[c], name) == 0)
+            return (int)c;
+    return -1;
+}
+
+const bst_mat *bst_layer_get(const bst_layer *l, size_t channel, bst_comp c)
+{
+    if (!l || channel >= l->nchannels || (unsigned)c >= BST_NCOMP)
+        return NULL;
+    return l->comp[channel * BST_NCOMP + c];
+}
+
+int bst_layer_set(bst_ctx *ctx, bst_layer *l, size_t channel, bst_comp c, bst_mat *m)
+{
+    if (!ctx || !l || !m) {
+        bst_mat_free(m);
+        return ctx ? bsti_error(ctx, BST_EINVAL, "layer: NULL layer or matrix") : BST_EINVAL;
+    }
+    if (channel >= l->nchannels || (unsigned)c >= BST_NCOMP) {
+        bst_mat_free(m);
+        return bsti_error(ctx, BST_EINVAL, "layer: channel %zu or component %d out of range",
+                          channel, (int)c);
+    }
+    size_t n = bst_basis_size(l->basis);
+    if (bst_mat_rows(m) != n || bst_mat_cols(m) != n) {
+        int rc = bsti_error(ctx, BST_ESIZE, "layer: %s of channel '%s' is %zu x %zu, basis needs %zu x %zu",
+                            bst_comp_name(c), l->channels[channel], bst_mat_rows(m),
+                            bst_mat_cols(m), n, n);
+        bst_mat_free(m);
+        return rc;
+    }
+    bst_mat **slot = &l->comp[channel * BST_NCOMP + c];
+    bst_mat_free(*slot);
+    *slot = m;
+    return BST_OK;
+}
+
+bst_mat *bst_layer_take(bst_layer *l, size_t channel, bst_comp c)
+{
+    if (!l || channel >= l->nchannels || (unsigned)c >= BST_NCOMP)
+        return NULL;
+    bst_mat **slot = &l->comp[channel * BST_NCOMP + c];
+    bst_mat *m = *slot;
+    *slot = NULL;
+    return m;
+}
+
+int bst_layer_set_name(bst_ctx *ctx, bst_layer *l, const char *name)
+{
+    if (!ctx || !l || !name)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "layer: NULL name") : BST_EINVAL;
+    char *d = bsti_strdup(ctx, name);
+    if (!d)
+        return BST_ENOMEM;
+    bsti_free(ctx, l->name);
+    l->name = d;
+    return BST_OK;
+}
+
+const char *bst_layer_name(const bst_layer *l)
+{
+    return (l && l->name) ? l->name : "";
+}
