@@ -241,6 +241,71 @@ bst_mat *bst_layer_take(bst_layer *l, size_t channel, bst_comp c);
 int bst_layer_set_name(bst_ctx *ctx, bst_layer *l, const char *name);
 const char *bst_layer_name(const bst_layer *l);
 
+/* Reverse a layer (install it with its back side facing the exterior): a rotation by 180 degrees
+ * about the vertical Y axis, (x, y, z) -> (-x, y, -z).  Front and back components swap and every
+ * patch index is mirrored x -> -x. */
+int bst_layer_flip(bst_ctx *ctx, const bst_layer *l, bst_layer **out);
+
+/* Per incident patch j of component c of channel ch: the directional-hemispherical value
+ * sum_i Lambda_i * M(i, j) (transmittance or reflectance); out has N entries.  An absent component
+ * gives zeros. */
+int bst_layer_hemispherical(bst_ctx *ctx, const bst_layer *l, size_t ch, bst_comp c, double *out);
+
+/* ---------------------------------------------------------------- stacks (stack) */
+
+/* Combination of layers listed exterior first, all over the same basis, by the matrix formalism
+ * (two layers 1 = exterior, 2 = interior, Lambda the projected solid angles):
+ *   Tf = Tf2 (I - L Rb1 L Rf2)^-1 L Tf1          Rf = Rf1 + Tb1 (I - L Rf2 L Rb1)^-1 L Rf2 L Tf1
+ *   Tb = Tb1 (I - L Rf2 L Rb1)^-1 L Tb2          Rb = Rb2 + Tf2 (I - L Rb1 L Rf2)^-1 L Rb1 L Tb2
+ * Only the requested components are computed, and of every partial stack only what they need.
+ * An absent component of a layer counts as zero. */
+#define BST_COMP_BIT(c) (1u << (c))
+#define BST_COMP_ALL 0xFu
+
+typedef struct {
+    bst_comp comp;          /* component being formed */
+    size_t step;            /* 1..n-1: layers 0..step combined */
+    const char *channel;
+    bst_structure structure;
+    size_t nnz;
+    double seconds;         /* wall time of the step for this component */
+    double rcond;           /* of the inter-reflection solve (1 when none) */
+} bst_stack_step;
+
+typedef struct {
+    unsigned comps;         /* requested output components, BST_COMP_BIT mask; default all */
+    double drop_tol;        /* sparse fill-in drop tolerance (relative), default 0 = exact */
+    double rcond_warn;      /* warn below this reciprocal condition number, default BST_RCOND_WARN */
+    double energy_tol;      /* warn when an input's T + R exceeds 1 + energy_tol for some
+                               incident patch, default BST_ENERGY_TOL */
+    int strict;             /* 1: ill-conditioning and energy imbalance are errors, default 0 */
+    int force_dense;        /* 1: convert every matrix to dense first (the baseline), default 0 */
+    bst_precision precision;/* precision of dense work, default BST_DOUBLE */
+    /* Called after each component of each step (for -v); may be NULL. */
+    void (*on_step)(const bst_stack_step *step, void *opaque);
+    void *opaque;
+} bst_stack_opts;
+#define BST_ENERGY_TOL 0.01
+
+void bst_stack_opts_init(bst_stack_opts *opts);
+/* Combine n >= 1 layers (exterior first) into *out, which has the channels common to all layers
+ * (by name, in the first layer's order) and the requested components.  Returns the highest warning
+ * (BST_WILLCOND, BST_WENERGY) with its message in ctx, or an error. */
+int bst_stack_combine(bst_ctx *ctx, size_t n, const bst_layer *const *layers,
+                      const bst_stack_opts *opts, bst_layer **out);
+
+/* ---------------------------------------------------------------- metrics (metrics) */
+
+/* Accordance of two distributions of scattered light for one incident patch (after Grobe 2017),
+ * computed on the directional scatter function DSF = BSDF * cos(theta_out), integrated over the
+ * outgoing hemisphere with the basis' projected solid angles L_i:
+ *   GA = 100 * (1 - sum_i L_i |a_i - b_i| / sum_i L_i (a_i + b_i))        (global accordance, %)
+ *   LA_i = 100 * (1 - |a_i - b_i| / (a_i + b_i))   (local accordance, %; 100 where both are 0)
+ * a_i, b_i are column `incident` of component c of channel ch of the two layers, which must share
+ * a basis.  la (may be NULL) receives N values.  Identical distributions give 100, disjoint 0. */
+int bst_accordance(bst_ctx *ctx, const bst_layer *a, const bst_layer *b, size_t ch, bst_comp c,
+                   size_t incident, double *ga, double *la);
+
 /* ---------------------------------------------------------------- BSDF XML (xml, ttree) */
 /* (declared by the reader module) */
 

@@ -166,3 +166,73 @@ const char *bst_layer_name(const bst_layer *l)
 {
     return (l && l->name) ? l->name : "";
 }
+
+/* The mirror x -> -x of every patch, as a symmetric permutation matrix P (P = P^T = P^-1).
+ * The centre of a patch maps onto the centre of its mirror image in both bases (the concentric map
+ * and the Klems azimuth grid are symmetric about the Y axis), so looking the mirrored centre up is
+ * exact. */
+static int mirror_x_permutation(bst_ctx *ctx, const bst_basis *b, bst_mat **out)
+{
+    size_t n = bst_basis_size(b);
+    size_t *row = bsti_alloc_array(ctx, 2 * n, sizeof *row);
+    double *one = bsti_alloc_array(ctx, n, sizeof *one);
+    int rc = (row && one) ? BST_OK : BST_ENOMEM;
+    if (rc == BST_OK) {
+        size_t *col = row + n;
+        for (size_t j = 0; j < n; j++) {
+            double d[3];
+            bst_basis_center(b, j, d);
+            d[0] = -d[0];
+            row[j] = bst_basis_patch(b, d);
+            col[j] = j;
+            one[j] = 1.0;
+        }
+        rc = bst_mat_new_sparse(ctx, n, n, n, row, col, one, out);
+    }
+    bsti_free(ctx, row);
+    bsti_free(ctx, one);
+    return rc;
+}
+
+int bst_layer_flip(bst_ctx *ctx, const bst_layer *l, bst_layer **out)
+{
+    if (!ctx || !l || !out)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "flip: NULL argument") : BST_EINVAL;
+    *out = NULL;
+    bst_mat *p = NULL;
+    bst_layer *f = NULL;
+    int rc = mirror_x_permutation(ctx, l->basis, &p);
+    if (rc >= 0)
+        rc = bst_layer_new(ctx, l->basis, l->nchannels, (const char *const *)l->channels, &f);
+    if (rc >= 0 && l->name)
+        rc = bst_layer_set_name(ctx, f, l->name);
+    /* Seen from the other side, front becomes back: Tf' = P Tb P, Rf' = P Rb P, and so on. */
+    static const bst_comp other[BST_NCOMP] = {BST_TB, BST_RB, BST_TF, BST_RF};
+    for (size_t ch = 0; rc >= 0 && ch < l->nchannels; ch++)
+        for (int c = 0; rc >= 0 && c < BST_NCOMP; c++) {
+            const bst_mat *m = bst_layer_get(l, ch, other[c]);
+            if (!m)
+                continue;
+            bst_mat *pm = NULL, *pmp = NULL, *res = NULL;
+            rc = bst_mat_mul(ctx, p, m, 0.0, &pm);
+            if (rc >= 0)
+                rc = bst_mat_mul(ctx, pm, p, 0.0, &pmp);
+            bst_mat_free(pm);
+            /* keep the input's structure: a permuted diagonal is diagonal again */
+            if (rc >= 0 && bst_mat_structure(pmp) != bst_mat_structure(m)) {
+                rc = bst_mat_convert(ctx, pmp, bst_mat_structure(m), bst_mat_precision(m), &res);
+                bst_mat_free(pmp);
+            } else {
+                res = pmp;
+            }
+            if (rc >= 0)
+                rc = bst_layer_set(ctx, f, ch, (bst_comp)c, res);
+        }
+    bst_mat_free(p);
+    if (rc < 0) {
+        bst_layer_free(f);
+        return rc;
+    }
+    *out = f;
+    return BST_OK;
+}

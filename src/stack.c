@@ -1,0 +1,486 @@
+/* stack.c - combination of a list of layers (exterior first) by the matrix formalism.
+ *
+ * Two adjacent parts U (exterior, "1") and V (interior, "2") combine, with every inter-reflection
+ * in the gap between them, as (L = Lambda, the projected solid angles of the basis):
+ *
+ *   Tf = Tf2 (I - A1)^-1 L Tf1                 A1 = L Rb1 L Rf2   (light going inwards in the gap)
+ *   Rb = Rb2 + Tf2 (I - A1)^-1 L Rb1 L Tb2
+ *   Tb = Tb1 (I - A2)^-1 L Tb2                 A2 = L Rf2 L Rb1   (light going outwards)
+ *   Rf = Rf1 + Tb1 (I - A2)^-1 L Rf2 L Tf1
+ *
+ * Derivation of the first: the flux vector g arriving at V is g = L Tf1 e + L Rb1 L Rf2 g, so
+ * g = (I - A1)^-1 L Tf1 e and V transmits Tf2 g.  The index convention of bsdfstack.h (a ray keeps
+ * its patch across the gap) is what lets these products be plain matrix products.
+ *
+ * Only what is asked is computed: need() below derives, from the components requested of a partial
+ * stack, the components required of its two parts; a stack of n layers is n - 1 steps, and each
+ * partial result is freed as soon as the next step has used it.  When both members of a pair
+ * (Tf, Rb) or (Rf, Tb) are needed, one factorization serves both through W = T2 (I - A)^-1 (a right
+ * solve); when one is needed, a left solve with its own right-hand side is cheaper. */
+#include <config.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+#include <time.h>
+
+#include "ctx.h"
+#include "layer.h"
+
+#define BIT(c) BST_COMP_BIT(c)
+
+void bst_stack_opts_init(bst_stack_opts *opts)
+{
+    memset(opts, 0, sizeof *opts);
+    opts->comps = BST_COMP_ALL;
+    opts->drop_tol = 0.0;
+    opts->rcond_warn = BST_RCOND_WARN;
+    opts->energy_tol = BST_ENERGY_TOL;
+    opts->precision = BST_DOUBLE;
+}
+
+/* Components of the exterior part U (*u) and the interior layer V (*v) that the components `want`
+ * of their combination require (see the formulas at the top). */
+static void need(unsigned want, unsigned *u, unsigned *v)
+{
+    *u = *v = 0;
+    if (want & BIT(BST_TF)) {
+        *u |= BIT(BST_TF) | BIT(BST_RB);
+        *v |= BIT(BST_TF) | BIT(BST_RF);
+    }
+    if (want & BIT(BST_RB)) {
+        *u |= BIT(BST_RB);
+        *v |= BIT(BST_RB) | BIT(BST_TF) | BIT(BST_RF) | BIT(BST_TB);
+    }
+    if (want & BIT(BST_TB)) {
+        *u |= BIT(BST_TB) | BIT(BST_RB);
+        *v |= BIT(BST_TB) | BIT(BST_RF);
+    }
+    if (want & BIT(BST_RF)) {
+        *u |= BIT(BST_RF) | BIT(BST_TB) | BIT(BST_RB) | BIT(BST_TF);
+        *v |= BIT(BST_RF);
+    }
+}
+
+static double now_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* One channel's four components of a part; NULL = zero.  `own` marks matrices this module
+ * allocated (partial results) as opposed to borrowed from an input layer. */
+struct part {
+    const bst_mat *m[BST_NCOMP];
+    bst_mat *own[BST_NCOMP];
+};
+
+static void part_clear(struct part *p)
+{
+    for (int c = 0; c < BST_NCOMP; c++) {
+        bst_mat_free(p->own[c]);
+        p->own[c] = NULL;
+        p->m[c] = NULL;
+    }
+}
+
+struct combiner {
+    bst_ctx *ctx;
+    const bst_stack_opts *opts;
+    const double *lam;
+    size_t n;
+    int warning; /* highest warning status so far */
+    size_t step;
+    const char *channel;
+};
+
+/* Record a warning (or, in strict mode, turn it into an error). */
+static int note_warning(struct combiner *cb, int status)
+{
+    if (status <= 0)
+        return status;
+    if (cb->opts->strict)
+        return bsti_error(cb->ctx, BST_EINVAL, "%s (--strict)", cb->ctx->msg);
+    if (status > cb->warning)
+        cb->warning = status;
+    return BST_OK;
+}
+
+/* L * M, or NULL when M is NULL (zero). */
+static int lam_times(struct combiner *cb, const bst_mat *m, bst_mat **out)
+{
+    *out = NULL;
+    if (!m)
+        return BST_OK;
+    return bst_mat_scale(cb->ctx, cb->lam, m, NULL, out);
+}
+
+/* a * b treating NULL as zero. */
+static int mul(struct combiner *cb, const bst_mat *a, const bst_mat *b, bst_mat **out)
+{
+    *out = NULL;
+    if (!a || !b)
+        return BST_OK;
+    return bst_mat_mul(cb->ctx, a, b, cb->opts->drop_tol, out);
+}
+
+/* r + s treating NULL as zero; the result is a new matrix or NULL. */
+static int add(struct combiner *cb, const bst_mat *r, const bst_mat *s, bst_mat **out)
+{
+    *out = NULL;
+    if (!r && !s)
+        return BST_OK;
+    if (!s)
+        return bst_mat_convert(cb->ctx, r, bst_mat_structure(r), bst_mat_precision(r), out);
+    if (!r)
+        return bst_mat_convert(cb->ctx, s, bst_mat_structure(s), bst_mat_precision(s), out);
+    return bst_mat_add(cb->ctx, 1.0, r, 1.0, s, out);
+}
+
+/* Solve with A possibly NULL (zero: (I - 0)^-1 = I); left: (I-A)^-1 B, right: B (I-A)^-1.
+ * B NULL gives NULL.  *rcond receives the condition estimate. */
+static int solve(struct combiner *cb, int right, const bst_mat *a, const bst_mat *b, bst_mat **out,
+                 double *rcond, const char *what)
+{
+    *out = NULL;
+    *rcond = 1.0;
+    if (!b)
+        return BST_OK;
+    int rc;
+    if (!a)
+        rc = bst_mat_convert(cb->ctx, b, bst_mat_structure(b), bst_mat_precision(b), out);
+    else if (right)
+        rc = bst_solve_right(cb->ctx, a, b, cb->opts->rcond_warn, out, rcond);
+    else
+        rc = bst_solve_left(cb->ctx, a, b, cb->opts->rcond_warn, out, rcond);
+    if (rc == BST_ESINGULAR)
+        bsti_error_prefix(cb->ctx, "layers 1-%zu, channel %s: inter-reflection %s", cb->step + 1,
+                          cb->channel, what);
+    if (rc == BST_WILLCOND) {
+        bsti_error(cb->ctx, BST_WILLCOND,
+                   "layers 1-%zu, channel %s: inter-reflection %s is ill-conditioned "
+                   "(reciprocal condition %.3g): near-perfect mirrors facing each other",
+                   cb->step + 1, cb->channel, what, *rcond);
+        rc = note_warning(cb, rc);
+    }
+    return rc;
+}
+
+static void report(struct combiner *cb, bst_comp c, const bst_mat *m, double t0, double rcond)
+{
+    if (!cb->opts->on_step)
+        return;
+    bst_stack_step s = {
+        .comp = c,
+        .step = cb->step,
+        .channel = cb->channel,
+        .structure = m ? bst_mat_structure(m) : BST_ZERO,
+        .nnz = m ? bst_mat_nnz(m) : 0,
+        .seconds = now_seconds() - t0,
+        .rcond = rcond,
+    };
+    cb->opts->on_step(&s, cb->opts->opaque);
+}
+
+/* Combine U (exterior part) and V (interior layer) into S, forming the components `want`. */
+static int combine_pair(struct combiner *cb, const struct part *u, const struct part *v,
+                        unsigned want, struct part *s)
+{
+    bst_ctx *ctx = cb->ctx;
+    bst_mat *lrb1 = NULL, *lrf2 = NULL, *a = NULL, *w = NULL, *t = NULL, *t2 = NULL;
+    int rc = BST_OK;
+    double rcond, t0;
+    memset(s, 0, sizeof *s);
+
+    /* Light travelling inwards in the gap: Tf and Rb share A1 = L Rb1 L Rf2. */
+    unsigned pair1 = want & (BIT(BST_TF) | BIT(BST_RB));
+    if (pair1) {
+        t0 = now_seconds();
+        if ((rc = lam_times(cb, u->m[BST_RB], &lrb1)) < 0 || (rc = lam_times(cb, v->m[BST_RF], &lrf2)) < 0 ||
+            (rc = mul(cb, lrb1, lrf2, &a)) < 0)
+            goto done;
+        if (pair1 == (BIT(BST_TF) | BIT(BST_RB))) {
+            /* W = Tf2 (I - A1)^-1; Tf = W L Tf1; Rb = Rb2 + W L Rb1 L Tb2 */
+            if ((rc = solve(cb, 1, a, v->m[BST_TF], &w, &rcond, "towards the interior")) < 0 ||
+                (rc = lam_times(cb, u->m[BST_TF], &t)) < 0 ||
+                (rc = mul(cb, w, t, &s->own[BST_TF])) < 0)
+                goto done;
+            report(cb, BST_TF, s->own[BST_TF], t0, rcond);
+            t0 = now_seconds();
+            bst_mat_free(t);
+            t = NULL;
+            if ((rc = lam_times(cb, v->m[BST_TB], &t2)) < 0 || (rc = mul(cb, lrb1, t2, &t)) < 0)
+                goto done;
+            bst_mat_free(t2);
+            t2 = NULL;
+            if ((rc = mul(cb, w, t, &t2)) < 0 || (rc = add(cb, v->m[BST_RB], t2, &s->own[BST_RB])) < 0)
+                goto done;
+            report(cb, BST_RB, s->own[BST_RB], t0, rcond);
+        } else if (pair1 == BIT(BST_TF)) {
+            /* X = (I - A1)^-1 L Tf1; Tf = Tf2 X */
+            if ((rc = lam_times(cb, u->m[BST_TF], &t)) < 0 ||
+                (rc = solve(cb, 0, a, t, &w, &rcond, "towards the interior")) < 0 ||
+                (rc = mul(cb, v->m[BST_TF], w, &s->own[BST_TF])) < 0)
+                goto done;
+            report(cb, BST_TF, s->own[BST_TF], t0, rcond);
+        } else {
+            /* X = (I - A1)^-1 L Rb1 L Tb2; Rb = Rb2 + Tf2 X */
+            if ((rc = lam_times(cb, v->m[BST_TB], &t2)) < 0 || (rc = mul(cb, lrb1, t2, &t)) < 0 ||
+                (rc = solve(cb, 0, a, t, &w, &rcond, "towards the interior")) < 0)
+                goto done;
+            bst_mat_free(t2);
+            t2 = NULL;
+            if ((rc = mul(cb, v->m[BST_TF], w, &t2)) < 0 ||
+                (rc = add(cb, v->m[BST_RB], t2, &s->own[BST_RB])) < 0)
+                goto done;
+            report(cb, BST_RB, s->own[BST_RB], t0, rcond);
+        }
+        bst_mat_free(a), bst_mat_free(w), bst_mat_free(t), bst_mat_free(t2);
+        a = w = t = t2 = NULL;
+    }
+
+    /* Light travelling outwards in the gap: Tb and Rf share A2 = L Rf2 L Rb1. */
+    unsigned pair2 = want & (BIT(BST_TB) | BIT(BST_RF));
+    if (pair2) {
+        t0 = now_seconds();
+        if ((!lrb1 && (rc = lam_times(cb, u->m[BST_RB], &lrb1)) < 0) ||
+            (!lrf2 && (rc = lam_times(cb, v->m[BST_RF], &lrf2)) < 0) ||
+            (rc = mul(cb, lrf2, lrb1, &a)) < 0)
+            goto done;
+        if (pair2 == (BIT(BST_TB) | BIT(BST_RF))) {
+            /* W = Tb1 (I - A2)^-1; Tb = W L Tb2; Rf = Rf1 + W L Rf2 L Tf1 */
+            if ((rc = solve(cb, 1, a, u->m[BST_TB], &w, &rcond, "towards the exterior")) < 0 ||
+                (rc = lam_times(cb, v->m[BST_TB], &t)) < 0 ||
+                (rc = mul(cb, w, t, &s->own[BST_TB])) < 0)
+                goto done;
+            report(cb, BST_TB, s->own[BST_TB], t0, rcond);
+            t0 = now_seconds();
+            bst_mat_free(t);
+            t = NULL;
+            if ((rc = lam_times(cb, u->m[BST_TF], &t2)) < 0 || (rc = mul(cb, lrf2, t2, &t)) < 0)
+                goto done;
+            bst_mat_free(t2);
+            t2 = NULL;
+            if ((rc = mul(cb, w, t, &t2)) < 0 || (rc = add(cb, u->m[BST_RF], t2, &s->own[BST_RF])) < 0)
+                goto done;
+            report(cb, BST_RF, s->own[BST_RF], t0, rcond);
+        } else if (pair2 == BIT(BST_TB)) {
+            /* X = (I - A2)^-1 L Tb2; Tb = Tb1 X */
+            if ((rc = lam_times(cb, v->m[BST_TB], &t)) < 0 ||
+                (rc = solve(cb, 0, a, t, &w, &rcond, "towards the exterior")) < 0 ||
+                (rc = mul(cb, u->m[BST_TB], w, &s->own[BST_TB])) < 0)
+                goto done;
+            report(cb, BST_TB, s->own[BST_TB], t0, rcond);
+        } else {
+            /* X = (I - A2)^-1 L Rf2 L Tf1; Rf = Rf1 + Tb1 X */
+            if ((rc = lam_times(cb, u->m[BST_TF], &t2)) < 0 || (rc = mul(cb, lrf2, t2, &t)) < 0 ||
+                (rc = solve(cb, 0, a, t, &w, &rcond, "towards the exterior")) < 0)
+                goto done;
+            bst_mat_free(t2);
+            t2 = NULL;
+            if ((rc = mul(cb, u->m[BST_TB], w, &t2)) < 0 ||
+                (rc = add(cb, u->m[BST_RF], t2, &s->own[BST_RF])) < 0)
+                goto done;
+            report(cb, BST_RF, s->own[BST_RF], t0, rcond);
+        }
+    }
+done:
+    bst_mat_free(lrb1), bst_mat_free(lrf2), bst_mat_free(a);
+    bst_mat_free(w), bst_mat_free(t), bst_mat_free(t2);
+    for (int c = 0; c < BST_NCOMP; c++)
+        s->m[c] = s->own[c];
+    if (rc < 0) {
+        part_clear(s);
+        return rc;
+    }
+    (void)ctx;
+    return BST_OK;
+}
+
+/* Angles of a patch centre, for messages. */
+static double patch_theta_deg(const bst_basis *b, size_t patch)
+{
+    double d[3];
+    bst_basis_center(b, patch, d);
+    return acos(fmin(1.0, fabs(d[2]))) * 180.0 / M_PI;
+}
+
+int bst_layer_hemispherical(bst_ctx *ctx, const bst_layer *l, size_t ch, bst_comp c, double *out)
+{
+    if (!ctx || !l || !out || ch >= l->nchannels || (unsigned)c >= BST_NCOMP)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "hemispherical: invalid argument") : BST_EINVAL;
+    size_t n = bst_basis_size(l->basis);
+    const bst_mat *m = bst_layer_get(l, ch, c);
+    if (!m) {
+        memset(out, 0, n * sizeof *out);
+        return BST_OK;
+    }
+    return bst_mat_col_weighted_sum(ctx, m, bst_basis_lambda(l->basis), out);
+}
+
+/* Warn (BST_WENERGY) when T + R of an input layer exceeds 1 + tol for some incident patch, on
+ * either side; the message names the layer, side, patch and value of the worst case. */
+static int check_energy(struct combiner *cb, const bst_layer *l, size_t li, size_t ch)
+{
+    size_t n = bst_basis_size(l->basis);
+    double *t = bsti_alloc_array(cb->ctx, 2 * n, sizeof *t);
+    if (!t)
+        return BST_ENOMEM;
+    double *r = t + n;
+    int rc = BST_OK;
+    static const bst_comp sides[2][2] = {{BST_TF, BST_RF}, {BST_TB, BST_RB}};
+    for (int side = 0; side < 2 && rc == BST_OK; side++) {
+        if ((rc = bst_layer_hemispherical(cb->ctx, l, ch, sides[side][0], t)) < 0 ||
+            (rc = bst_layer_hemispherical(cb->ctx, l, ch, sides[side][1], r)) < 0)
+            break;
+        size_t worst = 0;
+        double wv = -1.0;
+        for (size_t j = 0; j < n; j++)
+            if (t[j] + r[j] > wv)
+                wv = t[j] + r[j], worst = j;
+        if (!isfinite(wv)) {
+            rc = bsti_error(cb->ctx, BST_EINVAL, "layer %zu (%s), channel %s: non-finite values",
+                            li + 1, bst_layer_name(l), l->channels[ch]);
+        } else if (wv > 1.0 + cb->opts->energy_tol) {
+            bsti_error(cb->ctx, BST_WENERGY,
+                       "layer %zu (%s), channel %s: %s T + R = %.4f > 1 at incident patch %zu "
+                       "(theta %.1f deg)", li + 1, bst_layer_name(l), l->channels[ch],
+                       side ? "back" : "front", wv, worst, patch_theta_deg(l->basis, worst));
+            rc = note_warning(cb, BST_WENERGY);
+        }
+    }
+    bsti_free(cb->ctx, t);
+    return rc;
+}
+
+/* A component of an input layer in the form the combination works on: borrowed as it is, or a
+ * dense copy (force_dense), or a float copy of a dense double matrix (single precision). */
+static int prepare(struct combiner *cb, const bst_mat *m, struct part *p, bst_comp c)
+{
+    p->m[c] = m;
+    if (!m)
+        return BST_OK;
+    const bst_stack_opts *o = cb->opts;
+    bst_structure s = bst_mat_structure(m);
+    int to_dense = o->force_dense && s != BST_DENSE;
+    int to_prec = s == BST_DENSE && bst_mat_precision(m) != o->precision;
+    if (!to_dense && !to_prec)
+        return BST_OK;
+    int rc = bst_mat_convert(cb->ctx, m, BST_DENSE, o->precision, &p->own[c]);
+    if (rc >= 0)
+        p->m[c] = p->own[c];
+    return rc;
+}
+
+int bst_stack_combine(bst_ctx *ctx, size_t n, const bst_layer *const *layers,
+                      const bst_stack_opts *opts_in, bst_layer **out)
+{
+    if (!ctx || !out)
+        return BST_EINVAL;
+    *out = NULL;
+    if (n == 0 || !layers)
+        return bsti_error(ctx, BST_EINVAL, "stack: no layers");
+    bst_stack_opts defaults;
+    bst_stack_opts_init(&defaults);
+    const bst_stack_opts *opts = opts_in ? opts_in : &defaults;
+    unsigned want = opts->comps ? opts->comps & BST_COMP_ALL : BST_COMP_ALL;
+    if (!(opts->drop_tol >= 0.0 && opts->drop_tol < 1.0))
+        return bsti_error(ctx, BST_EINVAL, "stack: drop tolerance %g is not in [0, 1)", opts->drop_tol);
+    for (size_t i = 0; i < n; i++) {
+        if (!layers[i])
+            return bsti_error(ctx, BST_EINVAL, "stack: layer %zu is NULL", i + 1);
+        if (!bst_basis_equal(layers[i]->basis, layers[0]->basis))
+            return bsti_error(ctx, BST_EBASIS,
+                              "stack: layer %zu (%s) is in basis %s (%zu patches), layer 1 in %s "
+                              "(%zu patches): resample to one basis first", i + 1,
+                              bst_layer_name(layers[i]), bst_basis_name(layers[i]->basis),
+                              bst_basis_size(layers[i]->basis), bst_basis_name(layers[0]->basis),
+                              bst_basis_size(layers[0]->basis));
+    }
+
+    /* Channels common to every layer, in layer 1's order. */
+    const bst_layer *l0 = layers[0];
+    const char **names = bsti_calloc(ctx, l0->nchannels, sizeof *names);
+    if (!names)
+        return BST_ENOMEM;
+    size_t nch = 0;
+    for (size_t c = 0; c < l0->nchannels; c++) {
+        size_t i = 1;
+        while (i < n && bst_layer_find_channel(layers[i], l0->channels[c]) >= 0)
+            i++;
+        if (i == n)
+            names[nch++] = l0->channels[c];
+    }
+    if (nch == 0) {
+        bsti_free(ctx, names);
+        return bsti_error(ctx, BST_ENOTFOUND, "stack: the layers have no spectral channel in common");
+    }
+
+    /* need[k]: components required of the partial stack of layers 0..k; needl[k]: of layer k. */
+    unsigned *need_s = bsti_calloc(ctx, 2 * n, sizeof *need_s);
+    bst_layer *res = NULL;
+    int rc = need_s ? bst_layer_new(ctx, l0->basis, nch, names, &res) : BST_ENOMEM;
+    if (rc < 0)
+        goto out;
+    unsigned *need_l = need_s + n;
+    need_s[n - 1] = want;
+    for (size_t k = n - 1; k >= 1; k--)
+        need(need_s[k], &need_s[k - 1], &need_l[k]);
+    need_l[0] = need_s[0];
+
+    struct combiner cb = {.ctx = ctx, .opts = opts, .lam = bst_basis_lambda(l0->basis), .n = n};
+    for (size_t ch = 0; ch < nch && rc >= 0; ch++) {
+        cb.channel = names[ch];
+        for (size_t i = 0; i < n && rc >= 0; i++)
+            rc = check_energy(&cb, layers[i], i, (size_t)bst_layer_find_channel(layers[i], names[ch]));
+        if (rc < 0)
+            break;
+        struct part acc = {0}, lay = {0}, next;
+        size_t ch0 = (size_t)bst_layer_find_channel(l0, names[ch]);
+        for (int c = 0; c < BST_NCOMP && rc >= 0; c++)
+            if (need_l[0] & BIT(c))
+                rc = prepare(&cb, bst_layer_get(l0, ch0, (bst_comp)c), &acc, (bst_comp)c);
+        for (size_t k = 1; k < n && rc >= 0; k++) {
+            size_t chk = (size_t)bst_layer_find_channel(layers[k], names[ch]);
+            for (int c = 0; c < BST_NCOMP && rc >= 0; c++)
+                if (need_l[k] & BIT(c))
+                    rc = prepare(&cb, bst_layer_get(layers[k], chk, (bst_comp)c), &lay, (bst_comp)c);
+            cb.step = k;
+            if (rc >= 0)
+                rc = combine_pair(&cb, &acc, &lay, need_s[k], &next);
+            part_clear(&lay);
+            part_clear(&acc);
+            if (rc >= 0)
+                acc = next;
+            bsti_progress(ctx, (double)(ch * (n - 1) + k) / (double)(nch * (n - 1)), "combining");
+        }
+        /* Hand the requested components to the result (copies when still borrowed). */
+        for (int c = 0; c < BST_NCOMP && rc >= 0; c++) {
+            if (!(want & BIT(c)))
+                continue;
+            bst_mat *m = acc.own[c];
+            acc.own[c] = NULL;
+            if (!m && acc.m[c])
+                rc = bst_mat_convert(ctx, acc.m[c], bst_mat_structure(acc.m[c]),
+                                     bst_mat_precision(acc.m[c]), &m);
+            else if (!m)
+                rc = bst_mat_new_zero(ctx, bst_basis_size(l0->basis), bst_basis_size(l0->basis), &m);
+            if (rc >= 0)
+                rc = bst_layer_set(ctx, res, ch, (bst_comp)c, m);
+        }
+        part_clear(&acc);
+    }
+    if (rc >= 0 && cb.warning > 0) {
+        rc = cb.warning; /* the message of the last warning is in ctx */
+    }
+out:
+    bsti_free(ctx, need_s);
+    bsti_free(ctx, names);
+    if (rc < 0) {
+        bst_layer_free(res);
+        return rc;
+    }
+    *out = res;
+    return rc;
+}

@@ -1,0 +1,210 @@
+/* test_layer.c - layers (components per channel), reversal of a layer, hemispherical totals and
+ * the accordance metric. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "testutil.h"
+
+static bst_ctx *ctx;
+static void setup(void) { ctx = bst_ctx_new(); }
+static void teardown(void) { bst_ctx_free(ctx); }
+
+static const char *const two[] = {"Visible", "Solar"};
+
+static bst_mat *random_dense(size_t n, tu_rng *r, double fill)
+{
+    bst_mat *m, *c;
+    ck_assert_int_eq(bst_mat_new_dense(ctx, n, n, BST_DOUBLE, &m), BST_OK);
+    double *d = bst_mat_dense_data(m);
+    for (size_t i = 0; i < n * n; i++)
+        d[i] = tu_rng_uniform(r) < fill ? tu_rng_uniform(r) : 0.0;
+    ck_assert_int_eq(bst_mat_compact(ctx, m, BST_SPARSE_MAX_FILL, &c), BST_OK);
+    bst_mat_free(m);
+    return c;
+}
+
+START_TEST(test_new_and_set)
+{
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 2, &b), BST_OK);
+    bst_layer *l = NULL;
+    const char *dup[] = {"Visible", "visible"};
+    ck_assert_int_eq(bst_layer_new(ctx, b, 2, dup, &l), BST_EINVAL);
+    ck_assert_ptr_null(l);
+    ck_assert_int_eq(bst_layer_new(ctx, b, 0, two, &l), BST_EINVAL);
+    ck_assert_int_eq(bst_layer_new(ctx, b, 2, two, &l), BST_OK);
+    ck_assert_int_eq(bst_layer_find_channel(l, "SOLAR"), 1);
+    ck_assert_int_eq(bst_layer_find_channel(l, "CIE-X"), -1);
+    ck_assert_ptr_null(bst_layer_get(l, 0, BST_TF));
+    bst_mat *m;
+    ck_assert_int_eq(bst_mat_new_zero(ctx, 3, 3, &m), BST_OK);
+    ck_assert_int_eq(bst_layer_set(ctx, l, 0, BST_TF, m), BST_ESIZE); /* freed by set */
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "16 x 16"));
+    ck_assert_int_eq(bst_mat_new_zero(ctx, 16, 16, &m), BST_OK);
+    ck_assert_int_eq(bst_layer_set(ctx, l, 1, BST_RB, m), BST_OK);
+    ck_assert_ptr_eq(bst_layer_get(l, 1, BST_RB), m);
+    bst_mat *t = bst_layer_take(l, 1, BST_RB);
+    ck_assert_ptr_eq(t, m);
+    ck_assert_ptr_null(bst_layer_get(l, 1, BST_RB));
+    bst_mat_free(t);
+    ck_assert_int_eq(bst_comp_parse("rb"), BST_RB);
+    ck_assert_int_eq(bst_comp_parse("Tx"), -1);
+    ck_assert_str_eq(bst_comp_name(BST_TB), "Tb");
+    bst_layer_free(l);
+    bst_layer_free(NULL);
+    bst_basis_free(b);
+}
+END_TEST
+
+START_TEST(test_alloc_failure)
+{
+    bst_ctx *c = bst_ctx_new();
+    tu_alloc a = {0};
+    ck_assert_int_eq(bst_ctx_set_allocator(c, tu_alloc_malloc, tu_alloc_free, &a), BST_OK);
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(c, 2, &b), BST_OK);
+    long base = a.live;
+    for (long k = 1;; k++) {
+        a.fail_at = a.count + k;
+        bst_layer *l = NULL;
+        int rc = bst_layer_new(c, b, 2, two, &l);
+        if (rc == BST_OK) {
+            bst_layer_free(l);
+            break;
+        }
+        ck_assert_int_eq(rc, BST_ENOMEM);
+        ck_assert_ptr_null(l);
+        ck_assert_int_eq(a.live, base);
+        ck_assert_int_lt(k, 100);
+    }
+    ck_assert_int_eq(a.live, base);
+    a.fail_at = 0;
+    bst_basis_free(b);
+    bst_ctx_free(c);
+}
+END_TEST
+
+/* Reversal: Tf' (mirror o, mirror i) = Tb (o, i) with mirror x -> -x, and twice is the identity;
+ * in the Klems basis as in Shirley-Chiu. */
+START_TEST(test_flip)
+{
+    bst_basis *b;
+    if (_i == 0)
+        ck_assert_int_eq(bst_basis_new_sc(ctx, 3, &b), BST_OK);
+    else
+        ck_assert_int_eq(bst_basis_new_klems(ctx, "full", &b), BST_OK);
+    size_t n = bst_basis_size(b);
+    tu_rng r;
+    tu_rng_seed(&r, 4242);
+    bst_layer *l, *f, *ff;
+    ck_assert_int_eq(bst_layer_new(ctx, b, 1, two, &l), BST_OK);
+    double *d = malloc(n * sizeof *d);
+    for (size_t i = 0; i < n; i++)
+        d[i] = tu_rng_uniform(&r);
+    bst_mat *diag;
+    ck_assert_int_eq(bst_mat_new_diag(ctx, n, d, &diag), BST_OK);
+    ck_assert_int_eq(bst_layer_set(ctx, l, 0, BST_TF, diag), BST_OK);
+    ck_assert_int_eq(bst_layer_set(ctx, l, 0, BST_TB, random_dense(n, &r, 1.0)), BST_OK);
+    ck_assert_int_eq(bst_layer_set(ctx, l, 0, BST_RB, random_dense(n, &r, 0.02)), BST_OK);
+    ck_assert_int_eq(bst_layer_flip(ctx, l, &f), BST_OK);
+    ck_assert_int_eq(bst_layer_flip(ctx, f, &ff), BST_OK);
+    /* structures are kept */
+    ck_assert_int_eq(bst_mat_structure(bst_layer_get(f, 0, BST_TB)), BST_DIAG);
+    ck_assert_int_eq(bst_mat_structure(bst_layer_get(f, 0, BST_TF)), BST_DENSE);
+    ck_assert_int_eq(bst_mat_structure(bst_layer_get(f, 0, BST_RF)), BST_SPARSE);
+    ck_assert_ptr_null(bst_layer_get(f, 0, BST_RB));
+    size_t *mir = malloc(n * sizeof *mir);
+    for (size_t j = 0; j < n; j++) {
+        double v[3];
+        bst_basis_center(b, j, v);
+        v[0] = -v[0];
+        mir[j] = bst_basis_patch(b, v);
+        ck_assert_uint_lt(mir[j], n);
+    }
+    for (size_t j = 0; j < n; j++)
+        ck_assert_uint_eq(mir[mir[j]], j);
+    const bst_mat *tb = bst_layer_get(l, 0, BST_TB), *tf2 = bst_layer_get(f, 0, BST_TF);
+    const bst_mat *rb = bst_layer_get(l, 0, BST_RB), *rf2 = bst_layer_get(f, 0, BST_RF);
+    for (size_t j = 0; j < n; j++)
+        for (size_t i = 0; i < n; i++) {
+            ck_assert_double_eq(bst_mat_get(tf2, mir[i], mir[j]), bst_mat_get(tb, i, j));
+            ck_assert_double_eq(bst_mat_get(rf2, mir[i], mir[j]), bst_mat_get(rb, i, j));
+            for (int c = 0; c < BST_NCOMP; c++) {
+                const bst_mat *x = bst_layer_get(l, 0, (bst_comp)c), *y = bst_layer_get(ff, 0, (bst_comp)c);
+                ck_assert_double_eq(x ? bst_mat_get(x, i, j) : 0.0, y ? bst_mat_get(y, i, j) : 0.0);
+            }
+        }
+    free(mir);
+    free(d);
+    bst_layer_free(l);
+    bst_layer_free(f);
+    bst_layer_free(ff);
+    bst_basis_free(b);
+}
+END_TEST
+
+START_TEST(test_hemispherical_and_accordance)
+{
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 2, &b), BST_OK);
+    size_t n = bst_basis_size(b);
+    const double *lam = bst_basis_lambda(b);
+    bst_layer *x, *y;
+    ck_assert_int_eq(bst_layer_new(ctx, b, 1, two, &x), BST_OK);
+    ck_assert_int_eq(bst_layer_new(ctx, b, 1, two, &y), BST_OK);
+    /* Lambertian transmission 0.5/pi: hemispherical T = 0.5 for every incident patch */
+    bst_mat *m;
+    ck_assert_int_eq(bst_mat_new_dense(ctx, n, n, BST_DOUBLE, &m), BST_OK);
+    double *d = bst_mat_dense_data(m);
+    for (size_t i = 0; i < n * n; i++)
+        d[i] = 0.5 / M_PI;
+    ck_assert_int_eq(bst_layer_set(ctx, x, 0, BST_TF, m), BST_OK);
+    double h[16];
+    ck_assert_int_eq(bst_layer_hemispherical(ctx, x, 0, BST_TF, h), BST_OK);
+    for (size_t j = 0; j < n; j++)
+        tu_assert_close(h[j], 0.5, 1e-14, 0.0);
+    ck_assert_int_eq(bst_layer_hemispherical(ctx, x, 0, BST_RF, h), BST_OK);
+    ck_assert_double_eq(h[3], 0.0);
+    /* y = twice x on the first half of the outgoing patches, zero elsewhere */
+    ck_assert_int_eq(bst_mat_new_dense(ctx, n, n, BST_DOUBLE, &m), BST_OK);
+    d = bst_mat_dense_data(m);
+    for (size_t j = 0; j < n; j++)
+        for (size_t i = 0; i < n; i++)
+            d[j * n + i] = i < n / 2 ? 1.0 / M_PI : 0.0;
+    ck_assert_int_eq(bst_layer_set(ctx, y, 0, BST_TF, m), BST_OK);
+    double ga, la[16];
+    ck_assert_int_eq(bst_accordance(ctx, x, x, 0, BST_TF, 5, &ga, la), BST_OK);
+    ck_assert_double_eq(ga, 100.0);
+    ck_assert_int_eq(bst_accordance(ctx, x, y, 0, BST_TF, 5, &ga, la), BST_OK);
+    /* sum L|a-b| = (n/2) L (0.5/pi) * 2 = 0.5, sum L(a+b) = 0.5 + 1.0 -> GA = 100 (1 - 1/3) */
+    tu_assert_close(ga, 100.0 * (1.0 - 0.5 / 1.5), 1e-12, 0.0);
+    tu_assert_close(la[0], 100.0 * (1.0 - 0.5 / 1.5), 1e-12, 0.0);
+    ck_assert_double_eq(la[n - 1], 0.0);
+    ck_assert_int_eq(bst_accordance(ctx, x, y, 0, BST_RF, 5, &ga, NULL), BST_OK);
+    ck_assert_double_eq(ga, 100.0); /* both absent */
+    ck_assert_int_eq(bst_accordance(ctx, x, y, 0, BST_TF, n, &ga, NULL), BST_EINVAL);
+    (void)lam;
+    bst_layer_free(x);
+    bst_layer_free(y);
+    bst_basis_free(b);
+}
+END_TEST
+
+static Suite *layer_suite(void)
+{
+    Suite *s = suite_create("layer");
+    TCase *tc = tcase_create("layer");
+    tcase_add_checked_fixture(tc, setup, teardown);
+    tcase_add_test(tc, test_new_and_set);
+    tcase_add_test(tc, test_alloc_failure);
+    tcase_add_loop_test(tc, test_flip, 0, 2);
+    tcase_add_test(tc, test_hemispherical_and_accordance);
+    suite_add_tcase(s, tc);
+    return s;
+}
+
+int main(void)
+{
+    return tu_run(layer_suite());
+}

@@ -1,0 +1,318 @@
+/* test_stack.c - the combination of layers, checked against physics that no code here printed:
+ * closed-form multi-pane formulas for specular layers, conservation of energy for non-absorbing
+ * layers, reciprocity, typed kernels against the forced-dense baseline, and "only what is asked"
+ * giving the same numbers as the full computation. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "testutil.h"
+
+static bst_ctx *ctx;
+
+static void setup(void) { ctx = bst_ctx_new(); }
+static void teardown(void) { bst_ctx_free(ctx); }
+
+static const char *const visible[] = {"Visible"};
+
+/* A specular layer: diagonal components whose directional values (Lambda * value) are t[j] for
+ * transmission and rf[j], rb[j] for reflection. */
+static bst_layer *specular_layer(const bst_basis *b, const double *t, const double *rf,
+                                 const double *rb)
+{
+    size_t n = bst_basis_size(b);
+    const double *lam = bst_basis_lambda(b);
+    bst_layer *l;
+    ck_assert_int_eq(bst_layer_new(ctx, b, 1, visible, &l), BST_OK);
+    double *d = malloc(n * sizeof *d);
+    const double *src[BST_NCOMP] = {t, rf, t, rb};
+    for (int c = 0; c < BST_NCOMP; c++) {
+        for (size_t j = 0; j < n; j++)
+            d[j] = src[c][j] / lam[j];
+        bst_mat *m;
+        ck_assert_int_eq(bst_mat_new_diag(ctx, n, d, &m), BST_OK);
+        ck_assert_int_eq(bst_layer_set(ctx, l, 0, (bst_comp)c, m), BST_OK);
+    }
+    free(d);
+    return l;
+}
+
+/* Directional value of a diagonal component at patch j. */
+static double dir_value(const bst_layer *l, bst_comp c, size_t j)
+{
+    return bst_mat_get(bst_layer_get(l, 0, c), j, j) * bst_basis_lambda(bst_layer_basis(l))[j];
+}
+
+/* Two and three panes: per patch, the closed forms of the multi-pane formulas
+ *   T12 = t1 t2 / (1 - rb1 rf2),  Rf12 = rf1 + t1^2 rf2 / (1 - rb1 rf2),
+ *   Rb12 = rb2 + t2^2 rb1 / (1 - rb1 rf2), applied twice for three panes. */
+START_TEST(test_panes_closed_form)
+{
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 3, &b), BST_OK);
+    size_t n = bst_basis_size(b);
+    tu_rng rng;
+    tu_rng_seed(&rng, 12345);
+    double *v = malloc(9 * n * sizeof *v);
+    for (size_t i = 0; i < 9 * n; i++)
+        v[i] = tu_rng_uniform(&rng);
+    /* pane p: t in [0.05, 0.9), rf, rb in [0, 0.1 + 0.8 (1 - t))... kept physical: t + r <= 1 */
+    for (int p = 0; p < 3; p++)
+        for (size_t j = 0; j < n; j++) {
+            double *t = v + (3 * p) * n, *rf = t + n, *rb = rf + n;
+            t[j] = 0.05 + 0.85 * t[j];
+            rf[j] *= 1.0 - t[j];
+            rb[j] *= 1.0 - t[j];
+        }
+    bst_layer *pane[3];
+    for (int p = 0; p < 3; p++)
+        pane[p] = specular_layer(b, v + 3 * p * n, v + (3 * p + 1) * n, v + (3 * p + 2) * n);
+
+    bst_layer *sys2, *sys3;
+    ck_assert_int_eq(bst_stack_combine(ctx, 2, (const bst_layer *const *)pane, NULL, &sys2), BST_OK);
+    ck_assert_int_eq(bst_stack_combine(ctx, 3, (const bst_layer *const *)pane, NULL, &sys3), BST_OK);
+    for (int c = 0; c < BST_NCOMP; c++) {
+        ck_assert_int_eq(bst_mat_structure(bst_layer_get(sys2, 0, (bst_comp)c)), BST_DIAG);
+        ck_assert_int_eq(bst_mat_structure(bst_layer_get(sys3, 0, (bst_comp)c)), BST_DIAG);
+    }
+    for (size_t j = 0; j < n; j++) {
+        double t1 = v[j], rf1 = v[n + j], rb1 = v[2 * n + j];
+        double t2 = v[3 * n + j], rf2 = v[4 * n + j], rb2 = v[5 * n + j];
+        double t3 = v[6 * n + j], rf3 = v[7 * n + j], rb3 = v[8 * n + j];
+        double d = 1.0 - rb1 * rf2;
+        double t12 = t1 * t2 / d, rf12 = rf1 + t1 * t1 * rf2 / d, rb12 = rb2 + t2 * t2 * rb1 / d;
+        tu_assert_close(dir_value(sys2, BST_TF, j), t12, 1e-12, 0.0);
+        tu_assert_close(dir_value(sys2, BST_TB, j), t12, 1e-12, 0.0);
+        tu_assert_close(dir_value(sys2, BST_RF, j), rf12, 1e-12, 0.0);
+        tu_assert_close(dir_value(sys2, BST_RB, j), rb12, 1e-12, 0.0);
+        double e = 1.0 - rb12 * rf3;
+        tu_assert_close(dir_value(sys3, BST_TF, j), t12 * t3 / e, 1e-12, 0.0);
+        tu_assert_close(dir_value(sys3, BST_RF, j), rf12 + t12 * t12 * rf3 / e, 1e-12, 0.0);
+        tu_assert_close(dir_value(sys3, BST_RB, j), rb3 + t3 * t3 * rb12 / e, 1e-12, 0.0);
+    }
+    for (int p = 0; p < 3; p++)
+        bst_layer_free(pane[p]);
+    bst_layer_free(sys2);
+    bst_layer_free(sys3);
+    bst_basis_free(b);
+    free(v);
+}
+END_TEST
+
+/* A random scattering layer over basis b.  Structure per component: 0 diagonal, 1 sparse
+ * (a few lobes per column), 2 dense.  Without absorption (absorb = 0) every incident patch's
+ * hemispherical T + R is exactly 1 on both sides; otherwise 1 - absorb. */
+static bst_layer *random_layer(const bst_basis *b, int structure, double absorb, tu_rng *rng)
+{
+    size_t n = bst_basis_size(b);
+    const double *lam = bst_basis_lambda(b);
+    bst_layer *l;
+    ck_assert_int_eq(bst_layer_new(ctx, b, 1, visible, &l), BST_OK);
+    double *a = calloc(4 * n * n, sizeof *a); /* Tf, Rf, Tb, Rb column-major */
+    for (int c = 0; c < BST_NCOMP; c++)
+        for (size_t j = 0; j < n; j++)
+            for (size_t i = 0; i < n; i++) {
+                int on = structure == 2 || (structure == 0 && i == j) ||
+                         (structure == 1 && (i == j || (i * 7 + j * 3) % 11 == 0));
+                a[(size_t)c * n * n + j * n + i] = on ? tu_rng_uniform(rng) : 0.0;
+            }
+    /* Scale each incident column pair (T, R of one side) so that T + R = 1 - absorb, with T
+     * carrying a random share. */
+    for (int side = 0; side < 2; side++)
+        for (size_t j = 0; j < n; j++) {
+            double *t = a + (size_t)(2 * side) * n * n + j * n, *r = t + n * n;
+            double st = 0, sr = 0, share = 0.3 + 0.6 * tu_rng_uniform(rng);
+            for (size_t i = 0; i < n; i++)
+                st += lam[i] * t[i], sr += lam[i] * r[i];
+            for (size_t i = 0; i < n; i++) {
+                t[i] *= (1.0 - absorb) * share / st;
+                r[i] *= (1.0 - absorb) * (1.0 - share) / sr;
+            }
+        }
+    for (int c = 0; c < BST_NCOMP; c++) {
+        bst_mat *m;
+        ck_assert_int_eq(bst_mat_new_dense(ctx, n, n, BST_DOUBLE, &m), BST_OK);
+        memcpy(bst_mat_dense_data(m), a + (size_t)c * n * n, n * n * sizeof(double));
+        bst_mat *t;
+        ck_assert_int_eq(bst_mat_compact(ctx, m, BST_SPARSE_MAX_FILL, &t), BST_OK);
+        bst_mat_free(m);
+        ck_assert_int_eq(bst_layer_set(ctx, l, 0, (bst_comp)c, t), BST_OK);
+    }
+    free(a);
+    return l;
+}
+
+static double max_rel_diff(const bst_mat *a, const bst_mat *b)
+{
+    size_t n = bst_mat_rows(a);
+    double m = 0, scale = 0;
+    for (size_t j = 0; j < n; j++)
+        for (size_t i = 0; i < n; i++)
+            scale = fmax(scale, fabs(bst_mat_get(b, i, j)));
+    for (size_t j = 0; j < n; j++)
+        for (size_t i = 0; i < n; i++) {
+            double d = fabs(bst_mat_get(a, i, j) - bst_mat_get(b, i, j));
+            if (isnan(d))
+                return INFINITY;
+            m = fmax(m, d);
+        }
+    return scale > 0 ? m / scale : m;
+}
+
+/* Non-absorbing layers of every structure: the system conserves energy per incident patch on both
+ * sides (T + R = 1 to 1e-9), and the typed result equals the forced-dense one to 1e-10. */
+START_TEST(test_energy_and_dense)
+{
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 2, &b), BST_OK);
+    size_t n = bst_basis_size(b);
+    tu_rng rng;
+    tu_rng_seed(&rng, 777 + (uint64_t)_i);
+    int s[3] = {_i % 3, (_i / 3) % 3, (_i / 9) % 3};
+    bst_layer *l[3];
+    for (int k = 0; k < 3; k++)
+        l[k] = random_layer(b, s[k], 0.0, &rng);
+    bst_layer *typed, *dense;
+    bst_stack_opts o;
+    bst_stack_opts_init(&o);
+    ck_assert_int_eq(bst_stack_combine(ctx, 3, (const bst_layer *const *)l, &o, &typed), BST_OK);
+    o.force_dense = 1;
+    ck_assert_int_eq(bst_stack_combine(ctx, 3, (const bst_layer *const *)l, &o, &dense), BST_OK);
+    double *t = malloc(2 * n * sizeof *t), *r = t + n;
+    for (int side = 0; side < 2; side++) {
+        ck_assert_int_eq(bst_layer_hemispherical(ctx, typed, 0, side ? BST_TB : BST_TF, t), BST_OK);
+        ck_assert_int_eq(bst_layer_hemispherical(ctx, typed, 0, side ? BST_RB : BST_RF, r), BST_OK);
+        for (size_t j = 0; j < n; j++)
+            tu_assert_close(t[j] + r[j], 1.0, 1e-9, 0.0);
+    }
+    for (int c = 0; c < BST_NCOMP; c++)
+        ck_assert_double_le(max_rel_diff(bst_layer_get(typed, 0, (bst_comp)c),
+                                         bst_layer_get(dense, 0, (bst_comp)c)), 1e-10);
+    free(t);
+    for (int k = 0; k < 3; k++)
+        bst_layer_free(l[k]);
+    bst_layer_free(typed);
+    bst_layer_free(dense);
+    bst_basis_free(b);
+}
+END_TEST
+
+/* Asking for one component gives the same numbers as asking for all four. */
+START_TEST(test_only_requested)
+{
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 2, &b), BST_OK);
+    tu_rng rng;
+    tu_rng_seed(&rng, 99);
+    bst_layer *l[3] = {random_layer(b, 0, 0.1, &rng), random_layer(b, 1, 0.2, &rng),
+                       random_layer(b, 2, 0.05, &rng)};
+    bst_layer *all, *one;
+    ck_assert_int_eq(bst_stack_combine(ctx, 3, (const bst_layer *const *)l, NULL, &all), BST_OK);
+    for (int c = 0; c < BST_NCOMP; c++) {
+        bst_stack_opts o;
+        bst_stack_opts_init(&o);
+        o.comps = BST_COMP_BIT(c);
+        ck_assert_int_eq(bst_stack_combine(ctx, 3, (const bst_layer *const *)l, &o, &one), BST_OK);
+        for (int d = 0; d < BST_NCOMP; d++)
+            if (d == c)
+                ck_assert_double_le(max_rel_diff(bst_layer_get(one, 0, (bst_comp)d),
+                                                 bst_layer_get(all, 0, (bst_comp)d)), 1e-13);
+            else
+                ck_assert_ptr_null(bst_layer_get(one, 0, (bst_comp)d));
+        bst_layer_free(one);
+    }
+    for (int k = 0; k < 3; k++)
+        bst_layer_free(l[k]);
+    bst_layer_free(all);
+    bst_basis_free(b);
+}
+END_TEST
+
+/* Two facing near-perfect mirrors: the inter-reflection is ill-conditioned; the library warns
+ * (or fails with strict) and never returns NaN. */
+START_TEST(test_mirrors)
+{
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 1, &b), BST_OK);
+    size_t n = bst_basis_size(b);
+    double t[4], r[4];
+    for (size_t j = 0; j < n; j++)
+        t[j] = 0.0, r[j] = 1.0 - 1e-12;
+    bst_layer *l[2] = {specular_layer(b, t, r, r), specular_layer(b, t, r, r)};
+    bst_layer *s;
+    bst_stack_opts o;
+    bst_stack_opts_init(&o);
+    int rc = bst_stack_combine(ctx, 2, (const bst_layer *const *)l, &o, &s);
+    ck_assert_int_eq(rc, BST_WILLCOND);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "ill-conditioned"));
+    for (int c = 0; c < BST_NCOMP; c++)
+        ck_assert(bst_mat_all_finite(bst_layer_get(s, 0, (bst_comp)c)));
+    bst_layer_free(s);
+    o.strict = 1;
+    ck_assert_int_lt(bst_stack_combine(ctx, 2, (const bst_layer *const *)l, &o, &s), 0);
+    ck_assert_ptr_null(s);
+    for (int k = 0; k < 2; k++)
+        bst_layer_free(l[k]);
+    bst_basis_free(b);
+}
+END_TEST
+
+/* An input with T + R > 1 is reported with its layer, side and patch. */
+START_TEST(test_energy_warning)
+{
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 1, &b), BST_OK);
+    double t[4] = {0.5, 0.5, 0.5, 0.5}, r[4] = {0.1, 0.1, 0.6, 0.1};
+    bst_layer *l[2] = {specular_layer(b, t, r, r), specular_layer(b, t, r, r)};
+    ck_assert_int_eq(bst_layer_set_name(ctx, l[1], "bad.xml"), BST_OK);
+    bst_layer *s;
+    ck_assert_int_eq(bst_stack_combine(ctx, 2, (const bst_layer *const *)l, NULL, &s), BST_WENERGY);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "bad.xml"));
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "patch 2"));
+    bst_layer_free(s);
+    for (int k = 0; k < 2; k++)
+        bst_layer_free(l[k]);
+    bst_basis_free(b);
+}
+END_TEST
+
+START_TEST(test_errors)
+{
+    bst_basis *b1, *b2;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 1, &b1), BST_OK);
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 2, &b2), BST_OK);
+    double t[16] = {0}, r[16] = {0};
+    bst_layer *l[2] = {specular_layer(b1, t, r, r), specular_layer(b2, t, r, r)};
+    bst_layer *s = (bst_layer *)1;
+    ck_assert_int_eq(bst_stack_combine(ctx, 2, (const bst_layer *const *)l, NULL, &s), BST_EBASIS);
+    ck_assert_ptr_null(s);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "resample"));
+    ck_assert_int_eq(bst_stack_combine(ctx, 0, (const bst_layer *const *)l, NULL, &s), BST_EINVAL);
+    ck_assert_int_eq(bst_stack_combine(NULL, 1, (const bst_layer *const *)l, NULL, &s), BST_EINVAL);
+    for (int k = 0; k < 2; k++)
+        bst_layer_free(l[k]);
+    bst_basis_free(b1);
+    bst_basis_free(b2);
+}
+END_TEST
+
+static Suite *stack_suite(void)
+{
+    Suite *s = suite_create("stack");
+    TCase *tc = tcase_create("combine");
+    tcase_add_checked_fixture(tc, setup, teardown);
+    tcase_set_timeout(tc, 120);
+    tcase_add_test(tc, test_panes_closed_form);
+    tcase_add_loop_test(tc, test_energy_and_dense, 0, 27);
+    tcase_add_test(tc, test_only_requested);
+    tcase_add_test(tc, test_mirrors);
+    tcase_add_test(tc, test_energy_warning);
+    tcase_add_test(tc, test_errors);
+    suite_add_tcase(s, tc);
+    return s;
+}
+
+int main(void)
+{
+    return tu_run(stack_suite());
+}
