@@ -147,13 +147,33 @@ int bst_mat_scale(bst_ctx *ctx, const double *d_rows, const bst_mat *a, const do
                   bst_mat **out);
 int bst_mat_transpose(bst_ctx *ctx, const bst_mat *a, bst_mat **out);
 
+/* out[j] = sum_i w[i] * M(i, j) (w NULL = ones): with w = Lambda, the directional-hemispherical
+ * value of every incident patch j.  out has cols entries. */
+int bst_mat_col_weighted_sum(bst_ctx *ctx, const bst_mat *m, const double *w, double *out);
+/* Column-major double copy of any matrix into out (rows * cols entries). */
+int bst_mat_to_dense_array(bst_ctx *ctx, const bst_mat *m, double *out);
+/* The columns cols[0..ncols-1] of m (e.g. only the incident directions a scene needs); the
+ * structure is kept, except that columns of a diagonal matrix come back sparse. */
+int bst_mat_select_cols(bst_ctx *ctx, const bst_mat *m, size_t ncols, const size_t *cols,
+                        bst_mat **out);
+/* 1 when every stored value is finite (0 for NULL). */
+int bst_mat_all_finite(const bst_mat *m);
+/* Largest magnitude of a stored value (0 for zero matrices, NaN for NULL). */
+double bst_mat_max_abs(const bst_mat *m);
+
 /* ---------------------------------------------------------------- solves (solve) */
 
 /* X = (I - A)^-1 * B  (bst_solve_left) and  Y = B * (I - A)^-1  (bst_solve_right).
  * A is square; (I - A) is factored once (elementwise for diagonal A, UMFPACK LU for sparse,
- * LAPACK getrf for dense) and reused for every column of B.  *rcond (may be NULL) receives an
- * estimate of the reciprocal 1-norm condition number of (I - A).  Returns BST_WILLCOND when
- * rcond < rcond_warn (default BST_RCOND_WARN), BST_ESINGULAR when (I - A) is singular. */
+ * LAPACK getrf for dense) and reused for every column of B.
+ * *rcond (may be NULL) receives 1 / (max(1, |I - A|_1) * |(I - A)^-1|_1), estimated (exact for
+ * diagonal A): the reciprocal condition number of I - A measured against the identity's scale,
+ * so that it also falls when A approaches a multiple of I (two facing mirrors), where the
+ * cancellation in forming I - A loses digits although I - A is well scaled.  A single-precision
+ * (dense float) factorization warns from rcond < 3.5e-4 = sqrt(FLT_EPSILON) at least.
+ * Returns BST_WILLCOND
+ * (with the result) when rcond < rcond_warn (default BST_RCOND_WARN), BST_ESINGULAR when (I - A)
+ * is singular to working precision or the result is not finite. */
 #define BST_RCOND_WARN 1e-8
 int bst_solve_left(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double rcond_warn,
                    bst_mat **x, double *rcond);

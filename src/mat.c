@@ -1,0 +1,962 @@
+/* mat.c - the structured-matrix algebra: construction, conversion, products, sums, scaling.
+ *
+ * Dispatch.  Products and sums look up a kernel in a table indexed by the operand structures
+ * (ZERO, DIAG, SPARSE, DENSE).  Order of the lookup, for C = A * B:
+ *   1. a ZERO operand gives a ZERO result (no work);
+ *   2. a DIAG operand is a row (left) or column (right) scaling of the other operand, whose
+ *      structure the result keeps;
+ *   3. SPARSE * SPARSE: cholmod_l_ssmult, then the drop tolerance;
+ *   4. SPARSE * DENSE: cholmod_l_sdmult (double) or a loop over the non-zeros (float), O(nnz N);
+ *      DENSE * SPARSE: one axpy of a dense column per non-zero of the sparse operand, O(nnz N);
+ *   5. DENSE * DENSE: GEMM (OpenBLAS), in single precision when either operand is float.
+ * Every pair has a kernel; the generic fallback (both operands converted to dense, GEMM) is what
+ * the tests compare each kernel with (bsti_mat_mul_generic).  Sums: ZERO is the identity; DIAG and
+ * SPARSE add as sparse (a DIAG pair stays DIAG); anything with DENSE is dense.
+ *
+ * Precision: sparse and diagonal storage are double.  A dense float operand makes a dense result
+ * float (single precision is the user's choice for a whole stack); otherwise results are double.
+ *
+ * Workspace: each kernel's temporary memory is stated at the kernel.  No kernel copies an operand
+ * except where noted (mixed precision GEMM converts the double operand to float). */
+#include <config.h>
+
+#include <math.h>
+#include <string.h>
+
+#include <cblas.h>
+
+#include "ctx.h"
+#include "mat.h"
+
+/* ------------------------------------------------------------------ objects */
+
+int bsti_mat_alloc(bst_ctx *ctx, bst_structure s, bst_precision prec, size_t rows, size_t cols,
+                   bst_mat **out)
+{
+    bst_mat *m = bsti_calloc(ctx, 1, sizeof *m);
+    if (!m)
+        return BST_ENOMEM;
+    m->ctx = ctx;
+    m->s = s;
+    m->prec = s == BST_DENSE ? prec : BST_DOUBLE;
+    m->rows = rows;
+    m->cols = cols;
+    *out = m;
+    return BST_OK;
+}
+
+void bst_mat_free(bst_mat *m)
+{
+    if (!m)
+        return;
+    bst_ctx *ctx = m->ctx;
+    if (m->sp) {
+        cholmod_common *cc = bsti_cholmod(ctx);
+        if (cc)
+            cholmod_l_free_sparse(&m->sp, cc);
+    }
+    bsti_free(ctx, m->diag);
+    bsti_free(ctx, m->dense);
+    bsti_free(ctx, m);
+}
+
+static int check_out(bst_ctx *ctx, bst_mat **out)
+{
+    if (!ctx)
+        return BST_EINVAL;
+    if (!out)
+        return bsti_error(ctx, BST_EINVAL, "matrix: NULL result pointer");
+    *out = NULL;
+    return BST_OK;
+}
+
+int bst_mat_new_zero(bst_ctx *ctx, size_t rows, size_t cols, bst_mat **out)
+{
+    int rc = check_out(ctx, out);
+    return rc < 0 ? rc : bsti_mat_alloc(ctx, BST_ZERO, BST_DOUBLE, rows, cols, out);
+}
+
+int bst_mat_new_diag(bst_ctx *ctx, size_t n, const double *diag, bst_mat **out)
+{
+    int rc = check_out(ctx, out);
+    if (rc < 0)
+        return rc;
+    if (!diag)
+        return bsti_error(ctx, BST_EINVAL, "matrix: NULL diagonal");
+    bst_mat *m;
+    if ((rc = bsti_mat_alloc(ctx, BST_DIAG, BST_DOUBLE, n, n, &m)) < 0)
+        return rc;
+    if (!(m->diag = bsti_alloc_array(ctx, n, sizeof *m->diag))) {
+        bst_mat_free(m);
+        return BST_ENOMEM;
+    }
+    memcpy(m->diag, diag, n * sizeof *diag);
+    *out = m;
+    return BST_OK;
+}
+
+int bst_mat_new_dense(bst_ctx *ctx, size_t rows, size_t cols, bst_precision prec, bst_mat **out)
+{
+    int rc = check_out(ctx, out);
+    if (rc < 0)
+        return rc;
+    if (prec != BST_DOUBLE && prec != BST_FLOAT)
+        return bsti_error(ctx, BST_EINVAL, "matrix: unknown precision %d", (int)prec);
+    size_t n;
+    if (bsti_size_mul(rows, cols, &n))
+        return bsti_error(ctx, BST_ENOMEM, "matrix: %zu x %zu is too large", rows, cols);
+    bst_mat *m;
+    if ((rc = bsti_mat_alloc(ctx, BST_DENSE, prec, rows, cols, &m)) < 0)
+        return rc;
+    if (!(m->dense = bsti_calloc(ctx, n, prec == BST_DOUBLE ? sizeof(double) : sizeof(float)))) {
+        bst_mat_free(m);
+        return BST_ENOMEM;
+    }
+    *out = m;
+    return BST_OK;
+}
+
+int bsti_mat_from_cholmod(bst_ctx *ctx, cholmod_sparse *sp, bst_mat **out)
+{
+    bst_mat *m;
+    int rc = bsti_mat_alloc(ctx, BST_SPARSE, BST_DOUBLE, sp->nrow, sp->ncol, &m);
+    if (rc < 0) {
+        cholmod_l_free_sparse(&sp, bsti_cholmod(ctx));
+        return rc;
+    }
+    m->sp = sp;
+    *out = m;
+    return BST_OK;
+}
+
+static int cholmod_failed(bst_ctx *ctx, const char *what)
+{
+    cholmod_common *cc = bsti_cholmod(ctx);
+    if (cc && cc->status == CHOLMOD_OUT_OF_MEMORY)
+        return bsti_error(ctx, BST_ENOMEM, "out of memory (CHOLMOD %s)", what);
+    return bsti_error(ctx, BST_EINTERNAL, "CHOLMOD %s failed (status %d)", what, cc ? cc->status : 0);
+}
+
+int bst_mat_new_sparse(bst_ctx *ctx, size_t rows, size_t cols, size_t nnz, const size_t *row,
+                       const size_t *col, const double *val, bst_mat **out)
+{
+    int rc = check_out(ctx, out);
+    if (rc < 0)
+        return rc;
+    if (nnz && (!row || !col || !val))
+        return bsti_error(ctx, BST_EINVAL, "matrix: NULL triplet arrays");
+    for (size_t k = 0; k < nnz; k++) {
+        if (row[k] >= rows || col[k] >= cols)
+            return bsti_error(ctx, BST_EINVAL, "matrix: triplet %zu (%zu, %zu) outside %zu x %zu",
+                              k, row[k], col[k], rows, cols);
+        if (!isfinite(val[k]))
+            return bsti_error(ctx, BST_EINVAL, "matrix: triplet %zu has a non-finite value", k);
+    }
+    cholmod_common *cc = bsti_cholmod(ctx);
+    if (!cc)
+        return BST_ENOMEM;
+    cholmod_triplet *t = cholmod_l_allocate_triplet(rows, cols, nnz, 0, CHOLMOD_REAL, cc);
+    if (!t)
+        return cholmod_failed(ctx, "allocate_triplet");
+    SuiteSparse_long *ti = t->i, *tj = t->j;
+    double *tx = t->x;
+    for (size_t k = 0; k < nnz; k++) {
+        ti[k] = (SuiteSparse_long)row[k];
+        tj[k] = (SuiteSparse_long)col[k];
+        tx[k] = val[k];
+    }
+    t->nnz = nnz;
+    cholmod_sparse *sp = cholmod_l_triplet_to_sparse(t, nnz, cc); /* sums duplicates, sorted */
+    cholmod_l_free_triplet(&t, cc);
+    if (!sp)
+        return cholmod_failed(ctx, "triplet_to_sparse");
+    if (!cholmod_l_drop(0.0, sp, cc)) {
+        cholmod_l_free_sparse(&sp, cc);
+        return cholmod_failed(ctx, "drop");
+    }
+    return bsti_mat_from_cholmod(ctx, sp, out);
+}
+
+bst_structure bst_mat_structure(const bst_mat *m) { return m ? m->s : BST_ZERO; }
+bst_precision bst_mat_precision(const bst_mat *m) { return m ? m->prec : BST_DOUBLE; }
+size_t bst_mat_rows(const bst_mat *m) { return m ? m->rows : 0; }
+size_t bst_mat_cols(const bst_mat *m) { return m ? m->cols : 0; }
+
+size_t bst_mat_nnz(const bst_mat *m)
+{
+    if (!m)
+        return 0;
+    switch (m->s) {
+    case BST_DIAG: return m->rows;
+    case BST_SPARSE: return (size_t)((SuiteSparse_long *)m->sp->p)[m->cols];
+    case BST_DENSE: return m->rows * m->cols;
+    default: return 0;
+    }
+}
+
+double bst_mat_get(const bst_mat *m, size_t i, size_t j)
+{
+    if (!m || i >= m->rows || j >= m->cols)
+        return NAN;
+    switch (m->s) {
+    case BST_DIAG: return i == j ? m->diag[i] : 0.0;
+    case BST_DENSE: return bsti_dense_get(m, i, j);
+    case BST_SPARSE: {
+        const SuiteSparse_long *p = m->sp->p, *ri = m->sp->i;
+        const double *x = m->sp->x;
+        SuiteSparse_long lo = p[j], hi = p[j + 1];
+        while (lo < hi) { /* row indices are sorted */
+            SuiteSparse_long mid = lo + (hi - lo) / 2;
+            if ((size_t)ri[mid] == i)
+                return x[mid];
+            if ((size_t)ri[mid] < i)
+                lo = mid + 1;
+            else
+                hi = mid;
+        }
+        return 0.0;
+    }
+    default: return 0.0;
+    }
+}
+
+void *bst_mat_dense_data(bst_mat *m) { return (m && m->s == BST_DENSE) ? m->dense : NULL; }
+double *bst_mat_diag_data(bst_mat *m) { return (m && m->s == BST_DIAG) ? m->diag : NULL; }
+
+/* ------------------------------------------------------------------ conversion */
+
+/* Dense copy of any matrix in precision prec.  Workspace: the result only. */
+static int to_dense(bst_ctx *ctx, const bst_mat *m, bst_precision prec, bst_mat **out)
+{
+    bst_mat *d;
+    int rc = bst_mat_new_dense(ctx, m->rows, m->cols, prec, &d);
+    if (rc < 0)
+        return rc;
+    size_t r = m->rows;
+    double *dd = prec == BST_DOUBLE ? d->dense : NULL;
+    float *df = prec == BST_FLOAT ? d->dense : NULL;
+#define PUT(i, j, v) (dd ? (void)(dd[(j) * r + (i)] = (v)) : (void)(df[(j) * r + (i)] = (float)(v)))
+    switch (m->s) {
+    case BST_ZERO: break;
+    case BST_DIAG:
+        for (size_t i = 0; i < r; i++)
+            PUT(i, i, m->diag[i]);
+        break;
+    case BST_SPARSE: {
+        const SuiteSparse_long *p = m->sp->p, *ri = m->sp->i;
+        const double *x = m->sp->x;
+        for (size_t j = 0; j < m->cols; j++)
+            for (SuiteSparse_long k = p[j]; k < p[j + 1]; k++)
+                PUT((size_t)ri[k], j, x[k]);
+        break;
+    }
+    case BST_DENSE:
+        if (m->prec == prec)
+            memcpy(d->dense, m->dense, r * m->cols * (prec == BST_DOUBLE ? sizeof(double) : sizeof(float)));
+        else
+            for (size_t k = 0; k < r * m->cols; k++) {
+                if (dd)
+                    dd[k] = ((const float *)m->dense)[k];
+                else
+                    df[k] = (float)((const double *)m->dense)[k];
+            }
+        break;
+    }
+#undef PUT
+    *out = d;
+    return BST_OK;
+}
+
+/* Sparse copy: entries whose magnitude exceeds `drop` (drop < 0 keeps explicit zeros out only). */
+static int to_sparse(bst_ctx *ctx, const bst_mat *m, bst_mat **out)
+{
+    cholmod_common *cc = bsti_cholmod(ctx);
+    if (!cc)
+        return BST_ENOMEM;
+    if (m->s == BST_SPARSE) {
+        cholmod_sparse *c = cholmod_l_copy_sparse(m->sp, cc);
+        return c ? bsti_mat_from_cholmod(ctx, c, out) : cholmod_failed(ctx, "copy_sparse");
+    }
+    size_t nnz = 0;
+    if (m->s == BST_DIAG)
+        for (size_t i = 0; i < m->rows; i++)
+            nnz += m->diag[i] != 0.0;
+    else if (m->s == BST_DENSE)
+        for (size_t j = 0; j < m->cols; j++)
+            for (size_t i = 0; i < m->rows; i++)
+                nnz += bsti_dense_get(m, i, j) != 0.0;
+    cholmod_sparse *sp = cholmod_l_allocate_sparse(m->rows, m->cols, nnz, 1, 1, 0, CHOLMOD_REAL, cc);
+    if (!sp)
+        return cholmod_failed(ctx, "allocate_sparse");
+    SuiteSparse_long *p = sp->p, *ri = sp->i;
+    double *x = sp->x;
+    size_t k = 0;
+    for (size_t j = 0; j < m->cols; j++) {
+        p[j] = (SuiteSparse_long)k;
+        if (m->s == BST_DIAG) {
+            if (j < m->rows && m->diag[j] != 0.0)
+                ri[k] = (SuiteSparse_long)j, x[k++] = m->diag[j];
+        } else if (m->s == BST_DENSE) {
+            for (size_t i = 0; i < m->rows; i++) {
+                double v = bsti_dense_get(m, i, j);
+                if (v != 0.0)
+                    ri[k] = (SuiteSparse_long)i, x[k++] = v;
+            }
+        }
+    }
+    p[m->cols] = (SuiteSparse_long)k;
+    return bsti_mat_from_cholmod(ctx, sp, out);
+}
+
+/* Count of non-zeros and whether every non-zero lies on the diagonal. */
+static void census(const bst_mat *m, size_t *nnz, int *diag_only)
+{
+    *nnz = 0;
+    *diag_only = m->rows == m->cols;
+    switch (m->s) {
+    case BST_ZERO: break;
+    case BST_DIAG:
+        for (size_t i = 0; i < m->rows; i++)
+            *nnz += m->diag[i] != 0.0;
+        break;
+    case BST_SPARSE: {
+        const SuiteSparse_long *p = m->sp->p, *ri = m->sp->i;
+        const double *x = m->sp->x;
+        for (size_t j = 0; j < m->cols; j++)
+            for (SuiteSparse_long k = p[j]; k < p[j + 1]; k++)
+                if (x[k] != 0.0) {
+                    ++*nnz;
+                    if ((size_t)ri[k] != j)
+                        *diag_only = 0;
+                }
+        break;
+    }
+    case BST_DENSE:
+        for (size_t j = 0; j < m->cols; j++)
+            for (size_t i = 0; i < m->rows; i++)
+                if (bsti_dense_get(m, i, j) != 0.0) {
+                    ++*nnz;
+                    if (i != j)
+                        *diag_only = 0;
+                }
+        break;
+    }
+}
+
+int bst_mat_convert(bst_ctx *ctx, const bst_mat *m, bst_structure s, bst_precision prec,
+                    bst_mat **out)
+{
+    int rc = check_out(ctx, out);
+    if (rc < 0)
+        return rc;
+    if (!m)
+        return bsti_error(ctx, BST_EINVAL, "convert: NULL matrix");
+    size_t nnz;
+    int diag_only;
+    switch (s) {
+    case BST_ZERO:
+        census(m, &nnz, &diag_only);
+        if (nnz)
+            return bsti_error(ctx, BST_EINVAL, "convert: the matrix has %zu non-zeros, it is not zero", nnz);
+        return bst_mat_new_zero(ctx, m->rows, m->cols, out);
+    case BST_DIAG: {
+        census(m, &nnz, &diag_only);
+        if (!diag_only)
+            return bsti_error(ctx, BST_EINVAL, "convert: the matrix has off-diagonal non-zeros");
+        bst_mat *d;
+        if ((rc = bsti_mat_alloc(ctx, BST_DIAG, BST_DOUBLE, m->rows, m->cols, &d)) < 0)
+            return rc;
+        if (!(d->diag = bsti_alloc_array(ctx, m->rows, sizeof(double)))) {
+            bst_mat_free(d);
+            return BST_ENOMEM;
+        }
+        for (size_t i = 0; i < m->rows; i++)
+            d->diag[i] = bst_mat_get(m, i, i);
+        *out = d;
+        return BST_OK;
+    }
+    case BST_SPARSE: return to_sparse(ctx, m, out);
+    case BST_DENSE: return to_dense(ctx, m, prec, out);
+    }
+    return bsti_error(ctx, BST_EINVAL, "convert: unknown structure %d", (int)s);
+}
+
+int bst_mat_compact(bst_ctx *ctx, const bst_mat *m, double sparse_max_fill, bst_mat **out)
+{
+    int rc = check_out(ctx, out);
+    if (rc < 0)
+        return rc;
+    if (!m)
+        return bsti_error(ctx, BST_EINVAL, "compact: NULL matrix");
+    if (!(sparse_max_fill >= 0.0 && sparse_max_fill <= 1.0))
+        return bsti_error(ctx, BST_EINVAL, "compact: fill fraction %g is not in [0, 1]", sparse_max_fill);
+    size_t nnz;
+    int diag_only;
+    census(m, &nnz, &diag_only);
+    if (nnz == 0)
+        return bst_mat_new_zero(ctx, m->rows, m->cols, out);
+    if (diag_only)
+        return bst_mat_convert(ctx, m, BST_DIAG, BST_DOUBLE, out);
+    if ((double)nnz <= sparse_max_fill * (double)m->rows * (double)m->cols)
+        return to_sparse(ctx, m, out);
+    return to_dense(ctx, m, m->s == BST_DENSE ? m->prec : BST_DOUBLE, out);
+}
+
+/* ------------------------------------------------------------------ scaling */
+
+/* C = diag(dr) A diag(dc), same structure as A.  Workspace: the result only. */
+static int scale(bst_ctx *ctx, const double *dr, const bst_mat *a, const double *dc, bst_mat **out)
+{
+    bst_mat *c;
+    int rc;
+    switch (a->s) {
+    case BST_ZERO: return bst_mat_new_zero(ctx, a->rows, a->cols, out);
+    case BST_DIAG:
+        if ((rc = bst_mat_new_diag(ctx, a->rows, a->diag, &c)) < 0)
+            return rc;
+        for (size_t i = 0; i < a->rows; i++)
+            c->diag[i] *= (dr ? dr[i] : 1.0) * (dc ? dc[i] : 1.0);
+        break;
+    case BST_SPARSE: {
+        if ((rc = to_sparse(ctx, a, &c)) < 0)
+            return rc;
+        const SuiteSparse_long *p = c->sp->p, *ri = c->sp->i;
+        double *x = c->sp->x;
+        for (size_t j = 0; j < a->cols; j++)
+            for (SuiteSparse_long k = p[j]; k < p[j + 1]; k++)
+                x[k] *= (dr ? dr[ri[k]] : 1.0) * (dc ? dc[j] : 1.0);
+        break;
+    }
+    case BST_DENSE: {
+        if ((rc = to_dense(ctx, a, a->prec, &c)) < 0)
+            return rc;
+        size_t r = a->rows;
+        for (size_t j = 0; j < a->cols; j++) {
+            double s = dc ? dc[j] : 1.0;
+            if (a->prec == BST_DOUBLE) {
+                double *col = (double *)c->dense + j * r;
+                for (size_t i = 0; i < r; i++)
+                    col[i] *= (dr ? dr[i] : 1.0) * s;
+            } else {
+                float *col = (float *)c->dense + j * r;
+                for (size_t i = 0; i < r; i++)
+                    col[i] = (float)(col[i] * (dr ? dr[i] : 1.0) * s);
+            }
+        }
+        break;
+    }
+    default: return bsti_error(ctx, BST_EINVAL, "scale: unknown structure");
+    }
+    *out = c;
+    return BST_OK;
+}
+
+int bst_mat_scale(bst_ctx *ctx, const double *d_rows, const bst_mat *a, const double *d_cols,
+                  bst_mat **out)
+{
+    int rc = check_out(ctx, out);
+    if (rc < 0)
+        return rc;
+    if (!a)
+        return bsti_error(ctx, BST_EINVAL, "scale: NULL matrix");
+    return scale(ctx, d_rows, a, d_cols, out);
+}
+
+/* ------------------------------------------------------------------ products */
+
+typedef int (*mul_kernel)(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop,
+                          bst_mat **out);
+
+static int mul_zero(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
+{
+    (void)drop;
+    return bst_mat_new_zero(ctx, a->rows, b->cols, out);
+}
+
+static int mul_diag_left(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
+{
+    (void)drop;
+    return scale(ctx, a->diag, b, NULL, out);
+}
+
+static int mul_diag_right(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
+{
+    (void)drop;
+    return scale(ctx, NULL, a, b->diag, out);
+}
+
+/* Remove entries |x| <= drop * max|x| from a sparse result (drop = 0: exact zeros only). */
+static int apply_drop(bst_ctx *ctx, cholmod_sparse *sp, double drop)
+{
+    cholmod_common *cc = bsti_cholmod(ctx);
+    double tol = 0.0;
+    if (drop > 0.0) {
+        const double *x = sp->x;
+        size_t nz = (size_t)((SuiteSparse_long *)sp->p)[sp->ncol];
+        for (size_t k = 0; k < nz; k++)
+            tol = fmax(tol, fabs(x[k]));
+        tol *= drop;
+    }
+    return cholmod_l_drop(tol, sp, cc) ? BST_OK : cholmod_failed(ctx, "drop");
+}
+
+/* Workspace: CHOLMOD's, O(rows + nnz(C)). */
+static int mul_sparse_sparse(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
+{
+    cholmod_common *cc = bsti_cholmod(ctx);
+    if (!cc)
+        return BST_ENOMEM;
+    cholmod_sparse *c = cholmod_l_ssmult(a->sp, b->sp, 0, 1, 1, cc);
+    if (!c)
+        return cholmod_failed(ctx, "ssmult");
+    int rc = apply_drop(ctx, c, drop);
+    if (rc < 0) {
+        cholmod_l_free_sparse(&c, cc);
+        return rc;
+    }
+    return bsti_mat_from_cholmod(ctx, c, out);
+}
+
+/* Sparse * dense.  Double: cholmod_l_sdmult on a header over our buffers (no copy).  Float: a
+ * loop over the non-zeros accumulating in the float result.  Workspace: the result only. */
+static int mul_sparse_dense(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
+{
+    (void)drop;
+    bst_mat *c;
+    int rc = bst_mat_new_dense(ctx, a->rows, b->cols, b->prec, &c);
+    if (rc < 0)
+        return rc;
+    if (b->prec == BST_DOUBLE) {
+        cholmod_common *cc = bsti_cholmod(ctx);
+        cholmod_dense X = {.nrow = b->rows, .ncol = b->cols, .nzmax = b->rows * b->cols,
+                           .d = b->rows, .x = b->dense, .xtype = CHOLMOD_REAL, .dtype = CHOLMOD_DOUBLE};
+        cholmod_dense Y = {.nrow = c->rows, .ncol = c->cols, .nzmax = c->rows * c->cols,
+                           .d = c->rows, .x = c->dense, .xtype = CHOLMOD_REAL, .dtype = CHOLMOD_DOUBLE};
+        double one[2] = {1, 0}, zero[2] = {0, 0};
+        if (b->cols > 0 && a->rows > 0 && !cholmod_l_sdmult(a->sp, 0, one, zero, &X, &Y, cc)) {
+            bst_mat_free(c);
+            return cholmod_failed(ctx, "sdmult");
+        }
+    } else {
+        const SuiteSparse_long *p = a->sp->p, *ri = a->sp->i;
+        const double *x = a->sp->x;
+        const float *bd = b->dense;
+        float *cd = c->dense;
+        for (size_t j = 0; j < b->cols; j++)
+            for (size_t k = 0; k < a->cols; k++) {
+                float bkj = bd[j * b->rows + k];
+                if (bkj == 0.0f)
+                    continue;
+                for (SuiteSparse_long q = p[k]; q < p[k + 1]; q++)
+                    cd[j * c->rows + (size_t)ri[q]] += (float)x[q] * bkj;
+            }
+    }
+    *out = c;
+    return BST_OK;
+}
+
+/* Dense * sparse: column j of C is the sum over the non-zeros B(k, j) of B(k, j) * A(:, k), one
+ * axpy per non-zero, O(nnz * rows).  Workspace: the result only. */
+static int mul_dense_sparse(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
+{
+    (void)drop;
+    bst_mat *c;
+    int rc = bst_mat_new_dense(ctx, a->rows, b->cols, a->prec, &c);
+    if (rc < 0)
+        return rc;
+    const SuiteSparse_long *p = b->sp->p, *ri = b->sp->i;
+    const double *x = b->sp->x;
+    size_t r = a->rows;
+    for (size_t j = 0; j < b->cols; j++)
+        for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++) {
+            size_t k = (size_t)ri[q];
+            if (a->prec == BST_DOUBLE)
+                cblas_daxpy((int)r, x[q], (const double *)a->dense + k * r, 1,
+                            (double *)c->dense + j * r, 1);
+            else
+                cblas_saxpy((int)r, (float)x[q], (const float *)a->dense + k * r, 1,
+                            (float *)c->dense + j * r, 1);
+        }
+    *out = c;
+    return BST_OK;
+}
+
+/* GEMM.  Mixed precision converts the double operand to float (workspace: that copy). */
+static int mul_dense_dense(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
+{
+    (void)drop;
+    bst_precision prec = (a->prec == BST_FLOAT || b->prec == BST_FLOAT) ? BST_FLOAT : BST_DOUBLE;
+    bst_mat *ta = NULL, *tb = NULL, *c = NULL;
+    int rc = BST_OK;
+    if (a->prec != prec)
+        rc = to_dense(ctx, a, prec, &ta);
+    if (rc >= 0 && b->prec != prec)
+        rc = to_dense(ctx, b, prec, &tb);
+    if (rc >= 0)
+        rc = bst_mat_new_dense(ctx, a->rows, b->cols, prec, &c);
+    if (rc >= 0 && a->rows && b->cols && a->cols) {
+        const bst_mat *A = ta ? ta : a, *B = tb ? tb : b;
+        int m = (int)a->rows, n = (int)b->cols, k = (int)a->cols;
+        if (prec == BST_DOUBLE)
+            cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, m, n, k, 1.0, A->dense, m,
+                        B->dense, k, 0.0, c->dense, m);
+        else
+            cblas_sgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, m, n, k, 1.0f, A->dense, m,
+                        B->dense, k, 0.0f, c->dense, m);
+    }
+    bst_mat_free(ta);
+    bst_mat_free(tb);
+    if (rc < 0) {
+        bst_mat_free(c);
+        return rc;
+    }
+    *out = c;
+    return BST_OK;
+}
+
+/* mul_table[structure of A][structure of B] */
+static const mul_kernel mul_table[4][4] = {
+    /*              ZERO      DIAG            SPARSE             DENSE            */
+    /* ZERO   */ {mul_zero, mul_zero,       mul_zero,          mul_zero},
+    /* DIAG   */ {mul_zero, mul_diag_left,  mul_diag_left,     mul_diag_left},
+    /* SPARSE */ {mul_zero, mul_diag_right, mul_sparse_sparse, mul_sparse_dense},
+    /* DENSE  */ {mul_zero, mul_diag_right, mul_dense_sparse,  mul_dense_dense},
+};
+
+int bsti_mat_mul_generic(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, bst_mat **out)
+{
+    bst_precision prec = ((a->s == BST_DENSE && a->prec == BST_FLOAT) ||
+                          (b->s == BST_DENSE && b->prec == BST_FLOAT)) ? BST_FLOAT : BST_DOUBLE;
+    bst_mat *da = NULL, *db = NULL;
+    int rc = to_dense(ctx, a, prec, &da);
+    if (rc >= 0)
+        rc = to_dense(ctx, b, prec, &db);
+    if (rc >= 0)
+        rc = mul_dense_dense(ctx, da, db, 0.0, out);
+    bst_mat_free(da);
+    bst_mat_free(db);
+    return rc;
+}
+
+int bst_mat_mul(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop_tol, bst_mat **out)
+{
+    int rc = check_out(ctx, out);
+    if (rc < 0)
+        return rc;
+    if (!a || !b)
+        return bsti_error(ctx, BST_EINVAL, "product: NULL matrix");
+    if (a->cols != b->rows)
+        return bsti_error(ctx, BST_ESIZE, "product: %zu x %zu times %zu x %zu", a->rows, a->cols,
+                          b->rows, b->cols);
+    if (!(drop_tol >= 0.0 && drop_tol < 1.0))
+        return bsti_error(ctx, BST_EINVAL, "product: drop tolerance %g is not in [0, 1)", drop_tol);
+    return mul_table[a->s][b->s](ctx, a, b, drop_tol, out);
+}
+
+/* ------------------------------------------------------------------ sums */
+
+int bst_mat_add(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, const bst_mat *b,
+                bst_mat **out)
+{
+    int rc = check_out(ctx, out);
+    if (rc < 0)
+        return rc;
+    if (!a || !b)
+        return bsti_error(ctx, BST_EINVAL, "sum: NULL matrix");
+    if (a->rows != b->rows || a->cols != b->cols)
+        return bsti_error(ctx, BST_ESIZE, "sum: %zu x %zu plus %zu x %zu", a->rows, a->cols,
+                          b->rows, b->cols);
+    if (!isfinite(alpha) || !isfinite(beta))
+        return bsti_error(ctx, BST_EINVAL, "sum: non-finite coefficient");
+    /* Normalize: a ZERO operand is the identity of the sum; the DENSE operand comes first. */
+    if (b->s == BST_ZERO || (a->s != BST_ZERO && b->s == BST_DENSE && a->s != BST_DENSE)) {
+        const bst_mat *t = a;
+        a = b, b = t;
+        double s = alpha;
+        alpha = beta, beta = s;
+    }
+    if (b->s == BST_ZERO && a->s == BST_ZERO)
+        return bst_mat_new_zero(ctx, a->rows, a->cols, out);
+    if (a->s == BST_ZERO) { /* beta * b */
+        bst_mat *c;
+        if ((rc = bst_mat_convert(ctx, b, b->s, b->prec, &c)) < 0)
+            return rc;
+        if (beta != 1.0) {
+            bst_mat *d;
+            rc = bst_mat_add(ctx, beta, c, 0.0, c, &d); /* same structure, scaled */
+            bst_mat_free(c);
+            if (rc < 0)
+                return rc;
+            c = d;
+        }
+        *out = c;
+        return BST_OK;
+    }
+    if (a->s == BST_DIAG && b->s == BST_DIAG) {
+        bst_mat *c;
+        if ((rc = bst_mat_new_diag(ctx, a->rows, a->diag, &c)) < 0)
+            return rc;
+        for (size_t i = 0; i < a->rows; i++)
+            c->diag[i] = alpha * a->diag[i] + beta * b->diag[i];
+        *out = c;
+        return BST_OK;
+    }
+    if (a->s == BST_DENSE) { /* dense result: copy a, then add b by its structure */
+        bst_precision prec = (a->prec == BST_FLOAT || (b->s == BST_DENSE && b->prec == BST_FLOAT))
+                                 ? BST_FLOAT : BST_DOUBLE;
+        bst_mat *c;
+        if ((rc = to_dense(ctx, a, prec, &c)) < 0)
+            return rc;
+        size_t r = a->rows, n = r * a->cols;
+        double *cd = prec == BST_DOUBLE ? c->dense : NULL;
+        float *cf = prec == BST_FLOAT ? c->dense : NULL;
+        for (size_t k = 0; k < n; k++) {
+            if (cd)
+                cd[k] *= alpha;
+            else
+                cf[k] = (float)(cf[k] * alpha);
+        }
+#define ADD(i, j, v) (cd ? (void)(cd[(j) * r + (i)] += beta * (v)) : (void)(cf[(j) * r + (i)] += (float)(beta * (v))))
+        if (b->s == BST_DIAG) {
+            for (size_t i = 0; i < r; i++)
+                ADD(i, i, b->diag[i]);
+        } else if (b->s == BST_SPARSE) {
+            const SuiteSparse_long *p = b->sp->p, *ri = b->sp->i;
+            const double *x = b->sp->x;
+            for (size_t j = 0; j < b->cols; j++)
+                for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++)
+                    ADD((size_t)ri[q], j, x[q]);
+        } else {
+            for (size_t j = 0; j < b->cols; j++)
+                for (size_t i = 0; i < r; i++)
+                    ADD(i, j, bsti_dense_get(b, i, j));
+        }
+#undef ADD
+        *out = c;
+        return BST_OK;
+    }
+    /* DIAG/SPARSE pairs: sparse sum.  Workspace: sparse copies of DIAG operands. */
+    bst_mat *sa = NULL, *sb = NULL;
+    cholmod_common *cc = bsti_cholmod(ctx);
+    if (!cc)
+        return BST_ENOMEM;
+    rc = a->s == BST_SPARSE ? BST_OK : to_sparse(ctx, a, &sa);
+    if (rc >= 0 && b->s != BST_SPARSE)
+        rc = to_sparse(ctx, b, &sb);
+    if (rc >= 0) {
+        double al[2] = {alpha, 0}, be[2] = {beta, 0};
+        cholmod_sparse *c = cholmod_l_add(sa ? sa->sp : a->sp, sb ? sb->sp : b->sp, al, be, 1, 1, cc);
+        if (!c)
+            rc = cholmod_failed(ctx, "add");
+        else if ((rc = apply_drop(ctx, c, 0.0)) < 0)
+            cholmod_l_free_sparse(&c, cc);
+        else
+            rc = bsti_mat_from_cholmod(ctx, c, out);
+    }
+    bst_mat_free(sa);
+    bst_mat_free(sb);
+    return rc;
+}
+
+/* ------------------------------------------------------------------ other operations */
+
+int bst_mat_transpose(bst_ctx *ctx, const bst_mat *a, bst_mat **out)
+{
+    int rc = check_out(ctx, out);
+    if (rc < 0)
+        return rc;
+    if (!a)
+        return bsti_error(ctx, BST_EINVAL, "transpose: NULL matrix");
+    switch (a->s) {
+    case BST_ZERO: return bst_mat_new_zero(ctx, a->cols, a->rows, out);
+    case BST_DIAG: return bst_mat_new_diag(ctx, a->rows, a->diag, out);
+    case BST_SPARSE: {
+        cholmod_common *cc = bsti_cholmod(ctx);
+        cholmod_sparse *t = cc ? cholmod_l_transpose(a->sp, 1, cc) : NULL;
+        return t ? bsti_mat_from_cholmod(ctx, t, out) : cholmod_failed(ctx, "transpose");
+    }
+    case BST_DENSE: {
+        bst_mat *t;
+        if ((rc = bst_mat_new_dense(ctx, a->cols, a->rows, a->prec, &t)) < 0)
+            return rc;
+        size_t r = a->rows, c = a->cols;
+        for (size_t j = 0; j < c; j++)
+            for (size_t i = 0; i < r; i++) {
+                if (a->prec == BST_DOUBLE)
+                    ((double *)t->dense)[i * c + j] = ((const double *)a->dense)[j * r + i];
+                else
+                    ((float *)t->dense)[i * c + j] = ((const float *)a->dense)[j * r + i];
+            }
+        *out = t;
+        return BST_OK;
+    }
+    }
+    return bsti_error(ctx, BST_EINVAL, "transpose: unknown structure");
+}
+
+int bst_mat_col_weighted_sum(bst_ctx *ctx, const bst_mat *m, const double *w, double *out)
+{
+    if (!ctx)
+        return BST_EINVAL;
+    if (!m || !out)
+        return bsti_error(ctx, BST_EINVAL, "column sums: NULL argument");
+    for (size_t j = 0; j < m->cols; j++) {
+        double s = 0.0;
+        switch (m->s) {
+        case BST_ZERO: break;
+        case BST_DIAG: s = j < m->rows ? (w ? w[j] : 1.0) * m->diag[j] : 0.0; break;
+        case BST_SPARSE: {
+            const SuiteSparse_long *p = m->sp->p, *ri = m->sp->i;
+            const double *x = m->sp->x;
+            for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++)
+                s += (w ? w[ri[q]] : 1.0) * x[q];
+            break;
+        }
+        case BST_DENSE:
+            for (size_t i = 0; i < m->rows; i++)
+                s += (w ? w[i] : 1.0) * bsti_dense_get(m, i, j);
+            break;
+        }
+        out[j] = s;
+    }
+    return BST_OK;
+}
+
+int bst_mat_to_dense_array(bst_ctx *ctx, const bst_mat *m, double *out)
+{
+    if (!ctx)
+        return BST_EINVAL;
+    if (!m || !out)
+        return bsti_error(ctx, BST_EINVAL, "export: NULL argument");
+    size_t r = m->rows;
+    if (m->s == BST_DENSE && m->prec == BST_DOUBLE) {
+        memcpy(out, m->dense, r * m->cols * sizeof(double));
+        return BST_OK;
+    }
+    memset(out, 0, r * m->cols * sizeof(double));
+    switch (m->s) {
+    case BST_DIAG:
+        for (size_t i = 0; i < r; i++)
+            out[i * r + i] = m->diag[i];
+        break;
+    case BST_SPARSE: {
+        const SuiteSparse_long *p = m->sp->p, *ri = m->sp->i;
+        const double *x = m->sp->x;
+        for (size_t j = 0; j < m->cols; j++)
+            for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++)
+                out[j * r + (size_t)ri[q]] = x[q];
+        break;
+    }
+    case BST_DENSE:
+        for (size_t k = 0; k < r * m->cols; k++)
+            out[k] = ((const float *)m->dense)[k];
+        break;
+    default: break;
+    }
+    return BST_OK;
+}
+
+int bst_mat_select_cols(bst_ctx *ctx, const bst_mat *m, size_t ncols, const size_t *cols,
+                        bst_mat **out)
+{
+    int rc = check_out(ctx, out);
+    if (rc < 0)
+        return rc;
+    if (!m || (ncols && !cols))
+        return bsti_error(ctx, BST_EINVAL, "select columns: NULL argument");
+    for (size_t k = 0; k < ncols; k++)
+        if (cols[k] >= m->cols)
+            return bsti_error(ctx, BST_EINVAL, "select columns: column %zu of %zu", cols[k], m->cols);
+    if (m->s == BST_ZERO)
+        return bst_mat_new_zero(ctx, m->rows, ncols, out);
+    if (m->s == BST_DENSE) {
+        bst_mat *c;
+        if ((rc = bst_mat_new_dense(ctx, m->rows, ncols, m->prec, &c)) < 0)
+            return rc;
+        size_t es = m->prec == BST_DOUBLE ? sizeof(double) : sizeof(float);
+        for (size_t k = 0; k < ncols; k++)
+            memcpy((char *)c->dense + k * m->rows * es, (const char *)m->dense + cols[k] * m->rows * es,
+                   m->rows * es);
+        *out = c;
+        return BST_OK;
+    }
+    /* DIAG and SPARSE: gather the columns as triplets; a selected diagonal becomes sparse. */
+    size_t nnz = 0;
+    for (size_t k = 0; k < ncols; k++)
+        nnz += m->s == BST_DIAG ? 1
+                                : (size_t)(((SuiteSparse_long *)m->sp->p)[cols[k] + 1] -
+                                           ((SuiteSparse_long *)m->sp->p)[cols[k]]);
+    size_t *ri = bsti_alloc_array(ctx, 2 * nnz + 1, sizeof *ri);
+    double *x = bsti_alloc_array(ctx, nnz + 1, sizeof *x);
+    if (!ri || !x) {
+        bsti_free(ctx, ri);
+        bsti_free(ctx, x);
+        return BST_ENOMEM;
+    }
+    size_t *ci = ri + nnz, q = 0;
+    for (size_t k = 0; k < ncols; k++) {
+        if (m->s == BST_DIAG) {
+            ri[q] = cols[k], ci[q] = k, x[q++] = m->diag[cols[k]];
+        } else {
+            const SuiteSparse_long *p = m->sp->p, *mi = m->sp->i;
+            const double *mx = m->sp->x;
+            for (SuiteSparse_long t = p[cols[k]]; t < p[cols[k] + 1]; t++)
+                ri[q] = (size_t)mi[t], ci[q] = k, x[q++] = mx[t];
+        }
+    }
+    rc = bst_mat_new_sparse(ctx, m->rows, ncols, q, ri, ci, x, out);
+    bsti_free(ctx, ri);
+    bsti_free(ctx, x);
+    return rc;
+}
+
+int bst_mat_all_finite(const bst_mat *m)
+{
+    if (!m)
+        return 0;
+    switch (m->s) {
+    case BST_DIAG:
+        for (size_t i = 0; i < m->rows; i++)
+            if (!isfinite(m->diag[i]))
+                return 0;
+        return 1;
+    case BST_SPARSE: {
+        const double *x = m->sp->x;
+        for (size_t k = 0; k < bst_mat_nnz(m); k++)
+            if (!isfinite(x[k]))
+                return 0;
+        return 1;
+    }
+    case BST_DENSE:
+        for (size_t k = 0; k < m->rows * m->cols; k++)
+            if (!isfinite(m->prec == BST_DOUBLE ? ((const double *)m->dense)[k]
+                                                : (double)((const float *)m->dense)[k]))
+                return 0;
+        return 1;
+    default: return 1;
+    }
+}
+
+double bst_mat_max_abs(const bst_mat *m)
+{
+    double v = 0.0;
+    if (!m)
+        return NAN;
+    switch (m->s) {
+    case BST_DIAG:
+        for (size_t i = 0; i < m->rows; i++)
+            v = fmax(v, fabs(m->diag[i]));
+        break;
+    case BST_SPARSE:
+        for (size_t k = 0; k < bst_mat_nnz(m); k++)
+            v = fmax(v, fabs(((const double *)m->sp->x)[k]));
+        break;
+    case BST_DENSE:
+        for (size_t k = 0; k < m->rows * m->cols; k++)
+            v = fmax(v, fabs(m->prec == BST_DOUBLE ? ((const double *)m->dense)[k]
+                                                   : (double)((const float *)m->dense)[k]));
+        break;
+    default: break;
+    }
+    return v;
+}

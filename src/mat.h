@@ -1,0 +1,40 @@
+/* mat.h - internal side of the structured matrix (bst_mat).
+ *
+ * A matrix carries its structure, precision and size, and the context that created it (whose
+ * allocator owns dense and diagonal storage and whose CHOLMOD common owns sparse storage).
+ * Structures: ZERO (no storage), DIAG (n doubles), SPARSE (cholmod_sparse, double, packed,
+ * sorted, SuiteSparse_long indices), DENSE (column-major, leading dimension = rows, double or
+ * float). */
+#ifndef BST_MAT_H
+#define BST_MAT_H
+
+#include <cholmod.h>
+#include "bsdfstack.h"
+
+struct bst_mat {
+    bst_ctx *ctx;
+    bst_structure s;
+    bst_precision prec; /* meaningful for DENSE; DIAG and SPARSE are double */
+    size_t rows, cols;
+    double *diag;       /* DIAG */
+    cholmod_sparse *sp; /* SPARSE */
+    void *dense;        /* DENSE: double* or float* */
+};
+
+/* An empty matrix object of the given shape (no storage yet). */
+int bsti_mat_alloc(bst_ctx *ctx, bst_structure s, bst_precision prec, size_t rows, size_t cols,
+                   bst_mat **out);
+/* Wrap a cholmod_sparse (ownership passes to the matrix, also on failure). */
+int bsti_mat_from_cholmod(bst_ctx *ctx, cholmod_sparse *sp, bst_mat **out);
+/* Value of a dense matrix element as double. */
+static inline double bsti_dense_get(const bst_mat *m, size_t i, size_t j)
+{
+    return m->prec == BST_DOUBLE ? ((const double *)m->dense)[j * m->rows + i]
+                                 : (double)((const float *)m->dense)[j * m->rows + i];
+}
+
+
+
+/* The generic product: both operands converted to dense, then GEMM (the tests' baseline). */
+int bsti_mat_mul_generic(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, bst_mat **out);
+#endif

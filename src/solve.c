@@ -1,0 +1,420 @@
+/* solve.c - X = (I - A)^-1 B and Y = B (I - A)^-1, the inter-reflection solves of the stack.
+ *
+ * (I - A) is factored once by the structure of A and the factorization serves every column of B:
+ *   ZERO   - the identity: X = B;
+ *   DIAG   - elementwise: X = diag(1 / (1 - a_i)) B, keeping B's structure;
+ *   SPARSE - UMFPACK LU of the sparse I - A (umfpack_dl_*), one solve per column of B;
+ *   DENSE  - LAPACK getrf, then getrs on all columns at once (single precision when A or B is a
+ *            dense float matrix).
+ * The right solve works on transposes: Y^T = (I - A)^-T B^T, with the transposed solve of the same
+ * factorization (UMFPACK_At, getrs 'T').
+ *
+ * Condition: rcond = 1 / (max(1, |I - A|_1) |(I - A)^-1|_1).  |(I - A)^-1|_1 is exact for DIAG, from
+ * LAPACK gecon for DENSE, and from Hager's estimator (a few extra solves with the same
+ * factorization) for SPARSE.  See bsdfstack.h for why the scale is max(1, |I - A|).
+ *
+ * Workspace: DENSE: a copy of I - A (N^2) and the result; SPARSE: I - A in CHOLMOD form, UMFPACK's
+ * factors, two vectors of N, and the result (accumulated densely, N x ncols, then compacted when B
+ * was sparse or diagonal). */
+#include <config.h>
+
+#include <math.h>
+#include <string.h>
+
+#include <lapacke.h>
+#include <umfpack.h>
+
+#include "ctx.h"
+#include "mat.h"
+
+/* Lowest warning threshold of a single-precision solve: sqrt(FLT_EPSILON). */
+#define BSTI_RCOND_WARN_FLOAT 3.5e-4
+
+/* Iterations of Hager's 1-norm estimator (each costs two solves). */
+#define HAGER_MAX_ITER 5
+
+struct factor {
+    bst_ctx *ctx;
+    bst_structure s;
+    size_t n;
+    double anorm;           /* |I - A|_1 */
+    double *d;              /* DIAG: 1 - a_i */
+    cholmod_sparse *m;      /* SPARSE: I - A */
+    void *numeric;          /* SPARSE: UMFPACK numeric factorization */
+    bst_precision prec;     /* DENSE */
+    void *lu;               /* DENSE: LU factors (double or float) */
+    lapack_int *ipiv;
+    double *w1, *w2;        /* SPARSE: vectors of n */
+};
+
+static void factor_free(struct factor *f)
+{
+    bst_ctx *ctx = f->ctx;
+    bsti_free(ctx, f->d);
+    if (f->m)
+        cholmod_l_free_sparse(&f->m, bsti_cholmod(ctx));
+    if (f->numeric)
+        umfpack_dl_free_numeric(&f->numeric);
+    bsti_free(ctx, f->lu);
+    bsti_free(ctx, f->ipiv);
+    bsti_free(ctx, f->w1);
+    bsti_free(ctx, f->w2);
+    memset(f, 0, sizeof *f);
+}
+
+static int umfpack_failed(bst_ctx *ctx, const char *what, int status)
+{
+    if (status == UMFPACK_ERROR_out_of_memory)
+        return bsti_error(ctx, BST_ENOMEM, "out of memory (UMFPACK %s)", what);
+    if (status == UMFPACK_WARNING_singular_matrix)
+        return bsti_error(ctx, BST_ESINGULAR, "I - A is singular (UMFPACK %s)", what);
+    return bsti_error(ctx, BST_EINTERNAL, "UMFPACK %s failed (status %d)", what, status);
+}
+
+/* Solve in place with the sparse factorization: x := M^-1 x (trans 0) or M^-T x (trans 1). */
+static int sparse_apply(struct factor *f, int trans, double *x)
+{
+    SuiteSparse_long *p = f->m->p, *i = f->m->i;
+    double *ax = f->m->x;
+    memcpy(f->w1, x, f->n * sizeof *x);
+    int st = umfpack_dl_solve(trans ? UMFPACK_At : UMFPACK_A, p, i, ax, x, f->w1, f->numeric,
+                              NULL, NULL);
+    if (st < 0)
+        return umfpack_failed(f->ctx, "solve", st);
+    return BST_OK;
+}
+
+/* |M^-1|_1 by Hager's method (Higham 1988, with the alternating-sign safeguard). */
+static int hager_inverse_norm(struct factor *f, double *est)
+{
+    size_t n = f->n;
+    double *x = f->w2;
+    double *y = bsti_alloc_array(f->ctx, n, sizeof *y);
+    if (!y)
+        return BST_ENOMEM;
+    int rc = BST_OK;
+    double e = 0.0;
+    for (size_t i = 0; i < n; i++)
+        x[i] = 1.0 / (double)n;
+    for (int it = 0; it < HAGER_MAX_ITER; it++) {
+        memcpy(y, x, n * sizeof *y);
+        if ((rc = sparse_apply(f, 0, y)) < 0)
+            break;
+        double en = 0.0;
+        for (size_t i = 0; i < n; i++)
+            en += fabs(y[i]);
+        if (it > 0 && en <= e)
+            break;
+        e = en;
+        for (size_t i = 0; i < n; i++)
+            y[i] = y[i] >= 0.0 ? 1.0 : -1.0;
+        if ((rc = sparse_apply(f, 1, y)) < 0)
+            break;
+        size_t jmax = 0;
+        double zx = 0.0;
+        for (size_t i = 0; i < n; i++) {
+            zx += y[i] * x[i];
+            if (fabs(y[i]) > fabs(y[jmax]))
+                jmax = i;
+        }
+        if (it > 0 && fabs(y[jmax]) <= zx)
+            break;
+        memset(x, 0, n * sizeof *x);
+        x[jmax] = 1.0;
+    }
+    if (rc == BST_OK && n > 1) { /* safeguard vector: alternating signs of growing size */
+        for (size_t i = 0; i < n; i++)
+            y[i] = (i % 2 ? -1.0 : 1.0) * (1.0 + (double)i / (double)(n - 1));
+        if ((rc = sparse_apply(f, 0, y)) == BST_OK) {
+            double t = 0.0;
+            for (size_t i = 0; i < n; i++)
+                t += fabs(y[i]);
+            e = fmax(e, 2.0 * t / (3.0 * (double)n));
+        }
+    }
+    bsti_free(f->ctx, y);
+    *est = e;
+    return rc;
+}
+
+/* Factor I - A; *rcond as documented at the top. */
+static int factor_new(bst_ctx *ctx, const bst_mat *a, bst_precision prec, struct factor *f,
+                      double *rcond)
+{
+    memset(f, 0, sizeof *f);
+    f->ctx = ctx;
+    f->s = a->s;
+    f->n = a->rows;
+    size_t n = a->rows;
+    *rcond = 1.0;
+    switch (a->s) {
+    case BST_ZERO:
+        f->anorm = 1.0;
+        return BST_OK;
+    case BST_DIAG: {
+        if (!(f->d = bsti_alloc_array(ctx, n, sizeof *f->d)))
+            return BST_ENOMEM;
+        double dmin = INFINITY, dmax = 0.0;
+        for (size_t i = 0; i < n; i++) {
+            f->d[i] = 1.0 - a->diag[i];
+            dmin = fmin(dmin, fabs(f->d[i]));
+            dmax = fmax(dmax, fabs(f->d[i]));
+        }
+        f->anorm = dmax;
+        if (n == 0)
+            return BST_OK;
+        *rcond = dmin / fmax(1.0, dmax);
+        if (!(dmin > 0.0) || !isfinite(dmax))
+            return bsti_error(ctx, BST_ESINGULAR, "I - A is singular (diagonal element %s)",
+                              isfinite(dmax) ? "1 - a = 0" : "not finite");
+        return BST_OK;
+    }
+    case BST_SPARSE: {
+        cholmod_common *cc = bsti_cholmod(ctx);
+        if (!cc)
+            return BST_ENOMEM;
+        cholmod_sparse *id = cholmod_l_speye(n, n, CHOLMOD_REAL, cc);
+        double one[2] = {1, 0}, minus[2] = {-1, 0};
+        f->m = id ? cholmod_l_add(id, a->sp, one, minus, 1, 1, cc) : NULL;
+        cholmod_l_free_sparse(&id, cc);
+        if (!f->m)
+            return bsti_error(ctx, BST_ENOMEM, "out of memory (forming I - A)");
+        SuiteSparse_long *p = f->m->p, *ri = f->m->i;
+        double *x = f->m->x;
+        for (size_t j = 0; j < n; j++) {
+            double s = 0.0;
+            for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++)
+                s += fabs(x[q]);
+            f->anorm = isfinite(s) ? fmax(f->anorm, s) : s;
+            if (!isfinite(s))
+                break;
+        }
+        if (!isfinite(f->anorm))
+            return bsti_error(ctx, BST_ESINGULAR, "I - A has non-finite elements");
+        void *symbolic = NULL;
+        int st = umfpack_dl_symbolic((SuiteSparse_long)n, (SuiteSparse_long)n, p, ri, x, &symbolic,
+                                     NULL, NULL);
+        if (st < 0)
+            return umfpack_failed(ctx, "symbolic", st);
+        st = umfpack_dl_numeric(p, ri, x, symbolic, &f->numeric, NULL, NULL);
+        umfpack_dl_free_symbolic(&symbolic);
+        if (st != UMFPACK_OK)
+            return umfpack_failed(ctx, "numeric", st);
+        f->w1 = bsti_alloc_array(ctx, n, sizeof *f->w1);
+        f->w2 = bsti_alloc_array(ctx, n, sizeof *f->w2);
+        if (!f->w1 || !f->w2)
+            return BST_ENOMEM;
+        double inv;
+        int rc = hager_inverse_norm(f, &inv);
+        if (rc < 0)
+            return rc;
+        *rcond = (inv > 0.0 && isfinite(inv)) ? 1.0 / (fmax(1.0, f->anorm) * inv) : 0.0;
+        if (*rcond == 0.0)
+            return bsti_error(ctx, BST_ESINGULAR, "I - A is singular to working precision");
+        return BST_OK;
+    }
+    case BST_DENSE: {
+        f->prec = prec;
+        size_t es = prec == BST_DOUBLE ? sizeof(double) : sizeof(float);
+        if (!(f->lu = bsti_alloc_array(ctx, n * n, es)) ||
+            !(f->ipiv = bsti_alloc_array(ctx, n ? n : 1, sizeof *f->ipiv)))
+            return BST_ENOMEM;
+        for (size_t j = 0; j < n; j++) {
+            double s = 0.0;
+            for (size_t i = 0; i < n; i++) {
+                double v = (i == j ? 1.0 : 0.0) - bsti_dense_get(a, i, j);
+                s += fabs(v); /* a NaN or infinity makes s non-finite */
+                if (prec == BST_DOUBLE)
+                    ((double *)f->lu)[j * n + i] = v;
+                else
+                    ((float *)f->lu)[j * n + i] = (float)v;
+            }
+            f->anorm = isfinite(s) ? fmax(f->anorm, s) : s;
+            if (!isfinite(s))
+                break;
+        }
+        if (!isfinite(f->anorm))
+            return bsti_error(ctx, BST_ESINGULAR, "I - A has non-finite elements");
+        if (n == 0)
+            return BST_OK;
+        lapack_int N = (lapack_int)n, info;
+        double scale = fmax(1.0, f->anorm);
+        if (prec == BST_DOUBLE) {
+            info = LAPACKE_dgetrf(LAPACK_COL_MAJOR, N, N, f->lu, N, f->ipiv);
+            if (info == 0)
+                info = LAPACKE_dgecon(LAPACK_COL_MAJOR, '1', N, f->lu, N, scale, rcond);
+        } else {
+            float rc32 = 0.0f;
+            info = LAPACKE_sgetrf(LAPACK_COL_MAJOR, N, N, f->lu, N, f->ipiv);
+            if (info == 0)
+                info = LAPACKE_sgecon(LAPACK_COL_MAJOR, '1', N, f->lu, N, (float)scale, &rc32);
+            *rcond = rc32;
+        }
+        if (info > 0 || *rcond == 0.0) {
+            *rcond = 0.0;
+            return bsti_error(ctx, BST_ESINGULAR, "I - A is singular (zero pivot %d)", (int)info);
+        }
+        if (info < 0)
+            return bsti_error(ctx, BST_EINTERNAL, "LAPACK getrf/gecon: argument %d", (int)-info);
+        return BST_OK;
+    }
+    }
+    return bsti_error(ctx, BST_EINVAL, "solve: unknown structure");
+}
+
+/* X = M^-1 B (trans 0) or M^-T B (trans 1) for the factored M = I - A. */
+static int factor_solve(struct factor *f, int trans, const bst_mat *b, bst_mat **out)
+{
+    bst_ctx *ctx = f->ctx;
+    size_t n = f->n;
+    int rc;
+    if (b->s == BST_ZERO || f->s == BST_ZERO)
+        return bst_mat_convert(ctx, b, b->s, b->prec, out);
+    if (f->s == BST_DIAG) {
+        double *inv = bsti_alloc_array(ctx, n, sizeof *inv);
+        if (!inv)
+            return BST_ENOMEM;
+        for (size_t i = 0; i < n; i++)
+            inv[i] = 1.0 / f->d[i]; /* transposing a diagonal changes nothing */
+        rc = bst_mat_scale(ctx, inv, b, NULL, out);
+        bsti_free(ctx, inv);
+        return rc;
+    }
+    if (f->s == BST_DENSE) {
+        bst_mat *x;
+        if ((rc = bst_mat_convert(ctx, b, BST_DENSE, f->prec, &x)) < 0)
+            return rc;
+        lapack_int N = (lapack_int)n, nrhs = (lapack_int)b->cols, info = 0;
+        if (n && b->cols) {
+            char t = trans ? 'T' : 'N';
+            if (f->prec == BST_DOUBLE)
+                info = LAPACKE_dgetrs(LAPACK_COL_MAJOR, t, N, nrhs, f->lu, N, f->ipiv, x->dense, N);
+            else
+                info = LAPACKE_sgetrs(LAPACK_COL_MAJOR, t, N, nrhs, f->lu, N, f->ipiv, x->dense, N);
+        }
+        if (info != 0) {
+            bst_mat_free(x);
+            return bsti_error(ctx, BST_EINTERNAL, "LAPACK getrs: argument %d", (int)-info);
+        }
+        *out = x;
+        return BST_OK;
+    }
+    /* SPARSE factorization: column by column into a dense double result. */
+    bst_mat *x;
+    if ((rc = bst_mat_new_dense(ctx, n, b->cols, BST_DOUBLE, &x)) < 0)
+        return rc;
+    double *xd = x->dense;
+    for (size_t j = 0; j < b->cols && rc >= 0; j++) {
+        double *col = xd + j * n;
+        switch (b->s) {
+        case BST_DIAG: col[j] = b->diag[j]; break;
+        case BST_SPARSE: {
+            const SuiteSparse_long *p = b->sp->p, *ri = b->sp->i;
+            const double *bx = b->sp->x;
+            for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++)
+                col[ri[q]] = bx[q];
+            break;
+        }
+        case BST_DENSE:
+            for (size_t i = 0; i < n; i++)
+                col[i] = bsti_dense_get(b, i, j);
+            break;
+        default: break;
+        }
+        rc = sparse_apply(f, trans, col);
+    }
+    if (rc >= 0 && b->s != BST_DENSE) { /* a sparse right-hand side may give a sparse result */
+        bst_mat *c;
+        rc = bst_mat_compact(ctx, x, BST_SPARSE_MAX_FILL, &c);
+        if (rc >= 0) {
+            bst_mat_free(x);
+            x = c;
+        }
+    } else if (rc >= 0 && b->prec == BST_FLOAT) {
+        bst_mat *c;
+        rc = bst_mat_convert(ctx, x, BST_DENSE, BST_FLOAT, &c);
+        if (rc >= 0) {
+            bst_mat_free(x);
+            x = c;
+        }
+    }
+    if (rc < 0) {
+        bst_mat_free(x);
+        return rc;
+    }
+    *out = x;
+    return BST_OK;
+}
+
+static int solve(bst_ctx *ctx, int right, const bst_mat *a, const bst_mat *b, double rcond_warn,
+                 bst_mat **out, double *rcond_out)
+{
+    if (!ctx)
+        return BST_EINVAL;
+    if (!out)
+        return bsti_error(ctx, BST_EINVAL, "solve: NULL result pointer");
+    *out = NULL;
+    if (rcond_out)
+        *rcond_out = 0.0;
+    if (!a || !b)
+        return bsti_error(ctx, BST_EINVAL, "solve: NULL matrix");
+    if (a->rows != a->cols)
+        return bsti_error(ctx, BST_ESIZE, "solve: A is %zu x %zu, not square", a->rows, a->cols);
+    if ((right ? b->cols : b->rows) != a->rows)
+        return bsti_error(ctx, BST_ESIZE, "solve: A is %zu x %zu, B is %zu x %zu", a->rows,
+                          a->cols, b->rows, b->cols);
+    if (!(rcond_warn >= 0.0))
+        return bsti_error(ctx, BST_EINVAL, "solve: warning threshold %g is not >= 0", rcond_warn);
+    bst_precision prec = ((a->s == BST_DENSE && a->prec == BST_FLOAT) ||
+                          (b->s == BST_DENSE && b->prec == BST_FLOAT)) ? BST_FLOAT : BST_DOUBLE;
+    struct factor f;
+    double rcond;
+    int rc = factor_new(ctx, a, prec, &f, &rcond);
+    if (rcond_out)
+        *rcond_out = rcond;
+    bst_mat *bt = NULL, *xt = NULL, *x = NULL;
+    if (rc >= 0) {
+        if (right) { /* Y^T = (I - A)^-T B^T */
+            rc = bst_mat_transpose(ctx, b, &bt);
+            if (rc >= 0)
+                rc = factor_solve(&f, 1, bt, &xt);
+            if (rc >= 0)
+                rc = bst_mat_transpose(ctx, xt, &x);
+        } else {
+            rc = factor_solve(&f, 0, b, &x);
+        }
+    }
+    factor_free(&f);
+    rcond = fmin(rcond, 1.0); /* rounding in the estimate may exceed the bound 1 */
+    if (rcond_out)
+        *rcond_out = rcond;
+    bst_mat_free(bt);
+    bst_mat_free(xt);
+    if (rc >= 0 && !bst_mat_all_finite(x))
+        rc = bsti_error(ctx, BST_ESINGULAR, "solve: the result is not finite (I - A is singular "
+                        "to working precision, rcond %.3g)", rcond);
+    if (rc < 0) {
+        bst_mat_free(x);
+        return rc;
+    }
+    *out = x;
+    /* Single precision keeps about 7 digits: warn from sqrt(eps_float) on, whatever was asked. */
+    if (prec == BST_FLOAT && a->s == BST_DENSE)
+        rcond_warn = fmax(rcond_warn, BSTI_RCOND_WARN_FLOAT);
+    if (rcond < rcond_warn)
+        return bsti_error(ctx, BST_WILLCOND, "solve: I - A is ill-conditioned (rcond %.3g < %.3g)",
+                          rcond, rcond_warn);
+    return BST_OK;
+}
+
+int bst_solve_left(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double rcond_warn,
+                   bst_mat **x, double *rcond)
+{
+    return solve(ctx, 0, a, b, rcond_warn, x, rcond);
+}
+
+int bst_solve_right(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double rcond_warn,
+                    bst_mat **y, double *rcond)
+{
+    return solve(ctx, 1, a, b, rcond_warn, y, rcond);
+}

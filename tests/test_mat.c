@@ -1,0 +1,299 @@
+/* test_mat.c - every specialized product, sum, scaling, transpose and conversion of the algebra
+ * against plain dense loops, for every pair of operand structures (dense in double and float) and
+ * sizes 1 .. 300; result structures; error paths; injected allocation failures. */
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "mat.h"
+#include "testmat.h"
+
+static bst_ctx *ctx;
+static void setup(void) { ctx = bst_ctx_new(); }
+static void teardown(void) { bst_ctx_free(ctx); }
+
+static const size_t sizes[] = {1, 2, 7, 64, 300};
+#define NSIZES (sizeof sizes / sizeof sizes[0])
+
+/* The structure a product must come back in (DESIGN.md §2: the cheapest that holds it). */
+static bst_structure expected_product(int ka, int kb)
+{
+    if (ka == TM_ZERO || kb == TM_ZERO)
+        return BST_ZERO;
+    if (ka == TM_DIAG)
+        return kb == TM_DIAG ? BST_DIAG : kb == TM_SPARSE ? BST_SPARSE : BST_DENSE;
+    if (kb == TM_DIAG)
+        return ka == TM_SPARSE ? BST_SPARSE : BST_DENSE;
+    if (ka == TM_SPARSE && kb == TM_SPARSE)
+        return BST_SPARSE;
+    return BST_DENSE;
+}
+
+/* _i enumerates (kind of A, kind of B, size). */
+START_TEST(test_mul_all_pairs)
+{
+    int ka = _i % TM_NKINDS, kb = (_i / TM_NKINDS) % TM_NKINDS;
+    size_t n = sizes[_i / (TM_NKINDS * TM_NKINDS)];
+    tu_rng r;
+    tu_rng_seed(&r, 1000 + (uint64_t)_i);
+    /* rectangular where the structures allow it */
+    size_t m = (ka == TM_DIAG) ? n : n + 3, k = n, p = (kb == TM_DIAG) ? n : n + 1;
+    if (ka == TM_DIAG)
+        m = k;
+    bst_mat *a = tm_random(ctx, ka, m, k, 1.0, &r), *b = tm_random(ctx, kb, k, p, 1.0, &r), *c, *g;
+    ck_assert_int_eq(bst_mat_mul(ctx, a, b, 0.0, &c), BST_OK);
+    ck_assert_int_eq(bsti_mat_mul_generic(ctx, a, b, &g), BST_OK);
+    ck_assert_uint_eq(bst_mat_rows(c), m);
+    ck_assert_uint_eq(bst_mat_cols(c), p);
+    ck_assert_int_eq(bst_mat_structure(c), expected_product(ka, kb));
+    if (ka == TM_FLOAT || kb == TM_FLOAT)
+        ck_assert(bst_mat_structure(c) != BST_DENSE || bst_mat_precision(c) == BST_FLOAT);
+    double *da = tm_dense(ctx, a), *db = tm_dense(ctx, b), *dc = tm_dense(ctx, c), *dg = tm_dense(ctx, g);
+    double *ref = malloc(m * p * sizeof *ref);
+    tm_gemm(m, k, p, da, db, ref);
+    double eps = fmax(tm_eps(a), tm_eps(b));
+    /* |A B - fl(A B)| <= k eps |A| |B| elementwise, |A|,|B| <= 1: bounded by k^2 eps */
+    double tol = 4.0 * (double)k * (double)k * eps + 1e-300;
+    ck_assert_msg(tm_maxdiff(dc, ref, m * p) <= tol, "%s x %s, n %zu: kernel error %g > %g",
+                  tm_kind_name[ka], tm_kind_name[kb], n, tm_maxdiff(dc, ref, m * p), tol);
+    ck_assert_msg(tm_maxdiff(dc, dg, m * p) <= tol, "%s x %s, n %zu: kernel vs generic %g",
+                  tm_kind_name[ka], tm_kind_name[kb], n, tm_maxdiff(dc, dg, m * p));
+    free(da), free(db), free(dc), free(dg), free(ref);
+    bst_mat_free(a), bst_mat_free(b), bst_mat_free(c), bst_mat_free(g);
+}
+END_TEST
+
+START_TEST(test_add_all_pairs)
+{
+    int ka = _i % TM_NKINDS, kb = (_i / TM_NKINDS) % TM_NKINDS;
+    size_t n = sizes[_i / (TM_NKINDS * TM_NKINDS)];
+    tu_rng r;
+    tu_rng_seed(&r, 2000 + (uint64_t)_i);
+    bst_mat *a = tm_random(ctx, ka, n, n, 1.0, &r), *b = tm_random(ctx, kb, n, n, 1.0, &r), *c;
+    ck_assert_int_eq(bst_mat_add(ctx, 0.75, a, -2.5, b, &c), BST_OK);
+    double *da = tm_dense(ctx, a), *db = tm_dense(ctx, b), *dc = tm_dense(ctx, c);
+    for (size_t q = 0; q < n * n; q++)
+        da[q] = 0.75 * da[q] - 2.5 * db[q];
+    double eps = fmax(tm_eps(a), tm_eps(b));
+    ck_assert_double_le(tm_maxdiff(dc, da, n * n), 8.0 * eps);
+    /* structure: zero is the identity, diag + diag = diag, sparse-like pairs stay sparse */
+    bst_structure want = ka == TM_ZERO && kb == TM_ZERO ? BST_ZERO
+                         : (ka == TM_DENSE || ka == TM_FLOAT || kb == TM_DENSE || kb == TM_FLOAT) ? BST_DENSE
+                         : ka == TM_ZERO ? bst_mat_structure(b)
+                         : kb == TM_ZERO ? bst_mat_structure(a)
+                         : (ka == TM_DIAG && kb == TM_DIAG) ? BST_DIAG : BST_SPARSE;
+    ck_assert_int_eq(bst_mat_structure(c), want);
+    free(da), free(db), free(dc);
+    bst_mat_free(a), bst_mat_free(b), bst_mat_free(c);
+}
+END_TEST
+
+/* Scaling, transpose, conversions, compaction, column selection and sums for each kind. */
+START_TEST(test_unary)
+{
+    int ka = _i % TM_NKINDS;
+    size_t n = sizes[_i / TM_NKINDS];
+    tu_rng r;
+    tu_rng_seed(&r, 3000 + (uint64_t)_i);
+    bst_mat *a = tm_random(ctx, ka, n, n, 1.0, &r), *t;
+    double *da = tm_dense(ctx, a), *w = malloc(n * sizeof *w), *v = malloc(n * sizeof *v);
+    double *ref = malloc(n * n * sizeof *ref), eps = tm_eps(a);
+    for (size_t i = 0; i < n; i++)
+        w[i] = 0.5 + tu_rng_uniform(&r), v[i] = 0.5 + tu_rng_uniform(&r);
+    /* scale */
+    ck_assert_int_eq(bst_mat_scale(ctx, w, a, v, &t), BST_OK);
+    ck_assert_int_eq(bst_mat_structure(t), bst_mat_structure(a));
+    for (size_t j = 0; j < n; j++)
+        for (size_t i = 0; i < n; i++)
+            ref[j * n + i] = w[i] * da[j * n + i] * v[j];
+    double *dt = tm_dense(ctx, t);
+    ck_assert_double_le(tm_maxdiff(dt, ref, n * n), 8.0 * eps);
+    free(dt);
+    bst_mat_free(t);
+    /* transpose */
+    ck_assert_int_eq(bst_mat_transpose(ctx, a, &t), BST_OK);
+    dt = tm_dense(ctx, t);
+    for (size_t j = 0; j < n; j++)
+        for (size_t i = 0; i < n; i++)
+            ck_assert_double_eq(dt[i * n + j], da[j * n + i]);
+    free(dt);
+    bst_mat_free(t);
+    /* conversions to every structure that can hold it, exactly */
+    for (int s = BST_ZERO; s <= BST_DENSE; s++) {
+        int rc = bst_mat_convert(ctx, a, (bst_structure)s, bst_mat_precision(a), &t);
+        int diag_only = 1, all_zero = 1;
+        for (size_t j = 0; j < n; j++)
+            for (size_t i = 0; i < n; i++)
+                if (da[j * n + i] != 0.0) {
+                    all_zero = 0;
+                    diag_only &= i == j;
+                }
+        int can = s >= BST_SPARSE || (s == BST_DIAG && diag_only) || all_zero;
+        if (!can) {
+            ck_assert_int_eq(rc, BST_EINVAL);
+            continue;
+        }
+        ck_assert_int_eq(rc, BST_OK);
+        dt = tm_dense(ctx, t);
+        ck_assert_double_eq(tm_maxdiff(dt, da, n * n), 0.0);
+        free(dt);
+        bst_mat_free(t);
+    }
+    /* compact: the cheapest structure */
+    ck_assert_int_eq(bst_mat_compact(ctx, a, BST_SPARSE_MAX_FILL, &t), BST_OK);
+    bst_structure want = ka == TM_ZERO ? BST_ZERO : ka == TM_DIAG || n == 1 ? BST_DIAG
+                         : ka == TM_SPARSE && n >= 64 ? BST_SPARSE : BST_DENSE;
+    if (ka == TM_SPARSE && n < 64)
+        want = bst_mat_structure(t); /* fill of a tiny random sparse matrix varies; values below */
+    ck_assert_int_eq(bst_mat_structure(t), want);
+    dt = tm_dense(ctx, t);
+    ck_assert_double_eq(tm_maxdiff(dt, da, n * n), 0.0);
+    free(dt);
+    bst_mat_free(t);
+    /* column sums */
+    double *cs = malloc(n * sizeof *cs);
+    ck_assert_int_eq(bst_mat_col_weighted_sum(ctx, a, w, cs), BST_OK);
+    for (size_t j = 0; j < n; j++) {
+        double s = 0.0;
+        for (size_t i = 0; i < n; i++)
+            s += w[i] * da[j * n + i];
+        tu_assert_close(cs[j], s, 4.0 * (double)n * DBL_EPSILON, 1.0);
+    }
+    free(cs);
+    /* column selection, in a new order with a repeat */
+    size_t cols[3] = {n - 1, 0, n - 1};
+    ck_assert_int_eq(bst_mat_select_cols(ctx, a, 3, cols, &t), BST_OK);
+    for (size_t k = 0; k < 3; k++)
+        for (size_t i = 0; i < n; i++)
+            ck_assert_double_eq(bst_mat_get(t, i, k), da[cols[k] * n + i]);
+    bst_mat_free(t);
+    ck_assert_double_eq(bst_mat_max_abs(a), tm_maxabs(da, n * n));
+    ck_assert(bst_mat_all_finite(a));
+    free(da), free(w), free(v), free(ref);
+    bst_mat_free(a);
+}
+END_TEST
+
+START_TEST(test_drop_tol)
+{
+    /* A sparse product with one tiny entry: dropped with a tolerance, kept without. */
+    size_t ri[] = {0, 1, 0}, ci[] = {0, 0, 1};
+    double x[] = {1.0, 1e-9, 1.0};
+    bst_mat *a, *i2, *c;
+    ck_assert_int_eq(bst_mat_new_sparse(ctx, 2, 2, 3, ri, ci, x, &a), BST_OK);
+    size_t d[] = {0, 1};
+    double one[] = {1, 1};
+    ck_assert_int_eq(bst_mat_new_sparse(ctx, 2, 2, 2, d, d, one, &i2), BST_OK);
+    ck_assert_int_eq(bst_mat_mul(ctx, a, i2, 0.0, &c), BST_OK);
+    ck_assert_uint_eq(bst_mat_nnz(c), 3);
+    bst_mat_free(c);
+    ck_assert_int_eq(bst_mat_mul(ctx, a, i2, 1e-6, &c), BST_OK);
+    ck_assert_uint_eq(bst_mat_nnz(c), 2);
+    ck_assert_double_eq(bst_mat_get(c, 1, 0), 0.0);
+    bst_mat_free(c);
+    ck_assert_int_eq(bst_mat_mul(ctx, a, i2, 1.0, &c), BST_EINVAL);
+    ck_assert_int_eq(bst_mat_mul(ctx, a, i2, NAN, &c), BST_EINVAL);
+    bst_mat_free(a), bst_mat_free(i2);
+}
+END_TEST
+
+START_TEST(test_errors)
+{
+    bst_mat *a, *b, *c = (bst_mat *)1;
+    ck_assert_int_eq(bst_mat_new_zero(ctx, 3, 4, &a), BST_OK);
+    ck_assert_int_eq(bst_mat_new_zero(ctx, 3, 4, &b), BST_OK);
+    ck_assert_int_eq(bst_mat_mul(ctx, a, b, 0.0, &c), BST_ESIZE);
+    ck_assert_ptr_null(c);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "3 x 4 times 3 x 4"));
+    ck_assert_int_eq(bst_mat_mul(ctx, NULL, b, 0.0, &c), BST_EINVAL);
+    ck_assert_int_eq(bst_mat_mul(ctx, a, b, 0.0, NULL), BST_EINVAL);
+    ck_assert_int_eq(bst_mat_mul(NULL, a, b, 0.0, &c), BST_EINVAL);
+    ck_assert_int_eq(bst_mat_add(ctx, 1, a, 1, NULL, &c), BST_EINVAL);
+    bst_mat *d;
+    ck_assert_int_eq(bst_mat_new_zero(ctx, 4, 3, &d), BST_OK);
+    ck_assert_int_eq(bst_mat_add(ctx, 1, a, 1, d, &c), BST_ESIZE);
+    ck_assert_int_eq(bst_mat_add(ctx, INFINITY, a, 1, b, &c), BST_EINVAL);
+    ck_assert_int_eq(bst_mat_new_dense(ctx, SIZE_MAX / 2, 4, BST_DOUBLE, &c), BST_ENOMEM);
+    ck_assert_int_eq(bst_mat_new_dense(ctx, 2, 2, (bst_precision)7, &c), BST_EINVAL);
+    ck_assert_int_eq(bst_mat_new_diag(ctx, 3, NULL, &c), BST_EINVAL);
+    size_t ri[] = {5}, ci[] = {0};
+    double x[] = {1.0}, nan[] = {NAN};
+    ck_assert_int_eq(bst_mat_new_sparse(ctx, 3, 3, 1, ri, ci, x, &c), BST_EINVAL);
+    ri[0] = 0;
+    ck_assert_int_eq(bst_mat_new_sparse(ctx, 3, 3, 1, ri, ci, nan, &c), BST_EINVAL);
+    ck_assert(isnan(bst_mat_get(a, 3, 0)));
+    ck_assert(isnan(bst_mat_get(NULL, 0, 0)));
+    ck_assert_ptr_null(bst_mat_dense_data(a));
+    ck_assert_ptr_null(bst_mat_diag_data(a));
+    ck_assert_int_eq(bst_mat_compact(ctx, a, 2.0, &c), BST_EINVAL);
+    size_t bad = 9;
+    ck_assert_int_eq(bst_mat_select_cols(ctx, a, 1, &bad, &c), BST_EINVAL);
+    bst_mat_free(a), bst_mat_free(b), bst_mat_free(d);
+    bst_mat_free(NULL);
+}
+END_TEST
+
+/* Every allocation of an operation may fail: the call reports BST_ENOMEM and leaks nothing. */
+typedef int (*op_fn)(bst_ctx *c, bst_mat *a, bst_mat *b, bst_mat **out);
+static int op_mul(bst_ctx *c, bst_mat *a, bst_mat *b, bst_mat **o) { return bst_mat_mul(c, a, b, 0, o); }
+static int op_add(bst_ctx *c, bst_mat *a, bst_mat *b, bst_mat **o) { return bst_mat_add(c, 1, a, 2, b, o); }
+static int op_conv(bst_ctx *c, bst_mat *a, bst_mat *b, bst_mat **o) { (void)b; return bst_mat_convert(c, a, BST_DENSE, BST_FLOAT, o); }
+static int op_tr(bst_ctx *c, bst_mat *a, bst_mat *b, bst_mat **o) { (void)b; return bst_mat_transpose(c, a, o); }
+
+START_TEST(test_alloc_failure)
+{
+    static const op_fn ops[] = {op_mul, op_add, op_conv, op_tr};
+    int ka = _i % TM_NKINDS, kb = (_i / TM_NKINDS) % TM_NKINDS;
+    bst_ctx *c = bst_ctx_new();
+    tu_alloc al = {0};
+    ck_assert_int_eq(bst_ctx_set_allocator(c, tu_alloc_malloc, tu_alloc_free, &al), BST_OK);
+    tu_rng r;
+    tu_rng_seed(&r, 5);
+    bst_mat *a = tm_random(c, ka, 9, 9, 1.0, &r), *b = tm_random(c, kb, 9, 9, 1.0, &r);
+    for (size_t o = 0; o < sizeof ops / sizeof ops[0]; o++) {
+        long base = al.live;
+        for (long k = 1;; k++) {
+            al.fail_at = al.count + k;
+            bst_mat *out = (bst_mat *)1;
+            int rc = ops[o](c, a, b, &out);
+            if (rc == BST_OK) {
+                bst_mat_free(out);
+                break;
+            }
+            ck_assert_int_eq(rc, BST_ENOMEM);
+            ck_assert_ptr_null(out);
+            ck_assert_str_ne(bst_ctx_message(c), "");
+            ck_assert_int_eq(al.live, base);
+            ck_assert_int_lt(k, 50);
+        }
+        ck_assert_int_eq(al.live, base);
+    }
+    al.fail_at = 0;
+    bst_mat_free(a), bst_mat_free(b);
+    ck_assert_int_eq(al.live, 0);
+    bst_ctx_free(c);
+}
+END_TEST
+
+static Suite *mat_suite(void)
+{
+    Suite *s = suite_create("mat");
+    TCase *tc = tcase_create("algebra");
+    tcase_add_checked_fixture(tc, setup, teardown);
+    tcase_set_timeout(tc, 120);
+    int pairs = TM_NKINDS * TM_NKINDS * (int)NSIZES;
+    tcase_add_loop_test(tc, test_mul_all_pairs, 0, pairs);
+    tcase_add_loop_test(tc, test_add_all_pairs, 0, pairs);
+    tcase_add_loop_test(tc, test_unary, 0, TM_NKINDS * (int)NSIZES);
+    tcase_add_test(tc, test_drop_tol);
+    tcase_add_test(tc, test_errors);
+    tcase_add_loop_test(tc, test_alloc_failure, 0, TM_NKINDS * TM_NKINDS);
+    suite_add_tcase(s, tc);
+    return s;
+}
+
+int main(void)
+{
+    return tu_run(mat_suite());
+}
