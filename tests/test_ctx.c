@@ -1,4 +1,6 @@
 /* test_ctx.c - the context: messages, status texts, allocator hooks and their failure paths. */
+#include <config.h>
+
 #include <stdlib.h>
 #include <string.h>
 

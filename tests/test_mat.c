@@ -1,6 +1,8 @@
 /* test_mat.c - every specialized product, sum, scaling, transpose and conversion of the algebra
  * against plain dense loops, for every pair of operand structures (dense in double and float) and
  * sizes 1 .. 300; result structures; error paths; injected allocation failures. */
+#include <config.h>
+
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>

@@ -1,6 +1,8 @@
 /* test_solve.c - X = (I - A)^-1 B and Y = B (I - A)^-1 for every structure of A and B: residuals
  * against plain dense arithmetic, agreement with the dense generic solve, the condition estimate
  * as A approaches a singular I - A, singular cases, errors and injected allocation failures. */
+#include <config.h>
+
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>

@@ -2,6 +2,8 @@
  * closed-form multi-pane formulas for specular layers, conservation of energy for non-absorbing
  * layers, reciprocity, typed kernels against the forced-dense baseline, and "only what is asked"
  * giving the same numbers as the full computation. */
+#include <config.h>
+
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>

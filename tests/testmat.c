@@ -1,4 +1,6 @@
 /* testmat.c - see testmat.h. */
+#include <config.h>
+
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>

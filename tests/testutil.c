@@ -1,4 +1,6 @@
 /* testutil.c - see testutil.h. */
+#include <config.h>
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
