@@ -326,8 +326,46 @@ int bst_stack_combine(bst_ctx *ctx, size_t n, const bst_layer *const *layers,
 int bst_accordance(bst_ctx *ctx, const bst_layer *a, const bst_layer *b, size_t ch, bst_comp c,
                    size_t incident, double *ga, double *la);
 
-/* ---------------------------------------------------------------- BSDF XML (xml, ttree) */
-/* (declared by the reader module) */
+/* ---------------------------------------------------------------- BSDF XML reader (xml, ttree) */
+
+/* A BSDF XML file as stored: Klems matrices or RADIANCE tensor trees (rank 3 or 4), per spectral
+ * channel and component.  The reader streams the file (SAX), never holding its text, and keeps
+ * tensor trees as trees (4 bytes per stored value). */
+typedef struct bst_bsdf bst_bsdf;
+typedef enum { BST_FILE_KLEMS = 0, BST_FILE_TT3 = 3, BST_FILE_TT4 = 4 } bst_file_kind;
+
+typedef struct {
+    unsigned comps;                /* components to read, BST_COMP_BIT mask; 0 = all */
+    size_t nchannels;              /* channels to read (by name); 0 = all */
+    const char *const *channels;
+} bst_read_opts;
+
+/* Read a file.  Errors name the file, the element and the line.  Returns BST_WDATA (a warning,
+ * the object is usable) when a component had to be completed: a missing transmission is taken
+ * from the other side's by reciprocity, a missing reflection is zero. */
+int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_read_opts *opts, bst_bsdf **out);
+void bst_bsdf_free(bst_bsdf *b);
+bst_file_kind bst_bsdf_kind(const bst_bsdf *b);
+/* Tensor-tree resolution k (depth of the finest cells), 0 for Klems files. */
+int bst_bsdf_order(const bst_bsdf *b);
+/* The Klems basis of a Klems file (NULL for trees). */
+const bst_basis *bst_bsdf_klems_basis(const bst_bsdf *b);
+size_t bst_bsdf_nchannels(const bst_bsdf *b);
+const char *bst_bsdf_channel(const bst_bsdf *b, size_t ch);
+/* 1 when the file stores the component (0 when it is derived or zero). */
+int bst_bsdf_stored(const bst_bsdf *b, size_t ch, bst_comp c);
+/* f(in, out) in 1/sr exactly as RADIANCE's libBSDF evaluates the file (without its deliberate
+ * perturbation of 2e-4): in points from the surface to the source, out along the scattered
+ * light, both unit vectors in the file's frame (+Z = interior); the component follows from the
+ * signs of their z (Tf: in_z < 0 < out_z, Tb: out_z < 0 < in_z, Rf: both < 0, Rb: both > 0). */
+int bst_bsdf_eval(bst_ctx *ctx, const bst_bsdf *b, size_t ch, const double in[3],
+                  const double out[3], double *value);
+/* The file's BSDF as a layer over `target` (NULL: the file's own basis, Shirley-Chiu of order
+ * bst_bsdf_order for trees).  Tensor trees at their own or a coarser order are averaged exactly
+ * (finer orders replicate); rank-3 trees are averaged over 2 x 2 incident x 3 x 3 outgoing points
+ * per cell; Klems <-> Shirley-Chiu maps cells by their centres with weights that keep every
+ * incident patch's hemispherical totals.  Each component lands in its cheapest structure. */
+int bst_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target, bst_layer **out);
 
 /* ---------------------------------------------------------------- analytic glass (glass) */
 /* (declared by the glass module) */

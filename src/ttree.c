@@ -1,0 +1,305 @@
+/* ttree.c - tensor trees: a streaming parser of the ScatteringData text, lookup, expansion onto a
+ * regular grid.  Conventions in ttree.h.
+ *
+ * The parser never holds the text: it tokenizes each chunk as it arrives, keeping at most one
+ * partial number between chunks, and appends leaf values to one float array, so the tree costs
+ * 4 bytes per stored value plus 8 per node. */
+#include <config.h>
+
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ctx.h"
+#include "ttree.h"
+
+/* Deepest nesting accepted (k <= 16 with one-value leaves). */
+#define TT_MAX_NESTING 20
+#define TT_TOKEN_MAX 64
+
+struct open_node {
+    uint32_t id;
+    uint32_t kids[16];
+    int nkids;
+    size_t value0; /* first value of this node */
+    size_t nvalues;
+};
+
+struct bsti_tparse {
+    bst_ctx *ctx;
+    bsti_ttree *t;
+    struct open_node stack[TT_MAX_NESTING + 1];
+    int top;          /* number of open nodes */
+    int closed_root;
+    char tok[TT_TOKEN_MAX + 1];
+    int ntok;
+};
+
+static int grow(bst_ctx *ctx, void **p, size_t *cap, size_t need, size_t elem)
+{
+    if (need <= *cap)
+        return BST_OK;
+    size_t nc = *cap ? *cap : 1024;
+    while (nc < need)
+        nc *= 2;
+    void *q = bsti_alloc_array(ctx, nc, elem);
+    if (!q)
+        return BST_ENOMEM;
+    if (*p)
+        memcpy(q, *p, *cap * elem);
+    bsti_free(ctx, *p);
+    *p = q;
+    *cap = nc;
+    return BST_OK;
+}
+
+int bsti_tparse_new(bst_ctx *ctx, int dim, bsti_tparse **out)
+{
+    *out = NULL;
+    if (dim != 3 && dim != 4)
+        return bsti_error(ctx, BST_EINVAL, "tensor tree of rank %d (3 or 4 expected)", dim);
+    bsti_tparse *p = bsti_calloc(ctx, 1, sizeof *p);
+    if (!p)
+        return BST_ENOMEM;
+    p->ctx = ctx;
+    if (!(p->t = bsti_calloc(ctx, 1, sizeof *p->t))) {
+        bsti_free(ctx, p);
+        return BST_ENOMEM;
+    }
+    p->t->ctx = ctx;
+    p->t->dim = dim;
+    *out = p;
+    return BST_OK;
+}
+
+void bsti_ttree_free(bsti_ttree *t)
+{
+    if (!t)
+        return;
+    bsti_free(t->ctx, t->nodes);
+    bsti_free(t->ctx, t->kids);
+    bsti_free(t->ctx, t->values);
+    bsti_free(t->ctx, t);
+}
+
+void bsti_tparse_free(bsti_tparse *p)
+{
+    if (!p)
+        return;
+    bsti_ttree_free(p->t);
+    bsti_free(p->ctx, p);
+}
+
+static int open_node(bsti_tparse *p)
+{
+    bsti_ttree *t = p->t;
+    if (p->closed_root)
+        return bsti_error(p->ctx, BST_EFORMAT, "text after the root node of the tree");
+    if (p->top > 0 && p->stack[p->top - 1].nvalues)
+        return bsti_error(p->ctx, BST_EFORMAT, "a tree node mixes values and child nodes");
+    if (p->top >= TT_MAX_NESTING)
+        return bsti_error(p->ctx, BST_EFORMAT, "tree nesting deeper than %d", TT_MAX_NESTING);
+    if (p->top > 0 && p->stack[p->top - 1].nkids >= (1 << t->dim))
+        return bsti_error(p->ctx, BST_EFORMAT, "a branch has more than %d children", 1 << t->dim);
+    if (t->nnodes >= UINT32_MAX - 1)
+        return bsti_error(p->ctx, BST_EFORMAT, "tree has too many nodes");
+    int rc = grow(p->ctx, (void **)&t->nodes, &t->cap_nodes, t->nnodes + 1, sizeof *t->nodes);
+    if (rc < 0)
+        return rc;
+    struct open_node *o = &p->stack[p->top++];
+    o->id = (uint32_t)t->nnodes++;
+    o->nkids = 0;
+    o->value0 = t->nvalues;
+    o->nvalues = 0;
+    memset(&t->nodes[o->id], 0, sizeof t->nodes[o->id]);
+    return BST_OK;
+}
+
+static int close_node(bsti_tparse *p)
+{
+    bsti_ttree *t = p->t;
+    if (p->top == 0)
+        return bsti_error(p->ctx, BST_EFORMAT, "'}' without a matching '{' in the tree");
+    struct open_node *o = &p->stack[p->top - 1];
+    struct bsti_tnode *n = &t->nodes[o->id];
+    int depth = p->top - 1; /* the root is at depth 0 */
+    if (o->nvalues) {
+        /* 2^(dim L) values */
+        int level = 0;
+        size_t cells = 1;
+        while (cells < o->nvalues && level < 16) {
+            cells <<= t->dim;
+            level++;
+        }
+        if (cells != o->nvalues)
+            return bsti_error(p->ctx, BST_EFORMAT, "a tree leaf holds %zu values, not a power of %d",
+                              o->nvalues, 1 << t->dim);
+        n->leaf = 1;
+        n->level = (uint8_t)level;
+        n->first = (uint32_t)o->value0;
+        if (depth + level > t->depth)
+            t->depth = depth + level;
+    } else if (o->nkids == (1 << t->dim)) {
+        int rc = grow(p->ctx, (void **)&t->kids, &t->cap_kids, t->nkids + (size_t)o->nkids, sizeof *t->kids);
+        if (rc < 0)
+            return rc;
+        n = &t->nodes[o->id];
+        n->leaf = 0;
+        n->first = (uint32_t)t->nkids;
+        memcpy(t->kids + t->nkids, o->kids, (size_t)o->nkids * sizeof *o->kids);
+        t->nkids += (size_t)o->nkids;
+    } else if (o->nkids == 0) {
+        return bsti_error(p->ctx, BST_EFORMAT, "an empty tree node '{ }'");
+    } else {
+        return bsti_error(p->ctx, BST_EFORMAT, "a tree branch has %d children, not %d", o->nkids,
+                          1 << t->dim);
+    }
+    uint32_t id = o->id;
+    p->top--;
+    if (p->top == 0)
+        p->closed_root = 1;
+    else
+        p->stack[p->top - 1].kids[p->stack[p->top - 1].nkids++] = id;
+    return BST_OK;
+}
+
+static int number(bsti_tparse *p)
+{
+    bsti_ttree *t = p->t;
+    p->tok[p->ntok] = '\0';
+    p->ntok = 0;
+    char *end;
+    errno = 0;
+    double v = strtod(p->tok, &end);
+    if (end == p->tok || *end != '\0')
+        return bsti_error(p->ctx, BST_EFORMAT, "'%s' is not a number", p->tok);
+    if (!isfinite(v) || fabs(v) > 3.0e38)
+        return bsti_error(p->ctx, BST_EFORMAT, "value '%s' is not finite in single precision", p->tok);
+    if (p->top == 0)
+        return bsti_error(p->ctx, BST_EFORMAT, "number '%s' outside any tree node", p->tok);
+    struct open_node *o = &p->stack[p->top - 1];
+    if (o->nkids)
+        return bsti_error(p->ctx, BST_EFORMAT, "a tree node mixes values and child nodes");
+    if (v < 0) { /* as libBSDF: negative values read as 0 */
+        v = 0;
+        t->negatives++;
+    }
+    int rc = grow(p->ctx, (void **)&t->values, &t->cap_values, t->nvalues + 1, sizeof *t->values);
+    if (rc < 0)
+        return rc;
+    t->values[t->nvalues++] = (float)v;
+    o->nvalues++;
+    return BST_OK;
+}
+
+int bsti_tparse_feed(bsti_tparse *p, const char *s, size_t len)
+{
+    for (size_t i = 0; i < len; i++) {
+        char c = s[i];
+        int sep = c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == ',' || c == '{' || c == '}';
+        if (!sep) {
+            if (p->ntok >= TT_TOKEN_MAX)
+                return bsti_error(p->ctx, BST_EFORMAT, "a token longer than %d characters", TT_TOKEN_MAX);
+            p->tok[p->ntok++] = c;
+            continue;
+        }
+        int rc = BST_OK;
+        if (p->ntok)
+            rc = number(p);
+        if (rc >= 0 && c == '{')
+            rc = open_node(p);
+        else if (rc >= 0 && c == '}')
+            rc = close_node(p);
+        if (rc < 0)
+            return rc;
+    }
+    return BST_OK;
+}
+
+int bsti_tparse_finish(bsti_tparse *p, bsti_ttree **out)
+{
+    *out = NULL;
+    int rc = p->ntok ? number(p) : BST_OK;
+    if (rc >= 0 && p->top > 0)
+        rc = bsti_error(p->ctx, BST_EFORMAT, "the tree ends with %d unclosed node%s", p->top,
+                        p->top > 1 ? "s" : "");
+    if (rc >= 0 && !p->closed_root)
+        rc = bsti_error(p->ctx, BST_EFORMAT, "no tree data (expected '{ ... }')");
+    if (rc >= 0) {
+        *out = p->t;
+        p->t = NULL;
+    }
+    bsti_tparse_free(p);
+    return rc;
+}
+
+double bsti_ttree_eval(const bsti_ttree *t, const double *pin)
+{
+    double p[4];
+    for (int i = 0; i < t->dim; i++)
+        p[i] = fmin(fmax(pin[i], 0.0), 0x1.fffffffffffffp-1);
+    const struct bsti_tnode *n = &t->nodes[0];
+    while (!n->leaf) {
+        int child = 0;
+        for (int i = 0; i < t->dim; i++) {
+            int b = p[i] >= 0.5;
+            child |= b << i;
+            p[i] = 2.0 * p[i] - b;
+        }
+        n = &t->nodes[t->kids[n->first + (uint32_t)child]];
+    }
+    size_t g = (size_t)1 << n->level, flat = 0;
+    for (int i = 0; i < t->dim; i++) {
+        size_t c = (size_t)(p[i] * (double)g);
+        flat = flat * g + (c < g ? c : g - 1);
+    }
+    return t->values[n->first + flat];
+}
+
+/* Add the subtree of node id (at depth d, lower corner c[] in cells of that depth) to the grid. */
+static void expand4(const bsti_ttree *t, uint32_t id, int d, const size_t c[4], int k, double *m)
+{
+    const struct bsti_tnode *n = &t->nodes[id];
+    if (!n->leaf) {
+        for (int child = 0; child < 16; child++) {
+            size_t cc[4];
+            for (int i = 0; i < 4; i++)
+                cc[i] = 2 * c[i] + (size_t)((child >> i) & 1);
+            expand4(t, t->kids[n->first + (uint32_t)child], d + 1, cc, k, m);
+        }
+        return;
+    }
+    size_t G = (size_t)1 << k, N = G * G;
+    int lv = d + n->level;           /* level of the leaf's cells */
+    size_t g = (size_t)1 << n->level; /* leaf grid */
+    size_t rep = lv <= k ? (size_t)1 << (k - lv) : 1; /* target cells per leaf cell and dimension */
+    int shift = lv > k ? lv - k : 0;                  /* leaf cells per target cell: 2^shift */
+    double w = lv > k ? 1.0 / (double)((size_t)1 << (4 * shift)) : 1.0;
+    for (size_t a = 0; a < g; a++)
+        for (size_t b = 0; b < g; b++)
+            for (size_t e = 0; e < g; e++)
+                for (size_t f = 0; f < g; f++) {
+                    double v = w * t->values[n->first + ((a * g + b) * g + e) * g + f];
+                    if (v == 0.0)
+                        continue;
+                    size_t x0 = ((c[0] * g + a) * rep) >> shift, y0 = ((c[1] * g + b) * rep) >> shift;
+                    size_t u0 = ((c[2] * g + e) * rep) >> shift, v0 = ((c[3] * g + f) * rep) >> shift;
+                    for (size_t ix = x0; ix < x0 + rep; ix++)
+                        for (size_t iy = y0; iy < y0 + rep; iy++)
+                            for (size_t ox = u0; ox < u0 + rep; ox++)
+                                for (size_t oy = v0; oy < v0 + rep; oy++)
+                                    m[(ox * G + oy) + N * (ix * G + iy)] += v;
+                }
+}
+
+int bsti_ttree_expand4(const bsti_ttree *t, int k, double *m)
+{
+    if (t->dim != 4)
+        return bsti_error(t->ctx, BST_EINVAL, "expanding a rank-%d tree as rank 4", t->dim);
+    size_t G = (size_t)1 << k;
+    memset(m, 0, G * G * G * G * sizeof *m);
+    size_t c[4] = {0, 0, 0, 0};
+    expand4(t, 0, 0, c, k, m);
+    return BST_OK;
+}

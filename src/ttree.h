@@ -1,0 +1,52 @@
+/* ttree.h - RADIANCE tensor trees (rank 3 and 4): built from the ScatteringData text as it streams
+ * in, evaluated at a point of the unit hypercube, and expanded onto a regular grid.
+ *
+ * Syntax facts (CONVENTIONS.md 6): a node is { ... }; a branch has exactly 2^D children, child
+ * index sum(b_i << i) with dimension 0 the LEAST significant bit; a leaf holds 2^(D L) values on a
+ * regular grid of 2^L cells per dimension with dimension 0 the SLOWEST.  Negative numbers are read
+ * as 0 (as libBSDF does).  Lookup: at a branch b_i = [p_i >= 1/2], p_i -> 2 p_i - b_i; at a leaf,
+ * cell floor(G p_i). */
+#ifndef BST_TTREE_H
+#define BST_TTREE_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include "bsdfstack.h"
+
+struct bsti_tnode {
+    uint32_t first; /* branch: index of its first child id in kids[]; leaf: index in values[] */
+    uint8_t leaf;
+    uint8_t level;  /* leaf: L (grid of 2^L per dimension) */
+};
+
+typedef struct bsti_ttree {
+    bst_ctx *ctx;
+    int dim;                  /* 3 or 4 */
+    struct bsti_tnode *nodes; /* nodes[0] is the root */
+    size_t nnodes, cap_nodes;
+    uint32_t *kids;           /* children of branches, 2^dim consecutive ids per branch */
+    size_t nkids, cap_kids;
+    float *values;
+    size_t nvalues, cap_values;
+    int depth;                /* finest cell level: the tree's resolution k */
+    int negatives;            /* count of negative numbers read as 0 */
+} bsti_ttree;
+
+/* Streaming builder: feed text in chunks of any size (tokens may straddle chunks). */
+typedef struct bsti_tparse bsti_tparse;
+int bsti_tparse_new(bst_ctx *ctx, int dim, bsti_tparse **out);
+/* Returns < 0 with a message (no file name; the caller prefixes it) on a syntax error. */
+int bsti_tparse_feed(bsti_tparse *p, const char *text, size_t len);
+/* Completes the tree; the parser is freed whatever the outcome. */
+int bsti_tparse_finish(bsti_tparse *p, bsti_ttree **out);
+void bsti_tparse_free(bsti_tparse *p);
+
+void bsti_ttree_free(bsti_ttree *t);
+/* Value at p in [0,1)^dim. */
+double bsti_ttree_eval(const bsti_ttree *t, const double *p);
+/* Rank 4 only: the tree on a grid of 2^k cells per dimension, as the column-major N x N matrix
+ * (N = 4^k) M[o + N i] with i = ix 2^k + iy the cell of (p0, p1) and o = ox 2^k + oy that of
+ * (p2, p3).  Finer tree cells are averaged, coarser ones replicated. */
+int bsti_ttree_expand4(const bsti_ttree *t, int k, double *m);
+
+#endif

@@ -1,0 +1,883 @@
+/* xml.c - reading BSDF XML (LBNL WindowElement, as written by WINDOW, wrapBSDF and genBSDF) and
+ * turning it into layers.
+ *
+ * File conventions (../shared/reference/CONVENTIONS.md 1, 2, 5, 7): XML "Front" is the exterior
+ * (-Z) side, which is also bsdfstack's front, so "Transmission Front" is our Tf and so on: no side
+ * swap is needed.  Tensor trees index the incident square by the propagation direction (-in) and
+ * the outgoing one by the exit direction, as our matrices do.  Klems "Columns" data lists, for
+ * each outgoing patch (a text row), the values of every incident patch.
+ *
+ * The parser is libxml2's SAX interface fed in chunks: the ScatteringData text goes straight into
+ * the tensor-tree or Klems tokenizer and is never held as a whole. */
+#include <config.h>
+
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+
+#include <libxml/parser.h>
+#include <libxml/SAX2.h>
+
+#include "basis.h"
+#include "ctx.h"
+#include "layer.h"
+#include "mat.h"
+#include "ttree.h"
+
+#define XML_CHUNK 65536
+#define TEXT_MAX 256
+#define MAX_CHANNELS 16
+#define MAX_DEPTH 32
+/* Sample points per cell when a rank-3 tree is expanded (DESIGN.md 1). */
+#define TT3_IN_SAMPLES 2
+#define TT3_OUT_SAMPLES 3
+
+struct bst_bsdf {
+    bst_ctx *ctx;
+    char *path;
+    bst_file_kind kind;
+    int k;
+    bst_basis *klems;
+    size_t nch;
+    char *channels[MAX_CHANNELS];
+    bsti_ttree *tree[MAX_CHANNELS][BST_NCOMP];
+    double *mat[MAX_CHANNELS][BST_NCOMP]; /* Klems, column-major N x N, M[o + N i] */
+};
+
+/* ------------------------------------------------------------------ SAX state */
+
+struct reader {
+    bst_ctx *ctx;
+    const char *path;
+    const bst_read_opts *opts;
+    xmlParserCtxtPtr pctxt;
+    bst_bsdf *b;
+    int status;
+    char elems[MAX_DEPTH][32];
+    int depth;
+    char text[TEXT_MAX];
+    size_t ntext;
+    char structure[TEXT_MAX];
+    /* Klems basis from DataDefinition */
+    char basis_name[TEXT_MAX];
+    size_t nbands;
+    double lo[BSTI_KLEMS_MAX_BANDS], hi[BSTI_KLEMS_MAX_BANDS];
+    int nphi[BSTI_KLEMS_MAX_BANDS];
+    /* current WavelengthData / block */
+    char channel[TEXT_MAX];
+    int comp;
+    char block_basis[TEXT_MAX];
+    /* ScatteringData */
+    int in_data;
+    int skip;
+    bsti_tparse *tp;
+    double *km;
+    size_t nkm, kmax;
+    char tok[64];
+    int ntok;
+};
+
+static const char *parent(struct reader *r, int up)
+{
+    return r->depth - 1 - up >= 0 ? r->elems[r->depth - 1 - up] : "";
+}
+
+static int fail(struct reader *r, int status, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+static int fail(struct reader *r, int status, const char *fmt, ...)
+{
+    if (r->status < 0)
+        return r->status;
+    char msg[512];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    r->status = bsti_error(r->ctx, status, "%s: line %d: %s", r->path,
+                           r->pctxt ? xmlSAX2GetLineNumber(r->pctxt) : 0, msg);
+    if (r->pctxt)
+        xmlStopParser(r->pctxt);
+    return r->status;
+}
+
+/* Prefix a message recorded by a lower layer (tokenizers) with the file and line. */
+static void fail_ctx(struct reader *r, int status, const char *element)
+{
+    if (r->status < 0)
+        return;
+    char msg[BSTI_MSG_MAX];
+    snprintf(msg, sizeof msg, "%s", bst_ctx_message(r->ctx));
+    fail(r, status, "<%s>: %s", element, msg);
+}
+
+static int wanted_channel(struct reader *r, const char *name)
+{
+    if (!r->opts || r->opts->nchannels == 0)
+        return 1;
+    for (size_t i = 0; i < r->opts->nchannels; i++)
+        if (strcasecmp(r->opts->channels[i], name) == 0)
+            return 1;
+    return 0;
+}
+
+static int channel_index(struct reader *r, const char *name)
+{
+    bst_bsdf *b = r->b;
+    for (size_t i = 0; i < b->nch; i++)
+        if (strcasecmp(b->channels[i], name) == 0)
+            return (int)i;
+    if (b->nch >= MAX_CHANNELS)
+        return fail(r, BST_EFORMAT, "more than %d spectral channels", MAX_CHANNELS);
+    if (!(b->channels[b->nch] = bsti_strdup(r->ctx, name)))
+        return fail(r, BST_ENOMEM, "out of memory");
+    return (int)b->nch++;
+}
+
+static void start_data(struct reader *r)
+{
+    r->in_data = 1;
+    r->skip = 0;
+    if (r->comp < 0) {
+        fail(r, BST_EFORMAT, "<ScatteringData> before its <WavelengthDataDirection>");
+        return;
+    }
+    if (!r->channel[0]) {
+        fail(r, BST_EFORMAT, "<ScatteringData> without a <Wavelength>");
+        return;
+    }
+    unsigned comps = r->opts && r->opts->comps ? r->opts->comps : BST_COMP_ALL;
+    /* a transmission may have to come from the other side's by reciprocity: read both */
+    if (comps & (BST_COMP_BIT(BST_TF) | BST_COMP_BIT(BST_TB)))
+        comps |= BST_COMP_BIT(BST_TF) | BST_COMP_BIT(BST_TB);
+    if (!(comps & BST_COMP_BIT(r->comp)) || !wanted_channel(r, r->channel)) {
+        r->skip = 1;
+        return;
+    }
+    if (strcmp(r->structure, "TensorTree3") == 0 || strcmp(r->structure, "TensorTree4") == 0) {
+        if (strcmp(r->block_basis, "LBNL/Shirley-Chiu") != 0) {
+            fail(r, BST_EBASIS, "<AngleBasis> '%s' of a tensor tree (expected LBNL/Shirley-Chiu)",
+                 r->block_basis);
+            return;
+        }
+        int rc = bsti_tparse_new(r->ctx, r->structure[10] - '0', &r->tp);
+        if (rc < 0)
+            fail_ctx(r, rc, "ScatteringData");
+    } else if (strcmp(r->structure, "Columns") == 0 || strcmp(r->structure, "Rows") == 0) {
+        if (!r->b->klems) {
+            fail(r, BST_EBASIS, "<ScatteringData> of a Klems matrix without a Klems <AngleBasis> "
+                 "in <DataDefinition>");
+            return;
+        }
+        if (strcmp(r->block_basis, r->b->klems->name) != 0) {
+            fail(r, BST_EBASIS, "<ColumnAngleBasis> '%s' is not the defined basis '%s'",
+                 r->block_basis, r->b->klems->name);
+            return;
+        }
+        size_t n = bst_basis_size(r->b->klems);
+        r->kmax = n * n;
+        r->nkm = 0;
+        r->ntok = 0;
+        if (!(r->km = bsti_alloc_array(r->ctx, r->kmax, sizeof *r->km)))
+            fail(r, BST_ENOMEM, "out of memory for a %zu x %zu matrix", n, n);
+    } else if (!r->structure[0]) {
+        fail(r, BST_EFORMAT, "<ScatteringData> without an <IncidentDataStructure>");
+    } else {
+        fail(r, BST_EFORMAT, "unknown <IncidentDataStructure> '%s' (TensorTree3, TensorTree4, "
+             "Columns or Rows expected)", r->structure);
+    }
+}
+
+static void klems_number(struct reader *r)
+{
+    r->tok[r->ntok] = '\0';
+    r->ntok = 0;
+    char *end;
+    double v = strtod(r->tok, &end);
+    if (end == r->tok || *end != '\0') {
+        fail(r, BST_EFORMAT, "<ScatteringData>: '%s' is not a number", r->tok);
+        return;
+    }
+    if (!isfinite(v)) {
+        fail(r, BST_EFORMAT, "<ScatteringData>: value %zu is not finite", r->nkm + 1);
+        return;
+    }
+    if (r->nkm >= r->kmax) {
+        fail(r, BST_EFORMAT, "<ScatteringData> holds more than the %zu values of its basis", r->kmax);
+        return;
+    }
+    r->km[r->nkm++] = v < 0 ? 0.0 : v; /* as libBSDF and the tree reader: negatives are 0 */
+}
+
+static void data_chars(struct reader *r, const char *s, size_t len)
+{
+    if (r->skip || r->status < 0)
+        return;
+    if (r->tp) {
+        int rc = bsti_tparse_feed(r->tp, s, len);
+        if (rc < 0)
+            fail_ctx(r, rc, "ScatteringData");
+        return;
+    }
+    for (size_t i = 0; i < len && r->status >= 0; i++) {
+        char c = s[i];
+        if (c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == ',') {
+            if (r->ntok)
+                klems_number(r);
+        } else if (r->ntok >= (int)sizeof r->tok - 1) {
+            fail(r, BST_EFORMAT, "<ScatteringData>: a token longer than %zu characters", sizeof r->tok - 1);
+        } else {
+            r->tok[r->ntok++] = c;
+        }
+    }
+}
+
+static void end_data(struct reader *r)
+{
+    r->in_data = 0;
+    if (r->skip || r->status < 0)
+        return;
+    int ch = channel_index(r, r->channel);
+    if (ch < 0)
+        return;
+    bst_bsdf *b = r->b;
+    if (b->tree[ch][r->comp] || b->mat[ch][r->comp]) {
+        fail(r, BST_EFORMAT, "%s of channel %s given twice", bst_comp_name((bst_comp)r->comp), r->channel);
+        return;
+    }
+    if (r->tp) {
+        bsti_ttree *t;
+        int rc = bsti_tparse_finish(r->tp, &t);
+        r->tp = NULL;
+        if (rc < 0) {
+            fail_ctx(r, rc, "ScatteringData");
+            return;
+        }
+        b->tree[ch][r->comp] = t;
+        if (t->depth > b->k)
+            b->k = t->depth;
+        if (t->depth > BST_K_MAX + 1)
+            fail(r, BST_EFORMAT, "<ScatteringData>: tree depth %d exceeds %d", t->depth, BST_K_MAX + 1);
+        return;
+    }
+    if (r->ntok)
+        klems_number(r);
+    if (r->status < 0)
+        return;
+    if (r->nkm != r->kmax) {
+        fail(r, BST_EFORMAT, "<ScatteringData> holds %zu values, the basis %s needs %zu", r->nkm,
+             b->klems->name, r->kmax);
+        return;
+    }
+    size_t n = bst_basis_size(b->klems);
+    /* "Columns": value k is (incident k mod n, outgoing k div n): M[o + n i] = v[o n + i] */
+    double *m = bsti_alloc_array(r->ctx, r->kmax, sizeof *m);
+    if (!m) {
+        fail(r, BST_ENOMEM, "out of memory");
+        return;
+    }
+    int rows = strcmp(r->structure, "Rows") == 0;
+    for (size_t o = 0; o < n; o++)
+        for (size_t i = 0; i < n; i++)
+            m[o + n * i] = rows ? r->km[i * n + o] : r->km[o * n + i];
+    bsti_free(r->ctx, r->km);
+    r->km = NULL;
+    b->mat[ch][r->comp] = m;
+}
+
+static void on_start(void *ud, const xmlChar *local, const xmlChar *prefix, const xmlChar *uri,
+                     int nns, const xmlChar **ns, int nattr, int ndef, const xmlChar **attr)
+{
+    (void)prefix, (void)uri, (void)nns, (void)ns, (void)nattr, (void)ndef, (void)attr;
+    struct reader *r = ud;
+    if (r->status < 0)
+        return;
+    const char *name = (const char *)local;
+    if (r->depth >= MAX_DEPTH) {
+        fail(r, BST_EFORMAT, "elements nested deeper than %d", MAX_DEPTH);
+        return;
+    }
+    if (r->in_data) {
+        fail(r, BST_EFORMAT, "element <%s> inside <ScatteringData>", name);
+        return;
+    }
+    snprintf(r->elems[r->depth++], sizeof r->elems[0], "%s", name);
+    r->ntext = 0;
+    if (r->depth == 1 && strcmp(name, "WindowElement") != 0) {
+        fail(r, BST_EFORMAT, "root element <%s> is not <WindowElement>", name);
+        return;
+    }
+    if (strcmp(name, "WavelengthData") == 0) {
+        r->channel[0] = '\0';
+    } else if (strcmp(name, "WavelengthDataBlock") == 0) {
+        r->comp = -1;
+        r->block_basis[0] = '\0';
+    } else if (strcmp(name, "AngleBasisBlock") == 0) {
+        if (r->nbands >= BSTI_KLEMS_MAX_BANDS) {
+            fail(r, BST_EBASIS, "more than %d <AngleBasisBlock>s", BSTI_KLEMS_MAX_BANDS);
+            return;
+        }
+        r->lo[r->nbands] = r->hi[r->nbands] = NAN;
+        r->nphi[r->nbands++] = 0;
+    } else if (strcmp(name, "ScatteringData") == 0) {
+        start_data(r);
+    }
+}
+
+static int text_number(struct reader *r, const char *elem, double *v)
+{
+    char *end;
+    errno = 0;
+    *v = strtod(r->text, &end);
+    while (*end == ' ' || *end == '\n' || *end == '\t' || *end == '\r')
+        end++;
+    if (end == r->text || *end || !isfinite(*v))
+        return fail(r, BST_EFORMAT, "<%s> '%s' is not a number", elem, r->text);
+    return BST_OK;
+}
+
+static void on_end(void *ud, const xmlChar *local, const xmlChar *prefix, const xmlChar *uri)
+{
+    (void)prefix, (void)uri;
+    struct reader *r = ud;
+    if (r->status < 0)
+        return;
+    const char *name = (const char *)local;
+    r->text[r->ntext] = '\0';
+    /* trim */
+    char *t = r->text;
+    while (*t == ' ' || *t == '\n' || *t == '\t' || *t == '\r')
+        t++;
+    size_t n = strlen(t);
+    while (n && (t[n - 1] == ' ' || t[n - 1] == '\n' || t[n - 1] == '\t' || t[n - 1] == '\r'))
+        t[--n] = '\0';
+    memmove(r->text, t, n + 1);
+    const char *up = parent(r, 1);
+    double v;
+    if (strcmp(name, "ScatteringData") == 0) {
+        end_data(r);
+    } else if (strcmp(name, "IncidentDataStructure") == 0) {
+        snprintf(r->structure, sizeof r->structure, "%s", r->text);
+        if (strcmp(r->text, "TensorTree3") && strcmp(r->text, "TensorTree4") &&
+            strcmp(r->text, "Columns") && strcmp(r->text, "Rows"))
+            fail(r, BST_EFORMAT, "unknown <IncidentDataStructure> '%s' (TensorTree3, TensorTree4, "
+                 "Columns or Rows expected)", r->text);
+    } else if (strcmp(name, "FileType") == 0) {
+        if (strcmp(r->text, "BSDF") != 0)
+            fail(r, BST_EFORMAT, "<FileType> '%s' is not BSDF", r->text);
+    } else if (strcmp(name, "AngleBasisName") == 0) {
+        snprintf(r->basis_name, sizeof r->basis_name, "%s", r->text);
+    } else if (strcmp(name, "nPhis") == 0 && r->nbands) {
+        if (text_number(r, name, &v) == BST_OK) {
+            if (v < 1 || v > 100000 || v != floor(v))
+                fail(r, BST_EBASIS, "<nPhis> %s is not a patch count", r->text);
+            r->nphi[r->nbands - 1] = (int)v;
+        }
+    } else if (strcmp(name, "LowerTheta") == 0 && r->nbands) {
+        if (text_number(r, name, &v) == BST_OK)
+            r->lo[r->nbands - 1] = v;
+    } else if (strcmp(name, "UpperTheta") == 0 && r->nbands) {
+        if (text_number(r, name, &v) == BST_OK)
+            r->hi[r->nbands - 1] = v;
+    } else if (strcmp(name, "AngleBasis") == 0 && strcmp(up, "DataDefinition") == 0) {
+        double bounds[BSTI_KLEMS_MAX_BANDS + 1];
+        for (size_t i = 0; i < r->nbands; i++) {
+            if (isnan(r->lo[i]) || isnan(r->hi[i]) || r->nphi[i] < 1) {
+                fail(r, BST_EBASIS, "<AngleBasisBlock> %zu lacks ThetaBounds or nPhis", i + 1);
+                return;
+            }
+            if (i > 0 && fabs(r->lo[i] - r->hi[i - 1]) > 1e-9) {
+                fail(r, BST_EBASIS, "<AngleBasisBlock> %zu starts at %g, the previous ends at %g",
+                     i + 1, r->lo[i], r->hi[i - 1]);
+                return;
+            }
+            bounds[i] = r->lo[i];
+        }
+        if (r->nbands)
+            bounds[r->nbands] = r->hi[r->nbands - 1];
+        if (r->b->klems) {
+            fail(r, BST_EBASIS, "a second <AngleBasis> definition");
+            return;
+        }
+        int rc = bst_basis_new_klems_bands(r->ctx, r->basis_name[0] ? r->basis_name : "Klems",
+                                           r->nbands, bounds, r->nphi, &r->b->klems);
+        if (rc < 0)
+            fail_ctx(r, rc, "AngleBasis");
+    } else if ((strcmp(name, "AngleBasis") == 0 || strcmp(name, "ColumnAngleBasis") == 0) &&
+               strcmp(up, "WavelengthDataBlock") == 0) {
+        snprintf(r->block_basis, sizeof r->block_basis, "%s", r->text);
+    } else if (strcmp(name, "RowAngleBasis") == 0) {
+        if (r->b->klems && strcmp(r->text, r->b->klems->name) != 0)
+            fail(r, BST_EBASIS, "<RowAngleBasis> '%s' is not the defined basis '%s'", r->text,
+                 r->b->klems->name);
+    } else if (strcmp(name, "Wavelength") == 0 && strcmp(up, "WavelengthData") == 0) {
+        if (!r->text[0])
+            fail(r, BST_EFORMAT, "empty <Wavelength>");
+        snprintf(r->channel, sizeof r->channel, "%s", strcasecmp(r->text, "CIE-Y") == 0 ? "Visible" : r->text);
+    } else if (strcmp(name, "WavelengthDataDirection") == 0) {
+        static const char *const dirs[BST_NCOMP] = {"Transmission Front", "Reflection Front",
+                                                    "Transmission Back", "Reflection Back"};
+        r->comp = -1;
+        for (int c = 0; c < BST_NCOMP; c++)
+            if (strcasecmp(r->text, dirs[c]) == 0)
+                r->comp = c;
+        if (r->comp < 0)
+            fail(r, BST_EFORMAT, "<WavelengthDataDirection> '%s' is not Transmission/Reflection "
+                 "Front/Back", r->text);
+    }
+    r->depth--;
+    r->ntext = 0;
+}
+
+static void on_chars(void *ud, const xmlChar *ch, int len)
+{
+    struct reader *r = ud;
+    if (r->status < 0)
+        return;
+    if (r->in_data) {
+        data_chars(r, (const char *)ch, (size_t)len);
+        return;
+    }
+    size_t n = (size_t)len;
+    if (r->ntext + n >= TEXT_MAX)
+        n = TEXT_MAX - 1 - r->ntext; /* long free text (comments, geometry) is not needed */
+    memcpy(r->text + r->ntext, ch, n);
+    r->ntext += n;
+}
+
+static void on_error(void *ud, xmlErrorPtr e)
+{
+    struct reader *r = ud;
+    if (r->status < 0 || !e || e->level < XML_ERR_ERROR)
+        return;
+    char msg[300];
+    snprintf(msg, sizeof msg, "%s", e->message ? e->message : "malformed XML");
+    size_t n = strlen(msg);
+    while (n && msg[n - 1] == '\n')
+        msg[--n] = '\0';
+    r->status = bsti_error(r->ctx, BST_EFORMAT, "%s: line %d: malformed XML: %s", r->path, e->line, msg);
+}
+
+/* ------------------------------------------------------------------ the bsdf object */
+
+void bst_bsdf_free(bst_bsdf *b)
+{
+    if (!b)
+        return;
+    for (size_t ch = 0; ch < MAX_CHANNELS; ch++) {
+        for (int c = 0; c < BST_NCOMP; c++) {
+            bsti_ttree_free(b->tree[ch][c]);
+            bsti_free(b->ctx, b->mat[ch][c]);
+        }
+        bsti_free(b->ctx, b->channels[ch]);
+    }
+    bst_basis_free(b->klems);
+    bsti_free(b->ctx, b->path);
+    bsti_free(b->ctx, b);
+}
+
+static int stored(const bst_bsdf *b, size_t ch, int c)
+{
+    return b->tree[ch][c] || b->mat[ch][c];
+}
+
+int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_read_opts *opts, bst_bsdf **out)
+{
+    if (!ctx || !out)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "read: NULL argument") : BST_EINVAL;
+    *out = NULL;
+    if (!path)
+        return bsti_error(ctx, BST_EINVAL, "read: no file name");
+    FILE *fp = fopen(path, "rb");
+    if (!fp)
+        return bsti_error(ctx, BST_EIO, "%s: cannot open: %s", path, strerror(errno));
+    struct stat st;
+    double size = fstat(fileno(fp), &st) == 0 && st.st_size > 0 ? (double)st.st_size : 1.0;
+    struct reader r = {.ctx = ctx, .path = path, .opts = opts, .comp = -1};
+    r.b = bsti_calloc(ctx, 1, sizeof *r.b);
+    char *buf = bsti_malloc(ctx, XML_CHUNK);
+    if (!r.b || !buf) {
+        fclose(fp);
+        bsti_free(ctx, r.b);
+        bsti_free(ctx, buf);
+        return BST_ENOMEM;
+    }
+    r.b->ctx = ctx;
+    r.b->path = bsti_strdup(ctx, path);
+    xmlSAXHandler sax;
+    memset(&sax, 0, sizeof sax);
+    sax.initialized = XML_SAX2_MAGIC;
+    sax.startElementNs = on_start;
+    sax.endElementNs = on_end;
+    sax.characters = on_chars;
+    sax.serror = on_error;
+    r.pctxt = xmlCreatePushParserCtxt(&sax, &r, NULL, 0, path);
+    if (!r.pctxt || !r.b->path) {
+        r.status = bsti_error(ctx, BST_ENOMEM, "%s: out of memory starting the XML parser", path);
+    } else {
+        xmlCtxtUseOptions(r.pctxt, XML_PARSE_HUGE | XML_PARSE_NONET);
+        double done = 0;
+        size_t n;
+        while (r.status >= 0 && (n = fread(buf, 1, XML_CHUNK, fp)) > 0) {
+            int e = xmlParseChunk(r.pctxt, buf, (int)n, 0);
+            done += (double)n;
+            bsti_progress(ctx, done / size, "reading");
+            if (e && r.status >= 0)
+                r.status = bsti_error(ctx, BST_EFORMAT, "%s: malformed XML (error %d)", path, e);
+        }
+        if (r.status >= 0 && ferror(fp))
+            r.status = bsti_error(ctx, BST_EIO, "%s: read error", path);
+        if (r.status >= 0) {
+            int e = xmlParseChunk(r.pctxt, buf, 0, 1);
+            if (e && r.status >= 0)
+                r.status = bsti_error(ctx, BST_EFORMAT, "%s: malformed or truncated XML (error %d)", path, e);
+        }
+        bsti_progress(ctx, 1.0, "reading");
+    }
+    if (r.pctxt)
+        xmlFreeParserCtxt(r.pctxt);
+    fclose(fp);
+    bsti_free(ctx, buf);
+    bsti_tparse_free(r.tp);
+    bsti_free(ctx, r.km);
+    bst_bsdf *b = r.b;
+    int rc = r.status;
+    if (rc >= 0) {
+        if (strncmp(r.structure, "TensorTree", 10) == 0)
+            b->kind = r.structure[10] == '3' ? BST_FILE_TT3 : BST_FILE_TT4;
+        else
+            b->kind = BST_FILE_KLEMS;
+        if (b->nch == 0)
+            rc = bsti_error(ctx, BST_EFORMAT, "%s: no <ScatteringData> %s", path,
+                            opts && (opts->nchannels || opts->comps) ? "for the requested channels or components" : "found");
+    }
+    if (rc >= 0 && b->kind != BST_FILE_KLEMS && b->k < 1)
+        rc = bsti_error(ctx, BST_EFORMAT, "%s: tensor trees of depth 0 (a single value) have no basis", path);
+    /* Completion: reciprocity for a missing transmission, zero for a missing reflection. */
+    char note[256] = "";
+    unsigned comps = opts && opts->comps ? opts->comps : BST_COMP_ALL;
+    for (size_t ch = 0; rc >= 0 && ch < b->nch; ch++) {
+        for (int c = 0; c < BST_NCOMP; c++) {
+            if (!(comps & BST_COMP_BIT(c)) || stored(b, ch, c))
+                continue;
+            int other = c == BST_TF ? BST_TB : c == BST_TB ? BST_TF : -1;
+            const char *how = other >= 0 && stored(b, ch, other) ? "from reciprocity" : "as zero";
+            size_t len = strlen(note);
+            snprintf(note + len, sizeof note - len, "%s%s %s %s", len ? "; " : "", b->channels[ch],
+                     bst_comp_name((bst_comp)c), how);
+        }
+    }
+    if (rc < 0) {
+        bst_bsdf_free(b);
+        return rc;
+    }
+    *out = b;
+    if (note[0])
+        return bsti_error(ctx, BST_WDATA, "%s: not in the file, completed: %s", path, note);
+    return BST_OK;
+}
+
+bst_file_kind bst_bsdf_kind(const bst_bsdf *b) { return b->kind; }
+int bst_bsdf_order(const bst_bsdf *b) { return b->kind == BST_FILE_KLEMS ? 0 : b->k; }
+const bst_basis *bst_bsdf_klems_basis(const bst_bsdf *b) { return b->klems; }
+size_t bst_bsdf_nchannels(const bst_bsdf *b) { return b->nch; }
+const char *bst_bsdf_channel(const bst_bsdf *b, size_t ch) { return ch < b->nch ? b->channels[ch] : NULL; }
+int bst_bsdf_stored(const bst_bsdf *b, size_t ch, bst_comp c)
+{
+    return ch < b->nch && (unsigned)c < BST_NCOMP && stored(b, ch, c);
+}
+
+/* ------------------------------------------------------------------ evaluation */
+
+/* Stored component c at (in, out), no reciprocity. */
+static double eval_stored(const bst_bsdf *b, size_t ch, int c, const double in[3], const double out[3])
+{
+    if (b->mat[ch][c]) {
+        size_t n = bst_basis_size(b->klems);
+        double prop[3] = {-in[0], -in[1], -in[2]};
+        return b->mat[ch][c][bst_basis_patch(b->klems, out) + n * bst_basis_patch(b->klems, prop)];
+    }
+    const bsti_ttree *t = b->tree[ch][c];
+    double p[4];
+    if (t->dim == 4) {
+        bsti_sc_disk_to_square(-in[0], -in[1], &p[0], &p[1]);
+        bsti_sc_disk_to_square(out[0], out[1], &p[2], &p[3]);
+    } else {
+        /* rank 3: sin(theta_in) on the lower half of p0; the exit vector rotated so that the
+         * incident light travels towards +x (CONVENTIONS.md 5.2) */
+        p[0] = 0.5 - 1e-6 - 0.5 * sqrt(in[0] * in[0] + in[1] * in[1]);
+        double phi = atan2(-in[1], -in[0]), c0 = cos(phi), s0 = sin(phi);
+        bsti_sc_disk_to_square(out[0] * c0 + out[1] * s0, -out[0] * s0 + out[1] * c0, &p[1], &p[2]);
+    }
+    return bsti_ttree_eval(t, p);
+}
+
+static double eval_comp(const bst_bsdf *b, size_t ch, int c, const double in[3], const double out[3])
+{
+    if (stored(b, ch, c))
+        return eval_stored(b, ch, c, in, out);
+    int other = c == BST_TF ? BST_TB : c == BST_TB ? BST_TF : -1;
+    if (other >= 0 && stored(b, ch, other))
+        return eval_stored(b, ch, other, out, in); /* reciprocity: f(in, out) = f(out, in) */
+    return 0.0;
+}
+
+int bst_bsdf_eval(bst_ctx *ctx, const bst_bsdf *b, size_t ch, const double in_raw[3],
+                  const double out_raw[3], double *value)
+{
+    if (!ctx || !b || !in_raw || !out_raw || !value)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "eval: NULL argument") : BST_EINVAL;
+    if (ch >= b->nch)
+        return bsti_error(ctx, BST_EINVAL, "eval: channel %zu of %zu", ch, b->nch);
+    double in[3], out[3], li = 0, lo = 0;
+    for (int i = 0; i < 3; i++)
+        li += in_raw[i] * in_raw[i], lo += out_raw[i] * out_raw[i];
+    if (!(li > 0 && lo > 0 && isfinite(li) && isfinite(lo)))
+        return bsti_error(ctx, BST_EINVAL, "eval: direction vectors must be finite and non-zero");
+    for (int i = 0; i < 3; i++)
+        in[i] = in_raw[i] / sqrt(li), out[i] = out_raw[i] / sqrt(lo);
+    if (in[2] == 0.0 || out[2] == 0.0)
+        return bsti_error(ctx, BST_EINVAL, "eval: a direction lies in the surface plane (z = 0)");
+    int c = in[2] < 0 ? (out[2] > 0 ? BST_TF : BST_RF) : (out[2] < 0 ? BST_TB : BST_RB);
+    *value = eval_comp(b, ch, c, in, out);
+    return BST_OK;
+}
+
+/* ------------------------------------------------------------------ resampling */
+
+/* Component c of channel ch on a Shirley-Chiu grid of order k: m is N x N (N = 4^k). */
+static int to_sc(bst_ctx *ctx, const bst_bsdf *b, size_t ch, int c, int k, double *m)
+{
+    const bst_basis *sc = NULL;
+    bst_basis *own = NULL;
+    int rc = bst_basis_new_sc(ctx, k, &own);
+    if (rc < 0)
+        return rc;
+    sc = own;
+    size_t n = bst_basis_size(sc);
+    if (b->tree[ch][c] && b->tree[ch][c]->dim == 4) {
+        rc = bsti_ttree_expand4(b->tree[ch][c], k, m);
+    } else if (b->tree[ch][c]) {
+        /* rank 3: average over sample points of each incident and outgoing cell */
+        const bsti_ttree *t = b->tree[ch][c];
+        size_t ni = TT3_IN_SAMPLES * TT3_IN_SAMPLES, no = TT3_OUT_SAMPLES * TT3_OUT_SAMPLES;
+        double *od = bsti_alloc_array(ctx, n * no * 2, sizeof *od);
+        if (!od) {
+            bst_basis_free(own);
+            return BST_ENOMEM;
+        }
+        for (size_t o = 0; o < n; o++)
+            for (size_t s = 0; s < no; s++) {
+                double d[3];
+                bst_basis_sample(sc, o, (s / TT3_OUT_SAMPLES + 0.5) / TT3_OUT_SAMPLES,
+                                 (s % TT3_OUT_SAMPLES + 0.5) / TT3_OUT_SAMPLES, d);
+                od[2 * (o * no + s)] = d[0];
+                od[2 * (o * no + s) + 1] = d[1];
+            }
+        for (size_t i = 0; i < n; i++) {
+            double *col = m + n * i;
+            memset(col, 0, n * sizeof *col);
+            for (size_t si = 0; si < ni; si++) {
+                double d[3], p[3];
+                bst_basis_sample(sc, i, (si / TT3_IN_SAMPLES + 0.5) / TT3_IN_SAMPLES,
+                                 (si % TT3_IN_SAMPLES + 0.5) / TT3_IN_SAMPLES, d);
+                p[0] = 0.5 - 1e-6 - 0.5 * sqrt(d[0] * d[0] + d[1] * d[1]);
+                double phi = atan2(d[1], d[0]), c0 = cos(phi), s0 = sin(phi);
+                for (size_t o = 0; o < n; o++) {
+                    double sum = 0;
+                    for (size_t s = 0; s < no; s++) {
+                        double x = od[2 * (o * no + s)], y = od[2 * (o * no + s) + 1];
+                        bsti_sc_disk_to_square(x * c0 + y * s0, -x * s0 + y * c0, &p[1], &p[2]);
+                        sum += bsti_ttree_eval(t, p);
+                    }
+                    col[o] += sum / (double)(no * ni);
+                }
+            }
+            if (i % 64 == 0)
+                bsti_progress(ctx, (double)i / (double)n, "expanding an isotropic tree");
+        }
+        bsti_free(ctx, od);
+    } else {
+        /* Klems -> Shirley-Chiu: each cell takes the value of the Klems patch holding its centre,
+         * weighted so that every incident patch keeps its hemispherical totals. */
+        const bst_basis *kb = b->klems;
+        size_t nk = bst_basis_size(kb);
+        size_t *map = bsti_alloc_array(ctx, n, sizeof *map);
+        double *cnt = bsti_calloc(ctx, nk, sizeof *cnt);
+        if (!map || !cnt) {
+            bsti_free(ctx, map), bsti_free(ctx, cnt), bst_basis_free(own);
+            return BST_ENOMEM;
+        }
+        for (size_t j = 0; j < n; j++) {
+            double d[3];
+            bst_basis_center(sc, j, d);
+            map[j] = bst_basis_patch(kb, d);
+            cnt[map[j]] += 1.0;
+        }
+        const double *lk = bst_basis_lambda(kb), lsc = M_PI / (double)n;
+        const double *km = b->mat[ch][c];
+        for (size_t i = 0; i < n; i++)
+            for (size_t o = 0; o < n; o++)
+                m[o + n * i] = km[map[o] + nk * map[i]] * lk[map[o]] / (cnt[map[o]] * lsc);
+        bsti_free(ctx, map);
+        bsti_free(ctx, cnt);
+    }
+    bst_basis_free(own);
+    return rc;
+}
+
+/* Shirley-Chiu (order k) matrix -> Klems basis kb: average over the cells whose centres lie in
+ * each incident patch, sum the flux into each outgoing patch. */
+static int sc_to_klems(bst_ctx *ctx, int k, const double *m, const bst_basis *kb, double *out)
+{
+    bst_basis *sc;
+    int rc = bst_basis_new_sc(ctx, k, &sc);
+    if (rc < 0)
+        return rc;
+    size_t n = bst_basis_size(sc), nk = bst_basis_size(kb);
+    size_t *map = bsti_alloc_array(ctx, n, sizeof *map);
+    double *cnt = bsti_calloc(ctx, nk, sizeof *cnt);
+    if (!map || !cnt) {
+        bsti_free(ctx, map), bsti_free(ctx, cnt), bst_basis_free(sc);
+        return BST_ENOMEM;
+    }
+    for (size_t j = 0; j < n; j++) {
+        double d[3];
+        bst_basis_center(sc, j, d);
+        map[j] = bst_basis_patch(kb, d);
+        cnt[map[j]] += 1.0;
+    }
+    for (size_t q = 0; q < nk; q++)
+        if (cnt[q] == 0) {
+            bsti_free(ctx, map), bsti_free(ctx, cnt), bst_basis_free(sc);
+            return bsti_error(ctx, BST_EBASIS, "Klems patch %zu holds no cell of the Shirley-Chiu "
+                              "grid of order %d: use a finer order", q, k);
+        }
+    memset(out, 0, nk * nk * sizeof *out);
+    const double *lk = bst_basis_lambda(kb), lsc = M_PI / (double)n;
+    for (size_t i = 0; i < n; i++)
+        for (size_t o = 0; o < n; o++)
+            out[map[o] + nk * map[i]] += m[o + n * i] * lsc / (lk[map[o]] * cnt[map[i]]);
+    bsti_free(ctx, map), bsti_free(ctx, cnt), bst_basis_free(sc);
+    return BST_OK;
+}
+
+/* In place on a Shirley-Chiu matrix (antipode(j) = N - 1 - j): M'[o + N i] = M[a(i) + N a(o)], the
+ * transmission of the other side by reciprocity.  The map swaps pairs, so it is its own inverse. */
+static void antipode_transpose(double *m, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        for (size_t o = 0; o < n; o++) {
+            size_t p = o + n * i, q = (n - 1 - i) + n * (n - 1 - o);
+            if (p < q) {
+                double t = m[p];
+                m[p] = m[q];
+                m[q] = t;
+            }
+        }
+}
+
+/* Order of the Shirley-Chiu grid a Klems target is averaged from (its outer patches need cells). */
+#define KLEMS_VIA_ORDER 6
+
+int bst_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target_in, bst_layer **out)
+{
+    if (!ctx || !b || !out)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "to_layer: NULL argument") : BST_EINVAL;
+    *out = NULL;
+    bst_basis *native = NULL;
+    int rc = BST_OK;
+    if (!target_in) {
+        rc = b->kind == BST_FILE_KLEMS ? bst_basis_copy(ctx, b->klems, &native)
+                                       : bst_basis_new_sc(ctx, b->k > BST_K_MAX ? BST_K_MAX : b->k, &native);
+        if (rc < 0)
+            return rc;
+    }
+    const bst_basis *target = target_in ? target_in : native;
+    size_t n = bst_basis_size(target);
+    bst_layer *l = NULL;
+    rc = bst_layer_new(ctx, target, b->nch, (const char *const *)b->channels, &l);
+    if (rc >= 0)
+        rc = bst_layer_set_name(ctx, l, b->path);
+    double *work = NULL, *sc = NULL;
+    size_t nsc = 0;
+    int ksc = 0;
+    if (rc >= 0 && !(work = bsti_alloc_array(ctx, n * n, sizeof *work)))
+        rc = BST_ENOMEM;
+    int direct_klems = b->kind == BST_FILE_KLEMS && target->kind == BST_BASIS_KLEMS &&
+                       bst_basis_equal(target, b->klems);
+    if (rc >= 0 && target->kind == BST_BASIS_KLEMS && !direct_klems) {
+        ksc = b->kind == BST_FILE_KLEMS ? KLEMS_VIA_ORDER : (b->k > KLEMS_VIA_ORDER ? b->k : KLEMS_VIA_ORDER);
+        if (ksc > BST_K_MAX)
+            ksc = BST_K_MAX;
+        nsc = (size_t)1 << (2 * ksc);
+        if (!(sc = bsti_alloc_array(ctx, nsc * nsc, sizeof *sc)))
+            rc = BST_ENOMEM;
+    }
+    for (size_t ch = 0; rc >= 0 && ch < b->nch; ch++) {
+        for (int c = 0; rc >= 0 && c < BST_NCOMP; c++) {
+            int src = c;
+            int recip = 0;
+            if (!stored(b, ch, c)) {
+                int other = c == BST_TF ? BST_TB : c == BST_TB ? BST_TF : -1;
+                if (other < 0 || !stored(b, ch, other)) {
+                    bst_mat *z;
+                    if ((rc = bst_mat_new_zero(ctx, n, n, &z)) >= 0)
+                        rc = bst_layer_set(ctx, l, ch, (bst_comp)c, z);
+                    continue;
+                }
+                src = other;
+                recip = 1;
+            }
+            if (direct_klems) {
+                memcpy(work, b->mat[ch][src], n * n * sizeof *work);
+            } else if (target->kind == BST_BASIS_SHIRLEY_CHIU) {
+                rc = to_sc(ctx, b, ch, src, target->k, work);
+            } else if ((rc = to_sc(ctx, b, ch, src, ksc, sc)) >= 0) {
+                /* A Klems patch is not a union of cells of the other side's patches: apply
+                 * reciprocity on the fine grid, where it is exact, then average (otherwise the
+                 * hemispherical Tf of a file storing only Tb is not kept). */
+                if (recip) {
+                    antipode_transpose(sc, nsc);
+                    recip = 0;
+                }
+                rc = sc_to_klems(ctx, ksc, sc, target, work);
+            }
+            if (rc < 0)
+                break;
+            bst_mat *d, *m;
+            if ((rc = bst_mat_new_dense(ctx, n, n, BST_DOUBLE, &d)) < 0)
+                break;
+            double *dd = bst_mat_dense_data(d);
+            if (recip) { /* Tf[o][i] = Tb[a(i)][a(o)], a = antipode */
+                for (size_t i = 0; i < n; i++) {
+                    size_t ai = bst_basis_antipode(target, i);
+                    for (size_t o = 0; o < n; o++)
+                        dd[o + n * i] = work[ai + n * bst_basis_antipode(target, o)];
+                }
+            } else {
+                memcpy(dd, work, n * n * sizeof *dd);
+            }
+            rc = bst_mat_compact(ctx, d, BST_SPARSE_MAX_FILL, &m);
+            bst_mat_free(d);
+            if (rc >= 0)
+                rc = bst_layer_set(ctx, l, ch, (bst_comp)c, m);
+        }
+    }
+    bsti_free(ctx, work);
+    bsti_free(ctx, sc);
+    bst_basis_free(native);
+    if (rc < 0) {
+        bst_layer_free(l);
+        return rc;
+    }
+    *out = l;
+    return BST_OK;
+}

@@ -1,0 +1,380 @@
+/* test_xml.c - the BSDF XML reader against RADIANCE: the worked examples of CONVENTIONS.md 12, every
+ * reference query table (libBSDF's own values), the directional-hemispherical tables, energy
+ * conservation of resampling, and malformed files. */
+#include <config.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "testutil.h"
+
+static bst_ctx *ctx;
+static void setup(void) { ctx = bst_ctx_new(); }
+static void teardown(void) { bst_ctx_free(ctx); }
+
+/* libBSDF perturbs each returned value by up to 2e-4 (trees) / 3e-4 (Klems) relative on purpose
+ * (CONVENTIONS.md 6.2, 7); the tables print 7 significant digits. */
+#define QUERY_RTOL 3.5e-4
+
+static bst_bsdf *read_ok(const char *path)
+{
+    bst_bsdf *b;
+    int rc = bst_bsdf_read(ctx, path, NULL, &b);
+    ck_assert_msg(rc >= 0, "%s: %s", path, bst_ctx_message(ctx));
+    return b;
+}
+
+/* Compare every row of a query table; returns the largest relative deviation. */
+static double check_query_table(const char *xml, const char *table)
+{
+    bst_bsdf *b = read_ok(xml);
+    FILE *fp = fopen(table, "r");
+    ck_assert_msg(fp != NULL, "cannot open %s", table);
+    char line[512];
+    size_t rows = 0;
+    double worst = 0;
+    while (fgets(line, sizeof line, fp)) {
+        char comp[8], kind[64];
+        double in[3], out[3], ref, got;
+        if (line[0] == '#' || sscanf(line, "%7s %63s %lf %lf %lf %lf %lf %lf %lf", comp, kind, &in[0],
+                                     &in[1], &in[2], &out[0], &out[1], &out[2], &ref) != 9)
+            continue;
+        ck_assert_int_eq(bst_bsdf_eval(ctx, b, 0, in, out, &got), BST_OK);
+        double dev = fabs(got - ref) / fmax(fabs(ref), 1e-6);
+        ck_assert_msg(dev <= QUERY_RTOL, "%s row %zu (%s %s): %g vs libBSDF %g", xml, rows + 1,
+                      comp, kind, got, ref);
+        worst = fmax(worst, dev);
+        rows++;
+    }
+    fclose(fp);
+    ck_assert_uint_eq(rows, 1200);
+    bst_bsdf_free(b);
+    return worst;
+}
+
+static const char *const tables[] = {"L_glass_t4k5", "L_blind0_t4k5", "L_blind45_t4k5",
+                                     "L_diffuser_t3k5", "L_glass_t4k6", "L_glass_t4k5_klems",
+                                     "L_blind0_t4k5_klems", "L_blind45_t4k5_klems",
+                                     "L_diffuser_t3k5_klems", "L_blind0_t4k6_klems"};
+
+START_TEST(test_query_tables)
+{
+    char xml[64], tsv[64], xp[4096];
+    snprintf(xml, sizeof xml, "%s.xml", tables[_i]);
+    snprintf(tsv, sizeof tsv, "%s.query.tsv", tables[_i]);
+    snprintf(xp, sizeof xp, "%s", tu_ref(xml));
+    double worst = check_query_table(xp, tu_ref(tsv));
+    printf("%s: 1200 rows, largest deviation from libBSDF %.2e\n", tables[_i], worst);
+}
+END_TEST
+
+/* The k = 6 blind ships compressed: unpack it to a temporary file, read it (time and memory
+ * printed), compare with its query table. */
+START_TEST(test_query_k6_blind)
+{
+    char tmp[] = "/tmp/bst_k6_XXXXXX";
+    int fd = mkstemp(tmp);
+    ck_assert_int_ge(fd, 0);
+    close(fd);
+    char cmd[8192];
+    snprintf(cmd, sizeof cmd, "xz -dc '%s' > '%s'", tu_ref("L_blind0_t4k6.xml.xz"), tmp);
+    ck_assert_int_eq(system(cmd), 0);
+    struct timespec t0, t1;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    double worst = check_query_table(tmp, tu_ref("L_blind0_t4k6.query.tsv"));
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    struct rusage ru;
+    getrusage(RUSAGE_SELF, &ru);
+    printf("L_blind0_t4k6 (109 MB): read and 1200 queries in %.1f s, peak RSS %.0f MiB, largest "
+           "deviation %.2e\n", (t1.tv_sec - t0.tv_sec) + 1e-9 * (t1.tv_nsec - t0.tv_nsec),
+           ru.ru_maxrss / 1024.0, worst);
+    unlink(tmp);
+}
+END_TEST
+
+/* CONVENTIONS.md 12: hand-made trees and a Klems matrix, bsdfquery's values. */
+START_TEST(test_worked_examples)
+{
+    static const struct { const char *file; double in[3], out[3], want; } ex[] = {
+        {"examples/k1_4d_TF.xml", {-0.3, -0.4, -0.866}, {0.5, 0.2, 0.843}, 16.00167},
+        {"examples/k1_4d_TF.xml", {-0.3, -0.4, -0.866}, {0.5, -0.2, 0.843}, 15.00077},
+        {"examples/k1_4d_TF.xml", {-0.3, 0.4, -0.866}, {0.5, 0.2, 0.843}, 12.00049},
+        {"examples/k1_4d_TF.xml", {0.3, 0.4, -0.866}, {-0.5, -0.2, 0.843}, 0.9999304},
+        {"examples/k1_4d_RF.xml", {0.5, -0.2, -0.843}, {-0.3, -0.4, -0.866}, 4.999968},
+        {"examples/k1_4d_RF.xml", {-0.3, -0.4, -0.866}, {0.5, -0.2, -0.843}, 15.00077},
+        {"examples/k2_4d_TF.xml", {-0.3, -0.4, -0.866}, {0.5, 0.2, 0.8426}, 1607.076},
+        {"examples/k2_4d_TF.xml", {0.1, -0.6, -0.7937}, {-0.2, 0.7, 0.6856}, 1116.062},
+        {"examples/k2_4d_TF.xml", {0.7, 0.1, -0.7071}, {0.05, -0.3, 0.9526}, 506.0493},
+        {"examples/k2_4d_TF.xml", {-0.8, 0.5, -0.3317}, {0.6, 0.55, 0.5809}, 1412.002},
+        {"examples/k2_3d_TF.xml", {-0.3420, 0, -0.9397}, {0.4162, 0.0734, 0.9063}, 705.0149},
+        {"examples/k2_3d_TF.xml", {-0.3420, 0, -0.9397}, {-0.6330, 0.1116, 0.7660}, 504.9788},
+        {"examples/k2_3d_TF.xml", {0, -0.8660, -0.5}, {-0.0734, 0.4162, 0.9063}, 701.0189},
+        {"examples/k2_3d_TF.xml", {0, -0.8660, -0.5}, {-0.0734, -0.4162, 0.9063}, 503.0262},
+        {"examples/k2_3d_TF.xml", {0.1632, 0.0594, -0.9848}, {0.8138, 0.4698, 0.3420}, 106.0008},
+        {"examples/klems_TF.xml", {0, -0.173648, -0.984808}, {-0.130885, -0.315985, 0.939693}, 10.00255},
+    };
+    for (size_t i = 0; i < sizeof ex / sizeof ex[0]; i++) {
+        bst_bsdf *b = read_ok(tu_ref(ex[i].file));
+        double v;
+        ck_assert_int_eq(bst_bsdf_eval(ctx, b, 0, ex[i].in, ex[i].out, &v), BST_OK);
+        ck_assert_msg(fabs(v - ex[i].want) <= QUERY_RTOL * ex[i].want, "%s example %zu: %g vs %g",
+                      ex[i].file, i, v, ex[i].want);
+        bst_bsdf_free(b);
+    }
+}
+END_TEST
+
+/* Directional-hemispherical T and R by libBSDF over a 64 x 64 grid of outgoing cell centres. */
+START_TEST(test_hemi_tables)
+{
+    static const char *const names[] = {"L_glass_t4k5", "L_blind0_t4k5", "L_blind45_t4k5",
+                                        "L_diffuser_t3k5", "S1_t4k5"};
+    char xml[64], tsv[64];
+    snprintf(xml, sizeof xml, "%s.xml", names[_i]);
+    snprintf(tsv, sizeof tsv, "%s.hemi.tsv", names[_i]);
+    bst_bsdf *b = read_ok(tu_ref(xml));
+    bst_basis *g;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 6, &g), BST_OK);
+    FILE *fp = fopen(tu_ref(tsv), "r");
+    ck_assert_ptr_nonnull(fp);
+    char line[512];
+    int rows = 0;
+    while (fgets(line, sizeof line, fp)) {
+        double th, ph, t_ref, r_ref;
+        char side[32];
+        if (line[0] == '#' || sscanf(line, "%31s %*s %lf %lf %lf %lf", side, &th, &ph, &t_ref, &r_ref) != 5)
+            continue;
+        int front = strncmp(side, "front", 5) == 0;
+        double d = M_PI / 180;
+        /* propagation direction of the incident beam; in points back to the source */
+        double prop[3] = {sin(th * d) * cos(ph * d), sin(th * d) * sin(ph * d), (front ? 1 : -1) * cos(th * d)};
+        /* theta 30 at phi 0 puts the incident square coordinate exactly on a cell boundary
+         * (sx = 0.75): the table was made from vectors printed with 12 decimals, which decides
+         * the side; do the same */
+        double in[3], t = 0, r = 0;
+        for (int q = 0; q < 3; q++)
+            in[q] = round(-prop[q] * 1e12) / 1e12;
+        for (size_t o = 0; o < 4096; o++) {
+            double c[3], out[3], v;
+            bst_basis_center(g, o, c);
+            out[0] = c[0], out[1] = c[1], out[2] = (front ? 1 : -1) * c[2];
+            ck_assert_int_eq(bst_bsdf_eval(ctx, b, 0, in, out, &v), BST_OK);
+            t += v * M_PI / 4096;
+            out[2] = -out[2];
+            ck_assert_int_eq(bst_bsdf_eval(ctx, b, 0, in, out, &v), BST_OK);
+            r += v * M_PI / 4096;
+        }
+        ck_assert_msg(fabs(t - t_ref) <= 2e-4 * t_ref + 6e-5, "%s %s %g %g: T %.5f vs %.4f", names[_i], side, th, ph, t, t_ref);
+        ck_assert_msg(fabs(r - r_ref) <= 2e-4 * r_ref + 6e-5, "%s %s %g %g: R %.5f vs %.4f", names[_i], side, th, ph, r, r_ref);
+        rows++;
+    }
+    fclose(fp);
+    ck_assert_int_eq(rows, 26);
+    bst_basis_free(g);
+    bst_bsdf_free(b);
+}
+END_TEST
+
+/* Resampling a k = 5 tree: to k = 4 and 3 every coarse incident patch's hemispherical T and R is
+ * the mean of its fine patches' (energy kept to 1e-9); to k = 6 every value is replicated. */
+START_TEST(test_resampling_conserves)
+{
+    const char *file = _i == 0 ? "L_blind45_t4k5.xml" : "L_diffuser_t3k5.xml";
+    bst_bsdf *b = read_ok(tu_ref(file));
+    bst_layer *l5, *lc;
+    bst_basis *b5;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 5, &b5), BST_OK);
+    ck_assert_int_eq(bst_bsdf_to_layer(ctx, b, b5, &l5), BST_OK);
+    double h5[1024], hc[1024];
+    for (int k = 4; k >= 3; k--) {
+        bst_basis *bc;
+        ck_assert_int_eq(bst_basis_new_sc(ctx, k, &bc), BST_OK);
+        if (_i == 0) {
+            ck_assert_int_eq(bst_bsdf_to_layer(ctx, b, bc, &lc), BST_OK);
+        } else {
+            /* a rank-3 tree is sampled per cell: average the k = 5 layer's columns instead */
+            bst_basis_free(bc);
+            continue;
+        }
+        size_t g = (size_t)1 << k, f = (size_t)1 << (5 - k);
+        for (int c = 0; c < BST_NCOMP; c++) {
+            ck_assert_int_eq(bst_layer_hemispherical(ctx, l5, 0, (bst_comp)c, h5), BST_OK);
+            ck_assert_int_eq(bst_layer_hemispherical(ctx, lc, 0, (bst_comp)c, hc), BST_OK);
+            for (size_t I = 0; I < g * g; I++) {
+                size_t ix = I / g, iy = I % g;
+                double mean = 0;
+                for (size_t a = 0; a < f; a++)
+                    for (size_t e = 0; e < f; e++)
+                        mean += h5[(ix * f + a) * 32 + iy * f + e];
+                mean /= (double)(f * f);
+                tu_assert_close(hc[I], mean, 1e-9, 1e-12);
+            }
+        }
+        bst_layer_free(lc);
+        bst_basis_free(bc);
+    }
+    if (_i == 0) { /* up: k = 6 replicates the k = 5 cells */
+        bst_basis *b6;
+        bst_layer *l6;
+        ck_assert_int_eq(bst_basis_new_sc(ctx, 6, &b6), BST_OK);
+        ck_assert_int_eq(bst_bsdf_to_layer(ctx, b, b6, &l6), BST_OK);
+        const bst_mat *m5 = bst_layer_get(l5, 0, BST_TB), *m6 = bst_layer_get(l6, 0, BST_TB);
+        tu_rng r;
+        tu_rng_seed(&r, 17);
+        for (int s = 0; s < 20000; s++) {
+            size_t i = (size_t)(tu_rng_uniform(&r) * 4096), o = (size_t)(tu_rng_uniform(&r) * 4096);
+            size_t i5 = (i / 64 / 2) * 32 + (i % 64) / 2, o5 = (o / 64 / 2) * 32 + (o % 64) / 2;
+            ck_assert_double_eq(bst_mat_get(m6, o, i), bst_mat_get(m5, o5, i5));
+        }
+        bst_layer_free(l6);
+        bst_basis_free(b6);
+    }
+    bst_layer_free(l5);
+    bst_basis_free(b5);
+    bst_bsdf_free(b);
+}
+END_TEST
+
+/* Shirley-Chiu -> Klems keeps the hemispherical totals: every Klems patch's directional-
+ * hemispherical T and R is the mean over the k = 6 cells it is averaged from (those whose centres
+ * it holds), to 1e-9, also for the Tf that a Tb-only tree yields by reciprocity. */
+START_TEST(test_klems_resampling_energy)
+{
+    bst_bsdf *b = read_ok(tu_ref("L_blind45_t4k5.xml"));
+    bst_basis *kb, *b6;
+    bst_layer *lk, *l6;
+    ck_assert_int_eq(bst_basis_new_klems(ctx, "full", &kb), BST_OK);
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 6, &b6), BST_OK);
+    ck_assert_int_eq(bst_bsdf_to_layer(ctx, b, kb, &lk), BST_OK);
+    ck_assert_int_eq(bst_bsdf_to_layer(ctx, b, b6, &l6), BST_OK);
+    static double hk[145], h6[4096], mean[145];
+    size_t cnt[145];
+    for (int c = 0; c < BST_NCOMP; c++) {
+        ck_assert_int_eq(bst_layer_hemispherical(ctx, lk, 0, (bst_comp)c, hk), BST_OK);
+        ck_assert_int_eq(bst_layer_hemispherical(ctx, l6, 0, (bst_comp)c, h6), BST_OK);
+        memset(mean, 0, sizeof mean), memset(cnt, 0, sizeof cnt);
+        for (size_t j = 0; j < 4096; j++) {
+            double d[3];
+            bst_basis_center(b6, j, d);
+            size_t p = bst_basis_patch(kb, d);
+            mean[p] += h6[j], cnt[p]++;
+        }
+        for (size_t p = 0; p < 145; p++)
+            tu_assert_close(hk[p], mean[p] / (double)cnt[p], 1e-9, 1e-12);
+    }
+    bst_layer_free(lk), bst_layer_free(l6);
+    bst_basis_free(kb), bst_basis_free(b6);
+    bst_bsdf_free(b);
+}
+END_TEST
+
+/* ------------------------------------------------------------------ malformed files */
+
+static const char *write_tmp(const char *text, size_t len)
+{
+    static char path[64];
+    snprintf(path, sizeof path, "/tmp/bst_bad_XXXXXX");
+    int fd = mkstemp(path);
+    ck_assert_int_ge(fd, 0);
+    ck_assert_int_eq(write(fd, text, len), (ssize_t)len);
+    close(fd);
+    return path;
+}
+
+#define HEAD "<?xml version=\"1.0\"?>\n<WindowElement xmlns=\"http://windows.lbl.gov\"><Optical><Layer>" \
+             "<DataDefinition><IncidentDataStructure>%s</IncidentDataStructure></DataDefinition>" \
+             "<WavelengthData><Wavelength unit=\"Integral\">Visible</Wavelength><WavelengthDataBlock>" \
+             "<WavelengthDataDirection>%s</WavelengthDataDirection><AngleBasis>%s</AngleBasis>" \
+             "<ScatteringData>%s</ScatteringData></WavelengthDataBlock></WavelengthData></Layer></Optical></WindowElement>\n"
+
+START_TEST(test_bad_files)
+{
+    static const struct { const char *structure, *dir, *basis, *data, *expect; } bad[] = {
+        {"TensorTree4", "Transmission Front", "LBNL/Shirley-Chiu", "{ 1 2 3 }", "not a power"},
+        {"TensorTree4", "Transmission Front", "LBNL/Shirley-Chiu", "{ 1 2 x 4 }", "'x' is not a number"},
+        {"TensorTree4", "Transmission Front", "LBNL/Shirley-Chiu", "{ 1 nan 3 4 }", "not finite"},
+        {"TensorTree4", "Transmission Front", "LBNL/Shirley-Chiu", "{ { 1 } { 2 } }", "2 children"},
+        {"TensorTree4", "Transmission Front", "LBNL/Shirley-Chiu", "{ { 1 }", "unclosed"},
+        {"TensorTree4", "Transmission Front", "LBNL/Shirley-Chiu", "{ 1 } }", "without a matching"},
+        {"TensorTree4", "Transmission Front", "LBNL/Shirley-Chiu", "", "no tree data"},
+        {"TensorTree4", "Transmission Sideways", "LBNL/Shirley-Chiu", "{ 1 }", "WavelengthDataDirection"},
+        {"TensorTree4", "Transmission Front", "LBNL/Klems Full", "{ 1 }", "AngleBasis"},
+        {"TensorTree5", "Transmission Front", "LBNL/Shirley-Chiu", "{ 1 }", "IncidentDataStructure"},
+        {"Columns", "Transmission Front", "LBNL/Klems Full", "1 2 3", "without a Klems"},
+        {"TensorTree4", "Transmission Front", "LBNL/Shirley-Chiu", "{ 1e99 1 1 1 1 1 1 1 1 1 1 1 1 1 1 1 }", "not finite"},
+    };
+    char buf[4096];
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        int n = snprintf(buf, sizeof buf, HEAD, bad[i].structure, bad[i].dir, bad[i].basis, bad[i].data);
+        const char *p = write_tmp(buf, (size_t)n);
+        bst_bsdf *b = (bst_bsdf *)1;
+        int rc = bst_bsdf_read(ctx, p, NULL, &b);
+        ck_assert_msg(rc < 0, "case %zu accepted", i);
+        ck_assert_ptr_null(b);
+        const char *msg = bst_ctx_message(ctx);
+        ck_assert_msg(strstr(msg, p) && strstr(msg, bad[i].expect), "case %zu: '%s' lacks '%s'", i, msg, bad[i].expect);
+        ck_assert_ptr_null(strchr(msg, '\n'));
+        unlink(p);
+    }
+    /* truncated copies of a real file, and an empty file */
+    FILE *fp = fopen(tu_ref("L_glass_t4k5.xml"), "rb");
+    ck_assert_ptr_nonnull(fp);
+    static char big[300000];
+    size_t len = fread(big, 1, sizeof big, fp);
+    fclose(fp);
+    size_t cuts[] = {0, 100, 3000, len / 2, len - 20};
+    for (size_t i = 0; i < sizeof cuts / sizeof cuts[0]; i++) {
+        const char *p = write_tmp(big, cuts[i]);
+        bst_bsdf *b;
+        ck_assert_int_lt(bst_bsdf_read(ctx, p, NULL, &b), 0);
+        ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), p));
+        unlink(p);
+    }
+    bst_bsdf *b;
+    ck_assert_int_eq(bst_bsdf_read(ctx, "/nonexistent/x.xml", NULL, &b), BST_EIO);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "/nonexistent/x.xml"));
+    /* Klems value count that does not fit the basis */
+    fp = fopen(tu_ref("L_glass_t4k5_klems.xml"), "rb");
+    static char kl[1000000];
+    len = fread(kl, 1, sizeof kl, fp);
+    fclose(fp);
+    char *sd = strstr(kl, "<ScatteringData>");
+    ck_assert_ptr_nonnull(sd);
+    sd += strlen("<ScatteringData>");
+    char *first_num = sd + strspn(sd, " \n\t\r");
+    size_t skip = strcspn(first_num, " \n\t\r,");
+    memmove(first_num, first_num + skip, len - (size_t)(first_num + skip - kl));
+    len -= skip;
+    const char *p = write_tmp(kl, len);
+    ck_assert_int_eq(bst_bsdf_read(ctx, p, NULL, &b), BST_EFORMAT);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "21024 values"));
+    unlink(p);
+}
+END_TEST
+
+static Suite *xml_suite(void)
+{
+    Suite *s = suite_create("xml");
+    TCase *tc = tcase_create("reader");
+    tcase_add_checked_fixture(tc, setup, teardown);
+    tcase_set_timeout(tc, 300);
+    tcase_add_test(tc, test_worked_examples);
+    tcase_add_loop_test(tc, test_query_tables, 0, sizeof tables / sizeof tables[0]);
+    tcase_add_test(tc, test_query_k6_blind);
+    tcase_add_loop_test(tc, test_hemi_tables, 0, 5);
+    tcase_add_loop_test(tc, test_resampling_conserves, 0, 1);
+    tcase_add_test(tc, test_klems_resampling_energy);
+    tcase_add_test(tc, test_bad_files);
+    suite_add_tcase(s, tc);
+    return s;
+}
+
+int main(void)
+{
+    return tu_run(xml_suite());
+}
