@@ -37,6 +37,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 
 #ifdef __cplusplus
 extern "C" {
@@ -367,8 +368,57 @@ int bst_bsdf_eval(bst_ctx *ctx, const bst_bsdf *b, size_t ch, const double in[3]
  * incident patch's hemispherical totals.  Each component lands in its cheapest structure. */
 int bst_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target, bst_layer **out);
 
+/* ---------------------------------------------------------------- BSDF XML writer (xml_write) */
+
+/* Writes a layer as BSDF XML that RADIANCE's libBSDF, WINDOW and EnergyPlus read: a TensorTree4 for
+ * a Shirley-Chiu layer, a Klems matrix ("Columns": one text row per outgoing patch) for a Klems
+ * layer; all channels and all present components (absent ones are written as zero), with the XML
+ * side labels (Front = exterior, as in bsdfstack).  Tree reduction follows the effect of RADIANCE's
+ * rttree_reduce: the variation measure sqrt((max - min) / (sqrt(mean) + 0.03)) of every finest
+ * 2x2x2x2 block gives a threshold at the reduce_pct-th percentile; every node whose variation is not
+ * above it is written as its mean (one value), finest blocks above it with their 16 values. */
+typedef struct {
+    double reduce_pct;       /* percentile in [0, 100), default BST_REDUCE_PCT; < 0: no reduction */
+    int digits;              /* significant digits of values, default 4 reduced, 17 unreduced */
+    const char *name;        /* Material Name (default "bsdfstack system") */
+    const char *description; /* free text written as an XML comment (layers, command line ...) */
+} bst_write_opts;
+#define BST_REDUCE_PCT 90.0
+void bst_write_opts_init(bst_write_opts *opts);
+int bst_xml_write(bst_ctx *ctx, const bst_layer *l, FILE *fp, const bst_write_opts *opts);
+
 /* ---------------------------------------------------------------- analytic glass (glass) */
-/* (declared by the glass module) */
+
+/* A clear (uncoated) pane described by its normal-incidence transmittance T0 and reflectance R0 per
+ * side and channel, extended to every angle exactly as Windows-CalcEngine does for uncoated
+ * glass: a slab with two identical interfaces, incoherent multiple reflections and bulk
+ * absorption, whose interface reflectance and refractive index follow from (T0, R0); Fresnel for
+ * s and p, averaged.  T(90 deg) = 0, R(90 deg) = 1, finite everywhere.
+ * Specs (the part after "glass:" on the command line):
+ *   NAME                       a catalogue file NAME.glass in the catalogue directory
+ *   d=6mm,n=1.52,tn=0.89       thickness, refractive index, normal-incidence transmittance
+ *   t0=0.834,r0=0.0747         normal-incidence T and R directly (both sides, every channel)
+ * Inline specs apply to the channels Visible and Solar alike. */
+typedef struct bst_glass bst_glass;
+/* catalogue_dir NULL: the installed catalogue (BST_GLASS_DIR at build time). */
+int bst_glass_parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, bst_glass **out);
+void bst_glass_free(bst_glass *g);
+size_t bst_glass_nchannels(const bst_glass *g);
+const char *bst_glass_channel(const bst_glass *g, size_t ch);
+const char *bst_glass_description(const bst_glass *g);
+/* T, Rf, Rb of channel ch at incidence angle theta (radians, 0..pi/2) from either side (T is the
+ * same from both sides). */
+int bst_glass_optics(const bst_glass *g, size_t ch, double theta, double *t, double *rf, double *rb);
+/* The pane as a layer over basis: four DIAGONAL components; each patch value is the patch's
+ * directional T (or R) averaged over the patch in projected solid angle (at_centre = 0) or taken at
+ * the patch centre (at_centre = 1, WINDOW's choice), divided by the patch's Lambda.  channels
+ * (may be NULL = all of the pane's) selects and orders the channels. */
+int bst_glass_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, size_t nchannels,
+                    const char *const *channels, int at_centre, bst_layer **out);
+/* Parse and build in one step (used for "glass:SPEC" layer arguments). */
+int bst_glass_layer_from_spec(bst_ctx *ctx, const char *spec, const char *catalogue_dir,
+                              const bst_basis *basis, size_t nchannels,
+                              const char *const *channels, bst_layer **out);
 
 /* ---------------------------------------------------------------- version */
 

@@ -8,6 +8,7 @@
 #include "cli.h"
 
 const struct cli_command cli_commands[] = {
+    {"glass", cmd_glass, "print a clear pane's T, R and absorptance against angle"},
     {"query", cmd_query, "evaluate a BSDF file at pairs of directions, as RADIANCE does"},
     {"version", cmd_version, "print the program and library versions"},
     {NULL, NULL, NULL}
