@@ -406,9 +406,10 @@ void bst_glass_free(bst_glass *g);
 size_t bst_glass_nchannels(const bst_glass *g);
 const char *bst_glass_channel(const bst_glass *g, size_t ch);
 const char *bst_glass_description(const bst_glass *g);
-/* T, Rf, Rb of channel ch at incidence angle theta (radians, 0..pi/2) from either side (T is the
- * same from both sides). */
-int bst_glass_optics(const bst_glass *g, size_t ch, double theta, double *t, double *rf, double *rb);
+/* Tf, Tb, Rf, Rb of channel ch at incidence angle theta (radians, 0..pi/2); each side follows its
+ * own (T0, R0), so Tb differs from Tf where Rb differs from Rf.  tb may be NULL. */
+int bst_glass_optics(const bst_glass *g, size_t ch, double theta, double *tf, double *tb,
+                     double *rf, double *rb);
 /* The pane as a layer over basis: four DIAGONAL components; each patch value is the patch's
  * directional T (or R) averaged over the patch in projected solid angle (at_centre = 0) or taken at
  * the patch centre (at_centre = 1, WINDOW's choice), divided by the patch's Lambda.  channels

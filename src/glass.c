@@ -34,11 +34,24 @@
 
 struct side { double t0, r0, rho0, n, tau0; };
 
+/* Angles tabulated for building layers of spectral panes (0.05 degree steps, linear between). */
+#define GLASS_TABLE 1800
+
+/* A channel is a weighted sum over wavelength nodes (one node of weight 1 for band values):
+ * property(theta) = sum_k w_k model(T0_k, R0_k, theta), the trapezoid rule of WCE's spectral
+ * averaging folded into the weights. */
+struct channel {
+    size_t nk;
+    double *w;
+    struct side *front, *back;
+    float *table;  /* spectral channels: T, Rf, Rb at GLASS_TABLE + 1 angles */
+};
+
 struct bst_glass {
     bst_ctx *ctx;
     size_t nch;
     char *name[MAX_CH];
-    struct side front[MAX_CH], back[MAX_CH];
+    struct channel ch[MAX_CH];
     char *description;
 };
 
@@ -104,8 +117,13 @@ void bst_glass_free(bst_glass *g)
 {
     if (!g)
         return;
-    for (size_t i = 0; i < g->nch; i++)
+    for (size_t i = 0; i < MAX_CH; i++) {
         bsti_free(g->ctx, g->name[i]);
+        bsti_free(g->ctx, g->ch[i].w);
+        bsti_free(g->ctx, g->ch[i].front);
+        bsti_free(g->ctx, g->ch[i].back);
+        bsti_free(g->ctx, g->ch[i].table);
+    }
     bsti_free(g->ctx, g->description);
     bsti_free(g->ctx, g);
 }
@@ -114,14 +132,44 @@ size_t bst_glass_nchannels(const bst_glass *g) { return g->nch; }
 const char *bst_glass_channel(const bst_glass *g, size_t ch) { return ch < g->nch ? g->name[ch] : NULL; }
 const char *bst_glass_description(const bst_glass *g) { return g->description ? g->description : ""; }
 
-int bst_glass_optics(const bst_glass *g, size_t ch, double theta, double *t, double *rf, double *rb)
+int bst_glass_optics(const bst_glass *g, size_t ch, double theta, double *t, double *tb_out,
+                     double *rf, double *rb)
 {
     if (!g || ch >= g->nch || !(theta >= 0.0 && theta <= M_PI / 2 + 1e-12))
         return BST_EINVAL;
-    double tb;
-    side_optics(&g->front[ch], theta, t, rf);
-    side_optics(&g->back[ch], theta, &tb, rb);
+    const struct channel *c = &g->ch[ch];
+    double st = 0, stb = 0, sf = 0, sb = 0;
+    for (size_t k = 0; k < c->nk; k++) {
+        double tk, fk, tb, bk;
+        side_optics(&c->front[k], theta, &tk, &fk);
+        side_optics(&c->back[k], theta, &tb, &bk);
+        st += c->w[k] * tk, stb += c->w[k] * tb, sf += c->w[k] * fk, sb += c->w[k] * bk;
+    }
+    *t = st, *rf = sf, *rb = sb;
+    if (tb_out)
+        *tb_out = stb;
     return BST_OK;
+}
+
+/* T, Rf, Rb for building layers: exact for band channels, from the angle table for spectral ones. */
+static void fast_optics(const bst_glass *g, size_t ch, double theta, double *t, double *tb,
+                        double *rf, double *rb)
+{
+    const struct channel *c = &g->ch[ch];
+    if (!c->table) {
+        bst_glass_optics(g, ch, theta, t, tb, rf, rb);
+        return;
+    }
+    double x = fmin(fmax(theta / (M_PI / 2), 0.0), 1.0) * GLASS_TABLE;
+    size_t a = (size_t)x;
+    if (a >= GLASS_TABLE)
+        a = GLASS_TABLE - 1;
+    double f = x - (double)a;
+    const float *p = c->table + 4 * a;
+    *t = (1 - f) * p[0] + f * p[4];
+    *tb = (1 - f) * p[1] + f * p[5];
+    *rf = (1 - f) * p[2] + f * p[6];
+    *rb = (1 - f) * p[3] + f * p[7];
 }
 
 /* ------------------------------------------------------------------ specs */
@@ -222,14 +270,30 @@ static int parse_params(bst_ctx *ctx, const char *where, const char *text, struc
     return BST_OK;
 }
 
-static int add_channel(bst_ctx *ctx, bst_glass *g, const char *where, const char *name, const char *params)
+static int new_channel(bst_ctx *ctx, bst_glass *g, const char *where, const char *name, size_t nk)
 {
     if (g->nch >= MAX_CH)
         return bsti_error(ctx, BST_EINVAL, "%s: more than %d channels", where, MAX_CH);
     for (size_t i = 0; i < g->nch; i++)
         if (strcasecmp(g->name[i], name) == 0)
             return bsti_error(ctx, BST_EINVAL, "%s: channel %s given twice", where, name);
-    int rc = parse_params(ctx, where, params, &g->front[g->nch], &g->back[g->nch]);
+    struct channel *c = &g->ch[g->nch];
+    c->nk = nk;
+    c->w = bsti_calloc(ctx, nk, sizeof *c->w);
+    c->front = bsti_calloc(ctx, nk, sizeof *c->front);
+    c->back = bsti_calloc(ctx, nk, sizeof *c->back);
+    if (!c->w || !c->front || !c->back)
+        return BST_ENOMEM;
+    return BST_OK;
+}
+
+static int add_channel(bst_ctx *ctx, bst_glass *g, const char *where, const char *name, const char *params)
+{
+    int rc = new_channel(ctx, g, where, name, 1);
+    if (rc < 0)
+        return rc;
+    g->ch[g->nch].w[0] = 1.0;
+    rc = parse_params(ctx, where, params, &g->ch[g->nch].front[0], &g->ch[g->nch].back[0]);
     if (rc < 0)
         return rc;
     if (!(g->name[g->nch] = bsti_strdup(ctx, name)))
@@ -238,8 +302,188 @@ static int add_channel(bst_ctx *ctx, bst_glass *g, const char *where, const char
     return BST_OK;
 }
 
-/* A catalogue file: '#' comments; "description TEXT"; "CHANNEL key=value,...". */
-static int read_catalogue(bst_ctx *ctx, bst_glass *g, const char *path, const char *name)
+
+/* ------------------------------------------------------------------ spectral panes */
+
+/* Spectral averaging as WCE does it (../shared/reference/wce/README.md, "How WCE averages over
+ * the spectrum"): trapezoid rule on a grid, intervals inside [lo, hi] (1e-6 slack); Solar on the
+ * glass data's own wavelengths with the ASTM E891 Table 1 irradiance, Visible on the 5 nm photopic
+ * grid with CIE D65 x V(lambda), the glass data interpolated onto it. */
+#define SOLAR_LO 0.3
+#define SOLAR_HI 2.5
+#define VISIBLE_LO 0.38
+#define VISIBLE_HI 0.78
+
+/* Numeric rows of a TSV file with at least ncol columns; '#' lines and a header are skipped. */
+static int read_table(bst_ctx *ctx, const char *path, int ncol, double **cols, size_t *n)
+{
+    FILE *fp = fopen(path, "r");
+    if (!fp)
+        return bsti_error(ctx, BST_EIO, "%s: cannot open: %s", path, strerror(errno));
+    size_t cap = 0;
+    *n = 0;
+    for (int c = 0; c < ncol; c++)
+        cols[c] = NULL;
+    char line[1024];
+    int lineno = 0, rc = BST_OK;
+    while (rc >= 0 && fgets(line, sizeof line, fp)) {
+        lineno++;
+        char *p = line, *end;
+        while (isspace((unsigned char)*p))
+            p++;
+        if (!*p || *p == '#' || isalpha((unsigned char)*p))
+            continue;
+        if (*n == cap) {
+            size_t nc = cap ? 2 * cap : 256;
+            for (int c = 0; c < ncol && rc >= 0; c++) {
+                double *q = bsti_alloc_array(ctx, nc, sizeof *q);
+                if (!q) {
+                    rc = BST_ENOMEM;
+                    break;
+                }
+                if (cols[c])
+                    memcpy(q, cols[c], cap * sizeof *q);
+                bsti_free(ctx, cols[c]);
+                cols[c] = q;
+            }
+            cap = nc;
+            if (rc < 0)
+                break;
+        }
+        for (int c = 0; c < ncol; c++) {
+            double v = strtod(p, &end);
+            if (end == p || !isfinite(v) || v < 0 || (c > 0 && ncol == 5 && v > 1.0)) {
+                rc = bsti_error(ctx, BST_EFORMAT, "%s: line %d: column %d is not a valid value", path, lineno, c + 1);
+                break;
+            }
+            cols[c][*n] = v;
+            p = end;
+        }
+        if (rc >= 0 && *n > 0 && cols[0][*n] <= cols[0][*n - 1])
+            rc = bsti_error(ctx, BST_EFORMAT, "%s: line %d: wavelengths must increase", path, lineno);
+        if (rc >= 0)
+            ++*n;
+    }
+    fclose(fp);
+    if (rc >= 0 && *n < 2)
+        rc = bsti_error(ctx, BST_EFORMAT, "%s: fewer than two data rows", path);
+    if (rc < 0)
+        for (int c = 0; c < ncol; c++) {
+            bsti_free(ctx, cols[c]);
+            cols[c] = NULL;
+        }
+    return rc;
+}
+
+/* y(xq) by linear interpolation, constant outside the range. */
+static double interp(const double *x, const double *y, size_t n, double xq)
+{
+    if (xq <= x[0])
+        return y[0];
+    if (xq >= x[n - 1])
+        return y[n - 1];
+    size_t lo = 0, hi = n - 1;
+    while (hi - lo > 1) {
+        size_t mid = (lo + hi) / 2;
+        if (x[mid] <= xq)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    double f = (xq - x[lo]) / (x[hi] - x[lo]);
+    return (1 - f) * y[lo] + f * y[hi];
+}
+
+/* One channel on grid wl[0..m-1] with weights S D at the nodes; data columns d[0..4]. */
+static int spectral_channel(bst_ctx *ctx, bst_glass *g, const char *where, const char *name,
+                            const double *wl, const double *sd, size_t m, double lo, double hi,
+                            double *const *d, size_t nd)
+{
+    int rc = new_channel(ctx, g, where, name, m);
+    if (rc < 0)
+        return rc;
+    struct channel *c = &g->ch[g->nch];
+    double sum = 0;
+    for (size_t k = 0; k + 1 < m; k++)
+        if (wl[k] >= lo - 1e-6 && wl[k + 1] <= hi + 1e-6) {
+            double h = 0.5 * (wl[k + 1] - wl[k]);
+            c->w[k] += h * sd[k], c->w[k + 1] += h * sd[k + 1];
+            sum += h * (sd[k] + sd[k + 1]);
+        }
+    if (!(sum > 0))
+        return bsti_error(ctx, BST_EFORMAT, "%s: no %s weight in %g..%g um", where, name, lo, hi);
+    for (size_t k = 0; k < m; k++) {
+        c->w[k] /= sum;
+        double tf = interp(d[0], d[1], nd, wl[k]), tb = interp(d[0], d[2], nd, wl[k]);
+        double rf = interp(d[0], d[3], nd, wl[k]), rb = interp(d[0], d[4], nd, wl[k]);
+        if (side_init(&c->front[k], tf, rf) || side_init(&c->back[k], tb, rb))
+            return bsti_error(ctx, BST_EFORMAT, "%s: no uncoated pane has T0 = %g, R0 = %g at %g um",
+                              where, tf, rf, wl[k]);
+    }
+    if (!(g->name[g->nch] = bsti_strdup(ctx, name)))
+        return BST_ENOMEM;
+    g->nch++;
+    if (!(c->table = bsti_alloc_array(ctx, 4 * (GLASS_TABLE + 1), sizeof *c->table)))
+        return BST_ENOMEM;
+    for (size_t a = 0; a <= GLASS_TABLE; a++) {
+        double t, tb, f, b;
+        bst_glass_optics(g, g->nch - 1, (double)a / GLASS_TABLE * (M_PI / 2), &t, &tb, &f, &b);
+        c->table[4 * a] = (float)t, c->table[4 * a + 1] = (float)tb;
+        c->table[4 * a + 2] = (float)f, c->table[4 * a + 3] = (float)b;
+    }
+    return BST_OK;
+}
+
+/* Channels Solar and Visible of a spectral data file (wavelength in um, Tf, Tb, Rf, Rb at normal
+ * incidence); the source and detector spectra come from the catalogue directory. */
+static int add_spectral(bst_ctx *ctx, bst_glass *g, const char *path, const char *dir)
+{
+    double *d[5] = {0}, *sol[2] = {0}, *d65[2] = {0}, *v[2] = {0}, *set[1] = {0};
+    double *sd = NULL;
+    size_t nd, ns, n65, nv, nset;
+    char p[1200];
+    int rc = read_table(ctx, path, 5, d, &nd);
+    if (rc >= 0) {
+        snprintf(p, sizeof p, "%s/solar_ASTM_E891_87_Table1.tsv", dir);
+        rc = read_table(ctx, p, 2, sol, &ns);
+    }
+    if (rc >= 0) {
+        snprintf(p, sizeof p, "%s/photopic_source_D65.tsv", dir);
+        rc = read_table(ctx, p, 2, d65, &n65);
+    }
+    if (rc >= 0) {
+        snprintf(p, sizeof p, "%s/photopic_detector_V.tsv", dir);
+        rc = read_table(ctx, p, 2, v, &nv);
+    }
+    if (rc >= 0) {
+        snprintf(p, sizeof p, "%s/photopic_wavelength_set.tsv", dir);
+        rc = read_table(ctx, p, 1, set, &nset);
+    }
+    size_t m = nd > nset ? nd : nset;
+    if (rc >= 0 && !(sd = bsti_alloc_array(ctx, m, sizeof *sd)))
+        rc = BST_ENOMEM;
+    if (rc >= 0) {
+        for (size_t k = 0; k < nset; k++)
+            sd[k] = interp(d65[0], d65[1], n65, set[0][k]) * interp(v[0], v[1], nv, set[0][k]);
+        rc = spectral_channel(ctx, g, path, "Visible", set[0], sd, nset, VISIBLE_LO, VISIBLE_HI, d, nd);
+    }
+    if (rc >= 0) {
+        for (size_t k = 0; k < nd; k++)
+            sd[k] = interp(sol[0], sol[1], ns, d[0][k]);
+        rc = spectral_channel(ctx, g, path, "Solar", d[0], sd, nd, SOLAR_LO, SOLAR_HI, d, nd);
+    }
+    for (int c = 0; c < 5; c++)
+        bsti_free(ctx, d[c]);
+    for (int c = 0; c < 2; c++)
+        bsti_free(ctx, sol[c]), bsti_free(ctx, d65[c]), bsti_free(ctx, v[c]);
+    bsti_free(ctx, set[0]);
+    bsti_free(ctx, sd);
+    return rc;
+}
+
+/* A catalogue file: '#' comments; "description TEXT"; "spectral FILE" (relative to the catalogue
+ * directory); "CHANNEL key=value,...". */
+static int read_catalogue(bst_ctx *ctx, bst_glass *g, const char *path, const char *name, const char *dir)
 {
     FILE *fp = fopen(path, "r");
     if (!fp)
@@ -273,6 +517,10 @@ static int read_catalogue(bst_ctx *ctx, bst_glass *g, const char *path, const ch
                 rc = BST_ENOMEM;
         } else if (!*rest) {
             rc = bsti_error(ctx, BST_EINVAL, "%s: '%s' without parameters", where, s);
+        } else if (strcmp(s, "spectral") == 0) {
+            char data[1200];
+            snprintf(data, sizeof data, "%s/%s", dir, rest);
+            rc = add_spectral(ctx, g, data, dir);
         } else {
             rc = add_channel(ctx, g, where, s, rest);
         }
@@ -297,7 +545,13 @@ int bst_glass_parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, b
     int rc;
     char where[600];
     snprintf(where, sizeof where, "glass:%s", spec);
-    if (strchr(spec, '=')) {
+    size_t sl = strlen(spec);
+    const char *dir = catalogue_dir ? catalogue_dir : BST_GLASS_DIR;
+    if (strchr(spec, '/') || (sl > 4 && strcmp(spec + sl - 4, ".tsv") == 0)) {
+        rc = add_spectral(ctx, g, spec, dir);
+        if (rc >= 0 && !(g->description = bsti_strdup(ctx, spec)))
+            rc = BST_ENOMEM;
+    } else if (strchr(spec, '=')) {
         rc = add_channel(ctx, g, where, "Visible", spec);
         if (rc >= 0)
             rc = add_channel(ctx, g, where, "Solar", spec);
@@ -310,10 +564,9 @@ int bst_glass_parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, b
                 return bsti_error(ctx, BST_EINVAL, "%s: a catalogue name has letters, digits, '-', "
                                   "'_' and '.' only", where);
             }
-        const char *dir = catalogue_dir ? catalogue_dir : BST_GLASS_DIR;
         char path[1024];
         snprintf(path, sizeof path, "%s/%s.glass", dir, spec);
-        rc = read_catalogue(ctx, g, path, spec);
+        rc = read_catalogue(ctx, g, path, spec, dir);
     }
     if (rc < 0) {
         bst_glass_free(g);
@@ -354,29 +607,29 @@ int bst_glass_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, si
         return rc;
     size_t n = bst_basis_size(basis);
     const double *lam = bst_basis_lambda(basis);
-    double *v = bsti_alloc_array(ctx, 3 * n, sizeof *v);
+    double *v = bsti_alloc_array(ctx, 4 * n, sizeof *v);
     if (!v) {
         bst_layer_free(l);
         return BST_ENOMEM;
     }
     for (size_t c = 0; c < nc && rc >= 0; c++) {
         for (size_t j = 0; j < n; j++) {
-            double t = 0, rf = 0, rb = 0;
+            double t = 0, tb = 0, rf = 0, rb = 0;
             int s = at_centre ? 1 : GLASS_SAMPLES;
             for (int a = 0; a < s; a++)
                 for (int e = 0; e < s; e++) {
-                    double d[3], tt, f, bb;
+                    double d[3], tt, ttb, f, bb;
                     if (at_centre)
                         bst_basis_center(basis, j, d);
                     else
                         bst_basis_sample(basis, j, (a + 0.5) / s, (e + 0.5) / s, d);
-                    bst_glass_optics(g, idx[c], acos(fmin(1.0, fmax(0.0, d[2]))), &tt, &f, &bb);
-                    t += tt, rf += f, rb += bb;
+                    fast_optics(g, idx[c], acos(fmin(1.0, fmax(0.0, d[2]))), &tt, &ttb, &f, &bb);
+                    t += tt, tb += ttb, rf += f, rb += bb;
                 }
             double w = 1.0 / (s * s * lam[j]);
-            v[j] = t * w, v[n + j] = rf * w, v[2 * n + j] = rb * w;
+            v[j] = t * w, v[n + j] = rf * w, v[2 * n + j] = tb * w, v[3 * n + j] = rb * w;
         }
-        const double *src[BST_NCOMP] = {v, v + n, v, v + 2 * n}; /* Tf, Rf, Tb, Rb */
+        const double *src[BST_NCOMP] = {v, v + n, v + 2 * n, v + 3 * n}; /* Tf, Rf, Tb, Rb */
         for (int k = 0; k < BST_NCOMP && rc >= 0; k++) {
             bst_mat *m;
             rc = bst_mat_new_diag(ctx, n, src[k], &m);

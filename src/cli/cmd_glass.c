@@ -11,8 +11,8 @@
 
 static const char help[] =
     "Usage: bsdfstack glass [--list] SPEC\n"
-    "Prints, for every channel of the pane, T, Rf, Rb and the absorptances Af = 1 - T - Rf and\n"
-    "Ab = 1 - T - Rb against the incidence angle theta = 0..90 degrees in 5 degree steps, 89 and 89.9.\n"
+    "Prints, for every channel of the pane, Tf, Tb, Rf, Rb and the absorptances Af = 1 - Tf - Rf\n"
+    "and Ab = 1 - Tb - Rb against the incidence angle theta = 0..90 degrees in 5 degree steps, 89 and 89.9.\n"
     "\n"
     "SPEC: a catalogue NAME (see --list and bsdfstack-glass(5)), d=6mm,n=1.52,tn=0.89 (thickness,\n"
     "refractive index, normal-incidence transmittance) or t0=0.834,r0=0.0747[,r0b=...].\n"
@@ -89,21 +89,21 @@ int cmd_glass(int argc, char **argv)
         return rc;
     }
     printf("# %s\n", bst_glass_description(g));
-    printf("channel\ttheta\tT\tRf\tRb\tAf\tAb\n");
+    printf("channel\ttheta\tTf\tTb\tRf\tRb\tAf\tAb\n");
     static const double extra[] = {89.0, 89.9};
     for (size_t ch = 0; ch < bst_glass_nchannels(g); ch++)
         for (int i = 0; i <= 20; i++) {
             double deg = i <= 18 ? 5.0 * i : extra[i - 19];
             if (i == 18) /* 90 comes last */
                 continue;
-            double t, rf, rb;
-            bst_glass_optics(g, ch, deg * M_PI / 180, &t, &rf, &rb);
-            printf("%s\t%g\t%.6f\t%.6f\t%.6f\t%.6f\t%.6f\n", bst_glass_channel(g, ch), deg, t, rf,
-                   rb, 1 - t - rf, 1 - t - rb);
+            double t, tb, rf, rb;
+            bst_glass_optics(g, ch, deg * M_PI / 180, &t, &tb, &rf, &rb);
+            printf("%s\t%g\t%.6f\t%.6f\t%.6f\t%.6f\t%.6f\t%.6f\n", bst_glass_channel(g, ch), deg,
+                   t, tb, rf, rb, 1 - t - rf, 1 - tb - rb);
             if (i == 20) {
-                bst_glass_optics(g, ch, M_PI / 2, &t, &rf, &rb);
-                printf("%s\t90\t%.6f\t%.6f\t%.6f\t%.6f\t%.6f\n", bst_glass_channel(g, ch), t, rf,
-                       rb, 1 - t - rf, 1 - t - rb);
+                bst_glass_optics(g, ch, M_PI / 2, &t, &tb, &rf, &rb);
+                printf("%s\t90\t%.6f\t%.6f\t%.6f\t%.6f\t%.6f\t%.6f\n", bst_glass_channel(g, ch), t,
+                       tb, rf, rb, 1 - t - rf, 1 - tb - rb);
             }
         }
     bst_glass_free(g);
