@@ -315,6 +315,15 @@ void bst_stack_opts_init(bst_stack_opts *opts);
 int bst_stack_combine(bst_ctx *ctx, size_t n, const bst_layer *const *layers,
                       const bst_stack_opts *opts, bst_layer **out);
 
+/* Per-layer absorptance of a stack (Klems 1994, part 2): for unit flux incident from patch j on
+ * the front (exterior) side, abs_front[(i * N) + j] is the fraction absorbed by layer i (exterior
+ * first); abs_back likewise for incidence from the back side (either may be NULL).  A layer's
+ * directional absorptance is 1 - its hemispherical T - R for the side the light arrives on; the
+ * flux arriving on each side of each layer follows from the partial stacks above and below it.
+ * For layers that conserve energy, system T + R + sum_i abs_i = 1 per incident patch. */
+int bst_stack_absorptance(bst_ctx *ctx, size_t n, const bst_layer *const *layers, size_t ch,
+                          const bst_stack_opts *opts, double *abs_front, double *abs_back);
+
 /* ---------------------------------------------------------------- metrics (metrics) */
 
 /* Accordance of two distributions of scattered light for one incident patch (after Grobe 2017),
