@@ -40,6 +40,12 @@ expect_error "no output" "no output file" -- "$B" combine glass:clear-6mm
 expect_error "bad component" "unknown component 'Tx'" -- "$B" combine --only Tx -o "$tmpdir/x.xml" glass:clear-6mm
 expect_error "unwritable directory" "cannot create output file" -- "$B" combine -o /nonexistent/dir/x.xml glass:clear-6mm
 
+# info: the glass reference file's hemispherical T at normal incidence (libBSDF: 0.8817)
+expect_status 0 "info" -- "$B" info "$ref/L_glass_t4k5.xml"
+awk '$1 == 0 && $2 == 0 { d = $3 - 0.8817; if (d < 0) d = -d; ok = d < 2e-3 } END { exit !ok }' "$tmpdir/out" \
+    && pass "info: T(0) of the clear pane" || fail "info: $(cat "$tmpdir/out")"
+expect_error "info of a missing file" "cannot open" -- "$B" info "$tmpdir/none.xml"
+
 # convert: unreduced round trip is exact
 expect_status 0 "convert --no-reduce" -- "$B" convert --no-reduce -o "$tmpdir/g.xml" "$ref/L_glass_t4k5.xml"
 grep -v '^#' "$ref/L_glass_t4k5.query.tsv" | sed 1d | cut -f3-8 > "$tmpdir/q"

@@ -11,6 +11,7 @@ const struct cli_command cli_commands[] = {
     {"combine", cmd_combine, "combine layers (exterior first) into the system's BSDF XML"},
     {"convert", cmd_convert, "resample a BSDF XML file to another basis and write it"},
     {"glass", cmd_glass, "print a clear pane's T, R and absorptance against angle"},
+    {"info", cmd_info, "summarize a BSDF file: basis, channels, hemispherical T and R, balance"},
     {"query", cmd_query, "evaluate a BSDF file at pairs of directions, as RADIANCE does"},
     {"version", cmd_version, "print the program and library versions"},
     {NULL, NULL, NULL}
