@@ -231,6 +231,17 @@ START_TEST(test_resampling_conserves)
             size_t i5 = (i / 64 / 2) * 32 + (i % 64) / 2, o5 = (o / 64 / 2) * 32 + (o % 64) / 2;
             ck_assert_double_eq(bst_mat_get(m6, o, i), bst_mat_get(m5, o5, i5));
         }
+        /* and down again: the mean of the 4 x 4 fine cells of every k = 5 cell pair is that cell */
+        for (int s = 0; s < 2000; s++) {
+            size_t i5 = (size_t)(tu_rng_uniform(&r) * 1024), o5 = (size_t)(tu_rng_uniform(&r) * 1024);
+            double mean = 0;
+            for (int q = 0; q < 16; q++) {
+                size_t i = (i5 / 32 * 2 + (q >> 3 & 1)) * 64 + i5 % 32 * 2 + (q >> 2 & 1);
+                size_t o = (o5 / 32 * 2 + (q >> 1 & 1)) * 64 + o5 % 32 * 2 + (q & 1);
+                mean += bst_mat_get(m6, o, i) / 16;
+            }
+            tu_assert_close(mean, bst_mat_get(m5, o5, i5), 1e-15, 1e-300);
+        }
         bst_layer_free(l6);
         bst_basis_free(b6);
     }
