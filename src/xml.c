@@ -652,25 +652,49 @@ int bst_bsdf_eval(bst_ctx *ctx, const bst_bsdf *b, size_t ch, const double in_ra
 
 /* ------------------------------------------------------------------ resampling */
 
-/* The Klems patch of every Shirley-Chiu cell centre (map, n entries) and how many cells each Klems
- * patch holds (cnt, nk entries): the correspondence both directions of Klems <-> Shirley-Chiu
- * resampling use.  The caller frees both. */
-static int centre_map(bst_ctx *ctx, const bst_basis *sc, const bst_basis *kb, size_t **map, double **cnt)
+/* Overlap of Shirley-Chiu cells with Klems patches in projected solid angle: cell j lies in patch
+ * patch[q] with the fraction frac[q] of its projected solid angle, q = start[j] .. start[j+1]-1.
+ * Measured with OVERLAP_SAMPLES^2 points per cell, uniform in projected solid angle; the fractions
+ * of a cell sum to 1 exactly.  Both directions of Klems <-> Shirley-Chiu resampling use it. */
+#define OVERLAP_SAMPLES 8
+struct overlap {
+    size_t *start, *patch;
+    double *frac;
+};
+
+static void overlap_free(bst_ctx *ctx, struct overlap *ov)
 {
-    size_t n = bst_basis_size(sc);
-    *map = bsti_alloc_array(ctx, n, sizeof **map);
-    *cnt = bsti_calloc(ctx, bst_basis_size(kb), sizeof **cnt);
-    if (!*map || !*cnt) {
-        bsti_free(ctx, *map), bsti_free(ctx, *cnt);
-        *map = NULL, *cnt = NULL;
+    bsti_free(ctx, ov->start), bsti_free(ctx, ov->patch), bsti_free(ctx, ov->frac);
+    memset(ov, 0, sizeof *ov);
+}
+
+static int overlap_new(bst_ctx *ctx, const bst_basis *sc, const bst_basis *kb, struct overlap *ov)
+{
+    size_t n = bst_basis_size(sc), s2 = OVERLAP_SAMPLES * OVERLAP_SAMPLES;
+    memset(ov, 0, sizeof *ov);
+    ov->start = bsti_alloc_array(ctx, n + 1, sizeof *ov->start);
+    ov->patch = bsti_alloc_array(ctx, n * s2, sizeof *ov->patch);
+    ov->frac = bsti_alloc_array(ctx, n * s2, sizeof *ov->frac);
+    if (!ov->start || !ov->patch || !ov->frac) {
+        overlap_free(ctx, ov);
         return BST_ENOMEM;
     }
+    size_t q = 0;
     for (size_t j = 0; j < n; j++) {
-        double d[3];
-        bst_basis_center(sc, j, d);
-        (*map)[j] = bst_basis_patch(kb, d);
-        (*cnt)[(*map)[j]] += 1.0;
+        ov->start[j] = q;
+        for (size_t a = 0; a < s2; a++) {
+            double d[3];
+            bst_basis_sample(sc, j, (a / OVERLAP_SAMPLES + 0.5) / OVERLAP_SAMPLES,
+                             (a % OVERLAP_SAMPLES + 0.5) / OVERLAP_SAMPLES, d);
+            size_t p = bst_basis_patch(kb, d), t = ov->start[j];
+            while (t < q && ov->patch[t] != p)
+                t++;
+            if (t == q)
+                ov->patch[q] = p, ov->frac[q++] = 0.0;
+            ov->frac[t] += 1.0 / (double)s2;
+        }
     }
+    ov->start[n] = q;
     return BST_OK;
 }
 
@@ -727,53 +751,72 @@ static int to_sc(bst_ctx *ctx, const bst_bsdf *b, size_t ch, int c, int k, doubl
         }
         bsti_free(ctx, od);
     } else {
-        /* Klems -> Shirley-Chiu: each cell takes the value of the Klems patch holding its centre,
-         * weighted so that every incident patch keeps its hemispherical totals. */
+        /* Klems -> Shirley-Chiu: a cell pair's value is the Klems BSDF averaged over both cells
+         * (weights: the cells' overlaps with the patches), which keeps every incident cell's
+         * hemispherical totals up to the overlap measurement. */
         const bst_basis *kb = b->klems;
-        size_t nk = bst_basis_size(kb), *map;
-        double *cnt;
-        if ((rc = centre_map(ctx, sc, kb, &map, &cnt)) < 0) {
+        size_t nk = bst_basis_size(kb);
+        struct overlap ov;
+        if ((rc = overlap_new(ctx, sc, kb, &ov)) < 0) {
             bst_basis_free(own);
             return rc;
         }
-        const double *lk = bst_basis_lambda(kb), lsc = M_PI / (double)n;
         const double *km = b->mat[ch][c];
         for (size_t i = 0; i < n; i++)
-            for (size_t o = 0; o < n; o++)
-                m[o + n * i] = km[map[o] + nk * map[i]] * lk[map[o]] / (cnt[map[o]] * lsc);
-        bsti_free(ctx, map);
-        bsti_free(ctx, cnt);
+            for (size_t o = 0; o < n; o++) {
+                double v = 0;
+                for (size_t a = ov.start[i]; a < ov.start[i + 1]; a++)
+                    for (size_t e = ov.start[o]; e < ov.start[o + 1]; e++)
+                        v += ov.frac[a] * ov.frac[e] * km[ov.patch[e] + nk * ov.patch[a]];
+                m[o + n * i] = v;
+            }
+        overlap_free(ctx, &ov);
     }
     bst_basis_free(own);
     return rc;
 }
 
-/* Shirley-Chiu (order k) matrix -> Klems basis kb: average over the cells whose centres lie in
- * each incident patch, sum the flux into each outgoing patch. */
+/* Shirley-Chiu (order k) matrix -> Klems basis kb by overlap of projected solid angle: the flux a
+ * cell pair carries goes to the patch pair in proportion to both overlaps, and every Klems
+ * incident patch averages its cells with their overlaps as weights.  Every Klems column's
+ * hemispherical total is the overlap-weighted mean of its cells' totals, exactly. */
 static int sc_to_klems(bst_ctx *ctx, int k, const double *m, const bst_basis *kb, double *out)
 {
     bst_basis *sc;
     int rc = bst_basis_new_sc(ctx, k, &sc);
     if (rc < 0)
         return rc;
-    size_t n = bst_basis_size(sc), nk = bst_basis_size(kb), *map;
-    double *cnt;
-    if ((rc = centre_map(ctx, sc, kb, &map, &cnt)) < 0) {
-        bst_basis_free(sc);
-        return rc;
+    size_t n = bst_basis_size(sc), nk = bst_basis_size(kb);
+    struct overlap ov;
+    double *w = bsti_calloc(ctx, nk, sizeof *w);
+    if (!w || (rc = overlap_new(ctx, sc, kb, &ov)) < 0) {
+        bsti_free(ctx, w), bst_basis_free(sc);
+        return rc < 0 ? rc : BST_ENOMEM;
     }
+    for (size_t j = 0; j < n; j++)
+        for (size_t a = ov.start[j]; a < ov.start[j + 1]; a++)
+            w[ov.patch[a]] += ov.frac[a];
     for (size_t q = 0; q < nk; q++)
-        if (cnt[q] == 0) {
-            bsti_free(ctx, map), bsti_free(ctx, cnt), bst_basis_free(sc);
-            return bsti_error(ctx, BST_EBASIS, "Klems patch %zu holds no cell of the Shirley-Chiu "
+        if (w[q] == 0) {
+            overlap_free(ctx, &ov), bsti_free(ctx, w), bst_basis_free(sc);
+            return bsti_error(ctx, BST_EBASIS, "Klems patch %zu meets no cell of the Shirley-Chiu "
                               "grid of order %d: use a finer order", q, k);
         }
     memset(out, 0, nk * nk * sizeof *out);
     const double *lk = bst_basis_lambda(kb), lsc = M_PI / (double)n;
     for (size_t i = 0; i < n; i++)
-        for (size_t o = 0; o < n; o++)
-            out[map[o] + nk * map[i]] += m[o + n * i] * lsc / (lk[map[o]] * cnt[map[i]]);
-    bsti_free(ctx, map), bsti_free(ctx, cnt), bst_basis_free(sc);
+        for (size_t a = ov.start[i]; a < ov.start[i + 1]; a++) {
+            size_t I = ov.patch[a];
+            double wi = ov.frac[a] / w[I];
+            for (size_t o = 0; o < n; o++) {
+                double f = m[o + n * i] * lsc * wi;
+                if (f == 0.0)
+                    continue;
+                for (size_t e = ov.start[o]; e < ov.start[o + 1]; e++)
+                    out[ov.patch[e] + nk * I] += f * ov.frac[e] / lk[ov.patch[e]];
+            }
+        }
+    overlap_free(ctx, &ov), bsti_free(ctx, w), bst_basis_free(sc);
     return BST_OK;
 }
 
