@@ -174,16 +174,20 @@ static void table_free(bst_ctx *ctx, struct table *t)
     t->x = t->y = NULL, t->n = 0;
 }
 
+static void channel_clear(bst_ctx *ctx, struct channel *c)
+{
+    bsti_free(ctx, c->name), bsti_free(ctx, c->w), bsti_free(ctx, c->front);
+    bsti_free(ctx, c->back), bsti_free(ctx, c->grid), bsti_free(ctx, c->sd);
+    memset(c, 0, sizeof *c);
+}
+
 void bst_glass_free(bst_glass *g)
 {
     if (!g)
         return;
     bst_ctx *ctx = g->ctx;
-    for (size_t i = 0; i < MAX_CH; i++) {
-        struct channel *c = &g->ch[i];
-        bsti_free(ctx, c->name), bsti_free(ctx, c->w), bsti_free(ctx, c->front);
-        bsti_free(ctx, c->back), bsti_free(ctx, c->grid), bsti_free(ctx, c->sd);
-    }
+    for (size_t i = 0; i < MAX_CH; i++)
+        channel_clear(ctx, &g->ch[i]);
     bsti_free(ctx, g->description);
     bsti_free(ctx, g->data.wl), bsti_free(ctx, g->data.tf), bsti_free(ctx, g->data.tb);
     bsti_free(ctx, g->data.rf), bsti_free(ctx, g->data.rb);
@@ -476,8 +480,8 @@ static int new_channel(bst_ctx *ctx, bst_glass *g, const char *where, const char
     return BST_OK;
 }
 
-/* Adds a spectral band of a spectral pane as channel g->nch. */
-static int add_band(bst_ctx *ctx, bst_glass *g, const char *where, const struct band *b)
+/* Fills channel g->nch with a spectral band of a spectral pane (add_band commits or clears it). */
+static int fill_band(bst_ctx *ctx, bst_glass *g, const char *where, const struct band *b)
 {
     const struct data *d = &g->data;
     /* the single pane's own grid (WCE's single-layer averages) and the integration grid of
@@ -486,6 +490,9 @@ static int add_band(bst_ctx *ctx, bst_glass *g, const char *where, const struct 
     size_t m = b->solar ? d->n : g->photopic.n;
     const double *ig = b->solar ? g->solar.x : g->photopic.x;
     size_t mg = b->solar ? g->solar.n : g->photopic.n;
+    if (d->wl[0] > b->hi || d->wl[d->n - 1] < b->lo)
+        return bsti_error(ctx, BST_EFORMAT, "%s: the data (%g..%g um) cover none of %s's range "
+                          "%g..%g um", where, d->wl[0], d->wl[d->n - 1], b->name, b->lo, b->hi);
     int rc = new_channel(ctx, g, where, b->name, m);
     if (rc < 0)
         return rc;
@@ -501,8 +508,8 @@ static int add_band(bst_ctx *ctx, bst_glass *g, const char *where, const struct 
     rc = trapezoid(own, sd, m, b->lo, b->hi, c->w);
     bsti_free(ctx, sd);
     if (rc < 0)
-        return bsti_error(ctx, BST_EFORMAT, "%s: the data cover none of %s's range %g..%g um",
-                          where, b->name, b->lo, b->hi);
+        return bsti_error(ctx, BST_EFORMAT, "%s: no interval of the data's wavelengths lies in "
+                          "%s's range %g..%g um", where, b->name, b->lo, b->hi);
     for (size_t k = 0; k < m; k++) {
         double tf, tb, rf, rb;
         data_at(d, own[k], &tf, &tb, &rf, &rb);
@@ -513,8 +520,24 @@ static int add_band(bst_ctx *ctx, bst_glass *g, const char *where, const struct 
     c->ng = mg, c->lo = b->lo, c->hi = b->hi;
     for (size_t k = 0; k < mg; k++)
         c->grid[k] = ig[k], c->sd[k] = band_sd(g, b, ig[k]);
-    g->nch++;
     return BST_OK;
+}
+
+/* A new channel is complete or absent: a failure clears the half-built one. */
+static int commit(bst_ctx *ctx, bst_glass *g, int rc)
+{
+    if (rc < 0)
+        channel_clear(ctx, &g->ch[g->nch]);
+    else
+        g->nch++;
+    return rc;
+}
+
+static int add_band(bst_ctx *ctx, bst_glass *g, const char *where, const struct band *b)
+{
+    if (g->nch >= MAX_CH) /* checked here too: commit() indexes g->ch[g->nch] */
+        return bsti_error(ctx, BST_EINVAL, "%s: more than %d channels", where, MAX_CH);
+    return commit(ctx, g, fill_band(ctx, g, where, b));
 }
 
 int bst_glass_add_channel(bst_ctx *ctx, bst_glass *g, const char *name)
@@ -800,15 +823,15 @@ static int parse_params(bst_ctx *ctx, const char *where, const char *text, struc
 static int add_inline(bst_ctx *ctx, bst_glass *g, const char *where, const char *name,
                       const char *params)
 {
+    if (g->nch >= MAX_CH)
+        return bsti_error(ctx, BST_EINVAL, "%s: more than %d channels", where, MAX_CH);
     int rc = new_channel(ctx, g, where, name, 1);
-    if (rc < 0)
-        return rc;
-    struct channel *c = &g->ch[g->nch];
-    c->w[0] = 1.0;
-    if ((rc = parse_params(ctx, where, params, &c->front[0], &c->back[0])) < 0)
-        return rc;
-    g->nch++;
-    return BST_OK;
+    if (rc >= 0) {
+        struct channel *c = &g->ch[g->nch];
+        c->w[0] = 1.0;
+        rc = parse_params(ctx, where, params, &c->front[0], &c->back[0]);
+    }
+    return commit(ctx, g, rc);
 }
 
 /* A spectral data file and the bands to average it over (space-separated names; "" = Visible
@@ -905,12 +928,17 @@ int bst_glass_parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, b
     snprintf(where, sizeof where, "glass:%s", spec);
     size_t sl = strlen(spec);
     const char *dir = catalogue_dir ? catalogue_dir : BST_GLASS_DIR;
-    if (strchr(spec, '/') || (sl > 4 && strcmp(spec + sl - 4, ".tsv") == 0)) {
+    /* key=value,... starts with a key; PATH (a '/' or a .tsv ending); else a catalogue NAME */
+    size_t kl = 0;
+    while (isalnum((unsigned char)spec[kl]))
+        kl++;
+    int is_inline = kl > 0 && spec[kl] == '=' && isalpha((unsigned char)spec[0]);
+    if (!is_inline && (strchr(spec, '/') || (sl > 4 && strcmp(spec + sl - 4, ".tsv") == 0))) {
         char none[1] = "";
         rc = add_spectral(ctx, g, where, spec, dir, none);
         if (rc >= 0 && !(g->description = bsti_strdup(ctx, spec)))
             rc = BST_ENOMEM;
-    } else if (strchr(spec, '=')) {
+    } else if (is_inline) {
         rc = add_inline(ctx, g, where, "Visible", spec);
         if (rc >= 0)
             rc = add_inline(ctx, g, where, "Solar", spec);
