@@ -164,6 +164,7 @@ struct bst_glass {
     size_t nch;
     struct channel ch[MAX_CH];
     char *description;
+    char *where;                           /* "glass:SPEC", for messages */
     struct data data;                      /* spectral panes only (data.n > 0) */
     struct table solar, d65, v, photopic;  /* spectra of the bands, spectral panes only */
 };
@@ -188,7 +189,7 @@ void bst_glass_free(bst_glass *g)
     bst_ctx *ctx = g->ctx;
     for (size_t i = 0; i < MAX_CH; i++)
         channel_clear(ctx, &g->ch[i]);
-    bsti_free(ctx, g->description);
+    bsti_free(ctx, g->description), bsti_free(ctx, g->where);
     bsti_free(ctx, g->data.wl), bsti_free(ctx, g->data.tf), bsti_free(ctx, g->data.tb);
     bsti_free(ctx, g->data.rf), bsti_free(ctx, g->data.rb);
     table_free(ctx, &g->solar), table_free(ctx, &g->d65), table_free(ctx, &g->v);
@@ -229,6 +230,11 @@ int bst_glass_optics(const bst_glass *g, size_t ch, double theta, double *tf, do
         side_optics(&c->back[k], theta, &t2, &r2);
         st += c->w[k] * t1, sf += c->w[k] * r1, stb += c->w[k] * t2, sb += c->w[k] * r2;
     }
+    /* the weights sum to 1 up to rounding: keep T + R <= 1 as every node does */
+    if (st + sf > 1.0)
+        sf = 1.0 - st;
+    if (stb + sb > 1.0)
+        sb = 1.0 - stb;
     if (tf)
         *tf = st;
     if (tb)
@@ -548,12 +554,12 @@ int bst_glass_add_channel(bst_ctx *ctx, bst_glass *g, const char *name)
         return BST_OK;
     const struct band *b = find_band(name);
     if (!b)
-        return bsti_error(ctx, BST_ENOTFOUND, "glass %s: no channel %s (spectral bands: "
-                          BAND_LIST ")", bst_glass_description(g), name);
+        return bsti_error(ctx, BST_ENOTFOUND, "%s: no channel %s (spectral bands: " BAND_LIST ")",
+                          g->where, name);
     if (!g->data.n)
-        return bsti_error(ctx, BST_ENOTFOUND, "glass %s: no channel %s (only a pane with spectral "
-                          "data can be averaged over a new band)", bst_glass_description(g), name);
-    return add_band(ctx, g, bst_glass_description(g), b);
+        return bsti_error(ctx, BST_ENOTFOUND, "%s: no channel %s (only a pane with spectral data "
+                          "can be averaged over a new band)", g->where, name);
+    return add_band(ctx, g, g->where, b);
 }
 
 /* ------------------------------------------------------------------ spectral access */
@@ -630,8 +636,7 @@ int bst_glass_channel_weights(bst_ctx *ctx, const bst_glass *g, size_t ch, size_
         return ctx ? bsti_error(ctx, BST_EINVAL, "glass channel weights: NULL or empty argument")
                    : BST_EINVAL;
     if (ch >= g->nch || !g->ch[ch].ng)
-        return bsti_error(ctx, BST_EINVAL, "glass %s: channel %zu is not a spectral band",
-                          bst_glass_description(g), ch);
+        return bsti_error(ctx, BST_EINVAL, "%s: channel %zu is not a spectral band", g->where, ch);
     for (size_t k = 0; k < n; k++)
         if (!isfinite(wl[k]) || (k && wl[k] <= wl[k - 1]))
             return bsti_error(ctx, BST_EINVAL, "glass channel weights: wavelength %zu (%g um) is "
@@ -926,6 +931,10 @@ int bst_glass_parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, b
     int rc;
     char where[600];
     snprintf(where, sizeof where, "glass:%s", spec);
+    if (!(g->where = bsti_strdup(ctx, where))) {
+        bst_glass_free(g);
+        return BST_ENOMEM;
+    }
     size_t sl = strlen(spec);
     const char *dir = catalogue_dir ? catalogue_dir : BST_GLASS_DIR;
     /* key=value,... starts with a key; PATH (a '/' or a .tsv ending); else a catalogue NAME */
@@ -1080,8 +1089,7 @@ int bsti_glass_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, s
     for (size_t c = 0; c < nc; c++) {
         int k = nchannels ? bst_glass_find_channel(g, channels[c]) : (int)c;
         if (k < 0)
-            return bsti_error(ctx, BST_ENOTFOUND, "glass %s: no channel %s",
-                              bst_glass_description(g), channels[c]);
+            return bsti_error(ctx, BST_ENOTFOUND, "%s: no channel %s", g->where, channels[c]);
         idx[c] = (size_t)k;
         names[c] = g->ch[k].name;
     }
