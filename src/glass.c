@@ -805,12 +805,12 @@ static int parse_params(bst_ctx *ctx, const char *where, const char *text, struc
             t0 = tn;
         }
         r0f = r0b = rho * (1 + tau * t0);
-    } else if (!isnan(v[N]) || !isnan(v[D])) {
+    } else if (!isnan(v[N])) { /* d alone is descriptive, as with tn */
         if (isnan(t0) || isnan(r0f))
             return bsti_error(ctx, BST_EINVAL, "%s: a pane of index n needs tn or k (with d)",
                               where);
-        return bsti_error(ctx, BST_EINVAL, "%s: t0 and r0 fix n and the absorption: give no d "
-                          "or n with them", where);
+        return bsti_error(ctx, BST_EINVAL, "%s: t0 and r0 fix the refractive index: give no n "
+                          "with them", where);
     }
     if (isnan(t0) || isnan(r0f))
         return bsti_error(ctx, BST_EINVAL, "%s: a pane needs tn (with n), k (with d and n), or t0 "
