@@ -347,6 +347,16 @@ START_TEST(test_bad_files)
         unlink(p);
     }
     bst_bsdf *b;
+    /* negative values are read as 0, as libBSDF does (a k = 1 leaf, value 8 negative) */
+    int len0 = snprintf(buf, sizeof buf, HEAD, "TensorTree4", "Transmission Front", "LBNL/Shirley-Chiu",
+                        "{ 1 2 3 4 5 6 7 -8 9 10 11 12 13 14 15 16 }");
+    const char *pn = write_tmp(buf, (size_t)len0);
+    ck_assert_int_ge(bst_bsdf_read(ctx, pn, NULL, &b), 0);
+    double v, in0[3] = {0.3, -0.4, -0.866}, out0[3] = {0.5, 0.2, 0.843}; /* bits 0111: value 8 */
+    ck_assert_int_eq(bst_bsdf_eval(ctx, b, 0, in0, out0, &v), BST_OK);
+    ck_assert_double_eq(v, 0.0);
+    bst_bsdf_free(b);
+    unlink(pn);
     ck_assert_int_eq(bst_bsdf_read(ctx, "/nonexistent/x.xml", NULL, &b), BST_EIO);
     ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "/nonexistent/x.xml"));
     /* Klems value count that does not fit the basis */

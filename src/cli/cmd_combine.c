@@ -124,14 +124,9 @@ int cmd_combine(int argc, char **argv)
     while ((c = getopt_long(argc, argv, ":k:o:vh", longopts, NULL)) != -1) {
         switch (c) {
         case 'k':
-            if (cli_parse_int(optarg, &basis.k) || basis.k < BST_K_MIN || basis.k > BST_K_MAX)
-                return cli_usage(sub, "-k %s: the order must be an integer from %d to %d", optarg,
-                                 BST_K_MIN, BST_K_MAX);
-            break;
         case O_KLEMS:
-            basis.klems = optarg ? optarg : "full";
-            if (strcmp(basis.klems, "full") && strcmp(basis.klems, "half") && strcmp(basis.klems, "quarter"))
-                return cli_usage(sub, "--klems=%s: use full, half or quarter", basis.klems);
+            if (cli_parse_basis_option(sub, c == 'k' ? 'k' : 'K', optarg, &basis) != CLI_OK)
+                return CLI_USAGE;
             break;
         case O_ONLY: {
             so.comps = 0;
@@ -179,8 +174,6 @@ int cmd_combine(int argc, char **argv)
         default: return cli_usage(sub, "unknown option '%s'", argv[optind - 1]);
         }
     }
-    if (basis.k && basis.klems)
-        return cli_usage(sub, "-k and --klems exclude each other");
     if (!outpath)
         return cli_usage(sub, "no output file: give -o OUT");
     if (argc - optind < 1)

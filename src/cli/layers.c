@@ -20,6 +20,22 @@ static size_t split(char *s, const char **out, size_t max)
     return n;
 }
 
+int cli_parse_basis_option(const char *sub, int opt, const char *value, struct cli_basis_choice *choice)
+{
+    if (opt == 'k') {
+        if (cli_parse_int(value, &choice->k) || choice->k < BST_K_MIN || choice->k > BST_K_MAX)
+            return cli_usage(sub, "-k %s: the order must be an integer from %d to %d", value,
+                             BST_K_MIN, BST_K_MAX);
+    } else {
+        choice->klems = value ? value : "full";
+        if (strcmp(choice->klems, "full") && strcmp(choice->klems, "half") && strcmp(choice->klems, "quarter"))
+            return cli_usage(sub, "--klems=%s: use full, half or quarter", choice->klems);
+    }
+    if (choice->k && choice->klems)
+        return cli_usage(sub, "-k and --klems exclude each other");
+    return CLI_OK;
+}
+
 void cli_layers_free(struct cli_layers *set)
 {
     if (!set)

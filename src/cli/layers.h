@@ -17,6 +17,9 @@ struct cli_layers {
     char *description; /* "layers (exterior first): ..." for the output's metadata */
 };
 
+/* Parse -k VALUE (opt 'k') or --klems[=WHICH] (opt 'K') into choice; CLI_OK or a usage error. */
+int cli_parse_basis_option(const char *sub, int opt, const char *value, struct cli_basis_choice *choice);
+
 /* Load every layer spec over the basis chosen by `choice` (or the default: the finest tensor-tree
  * order among the files, else the Klems basis of a Klems file, else Shirley-Chiu k = 5).
  * channels: comma-separated names or NULL.  Prints one error line and returns CLI_FAIL. */
