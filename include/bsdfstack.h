@@ -398,34 +398,78 @@ int bst_xml_write(bst_ctx *ctx, const bst_layer *l, FILE *fp, const bst_write_op
 
 /* ---------------------------------------------------------------- analytic glass (glass) */
 
-/* A clear (uncoated) pane described by its normal-incidence transmittance T0 and reflectance R0 per
- * side and channel, extended to every angle exactly as Windows-CalcEngine does for uncoated
- * glass: a slab with two identical interfaces, incoherent multiple reflections and bulk
- * absorption, whose interface reflectance and refractive index follow from (T0, R0); Fresnel for
- * s and p, averaged.  T(90 deg) = 0, R(90 deg) = 1, finite everywhere.
+/* A clear (uncoated) pane: a homogeneous slab with two identical interfaces, incoherent multiple
+ * reflections and bulk absorption along the refracted path; Fresnel for s and p, averaged.  Per side
+ * and per channel (or per wavelength) it is fixed by the normal-incidence transmittance T0 and
+ * reflectance R0, from which the interface reflectance, the refractive index n and the single-pass
+ * internal transmittance tau0 follow, exactly as Windows-CalcEngine treats uncoated glass (see
+ * bsdfstack-glass(5)).  T(90 deg) = 0, R(90 deg) = 1, finite everywhere; a side whose R0 differs
+ * makes the pane asymmetric (Rf != Rb, and Tb differs from Tf where the data's Tb does).
  * Specs (the part after "glass:" on the command line):
- *   NAME                       a catalogue file NAME.glass in the catalogue directory
+ *   NAME                       the catalogue file NAME.glass in the catalogue directory
+ *   PATH                       (contains '/' or ends in .tsv) normal-incidence spectral data:
+ *                              wavelength (um), Tf, Tb, Rf, Rb; channels Visible and Solar
  *   d=6mm,n=1.52,tn=0.89       thickness, refractive index, normal-incidence transmittance
- *   t0=0.834,r0=0.0747         normal-incidence T and R directly (both sides, every channel)
+ *   d=6mm,n=1.52,k=25/m        thickness, index and extinction coefficient: tau0 = exp(-k d)
+ *   t0=0.834,r0=0.0747[,r0b=]  normal-incidence T and R directly
  * Inline specs apply to the channels Visible and Solar alike. */
 typedef struct bst_glass bst_glass;
-/* catalogue_dir NULL: the installed catalogue (BST_GLASS_DIR at build time). */
+/* catalogue_dir: where NAME.glass files and the band spectra (solar, D65, V, photopic grid) are;
+ * NULL = the installed catalogue (BST_GLASS_DIR at build time). */
 int bst_glass_parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, bst_glass **out);
 void bst_glass_free(bst_glass *g);
 size_t bst_glass_nchannels(const bst_glass *g);
 const char *bst_glass_channel(const bst_glass *g, size_t ch);
+/* Index of a channel by name (case-insensitive), -1 if none. */
+int bst_glass_find_channel(const bst_glass *g, const char *name);
 const char *bst_glass_description(const bst_glass *g);
 /* Tf, Tb, Rf, Rb of channel ch at incidence angle theta (radians, 0..pi/2); each side follows its
- * own (T0, R0), so Tb differs from Tf where Rb differs from Rf.  tb may be NULL. */
+ * own (T0, R0).  Any output may be NULL.  BST_EINVAL (no message: no ctx) for a bad ch or theta. */
 int bst_glass_optics(const bst_glass *g, size_t ch, double theta, double *tf, double *tb,
                      double *rf, double *rb);
-/* The pane as a layer over basis: four DIAGONAL components; each patch value is the patch's
- * directional T (or R) averaged over the patch in projected solid angle (at_centre = 0) or taken at
- * the patch centre (at_centre = 1, WINDOW's choice), divided by the patch's Lambda.  channels
- * (may be NULL = all of the pane's) selects and orders the channels. */
+/* The slab behind channel ch: refractive index and single-pass internal transmittance at normal
+ * incidence of the front (back = 0) or back side.  For a spectral pane the values at wavelength
+ * lambda_um (data interpolated linearly) whatever ch; for a band channel lambda_um is ignored. */
+int bst_glass_slab(const bst_glass *g, size_t ch, double lambda_um, int back, double *n,
+                   double *tau0);
+
+/* Spectral panes, for stacks that combine layers per wavelength and average afterwards (WCE's way
+ * for multi-layer systems; averaging first and combining band values is not the same).
+ * bst_glass_nwavelengths: the number of measured wavelengths (0 for a pane without spectral data),
+ * bst_glass_wavelength: the i-th (um).  bst_glass_optics_spectral: Tf, Tb, Rf, Rb at any wavelength,
+ * the data interpolated linearly to it (constant outside) and then the angular model. */
+size_t bst_glass_nwavelengths(const bst_glass *g);
+double bst_glass_wavelength(const bst_glass *g, size_t i);
+int bst_glass_optics_spectral(const bst_glass *g, double lambda_um, double theta, double *tf,
+                              double *tb, double *rf, double *rb);
+/* Add a spectral band channel (Visible, Solar, CIE-X, CIE-Y, CIE-Z) to a spectral pane; no-op if it
+ * has the channel.  Visible = CIE-Y = D65 x V(lambda); CIE-X/Z weight D65 by the CIE 1931 x-bar,
+ * z-bar (analytic fit) and are normalised by their own integrals (grey pane: X = Y = Z). */
+int bst_glass_add_channel(bst_ctx *ctx, bst_glass *g, const char *name);
+/* The integration grid of a spectral band channel (um; Solar: the ASTM E891 table's wavelengths,
+ * the others the 5 nm photopic grid), NULL for other channels.  WCE evaluates a stack on the union
+ * of its layers' measured wavelengths, or on this grid when that is shorter. */
+const double *bst_glass_channel_grid(const bst_glass *g, size_t ch, size_t *n);
+/* Weights w[0..n-1] such that sum_k w[k] P(wl[k]) is channel ch's average of a property P known at
+ * the increasing wavelengths wl[] (um): P interpolated linearly onto the channel's integration grid
+ * (constant outside wl's range), weighted by source x detector, trapezoid rule over the band's range;
+ * the weights sum to 1.  Reproduces WCE's multi-layer averages to rounding. */
+int bst_glass_channel_weights(bst_ctx *ctx, const bst_glass *g, size_t ch, size_t n,
+                              const double *wl, double *w);
+
+/* The pane as a layer over basis: four DIAGONAL components (O(N) storage in any basis); each patch
+ * value is the patch's directional T (or R) divided by the patch's Lambda, so that Lambda times the
+ * value, which is also the component's directional-hemispherical value, is the patch's T (or R):
+ *  - at_centre = 0 (bsdfstack's default): the property averaged over the patch uniformly in
+ *    projected solid angle (8 x 8 points of bst_basis_sample), which keeps the hemispherical
+ *    integrals of the property (diffuse-diffuse T, R) of the continuous pane;
+ *  - at_centre = 1: the property at the patch centre (WINDOW's and WCE's choice).
+ * The two differ most at grazing patches (figures in bsdfstack-glass(5)).  channels (may be NULL =
+ * all of the pane's) selects and orders the channels. */
 int bst_glass_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, size_t nchannels,
                     const char *const *channels, int at_centre, bst_layer **out);
-/* Parse and build in one step (used for "glass:SPEC" layer arguments). */
+/* Parse and build in one step (used for "glass:SPEC" layer arguments; patch averages); a spectral
+ * pane is also averaged over any requested band it lacks (CIE-X, ...). */
 int bst_glass_layer_from_spec(bst_ctx *ctx, const char *spec, const char *catalogue_dir,
                               const bst_basis *basis, size_t nchannels,
                               const char *const *channels, bst_layer **out);

@@ -1,4 +1,6 @@
-/* cmd_glass.c - `bsdfstack glass SPEC`: a pane's T, Rf, Rb and absorptance against angle. */
+/* cmd_glass.c - `bsdfstack glass SPEC`: a clear pane's Tf, Tb, Rf, Rb and absorptances against the
+ * incidence angle, per channel; `--list` lists the catalogue.  The catalogue directory is
+ * $BSDFSTACK_GLASS_DIR, else the installed one (BST_GLASS_DIR). */
 #include <config.h>
 
 #include <dirent.h>
@@ -10,74 +12,123 @@
 #include "cli.h"
 
 static const char help[] =
-    "Usage: bsdfstack glass [--list] SPEC\n"
-    "Prints, for every channel of the pane, Tf, Tb, Rf, Rb and the absorptances Af = 1 - Tf - Rf\n"
-    "and Ab = 1 - Tb - Rb against the incidence angle theta = 0..90 degrees in 5 degree steps, 89 and 89.9.\n"
+    "Usage: bsdfstack glass [--channels NAMES] SPEC\n"
+    "       bsdfstack glass --list\n"
+    "Prints, for every channel of a clear pane, Tf, Tb, Rf, Rb and the absorptances Af = 1 - Tf - Rf\n"
+    "and Ab = 1 - Tb - Rb against the incidence angle theta = 0..85 degrees in 5 degree steps, 89,\n"
+    "89.9 and 90 (tab-separated; lines starting with # describe the pane).\n"
     "\n"
-    "SPEC: a catalogue NAME (see --list and bsdfstack-glass(5)), d=6mm,n=1.52,tn=0.89 (thickness,\n"
-    "refractive index, normal-incidence transmittance) or t0=0.834,r0=0.0747[,r0b=...].\n"
-    "The catalogue directory is $BSDFSTACK_GLASS_DIR, else the installed one.\n"
+    "SPEC (optionally prefixed by glass:):\n"
+    "  NAME                      a pane of the catalogue (see --list, bsdfstack-glass(5))\n"
+    "  PATH                      normal-incidence spectral data (wavelength in um, Tf, Tb, Rf, Rb)\n"
+    "  d=6mm,n=1.52,tn=0.89      thickness, refractive index, normal-incidence transmittance\n"
+    "  d=6mm,n=1.52,k=25/m       thickness, refractive index, extinction coefficient\n"
+    "  t0=0.834,r0=0.0747[,r0b=0.08]  normal-incidence transmittance and reflectance(s)\n"
     "\n"
     "Options:\n"
-    "  --list   list the catalogue's panes\n";
+    "  --channels NAMES   only these channels, in this order (e.g. Solar,CIE-X); a pane with\n"
+    "                     spectral data is averaged over any of Visible, Solar, CIE-X, CIE-Y, CIE-Z\n"
+    "  --list             list the catalogue's panes\n"
+    "  --help             this text\n"
+    "\n"
+    "The catalogue directory is $BSDFSTACK_GLASS_DIR, else the installed one.\n";
+
+static int by_name(const void *a, const void *b)
+{
+    return strcmp(*(char *const *)a, *(char *const *)b);
+}
+
+static int list_catalogue(const char *sub, bst_ctx *ctx, const char *dir)
+{
+    DIR *dp = opendir(dir);
+    if (!dp)
+        return cli_fail(sub, "%s: cannot open the glass catalogue", dir);
+    struct dirent *e;
+    char **names = NULL;
+    size_t n = 0;
+    int rc = CLI_OK;
+    while ((e = readdir(dp))) {
+        size_t len = strlen(e->d_name);
+        if (len > 6 && strcmp(e->d_name + len - 6, ".glass") == 0) {
+            char **nn = realloc(names, (n + 1) * sizeof *names);
+            if (!nn || !(nn[n] = strndup(e->d_name, len - 6))) {
+                names = nn ? nn : names;
+                rc = cli_fail(sub, "out of memory");
+                break;
+            }
+            names = nn;
+            n++;
+        }
+    }
+    closedir(dp);
+    if (n)
+        qsort(names, n, sizeof *names, by_name);
+    for (size_t i = 0; i < n; i++) {
+        bst_glass *g;
+        if (rc == CLI_OK) {
+            if (bst_glass_parse(ctx, names[i], dir, &g) >= 0) {
+                printf("%-14s %s\n", names[i], bst_glass_description(g));
+                bst_glass_free(g);
+            } else {
+                printf("%-14s (unreadable: %s)\n", names[i], bst_ctx_message(ctx));
+            }
+        }
+        free(names[i]);
+    }
+    free(names);
+    return rc;
+}
+
+/* Describe the slab behind each channel in # lines. */
+static void describe(const bst_glass *g, size_t nch, const size_t *idx)
+{
+    printf("# %s\n", bst_glass_description(g));
+    size_t nw = bst_glass_nwavelengths(g);
+    if (nw)
+        printf("# spectral data: %zu wavelengths, %g..%g um; per wavelength n and tau0 follow from "
+               "the data\n", nw, bst_glass_wavelength(g, 0), bst_glass_wavelength(g, nw - 1));
+    for (size_t c = 0; c < nch; c++) {
+        double nf, tf, nb, tb;
+        if (!nw && bst_glass_slab(g, idx[c], NAN, 0, &nf, &tf) >= 0 &&
+            bst_glass_slab(g, idx[c], NAN, 1, &nb, &tb) >= 0)
+            printf("# %s: n %.4f, tau0 %.4f (front); n %.4f, tau0 %.4f (back)\n",
+                   bst_glass_channel(g, idx[c]), nf, tf, nb, tb);
+    }
+}
 
 int cmd_glass(int argc, char **argv)
 {
+    enum { O_CHANNELS = 256 };
     static const struct option longopts[] = {{"list", no_argument, NULL, 'l'},
+                                             {"channels", required_argument, NULL, O_CHANNELS},
                                              {"help", no_argument, NULL, 'h'},
                                              {NULL, 0, NULL, 0}};
     const char *sub = "glass";
     const char *dir = getenv("BSDFSTACK_GLASS_DIR");
+    const char *channels = NULL;
     int list = 0, c;
     optind = 1;
     opterr = 0;
     while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
         switch (c) {
         case 'l': list = 1; break;
+        case O_CHANNELS: channels = optarg; break;
         case 'h': fputs(help, stdout); return CLI_OK;
+        case ':': return cli_usage(sub, "option '%s' needs a value", argv[optind - 1]);
         default: return cli_usage(sub, "unknown option '%s'", argv[optind - 1]);
         }
     }
+    if (list && argc - optind)
+        return cli_usage(sub, "--list takes no pane");
+    if (!list && argc - optind != 1)
+        return cli_usage(sub, argc - optind ? "one pane expected" : "no pane given");
     bst_ctx *ctx = cli_ctx_new(sub);
     if (!ctx)
-        return CLI_FAIL;
+        return cli_fail(sub, "out of memory");
     if (list) {
-        const char *d = dir ? dir : BST_GLASS_DIR;
-        DIR *dp = opendir(d);
-        if (!dp) {
-            bst_ctx_free(ctx);
-            return cli_fail(sub, "%s: cannot open the glass catalogue", d);
-        }
-        struct dirent *e;
-        char **names = NULL;
-        size_t n = 0;
-        while ((e = readdir(dp))) {
-            size_t len = strlen(e->d_name);
-            if (len > 6 && strcmp(e->d_name + len - 6, ".glass") == 0) {
-                char **nn = realloc(names, (n + 1) * sizeof *names);
-                if (!nn)
-                    break;
-                names = nn;
-                names[n++] = strndup(e->d_name, len - 6);
-            }
-        }
-        closedir(dp);
-        qsort(names, n, sizeof *names, (int (*)(const void *, const void *))strcmp);
-        for (size_t i = 0; i < n; i++) {
-            bst_glass *g;
-            if (names[i] && bst_glass_parse(ctx, names[i], d, &g) >= 0) {
-                printf("%-14s %s\n", names[i], bst_glass_description(g));
-                bst_glass_free(g);
-            }
-            free(names[i]);
-        }
-        free(names);
+        int rc = list_catalogue(sub, ctx, dir ? dir : BST_GLASS_DIR);
         bst_ctx_free(ctx);
-        return CLI_OK;
-    }
-    if (argc - optind != 1) {
-        bst_ctx_free(ctx);
-        return cli_usage(sub, argc - optind ? "one pane expected" : "no pane given");
+        return rc;
     }
     const char *spec = argv[optind];
     if (strncmp(spec, "glass:", 6) == 0)
@@ -88,25 +139,44 @@ int cmd_glass(int argc, char **argv)
         bst_ctx_free(ctx);
         return rc;
     }
-    printf("# %s\n", bst_glass_description(g));
-    printf("channel\ttheta\tTf\tTb\tRf\tRb\tAf\tAb\n");
-    static const double extra[] = {89.0, 89.9};
-    for (size_t ch = 0; ch < bst_glass_nchannels(g); ch++)
-        for (int i = 0; i <= 20; i++) {
-            double deg = i <= 18 ? 5.0 * i : extra[i - 19];
-            if (i == 18) /* 90 comes last */
-                continue;
-            double t, tb, rf, rb;
-            bst_glass_optics(g, ch, deg * M_PI / 180, &t, &tb, &rf, &rb);
-            printf("%s\t%g\t%.6f\t%.6f\t%.6f\t%.6f\t%.6f\t%.6f\n", bst_glass_channel(g, ch), deg,
-                   t, tb, rf, rb, 1 - t - rf, 1 - tb - rb);
-            if (i == 20) {
-                bst_glass_optics(g, ch, M_PI / 2, &t, &tb, &rf, &rb);
-                printf("%s\t90\t%.6f\t%.6f\t%.6f\t%.6f\t%.6f\t%.6f\n", bst_glass_channel(g, ch), t,
-                       tb, rf, rb, 1 - t - rf, 1 - tb - rb);
-            }
+    /* the channels to print, in order */
+    size_t idx[16], nch = 0;
+    int rc = CLI_OK;
+    if (channels) {
+        char *copy = strdup(channels), *save = NULL;
+        for (char *t = copy ? strtok_r(copy, ",", &save) : NULL; t && rc == CLI_OK;
+             t = strtok_r(NULL, ",", &save)) {
+            if (nch == sizeof idx / sizeof idx[0])
+                rc = cli_fail(sub, "--channels: too many channels");
+            else if (bst_glass_find_channel(g, t) < 0 && bst_glass_add_channel(ctx, g, t) < 0)
+                rc = cli_fail_ctx(sub, NULL, ctx);
+            else
+                idx[nch++] = (size_t)bst_glass_find_channel(g, t);
         }
+        if (!copy)
+            rc = cli_fail(sub, "out of memory");
+        else if (rc == CLI_OK && nch == 0)
+            rc = cli_usage(sub, "--channels: no channel named");
+        free(copy);
+    } else {
+        for (nch = 0; nch < bst_glass_nchannels(g) && nch < sizeof idx / sizeof idx[0]; nch++)
+            idx[nch] = nch;
+    }
+    if (rc == CLI_OK) {
+        describe(g, nch, idx);
+        printf("channel\ttheta\tTf\tTb\tRf\tRb\tAf\tAb\n");
+        static const double extra[] = {89.0, 89.9, 90.0};
+        for (size_t k = 0; k < nch; k++)
+            for (int i = 0; i < 21; i++) {
+                double d = i < 18 ? 5.0 * i : extra[i - 18], t, tb, rf, rb;
+                bst_glass_optics(g, idx[k], d == 90.0 ? M_PI / 2 : d * M_PI / 180, &t, &tb, &rf, &rb);
+                printf("%s\t%g\t%.6f\t%.6f\t%.6f\t%.6f\t%.6f\t%.6f\n", bst_glass_channel(g, idx[k]), d,
+                       t, tb, rf, rb, 1 - t - rf, 1 - tb - rb);
+            }
+        if (fflush(stdout) != 0 || ferror(stdout))
+            rc = cli_fail(sub, "error writing the table");
+    }
     bst_glass_free(g);
     bst_ctx_free(ctx);
-    return CLI_OK;
+    return rc;
 }
