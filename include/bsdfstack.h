@@ -364,8 +364,11 @@ int bst_bsdf_eval(bst_ctx *ctx, const bst_bsdf *b, size_t ch, const double in[3]
 /* The file's BSDF as a layer over `target` (NULL: the file's own basis, Shirley-Chiu of order
  * bst_bsdf_order for trees).  Tensor trees at their own or a coarser order are averaged exactly
  * (finer orders replicate); rank-3 trees are averaged over 2 x 2 incident x 3 x 3 outgoing points
- * per cell; Klems <-> Shirley-Chiu maps cells by their centres with weights that keep every
- * incident patch's hemispherical totals.  Each component lands in its cheapest structure. */
+ * per cell; Klems -> Shirley-Chiu maps cells by their centres with weights that keep every
+ * incident patch's hemispherical totals; Shirley-Chiu -> Klems (trees on their own grid, Klems
+ * files via order 6) averages by the overlaps of cells and patches, so every incident patch keeps
+ * the average of its directions' hemispherical totals.  Each component lands in its cheapest
+ * structure. */
 int bst_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target, bst_layer **out);
 
 /* ---------------------------------------------------------------- BSDF XML writer (xml_write) */
