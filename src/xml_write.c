@@ -56,6 +56,7 @@ struct xw {
     double **t3;            /* rank 3: nch * BST_NCOMP tensors of (G/2) N values */
     double *iso;            /* rank 3: the GA of each */
     int *omit;              /* nch * BST_NCOMP: 1 = left out (reciprocal) */
+    double *hemi;           /* Klems: n values, the hemispherical error per incident patch */
 };
 
 /* ------------------------------------------------------------------ matrix access */
@@ -414,8 +415,8 @@ static void klems_data(struct xw *w, const bst_mat *m, bst_write_block *rep)
 {
     const double *lam = bst_basis_lambda(bst_layer_basis(w->l));
     size_t n = w->n;
-    double sum_abs = 0.0, sum_err = 0.0;
-    double *hemi = bsti_calloc(w->ctx, n, sizeof *hemi); /* NULL: hemispherical error not kept */
+    double sum_abs = 0.0, sum_err = 0.0, *hemi = w->hemi;
+    memset(hemi, 0, n * sizeof *hemi);
     for (size_t o = 0; o < n && !bsti_sink_failed(w->out); o++) {
         for (size_t i = 0; i < n; i++) {
             double v = mval(m, o, i), back;
@@ -427,16 +428,14 @@ static void klems_data(struct xw *w, const bst_mat *m, bst_write_block *rep)
             sum_abs += fabs(v);
             sum_err += fabs(v - back);
             rep->max_error = fmax(rep->max_error, fabs(v - back));
-            if (hemi)
-                hemi[i] += lam[o] * (v - back);
+            hemi[i] += lam[o] * (v - back);
         }
         bsti_sink_put(w->out, "\n", 1);
     }
     rep->values = n * n;
     rep->l1_error = sum_abs > 0.0 ? sum_err / sum_abs : 0.0;
-    for (size_t i = 0; hemi && i < n; i++)
+    for (size_t i = 0; i < n; i++)
         rep->hemi_error = fmax(rep->hemi_error, fabs(hemi[i]));
-    bsti_free(w->ctx, hemi);
 }
 
 static int write_blocks(struct xw *w)
@@ -531,6 +530,8 @@ static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst
         return BST_ENOMEM;
     if (bst_basis_kind_of(b) == BST_BASIS_KLEMS) {
         w.kind = BST_FILE_KLEMS;
+        if (!(w.hemi = bsti_alloc_array(ctx, w.n, sizeof *w.hemi)))
+            rc = BST_ENOMEM;
     } else {
         w.kind = BST_FILE_TT4;
         if (opts->rank != BST_RANK_4) {
@@ -556,6 +557,7 @@ static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst
     }
     free_t3(&w);
     bsti_free(ctx, w.omit);
+    bsti_free(ctx, w.hemi);
     if (rc == BST_EIO)
         return bsti_error(ctx, BST_EIO, "writing BSDF XML: write failed%s%s%s", s->err ? " (" : "",
                           s->err ? strerror(s->err) : "", s->err ? ")" : "");
