@@ -8,6 +8,7 @@
 #include "cli.h"
 
 const struct cli_command cli_commands[] = {
+    {"convert", cmd_convert, "write a BSDF file as a tensor tree or Klems matrices, resampled if asked"},
     {"query", cmd_query, "evaluate a BSDF file at pairs of directions, as RADIANCE does"},
     {"version", cmd_version, "print the program and library versions"},
     {NULL, NULL, NULL}
