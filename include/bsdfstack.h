@@ -315,6 +315,15 @@ void bst_stack_opts_init(bst_stack_opts *opts);
 int bst_stack_combine(bst_ctx *ctx, size_t n, const bst_layer *const *layers,
                       const bst_stack_opts *opts, bst_layer **out);
 
+/* Per-layer absorptance of a stack (Klems 1994, part 2): for unit flux incident from patch j on
+ * the front (exterior) side, abs_front[(i * N) + j] is the fraction absorbed by layer i (exterior
+ * first); abs_back likewise for incidence from the back side (either may be NULL).  A layer's
+ * directional absorptance is 1 - its hemispherical T - R for the side the light arrives on; the
+ * flux arriving on each side of each layer follows from the partial stacks above and below it.
+ * For layers that conserve energy, system T + R + sum_i abs_i = 1 per incident patch. */
+int bst_stack_absorptance(bst_ctx *ctx, size_t n, const bst_layer *const *layers, size_t ch,
+                          const bst_stack_opts *opts, double *abs_front, double *abs_back);
+
 /* ---------------------------------------------------------------- metrics (metrics) */
 
 /* Accordance of two distributions of scattered light for one incident patch (after Grobe 2017),
@@ -377,6 +386,9 @@ int bst_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target, 
  * load.  The layer's basis decides the form:
  * - Klems basis: IncidentDataStructure "Columns" with the AngleBasis blocks, every component of
  *   every channel, each text row holding one outgoing patch (WINDOW, EnergyPlus, RADIANCE).
+ *   Components absent from the layer are left out (readers take a missing reflection as zero and
+ *   a missing transmission from the other side's by reciprocity): write a zero matrix to state a
+ *   zero component.
  * - Shirley-Chiu basis of order k: a RADIANCE tensor tree, "TensorTree3" when every component is
  *   isotropic (tested: see iso_ga_min), else "TensorTree4".
  * Nothing is converted at the boundary: our front is the XML "Front" (exterior, -Z) and our
@@ -420,7 +432,8 @@ typedef enum { BST_RANK_AUTO = 0, BST_RANK_3 = 3, BST_RANK_4 = 4 } bst_tree_rank
 typedef struct {
     const char *channel;
     bst_comp comp;
-    int written;            /* 0: transmission left out as the reciprocal of the other side's */
+    int written;            /* 0: left out: absent from the layer, or (rank 4) a transmission
+                               that is the reciprocal of the other side's */
     bst_file_kind kind;     /* BST_FILE_KLEMS, BST_FILE_TT3 or BST_FILE_TT4 */
     size_t values;          /* numbers in the ScatteringData */
     size_t leaves;          /* tree leaves (0 for Klems) */
@@ -464,6 +477,7 @@ typedef struct {
     size_t nlayers;         /* the layers combined, exterior first (default: the layer's name) */
     const char *const *layers;
     const char *command;    /* the command line that made the file */
+    const char *description;/* further free text for the comment (may hold several lines) */
     const char *date;       /* default: the current UTC time, ISO 8601 */
     void (*on_block)(const bst_write_block *block, void *opaque); /* may be NULL */
     void *opaque;
@@ -484,7 +498,38 @@ int bst_xml_write_path(bst_ctx *ctx, const bst_layer *layer, const char *path,
                        const bst_write_opts *opts);
 
 /* ---------------------------------------------------------------- analytic glass (glass) */
-/* (declared by the glass module) */
+
+/* A clear (uncoated) pane described by its normal-incidence transmittance T0 and reflectance R0 per
+ * side and channel, extended to every angle exactly as Windows-CalcEngine does for uncoated
+ * glass: a slab with two identical interfaces, incoherent multiple reflections and bulk
+ * absorption, whose interface reflectance and refractive index follow from (T0, R0); Fresnel for
+ * s and p, averaged.  T(90 deg) = 0, R(90 deg) = 1, finite everywhere.
+ * Specs (the part after "glass:" on the command line):
+ *   NAME                       a catalogue file NAME.glass in the catalogue directory
+ *   d=6mm,n=1.52,tn=0.89       thickness, refractive index, normal-incidence transmittance
+ *   t0=0.834,r0=0.0747         normal-incidence T and R directly (both sides, every channel)
+ * Inline specs apply to the channels Visible and Solar alike. */
+typedef struct bst_glass bst_glass;
+/* catalogue_dir NULL: the installed catalogue (BST_GLASS_DIR at build time). */
+int bst_glass_parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, bst_glass **out);
+void bst_glass_free(bst_glass *g);
+size_t bst_glass_nchannels(const bst_glass *g);
+const char *bst_glass_channel(const bst_glass *g, size_t ch);
+const char *bst_glass_description(const bst_glass *g);
+/* Tf, Tb, Rf, Rb of channel ch at incidence angle theta (radians, 0..pi/2); each side follows its
+ * own (T0, R0), so Tb differs from Tf where Rb differs from Rf.  tb may be NULL. */
+int bst_glass_optics(const bst_glass *g, size_t ch, double theta, double *tf, double *tb,
+                     double *rf, double *rb);
+/* The pane as a layer over basis: four DIAGONAL components; each patch value is the patch's
+ * directional T (or R) averaged over the patch in projected solid angle (at_centre = 0) or taken at
+ * the patch centre (at_centre = 1, WINDOW's choice), divided by the patch's Lambda.  channels
+ * (may be NULL = all of the pane's) selects and orders the channels. */
+int bst_glass_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, size_t nchannels,
+                    const char *const *channels, int at_centre, bst_layer **out);
+/* Parse and build in one step (used for "glass:SPEC" layer arguments). */
+int bst_glass_layer_from_spec(bst_ctx *ctx, const char *spec, const char *catalogue_dir,
+                              const bst_basis *basis, size_t nchannels,
+                              const char *const *channels, bst_layer **out);
 
 /* ---------------------------------------------------------------- version */
 

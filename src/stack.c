@@ -484,3 +484,161 @@ out:
     *out = res;
     return rc;
 }
+
+/* ------------------------------------------------------------------ absorptance */
+
+/* Directional absorptance of one side of a layer: 1 - hemispherical (T + R) per incident patch. */
+static int side_absorptance(bst_ctx *ctx, const bst_layer *l, size_t ch, int back, double *a)
+{
+    size_t n = bst_basis_size(l->basis);
+    double *t = bsti_alloc_array(ctx, n, sizeof *t);
+    if (!t)
+        return BST_ENOMEM;
+    int rc = bst_layer_hemispherical(ctx, l, ch, back ? BST_TB : BST_TF, t);
+    if (rc >= 0)
+        rc = bst_layer_hemispherical(ctx, l, ch, back ? BST_RB : BST_RF, a);
+    for (size_t j = 0; rc >= 0 && j < n; j++)
+        a[j] = 1.0 - t[j] - a[j];
+    bsti_free(ctx, t);
+    return rc;
+}
+
+/* A 1 x N or 2 x N dense matrix from rows. */
+static int rows_matrix(bst_ctx *ctx, size_t nrows, const double *const *rows, size_t n, bst_mat **out)
+{
+    int rc = bst_mat_new_dense(ctx, nrows, n, BST_DOUBLE, out);
+    if (rc < 0)
+        return rc;
+    double *d = bst_mat_dense_data(*out);
+    for (size_t r = 0; r < nrows; r++)
+        for (size_t j = 0; j < n; j++)
+            d[j * nrows + r] = rows[r][j];
+    return BST_OK;
+}
+
+/* Front incidence only; back incidence is front incidence on the reversed stack. */
+static int absorptance_front(bst_ctx *ctx, size_t n, const bst_layer *const *layers, size_t ch_name_layer0,
+                             const bst_stack_opts *opts, double *abs)
+{
+    const bst_layer *l0 = layers[0];
+    const char *chname = l0->channels[ch_name_layer0];
+    size_t N = bst_basis_size(l0->basis);
+    const double *lam = bst_basis_lambda(l0->basis);
+    double *af = bsti_alloc_array(ctx, 2 * N, sizeof *af), *ab = af ? af + N : NULL;
+    int rc = af ? BST_OK : BST_ENOMEM;
+    /* layer 1's front sees the incident beam itself */
+    if (rc >= 0)
+        rc = side_absorptance(ctx, l0, ch_name_layer0, 0, abs);
+    for (size_t i = 1; rc >= 0 && i < n; i++)
+        memset(abs + i * N, 0, N * sizeof *abs);
+    /* gap k lies between U = layers 0..k-1 and V = layers k..n-1 */
+    for (size_t k = 1; rc >= 0 && k < n; k++) {
+        bst_stack_opts o = *opts;
+        o.on_step = NULL;
+        bst_layer *u = NULL, *v = NULL;
+        bst_mat *lrb = NULL, *lrf = NULL, *a = NULL, *bm = NULL, *y = NULL, *ltf = NULL, *res = NULL;
+        o.comps = BST_COMP_BIT(BST_TF) | BST_COMP_BIT(BST_RB);
+        rc = bst_stack_combine(ctx, k, layers, &o, &u);
+        if (rc >= 0) {
+            o.comps = BST_COMP_BIT(BST_RF);
+            rc = bst_stack_combine(ctx, n - k, layers + k, &o, &v);
+        }
+        size_t cu = 0, cv = 0, cl = 0, ck = 0;
+        if (rc >= 0) {
+            cu = (size_t)bst_layer_find_channel(u, chname);
+            cv = (size_t)bst_layer_find_channel(v, chname);
+            cl = (size_t)bst_layer_find_channel(layers[k - 1], chname);
+            ck = (size_t)bst_layer_find_channel(layers[k], chname);
+            /* alpha_b of layer k-1 (the back of U's last layer) and alpha_f of layer k */
+            rc = side_absorptance(ctx, layers[k - 1], cl, 1, ab);
+        }
+        if (rc >= 0)
+            rc = side_absorptance(ctx, layers[k], ck, 0, af);
+        /* rows: alpha_f(k)^T and alpha_b(k-1)^T L Rf_V; both multiply G = (I - A)^-1 L Tf_U */
+        if (rc >= 0)
+            rc = bst_mat_scale(ctx, lam, bst_layer_get(u, cu, BST_RB), NULL, &lrb);
+        if (rc >= 0)
+            rc = bst_mat_scale(ctx, lam, bst_layer_get(v, cv, BST_RF), NULL, &lrf);
+        if (rc >= 0)
+            rc = bst_mat_mul(ctx, lrb, lrf, 0.0, &a);
+        double *row2 = NULL;
+        if (rc >= 0 && !(row2 = bsti_calloc(ctx, N, sizeof *row2)))
+            rc = BST_ENOMEM;
+        if (rc >= 0) { /* alpha_b^T (L Rf_V): row2[j] = sum_i ab[i] (L Rf_V)(i, j) */
+            rc = bst_mat_col_weighted_sum(ctx, lrf, ab, row2);
+        }
+        if (rc >= 0) {
+            const double *rows[2] = {af, row2};
+            rc = rows_matrix(ctx, 2, rows, N, &bm);
+        }
+        double rcond;
+        if (rc >= 0) {
+            rc = bst_solve_right(ctx, a, bm, opts->rcond_warn, &y, &rcond);
+            if (rc == BST_WILLCOND)
+                rc = BST_OK; /* already reported by the combination */
+        }
+        if (rc >= 0)
+            rc = bst_mat_scale(ctx, lam, bst_layer_get(u, cu, BST_TF), NULL, &ltf);
+        if (rc >= 0)
+            rc = bst_mat_mul(ctx, y, ltf, 0.0, &res); /* 2 x N */
+        for (size_t j = 0; rc >= 0 && j < N; j++) {
+            abs[k * N + j] += bst_mat_get(res, 0, j);
+            abs[(k - 1) * N + j] += bst_mat_get(res, 1, j);
+        }
+        bsti_free(ctx, row2);
+        bst_mat_free(lrb), bst_mat_free(lrf), bst_mat_free(a), bst_mat_free(bm);
+        bst_mat_free(y), bst_mat_free(ltf), bst_mat_free(res);
+        bst_layer_free(u), bst_layer_free(v);
+    }
+    bsti_free(ctx, af);
+    return rc;
+}
+
+int bst_stack_absorptance(bst_ctx *ctx, size_t n, const bst_layer *const *layers, size_t ch,
+                          const bst_stack_opts *opts_in, double *abs_front, double *abs_back)
+{
+    if (!ctx || !layers || n == 0)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "absorptance: no layers") : BST_EINVAL;
+    bst_stack_opts defaults;
+    bst_stack_opts_init(&defaults);
+    const bst_stack_opts *opts = opts_in ? opts_in : &defaults;
+    if (ch >= layers[0]->nchannels)
+        return bsti_error(ctx, BST_EINVAL, "absorptance: channel %zu of %zu", ch, layers[0]->nchannels);
+    for (size_t i = 1; i < n; i++)
+        if (bst_layer_find_channel(layers[i], layers[0]->channels[ch]) < 0)
+            return bsti_error(ctx, BST_ENOTFOUND, "absorptance: layer %zu has no channel %s", i + 1,
+                              layers[0]->channels[ch]);
+    int rc = BST_OK;
+    if (abs_front)
+        rc = absorptance_front(ctx, n, layers, ch, opts, abs_front);
+    if (rc < 0 || !abs_back)
+        return rc;
+    /* back incidence: the reversed stack (each layer flipped, order reversed), front incidence;
+     * its patch p is our mirror(p) (flip mirrors x), and its layer i is our layer n-1-i */
+    const bst_basis *b = layers[0]->basis;
+    size_t N = bst_basis_size(b);
+    bst_layer **rev = bsti_calloc(ctx, n, sizeof *rev);
+    double *tmp = bsti_alloc_array(ctx, n * N, sizeof *tmp);
+    if (!rev || !tmp)
+        rc = BST_ENOMEM;
+    for (size_t i = 0; rc >= 0 && i < n; i++)
+        rc = bst_layer_flip(ctx, layers[n - 1 - i], &rev[i]);
+    size_t chr = 0;
+    if (rc >= 0) {
+        chr = (size_t)bst_layer_find_channel(rev[0], layers[0]->channels[ch]);
+        rc = absorptance_front(ctx, n, (const bst_layer *const *)rev, chr, opts, tmp);
+    }
+    for (size_t j = 0; rc >= 0 && j < N; j++) {
+        double d[3];
+        bst_basis_center(b, j, d);
+        d[0] = -d[0];
+        size_t mj = bst_basis_patch(b, d);
+        for (size_t i = 0; i < n; i++)
+            abs_back[i * N + j] = tmp[(n - 1 - i) * N + mj];
+    }
+    for (size_t i = 0; rev && i < n; i++)
+        bst_layer_free(rev[i]);
+    bsti_free(ctx, rev);
+    bsti_free(ctx, tmp);
+    return rc;
+}

@@ -652,6 +652,28 @@ int bst_bsdf_eval(bst_ctx *ctx, const bst_bsdf *b, size_t ch, const double in_ra
 
 /* ------------------------------------------------------------------ resampling */
 
+/* The Klems patch of every Shirley-Chiu cell centre (map, n entries) and how many cells each Klems
+ * patch holds (cnt, nk entries): the correspondence both directions of Klems <-> Shirley-Chiu
+ * resampling use.  The caller frees both. */
+static int centre_map(bst_ctx *ctx, const bst_basis *sc, const bst_basis *kb, size_t **map, double **cnt)
+{
+    size_t n = bst_basis_size(sc);
+    *map = bsti_alloc_array(ctx, n, sizeof **map);
+    *cnt = bsti_calloc(ctx, bst_basis_size(kb), sizeof **cnt);
+    if (!*map || !*cnt) {
+        bsti_free(ctx, *map), bsti_free(ctx, *cnt);
+        *map = NULL, *cnt = NULL;
+        return BST_ENOMEM;
+    }
+    for (size_t j = 0; j < n; j++) {
+        double d[3];
+        bst_basis_center(sc, j, d);
+        (*map)[j] = bst_basis_patch(kb, d);
+        (*cnt)[(*map)[j]] += 1.0;
+    }
+    return BST_OK;
+}
+
 /* Component c of channel ch on a Shirley-Chiu grid of order k: m is N x N (N = 4^k). */
 static int to_sc(bst_ctx *ctx, const bst_bsdf *b, size_t ch, int c, int k, double *m)
 {
@@ -708,18 +730,11 @@ static int to_sc(bst_ctx *ctx, const bst_bsdf *b, size_t ch, int c, int k, doubl
         /* Klems -> Shirley-Chiu: each cell takes the value of the Klems patch holding its centre,
          * weighted so that every incident patch keeps its hemispherical totals. */
         const bst_basis *kb = b->klems;
-        size_t nk = bst_basis_size(kb);
-        size_t *map = bsti_alloc_array(ctx, n, sizeof *map);
-        double *cnt = bsti_calloc(ctx, nk, sizeof *cnt);
-        if (!map || !cnt) {
-            bsti_free(ctx, map), bsti_free(ctx, cnt), bst_basis_free(own);
-            return BST_ENOMEM;
-        }
-        for (size_t j = 0; j < n; j++) {
-            double d[3];
-            bst_basis_center(sc, j, d);
-            map[j] = bst_basis_patch(kb, d);
-            cnt[map[j]] += 1.0;
+        size_t nk = bst_basis_size(kb), *map;
+        double *cnt;
+        if ((rc = centre_map(ctx, sc, kb, &map, &cnt)) < 0) {
+            bst_basis_free(own);
+            return rc;
         }
         const double *lk = bst_basis_lambda(kb), lsc = M_PI / (double)n;
         const double *km = b->mat[ch][c];

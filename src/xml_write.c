@@ -102,12 +102,21 @@ static void put_escaped(bsti_sink *s, const char *text)
     }
 }
 
-/* Text inside an XML comment: "--" may not occur there, so a '-' after '-' becomes "- -"... as
- * a space is inserted between them; control characters become spaces. */
-static void put_comment_text(bsti_sink *s, const char *text)
+/* Text inside an XML comment: "--" may not occur there, so a space goes between two '-', and a
+ * comment may not end in '-'.  A newline starts a new line indented by `indent`; other control
+ * characters become spaces. */
+static void put_comment_lines(bsti_sink *s, const char *text, const char *indent)
 {
     char prev = 0;
     for (const char *p = text; *p; p++) {
+        if (*p == '\n') {
+            if (prev == '-')
+                bsti_sink_put(s, " ", 1);
+            bsti_sink_put(s, "\n", 1);
+            bsti_sink_puts(s, indent);
+            prev = 0;
+            continue;
+        }
         if (*p == '-' && prev == '-')
             bsti_sink_put(s, " ", 1);
         if ((unsigned char)*p < 0x20 && *p != '\t')
@@ -118,6 +127,11 @@ static void put_comment_text(bsti_sink *s, const char *text)
     }
     if (prev == '-')
         bsti_sink_put(s, " ", 1);
+}
+
+static void put_comment_text(bsti_sink *s, const char *text)
+{
+    put_comment_lines(s, text, "");
 }
 
 static void element(bsti_sink *s, const char *indent, const char *name, const char *text)
@@ -233,25 +247,22 @@ static int build_t3(struct xw *w, int *isotropic)
             if (from_file) {
                 w->iso[idx] = NAN;
                 rc = t3_from_file(w, o->rank3_source, map[ch], c, w->t3[idx]);
+            } else if (!bst_layer_get(w->l, ch, (bst_comp)c)) {
+                w->iso[idx] = NAN; /* absent: not written */
+                rc = BST_OK;
             } else {
                 const bst_mat *m = bst_layer_get(w->l, ch, (bst_comp)c);
-                bst_mat *z = NULL;
-                if (!m && (rc = bst_mat_new_zero(w->ctx, N, N, &z)) < 0)
-                    return rc;
                 double h;
                 /* cheap rejection first (factor 4 instead of the triangle inequality's 2) */
                 if (bsti_tt3_rotation_ga(m, w->k) < 100.0 - 4.0 * (100.0 - o->iso_ga_min)) {
                     *isotropic = 0;
-                    if (o->rank != BST_RANK_3) {
-                        bst_mat_free(z);
+                    if (o->rank != BST_RANK_3)
                         return BST_OK;
-                    }
                 }
                 /* corrections gain less than a point of GA: give up well below the bar */
                 double stop = o->rank == BST_RANK_3 ? -INFINITY : o->iso_ga_min - 2.0;
-                rc = bsti_tt3_from_sc(w->ctx, m ? m : z, w->k, o->iso_refine, stop, w->t3[idx],
+                rc = bsti_tt3_from_sc(w->ctx, m, w->k, o->iso_refine, stop, w->t3[idx],
                                       &w->iso[idx], &h);
-                bst_mat_free(z);
                 if (rc >= 0 && w->iso[idx] < o->iso_ga_min) {
                     *isotropic = 0;
                     if (o->rank != BST_RANK_3)
@@ -311,6 +322,11 @@ static void header(struct xw *w)
         put_comment_text(s, o->command);
         bsti_sink_puts(s, "\n");
     }
+    if (o->description) {
+        bsti_sink_puts(s, "  ");
+        put_comment_lines(s, o->description, "  ");
+        bsti_sink_puts(s, "\n");
+    }
     size_t nl = o->nlayers;
     const char *self = bst_layer_name(w->l);
     if (nl || self[0]) {
@@ -336,7 +352,7 @@ static void header(struct xw *w)
             bsti_sink_puts(s, "  Tree reduction: none (only exactly constant regions merged)\n");
         for (size_t ch = 0; ch < w->nch; ch++)
             for (int c = 0; c < BST_NCOMP; c++)
-                if (w->omit[ch * BST_NCOMP + (size_t)c]) {
+                if (w->omit[ch * BST_NCOMP + (size_t)c] == 1) {
                     bsti_sink_puts(s, "  ");
                     put_comment_text(s, bst_layer_channel(w->l, ch));
                     bsti_sink_printf(s, " %s: left out, the reciprocal of %s\n", block_label[c],
@@ -543,9 +559,21 @@ static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst
                 free_t3(&w);
         }
         for (size_t ch = 0; rc >= 0 && w.kind == BST_FILE_TT4 && opts->recip_tol >= 0.0 && ch < w.nch; ch++)
-            if (bst_layer_get(l, ch, BST_TB) && reciprocal(l, ch, opts->recip_tol))
+            if (bst_layer_get(l, ch, BST_TB) && bst_layer_get(l, ch, BST_TF) &&
+                reciprocal(l, ch, opts->recip_tol))
                 w.omit[ch * BST_NCOMP + BST_TF] = 1; /* keep Transmission Back, as genBSDF */
     }
+    /* components absent from the layer are left out (readers take a missing reflection as zero,
+     * a missing transmission from the other side's by reciprocity) */
+    int any = 0;
+    for (size_t ch = 0; ch < w.nch; ch++)
+        for (int c = 0; c < BST_NCOMP; c++) {
+            if (!bst_layer_get(l, ch, (bst_comp)c))
+                w.omit[ch * BST_NCOMP + (size_t)c] = 2;
+            any |= !w.omit[ch * BST_NCOMP + (size_t)c];
+        }
+    if (rc >= 0 && !any)
+        rc = bsti_error(ctx, BST_EINVAL, "writing BSDF XML: the layer has no component to write");
     if (rc >= 0) {
         header(&w);
         rc = write_blocks(&w);

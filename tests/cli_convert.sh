@@ -43,6 +43,13 @@ printf -- '-0.3420 0 -0.9397 0.4162 0.0734 0.9063\n-0.8660 0 -0.5 0.4162 0.0734 
     | "$BSDFSTACK" query "$tmpdir/r3.xml" | tr '\n' ' ' > "$tmpdir/got"
 [ "$(cat "$tmpdir/got")" = "7.050000e+02 7.010000e+02 1.060000e+02 " ] && pass "rank-3 values kept" || fail "rank-3 values: $(cat "$tmpdir/got")"
 
+# a catalogue pane and a reversed layer go through the shared loader; --channels selects
+expect_status 0 "convert glass:clear-6mm" -- "$BSDFSTACK" convert -k 3 glass:clear-6mm -o "$tmpdir/pane.xml"
+grep -q 'TensorTree4' "$tmpdir/pane.xml" || fail "a specular pane is not isotropic on the grid: TensorTree4"
+expect_status 0 "convert a reversed layer" -- "$BSDFSTACK" convert -k 3 "$ref/L_blind45_t4k5.xml^" -o "$tmpdir/rev.xml"
+expect_status 0 "convert --channels" -- "$BSDFSTACK" convert --channels Visible "$ref/L_glass_t4k5.xml" -o "$tmpdir/ch.xml"
+expect_error "convert --channels without such a channel" "no <ScatteringData> for the requested channels" -- "$BSDFSTACK" convert --channels Solar "$ref/L_glass_t4k5.xml" -o "$tmpdir/ch2.xml"
+
 # failures leave nothing behind
 mkdir "$tmpdir/mid"
 ( trap '' XFSZ; ulimit -f 20; exec "$BSDFSTACK" convert "$ref/L_glass_t4k5.xml" -o "$tmpdir/mid/out.xml" ) >"$tmpdir/out" 2>"$tmpdir/err"

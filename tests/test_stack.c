@@ -199,6 +199,51 @@ START_TEST(test_energy_and_dense)
 }
 END_TEST
 
+
+/* Absorbing layers of every structure: system T + R + the layers' absorptances = 1 per incident
+ * patch on both sides (1e-9), each absorptance within [0, 1]; a single layer's absorptance is its
+ * own 1 - T - R. */
+START_TEST(test_absorptance_balance)
+{
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 2, &b), BST_OK);
+    size_t n = bst_basis_size(b);
+    tu_rng rng;
+    tu_rng_seed(&rng, 31 + (uint64_t)_i);
+    bst_layer *l[3] = {random_layer(b, _i % 3, 0.12, &rng), random_layer(b, (_i + 1) % 3, 0.3, &rng),
+                       random_layer(b, (_i + 2) % 3, 0.05, &rng)};
+    bst_layer *sys;
+    ck_assert_int_eq(bst_stack_combine(ctx, 3, (const bst_layer *const *)l, NULL, &sys), BST_OK);
+    double *af = malloc(3 * n * sizeof *af), *ab = malloc(3 * n * sizeof *ab), *t = malloc(2 * n * sizeof *t), *r = t + n;
+    ck_assert_int_eq(bst_stack_absorptance(ctx, 3, (const bst_layer *const *)l, 0, NULL, af, ab), BST_OK);
+    for (int side = 0; side < 2; side++) {
+        const double *a = side ? ab : af;
+        ck_assert_int_eq(bst_layer_hemispherical(ctx, sys, 0, side ? BST_TB : BST_TF, t), BST_OK);
+        ck_assert_int_eq(bst_layer_hemispherical(ctx, sys, 0, side ? BST_RB : BST_RF, r), BST_OK);
+        for (size_t j = 0; j < n; j++) {
+            double sum = t[j] + r[j];
+            for (int i = 0; i < 3; i++) {
+                ck_assert(a[i * n + j] >= -1e-12 && a[i * n + j] <= 1.0);
+                sum += a[i * n + j];
+            }
+            tu_assert_close(sum, 1.0, 1e-9, 0.0);
+        }
+    }
+    /* the exterior layer absorbs more than nothing and the first layer's share for a single
+     * layer is its own absorptance (0.12) */
+    ck_assert_int_eq(bst_stack_absorptance(ctx, 1, (const bst_layer *const *)l, 0, NULL, af, ab), BST_OK);
+    for (size_t j = 0; j < n; j++) {
+        tu_assert_close(af[j], 0.12, 1e-12, 0.0);
+        tu_assert_close(ab[j], 0.12, 1e-12, 0.0);
+    }
+    free(af), free(ab), free(t);
+    for (int k = 0; k < 3; k++)
+        bst_layer_free(l[k]);
+    bst_layer_free(sys);
+    bst_basis_free(b);
+}
+END_TEST
+
 /* Asking for one component gives the same numbers as asking for all four. */
 START_TEST(test_only_requested)
 {
@@ -307,6 +352,7 @@ static Suite *stack_suite(void)
     tcase_add_test(tc, test_panes_closed_form);
     tcase_add_loop_test(tc, test_energy_and_dense, 0, 27);
     tcase_add_test(tc, test_only_requested);
+    tcase_add_loop_test(tc, test_absorptance_balance, 0, 3);
     tcase_add_test(tc, test_mirrors);
     tcase_add_test(tc, test_energy_warning);
     tcase_add_test(tc, test_errors);

@@ -231,6 +231,17 @@ START_TEST(test_resampling_conserves)
             size_t i5 = (i / 64 / 2) * 32 + (i % 64) / 2, o5 = (o / 64 / 2) * 32 + (o % 64) / 2;
             ck_assert_double_eq(bst_mat_get(m6, o, i), bst_mat_get(m5, o5, i5));
         }
+        /* and down again: the mean of the 4 x 4 fine cells of every k = 5 cell pair is that cell */
+        for (int s = 0; s < 2000; s++) {
+            size_t i5 = (size_t)(tu_rng_uniform(&r) * 1024), o5 = (size_t)(tu_rng_uniform(&r) * 1024);
+            double mean = 0;
+            for (int q = 0; q < 16; q++) {
+                size_t i = (i5 / 32 * 2 + (q >> 3 & 1)) * 64 + i5 % 32 * 2 + (q >> 2 & 1);
+                size_t o = (o5 / 32 * 2 + (q >> 1 & 1)) * 64 + o5 % 32 * 2 + (q & 1);
+                mean += bst_mat_get(m6, o, i) / 16;
+            }
+            tu_assert_close(mean, bst_mat_get(m5, o5, i5), 1e-15, 1e-300);
+        }
         bst_layer_free(l6);
         bst_basis_free(b6);
     }
@@ -342,6 +353,16 @@ START_TEST(test_bad_files)
         unlink(p);
     }
     bst_bsdf *b;
+    /* negative values are read as 0, as libBSDF does (a k = 1 leaf, value 8 negative) */
+    int len0 = snprintf(buf, sizeof buf, HEAD, "TensorTree4", "Transmission Front", "LBNL/Shirley-Chiu",
+                        "{ 1 2 3 4 5 6 7 -8 9 10 11 12 13 14 15 16 }");
+    const char *pn = write_tmp(buf, (size_t)len0);
+    ck_assert_int_ge(bst_bsdf_read(ctx, pn, NULL, &b), 0);
+    double v, in0[3] = {0.3, -0.4, -0.866}, out0[3] = {0.5, 0.2, 0.843}; /* bits 0111: value 8 */
+    ck_assert_int_eq(bst_bsdf_eval(ctx, b, 0, in0, out0, &v), BST_OK);
+    ck_assert_double_eq(v, 0.0);
+    bst_bsdf_free(b);
+    unlink(pn);
     ck_assert_int_eq(bst_bsdf_read(ctx, "/nonexistent/x.xml", NULL, &b), BST_EIO);
     ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "/nonexistent/x.xml"));
     /* Klems value count that does not fit the basis */

@@ -7,6 +7,7 @@
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "cli.h"
@@ -114,6 +115,10 @@ int cli_out_open(struct cli_out *o, const char *sub, const char *path)
         cli_out_abort(o);
         return cli_fail(sub, "%s: cannot create output file: %s", path, strerror(e));
     }
+    /* mkstemp creates the file 0600; give the result the permissions a plain fopen would */
+    mode_t mask = umask(0);
+    umask(mask);
+    fchmod(fd, 0666 & ~mask);
     o->fp = fdopen(fd, "w");
     if (!o->fp) {
         close(fd);

@@ -19,7 +19,10 @@ struct cli_command {
 extern const struct cli_command cli_commands[];
 int cmd_version(int argc, char **argv);
 int cmd_query(int argc, char **argv);
+int cmd_glass(int argc, char **argv);
+int cmd_combine(int argc, char **argv);
 int cmd_convert(int argc, char **argv);
+int cmd_info(int argc, char **argv);
 
 /* "bsdfstack SUB: message" on stderr, one line.  Returns CLI_FAIL. */
 int cli_fail(const char *sub, const char *fmt, ...)

@@ -1,6 +1,7 @@
-/* cmd_convert.c - `bsdfstack convert IN -o OUT`: read any BSDF XML file the reader supports,
- * resample it to another basis if asked (bst_bsdf_to_layer), write it (bst_xml_write) through an
- * atomic output file. */
+/* cmd_convert.c - `bsdfstack convert IN -o OUT`: read any BSDF XML file the reader supports (or a
+ * glass:SPEC pane, or a reversed layer LAYER^), resample it to another basis if asked
+ * (bst_bsdf_to_layer), write it (bst_xml_write) through an atomic output file.  A plain file keeps
+ * its own basis exactly when no other is asked, a rank-3 file its rank-3 trees. */
 #include <config.h>
 
 #include <getopt.h>
@@ -10,12 +11,16 @@
 #include <strings.h>
 
 #include "cli.h"
+#include "layers.h"
+
+#define MAX_CHANNELS 16
 
 static const char help[] =
     "Usage: bsdfstack convert [OPTIONS] IN -o OUT\n"
-    "Reads the BSDF XML file IN (Klems matrices or RADIANCE tensor trees), resamples it to another\n"
-    "basis if asked and writes it as BSDF XML to OUT ('-' = standard output).  Without a basis\n"
-    "option the file keeps its own (a tree its order, a Klems file its basis).  Shirley-Chiu\n"
+    "Reads the BSDF XML file IN (Klems matrices or RADIANCE tensor trees; or glass:SPEC, a pane of\n"
+    "the glass catalogue; LAYER^ for a reversed layer), resamples it to another basis if asked and\n"
+    "writes it as BSDF XML to OUT ('-' = standard output).  Without a basis option a file keeps\n"
+    "its own (a tree its order, a Klems file its basis; glass: Shirley-Chiu k = 5).  Shirley-Chiu\n"
     "output is a tensor tree: TensorTree3 when every component is isotropic, else TensorTree4;\n"
     "Klems output holds every component with each text row one outgoing patch, as WINDOW,\n"
     "EnergyPlus and RADIANCE read it.  OUT appears only when everything was written.\n"
@@ -30,6 +35,7 @@ static const char help[] =
     "      --no-reduce      write every tree value (only exactly constant regions merged)\n"
     "      --rank 3|4       force a TensorTree3 or TensorTree4 (default: by an isotropy test)\n"
     "      --digits N       significant digits per value (default: as many as read back exactly)\n"
+    "      --channels NAMES only these spectral channels (comma-separated)\n"
     "      --name NAME      the Material Name written (default: the input file's name)\n"
     "  -v, --verbose        one line per written block on standard error: values, bytes and\n"
     "                       the reduction's error (L1, largest, hemispherical)\n"
@@ -63,15 +69,17 @@ static void report(const bst_write_block *b, void *opaque)
 
 int cmd_convert(int argc, char **argv)
 {
-    enum { OPT_KLEMS = 256, OPT_REDUCE, OPT_NO_REDUCE, OPT_RANK, OPT_DIGITS, OPT_NAME };
+    enum { OPT_KLEMS = 256, OPT_REDUCE, OPT_NO_REDUCE, OPT_RANK, OPT_DIGITS, OPT_NAME, OPT_CHANNELS };
     static const struct option longopts[] = {
         {"output", required_argument, NULL, 'o'}, {"order", required_argument, NULL, 'k'},
         {"klems", optional_argument, NULL, OPT_KLEMS}, {"reduce", required_argument, NULL, OPT_REDUCE},
         {"no-reduce", no_argument, NULL, OPT_NO_REDUCE}, {"rank", required_argument, NULL, OPT_RANK},
         {"digits", required_argument, NULL, OPT_DIGITS}, {"name", required_argument, NULL, OPT_NAME},
+        {"channels", required_argument, NULL, OPT_CHANNELS},
         {"verbose", no_argument, NULL, 'v'}, {"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}};
-    const char *sub = "convert", *out = NULL, *klems = NULL, *name = NULL;
-    int k = 0, rank = 0, digits = 0, c;
+    const char *sub = "convert", *out = NULL, *name = NULL, *channels = NULL;
+    struct cli_basis_choice basis = {0};
+    int rank = 0, digits = 0, c;
     int reduce_set = 0, no_reduce = 0;
     double pct = BST_REDUCE_PCT;
     struct verbose verbose = {0};
@@ -81,15 +89,11 @@ int cmd_convert(int argc, char **argv)
         switch (c) {
         case 'o': out = optarg; break;
         case 'k':
-            if (cli_parse_int(optarg, &k) || k < BST_K_MIN || k > BST_K_MAX)
-                return cli_usage(sub, "-k %s: the order must be an integer from %d to %d", optarg,
-                                 BST_K_MIN, BST_K_MAX);
-            break;
         case OPT_KLEMS:
-            klems = optarg ? optarg : "full";
-            if (strcasecmp(klems, "full") && strcasecmp(klems, "half") && strcasecmp(klems, "quarter"))
-                return cli_usage(sub, "--klems=%s: use full, half or quarter", klems);
+            if (cli_parse_basis_option(sub, c == 'k' ? 'k' : 'K', optarg, &basis) != CLI_OK)
+                return CLI_USAGE;
             break;
+        case OPT_CHANNELS: channels = optarg; break;
         case OPT_REDUCE:
             if (cli_parse_double(optarg, &pct) || pct < 0 || pct >= 100)
                 return cli_usage(sub, "--reduce %s: the percentile must be in [0, 100)", optarg);
@@ -115,13 +119,16 @@ int cmd_convert(int argc, char **argv)
         return cli_usage(sub, argc - optind < 1 ? "no input file given" : "one input file expected");
     if (!out)
         return cli_usage(sub, "no output file given (-o OUT, or -o - for standard output)");
-    if (k && klems)
-        return cli_usage(sub, "-k and --klems exclude each other");
+    int k = basis.k;
+    const char *klems = basis.klems;
     if (reduce_set && no_reduce)
         return cli_usage(sub, "--reduce and --no-reduce exclude each other");
     if (rank && klems)
         return cli_usage(sub, "--rank applies to tensor trees, not to --klems");
     const char *in = argv[optind];
+    size_t inlen = strlen(in);
+    /* glass:SPEC and LAYER^ go through the shared loader (no rank-3 source then) */
+    int via_loader = strncmp(in, "glass:", 6) == 0 || (inlen && in[inlen - 1] == '^');
 
     bst_ctx *ctx = cli_ctx_new(sub);
     if (!ctx)
@@ -129,9 +136,27 @@ int cmd_convert(int argc, char **argv)
     bst_bsdf *b = NULL;
     bst_basis *target = NULL;
     bst_layer *l = NULL;
-    char *command = NULL;
-    int rc = CLI_OK;
-    int st = bst_bsdf_read(ctx, in, NULL, &b);
+    const bst_layer *lw = NULL;
+    struct cli_layers set = {0};
+    char *command = NULL, *chcopy = channels ? strdup(channels) : NULL;
+    const char *chnames[MAX_CHANNELS];
+    bst_read_opts ro = {0, 0, chnames};
+    int rc = CLI_OK, st;
+    for (char *save = NULL, *t = chcopy ? strtok_r(chcopy, ",", &save) : NULL;
+         t && ro.nchannels < MAX_CHANNELS; t = strtok_r(NULL, ",", &save))
+        chnames[ro.nchannels++] = t;
+    if (channels && !chcopy) {
+        rc = cli_fail(sub, "out of memory");
+        goto done;
+    }
+    if (via_loader) {
+        char *spec = (char *)in;
+        if ((rc = cli_layers_load(&set, ctx, sub, 1, &spec, &basis, channels)) != CLI_OK)
+            goto done;
+        lw = set.layers[0];
+        goto write;
+    }
+    st = bst_bsdf_read(ctx, in, &ro, &b);
     if (st < 0) {
         rc = cli_fail_ctx(sub, NULL, ctx);
         goto done;
@@ -157,6 +182,8 @@ int cmd_convert(int argc, char **argv)
         rc = cli_fail_ctx(sub, in, ctx);
         goto done;
     }
+    lw = l;
+write:;
     /* the command line for the file's comment */
     size_t len = strlen("bsdfstack") + 1;
     for (int i = 0; i < argc; i++)
@@ -185,7 +212,7 @@ int cmd_convert(int argc, char **argv)
         rc = CLI_FAIL;
         goto done;
     }
-    st = bst_xml_write(ctx, l, co.fp, &o);
+    st = bst_xml_write(ctx, lw, co.fp, &o);
     if (st < 0) {
         cli_out_abort(&co);
         rc = cli_fail_ctx(sub, strcmp(out, "-") ? out : "standard output", ctx);
@@ -194,6 +221,8 @@ int cmd_convert(int argc, char **argv)
     rc = cli_out_commit(&co, sub);
 done:
     free(command);
+    free(chcopy);
+    cli_layers_free(&set);
     bst_layer_free(l);
     bst_basis_free(target);
     bst_bsdf_free(b);

@@ -1,0 +1,100 @@
+/* cmd_info.c - `bsdfstack info FILE`: what a BSDF file holds, its directional-hemispherical T and R
+ * by incidence angle and its energy balance. */
+#include <config.h>
+
+#include <getopt.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli.h"
+
+static const char help[] =
+    "Usage: bsdfstack info FILE\n"
+    "Prints the basis and channels of a BSDF XML file, which components it stores, the\n"
+    "directional-hemispherical transmittance T and reflectance R for front (exterior) and back\n"
+    "incidence at theta = 0, 15, 30, 45, 60, 75 degrees (propagation azimuth 0 and 90), and the\n"
+    "energy balance: the largest T + R over all incident patches of each side.\n";
+
+int cmd_info(int argc, char **argv)
+{
+    const char *sub = "info";
+    if (argc == 2 && (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0)) {
+        fputs(help, stdout);
+        return CLI_OK;
+    }
+    if (argc != 2 || argv[1][0] == '-')
+        return cli_usage(sub, argc < 2 ? "no file given" : "one file expected");
+    const char *path = argv[1];
+    bst_ctx *ctx = cli_ctx_new(sub);
+    if (!ctx)
+        return CLI_FAIL;
+    bst_bsdf *b = NULL;
+    bst_layer *l = NULL;
+    int st = bst_bsdf_read(ctx, path, NULL, &b);
+    if (st < 0) {
+        int rc = cli_fail_ctx(sub, NULL, ctx);
+        bst_ctx_free(ctx);
+        return rc;
+    }
+    bst_ctx_clear(ctx);
+    static const char *const kinds[] = {"Klems matrix", "", "", "TensorTree3 (isotropic)", "TensorTree4"};
+    printf("file      %s\nformat    %s", path, kinds[bst_bsdf_kind(b)]);
+    if (bst_bsdf_kind(b) != BST_FILE_KLEMS)
+        printf(", order k = %d (%d x %d cells per hemisphere)\n", bst_bsdf_order(b),
+               1 << bst_bsdf_order(b), 1 << bst_bsdf_order(b));
+    else
+        printf(", %s, %zu patches\n", bst_basis_name(bst_bsdf_klems_basis(b)),
+               bst_basis_size(bst_bsdf_klems_basis(b)));
+    for (size_t ch = 0; ch < bst_bsdf_nchannels(b); ch++) {
+        printf("channel   %s:", bst_bsdf_channel(b, ch));
+        for (int c = 0; c < BST_NCOMP; c++)
+            printf(" %s%s", bst_comp_name((bst_comp)c), bst_bsdf_stored(b, ch, (bst_comp)c) ? "" : "(derived)");
+        printf("\n");
+    }
+    if (bst_bsdf_to_layer(ctx, b, NULL, &l) < 0) {
+        int rc = cli_fail_ctx(sub, path, ctx);
+        bst_bsdf_free(b);
+        bst_ctx_free(ctx);
+        return rc;
+    }
+    const bst_basis *basis = bst_layer_basis(l);
+    size_t n = bst_basis_size(basis);
+    double *h = malloc(4 * n * sizeof *h);
+    if (!h) {
+        bst_layer_free(l), bst_bsdf_free(b), bst_ctx_free(ctx);
+        return cli_fail(sub, "out of memory");
+    }
+    for (size_t ch = 0; ch < bst_layer_nchannels(l); ch++) {
+        for (int c = 0; c < BST_NCOMP; c++)
+            bst_layer_hemispherical(ctx, l, ch, (bst_comp)c, h + (size_t)c * n);
+        printf("\n%s: directional-hemispherical values (incident patch of the propagation direction)\n",
+               bst_layer_channel(l, ch));
+        printf("theta  phi   T_front R_front  T_back  R_back\n");
+        for (int t = 0; t <= 75; t += 15)
+            for (int p = 0; p <= 90; p += 90) {
+                if (t == 0 && p)
+                    continue;
+                double d[3] = {sin(t * M_PI / 180) * cos(p * M_PI / 180) + 1e-9,
+                               sin(t * M_PI / 180) * sin(p * M_PI / 180) + 1e-9, cos(t * M_PI / 180)};
+                size_t j = bst_basis_patch(basis, d);
+                printf("%5d %4d %8.4f %7.4f %7.4f %7.4f\n", t, p, h[j], h[n + j], h[2 * n + j], h[3 * n + j]);
+            }
+        for (int side = 0; side < 2; side++) {
+            size_t worst = 0;
+            for (size_t j = 0; j < n; j++)
+                if (h[2 * side * n + j] + h[(2 * side + 1) * n + j] > h[2 * side * n + worst] + h[(2 * side + 1) * n + worst])
+                    worst = j;
+            double s = h[2 * side * n + worst] + h[(2 * side + 1) * n + worst], d[3];
+            bst_basis_center(basis, worst, d);
+            printf("energy    %s: largest T + R = %.4f at patch %zu (theta %.1f deg)%s\n",
+                   side ? "back " : "front", s, worst, acos(d[2]) * 180 / M_PI,
+                   s > 1.0 + BST_ENERGY_TOL ? "  ** exceeds 1 **" : "");
+        }
+    }
+    free(h);
+    bst_layer_free(l);
+    bst_bsdf_free(b);
+    bst_ctx_free(ctx);
+    return CLI_OK;
+}

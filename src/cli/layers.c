@@ -1,0 +1,197 @@
+/* layers.c - see layers.h. */
+#include <config.h>
+
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+#include "cli.h"
+#include "layers.h"
+
+#define MAX_CH 16
+
+/* Split "a,b,c" into at most max names (pointers into a copy the caller frees). */
+static size_t split(char *s, const char **out, size_t max)
+{
+    size_t n = 0;
+    char *save = NULL;
+    for (char *t = strtok_r(s, ",", &save); t && n < max; t = strtok_r(NULL, ",", &save))
+        out[n++] = t;
+    return n;
+}
+
+int cli_parse_basis_option(const char *sub, int opt, const char *value, struct cli_basis_choice *choice)
+{
+    if (opt == 'k') {
+        if (cli_parse_int(value, &choice->k) || choice->k < BST_K_MIN || choice->k > BST_K_MAX)
+            return cli_usage(sub, "-k %s: the order must be an integer from %d to %d", value,
+                             BST_K_MIN, BST_K_MAX);
+    } else {
+        choice->klems = value ? value : "full";
+        if (strcmp(choice->klems, "full") && strcmp(choice->klems, "half") && strcmp(choice->klems, "quarter"))
+            return cli_usage(sub, "--klems=%s: use full, half or quarter", choice->klems);
+    }
+    if (choice->k && choice->klems)
+        return cli_usage(sub, "-k and --klems exclude each other");
+    return CLI_OK;
+}
+
+void cli_layers_free(struct cli_layers *set)
+{
+    if (!set)
+        return;
+    for (size_t i = 0; i < set->n; i++)
+        bst_layer_free(set->layers[i]);
+    free(set->layers);
+    bst_basis_free(set->basis);
+    free(set->description);
+    memset(set, 0, sizeof *set);
+}
+
+static int is_glass(const char *spec)
+{
+    return strncmp(spec, "glass:", 6) == 0;
+}
+
+int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_t n, char **specs,
+                    const struct cli_basis_choice *choice, const char *channels)
+{
+    memset(set, 0, sizeof *set);
+    set->layers = calloc(n, sizeof *set->layers);
+    bst_bsdf **files = calloc(n, sizeof *files);
+    char *chcopy = channels ? strdup(channels) : NULL;
+    const char *chnames[MAX_CH];
+    size_t nch = chcopy ? split(chcopy, chnames, MAX_CH) : 0;
+    size_t desc_len = 64;
+    for (size_t i = 0; i < n; i++)
+        desc_len += strlen(specs[i]) + 4;
+    set->description = malloc(desc_len);
+    int rc = CLI_OK;
+    if (!set->layers || !files || !set->description || (channels && !chcopy)) {
+        rc = cli_fail(sub, "out of memory");
+        goto out;
+    }
+    strcpy(set->description, "layers (exterior first):");
+    for (size_t i = 0; i < n; i++) {
+        strcat(set->description, i ? ", " : " ");
+        strcat(set->description, specs[i]);
+    }
+    /* 1. read the files, remembering the finest tree order and the first Klems basis */
+    int kmax = 0;
+    const bst_basis *klems_file = NULL;
+    bst_read_opts ro = {.nchannels = nch, .channels = chnames};
+    for (size_t i = 0; i < n && rc == CLI_OK; i++) {
+        char *path = strdup(specs[i]);
+        size_t len = strlen(path);
+        if (len && path[len - 1] == '^')
+            path[len - 1] = '\0';
+        if (is_glass(path)) {
+            free(path);
+            continue;
+        }
+        int st = bst_bsdf_read(ctx, path, &ro, &files[i]);
+        free(path);
+        if (st < 0)
+            rc = cli_fail_ctx(sub, NULL, ctx);
+        else
+            cli_warn_ctx(sub, NULL, st, ctx);
+        if (rc == CLI_OK) {
+            if (bst_bsdf_order(files[i]) > kmax)
+                kmax = bst_bsdf_order(files[i]);
+            if (!klems_file && bst_bsdf_kind(files[i]) == BST_FILE_KLEMS)
+                klems_file = bst_bsdf_klems_basis(files[i]);
+        }
+    }
+    if (rc != CLI_OK)
+        goto out;
+    /* 2. the target basis */
+    int st;
+    if (choice->klems)
+        st = bst_basis_new_klems(ctx, choice->klems, &set->basis);
+    else if (choice->k)
+        st = bst_basis_new_sc(ctx, choice->k, &set->basis);
+    else if (kmax)
+        st = bst_basis_new_sc(ctx, kmax > BST_K_MAX ? BST_K_MAX : kmax, &set->basis);
+    else if (klems_file)
+        st = bst_basis_copy(ctx, klems_file, &set->basis);
+    else
+        st = bst_basis_new_sc(ctx, 5, &set->basis);
+    if (st < 0) {
+        rc = cli_fail_ctx(sub, NULL, ctx);
+        goto out;
+    }
+    /* 3. every layer over that basis, reversed where asked */
+    for (size_t i = 0; i < n && rc == CLI_OK; i++) {
+        size_t len = strlen(specs[i]);
+        int flip = len && specs[i][len - 1] == '^';
+        bst_layer *l = NULL;
+        if (files[i]) {
+            st = bst_bsdf_to_layer(ctx, files[i], set->basis, &l);
+            bst_bsdf_free(files[i]);
+            files[i] = NULL;
+        } else {
+            char *spec = strndup(specs[i] + 6, len - 6 - (size_t)flip);
+            st = spec ? bst_glass_layer_from_spec(ctx, spec, getenv("BSDFSTACK_GLASS_DIR"),
+                                                  set->basis, nch, nch ? chnames : NULL, &l)
+                      : BST_ENOMEM;
+            free(spec);
+        }
+        if (st < 0) {
+            rc = cli_fail_ctx(sub, specs[i], ctx);
+            break;
+        }
+        if (flip) {
+            bst_layer *f;
+            if (bst_layer_flip(ctx, l, &f) < 0) {
+                bst_layer_free(l);
+                rc = cli_fail_ctx(sub, specs[i], ctx);
+                break;
+            }
+            bst_layer_free(l);
+            l = f;
+        }
+        bst_layer_set_name(ctx, l, specs[i]);
+        set->layers[set->n++] = l;
+    }
+out:
+    for (size_t i = 0; files && i < n; i++)
+        bst_bsdf_free(files[i]);
+    free(files);
+    free(chcopy);
+    if (rc != CLI_OK)
+        cli_layers_free(set);
+    return rc;
+}
+
+int cli_write_layer(bst_ctx *ctx, const char *sub, const bst_layer *l, const char *path,
+                    double reduce, int argc, char **argv, const struct cli_layers *set)
+{
+    size_t len = 64 + (set && set->description ? strlen(set->description) : 0);
+    for (int i = 0; i < argc; i++)
+        len += strlen(argv[i]) + 1;
+    char *desc = malloc(len);
+    if (!desc)
+        return cli_fail(sub, "out of memory");
+    snprintf(desc, len, "%s\ncommand: bsdfstack", set && set->description ? set->description : "");
+    for (int i = 0; i < argc; i++) {
+        strcat(desc, " ");
+        strcat(desc, argv[i]);
+    }
+    bst_write_opts wo;
+    bst_write_opts_init(&wo);
+    wo.reduce_pct = reduce;
+    wo.description = desc;
+    struct cli_out out;
+    int rc = cli_out_open(&out, sub, path);
+    if (rc == CLI_OK) {
+        int st = bst_xml_write(ctx, l, out.fp, &wo);
+        if (st < 0) {
+            cli_out_abort(&out);
+            rc = cli_fail_ctx(sub, path, ctx);
+        } else {
+            rc = cli_out_commit(&out, sub);
+        }
+    }
+    free(desc);
+    return rc;
+}

@@ -1,0 +1,34 @@
+/* layers.h - the command line's layer arguments: FILE.xml, glass:SPEC, and a trailing ^ for a
+ * reversed layer; loading them over one target basis; writing a result file. */
+#ifndef BST_CLI_LAYERS_H
+#define BST_CLI_LAYERS_H
+
+#include "bsdfstack.h"
+
+struct cli_basis_choice {
+    int k;             /* Shirley-Chiu order, 0 = not given */
+    const char *klems; /* "full", "half", "quarter" or NULL */
+};
+
+struct cli_layers {
+    size_t n;
+    bst_layer **layers;
+    bst_basis *basis;
+    char *description; /* "layers (exterior first): ..." for the output's metadata */
+};
+
+/* Parse -k VALUE (opt 'k') or --klems[=WHICH] (opt 'K') into choice; CLI_OK or a usage error. */
+int cli_parse_basis_option(const char *sub, int opt, const char *value, struct cli_basis_choice *choice);
+
+/* Load every layer spec over the basis chosen by `choice` (or the default: the finest tensor-tree
+ * order among the files, else the Klems basis of a Klems file, else Shirley-Chiu k = 5).
+ * channels: comma-separated names or NULL.  Prints one error line and returns CLI_FAIL. */
+int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_t n,
+                    char **specs, const struct cli_basis_choice *choice, const char *channels);
+void cli_layers_free(struct cli_layers *set);
+
+/* Write a layer as BSDF XML to path ("-" = stdout), atomically; reduce < 0: no reduction. */
+int cli_write_layer(bst_ctx *ctx, const char *sub, const bst_layer *l, const char *path,
+                    double reduce, int argc, char **argv, const struct cli_layers *set);
+
+#endif

@@ -1,0 +1,57 @@
+# cli_combine.sh - `bsdfstack combine` and `convert` end to end: written files read back, closed
+# forms, errors without partial output.
+. "${BST_SRCDIR:-.}/tests/clitest.sh"
+ref=${BST_REFDIR:?}
+B=$BSDFSTACK
+
+# glass + glass at k = 3: the written tree holds the double-glazing closed form at normal incidence
+expect_status 0 "combine two panes" -- "$B" combine -k 3 --no-reduce -o "$tmpdir/dg.xml" glass:clear-6mm glass:lowiron-6mm
+expect_status 0 "query the result" -- sh -c "echo '0 0 -1 0 0 1' | '$B' query '$tmpdir/dg.xml'"
+got=$(cat "$tmpdir/out")
+expect_status 0 "pane table" -- "$B" glass clear-6mm
+t1=$(awk -F'\t' '$1=="Visible" && $2==0 {print $3}' "$tmpdir/out"); r1=$(awk -F'\t' '$1=="Visible" && $2==0 {print $6}' "$tmpdir/out")
+expect_status 0 "pane table 2" -- "$B" glass lowiron-6mm
+t2=$(awk -F'\t' '$1=="Visible" && $2==0 {print $3}' "$tmpdir/out"); r2=$(awk -F'\t' '$1=="Visible" && $2==0 {print $5}' "$tmpdir/out")
+# the central k = 3 patch averages 0..~10 degrees: compare with 2e-3
+awk -v g="$got" -v t1="$t1" -v t2="$t2" -v r1="$r1" -v r2="$r2" 'BEGIN {
+    t = t1 * t2 / (1 - r1 * r2); v = g * 3.14159265358979 / 64; d = v - t; if (d < 0) d = -d;
+    exit !(d < 2e-3) }' && pass "double glazing T(0) = T1 T2 / (1 - R1 R2)" || fail "double glazing: $got vs $t1 $t2 $r1 $r2"
+
+# a reference blind between panes, reduced output, reads back
+expect_status 0 "combine glass + blind + glass (k = 4)" -- "$B" combine -k 4 -o "$tmpdir/s.xml" glass:clear-6mm "$ref/L_blind0_t4k5.xml" glass:clear-6mm
+expect_status 0 "result reads back" -- sh -c "echo '0 0 -1 0 0 1' | '$B' query '$tmpdir/s.xml'"
+expect_status 0 "--only Tf, Klems" -- "$B" combine --klems --only Tf -o "$tmpdir/tf.xml" glass:clear-6mm "$ref/L_blind45_t4k5_klems.xml"
+grep -q "Transmission Front" "$tmpdir/tf.xml" && ! grep -q "Reflection Back" "$tmpdir/tf.xml" \
+    && pass "--only Tf writes Tf alone" || fail "--only Tf"
+expect_status 0 "reversed layer" -- "$B" combine -k 3 -o "$tmpdir/r.xml" "$ref/L_blind45_t4k5.xml^"
+
+# absorptance: T + R + sum of A = 1 for analytic panes (which conserve energy)
+expect_status 0 "combine --absorptance" -- "$B" combine -k 3 --absorptance "$tmpdir/abs.tsv" -o "$tmpdir/a3.xml" glass:clear-6mm glass:nfrc-103 glass:lowiron-6mm
+awk -F'\t' 'NR == 1 { ok = ($6 == "A1" && $9 == "T"); next } { n++; s = $6 + $7 + $8 + $9 + $10;
+    if (s < 1 - 1e-6 || s > 1 + 1e-6 || $6 < 0) bad = 1 } END { exit !(ok && !bad && n == 2 * 2 * 64) }' "$tmpdir/abs.tsv" \
+    && pass "absorptance rows balance T + R + A = 1" || fail "absorptance file: $(head -3 "$tmpdir/abs.tsv")"
+
+# errors: one line, non-zero exit, no output file left behind
+expect_error "unknown layer file" "nothere.xml: cannot open" -- "$B" combine -o "$tmpdir/x.xml" glass:clear-6mm "$tmpdir/nothere.xml"
+[ ! -e "$tmpdir/x.xml" ] && ! ls "$tmpdir"/x.xml.tmp* >/dev/null 2>&1 && pass "no partial output" || fail "partial output left"
+expect_error "unknown pane" "no such pane" -- "$B" combine -o "$tmpdir/x.xml" glass:clear-5mm glass:clear-6mm
+expect_error "k out of range" "-k 9" -- "$B" combine -k 9 -o "$tmpdir/x.xml" glass:clear-6mm
+expect_error "no output" "no output file" -- "$B" combine glass:clear-6mm
+expect_error "bad component" "unknown component 'Tx'" -- "$B" combine --only Tx -o "$tmpdir/x.xml" glass:clear-6mm
+expect_error "unwritable directory" "cannot create output file" -- "$B" combine -o /nonexistent/dir/x.xml glass:clear-6mm
+
+# info: the glass reference file's hemispherical T at normal incidence (libBSDF: 0.8817)
+expect_status 0 "info" -- "$B" info "$ref/L_glass_t4k5.xml"
+awk '$1 == 0 && $2 == 0 { d = $3 - 0.8817; if (d < 0) d = -d; ok = d < 2e-3 } END { exit !ok }' "$tmpdir/out" \
+    && pass "info: T(0) of the clear pane" || fail "info: $(cat "$tmpdir/out")"
+expect_error "info of a missing file" "cannot open" -- "$B" info "$tmpdir/none.xml"
+
+# convert: unreduced round trip is exact
+expect_status 0 "convert --no-reduce" -- "$B" convert --no-reduce -o "$tmpdir/g.xml" "$ref/L_glass_t4k5.xml"
+grep -v '^#' "$ref/L_glass_t4k5.query.tsv" | sed 1d | cut -f3-8 > "$tmpdir/q"
+"$B" query "$ref/L_glass_t4k5.xml" < "$tmpdir/q" > "$tmpdir/a"
+"$B" query "$tmpdir/g.xml" < "$tmpdir/q" > "$tmpdir/b"
+cmp -s "$tmpdir/a" "$tmpdir/b" && pass "convert round trip is exact" || fail "convert round trip differs"
+expect_status 0 "convert to Klems" -- "$B" convert --klems -o "$tmpdir/k.xml" "$ref/L_glass_t4k5.xml"
+grep -q "LBNL/Klems Full" "$tmpdir/k.xml" && pass "Klems output names its basis" || fail "Klems output"
+finish
