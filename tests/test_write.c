@@ -92,7 +92,7 @@ static int pt_node(struct pt *p, const size_t *corner, size_t side, int depth)
         if (side < 2)
             return -1;
         for (int n = 0; n < (1 << p->dim); n++) {
-            size_t c[4];
+            size_t c[4] = {0, 0, 0, 0};
             for (int i = 0; i < p->dim; i++)
                 c[i] = corner[i] + ((size_t)((n >> i) & 1)) * (side / 2);
             if (pt_node(p, c, side / 2, depth + 1) < 0)
@@ -126,7 +126,7 @@ static int pt_node(struct pt *p, const size_t *corner, size_t side, int depth)
             return -1;
         size_t rep = side / g;
         for (size_t j = 0; j < nv; j++) {
-            size_t cell[4], q = j;
+            size_t cell[4] = {0, 0, 0, 0}, q = j;
             for (int i = p->dim - 1; i >= 0; i--) {
                 cell[i] = corner[i] + (q % g) * rep;
                 q /= g;
