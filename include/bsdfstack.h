@@ -373,28 +373,129 @@ int bst_bsdf_eval(bst_ctx *ctx, const bst_bsdf *b, size_t ch, const double in[3]
 /* The file's BSDF as a layer over `target` (NULL: the file's own basis, Shirley-Chiu of order
  * bst_bsdf_order for trees).  Tensor trees at their own or a coarser order are averaged exactly
  * (finer orders replicate); rank-3 trees are averaged over 2 x 2 incident x 3 x 3 outgoing points
- * per cell; Klems <-> Shirley-Chiu maps cells by their centres with weights that keep every
- * incident patch's hemispherical totals.  Each component lands in its cheapest structure. */
+ * per cell; Klems -> Shirley-Chiu maps cells by their centres with weights that keep every
+ * incident patch's hemispherical totals; Shirley-Chiu -> Klems (trees on their own grid, Klems
+ * files via order 6) averages by the overlaps of cells and patches, so every incident patch keeps
+ * the average of its directions' hemispherical totals.  Each component lands in its cheapest
+ * structure. */
 int bst_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target, bst_layer **out);
 
 /* ---------------------------------------------------------------- BSDF XML writer (xml_write) */
 
-/* Writes a layer as BSDF XML that RADIANCE's libBSDF, WINDOW and EnergyPlus read: a TensorTree4 for
- * a Shirley-Chiu layer, a Klems matrix ("Columns": one text row per outgoing patch) for a Klems
- * layer; all channels and all present components (absent ones are written as zero), with the XML
- * side labels (Front = exterior, as in bsdfstack).  Tree reduction follows the effect of RADIANCE's
- * rttree_reduce: the variation measure sqrt((max - min) / (sqrt(mean) + 0.03)) of every finest
- * 2x2x2x2 block gives a threshold at the reduce_pct-th percentile; every node whose variation is not
- * above it is written as its mean (one value), finest blocks above it with their 16 values. */
-typedef struct {
-    double reduce_pct;       /* percentile in [0, 100), default BST_REDUCE_PCT; < 0: no reduction */
-    int digits;              /* significant digits of values, default 4 reduced, 17 unreduced */
-    const char *name;        /* Material Name (default "bsdfstack system") */
-    const char *description; /* free text written as an XML comment (layers, command line ...) */
-} bst_write_opts;
+/* A layer written as LBNL WindowElement BSDF XML that RADIANCE's libBSDF, WINDOW and EnergyPlus
+ * load.  The layer's basis decides the form:
+ * - Klems basis: IncidentDataStructure "Columns" with the AngleBasis blocks, every component of
+ *   every channel, each text row holding one outgoing patch (WINDOW, EnergyPlus, RADIANCE).
+ *   Components absent from the layer are left out (readers take a missing reflection as zero and
+ *   a missing transmission from the other side's by reciprocity): write a zero matrix to state a
+ *   zero component.
+ * - Shirley-Chiu basis of order k: a RADIANCE tensor tree, "TensorTree3" when every component is
+ *   isotropic (tested: see iso_ga_min), else "TensorTree4".
+ * Nothing is converted at the boundary: our front is the XML "Front" (exterior, -Z) and our
+ * matrices index like RADIANCE's trees and Klems files (incident patch of the propagation
+ * direction, outgoing patch of the exit direction).  Values are BSDF in 1/sr.
+ *
+ * Tree reduction (as genBSDF's rttree_reduce -t, own criterion): each node of the tree gets a
+ * variation measure m = sd / (sqrt(mean) + reduce_floor), the standard deviation of its cells
+ * relative to the square root of their mean (Monte Carlo noise grows like that root); for a node
+ * above the finest 2^D blocks m is the largest of its children's and of the same measure taken
+ * over the children's means.  The threshold is the reduce_pct-th percentile of m over the finest
+ * blocks (for rank 3 the unused half counts, as in rttree_reduce), and every node with m <= the
+ * threshold is written as its average (one value); finest blocks above it keep their 2^D values.
+ * Without reduction only exactly constant regions are merged: the file holds every value exactly
+ * (to the single precision the tree readers store).  Each tree reaches depth k, so readers that
+ * take the resolution from the depth (bst_bsdf_read) get k back.
+ * A tree transmission that equals the reciprocal of the other side's (f_T(in, out) =
+ * f_T'(out, in), within recip_tol) is left out, as genBSDF does: libBSDF and bst_bsdf_read
+ * rebuild it. */
+typedef enum { BST_RANK_AUTO = 0, BST_RANK_3 = 3, BST_RANK_4 = 4 } bst_tree_rank;
+
+/* Culling percentile (genBSDF's rttree_reduce -t 90). */
 #define BST_REDUCE_PCT 90.0
+/* Offset of sqrt(mean) in the variation measure (sqrt(1/sr)): keeps near-zero regions from
+ * counting as highly variable (rttree_reduce uses the same 0.03). */
+#define BST_REDUCE_FLOOR 0.03
+/* Isotropy: TensorTree3 is chosen only if, for every component and every incident patch, the
+ * global accordance (bst_accordance) between the component and its rank-3 form as
+ * bst_bsdf_to_layer reads it back is at least this (percent).  A rank-3 tree read onto the grid
+ * and rebuilt from it keeps GA >= 99.3 (RADIANCE's diffuser at k = 5: the loss is the rotational
+ * smoothing of the grid's incident cells near normal incidence); clear glass gives about 54, a
+ * venetian blind 10 to 20. */
+#define BST_ISO_GA_MIN 99.0
+/* Reciprocity test for leaving out a tree transmission: |Tf(o,i) - Tb(a(i),a(o))| <= recip_tol *
+ * max|T| for every element (a = antipodal patch). */
+#define BST_RECIP_TOL 1e-6
+/* Corrections of a rank-3 tensor built from a grid matrix (see iso_refine). */
+#define BST_ISO_REFINE 3
+
+/* What was written for one (channel, component); passed to on_block. */
+typedef struct {
+    const char *channel;
+    bst_comp comp;
+    int written;            /* 0: left out: absent from the layer, or (rank 4) a transmission
+                               that is the reciprocal of the other side's */
+    bst_file_kind kind;     /* BST_FILE_KLEMS, BST_FILE_TT3 or BST_FILE_TT4 */
+    size_t values;          /* numbers in the ScatteringData */
+    size_t leaves;          /* tree leaves (0 for Klems) */
+    uint64_t bytes;         /* bytes of the ScatteringData text */
+    double threshold;       /* reduction threshold of the variation measure (0: lossless) */
+    /* Error of the file against the layer's matrix, as a reader will see it (rank 3: against the
+     * rank-3 tensor; iso_ga measures that step): */
+    double l1_error;        /* sum |f - f_file| / sum |f| over all cells (0 when f is 0) */
+    double max_error;       /* largest |f - f_file| (1/sr) */
+    double hemi_error;      /* largest change of a directional-hemispherical value */
+    double iso_ga;          /* rank 3: least GA (%) between the component and its rank-3 form;
+                               NaN otherwise */
+} bst_write_block;
+
+/* Output callback: write len bytes, return 0 on success. */
+typedef int (*bst_write_fn)(const char *buf, size_t len, void *opaque);
+
+typedef struct {
+    bst_tree_rank rank;     /* trees: AUTO (default), or force rank 3 or 4 */
+    double reduce_pct;      /* trees: culling percentile in [0, 100); < 0 = no reduction;
+                               default BST_REDUCE_PCT */
+    double reduce_floor;    /* default BST_REDUCE_FLOOR */
+    int digits;             /* significant digits of every value; 0 (default) = as many as needed
+                               to read back exactly (float for trees, double for Klems) */
+    double iso_ga_min;      /* default BST_ISO_GA_MIN */
+    double recip_tol;       /* default BST_RECIP_TOL; < 0 always writes both transmissions */
+    int iso_refine;         /* rank 3 built from the layer: corrections of the rank-3 tensor
+                               towards the layer (each costs about one isotropy check), default
+                               BST_ISO_REFINE */
+    /* The file the layer was read from at its own order (may be NULL): when it holds rank-3 trees
+     * of the layer's order and channels, and rank 3 is written, the rank-3 tensors are taken from
+     * it exactly instead of being rebuilt from the layer (which loses about 1 % of GA near normal
+     * incidence, see BST_ISO_GA_MIN). */
+    const bst_bsdf *rank3_source;
+    /* Metadata (NULL / <= 0: left out).  Material fields: */
+    const char *name;       /* default: the layer's name */
+    const char *manufacturer;
+    const char *device_type;/* default "Other" */
+    double thickness, width, height; /* meter */
+    /* For the leading XML comment: */
+    size_t nlayers;         /* the layers combined, exterior first (default: the layer's name) */
+    const char *const *layers;
+    const char *command;    /* the command line that made the file */
+    const char *description;/* further free text for the comment (may hold several lines) */
+    const char *date;       /* default: the current UTC time, ISO 8601 */
+    void (*on_block)(const bst_write_block *block, void *opaque); /* may be NULL */
+    void *opaque;
+} bst_write_opts;
+
 void bst_write_opts_init(bst_write_opts *opts);
-int bst_xml_write(bst_ctx *ctx, const bst_layer *l, FILE *fp, const bst_write_opts *opts);
+
+/* Write layer (NULL opts = defaults) to a stream, a callback, or a file.  bst_xml_write_path writes
+ * a temporary file next to path and renames it into place only when everything succeeded, so a
+ * failed write leaves nothing behind.  Errors: BST_EIO (with the system's reason) when a write
+ * fails, BST_EINVAL for a value that is not finite, BST_EBASIS for a basis that has no file form.
+ * Peak memory beyond the layer: for a tree about 1/10 of one dense component (the variation
+ * measures of the tree nodes); for rank 3 also the rank-3 tensors (1/2^(k+1) of a component). */
+int bst_xml_write(bst_ctx *ctx, const bst_layer *layer, FILE *fp, const bst_write_opts *opts);
+int bst_xml_write_fn(bst_ctx *ctx, const bst_layer *layer, bst_write_fn fn, void *opaque,
+                     const bst_write_opts *opts);
+int bst_xml_write_path(bst_ctx *ctx, const bst_layer *layer, const char *path,
+                       const bst_write_opts *opts);
 
 /* ---------------------------------------------------------------- analytic glass (glass) */
 

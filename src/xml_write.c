@@ -1,299 +1,655 @@
-/* xml_write.c - BSDF XML output: TensorTree4 (optionally reduced) for Shirley-Chiu layers and
- * Klems matrices for Klems layers.  File conventions: CONVENTIONS.md 2 (layout), 6 (tree syntax:
- * branch children with dimension 0 the LEAST significant bit, leaf values with dimension 0 the
- * SLOWEST), 7 (Klems "Columns" order).  Our components map onto the XML labels one to one
- * (Front = exterior in both), and our matrix element (o, i) is the tree cell (ix, iy, ox, oy) of
- * i = ix 2^k + iy, o = ox 2^k + oy. */
+/* xml_write.c - writing a layer as BSDF XML (LBNL WindowElement, the layout wrapBSDF writes:
+ * CONVENTIONS.md 2), streamed: only one ScatteringData block is ever being formed, straight into
+ * the output.
+ *
+ * File conventions at this boundary (CONVENTIONS.md 1, 5, 7): our front is the XML "Front"
+ * (exterior, -Z), so Tf is "Transmission Front" and so on; our matrices index the incident patch by
+ * the propagation direction and the outgoing patch by the exit direction, exactly as RADIANCE's
+ * tensor trees and Klems files do, so no index is converted.  A Shirley-Chiu matrix M[o + N i] is
+ * already rttree_reduce's full tensor; a Klems "Columns" block lists M row by row (each text row
+ * one outgoing patch o, its numbers the incident patches i).
+ *
+ * Choices: trees are rank 3 when every component passes the isotropy check (ttree_rank3.c), else
+ * rank 4; a rank-4 transmission that is the reciprocal of the other side's is left out as genBSDF
+ * does; values keep single precision exactly in trees (what readers store) and double precision
+ * exactly in Klems matrices, unless a number of digits is asked for. */
 #include <config.h>
 
+#include <errno.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "basis.h"
 #include "ctx.h"
 #include "layer.h"
+#include "mat.h"
+#include "sink.h"
+#include "ttree_write.h"
 
-/* rttree_reduce's variation measure: histogram of 300 bins over [0, 4). */
-#define VAR_BINS 300
-#define VAR_MAX 4.0
-#define VAR_FLOOR 0.03
+static const char *const block_label[BST_NCOMP] = {
+    "Transmission Front", "Reflection Front", "Transmission Back", "Reflection Back"};
 
 void bst_write_opts_init(bst_write_opts *o)
 {
     memset(o, 0, sizeof *o);
+    o->rank = BST_RANK_AUTO;
     o->reduce_pct = BST_REDUCE_PCT;
+    o->reduce_floor = BST_REDUCE_FLOOR;
+    o->digits = 0;
+    o->iso_ga_min = BST_ISO_GA_MIN;
+    o->recip_tol = BST_RECIP_TOL;
+    o->iso_refine = BST_ISO_REFINE;
 }
 
-static double variation(double vmin, double vmax, double vavg)
-{
-    return sqrt((vmax - vmin) / (sqrt(fmax(vavg, 0.0)) + VAR_FLOOR));
-}
-
-static void put_value(FILE *fp, double v, int digits)
-{
-    if (v == 0.0)
-        fputs(" 0", fp);
-    else
-        fprintf(fp, " %.*g", digits, v);
-}
-
-/* Pyramid of node statistics: level l has 16^l nodes indexed by interleaved coordinates. */
-struct pyramid {
-    int k;
-    size_t g, n;
-    const double *m;       /* N x N, M[o + N i] */
-    float *mn[16], *mx[16], *avg[16];
-    double thr;
-    int digits;
-    FILE *fp;
+struct xw {
+    bst_ctx *ctx;
+    const bst_layer *l;
+    const bst_write_opts *o;
+    bsti_sink *out;
+    size_t nch, n;          /* channels, patches */
+    int k;                  /* Shirley-Chiu order (0: Klems) */
+    bst_file_kind kind;
+    double **t3;            /* rank 3: nch * BST_NCOMP tensors of (G/2) N values */
+    double *iso;            /* rank 3: the GA of each */
+    int *omit;              /* nch * BST_NCOMP: 1 = left out (reciprocal) */
+    double *hemi;           /* Klems: n values, the hemispherical error per incident patch */
 };
 
-static size_t node_index(int l, const size_t c[4])
+/* ------------------------------------------------------------------ matrix access */
+
+static inline double mval(const bst_mat *m, size_t o, size_t i)
 {
-    size_t s = (size_t)1 << l;
-    return ((c[0] * s + c[1]) * s + c[2]) * s + c[3];
+    if (!m || m->s == BST_ZERO)
+        return 0.0;
+    if (m->s == BST_DENSE)
+        return bsti_dense_get(m, o, i);
+    return bst_mat_get(m, o, i);
 }
 
-static double cell(const struct pyramid *p, size_t ix, size_t iy, size_t ox, size_t oy)
+static double tensor_get(const void *opaque, size_t index)
 {
-    return p->m[(ox * p->g + oy) + p->n * (ix * p->g + iy)];
+    const bst_mat *m = opaque;
+    return mval(m, index % m->rows, index / m->rows);
 }
 
-static int build_pyramid(bst_ctx *ctx, struct pyramid *p)
+static double zero_get(const void *opaque, size_t index)
 {
-    for (int l = p->k - 1; l >= 0; l--) {
-        size_t cnt = (size_t)1 << (4 * l);
-        p->mn[l] = bsti_alloc_array(ctx, cnt, sizeof(float));
-        p->mx[l] = bsti_alloc_array(ctx, cnt, sizeof(float));
-        p->avg[l] = bsti_alloc_array(ctx, cnt, sizeof(float));
-        if (!p->mn[l] || !p->mx[l] || !p->avg[l])
-            return BST_ENOMEM;
-        size_t s = (size_t)1 << l;
-        for (size_t a = 0; a < s; a++)
-            for (size_t b = 0; b < s; b++)
-                for (size_t e = 0; e < s; e++)
-                    for (size_t f = 0; f < s; f++) {
-                        size_t c[4] = {a, b, e, f};
-                        size_t id = node_index(l, c);
-                        double lo = INFINITY, hi = -INFINITY, sum = 0;
-                        for (int q = 0; q < 16; q++) {
-                            size_t cc[4] = {2 * a + (q >> 3 & 1), 2 * b + (q >> 2 & 1),
-                                            2 * e + (q >> 1 & 1), 2 * f + (q & 1)};
-                            double v0, v1, va;
-                            if (l == p->k - 1) {
-                                v0 = v1 = va = cell(p, cc[0], cc[1], cc[2], cc[3]);
-                            } else {
-                                size_t ci = node_index(l + 1, cc);
-                                v0 = p->mn[l + 1][ci], v1 = p->mx[l + 1][ci], va = p->avg[l + 1][ci];
-                            }
-                            lo = fmin(lo, v0), hi = fmax(hi, v1), sum += va;
-                        }
-                        p->mn[l][id] = (float)lo, p->mx[l][id] = (float)hi;
-                        p->avg[l][id] = (float)(sum / 16.0);
-                    }
+    (void)opaque, (void)index;
+    return 0.0;
+}
+
+/* ------------------------------------------------------------------ text helpers */
+
+/* Text content or attribute value with the XML specials escaped. */
+static void put_escaped(bsti_sink *s, const char *text)
+{
+    for (const char *p = text; *p; p++) {
+        switch (*p) {
+        case '&': bsti_sink_puts(s, "&amp;"); break;
+        case '<': bsti_sink_puts(s, "&lt;"); break;
+        case '>': bsti_sink_puts(s, "&gt;"); break;
+        case '"': bsti_sink_puts(s, "&quot;"); break;
+        default:
+            if ((unsigned char)*p < 0x20 && *p != '\t' && *p != '\n')
+                bsti_sink_put(s, " ", 1); /* control characters are not allowed in XML 1.0 */
+            else
+                bsti_sink_put(s, p, 1);
+        }
+    }
+}
+
+/* Text inside an XML comment: "--" may not occur there, so a space goes between two '-', and a
+ * comment may not end in '-'.  A newline starts a new line indented by `indent`; other control
+ * characters become spaces. */
+static void put_comment_lines(bsti_sink *s, const char *text, const char *indent)
+{
+    char prev = 0;
+    for (const char *p = text; *p; p++) {
+        if (*p == '\n') {
+            if (prev == '-')
+                bsti_sink_put(s, " ", 1);
+            bsti_sink_put(s, "\n", 1);
+            bsti_sink_puts(s, indent);
+            prev = 0;
+            continue;
+        }
+        if (*p == '-' && prev == '-')
+            bsti_sink_put(s, " ", 1);
+        if ((unsigned char)*p < 0x20 && *p != '\t')
+            bsti_sink_put(s, " ", 1);
+        else
+            bsti_sink_put(s, p, 1);
+        prev = *p;
+    }
+    if (prev == '-')
+        bsti_sink_put(s, " ", 1);
+}
+
+static void put_comment_text(bsti_sink *s, const char *text)
+{
+    put_comment_lines(s, text, "");
+}
+
+static void element(bsti_sink *s, const char *indent, const char *name, const char *text)
+{
+    bsti_sink_puts(s, indent);
+    bsti_sink_printf(s, "<%s>", name);
+    put_escaped(s, text);
+    bsti_sink_printf(s, "</%s>\n", name);
+}
+
+/* ------------------------------------------------------------------ decisions before writing */
+
+static int validate(struct xw *w)
+{
+    for (size_t ch = 0; ch < w->nch; ch++)
+        for (int c = 0; c < BST_NCOMP; c++) {
+            const bst_mat *m = bst_layer_get(w->l, ch, (bst_comp)c);
+            if (m && !bst_mat_all_finite(m))
+                return bsti_error(w->ctx, BST_EINVAL, "writing BSDF XML: %s %s holds a value that "
+                                  "is not finite", bst_layer_channel(w->l, ch), bst_comp_name((bst_comp)c));
+        }
+    return BST_OK;
+}
+
+/* Is Tf(o, i) = Tb(a(i), a(o)) within tol * max|T| for every element (a = antipode)? */
+static int reciprocal(const bst_layer *l, size_t ch, double tol)
+{
+    const bst_mat *tf = bst_layer_get(l, ch, BST_TF), *tb = bst_layer_get(l, ch, BST_TB);
+    const bst_basis *b = bst_layer_basis(l);
+    size_t n = bst_basis_size(b);
+    double scale = fmax(tf ? bst_mat_max_abs(tf) : 0.0, tb ? bst_mat_max_abs(tb) : 0.0);
+    for (size_t i = 0; i < n; i++) {
+        size_t ai = bst_basis_antipode(b, i);
+        for (size_t o = 0; o < n; o++)
+            if (fabs(mval(tf, o, i) - mval(tb, ai, bst_basis_antipode(b, o))) > tol * scale)
+                return 0;
+    }
+    return 1;
+}
+
+/* The rank-3 tensor of channel ch, component c, taken from a rank-3 file by evaluating it at the
+ * centre of every rank-3 cell: incidence in the x-z plane (no rotation), the exit direction at the
+ * cell centre of the outgoing square. */
+static int t3_from_file(struct xw *w, const bst_bsdf *src, size_t sch, int c, double *t3)
+{
+    size_t G = (size_t)1 << w->k, N = G * G, half = G / 2;
+    double zin = (c == BST_TF || c == BST_RF) ? -1.0 : 1.0;
+    double zout = (c == BST_TF || c == BST_RB) ? 1.0 : -1.0;
+    for (size_t ix = 0; ix < half; ix++) {
+        /* p0 = 0.5 - 1e-6 - r/2 at the cell centre (ix + 1/2) / G */
+        double r = 1.0 - 2.0 * (((double)ix + 0.5) / (double)G) - 2e-6;
+        double in[3] = {-r, 0.0, zin * sqrt(1.0 - r * r)};
+        for (size_t q = 0; q < N; q++) {
+            double x, y;
+            bsti_sc_square_to_disk(((double)(q / G) + 0.5) / (double)G,
+                                   ((double)(q % G) + 0.5) / (double)G, &x, &y);
+            double out[3] = {x, y, zout * sqrt(fmax(0.0, 1.0 - x * x - y * y))};
+            int rc = bst_bsdf_eval(w->ctx, src, sch, in, out, &t3[ix * N + q]);
+            if (rc < 0)
+                return rc;
+        }
     }
     return BST_OK;
 }
 
-/* Emit node (l, c); l = k - 1 nodes are the finest 2x2x2x2 blocks. */
-static void emit(struct pyramid *p, int l, const size_t c[4], int depth)
+/* Can src supply the rank-3 tensors (rank-3 file of our order with every channel)? */
+static int source_usable(const struct xw *w, const bst_bsdf *src, size_t *map)
 {
-    size_t id = node_index(l, c);
-    double var = variation(p->mn[l][id], p->mx[l][id], p->avg[l][id]);
-    for (int i = 0; i < depth; i++)
-        fputc('\t', p->fp);
-    if (var <= p->thr) {
-        fputs("{", p->fp);
-        put_value(p->fp, p->avg[l][id], p->digits);
-        fputs(" }\n", p->fp);
-        return;
+    if (!src || bst_bsdf_kind(src) != BST_FILE_TT3 || bst_bsdf_order(src) != w->k)
+        return 0;
+    for (size_t ch = 0; ch < w->nch; ch++) {
+        size_t j = 0;
+        while (j < bst_bsdf_nchannels(src) &&
+               strcasecmp(bst_bsdf_channel(src, j), bst_layer_channel(w->l, ch)) != 0)
+            j++;
+        if (j == bst_bsdf_nchannels(src))
+            return 0;
+        map[ch] = j;
     }
-    if (l == p->k - 1) { /* 16 values, dimension 0 slowest */
-        fputs("{", p->fp);
-        for (int q = 0; q < 16; q++)
-            put_value(p->fp, cell(p, 2 * c[0] + (q >> 3 & 1), 2 * c[1] + (q >> 2 & 1),
-                                  2 * c[2] + (q >> 1 & 1), 2 * c[3] + (q & 1)), p->digits);
-        fputs(" }\n", p->fp);
-        return;
-    }
-    fputs("{\n", p->fp);
-    for (int child = 0; child < 16; child++) { /* dimension 0 least significant */
-        size_t cc[4];
-        for (int i = 0; i < 4; i++)
-            cc[i] = 2 * c[i] + (size_t)((child >> i) & 1);
-        emit(p, l + 1, cc, depth + 1);
-    }
-    for (int i = 0; i < depth; i++)
-        fputc('\t', p->fp);
-    fputs("}\n", p->fp);
+    return 1;
 }
 
-static int write_tree(bst_ctx *ctx, FILE *fp, const double *m, int k, const bst_write_opts *o)
+static void free_t3(struct xw *w)
 {
-    size_t g = (size_t)1 << k, n = g * g;
-    if (o->reduce_pct < 0) { /* one leaf of every cell: (ix, iy, ox, oy), oy fastest = M[o + N i] */
-        int digits = o->digits > 0 ? o->digits : 17;
-        fputs("{", fp);
-        for (size_t q = 0; q < n * n; q++) {
-            put_value(fp, m[q], digits);
-            if (q % 16 == 15)
-                fputc('\n', fp);
+    if (!w->t3)
+        return;
+    for (size_t i = 0; i < w->nch * BST_NCOMP; i++)
+        bsti_free(w->ctx, w->t3[i]);
+    bsti_free(w->ctx, w->t3);
+    bsti_free(w->ctx, w->iso);
+    w->t3 = NULL;
+    w->iso = NULL;
+}
+
+/* Rank-3 tensors of every component; *isotropic = 0 as soon as one fails the check (unless rank 3
+ * is forced, then all are built). */
+static int build_t3(struct xw *w, int *isotropic)
+{
+    const bst_write_opts *o = w->o;
+    size_t G = (size_t)1 << w->k, N = G * G, total = w->nch * BST_NCOMP;
+    *isotropic = 1;
+    if (!(w->t3 = bsti_calloc(w->ctx, total, sizeof *w->t3)) ||
+        !(w->iso = bsti_alloc_array(w->ctx, total, sizeof *w->iso)))
+        return BST_ENOMEM;
+    size_t map[64];
+    int from_file = w->nch <= 64 && source_usable(w, o->rank3_source, map);
+    for (size_t ch = 0; ch < w->nch; ch++)
+        for (int c = 0; c < BST_NCOMP; c++) {
+            size_t idx = ch * BST_NCOMP + (size_t)c;
+            if (!(w->t3[idx] = bsti_alloc_array(w->ctx, N * (G / 2), sizeof **w->t3)))
+                return BST_ENOMEM;
+            int rc;
+            if (from_file) {
+                w->iso[idx] = NAN;
+                rc = t3_from_file(w, o->rank3_source, map[ch], c, w->t3[idx]);
+            } else if (!bst_layer_get(w->l, ch, (bst_comp)c)) {
+                w->iso[idx] = NAN; /* absent: not written */
+                rc = BST_OK;
+            } else {
+                const bst_mat *m = bst_layer_get(w->l, ch, (bst_comp)c);
+                double h;
+                /* cheap rejection first (factor 4 instead of the triangle inequality's 2) */
+                if (bsti_tt3_rotation_ga(m, w->k) < 100.0 - 4.0 * (100.0 - o->iso_ga_min)) {
+                    *isotropic = 0;
+                    if (o->rank != BST_RANK_3)
+                        return BST_OK;
+                }
+                /* corrections gain less than a point of GA: give up well below the bar */
+                double stop = o->rank == BST_RANK_3 ? -INFINITY : o->iso_ga_min - 2.0;
+                rc = bsti_tt3_from_sc(w->ctx, m, w->k, o->iso_refine, stop, w->t3[idx],
+                                      &w->iso[idx], &h);
+                if (rc >= 0 && w->iso[idx] < o->iso_ga_min) {
+                    *isotropic = 0;
+                    if (o->rank != BST_RANK_3)
+                        return BST_OK;
+                }
+            }
+            if (rc < 0)
+                return rc;
         }
-        fputs(" }\n", fp);
-        return BST_OK;
+    return BST_OK;
+}
+
+/* ------------------------------------------------------------------ the pieces of the file */
+
+static const char *spectrum(const char *channel, const char **detector)
+{
+    static const struct { const char *name, *source, *detector; } known[] = {
+        {"Visible", "CIE Illuminant D65 1nm.ssp", "ASTM E308 1931 Y.dsp"},
+        {"CIE-Y", "CIE Illuminant D65 1nm.ssp", "ASTM E308 1931 Y.dsp"},
+        {"CIE-X", "CIE Illuminant D65 1nm.ssp", "ASTM E308 1931 X.dsp"},
+        {"CIE-Z", "CIE Illuminant D65 1nm.ssp", "ASTM E308 1931 Z.dsp"},
+        {"CIE-u", "CIE Illuminant D65 1nm.ssp", NULL},
+        {"CIE-v", "CIE Illuminant D65 1nm.ssp", NULL},
+        {"Solar", "CIE Illuminant D65 1nm.ssp", "None"}, /* as wrapBSDF -s Solar writes */
+    };
+    for (size_t i = 0; i < sizeof known / sizeof known[0]; i++)
+        if (strcasecmp(channel, known[i].name) == 0) {
+            *detector = known[i].detector;
+            return known[i].source;
+        }
+    *detector = NULL;
+    return NULL;
+}
+
+static void header(struct xw *w)
+{
+    const bst_write_opts *o = w->o;
+    bsti_sink *s = w->out;
+    const bst_basis *b = bst_layer_basis(w->l);
+    char date[64];
+    if (o->date) {
+        snprintf(date, sizeof date, "%s", o->date);
+    } else {
+        time_t now = time(NULL);
+        struct tm tm;
+        if (now == (time_t)-1 || !gmtime_r(&now, &tm) ||
+            !strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", &tm))
+            snprintf(date, sizeof date, "unknown date");
     }
-    struct pyramid p = {.k = k, .g = g, .n = n, .m = m, .fp = fp, .digits = o->digits > 0 ? o->digits : 4};
-    int rc = BST_OK;
-    if (k == 0)
-        return bsti_error(ctx, BST_EINVAL, "write: a tree needs k >= 1");
-    rc = build_pyramid(ctx, &p);
+    bsti_sink_puts(s, "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<!--\n  Written by bsdfstack ");
+    put_comment_text(s, bst_version());
+    bsti_sink_puts(s, " on ");
+    put_comment_text(s, date);
+    bsti_sink_puts(s, "\n");
+    if (o->command) {
+        bsti_sink_puts(s, "  Command: ");
+        put_comment_text(s, o->command);
+        bsti_sink_puts(s, "\n");
+    }
+    if (o->description) {
+        bsti_sink_puts(s, "  ");
+        put_comment_lines(s, o->description, "  ");
+        bsti_sink_puts(s, "\n");
+    }
+    size_t nl = o->nlayers;
+    const char *self = bst_layer_name(w->l);
+    if (nl || self[0]) {
+        bsti_sink_puts(s, "  Layers, exterior first:\n");
+        for (size_t i = 0; i < (nl ? nl : 1); i++) {
+            bsti_sink_printf(s, "    %zu. ", i + 1);
+            put_comment_text(s, nl ? (o->layers[i] ? o->layers[i] : "?") : self);
+            bsti_sink_puts(s, "\n");
+        }
+    }
+    if (w->kind == BST_FILE_KLEMS) {
+        bsti_sink_puts(s, "  Basis: ");
+        put_comment_text(s, bst_basis_name(b));
+        bsti_sink_printf(s, " (%zu patches per hemisphere), matrices in Columns order\n", w->n);
+    } else {
+        size_t G = (size_t)1 << w->k;
+        bsti_sink_printf(s, "  Basis: LBNL/Shirley-Chiu, k = %d (%zu x %zu patches per hemisphere), "
+                         "TensorTree%d\n", w->k, G, G, w->kind == BST_FILE_TT3 ? 3 : 4);
+        if (o->reduce_pct >= 0.0)
+            bsti_sink_printf(s, "  Tree reduction: cells below the %g-th percentile of variation "
+                             "merged (floor %g)\n", o->reduce_pct, o->reduce_floor);
+        else
+            bsti_sink_puts(s, "  Tree reduction: none (only exactly constant regions merged)\n");
+        for (size_t ch = 0; ch < w->nch; ch++)
+            for (int c = 0; c < BST_NCOMP; c++)
+                if (w->omit[ch * BST_NCOMP + (size_t)c] == 1) {
+                    bsti_sink_puts(s, "  ");
+                    put_comment_text(s, bst_layer_channel(w->l, ch));
+                    bsti_sink_printf(s, " %s: left out, the reciprocal of %s\n", block_label[c],
+                                     block_label[c == BST_TF ? BST_TB : BST_TF]);
+                }
+    }
+    bsti_sink_puts(s, "  Values: BSDF in 1/sr; Front = exterior side (-Z)\n-->\n");
+    bsti_sink_puts(s, "<WindowElement xmlns=\"http://windows.lbl.gov\" "
+                      "xmlns:xsi=\"http://www.w3.org/2001/XMLSchema-instance\" "
+                      "xsi:schemaLocation=\"http://windows.lbl.gov/BSDF-v1.4.xsd\">\n"
+                      "<WindowElementType>System</WindowElementType>\n"
+                      "<FileType>BSDF</FileType>\n<Optical>\n<Layer>\n\t<Material>\n");
+    const char *name = o->name ? o->name : self[0] ? self : "bsdfstack layer";
+    element(s, "\t\t", "Name", name);
+    element(s, "\t\t", "Manufacturer", o->manufacturer ? o->manufacturer : "Unknown");
+    element(s, "\t\t", "DeviceType", o->device_type ? o->device_type : "Other");
+    const struct { const char *tag; double v; } dims[] = {
+        {"Thickness", o->thickness}, {"Width", o->width}, {"Height", o->height}};
+    for (int i = 0; i < 3; i++)
+        if (dims[i].v > 0.0 && isfinite(dims[i].v))
+            bsti_sink_printf(s, "\t\t<%s unit=\"meter\">%.9g</%s>\n", dims[i].tag, dims[i].v, dims[i].tag);
+    bsti_sink_puts(s, "\t</Material>\n\t<DataDefinition>\n");
+    if (w->kind == BST_FILE_KLEMS) {
+        bsti_sink_puts(s, "\t\t<IncidentDataStructure>Columns</IncidentDataStructure>\n"
+                          "\t\t<AngleBasis>\n");
+        element(s, "\t\t\t", "AngleBasisName", bst_basis_name(b));
+        for (size_t i = 0; i < b->nbands; i++) {
+            double centre = (i == 0 && b->theta[0] == 0.0) ? 0.0 : 0.5 * (b->theta[i] + b->theta[i + 1]);
+            bsti_sink_printf(s, "\t\t\t<AngleBasisBlock>\n\t\t\t\t<Theta>%.9g</Theta>\n"
+                             "\t\t\t\t<nPhis>%d</nPhis>\n\t\t\t\t<ThetaBounds>\n"
+                             "\t\t\t\t\t<LowerTheta>%.9g</LowerTheta>\n"
+                             "\t\t\t\t\t<UpperTheta>%.9g</UpperTheta>\n"
+                             "\t\t\t\t</ThetaBounds>\n\t\t\t</AngleBasisBlock>\n",
+                             centre, b->nphi[i], b->theta[i], b->theta[i + 1]);
+        }
+        bsti_sink_puts(s, "\t\t</AngleBasis>\n");
+    } else {
+        bsti_sink_printf(s, "\t\t<IncidentDataStructure>TensorTree%d</IncidentDataStructure>\n",
+                         w->kind == BST_FILE_TT3 ? 3 : 4);
+    }
+    bsti_sink_puts(s, "\t</DataDefinition>\n");
+}
+
+static void block_head(struct xw *w, size_t ch, int c)
+{
+    bsti_sink *s = w->out;
+    const char *name = bst_layer_channel(w->l, ch), *det, *src = spectrum(name, &det);
+    bsti_sink_puts(s, "\t<WavelengthData>\n\t\t<LayerNumber>System</LayerNumber>\n"
+                      "\t\t<Wavelength unit=\"Integral\">");
+    put_escaped(s, name);
+    bsti_sink_puts(s, "</Wavelength>\n");
+    if (src)
+        element(s, "\t\t", "SourceSpectrum", src);
+    if (det)
+        element(s, "\t\t", "DetectorSpectrum", det);
+    bsti_sink_printf(s, "\t\t<WavelengthDataBlock>\n\t\t\t<WavelengthDataDirection>%s"
+                     "</WavelengthDataDirection>\n", block_label[c]);
+    if (w->kind == BST_FILE_KLEMS) {
+        const char *bn = bst_basis_name(bst_layer_basis(w->l));
+        element(s, "\t\t\t", "ColumnAngleBasis", bn);
+        element(s, "\t\t\t", "RowAngleBasis", bn);
+    } else {
+        bsti_sink_puts(s, "\t\t\t<AngleBasis>LBNL/Shirley-Chiu</AngleBasis>\n");
+    }
+    /* wrapBSDF writes BTDF for every block; readers ignore it */
+    bsti_sink_puts(s, "\t\t\t<ScatteringDataType>BTDF</ScatteringDataType>\n\t\t\t<ScatteringData>\n");
+}
+
+static void block_tail(bsti_sink *s)
+{
+    bsti_sink_puts(s, "\t\t\t</ScatteringData>\n\t\t</WavelengthDataBlock>\n\t</WavelengthData>\n");
+}
+
+/* Klems: text row o = outgoing patch o, its numbers the incident patches. */
+static void klems_data(struct xw *w, const bst_mat *m, bst_write_block *rep)
+{
+    const double *lam = bst_basis_lambda(bst_layer_basis(w->l));
+    size_t n = w->n;
+    double sum_abs = 0.0, sum_err = 0.0, *hemi = w->hemi;
+    memset(hemi, 0, n * sizeof *hemi);
+    for (size_t o = 0; o < n && !bsti_sink_failed(w->out); o++) {
+        for (size_t i = 0; i < n; i++) {
+            double v = mval(m, o, i), back;
+            char buf[32];
+            int len = bsti_format_double(v < 0.0 ? 0.0 : v, w->o->digits, buf, &back);
+            if (i)
+                bsti_sink_put(w->out, " ", 1);
+            bsti_sink_put(w->out, buf, (size_t)len);
+            sum_abs += fabs(v);
+            sum_err += fabs(v - back);
+            rep->max_error = fmax(rep->max_error, fabs(v - back));
+            hemi[i] += lam[o] * (v - back);
+        }
+        bsti_sink_put(w->out, "\n", 1);
+    }
+    rep->values = n * n;
+    rep->l1_error = sum_abs > 0.0 ? sum_err / sum_abs : 0.0;
+    for (size_t i = 0; i < n; i++)
+        rep->hemi_error = fmax(rep->hemi_error, fabs(hemi[i]));
+}
+
+static int write_blocks(struct xw *w)
+{
+    const bst_write_opts *o = w->o;
+    for (size_t ch = 0; ch < w->nch; ch++)
+        for (int c = 0; c < BST_NCOMP; c++) {
+            size_t idx = ch * BST_NCOMP + (size_t)c;
+            bst_write_block rep;
+            memset(&rep, 0, sizeof rep);
+            rep.channel = bst_layer_channel(w->l, ch);
+            rep.comp = (bst_comp)c;
+            rep.kind = w->kind;
+            rep.iso_ga = w->kind == BST_FILE_TT3 ? w->iso[idx] : NAN;
+            if (!w->omit[idx]) {
+                rep.written = 1;
+                const bst_mat *m = bst_layer_get(w->l, ch, (bst_comp)c);
+                block_head(w, ch, c);
+                uint64_t before = w->out->total;
+                if (w->kind == BST_FILE_KLEMS) {
+                    klems_data(w, m, &rep);
+                } else {
+                    bsti_tensor t = {w->kind == BST_FILE_TT3 ? 3 : 4, w->k, NULL, NULL, NULL, NULL};
+                    if (w->kind == BST_FILE_TT3)
+                        t.d = w->t3[idx];
+                    else if (m && m->s == BST_DENSE && m->prec == BST_DOUBLE)
+                        t.d = m->dense;
+                    else if (m && m->s == BST_DENSE)
+                        t.f = m->dense;
+                    else if (m && m->s != BST_ZERO)
+                        t.get = tensor_get, t.opaque = m;
+                    else
+                        t.get = zero_get;
+                    bsti_reduce r = {o->reduce_pct, o->reduce_floor, o->digits};
+                    bsti_tree_stats st;
+                    int rc = bsti_ttree_write(w->ctx, &t, &r, w->out, &st);
+                    if (rc < 0 && rc != BST_EIO) {
+                        bsti_error_prefix(w->ctx, "%s %s", rep.channel, block_label[c]);
+                        return rc;
+                    }
+                    rep.values = st.values;
+                    rep.leaves = st.leaves;
+                    rep.threshold = st.threshold;
+                    rep.l1_error = st.l1_error;
+                    rep.max_error = st.max_error;
+                    rep.hemi_error = st.hemi_error;
+                }
+                rep.bytes = w->out->total - before;
+                block_tail(w->out);
+            }
+            if (bsti_sink_failed(w->out))
+                return BST_EIO;
+            if (o->on_block)
+                o->on_block(&rep, o->opaque);
+        }
+    return BST_OK;
+}
+
+/* ------------------------------------------------------------------ entry points */
+
+static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst_write_opts *opts)
+{
+    if (!ctx)
+        return BST_EINVAL;
+    if (!l)
+        return bsti_error(ctx, BST_EINVAL, "writing BSDF XML: NULL layer");
+    bst_write_opts def;
+    if (!opts) {
+        bst_write_opts_init(&def);
+        opts = &def;
+    }
+    if (opts->reduce_pct >= 100.0 || isnan(opts->reduce_pct) || !(opts->reduce_floor > 0.0) ||
+        opts->digits < 0 || opts->iso_refine < 0 || isnan(opts->iso_ga_min) ||
+        (opts->rank != BST_RANK_AUTO && opts->rank != BST_RANK_3 && opts->rank != BST_RANK_4))
+        return bsti_error(ctx, BST_EINVAL, "writing BSDF XML: invalid options (reduce_pct %g must "
+                          "be < 100, reduce_floor %g > 0, digits %d >= 0, rank %d 0, 3 or 4)",
+                          opts->reduce_pct, opts->reduce_floor, opts->digits, (int)opts->rank);
+    struct xw w;
+    memset(&w, 0, sizeof w);
+    w.ctx = ctx;
+    w.l = l;
+    w.o = opts;
+    w.out = s;
+    w.nch = bst_layer_nchannels(l);
+    const bst_basis *b = bst_layer_basis(l);
+    w.n = bst_basis_size(b);
+    w.k = bst_basis_order(b);
+    int rc = validate(&w);
+    if (rc < 0)
+        return rc;
+    if (!(w.omit = bsti_calloc(ctx, w.nch * BST_NCOMP + 1, sizeof *w.omit)))
+        return BST_ENOMEM;
+    if (bst_basis_kind_of(b) == BST_BASIS_KLEMS) {
+        w.kind = BST_FILE_KLEMS;
+        if (!(w.hemi = bsti_alloc_array(ctx, w.n, sizeof *w.hemi)))
+            rc = BST_ENOMEM;
+    } else {
+        w.kind = BST_FILE_TT4;
+        if (opts->rank != BST_RANK_4) {
+            int iso;
+            rc = build_t3(&w, &iso);
+            if (rc >= 0 && (iso || opts->rank == BST_RANK_3))
+                w.kind = BST_FILE_TT3;
+            else
+                free_t3(&w);
+        }
+        for (size_t ch = 0; rc >= 0 && w.kind == BST_FILE_TT4 && opts->recip_tol >= 0.0 && ch < w.nch; ch++)
+            if (bst_layer_get(l, ch, BST_TB) && bst_layer_get(l, ch, BST_TF) &&
+                reciprocal(l, ch, opts->recip_tol))
+                w.omit[ch * BST_NCOMP + BST_TF] = 1; /* keep Transmission Back, as genBSDF */
+    }
+    /* components absent from the layer are left out (readers take a missing reflection as zero,
+     * a missing transmission from the other side's by reciprocity) */
+    int any = 0;
+    for (size_t ch = 0; ch < w.nch; ch++)
+        for (int c = 0; c < BST_NCOMP; c++) {
+            if (!bst_layer_get(l, ch, (bst_comp)c))
+                w.omit[ch * BST_NCOMP + (size_t)c] = 2;
+            any |= !w.omit[ch * BST_NCOMP + (size_t)c];
+        }
+    if (rc >= 0 && !any)
+        rc = bsti_error(ctx, BST_EINVAL, "writing BSDF XML: the layer has no component to write");
     if (rc >= 0) {
-        /* threshold: the reduce_pct-th percentile of the finest blocks' variation */
-        size_t hist[VAR_BINS] = {0}, cnt = (size_t)1 << (4 * (k - 1));
-        for (size_t q = 0; q < cnt; q++) {
-            double v = variation(p.mn[k - 1][q], p.mx[k - 1][q], p.avg[k - 1][q]);
-            int bin = (int)(v / VAR_MAX * VAR_BINS);
-            hist[bin < 0 ? 0 : bin >= VAR_BINS ? VAR_BINS - 1 : bin]++;
-        }
-        size_t want = (size_t)(o->reduce_pct / 100.0 * (double)cnt), acc = 0;
-        int bin = 0;
-        while (bin < VAR_BINS - 1 && acc + hist[bin] <= want)
-            acc += hist[bin++];
-        p.thr = (double)bin * VAR_MAX / VAR_BINS;
-        size_t c[4] = {0, 0, 0, 0};
-        emit(&p, 0, c, 0);
+        header(&w);
+        rc = write_blocks(&w);
     }
-    for (int l = 0; l < 16; l++) {
-        bsti_free(ctx, p.mn[l]);
-        bsti_free(ctx, p.mx[l]);
-        bsti_free(ctx, p.avg[l]);
+    if (rc >= 0) {
+        bsti_sink_puts(s, "</Layer>\n</Optical>\n</WindowElement>\n");
+        if (bsti_sink_flush(s) != 0)
+            rc = BST_EIO;
     }
+    free_t3(&w);
+    bsti_free(ctx, w.omit);
+    bsti_free(ctx, w.hemi);
+    if (rc == BST_EIO)
+        return bsti_error(ctx, BST_EIO, "writing BSDF XML: write failed%s%s%s", s->err ? " (" : "",
+                          s->err ? strerror(s->err) : "", s->err ? ")" : "");
     return rc;
 }
 
-static void put_escaped(FILE *fp, const char *s, int comment)
+int bst_xml_write_fn(bst_ctx *ctx, const bst_layer *layer, bst_write_fn fn, void *opaque,
+                     const bst_write_opts *opts)
 {
-    for (; *s; s++) {
-        if (comment && s[0] == '-' && s[1] == '-')
-            fputs("- ", fp); /* "--" may not appear in an XML comment */
-        else if (!comment && *s == '&')
-            fputs("&amp;", fp);
-        else if (!comment && *s == '<')
-            fputs("&lt;", fp);
-        else if (!comment && *s == '>')
-            fputs("&gt;", fp);
-        else
-            fputc(*s, fp);
-    }
+    if (!fn)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "writing BSDF XML: NULL output function") : BST_EINVAL;
+    bsti_sink *s = ctx ? bsti_malloc(ctx, sizeof *s) : NULL;
+    if (!s)
+        return ctx ? BST_ENOMEM : BST_EINVAL;
+    bsti_sink_init(s, fn, opaque);
+    int rc = write_layer(ctx, layer, s, opts);
+    bsti_free(ctx, s);
+    return rc;
 }
 
-int bst_xml_write(bst_ctx *ctx, const bst_layer *l, FILE *fp, const bst_write_opts *opts_in)
+int bst_xml_write(bst_ctx *ctx, const bst_layer *layer, FILE *fp, const bst_write_opts *opts)
 {
-    if (!ctx || !l || !fp)
-        return ctx ? bsti_error(ctx, BST_EINVAL, "write: NULL argument") : BST_EINVAL;
-    bst_write_opts o;
-    if (opts_in)
-        o = *opts_in;
-    else
-        bst_write_opts_init(&o);
-    if (!(o.reduce_pct < 100.0) || isnan(o.reduce_pct))
-        return bsti_error(ctx, BST_EINVAL, "write: reduction percentile %g is not below 100", o.reduce_pct);
-    if (o.digits < 0 || o.digits > 17)
-        return bsti_error(ctx, BST_EINVAL, "write: %d significant digits (1..17)", o.digits);
-    const bst_basis *b = l->basis;
-    int klems = b->kind == BST_BASIS_KLEMS;
-    size_t n = b->n;
-    for (size_t ch = 0; ch < l->nchannels; ch++)
-        for (int c = 0; c < BST_NCOMP; c++) {
-            const bst_mat *m = bst_layer_get(l, ch, (bst_comp)c);
-            if (m && !bst_mat_all_finite(m))
-                return bsti_error(ctx, BST_EINVAL, "write: %s of channel %s has non-finite values",
-                                  bst_comp_name((bst_comp)c), l->channels[ch]);
-        }
-    double *buf = bsti_alloc_array(ctx, n * n, sizeof *buf);
-    if (!buf)
+    if (!fp)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "writing BSDF XML: NULL stream") : BST_EINVAL;
+    int rc = bst_xml_write_fn(ctx, layer, bsti_sink_file, fp, opts);
+    if (rc >= 0 && (fflush(fp) != 0 || ferror(fp)))
+        rc = bsti_error(ctx, BST_EIO, "writing BSDF XML: write failed (%s)", strerror(errno));
+    return rc;
+}
+
+int bst_xml_write_path(bst_ctx *ctx, const bst_layer *layer, const char *path,
+                       const bst_write_opts *opts)
+{
+    if (!ctx || !path)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "writing BSDF XML: NULL path") : BST_EINVAL;
+    size_t n = strlen(path);
+    char *tmp = bsti_malloc(ctx, n + 16);
+    if (!tmp)
         return BST_ENOMEM;
-    char date[64];
-    time_t now = time(NULL);
-    struct tm tmv;
-    strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", gmtime_r(&now, &tmv));
-    fputs("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n", fp);
-    fprintf(fp, "<!-- Created by bsdfstack %s on %s; basis %s", PACKAGE_VERSION, date, b->name);
-    if (!klems)
-        fprintf(fp, " k=%d", b->k);
-    if (o.description) {
-        fputs("\n", fp);
-        put_escaped(fp, o.description, 1);
+    /* the temporary sits next to the target so that rename() is atomic */
+    snprintf(tmp, n + 16, "%s.tmpXXXXXX", path);
+    int fd = mkstemp(tmp);
+    if (fd < 0) {
+        int e = errno;
+        bsti_free(ctx, tmp);
+        return bsti_error(ctx, BST_EIO, "%s: cannot create the output file: %s", path, strerror(e));
     }
-    fputs(" -->\n", fp);
-    fputs("<WindowElement xmlns=\"http://windows.lbl.gov\" xmlns:xsi=\"http://www.w3.org/2001/XMLSchema-instance\" "
-          "xsi:schemaLocation=\"http://windows.lbl.gov/BSDF-v1.4.xsd\">\n"
-          "<WindowElementType>System</WindowElementType>\n<FileType>BSDF</FileType>\n<Optical>\n<Layer>\n"
-          "\t<Material>\n\t\t<Name>", fp);
-    put_escaped(fp, o.name ? o.name : "bsdfstack system", 0);
-    fprintf(fp, "</Name>\n\t\t<Manufacturer>bsdfstack %s</Manufacturer>\n"
-            "\t\t<DeviceType>Other</DeviceType>\n\t</Material>\n\t<DataDefinition>\n", PACKAGE_VERSION);
-    if (klems) {
-        fprintf(fp, "\t\t<IncidentDataStructure>Columns</IncidentDataStructure>\n\t\t<AngleBasis>\n"
-                "\t\t\t<AngleBasisName>%s</AngleBasisName>\n", b->name);
-        for (size_t i = 0; i < b->nbands; i++)
-            fprintf(fp, "\t\t\t<AngleBasisBlock>\n\t\t\t\t<Theta>%g</Theta>\n\t\t\t\t<nPhis>%d</nPhis>\n"
-                    "\t\t\t\t<ThetaBounds>\n\t\t\t\t\t<LowerTheta>%g</LowerTheta>\n"
-                    "\t\t\t\t\t<UpperTheta>%g</UpperTheta>\n\t\t\t\t</ThetaBounds>\n\t\t\t</AngleBasisBlock>\n",
-                    i == 0 ? 0.0 : 0.5 * (b->theta[i] + b->theta[i + 1]), b->nphi[i], b->theta[i],
-                    b->theta[i + 1]);
-        fputs("\t\t</AngleBasis>\n", fp);
+    FILE *fp = fdopen(fd, "w");
+    int rc;
+    if (!fp) {
+        close(fd);
+        rc = bsti_error(ctx, BST_EIO, "%s: cannot open the output file: %s", path, strerror(errno));
     } else {
-        fputs("\t\t<IncidentDataStructure>TensorTree4</IncidentDataStructure>\n", fp);
+        rc = bst_xml_write(ctx, layer, fp, opts);
+        if (fclose(fp) != 0 && rc >= 0)
+            rc = bsti_error(ctx, BST_EIO, "writing BSDF XML: write failed (%s)", strerror(errno));
+        if (rc >= 0 && rename(tmp, path) != 0)
+            rc = bsti_error(ctx, BST_EIO, "%s: cannot rename the output into place: %s", path,
+                            strerror(errno));
+        else if (rc < 0)
+            bsti_error_prefix(ctx, "%s", path);
     }
-    fputs("\t</DataDefinition>\n", fp);
-    static const char *const dirs[BST_NCOMP] = {"Transmission Front", "Reflection Front",
-                                                "Transmission Back", "Reflection Back"};
-    static const int order[BST_NCOMP] = {BST_TF, BST_TB, BST_RF, BST_RB};
-    int rc = BST_OK;
-    for (size_t ch = 0; rc >= 0 && ch < l->nchannels; ch++) {
-        const char *name = l->channels[ch];
-        int vis = strcasecmp(name, "Visible") == 0;
-        for (int q = 0; rc >= 0 && q < BST_NCOMP; q++) {
-            int c = order[q];
-            const bst_mat *m = bst_layer_get(l, ch, (bst_comp)c);
-            if (!m)
-                continue;
-            fputs("\t<WavelengthData>\n\t\t<LayerNumber>System</LayerNumber>\n", fp);
-            fputs("\t\t<Wavelength unit=\"Integral\">", fp);
-            put_escaped(fp, name, 0);
-            fprintf(fp, "</Wavelength>\n\t\t<SourceSpectrum>%s</SourceSpectrum>\n"
-                    "\t\t<DetectorSpectrum>%s</DetectorSpectrum>\n\t\t<WavelengthDataBlock>\n"
-                    "\t\t\t<WavelengthDataDirection>%s</WavelengthDataDirection>\n",
-                    vis ? "CIE Illuminant D65 1nm.ssp" : "None", vis ? "ASTM E308 1931 Y.dsp" : "None",
-                    dirs[c]);
-            if (klems)
-                fprintf(fp, "\t\t\t<ColumnAngleBasis>%s</ColumnAngleBasis>\n"
-                        "\t\t\t<RowAngleBasis>%s</RowAngleBasis>\n", b->name, b->name);
-            else
-                fputs("\t\t\t<AngleBasis>LBNL/Shirley-Chiu</AngleBasis>\n", fp);
-            fputs("\t\t\t<ScatteringDataType>BTDF</ScatteringDataType>\n\t\t\t<ScatteringData>\n", fp);
-            rc = bst_mat_to_dense_array(ctx, m, buf);
-            if (rc >= 0 && klems) {
-                int digits = o.digits > 0 ? o.digits : 6;
-                for (size_t oo = 0; oo < n; oo++) {
-                    for (size_t i = 0; i < n; i++)
-                        put_value(fp, buf[oo + n * i], digits);
-                    fputc('\n', fp);
-                }
-            } else if (rc >= 0) {
-                rc = write_tree(ctx, fp, buf, b->k, &o);
-            }
-            fputs("\t\t\t</ScatteringData>\n\t\t</WavelengthDataBlock>\n\t</WavelengthData>\n", fp);
-            bsti_progress(ctx, (double)(ch * BST_NCOMP + (size_t)q + 1) / (double)(l->nchannels * BST_NCOMP), "writing");
-        }
-    }
-    fputs("</Layer>\n</Optical>\n</WindowElement>\n", fp);
-    bsti_free(ctx, buf);
-    if (rc >= 0 && ferror(fp))
-        rc = bsti_error(ctx, BST_EIO, "write: output error");
+    if (rc < 0)
+        unlink(tmp);
+    bsti_free(ctx, tmp);
     return rc;
 }

@@ -1,191 +1,1219 @@
-/* test_write.c - BSDF XML output read back by our reader (which reproduces libBSDF's values, see
- * test_xml): exact unreduced round trips, reduced trees against the RADIANCE originals (sizes,
- * hemispherical totals, accordance), Klems output against RADIANCE's bsdf2klems conversions. */
+/* test_write.c - writing BSDF XML: the tensor-tree emitter against an independent parser and
+ * RADIANCE's worked examples (CONVENTIONS.md 12), reduction and its reported error, the XML writer
+ * against the reference files (round trips, directional-hemispherical tables, Klems conversions,
+ * sizes), rank-3 selection, metadata, and every error path. */
 #include <config.h>
 
+#include <dirent.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <libxml/parser.h>
+#include <libxml/tree.h>
+
 #include "testutil.h"
+#include "ttree_write.h"
 
 static bst_ctx *ctx;
 static void setup(void) { ctx = bst_ctx_new(); }
 static void teardown(void) { bst_ctx_free(ctx); }
 
-static bst_layer *load(const char *path, const bst_basis *b)
+/* ------------------------------------------------------------------ helpers */
+
+/* Output collected in memory; fails once more than `limit` bytes were offered (0 = never). */
+struct membuf {
+    char *p;
+    size_t n, cap, limit;
+    int calls;
+};
+
+static int mem_write(const char *buf, size_t len, void *opaque)
 {
-    bst_bsdf *f;
-    bst_layer *l;
-    int rc = bst_bsdf_read(ctx, path, NULL, &f);
-    ck_assert_msg(rc >= 0, "%s", bst_ctx_message(ctx));
-    ck_assert_int_eq(bst_bsdf_to_layer(ctx, f, b, &l), BST_OK);
-    bst_bsdf_free(f);
-    return l;
+    struct membuf *m = opaque;
+    m->calls++;
+    if (m->limit && m->n + len > m->limit)
+        return -1;
+    if (m->n + len + 1 > m->cap) {
+        m->cap = (m->n + len + 1) * 2;
+        m->p = realloc(m->p, m->cap);
+        ck_assert_ptr_nonnull(m->p);
+    }
+    memcpy(m->p + m->n, buf, len);
+    m->n += len;
+    m->p[m->n] = '\0';
+    return 0;
 }
 
-/* Write l to a temporary file and return its path (static buffer) and size. */
-static const char *write_tmp(const bst_layer *l, double reduce, long *size)
+static char *tree_text(const bsti_tensor *t, double pct, bsti_tree_stats *st)
 {
-    static char path[64];
-    snprintf(path, sizeof path, "/tmp/bst_w_XXXXXX");
+    struct membuf m = {0};
+    bsti_sink *s = malloc(sizeof *s);
+    bsti_sink_init(s, mem_write, &m);
+    bsti_reduce r = {pct, BST_REDUCE_FLOOR, 0};
+    int rc = bsti_ttree_write(ctx, t, &r, s, st);
+    ck_assert_msg(rc == BST_OK, "tree write: %s", bst_ctx_message(ctx));
+    ck_assert_int_eq(bsti_sink_flush(s), 0);
+    free(s);
+    return m.p;
+}
+
+/* An independent reader of tree text (recursive descent on the string): fills grid (G^dim values,
+ * row-major with dimension 0 slowest) and returns the depth, or -1 on a syntax error. */
+struct pt {
+    const char *s;
+    int dim;
+    size_t G;
+    double *grid;
+    size_t leaves, values;
+    int depth;
+};
+
+static void skip(struct pt *p)
+{
+    while (*p->s == ' ' || *p->s == '\n' || *p->s == '\t' || *p->s == ',' || *p->s == '\r')
+        p->s++;
+}
+
+static int pt_node(struct pt *p, const size_t *corner, size_t side, int depth)
+{
+    skip(p);
+    if (*p->s != '{')
+        return -1;
+    p->s++;
+    skip(p);
+    if (*p->s == '{') { /* branch: child n covers the upper half of dimension i when bit i is set */
+        if (side < 2)
+            return -1;
+        for (int n = 0; n < (1 << p->dim); n++) {
+            size_t c[4] = {0, 0, 0, 0};
+            for (int i = 0; i < p->dim; i++)
+                c[i] = corner[i] + ((size_t)((n >> i) & 1)) * (side / 2);
+            if (pt_node(p, c, side / 2, depth + 1) < 0)
+                return -1;
+        }
+    } else { /* leaf: g^dim values, dimension 0 slowest */
+        double v[4096];
+        size_t nv = 0;
+        while (*p->s && *p->s != '}') {
+            char *end;
+            v[nv] = strtod(p->s, &end);
+            if (end == p->s || nv >= 4095)
+                return -1;
+            nv++;
+            p->s = end;
+            skip(p);
+        }
+        size_t g = 1;
+        int lv = 0;
+        for (;;) {
+            size_t cells = 1;
+            for (int i = 0; i < p->dim; i++)
+                cells *= g;
+            if (cells == nv)
+                break;
+            if (cells > nv || g > side)
+                return -1;
+            g *= 2, lv++;
+        }
+        if (g > side)
+            return -1;
+        size_t rep = side / g;
+        for (size_t j = 0; j < nv; j++) {
+            size_t cell[4] = {0, 0, 0, 0}, q = j;
+            for (int i = p->dim - 1; i >= 0; i--) {
+                cell[i] = corner[i] + (q % g) * rep;
+                q /= g;
+            }
+            size_t r0, r1, r2, r3, nr3 = p->dim == 4 ? rep : 1;
+            for (r0 = 0; r0 < rep; r0++)
+                for (r1 = 0; r1 < rep; r1++)
+                    for (r2 = 0; r2 < rep; r2++)
+                        for (r3 = 0; r3 < nr3; r3++) {
+                            size_t idx = ((cell[0] + r0) * p->G + cell[1] + r1) * p->G + cell[2] + r2;
+                            if (p->dim == 4)
+                                idx = idx * p->G + cell[3] + r3;
+                            p->grid[idx] = (double)(float)v[j]; /* readers store floats */
+                        }
+        }
+        p->leaves++;
+        p->values += nv;
+        if (depth + lv > p->depth)
+            p->depth = depth + lv;
+    }
+    skip(p);
+    if (*p->s != '}')
+        return -1;
+    p->s++;
+    return 0;
+}
+
+static int parse_tree(const char *text, int dim, int k, double *grid, size_t *leaves, size_t *values)
+{
+    struct pt p = {text, dim, (size_t)1 << k, grid, 0, 0, 0};
+    size_t corner[4] = {0, 0, 0, 0};
+    if (pt_node(&p, corner, p.G, 0) < 0)
+        return -1;
+    skip(&p);
+    if (*p.s)
+        return -1;
+    if (leaves)
+        *leaves = p.leaves, *values = p.values;
+    return p.depth;
+}
+
+/* The ScatteringData text of a (reference) file. */
+static char *scattering_data(const char *path)
+{
+    FILE *fp = fopen(path, "r");
+    ck_assert_ptr_nonnull(fp);
+    static char buf[1 << 16];
+    size_t n = fread(buf, 1, sizeof buf - 1, fp);
+    fclose(fp);
+    buf[n] = '\0';
+    char *a = strstr(buf, "<ScatteringData>"), *b = strstr(buf, "</ScatteringData>");
+    ck_assert(a && b);
+    *b = '\0';
+    return a + strlen("<ScatteringData>");
+}
+
+/* Whitespace-normalised token list ("{", "}", numbers as %.9g) of tree text. */
+static char *tokens(const char *s)
+{
+    size_t cap = strlen(s) * 2 + 16, n = 0;
+    char *out = malloc(cap);
+    while (*s) {
+        if (*s == '{' || *s == '}') {
+            n += (size_t)snprintf(out + n, cap - n, "%c ", *s++);
+        } else if (*s == ' ' || *s == '\n' || *s == '\t' || *s == '\r' || *s == ',') {
+            s++;
+        } else {
+            char *end;
+            double v = strtod(s, &end);
+            ck_assert_ptr_ne(end, s);
+            n += (size_t)snprintf(out + n, cap - n, "%.9g ", v);
+            s = end;
+        }
+    }
+    return out;
+}
+
+static char *tmp_path(const char *tag)
+{
+    static char path[256];
+    snprintf(path, sizeof path, "/tmp/bst_write_%s_XXXXXX", tag);
     int fd = mkstemp(path);
     ck_assert_int_ge(fd, 0);
-    FILE *fp = fdopen(fd, "w");
-    bst_write_opts o;
-    bst_write_opts_init(&o);
-    o.reduce_pct = reduce;
-    ck_assert_int_eq(bst_xml_write(ctx, l, fp, &o), BST_OK);
-    fclose(fp);
-    struct stat st;
-    stat(path, &st);
-    if (size)
-        *size = (long)st.st_size;
+    close(fd);
     return path;
 }
 
-static const double dirs[][2] = {{0.1, 0.1}, {25, 90}, {45, 45}, {60, 270}, {65, 90}};
-
-static size_t patch_of(const bst_basis *b, double th, double ph, int back)
+static bst_bsdf *read_ok(const char *path)
 {
-    double d[3] = {sin(th * M_PI / 180) * cos(ph * M_PI / 180) + 1e-7,
-                   sin(th * M_PI / 180) * sin(ph * M_PI / 180) + 1e-7, (back ? -1 : 1) * cos(th * M_PI / 180)};
-    return bst_basis_patch(b, d);
+    bst_bsdf *b;
+    int rc = bst_bsdf_read(ctx, path, NULL, &b);
+    ck_assert_msg(rc >= 0, "%s: %s", path, bst_ctx_message(ctx));
+    return b;
 }
 
-/* Unreduced: every component's matrix comes back bit for bit (17 significant digits). */
-START_TEST(test_round_trip_exact)
+static bst_layer *layer_of(const bst_bsdf *b, const bst_basis *target)
 {
-    const char *files[] = {"L_glass_t4k5.xml", "L_blind45_t4k5_klems.xml"};
-    bst_basis *b;
-    if (_i == 0)
-        ck_assert_int_eq(bst_basis_new_sc(ctx, 5, &b), BST_OK);
-    else
-        ck_assert_int_eq(bst_basis_new_klems(ctx, "full", &b), BST_OK);
-    bst_layer *l = load(tu_ref(files[_i]), b);
+    bst_layer *l;
+    int rc = bst_bsdf_to_layer(ctx, b, target, &l);
+    ck_assert_msg(rc >= 0, "to_layer: %s", bst_ctx_message(ctx));
+    return l;
+}
+
+static void write_ok(const bst_layer *l, const char *path, const bst_write_opts *o)
+{
+    int rc = bst_xml_write_path(ctx, l, path, o);
+    ck_assert_msg(rc == BST_OK, "write %s: %s", path, bst_ctx_message(ctx));
+}
+
+static long file_size(const char *path)
+{
+    struct stat st;
+    ck_assert_int_eq(stat(path, &st), 0);
+    return (long)st.st_size;
+}
+
+/* Every element of two layers' component c equal (rtol relative to the component's largest). */
+static double max_diff(const bst_layer *a, const bst_layer *b, size_t ch, bst_comp c)
+{
+    const bst_mat *x = bst_layer_get(a, ch, c), *y = bst_layer_get(b, ch, c);
+    size_t n = bst_basis_size(bst_layer_basis(a));
+    double d = 0;
+    for (size_t i = 0; i < n; i++)
+        for (size_t o = 0; o < n; o++)
+            d = fmax(d, fabs((x ? bst_mat_get(x, o, i) : 0) - (y ? bst_mat_get(y, o, i) : 0)));
+    return d;
+}
+
+/* Collects on_block reports. */
+struct reports {
+    bst_write_block b[64];
+    int n;
+};
+static void collect(const bst_write_block *b, void *opaque)
+{
+    struct reports *r = opaque;
+    if (r->n < 64)
+        r->b[r->n++] = *b;
+}
+
+/* ------------------------------------------------------------------ number text */
+
+START_TEST(test_format)
+{
+    char buf[32];
+    float back;
+    double dback;
+    static const struct { double v; const char *want; } cases[] = {
+        {141.4, "141.4"}, {0.1, "0.1"}, {1e-30, "1e-30"}, {0, "0"}, {287.0, "287"},
+        {1.684e+02, "168.4"}, {3e38, "3e+38"}};
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        bsti_format_float(cases[i].v, 0, buf, &back);
+        ck_assert_str_eq(buf, cases[i].want);
+        ck_assert(back == (float)cases[i].v);
+    }
+    bsti_format_float(3.14159, 3, buf, &back);
+    ck_assert_str_eq(buf, "3.14");
+    ck_assert(back == 3.14f);
+    tu_rng r;
+    tu_rng_seed(&r, 7);
+    for (int i = 0; i < 20000; i++) {
+        double v = exp(tu_rng_uniform(&r) * 120 - 60) * (tu_rng_uniform(&r) < 0.5 ? 1 : 3.7);
+        int len = bsti_format_float(v, 0, buf, &back);
+        ck_assert(strtof(buf, NULL) == (float)v && back == (float)v);
+        ck_assert_int_le(len, 15);
+        /* shortest: one significant digit less does not read back */
+        int digits = 0;
+        for (const char *p = buf; *p && *p != 'e'; p++)
+            digits += *p >= '0' && *p <= '9';
+        for (const char *p = buf; *p == '0' || *p == '.'; p++)
+            digits -= *p == '0';
+        char shorter[400];
+        if (digits > 1) {
+            snprintf(shorter, sizeof shorter, "%.*g", digits - 1, (double)(float)v);
+            ck_assert_msg(strtof(shorter, NULL) != (float)v, "%s is not the shortest (%s)", buf, shorter);
+        }
+        len = bsti_format_double(v, 0, buf, &dback);
+        ck_assert(strtod(buf, NULL) == v && dback == v);
+        ck_assert_int_le(len, 24);
+    }
+    bsti_format_double(1.0 / 3.0, 0, buf, &dback);
+    ck_assert(strtod(buf, NULL) == 1.0 / 3.0);
+    bsti_format_double(0.25, 0, buf, &dback);
+    ck_assert_str_eq(buf, "0.25");
+}
+END_TEST
+
+/* ------------------------------------------------------------------ emitter: worked examples */
+
+/* CONVENTIONS.md 12.1 and 12.2: the hand-made rank-4 trees, rebuilt from their description as full
+ * tensors, must come out as exactly the example files' text (the bit-order trap: branch children
+ * with dimension 0 lowest, leaf values with dimension 0 slowest). */
+START_TEST(test_examples_rank4)
+{
+    double t1[16], t2[256];
+    for (int i = 0; i < 16; i++)
+        t1[i] = i + 1; /* value number 8 b0 + 4 b1 + 2 b2 + b3 (+1) = full tensor order at k = 1 */
+    bsti_tensor a = {4, 1, t1, NULL, NULL, NULL};
+    char *got = tree_text(&a, -1, NULL);
+    char *x = tokens(got), *y = tokens(scattering_data(tu_ref("examples/k1_4d_TF.xml")));
+    ck_assert_str_eq(x, y);
+    free(got), free(x), free(y);
+    /* k = 2: child c = sum (cell_i >> 1) << i, leaf index = sum (cell_i & 1) << (3 - i) */
+    for (size_t c0 = 0; c0 < 4; c0++)
+        for (size_t c1 = 0; c1 < 4; c1++)
+            for (size_t c2 = 0; c2 < 4; c2++)
+                for (size_t c3 = 0; c3 < 4; c3++) {
+                    int child = (int)((c0 >> 1) | (c1 >> 1) << 1 | (c2 >> 1) << 2 | (c3 >> 1) << 3);
+                    int leaf = (int)((c0 & 1) << 3 | (c1 & 1) << 2 | (c2 & 1) << 1 | (c3 & 1));
+                    t2[((c0 * 4 + c1) * 4 + c2) * 4 + c3] = 100 * (child + 1) + leaf + 1;
+                }
+    bsti_tensor b = {4, 2, t2, NULL, NULL, NULL};
+    got = tree_text(&b, -1, NULL);
+    x = tokens(got), y = tokens(scattering_data(tu_ref("examples/k2_4d_TF.xml")));
+    ck_assert_str_eq(x, y);
+    free(got), free(x), free(y);
+}
+END_TEST
+
+/* CONVENTIONS.md 12.3: rank 3 at k = 2.  The emitter writes only the live lower half of p0: the
+ * even children equal the example's, the odd (unreachable) ones are zero. */
+START_TEST(test_examples_rank3)
+{
+    double t[2 * 4 * 4];
+    for (size_t c0 = 0; c0 < 2; c0++)
+        for (size_t c1 = 0; c1 < 4; c1++)
+            for (size_t c2 = 0; c2 < 4; c2++) {
+                int child = (int)((c0 >> 1) | (c1 >> 1) << 1 | (c2 >> 1) << 2);
+                int leaf = (int)((c0 & 1) << 2 | (c1 & 1) << 1 | (c2 & 1));
+                t[(c0 * 4 + c1) * 4 + c2] = 100 * (child + 1) + leaf + 1;
+            }
+    bsti_tensor a = {3, 2, t, NULL, NULL, NULL};
+    char *got = tree_text(&a, -1, NULL);
+    char *x = tokens(got);
+    ck_assert_str_eq(x, "{ { 101 102 103 104 105 106 107 108 } { 0 } "
+                        "{ 301 302 303 304 305 306 307 308 } { 0 } "
+                        "{ 501 502 503 504 505 506 507 508 } { 0 } "
+                        "{ 701 702 703 704 705 706 707 708 } { 0 } } ");
+    /* the example file's even children are the same leaves */
+    char *y = tokens(scattering_data(tu_ref("examples/k2_3d_TF.xml")));
+    ck_assert_ptr_nonnull(strstr(y, "{ 701 702 703 704 705 706 707 708 }"));
+    ck_assert_ptr_nonnull(strstr(y, "{ 101 102 103 104 105 106 107 108 }"));
+    free(got), free(x), free(y);
+}
+END_TEST
+
+/* The emitted k = 2 trees in an XML file, read by bst_bsdf_read and evaluated at the direction
+ * pairs of CONVENTIONS.md 12.2 and 12.3: the stored values of the tables. */
+START_TEST(test_examples_read_back)
+{
+    double t4[256], t3[32];
+    for (size_t q = 0; q < 256; q++) {
+        size_t c0 = q >> 6, c1 = (q >> 4) & 3, c2 = (q >> 2) & 3, c3 = q & 3;
+        int child = (int)((c0 >> 1) | (c1 >> 1) << 1 | (c2 >> 1) << 2 | (c3 >> 1) << 3);
+        int leaf = (int)((c0 & 1) << 3 | (c1 & 1) << 2 | (c2 & 1) << 1 | (c3 & 1));
+        t4[q] = 100 * (child + 1) + leaf + 1;
+    }
+    for (size_t q = 0; q < 32; q++) {
+        size_t c0 = q >> 4, c1 = (q >> 2) & 3, c2 = q & 3;
+        int child = (int)((c1 >> 1) << 1 | (c2 >> 1) << 2);
+        int leaf = (int)((c0 & 1) << 2 | (c1 & 1) << 1 | (c2 & 1));
+        t3[q] = 100 * (child + 1) + leaf + 1;
+    }
+    static const struct { int rank; double in[3], out[3], want; } rows[] = {
+        {4, {-0.3, -0.4, -0.866}, {0.5, 0.2, 0.8426}, 1607},
+        {4, {0.1, -0.6, -0.7937}, {-0.2, 0.7, 0.6856}, 1116},
+        {4, {0.7, 0.1, -0.7071}, {0.05, -0.3, 0.9526}, 506},
+        {4, {-0.05, 0.02, -0.9985}, {0.04, -0.03, 0.9987}, 606},
+        {4, {-0.8, 0.5, -0.3317}, {0.6, 0.55, 0.5809}, 1412},
+        {3, {-0.3420, 0, -0.9397}, {0.4162, 0.0734, 0.9063}, 705},
+        {3, {-0.3420, 0, -0.9397}, {0.4162, -0.0734, 0.9063}, 306},
+        {3, {-0.3420, 0, -0.9397}, {-0.6330, 0.1116, 0.7660}, 505},
+        {3, {-0.8660, 0, -0.5}, {0.4162, 0.0734, 0.9063}, 701},
+        {3, {0, -0.8660, -0.5}, {-0.0734, 0.4162, 0.9063}, 701},
+        {3, {0, -0.8660, -0.5}, {-0.0734, -0.4162, 0.9063}, 503},
+        {3, {0.1632, 0.0594, -0.9848}, {0.8138, 0.4698, 0.3420}, 106},
+    };
+    for (int rank = 3; rank <= 4; rank++) {
+        bsti_tensor t = {rank, 2, rank == 4 ? t4 : t3, NULL, NULL, NULL};
+        char *text = tree_text(&t, -1, NULL);
+        const char *path = tmp_path("ex");
+        FILE *fp = fopen(path, "w");
+        fprintf(fp, "<?xml version=\"1.0\"?>\n<WindowElement><FileType>BSDF</FileType><Optical><Layer>"
+                    "<DataDefinition><IncidentDataStructure>TensorTree%d</IncidentDataStructure>"
+                    "</DataDefinition><WavelengthData><Wavelength>Visible</Wavelength>"
+                    "<WavelengthDataBlock><WavelengthDataDirection>Transmission Front"
+                    "</WavelengthDataDirection><AngleBasis>LBNL/Shirley-Chiu</AngleBasis>"
+                    "<ScatteringData>%s</ScatteringData></WavelengthDataBlock></WavelengthData>"
+                    "</Layer></Optical></WindowElement>\n", rank, text);
+        fclose(fp);
+        bst_bsdf *b = read_ok(path);
+        for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+            if (rows[i].rank != rank)
+                continue;
+            double v;
+            ck_assert_int_eq(bst_bsdf_eval(ctx, b, 0, rows[i].in, rows[i].out, &v), BST_OK);
+            ck_assert_msg(v == rows[i].want, "rank %d row %zu: %g vs %g", rank, i, v, rows[i].want);
+        }
+        bst_bsdf_free(b);
+        unlink(path);
+        free(text);
+    }
+}
+END_TEST
+
+/* ------------------------------------------------------------------ emitter: exactness, reduction */
+
+/* A random tensor with constant regions of every size (zero and non-zero) and noise. */
+static void random_tensor(tu_rng *r, int rank, int k, double *t, size_t n)
+{
+    size_t G = (size_t)1 << k;
+    double c = 0.5 + tu_rng_uniform(r);
+    for (size_t q = 0; q < n; q++) {
+        size_t c0 = rank == 4 ? q / (G * G * G) : q / (G * G);
+        double u = tu_rng_uniform(r);
+        if (c0 < G / 4)
+            t[q] = 0.0;                  /* large zero region */
+        else if (c0 < G / 2 && (q / 16) % 3 == 0)
+            t[q] = c;                    /* constant runs */
+        else
+            t[q] = u < 0.1 ? 0.0 : exp(6 * u - 3); /* noisy, 4 decades */
+    }
+}
+
+/* Un-reduced: every value comes back exactly (as float), the depth is k, nothing is lost; with
+ * float storage and with an accessor the text is the same. */
+START_TEST(test_lossless_random)
+{
+    tu_rng r;
+    tu_rng_seed(&r, 11);
+    for (int rank = 3; rank <= 4; rank++)
+        for (int k = 1; k <= 4; k++) {
+            size_t G = (size_t)1 << k, n = rank == 4 ? G * G * G * G : G * G * G / 2;
+            size_t full = rank == 4 ? n : G * G * G;
+            double *t = malloc(n * sizeof *t), *grid = malloc(full * sizeof *grid);
+            float *f = malloc(n * sizeof *f);
+            random_tensor(&r, rank, k, t, n);
+            for (size_t q = 0; q < n; q++)
+                f[q] = (float)t[q];
+            bsti_tensor a = {rank, k, t, NULL, NULL, NULL}, b = {rank, k, NULL, f, NULL, NULL};
+            bsti_tree_stats st;
+            char *text = tree_text(&a, -1, &st), *text_f = tree_text(&b, -1, NULL);
+            ck_assert_str_eq(text, text_f);
+            size_t leaves, values;
+            for (size_t q = 0; q < full; q++)
+                grid[q] = NAN;
+            int depth = parse_tree(text, rank, k, grid, &leaves, &values);
+            ck_assert_int_eq(depth, k);
+            ck_assert_uint_eq(leaves, st.leaves);
+            ck_assert_uint_eq(values, st.values);
+            ck_assert(st.threshold == 0.0);
+            for (size_t q = 0; q < full; q++) {
+                double want = q < n ? (double)(float)t[q] : 0.0; /* rank 3: upper half of p0 is 0 */
+                ck_assert_msg(grid[q] == want, "rank %d k %d cell %zu: %g vs %g", rank, k, q, grid[q], want);
+            }
+            ck_assert_double_le(st.l1_error, 1e-7); /* float rounding only */
+            ck_assert_double_le(st.max_error, 1e-7 * 30);
+            ck_assert_uint_eq(st.bytes, strlen(text));
+            free(t), free(f), free(grid), free(text), free(text_f);
+        }
+}
+END_TEST
+
+/* Reduction: the finest blocks written whole are at most the (100 - pct) % above the percentile
+ * (plus the path that keeps depth k), fewer values as pct grows, depth always k, and the reported
+ * errors are those of the text as an independent reader sees it. */
+START_TEST(test_reduce)
+{
+    tu_rng r;
+    tu_rng_seed(&r, 5);
+    const int k = 4;
+    const size_t G = 16, n = G * G * G * G;
+    double *t = malloc(n * sizeof *t), *grid = malloc(n * sizeof *grid);
+    /* smooth lobe along the diagonal plus Poisson-like noise, 10 % zero cells */
+    for (size_t q = 0; q < n; q++) {
+        size_t c0 = q >> 12, c1 = (q >> 8) & 15, c2 = (q >> 4) & 15, c3 = q & 15;
+        double d2 = pow((double)c0 - (double)c2, 2) + pow((double)c1 - (double)c3, 2);
+        double mean = 0.2 + 40 * exp(-d2 / 4);
+        double u = tu_rng_uniform(&r);
+        t[q] = u < 0.1 ? 0.0 : mean * (1 + 0.3 * sqrt(1 / (mean + 1)) * (tu_rng_uniform(&r) - 0.5));
+    }
+    bsti_tensor a = {4, k, t, NULL, NULL, NULL};
+    size_t last_values = SIZE_MAX;
+    static const double pcts[] = {0, 50, 90, 99};
+    for (size_t p = 0; p < 4; p++) {
+        bsti_tree_stats st;
+        char *text = tree_text(&a, pcts[p], &st);
+        size_t leaves, values;
+        ck_assert_int_eq(parse_tree(text, 4, k, grid, &leaves, &values), k);
+        size_t nblocks = n / 16;
+        ck_assert_uint_eq(st.blocks, nblocks);
+        ck_assert_uint_le(st.blocks_kept, (size_t)ceil((1 - pcts[p] / 100) * nblocks) + 1);
+        ck_assert_uint_le(values, last_values);
+        last_values = values;
+        /* errors recomputed from the parsed text */
+        double sa = 0, se = 0, me = 0, hemi[256] = {0}, hmax = 0;
+        for (size_t q = 0; q < n; q++) {
+            double e = t[q] - grid[q];
+            sa += fabs(t[q]), se += fabs(e), me = fmax(me, fabs(e));
+            hemi[q >> 8] += e;
+        }
+        for (int i = 0; i < 256; i++)
+            hmax = fmax(hmax, fabs(hemi[i]) * M_PI / 256);
+        tu_assert_close(st.l1_error, se / sa, 1e-9, 1e-12);
+        tu_assert_close(st.max_error, me, 1e-9, 1e-12);
+        tu_assert_close(st.hemi_error, hmax, 1e-6, 1e-9);
+        if (pcts[p] == 0)
+            ck_assert_double_le(st.l1_error, 1e-7); /* only exact constants merged */
+        else
+            ck_assert_double_gt(st.l1_error, 1e-6);
+        printf("reduce %2.0f %%: %5zu values (%4.1f %%), %zu of %zu blocks kept, L1 error %.2e, "
+               "max %.2e, hemispherical %.2e\n", pcts[p], values, 100.0 * values / n,
+               st.blocks_kept, nblocks, st.l1_error, st.max_error, st.hemi_error);
+        free(text);
+    }
+    free(t), free(grid);
+}
+END_TEST
+
+/* A constant or zero tensor still reaches depth k (readers take k from the depth). */
+START_TEST(test_constant_depth)
+{
+    double t[4096];
+    for (int rank = 3; rank <= 4; rank++)
+        for (int k = 1; k <= 3; k++) {
+            size_t G = (size_t)1 << k, n = rank == 4 ? G * G * G * G : G * G * G / 2;
+            for (size_t q = 0; q < n; q++)
+                t[q] = 2.5 * (rank - 3);
+            bsti_tensor a = {rank, k, t, NULL, NULL, NULL};
+            double grid[4096];
+            for (int red = 0; red < 2; red++) {
+                char *text = tree_text(&a, red ? 90 : -1, NULL);
+                ck_assert_int_eq(parse_tree(text, rank, k, grid, NULL, NULL), k);
+                for (size_t q = 0; q < n; q++)
+                    ck_assert(grid[q] == t[q]);
+                free(text);
+            }
+        }
+}
+END_TEST
+
+static int failing_after(const char *buf, size_t len, void *opaque)
+{
+    (void)buf;
+    size_t *left = opaque;
+    if (len > *left)
+        return -1;
+    *left -= len;
+    return 0;
+}
+
+START_TEST(test_tree_errors)
+{
+    double t[256] = {0};
+    t[17] = NAN;
+    bsti_tensor a = {4, 2, t, NULL, NULL, NULL};
+    struct membuf m = {0};
+    bsti_sink *s = malloc(sizeof *s);
+    bsti_sink_init(s, mem_write, &m);
+    bsti_reduce r = {90, BST_REDUCE_FLOOR, 0};
+    ck_assert_int_eq(bsti_ttree_write(ctx, &a, &r, s, NULL), BST_EINVAL);
+    ck_assert_uint_eq(s->total, 0); /* nothing written */
+    t[17] = 1e39;                   /* beyond single precision */
+    ck_assert_int_eq(bsti_ttree_write(ctx, &a, &r, s, NULL), BST_EINVAL);
+    t[17] = 1.0;
+    bsti_tensor bad = {5, 2, t, NULL, NULL, NULL};
+    ck_assert_int_eq(bsti_ttree_write(ctx, &bad, &r, s, NULL), BST_EINVAL);
+    bsti_reduce badr = {100, BST_REDUCE_FLOOR, 0};
+    ck_assert_int_eq(bsti_ttree_write(ctx, &a, &badr, s, NULL), BST_EINVAL);
+    /* a sink that fails part way (a k = 4 tree is larger than the sink's buffer) */
+    double *big = malloc(65536 * sizeof *big);
+    tu_rng rng;
+    tu_rng_seed(&rng, 3);
+    for (int i = 0; i < 65536; i++)
+        big[i] = tu_rng_uniform(&rng);
+    bsti_tensor b = {4, 4, big, NULL, NULL, NULL};
+    size_t left = 70000; /* the exact tree is about 10 times longer */
+    bsti_sink_init(s, failing_after, &left);
+    bsti_reduce exact = {-1, BST_REDUCE_FLOOR, 0};
+    int rc = bsti_ttree_write(ctx, &b, &exact, s, NULL);
+    ck_assert_int_eq(rc, BST_EIO);
+    /* allocation failures: every one reported, nothing leaked */
+    for (long fail = 1; fail <= 4; fail++) {
+        tu_alloc al = {fail, 0, 0};
+        bst_ctx *c2 = bst_ctx_new();
+        bst_ctx_set_allocator(c2, tu_alloc_malloc, tu_alloc_free, &al);
+        bsti_sink_init(s, mem_write, &m);
+        rc = bsti_ttree_write(c2, &b, &r, s, NULL);
+        if (al.count >= fail)
+            ck_assert_int_eq(rc, BST_ENOMEM);
+        else
+            ck_assert_int_eq(rc, BST_OK);
+        bst_ctx_free(c2);
+        ck_assert_int_eq(al.live, 0);
+    }
+    free(big), free(s), free(m.p);
+}
+END_TEST
+
+/* ------------------------------------------------------------------ XML writer: reference files */
+
+/* Tensor trees at their own k: read, write (with and without reduction), read back.  Without
+ * reduction every matrix comes back exactly; the reference files are RADIANCE-reduced already, so
+ * the 90 % culling finds >= 90 % of the finest blocks constant and is exact too (threshold 0). The
+ * Transmission Front is left out (reciprocal) and rebuilt by the reader exactly.  File sizes are
+ * compared with RADIANCE's. */
+START_TEST(test_reference_round_trip)
+{
+    static const char *const names[] = {"L_glass_t4k5", "L_blind0_t4k5", "L_blind45_t4k5"};
+    char file[64];
+    snprintf(file, sizeof file, "%s.xml", names[_i]);
+    bst_bsdf *b = read_ok(tu_ref(file));
+    bst_layer *l = layer_of(b, NULL);
+    for (int red = 0; red < 2; red++) {
+        bst_write_opts o;
+        bst_write_opts_init(&o);
+        struct reports rep = {.n = 0};
+        o.on_block = collect, o.opaque = &rep;
+        if (!red)
+            o.reduce_pct = -1;
+        const char *path = tmp_path("rt");
+        write_ok(l, path, &o);
+        bst_bsdf *b2 = read_ok(path);
+        ck_assert_int_eq(bst_bsdf_kind(b2), BST_FILE_TT4);
+        ck_assert_int_eq(bst_bsdf_order(b2), 5);
+        ck_assert(!bst_bsdf_stored(b2, 0, BST_TF) && bst_bsdf_stored(b2, 0, BST_TB));
+        bst_layer *l2 = layer_of(b2, NULL);
+        for (int c = 0; c < BST_NCOMP; c++)
+            ck_assert_msg(max_diff(l, l2, 0, (bst_comp)c) == 0.0, "%s %s differs", names[_i],
+                          bst_comp_name((bst_comp)c));
+        ck_assert_int_eq(rep.n, 4);
+        ck_assert(!rep.b[BST_TF].written);
+        for (int c = 1; c < 4; c++)
+            ck_assert(rep.b[c].written && rep.b[c].threshold == 0.0 && rep.b[c].l1_error == 0.0);
+        long ours = file_size(path), theirs = file_size(tu_ref(file));
+        printf("%s %s: %ld bytes (RADIANCE %ld, ratio %.2f)\n", names[_i],
+               red ? "reduced 90 %" : "exact", ours, theirs, (double)ours / theirs);
+        ck_assert_double_le((double)ours, 1.5 * (double)theirs);
+        bst_layer_free(l2), bst_bsdf_free(b2);
+        unlink(path);
+    }
+    bst_layer_free(l), bst_bsdf_free(b);
+}
+END_TEST
+
+/* T and R of a file for one hemi.tsv row, over a 64 x 64 grid of outgoing cell centres, and the
+ * outgoing distributions for the accordance. */
+static void hemi_row(bst_bsdf *b, const bst_basis *g, int front, double th, double ph, double *t,
+                     double *r, double *tv, double *rv)
+{
+    double d = M_PI / 180;
+    double prop[3] = {sin(th * d) * cos(ph * d), sin(th * d) * sin(ph * d), (front ? 1 : -1) * cos(th * d)};
+    double in[3];
+    for (int q = 0; q < 3; q++)
+        in[q] = round(-prop[q] * 1e12) / 1e12; /* as the table was made (see test_xml.c) */
+    *t = *r = 0;
+    for (size_t o = 0; o < 4096; o++) {
+        double c[3], out[3];
+        bst_basis_center(g, o, c);
+        out[0] = c[0], out[1] = c[1], out[2] = (front ? 1 : -1) * c[2];
+        ck_assert_int_eq(bst_bsdf_eval(ctx, b, 0, in, out, &tv[o]), BST_OK);
+        out[2] = -out[2];
+        ck_assert_int_eq(bst_bsdf_eval(ctx, b, 0, in, out, &rv[o]), BST_OK);
+        *t += tv[o] * M_PI / 4096, *r += rv[o] * M_PI / 4096;
+    }
+}
+
+static double accordance(const double *a, const double *b, size_t n)
+{
+    double d = 0, s = 0;
+    for (size_t i = 0; i < n; i++)
+        d += fabs(a[i] - b[i]), s += a[i] + b[i];
+    return s > 0 ? 100 * (1 - d / s) : 100;
+}
+
+/* Every reference layer written as a (reduced) tree at its own k: directional-hemispherical T and
+ * R at the hemi.tsv directions within 1e-3 of RADIANCE's table, and global accordance >= 99.9 with
+ * the original over the outgoing grid.  The rank-3 diffuser is written as rank 3 from its file. */
+START_TEST(test_reference_hemi)
+{
+    static const char *const names[] = {"L_glass_t4k5", "L_blind0_t4k5", "L_blind45_t4k5",
+                                        "L_diffuser_t3k5"};
+    char file[64], tsv[64];
+    snprintf(file, sizeof file, "%s.xml", names[_i]);
+    snprintf(tsv, sizeof tsv, "%s.hemi.tsv", names[_i]);
+    bst_bsdf *b = read_ok(tu_ref(file));
+    bst_layer *l = layer_of(b, NULL);
     bst_write_opts o;
     bst_write_opts_init(&o);
-    const char *p = write_tmp(l, -1.0, NULL);
-    bst_layer *r = load(p, b);
-    unlink(p);
-    size_t n = bst_basis_size(b);
-    for (int c = 0; c < BST_NCOMP; c++)
-        for (size_t j = 0; j < n; j += 3)
-            for (size_t i = 0; i < n; i++) {
-                double x = bst_mat_get(bst_layer_get(l, 0, (bst_comp)c), i, j);
-                double y = bst_mat_get(bst_layer_get(r, 0, (bst_comp)c), i, j);
-                if (_i == 0)
-                    ck_assert_double_eq(x, (double)(float)x == x ? y : x); /* trees hold floats */
-                tu_assert_close(y, x, _i == 0 ? 1e-7 : 1e-16, 1e-300);
-            }
-    bst_layer_free(l), bst_layer_free(r);
-    bst_basis_free(b);
-}
-END_TEST
-
-/* Reduced at 90 %: size within 1.5x of RADIANCE's reduced file (which stores three components
- * where ours stores four), hemispherical T and R of every incident patch within 1e-3 of the
- * original, and accordance >= 99.9 at a few incident directions. */
-START_TEST(test_reduced_vs_radiance)
-{
-    const char *files[] = {"L_glass_t4k5.xml", "L_blind0_t4k5.xml", "L_blind45_t4k5.xml", "S1_t4k5.xml"};
-    bst_basis *b;
-    ck_assert_int_eq(bst_basis_new_sc(ctx, 5, &b), BST_OK);
-    bst_layer *l = load(tu_ref(files[_i]), b);
-    long size;
-    const char *p = write_tmp(l, BST_REDUCE_PCT, &size);
-    bst_layer *r = load(p, b);
-    unlink(p);
-    struct stat st;
-    ck_assert_int_eq(stat(tu_ref(files[_i]), &st), 0);
-    printf("%s reduced at 90 %%: %ld bytes (RADIANCE's: %ld)\n", files[_i], size, (long)st.st_size);
-    ck_assert_int_le(size, 1.5 * (double)st.st_size);
-    double h1[1024], h2[1024];
-    double worst = 0;
-    for (int c = 0; c < BST_NCOMP; c++) {
-        ck_assert_int_eq(bst_layer_hemispherical(ctx, l, 0, (bst_comp)c, h1), BST_OK);
-        ck_assert_int_eq(bst_layer_hemispherical(ctx, r, 0, (bst_comp)c, h2), BST_OK);
-        for (size_t j = 0; j < 1024; j++)
-            worst = fmax(worst, fabs(h1[j] - h2[j]));
-        for (size_t k = 0; k < sizeof dirs / sizeof dirs[0]; k++) {
-            double ga;
-            ck_assert_int_eq(bst_accordance(ctx, l, r, 0, (bst_comp)c, patch_of(b, dirs[k][0], dirs[k][1], 0),
-                                            &ga, NULL), BST_OK);
-            ck_assert_msg(ga >= 99.9 || bst_comp_name((bst_comp)c)[0] == 'R', "%s %s (%g, %g): GA %.3f",
-                          files[_i], bst_comp_name((bst_comp)c), dirs[k][0], dirs[k][1], ga);
-            ck_assert_msg(ga >= 99.0, "%s %s (%g, %g): GA %.3f", files[_i], bst_comp_name((bst_comp)c),
-                          dirs[k][0], dirs[k][1], ga);
-        }
+    o.rank3_source = b;
+    const char *path = tmp_path("hemi");
+    write_ok(l, path, &o);
+    bst_bsdf *b2 = read_ok(path);
+    ck_assert_int_eq(bst_bsdf_kind(b2), bst_bsdf_kind(b));
+    long ours = file_size(path), theirs = file_size(tu_ref(file));
+    ck_assert_double_le((double)ours, 1.5 * (double)theirs);
+    bst_basis *g;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 6, &g), BST_OK);
+    FILE *fp = fopen(tu_ref(tsv), "r");
+    ck_assert_ptr_nonnull(fp);
+    char line[512];
+    int rows = 0;
+    double worst_dt = 0, worst_ga = 100;
+    static double tv[4096], rv[4096], tv0[4096], rv0[4096];
+    while (fgets(line, sizeof line, fp)) {
+        double th, ph, t_ref, r_ref, t, r, t0, r0;
+        char side[32];
+        if (line[0] == '#' || sscanf(line, "%31s %*s %lf %lf %lf %lf", side, &th, &ph, &t_ref, &r_ref) != 5)
+            continue;
+        int front = strncmp(side, "front", 5) == 0;
+        hemi_row(b2, g, front, th, ph, &t, &r, tv, rv);
+        hemi_row(b, g, front, th, ph, &t0, &r0, tv0, rv0);
+        ck_assert_msg(fabs(t - t_ref) <= 1e-3 && fabs(r - r_ref) <= 1e-3, "%s %s %g %g: T %.5f "
+                      "vs %.4f, R %.5f vs %.4f", names[_i], side, th, ph, t, t_ref, r, r_ref);
+        double ga = fmin(accordance(tv, tv0, 4096), accordance(rv, rv0, 4096));
+        ck_assert_msg(ga >= 99.9, "%s %s %g %g: GA %.3f", names[_i], side, th, ph, ga);
+        worst_dt = fmax(worst_dt, fmax(fabs(t - t_ref), fabs(r - r_ref)));
+        worst_ga = fmin(worst_ga, ga);
+        rows++;
     }
-    printf("%s: largest hemispherical change by the reduction %.2e\n", files[_i], worst);
-    ck_assert_double_le(worst, 1e-3);
-    bst_layer_free(l), bst_layer_free(r);
-    bst_basis_free(b);
+    fclose(fp);
+    ck_assert_int_eq(rows, 26);
+    printf("%s -> tree (90 %% reduction): %ld bytes (RADIANCE %ld, ratio %.2f), hemispherical "
+           "T/R off the table by <= %.1e, GA >= %.3f\n", names[_i], ours, theirs,
+           (double)ours / theirs, worst_dt, worst_ga);
+    bst_basis_free(g), bst_bsdf_free(b2), bst_layer_free(l), bst_bsdf_free(b);
+    unlink(path);
 }
 END_TEST
 
-/* Klems conversion of a tree against RADIANCE's bsdf2klems of the same tree, for Tb, Rf and Rb
- * (bsdf2klems's Tf is not energy-consistent for Tb-only trees: not compared).  bsdf2klems samples
- * each patch pair by Monte Carlo, so its specular blocks are noisy (hemispherical values of the
- * clear pane scatter by up to 10 % between neighbouring patches); compared are the band means of
- * the hemispherical totals (within 0.02), and for the smooth diffuser the accordance of every
- * patch's distribution (>= 98.5). */
-START_TEST(test_klems_vs_bsdf2klems)
+/* Per incident patch of Klems basis kb: the average of the Shirley-Chiu layer's directional-
+ * hemispherical values over the patch, sampled on S x S points uniform in projected solid angle
+ * (independent of the resampling, which uses exact overlaps). */
+static void patch_average(const bst_layer *sc, const bst_basis *kb, int S, double ref[4][145])
 {
-    const char *trees[] = {"L_glass_t4k5.xml", "L_blind0_t4k5.xml", "L_blind45_t4k5.xml", "L_diffuser_t3k5.xml"};
-    const char *klems[] = {"L_glass_t4k5_klems.xml", "L_blind0_t4k5_klems.xml", "L_blind45_t4k5_klems.xml",
-                           "L_diffuser_t3k5_klems.xml"};
-    static const size_t band[] = {0, 1, 9, 25, 45, 69, 93, 117, 133, 145};
+    const bst_basis *g = bst_layer_basis(sc);
+    size_t n = bst_basis_size(g), nk = bst_basis_size(kb);
+    double *h = malloc(4 * n * sizeof *h);
+    for (int c = 0; c < 4; c++)
+        ck_assert_int_eq(bst_layer_hemispherical(ctx, sc, 0, (bst_comp)c, h + c * n), BST_OK);
+    for (size_t p = 0; p < nk; p++) {
+        double sum[4] = {0};
+        for (int u = 0; u < S; u++)
+            for (int v = 0; v < S; v++) {
+                double d[3];
+                bst_basis_sample(kb, p, (u + 0.5) / S, (v + 0.5) / S, d);
+                size_t cell = bst_basis_patch(g, d);
+                for (int c = 0; c < 4; c++)
+                    sum[c] += h[c * n + cell];
+            }
+        for (int c = 0; c < 4; c++)
+            ref[c][p] = sum[c] / (S * S);
+    }
+    free(h);
+}
+
+/* GA (bst_accordance's definition) of column i of a and of b, or of b's reciprocal
+ * (b(a(i), a(o)), a = antipode) when recip. */
+static double column_ga(const bst_mat *a, const bst_mat *b, int recip, const bst_basis *kb, size_t i)
+{
+    const double *lam = bst_basis_lambda(kb);
+    size_t n = bst_basis_size(kb);
+    double d = 0, s = 0;
+    for (size_t o = 0; o < n; o++) {
+        double x = bst_mat_get(a, o, i);
+        double y = recip ? bst_mat_get(b, bst_basis_antipode(kb, i), bst_basis_antipode(kb, o))
+                         : bst_mat_get(b, o, i);
+        d += lam[o] * fabs(x - y), s += lam[o] * (x + y);
+    }
+    return s > 0 ? 100 * (1 - d / s) : 100;
+}
+
+/* Every reference tree converted to Klems Full and written: it reads back exactly; every block
+ * (Transmission Front included) keeps the tree's hemispherical T and R per incident patch within
+ * 1e-3; Transmission Back and both reflections agree with RADIANCE's bsdf2klems file as well as
+ * that file agrees with itself.  (bsdf2klems averages 1024 random (in, out) pairs per element:
+ * its Klems Tb and Tf of the same tree, or its Rf and Rf's reciprocal, differ by GA 86 to 99 for
+ * these layers - the Monte Carlo noise of a few hits per specular element.  So we require: the
+ * mean over patches of GA(ours, RADIANCE) at least that of GA(RADIANCE, RADIANCE's reciprocal)
+ * minus 0.25, the least at least the least minus 1.5, and a mean GA >= 99 wherever RADIANCE's
+ * own mean is 99 or better.) */
+START_TEST(test_reference_klems)
+{
+    static const char *const names[] = {"L_glass_t4k5", "L_blind0_t4k5", "L_blind45_t4k5",
+                                        "L_diffuser_t3k5"};
+    char file[64], kfile[64];
+    snprintf(file, sizeof file, "%s.xml", names[_i]);
+    snprintf(kfile, sizeof kfile, "%s_klems.xml", names[_i]);
+    bst_bsdf *b = read_ok(tu_ref(file));
     bst_basis *kb;
     ck_assert_int_eq(bst_basis_new_klems(ctx, "full", &kb), BST_OK);
-    bst_layer *ours = load(tu_ref(trees[_i]), kb), *theirs = load(tu_ref(klems[_i]), kb);
-    double gmin = 100, worst = 0, h1[145], h2[145];
-    static const bst_comp comps[] = {BST_TB, BST_RF, BST_RB};
-    for (int q = 0; q < 3; q++) {
-        ck_assert_int_eq(bst_layer_hemispherical(ctx, ours, 0, comps[q], h1), BST_OK);
-        ck_assert_int_eq(bst_layer_hemispherical(ctx, theirs, 0, comps[q], h2), BST_OK);
-        for (int b = 0; b < 9; b++) {
-            double m1 = 0, m2 = 0;
-            for (size_t j = band[b]; j < band[b + 1]; j++)
-                m1 += h1[j], m2 += h2[j];
-            m1 /= (double)(band[b + 1] - band[b]), m2 /= (double)(band[b + 1] - band[b]);
-            worst = fmax(worst, fabs(m1 - m2));
-            ck_assert_msg(fabs(m1 - m2) <= 0.02, "%s %s band %d: %.4f vs bsdf2klems %.4f", trees[_i],
-                          bst_comp_name(comps[q]), b, m1, m2);
-        }
-        for (size_t j = 0; j < 145; j++) {
-            double ga;
-            if (h2[j] < 0.01)
-                continue;
-            ck_assert_int_eq(bst_accordance(ctx, ours, theirs, 0, comps[q], j, &ga, NULL), BST_OK);
-            gmin = fmin(gmin, ga);
+    bst_layer *lk = layer_of(b, kb), *lsc = layer_of(b, NULL);
+    const char *path = tmp_path("klems");
+    write_ok(lk, path, NULL);
+    bst_bsdf *b2 = read_ok(path);
+    ck_assert_int_eq(bst_bsdf_kind(b2), BST_FILE_KLEMS);
+    ck_assert_str_eq(bst_basis_name(bst_bsdf_klems_basis(b2)), "LBNL/Klems Full");
+    bst_layer *lk2 = layer_of(b2, NULL);
+    for (int c = 0; c < 4; c++) {
+        ck_assert(bst_bsdf_stored(b2, 0, (bst_comp)c));
+        ck_assert(max_diff(lk, lk2, 0, (bst_comp)c) == 0.0);
+    }
+    /* energy per incident patch */
+    static double ref[4][145];
+    patch_average(lsc, kb, 256, ref);
+    double worst = 0;
+    for (int c = 0; c < 4; c++) {
+        double h[145];
+        ck_assert_int_eq(bst_layer_hemispherical(ctx, lk2, 0, (bst_comp)c, h), BST_OK);
+        for (size_t p = 0; p < 145; p++) {
+            ck_assert_msg(fabs(h[p] - ref[c][p]) <= 1e-3, "%s %s patch %zu: %.5f vs %.5f", names[_i],
+                          bst_comp_name((bst_comp)c), p, h[p], ref[c][p]);
+            worst = fmax(worst, fabs(h[p] - ref[c][p]));
         }
     }
-    printf("%s -> Klems vs bsdf2klems (Tb, Rf, Rb): band means within %.4f, lowest accordance %.2f\n",
-           trees[_i], worst, gmin);
-    if (_i == 3)
-        ck_assert_double_ge(gmin, 98.5);
-    bst_layer_free(ours), bst_layer_free(theirs);
-    bst_basis_free(kb);
+    /* agreement with RADIANCE */
+    bst_bsdf *br = read_ok(tu_ref(kfile));
+    bst_layer *lr = layer_of(br, NULL);
+    static const int pairs[3][2] = {{BST_TB, BST_TF}, {BST_RF, BST_RF}, {BST_RB, BST_RB}};
+    printf("%s -> Klems: hemispherical per patch within %.1e of the tree;", names[_i], worst);
+    for (int q = 0; q < 3; q++) {
+        bst_comp x = (bst_comp)pairs[q][0], y = (bst_comp)pairs[q][1];
+        double mo = 100, ms = 100, so = 0, ss = 0;
+        for (size_t i = 0; i < 145; i++) {
+            double go = column_ga(bst_layer_get(lk2, 0, x), bst_layer_get(lr, 0, x), 0, kb, i);
+            double gs = column_ga(bst_layer_get(lr, 0, x), bst_layer_get(lr, 0, y), 1, kb, i);
+            mo = fmin(mo, go), ms = fmin(ms, gs), so += go, ss += gs;
+        }
+        if (ss / 145 >= 99)
+            ck_assert_double_ge(so / 145, 99);
+        ck_assert_msg(so / 145 >= ss / 145 - 0.25 && mo >= ms - 1.5, "%s %s: GA mean %.2f min %.2f, "
+                      "RADIANCE self mean %.2f min %.2f", names[_i], bst_comp_name(x), so / 145, mo,
+                      ss / 145, ms);
+        printf(" %s GA vs RADIANCE mean %.2f min %.2f (RADIANCE vs itself %.2f / %.2f);",
+               bst_comp_name(x), so / 145, mo, ss / 145, ms);
+    }
+    printf("\n");
+    bst_layer_free(lr), bst_bsdf_free(br), bst_layer_free(lk2), bst_bsdf_free(b2);
+    bst_layer_free(lk), bst_layer_free(lsc), bst_basis_free(kb), bst_bsdf_free(b);
+    unlink(path);
 }
 END_TEST
 
-static Suite *write_suite(void)
+/* The diffuser on the grid (its rank-3 file read as a 4-D layer) is written as rank 3 on its own
+ * (the isotropy check passes; glass and blinds stay rank 4, see test_reference_round_trip) and
+ * reads back like its rank-4 form: GA >= 99.5 per incident patch (the grid's incident cells near
+ * normal incidence span up to 90 degrees of azimuth, which no rank-3 tensor reproduces exactly:
+ * see BST_ISO_GA_MIN), hemispherical values within 1e-3. */
+START_TEST(test_rank3_auto)
+{
+    bst_bsdf *b = read_ok(tu_ref("L_diffuser_t3k5.xml"));
+    bst_layer *l = layer_of(b, NULL);
+    bst_write_opts o;
+    bst_write_opts_init(&o);
+    struct reports rep = {.n = 0};
+    o.on_block = collect, o.opaque = &rep;
+    char p3[256];
+    snprintf(p3, sizeof p3, "%s", tmp_path("r3"));
+    write_ok(l, p3, &o);
+    char p4[256];
+    snprintf(p4, sizeof p4, "%s", tmp_path("r4"));
+    o.rank = BST_RANK_4, o.reduce_pct = -1, o.on_block = NULL;
+    write_ok(l, p4, &o);
+    bst_bsdf *b3 = read_ok(p3), *b4 = read_ok(p4);
+    ck_assert_int_eq(bst_bsdf_kind(b3), BST_FILE_TT3);
+    ck_assert_int_eq(bst_bsdf_kind(b4), BST_FILE_TT4);
+    bst_layer *l3 = layer_of(b3, NULL), *l4 = layer_of(b4, NULL);
+    ck_assert_int_eq(rep.n, 4);
+    for (int c = 0; c < 4; c++) {
+        ck_assert(rep.b[c].written && rep.b[c].kind == BST_FILE_TT3);
+        ck_assert_double_ge(rep.b[c].iso_ga, BST_ISO_GA_MIN);
+        /* the layer holds doubles, a tree floats */
+        ck_assert_double_le(max_diff(l, l4, 0, (bst_comp)c),
+                            FLT_EPSILON * bst_mat_max_abs(bst_layer_get(l, 0, (bst_comp)c)));
+        double h3[1024], h4[1024], worst_ga = 100, worst_h = 0;
+        bst_layer_hemispherical(ctx, l3, 0, (bst_comp)c, h3);
+        bst_layer_hemispherical(ctx, l4, 0, (bst_comp)c, h4);
+        for (size_t i = 0; i < 1024; i++) {
+            double ga;
+            ck_assert_int_eq(bst_accordance(ctx, l3, l4, 0, (bst_comp)c, i, &ga, NULL), BST_OK);
+            worst_ga = fmin(worst_ga, ga), worst_h = fmax(worst_h, fabs(h3[i] - h4[i]));
+        }
+        printf("diffuser %s as rank 3 (%llu bytes): least GA with its rank-4 form %.3f (check "
+               "predicted %.3f), hemispherical within %.1e\n", bst_comp_name((bst_comp)c),
+               (unsigned long long)rep.b[c].bytes, worst_ga, rep.b[c].iso_ga, worst_h);
+        ck_assert_double_ge(worst_ga, 99.5);
+        ck_assert_double_le(worst_h, 1e-3);
+    }
+    bst_layer_free(l3), bst_layer_free(l4), bst_bsdf_free(b3), bst_bsdf_free(b4);
+    bst_layer_free(l), bst_bsdf_free(b);
+    unlink(p3), unlink(p4);
+}
+END_TEST
+
+/* A small layer with every structure, several channels (one with XML specials in its name). */
+static bst_layer *small_layer(bst_ctx *c, int k, const char *klems, int nch, uint64_t seed)
+{
+    static const char *const names[] = {"Visible", "CIE-X", "Solar", "Lab <&> \"spectrum\""};
+    bst_basis *bs;
+    if (klems)
+        ck_assert_int_eq(bst_basis_new_klems(c, klems, &bs), BST_OK);
+    else
+        ck_assert_int_eq(bst_basis_new_sc(c, k, &bs), BST_OK);
+    size_t n = bst_basis_size(bs);
+    bst_layer *l;
+    ck_assert_int_eq(bst_layer_new(c, bs, (size_t)nch, names, &l), BST_OK);
+    tu_rng r;
+    tu_rng_seed(&r, seed);
+    for (int ch = 0; ch < nch; ch++) {
+        bst_mat *d, *g, *sp;
+        ck_assert_int_eq(bst_mat_new_dense(c, n, n, ch % 2 ? BST_FLOAT : BST_DOUBLE, &d), BST_OK);
+        for (size_t q = 0; q < n * n; q++) {
+            double v = tu_rng_uniform(&r) < 0.3 ? 0.0 : tu_rng_uniform(&r) * 3;
+            if (ch % 2)
+                ((float *)bst_mat_dense_data(d))[q] = (float)v;
+            else
+                ((double *)bst_mat_dense_data(d))[q] = v;
+        }
+        double *diag = malloc(n * sizeof *diag);
+        for (size_t i = 0; i < n; i++)
+            diag[i] = 10 + tu_rng_uniform(&r);
+        ck_assert_int_eq(bst_mat_new_diag(c, n, diag, &g), BST_OK);
+        size_t row[40], col[40];
+        double val[40];
+        for (int e = 0; e < 40; e++)
+            row[e] = (size_t)(tu_rng_uniform(&r) * n), col[e] = (size_t)(tu_rng_uniform(&r) * n),
+            val[e] = 1 + tu_rng_uniform(&r);
+        ck_assert_int_eq(bst_mat_new_sparse(c, n, n, 40, row, col, val, &sp), BST_OK);
+        ck_assert_int_eq(bst_layer_set(c, l, (size_t)ch, BST_TF, d), BST_OK);
+        ck_assert_int_eq(bst_layer_set(c, l, (size_t)ch, BST_RF, g), BST_OK);
+        ck_assert_int_eq(bst_layer_set(c, l, (size_t)ch, BST_TB, sp), BST_OK);
+        free(diag); /* Rb left absent: written as zero */
+    }
+    bst_basis_free(bs);
+    return l;
+}
+
+/* Channels, structures and metadata: the file is well-formed XML (libxml2), carries the names,
+ * the layers and the command line (with "--" made legal inside the comment), and reads back with
+ * every channel and value (float for trees, exact for Klems). */
+START_TEST(test_channels_metadata)
+{
+    for (int klems = 0; klems < 2; klems++) {
+        bst_layer *l = small_layer(ctx, 2, klems ? "quarter" : NULL, 4, 9);
+        bst_write_opts o;
+        bst_write_opts_init(&o);
+        const char *layers[] = {"outer & pane.xml", "blind <45>.xml"};
+        o.name = "Test <system> & co";
+        o.manufacturer = "Nobody";
+        o.thickness = 0.052;
+        o.nlayers = 2, o.layers = layers;
+        o.command = "bsdfstack convert --reduce 90 --- in.xml -o out.xml";
+        o.date = "2026-01-02T03:04:05Z";
+        o.reduce_pct = -1;
+        const char *path = tmp_path("meta");
+        write_ok(l, path, &o);
+        xmlDocPtr doc = xmlReadFile(path, NULL, XML_PARSE_NONET);
+        ck_assert_msg(doc != NULL, "not well-formed XML");
+        xmlNodePtr root = xmlDocGetRootElement(doc);
+        ck_assert_str_eq((const char *)root->name, "WindowElement");
+        int nwd = 0, found_name = 0, found_comment = 0;
+        for (xmlNodePtr c = doc->children; c; c = c->next)
+            if (c->type == XML_COMMENT_NODE) {
+                const char *t = (const char *)c->content;
+                found_comment = strstr(t, "- -reduce 90 - - -") && strstr(t, "2. blind <45>.xml") &&
+                                strstr(t, "2026-01-02T03:04:05Z") && strstr(t, "bsdfstack ");
+            }
+        for (xmlNodePtr a = root->children; a; a = a->next)
+            for (xmlNodePtr ly = a->children; ly; ly = ly->next)
+                for (xmlNodePtr e = ly->children; e; e = e->next) {
+                    if (e->type != XML_ELEMENT_NODE)
+                        continue;
+                    if (!strcmp((const char *)e->name, "WavelengthData"))
+                        nwd++;
+                    if (!strcmp((const char *)e->name, "Material"))
+                        for (xmlNodePtr f = e->children; f; f = f->next)
+                            if (f->type == XML_ELEMENT_NODE && !strcmp((const char *)f->name, "Name")) {
+                                xmlChar *t = xmlNodeGetContent(f);
+                                found_name = !strcmp((const char *)t, "Test <system> & co");
+                                xmlFree(t);
+                            }
+                }
+        xmlFreeDoc(doc);
+        ck_assert(found_comment && found_name);
+        ck_assert_int_eq(nwd, 12); /* 4 channels x Tf, Rf, Tb (Tf is not Tb's reciprocal; Rb is
+                                      absent from the layer and left out) */
+        bst_bsdf *b = read_ok(path);
+        ck_assert_uint_eq(bst_bsdf_nchannels(b), 4);
+        bst_layer *l2 = layer_of(b, NULL);
+        for (size_t ch = 0; ch < 4; ch++) {
+            ck_assert_str_eq(bst_layer_channel(l2, ch), bst_layer_channel(l, ch));
+            for (int c = 0; c < 4; c++) {
+                double d = max_diff(l, l2, ch, (bst_comp)c);
+                ck_assert_msg(klems ? d == 0.0 : d <= 11 * FLT_EPSILON, "%s %zu %d: %g", klems ?
+                              "Klems" : "tree", ch, c, d);
+            }
+        }
+        bst_layer_free(l2), bst_bsdf_free(b), bst_layer_free(l);
+        unlink(path);
+    }
+}
+END_TEST
+
+/* A reduced write reads back within the errors the writer reports (largest element, L1,
+ * hemispherical), which it measures against what a reader stores. */
+START_TEST(test_reduced_round_trip)
+{
+    bst_layer *l = small_layer(ctx, 4, NULL, 1, 21);
+    bst_write_opts o;
+    bst_write_opts_init(&o);
+    o.rank = BST_RANK_4;
+    struct reports rep = {.n = 0};
+    o.on_block = collect, o.opaque = &rep;
+    const char *path = tmp_path("red");
+    write_ok(l, path, &o);
+    bst_layer *l2 = layer_of(read_ok(path), NULL);
+    ck_assert_int_eq(rep.n, 4);
+    size_t n = 256;
+    for (int c = 0; c < 4; c++) {
+        const bst_write_block *w = &rep.b[c];
+        if (!bst_layer_get(l, 0, (bst_comp)c)) { /* Rb is absent: left out, read back as zero */
+            ck_assert(!w->written);
+            ck_assert(max_diff(l, l2, 0, (bst_comp)c) == 0.0);
+            continue;
+        }
+        ck_assert(w->written);
+        double d = max_diff(l, l2, 0, (bst_comp)c);
+        ck_assert_double_le(d, w->max_error * (1 + 1e-9) + 1e-12);
+        double h1[256], h2[256], worst = 0, se = 0, sa = 0;
+        bst_layer_hemispherical(ctx, l, 0, (bst_comp)c, h1);
+        bst_layer_hemispherical(ctx, l2, 0, (bst_comp)c, h2);
+        for (size_t i = 0; i < n; i++) {
+            worst = fmax(worst, fabs(h1[i] - h2[i]));
+            for (size_t q = 0; q < n; q++) {
+                double x = bst_layer_get(l, 0, (bst_comp)c) ? bst_mat_get(bst_layer_get(l, 0, (bst_comp)c), q, i) : 0;
+                double y = bst_mat_get(bst_layer_get(l2, 0, (bst_comp)c), q, i);
+                se += fabs(x - y), sa += fabs(x);
+            }
+        }
+        ck_assert_double_le(worst, w->hemi_error * (1 + 1e-6) + 1e-12);
+        if (sa > 0)
+            tu_assert_close(se / sa, w->l1_error, 1e-6, 1e-12);
+        printf("reduced random %s: %zu values, L1 %.2e, max %.2e, hemispherical %.2e\n",
+               bst_comp_name((bst_comp)c), w->values, w->l1_error, w->max_error, w->hemi_error);
+    }
+    bst_layer_free(l2), bst_layer_free(l);
+    unlink(path);
+}
+END_TEST
+
+static void no_op(const bst_write_block *b, void *opaque)
+{
+    (void)b, (void)opaque;
+}
+
+START_TEST(test_write_errors)
+{
+    bst_layer *l = small_layer(ctx, 2, NULL, 1, 3);
+    struct membuf m = {0};
+    /* arguments */
+    ck_assert_int_eq(bst_xml_write(ctx, NULL, stdout, NULL), BST_EINVAL);
+    ck_assert_int_eq(bst_xml_write(ctx, l, NULL, NULL), BST_EINVAL);
+    ck_assert_int_eq(bst_xml_write_fn(ctx, l, NULL, NULL, NULL), BST_EINVAL);
+    ck_assert_int_eq(bst_xml_write_path(ctx, l, NULL, NULL), BST_EINVAL);
+    ck_assert_int_eq(bst_xml_write(NULL, l, stdout, NULL), BST_EINVAL);
+    bst_write_opts o;
+    bst_write_opts_init(&o);
+    o.reduce_pct = 100;
+    ck_assert_int_eq(bst_xml_write_fn(ctx, l, mem_write, &m, &o), BST_EINVAL);
+    bst_write_opts_init(&o);
+    o.rank = 5;
+    ck_assert_int_eq(bst_xml_write_fn(ctx, l, mem_write, &m, &o), BST_EINVAL);
+    ck_assert_int_eq(m.calls, 0);
+    /* a value that is not finite: nothing is written */
+    bst_mat *d;
+    ck_assert_int_eq(bst_mat_new_dense(ctx, 16, 16, BST_DOUBLE, &d), BST_OK);
+    ((double *)bst_mat_dense_data(d))[37] = NAN;
+    ck_assert_int_eq(bst_layer_set(ctx, l, 0, BST_RB, d), BST_OK);
+    ck_assert_int_eq(bst_xml_write_fn(ctx, l, mem_write, &m, NULL), BST_EINVAL);
+    ck_assert_int_eq(m.calls, 0);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "not finite"));
+    bst_layer_free(l);
+    /* a failing output, early and late */
+    bst_bsdf *b = read_ok(tu_ref("L_glass_t4k5.xml"));
+    bst_layer *g = layer_of(b, NULL);
+    static const size_t limits[] = {100, 4000, 70000}; /* the file has 78 kB */
+    for (size_t li = 0; li < 3; li++) {
+        size_t limit = limits[li];
+        struct membuf f = {.limit = limit};
+        bst_write_opts_init(&o);
+        o.on_block = no_op;
+        ck_assert_int_eq(bst_xml_write_fn(ctx, g, mem_write, &f, &o), BST_EIO);
+        ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "write failed"));
+        free(f.p);
+    }
+    /* a directory that does not exist: nothing created */
+    ck_assert_int_eq(bst_xml_write_path(ctx, g, "/nonexistent-bst/dir/out.xml", NULL), BST_EIO);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "/nonexistent-bst/dir/out.xml"));
+    /* a file-size limit hit part way (this test runs in its own process): the temporary is
+     * removed and the target never appears */
+    char dir[] = "/tmp/bst_write_dir_XXXXXX";
+    ck_assert_ptr_nonnull(mkdtemp(dir));
+    char target[300];
+    snprintf(target, sizeof target, "%s/out.xml", dir);
+    signal(SIGXFSZ, SIG_IGN);
+    struct rlimit rl = {20000, 20000};
+    ck_assert_int_eq(setrlimit(RLIMIT_FSIZE, &rl), 0);
+    ck_assert_int_eq(bst_xml_write_path(ctx, g, target, NULL), BST_EIO);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "out.xml"));
+    DIR *dd = opendir(dir);
+    struct dirent *de;
+    int entries = 0;
+    while ((de = readdir(dd)))
+        entries += strcmp(de->d_name, ".") && strcmp(de->d_name, "..");
+    closedir(dd);
+    ck_assert_int_eq(entries, 0);
+    rmdir(dir);
+    bst_layer_free(g), bst_bsdf_free(b);
+    free(m.p);
+}
+END_TEST
+
+/* Every allocation of the writer failing in turn: BST_ENOMEM each time, nothing leaked. */
+START_TEST(test_write_alloc_failures)
+{
+    static const struct { const char *klems; int rank; } cases[] = {
+        {NULL, BST_RANK_AUTO}, {NULL, BST_RANK_3}, {NULL, BST_RANK_4}, {"quarter", BST_RANK_AUTO}};
+    for (size_t cse = 0; cse < 4; cse++) {
+        bst_layer *l = small_layer(ctx, 2, cases[cse].klems, 2, 5);
+        long total = 0;
+        for (long fail = 1;; fail++) {
+            tu_alloc al = {fail, 0, 0};
+            bst_ctx *c2 = bst_ctx_new();
+            ck_assert_int_eq(bst_ctx_set_allocator(c2, tu_alloc_malloc, tu_alloc_free, &al), BST_OK);
+            struct membuf m = {0};
+            bst_write_opts o;
+            bst_write_opts_init(&o);
+            o.rank = (bst_tree_rank)cases[cse].rank;
+            int rc = bst_xml_write_fn(c2, l, mem_write, &m, &o);
+            bst_ctx_free(c2);
+            free(m.p);
+            ck_assert_int_eq(al.live, 0);
+            if (al.count < fail) {
+                ck_assert_int_eq(rc, BST_OK);
+                total = al.count;
+                break;
+            }
+            ck_assert_msg(rc == BST_ENOMEM, "case %zu, allocation %ld: %d", cse, fail, rc);
+        }
+        ck_assert_int_gt(total, 2);
+        bst_layer_free(l);
+    }
+}
+END_TEST
+
+/* ------------------------------------------------------------------ suite */
+
+static Suite *suite(void)
 {
     Suite *s = suite_create("write");
-    TCase *tc = tcase_create("write");
+    TCase *tc = tcase_create("tree");
+    tcase_add_checked_fixture(tc, setup, teardown);
+    tcase_add_test(tc, test_format);
+    tcase_add_test(tc, test_examples_rank4);
+    tcase_add_test(tc, test_examples_rank3);
+    tcase_add_test(tc, test_examples_read_back);
+    tcase_add_test(tc, test_lossless_random);
+    tcase_add_test(tc, test_reduce);
+    tcase_add_test(tc, test_constant_depth);
+    tcase_add_test(tc, test_tree_errors);
+    suite_add_tcase(s, tc);
+    tc = tcase_create("xml");
     tcase_add_checked_fixture(tc, setup, teardown);
     tcase_set_timeout(tc, 300);
-    tcase_add_loop_test(tc, test_round_trip_exact, 0, 2);
-    tcase_add_loop_test(tc, test_reduced_vs_radiance, 0, 4);
-    tcase_add_loop_test(tc, test_klems_vs_bsdf2klems, 0, 4);
+    tcase_add_loop_test(tc, test_reference_round_trip, 0, 3);
+    tcase_add_loop_test(tc, test_reference_hemi, 0, 4);
+    tcase_add_loop_test(tc, test_reference_klems, 0, 4);
+    tcase_add_test(tc, test_rank3_auto);
+    tcase_add_test(tc, test_channels_metadata);
+    tcase_add_test(tc, test_reduced_round_trip);
+    tcase_add_test(tc, test_write_errors);
+    tcase_add_test(tc, test_write_alloc_failures);
     suite_add_tcase(s, tc);
     return s;
 }
 
 int main(void)
 {
-    return tu_run(write_suite());
+    return tu_run(suite());
 }

@@ -1,71 +1,231 @@
-/* cmd_convert.c - `bsdfstack convert IN -o OUT`: read any supported BSDF XML file, resample it to
- * another basis, write it. */
+/* cmd_convert.c - `bsdfstack convert IN -o OUT`: read any BSDF XML file the reader supports (or a
+ * glass:SPEC pane, or a reversed layer LAYER^), resample it to another basis if asked
+ * (bst_bsdf_to_layer), write it (bst_xml_write) through an atomic output file.  A plain file keeps
+ * its own basis exactly when no other is asked, a rank-3 file its rank-3 trees. */
 #include <config.h>
 
 #include <getopt.h>
+#include <math.h>
+#include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 #include "cli.h"
 #include "layers.h"
 
+#define MAX_CHANNELS 16
+
 static const char help[] =
-    "Usage: bsdfstack convert [-k K | --klems[=full|half|quarter]] [--reduce PCT | --no-reduce]\n"
-    "                         [--channels NAMES] -o OUT IN\n"
-    "Reads a BSDF XML file (Klems, TensorTree3 or TensorTree4), resamples it to the chosen basis\n"
-    "and writes it as BSDF XML: a TensorTree4 for -k, a Klems matrix file for --klems.\n"
+    "Usage: bsdfstack convert [OPTIONS] IN -o OUT\n"
+    "Reads the BSDF XML file IN (Klems matrices or RADIANCE tensor trees; or glass:SPEC, a pane of\n"
+    "the glass catalogue; LAYER^ for a reversed layer), resamples it to another basis if asked and\n"
+    "writes it as BSDF XML to OUT ('-' = standard output).  Without a basis option a file keeps\n"
+    "its own (a tree its order, a Klems file its basis; glass: Shirley-Chiu k = 5).  Shirley-Chiu\n"
+    "output is a tensor tree: TensorTree3 when every component is isotropic, else TensorTree4;\n"
+    "Klems output holds every component with each text row one outgoing patch, as WINDOW,\n"
+    "EnergyPlus and RADIANCE read it.  OUT appears only when everything was written.\n"
     "\n"
     "Options:\n"
-    "  -k K               Shirley-Chiu tensor-tree basis of order K (1..7); default: the file's own\n"
-    "  --klems[=WHICH]    Klems basis: full (default), half or quarter\n"
-    "  --reduce PCT       tensor-tree reduction percentile (default 90); --no-reduce: every cell\n"
-    "  --channels NAMES   only these channels (comma-separated)\n"
-    "  -o OUT             output file ('-' = standard output), written atomically\n";
+    "  -o, --output OUT     output file (required; '-' = standard output)\n"
+    "  -k, --order K        Shirley-Chiu tensor tree of order K (1..7, 2^K x 2^K patches)\n"
+    "      --klems[=WHICH]  Klems basis: full (default), half or quarter\n"
+    "      --reduce PCT     tree reduction: merge regions whose variation is below the PCT-th\n"
+    "                       percentile of the finest blocks' (0 <= PCT < 100, default 90 as\n"
+    "                       genBSDF)\n"
+    "      --no-reduce      write every tree value (only exactly constant regions merged)\n"
+    "      --rank 3|4       force a TensorTree3 or TensorTree4 (default: by an isotropy test)\n"
+    "      --digits N       significant digits per value (default: as many as read back exactly)\n"
+    "      --channels NAMES only these spectral channels (comma-separated)\n"
+    "      --name NAME      the Material Name written (default: the input file's name)\n"
+    "  -v, --verbose        one line per written block on standard error: values, bytes and\n"
+    "                       the reduction's error (L1, largest, hemispherical)\n"
+    "  -h, --help           this text\n";
+
+struct verbose {
+    int on;
+};
+
+static void report(const bst_write_block *b, void *opaque)
+{
+    const struct verbose *v = opaque;
+    if (!v->on)
+        return;
+    if (!b->written) {
+        fprintf(stderr, "bsdfstack convert: %s %s: left out (the reciprocal of the other "
+                        "transmission)\n", b->channel, bst_comp_name(b->comp));
+        return;
+    }
+    fprintf(stderr, "bsdfstack convert: %s %s: %s, %zu values, %llu bytes", b->channel,
+            bst_comp_name(b->comp), b->kind == BST_FILE_KLEMS ? "Klems" :
+            b->kind == BST_FILE_TT3 ? "TensorTree3" : "TensorTree4", b->values,
+            (unsigned long long)b->bytes);
+    if (b->kind != BST_FILE_KLEMS)
+        fprintf(stderr, ", %zu leaves, error L1 %.2e, largest %.2e 1/sr, hemispherical %.2e",
+                b->leaves, b->l1_error, b->max_error, b->hemi_error);
+    if (!isnan(b->iso_ga))
+        fprintf(stderr, ", rank-3 GA %.2f %%", b->iso_ga);
+    fputc('\n', stderr);
+}
 
 int cmd_convert(int argc, char **argv)
 {
-    enum { O_KLEMS = 256, O_REDUCE, O_NOREDUCE, O_CHANNELS, O_HELP };
+    enum { OPT_KLEMS = 256, OPT_REDUCE, OPT_NO_REDUCE, OPT_RANK, OPT_DIGITS, OPT_NAME, OPT_CHANNELS };
     static const struct option longopts[] = {
-        {"klems", optional_argument, NULL, O_KLEMS}, {"reduce", required_argument, NULL, O_REDUCE},
-        {"no-reduce", no_argument, NULL, O_NOREDUCE}, {"channels", required_argument, NULL, O_CHANNELS},
-        {"help", no_argument, NULL, O_HELP}, {NULL, 0, NULL, 0}};
-    const char *sub = "convert", *outpath = NULL, *channels = NULL;
+        {"output", required_argument, NULL, 'o'}, {"order", required_argument, NULL, 'k'},
+        {"klems", optional_argument, NULL, OPT_KLEMS}, {"reduce", required_argument, NULL, OPT_REDUCE},
+        {"no-reduce", no_argument, NULL, OPT_NO_REDUCE}, {"rank", required_argument, NULL, OPT_RANK},
+        {"digits", required_argument, NULL, OPT_DIGITS}, {"name", required_argument, NULL, OPT_NAME},
+        {"channels", required_argument, NULL, OPT_CHANNELS},
+        {"verbose", no_argument, NULL, 'v'}, {"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}};
+    const char *sub = "convert", *out = NULL, *name = NULL, *channels = NULL;
     struct cli_basis_choice basis = {0};
-    double reduce = BST_REDUCE_PCT;
-    int c;
+    int rank = 0, digits = 0, c;
+    int reduce_set = 0, no_reduce = 0;
+    double pct = BST_REDUCE_PCT;
+    struct verbose verbose = {0};
     optind = 1;
     opterr = 0;
-    while ((c = getopt_long(argc, argv, ":k:o:h", longopts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, ":o:k:vh", longopts, NULL)) != -1) {
         switch (c) {
+        case 'o': out = optarg; break;
         case 'k':
-        case O_KLEMS:
+        case OPT_KLEMS:
             if (cli_parse_basis_option(sub, c == 'k' ? 'k' : 'K', optarg, &basis) != CLI_OK)
                 return CLI_USAGE;
             break;
-        case O_REDUCE:
-            if (cli_parse_double(optarg, &reduce) || reduce < 0 || reduce >= 100)
-                return cli_usage(sub, "--reduce %s: a percentile in [0, 100) is required", optarg);
+        case OPT_CHANNELS: channels = optarg; break;
+        case OPT_REDUCE:
+            if (cli_parse_double(optarg, &pct) || pct < 0 || pct >= 100)
+                return cli_usage(sub, "--reduce %s: the percentile must be in [0, 100)", optarg);
+            reduce_set = 1;
             break;
-        case O_NOREDUCE: reduce = -1; break;
-        case O_CHANNELS: channels = optarg; break;
-        case 'o': outpath = optarg; break;
-        case 'h':
-        case O_HELP: fputs(help, stdout); return CLI_OK;
+        case OPT_NO_REDUCE: no_reduce = 1; break;
+        case OPT_RANK:
+            if (cli_parse_int(optarg, &rank) || (rank != 3 && rank != 4))
+                return cli_usage(sub, "--rank %s: use 3 or 4", optarg);
+            break;
+        case OPT_DIGITS:
+            if (cli_parse_int(optarg, &digits) || digits < 1 || digits > 17)
+                return cli_usage(sub, "--digits %s: use 1 to 17", optarg);
+            break;
+        case OPT_NAME: name = optarg; break;
+        case 'v': verbose.on = 1; break;
+        case 'h': fputs(help, stdout); return CLI_OK;
         case ':': return cli_usage(sub, "option %s needs a value", argv[optind - 1]);
         default: return cli_usage(sub, "unknown option '%s'", argv[optind - 1]);
         }
     }
-    if (!outpath)
-        return cli_usage(sub, "no output file: give -o OUT");
     if (argc - optind != 1)
         return cli_usage(sub, argc - optind < 1 ? "no input file given" : "one input file expected");
+    if (!out)
+        return cli_usage(sub, "no output file given (-o OUT, or -o - for standard output)");
+    int k = basis.k;
+    const char *klems = basis.klems;
+    if (reduce_set && no_reduce)
+        return cli_usage(sub, "--reduce and --no-reduce exclude each other");
+    if (rank && klems)
+        return cli_usage(sub, "--rank applies to tensor trees, not to --klems");
+    const char *in = argv[optind];
+    size_t inlen = strlen(in);
+    /* glass:SPEC and LAYER^ go through the shared loader (no rank-3 source then) */
+    int via_loader = strncmp(in, "glass:", 6) == 0 || (inlen && in[inlen - 1] == '^');
+
     bst_ctx *ctx = cli_ctx_new(sub);
     if (!ctx)
         return CLI_FAIL;
-    struct cli_layers set;
-    int rc = cli_layers_load(&set, ctx, sub, 1, argv + optind, &basis, channels);
-    if (rc == CLI_OK)
-        rc = cli_write_layer(ctx, sub, set.layers[0], outpath, reduce, argc, argv, &set);
+    bst_bsdf *b = NULL;
+    bst_basis *target = NULL;
+    bst_layer *l = NULL;
+    const bst_layer *lw = NULL;
+    struct cli_layers set = {0};
+    char *command = NULL, *chcopy = channels ? strdup(channels) : NULL;
+    const char *chnames[MAX_CHANNELS];
+    bst_read_opts ro = {0, 0, chnames};
+    int rc = CLI_OK, st;
+    for (char *save = NULL, *t = chcopy ? strtok_r(chcopy, ",", &save) : NULL;
+         t && ro.nchannels < MAX_CHANNELS; t = strtok_r(NULL, ",", &save))
+        chnames[ro.nchannels++] = t;
+    if (channels && !chcopy) {
+        rc = cli_fail(sub, "out of memory");
+        goto done;
+    }
+    if (via_loader) {
+        char *spec = (char *)in;
+        if ((rc = cli_layers_load(&set, ctx, sub, 1, &spec, &basis, channels)) != CLI_OK)
+            goto done;
+        lw = set.layers[0];
+        goto write;
+    }
+    st = bst_bsdf_read(ctx, in, &ro, &b);
+    if (st < 0) {
+        rc = cli_fail_ctx(sub, NULL, ctx);
+        goto done;
+    }
+    if (verbose.on)
+        cli_warn_ctx(sub, NULL, st, ctx);
+    bst_ctx_clear(ctx);
+    /* the file's own basis is read exactly (NULL target) */
+    int own = (k && bst_bsdf_kind(b) != BST_FILE_KLEMS && k == bst_bsdf_order(b)) ||
+              (!k && !klems);
+    if (!own && k)
+        st = bst_basis_new_sc(ctx, k, &target);
+    else if (!own && klems)
+        st = bst_basis_new_klems(ctx, klems, &target);
+    if (st >= 0 && target && bst_bsdf_kind(b) == BST_FILE_KLEMS &&
+        bst_basis_equal(target, bst_bsdf_klems_basis(b))) {
+        bst_basis_free(target);
+        target = NULL;
+    }
+    if (st >= 0)
+        st = bst_bsdf_to_layer(ctx, b, target, &l);
+    if (st < 0) {
+        rc = cli_fail_ctx(sub, in, ctx);
+        goto done;
+    }
+    lw = l;
+write:;
+    /* the command line for the file's comment */
+    size_t len = strlen("bsdfstack") + 1;
+    for (int i = 0; i < argc; i++)
+        len += strlen(argv[i]) + 1;
+    if (!(command = malloc(len))) {
+        rc = cli_fail(sub, "out of memory");
+        goto done;
+    }
+    strcpy(command, "bsdfstack");
+    for (int i = 0; i < argc; i++)
+        strcat(strcat(command, " "), argv[i]);
+    bst_write_opts o;
+    bst_write_opts_init(&o);
+    o.rank = (bst_tree_rank)rank;
+    o.reduce_pct = no_reduce ? -1.0 : pct;
+    o.digits = digits;
+    o.name = name;
+    o.nlayers = 1;
+    o.layers = &in;
+    o.command = command;
+    o.rank3_source = b;
+    o.on_block = report;
+    o.opaque = &verbose;
+    struct cli_out co;
+    if (cli_out_open(&co, sub, out) != CLI_OK) {
+        rc = CLI_FAIL;
+        goto done;
+    }
+    st = bst_xml_write(ctx, lw, co.fp, &o);
+    if (st < 0) {
+        cli_out_abort(&co);
+        rc = cli_fail_ctx(sub, strcmp(out, "-") ? out : "standard output", ctx);
+        goto done;
+    }
+    rc = cli_out_commit(&co, sub);
+done:
+    free(command);
+    free(chcopy);
     cli_layers_free(&set);
+    bst_layer_free(l);
+    bst_basis_free(target);
+    bst_bsdf_free(b);
     bst_ctx_free(ctx);
     return rc;
 }

@@ -9,7 +9,7 @@
 
 const struct cli_command cli_commands[] = {
     {"combine", cmd_combine, "combine layers (exterior first) into the system's BSDF XML"},
-    {"convert", cmd_convert, "resample a BSDF XML file to another basis and write it"},
+    {"convert", cmd_convert, "write a BSDF file as a tensor tree or Klems matrices, resampled if asked"},
     {"glass", cmd_glass, "print a clear pane's T, R and absorptance against angle"},
     {"info", cmd_info, "summarize a BSDF file: basis, channels, hemispherical T and R, balance"},
     {"query", cmd_query, "evaluate a BSDF file at pairs of directions, as RADIANCE does"},

@@ -1,0 +1,40 @@
+/* sink.h - a small buffered text output used by the writers (tensor trees, XML): bytes go to a
+ * callback in chunks of at most BSTI_SINK_BUF, so nothing larger than that buffer is ever held.
+ * The first failure of the callback is remembered; later writes are dropped and the writer
+ * checks bsti_sink_failed() to stop early. */
+#ifndef BST_SINK_H
+#define BST_SINK_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include "bsdfstack.h"
+
+#define BSTI_SINK_BUF 65536
+
+typedef struct bsti_sink {
+    bst_write_fn fn;    /* returns 0 on success */
+    void *opaque;
+    char buf[BSTI_SINK_BUF];
+    size_t n;           /* bytes waiting in buf */
+    uint64_t total;     /* bytes accepted so far */
+    int failed;
+    int err;            /* errno after the failed write (0 if unknown) */
+} bsti_sink;
+
+void bsti_sink_init(bsti_sink *s, bst_write_fn fn, void *opaque);
+void bsti_sink_put(bsti_sink *s, const char *text, size_t len);
+void bsti_sink_puts(bsti_sink *s, const char *text);
+void bsti_sink_printf(bsti_sink *s, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+/* Pass everything buffered to the callback; returns 0, or -1 when any write failed. */
+int bsti_sink_flush(bsti_sink *s);
+static inline int bsti_sink_failed(const bsti_sink *s) { return s->failed; }
+
+/* The callback for a stdio stream (opaque = FILE *). */
+int bsti_sink_file(const char *buf, size_t len, void *opaque);
+
+#endif

@@ -1,0 +1,89 @@
+/* ttree_write.h - the emitting side of RADIANCE tensor trees: a full component tensor becomes the
+ * ScatteringData text, exactly or reduced, streamed through a sink; and the rank-3 (isotropic)
+ * form of a Shirley-Chiu matrix with its read-back check.
+ *
+ * Full tensor order (CONVENTIONS.md 6.1, RADIANCE's rttree_reduce input): rank 4, G^4 values
+ * (ix, iy, ox, oy) with oy fastest, (ix, iy) the cell of the incident square (p0, p1) and (ox, oy)
+ * that of the outgoing square (p2, p3); this is exactly our column-major N x N matrix M[o + N i]
+ * (i = ix G + iy, o = ox G + oy).  Rank 3, (G/2) G G values (ix, ox, oy): ix covers only the
+ * lower, live half of p0; the upper half is implied zero.
+ *
+ * Tree text (CONVENTIONS.md 6): a branch lists its 2^D children with dimension 0 as the LEAST
+ * significant bit of the child index; a leaf of 2^D values lists them with dimension 0 SLOWEST.
+ * The emitter writes branches down to the finest 2^D blocks, one-value leaves for merged regions
+ * and 2^D-value leaves for finest blocks kept at full resolution, as rttree_reduce does. */
+#ifndef BST_TTREE_WRITE_H
+#define BST_TTREE_WRITE_H
+
+#include <stddef.h>
+#include "bsdfstack.h"
+#include "sink.h"
+
+/* A full component tensor: one of d, f (arrays in the order above) or get (value at a flat index
+ * of that order) is set. */
+typedef struct {
+    int rank;               /* 3 or 4 */
+    int k;                  /* G = 2^k cells per dimension, 1 <= k <= BST_K_MAX */
+    const double *d;
+    const float *f;
+    double (*get)(const void *opaque, size_t index);
+    const void *opaque;
+} bsti_tensor;
+
+typedef struct {
+    double pct;             /* culling percentile in [0, 100); < 0: lossless */
+    double floor;           /* BST_REDUCE_FLOOR */
+    int digits;             /* 0: shortest text that reads back as the same float */
+} bsti_reduce;
+
+typedef struct {
+    size_t values, leaves, blocks_kept, blocks; /* blocks: finest 2^D blocks (kept: written whole) */
+    uint64_t bytes;
+    int negatives;          /* negative values written as 0 (as every tree reader reads them) */
+    double threshold;
+    double l1_error, max_error, hemi_error; /* as bst_write_block */
+} bsti_tree_stats;
+
+/* Write the tree of t to out.  Fails with BST_EINVAL (nothing written) when a value is not finite,
+ * BST_EIO when the sink fails, BST_ENOMEM.  Memory: one float per tree node above the cells
+ * (G^D / (2^D - 1) floats) and, when reducing, a copy of the finest level for the percentile. */
+int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, bsti_sink *out,
+                     bsti_tree_stats *stats);
+
+/* The shortest text of v that reads back (strtof) as the float nearest v: at most 15 characters
+ * plus the terminator.  digits > 0 prints that many significant digits instead.  Returns the
+ * length; *back receives the value a reader stores. */
+int bsti_format_float(double v, int digits, char *buf, float *back);
+/* The same for doubles (strtod, at most 24 characters plus the terminator). */
+int bsti_format_double(double v, int digits, char *buf, double *back);
+
+/* Rank 3 (CONVENTIONS.md 5.2).  The rank-3 incident cell ix is the square ring j = G/2 - 1 - ix
+ * of the Shirley-Chiu incident grid (sin(theta) in [2j/G, 2(j+1)/G)); the outgoing coordinates
+ * are the exit direction rotated so that the incident light travels towards +x.
+ * bsti_tt3_from_sc fills t3 ((G/2) G G values) from the N x N Shirley-Chiu matrix m of order k:
+ * first the average of m over each ring, over sample points of its incident cells (their
+ * azimuths) and of each rank-3 outgoing cell; then `refine` corrections t3 += that same average
+ * of the residual (m minus the expansion of t3), which drive the expansion towards m.  The
+ * expansion is the one bst_bsdf_to_layer applies to a rank-3 tree: the average over
+ * BSTI_TT3_IN_SAMPLES^2 points of each incident cell and BSTI_TT3_OUT_SAMPLES^2 of each outgoing
+ * cell.  On return *ga_min is the least global accordance (percent, bst_accordance's definition)
+ * over the incident patches between m and the expansion of t3, *hemi_max the largest change of a
+ * directional-hemispherical value.  (Exit samples exactly in the plane of incidence fall on a cell
+ * boundary, which this expansion and the reader's decide by different rounding: next to a glossy
+ * in-plane lobe the GA measured here is up to about 0.5 below the reader's - a conservative
+ * estimate: RADIANCE's diffuser 99.35 here, 99.72 read back.)  Corrections stop early when *ga_min falls below ga_stop (the
+ * matrix is clearly not isotropic; -INFINITY never stops).  The exact 90-degree rotation symmetry of the grid cuts the
+ * work to a quarter; memory: about 2 N + G N / 2 doubles. */
+#define BSTI_TT3_IN_SAMPLES 2
+#define BSTI_TT3_OUT_SAMPLES 3
+#define BSTI_TT3_REFINE 3
+int bsti_tt3_from_sc(bst_ctx *ctx, const bst_mat *m, int k, int refine, double ga_stop,
+                     double *t3, double *ga_min, double *hemi_max);
+
+/* The least GA over the incident patches between m and m turned by 90 degrees about Z (exact on
+ * the grid).  A rank-3 form is turned into itself, so by the triangle inequality a matrix whose
+ * rank-3 form keeps GA >= g everywhere has a rotation GA of about 2 g - 100 or more: a cheap test
+ * that rejects anisotropic layers (blinds: 10 to 50) before the rank-3 form is built. */
+double bsti_tt3_rotation_ga(const bst_mat *m, int k);
+
+#endif

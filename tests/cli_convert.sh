@@ -1,0 +1,73 @@
+# cli_convert.sh - `bsdfstack convert` end to end: trees and Klems written from reference files
+# answer RADIANCE's query tables through `bsdfstack query`; failures leave nothing behind.
+. "${BST_SRCDIR:-.}/tests/clitest.sh"
+ref=${BST_REFDIR:?}
+
+# compare_query FILE TABLE ROWS: the first ROWS rows of a reference query table, asked of FILE
+compare_query() {
+    grep -v '^#' "$2" | sed 1d | head -"$3" > "$tmpdir/rows"
+    cut -f3-8 "$tmpdir/rows" > "$tmpdir/in"
+    "$BSDFSTACK" query "$1" < "$tmpdir/in" > "$tmpdir/got" 2>"$tmpdir/qerr" || return 1
+    paste "$tmpdir/got" <(cut -f9 "$tmpdir/rows") | awk '
+        { d = $1 - $2; if (d < 0) d = -d; s = ($2 < 0 ? -$2 : $2); if (s < 1e-6) s = 1e-6;
+          if (d / s > 3.5e-4) { print "row " NR ": " $1 " vs " $2; bad = 1 } }
+        END { exit bad }'
+}
+
+# the clear pane as a tree at its own order (90 % reduction): libBSDF's values
+expect_status 0 "convert glass (own order)" -- "$BSDFSTACK" convert "$ref/L_glass_t4k5.xml" -o "$tmpdir/g.xml"
+grep -q '<IncidentDataStructure>TensorTree4</IncidentDataStructure>' "$tmpdir/g.xml" || fail "glass is written as TensorTree4"
+grep -q 'Command: bsdfstack convert' "$tmpdir/g.xml" || fail "the command line is in the file"
+compare_query "$tmpdir/g.xml" "$ref/L_glass_t4k5.query.tsv" 300 && pass "converted glass answers libBSDF's table" || fail "converted glass query"
+# Klems: the bsdf2klems table is Monte Carlo; check the file's form and a straight-through value
+expect_status 0 "convert glass --klems" -- "$BSDFSTACK" convert --klems "$ref/L_glass_t4k5.xml" -o "$tmpdir/gk.xml"
+grep -q '<AngleBasisName>LBNL/Klems Full</AngleBasisName>' "$tmpdir/gk.xml" || fail "Klems Full basis written"
+[ "$(grep -c '<WavelengthDataDirection>' "$tmpdir/gk.xml")" -eq 4 ] || fail "four Klems blocks"
+[ "$(grep -c '<IncidentDataStructure>Columns' "$tmpdir/gk.xml")" -eq 1 ] || fail "Columns order"
+# normal incidence, straight through, against RADIANCE's bsdf2klems file (whose Monte Carlo
+# estimate of a specular element is good to about 10 %)
+printf '0 0 0 0\n40 90 40 270\n' | "$BSDFSTACK" query --degrees Tb "$tmpdir/gk.xml" > "$tmpdir/got"
+printf '0 0 0 0\n40 90 40 270\n' | "$BSDFSTACK" query --degrees Tb "$ref/L_glass_t4k5_klems.xml" > "$tmpdir/want"
+paste "$tmpdir/got" "$tmpdir/want" | awk '{ d = $1 / $2 - 1; if (d < -0.1 || d > 0.1) bad = 1 } END { exit bad }' \
+    && pass "Klems Tb straight through matches bsdf2klems" || fail "Klems Tb: $(cat "$tmpdir/got") vs $(cat "$tmpdir/want")"
+expect_status 0 "convert --klems=quarter" -- "$BSDFSTACK" convert --klems=quarter "$ref/L_glass_t4k5.xml" -o "$tmpdir/gq.xml"
+grep -q 'LBNL/Klems Quarter' "$tmpdir/gq.xml" || fail "Klems Quarter basis written"
+# a Klems file back to a tree at k = 4, to stdout, verbose
+expect_status 0 "Klems -> tree on stdout" -- "$BSDFSTACK" convert -v -k 4 "$ref/L_glass_t4k5_klems.xml" -o -
+grep -q '<IncidentDataStructure>TensorTree' "$tmpdir/out" || fail "tree written to stdout"
+grep -q 'values' "$tmpdir/err" || fail "-v reports the blocks"
+# a rank-3 tree stays rank 3 and keeps its values (CONVENTIONS.md 12.3 example)
+expect_status 0 "convert a rank-3 tree" -- "$BSDFSTACK" convert --no-reduce "$ref/examples/k2_3d_TF.xml" -o "$tmpdir/r3.xml"
+grep -q 'TensorTree3' "$tmpdir/r3.xml" || fail "rank 3 kept"
+printf -- '-0.3420 0 -0.9397 0.4162 0.0734 0.9063\n-0.8660 0 -0.5 0.4162 0.0734 0.9063\n0.1632 0.0594 -0.9848 0.8138 0.4698 0.3420\n' \
+    | "$BSDFSTACK" query "$tmpdir/r3.xml" | tr '\n' ' ' > "$tmpdir/got"
+[ "$(cat "$tmpdir/got")" = "7.050000e+02 7.010000e+02 1.060000e+02 " ] && pass "rank-3 values kept" || fail "rank-3 values: $(cat "$tmpdir/got")"
+
+# a catalogue pane and a reversed layer go through the shared loader; --channels selects
+expect_status 0 "convert glass:clear-6mm" -- "$BSDFSTACK" convert -k 3 glass:clear-6mm -o "$tmpdir/pane.xml"
+grep -q 'TensorTree4' "$tmpdir/pane.xml" || fail "a specular pane is not isotropic on the grid: TensorTree4"
+expect_status 0 "convert a reversed layer" -- "$BSDFSTACK" convert -k 3 "$ref/L_blind45_t4k5.xml^" -o "$tmpdir/rev.xml"
+expect_status 0 "convert --channels" -- "$BSDFSTACK" convert --channels Visible "$ref/L_glass_t4k5.xml" -o "$tmpdir/ch.xml"
+expect_error "convert --channels without such a channel" "no <ScatteringData> for the requested channels" -- "$BSDFSTACK" convert --channels Solar "$ref/L_glass_t4k5.xml" -o "$tmpdir/ch2.xml"
+
+# failures leave nothing behind
+mkdir "$tmpdir/mid"
+( trap '' XFSZ; ulimit -f 20; exec "$BSDFSTACK" convert "$ref/L_glass_t4k5.xml" -o "$tmpdir/mid/out.xml" ) >"$tmpdir/out" 2>"$tmpdir/err"
+st=$?
+if [ "$st" -ne 1 ]; then fail "write failing part way: exit $st"
+elif ! grep -q 'write failed' "$tmpdir/err"; then fail "write failing part way: $(cat "$tmpdir/err")"
+elif [ -n "$(ls -A "$tmpdir/mid")" ]; then fail "write failing part way left $(ls -A "$tmpdir/mid")"
+else pass "a write failing part way leaves nothing behind"; fi
+expect_error "missing directory" "nodir/out.xml: cannot create" -- "$BSDFSTACK" convert "$ref/L_glass_t4k5.xml" -o "$tmpdir/nodir/out.xml"
+[ ! -e "$tmpdir/nodir" ] || fail "missing directory created"
+expect_error "missing input" "nothere.xml: cannot open" -- "$BSDFSTACK" convert "$tmpdir/nothere.xml" -o "$tmpdir/x.xml"
+[ ! -e "$tmpdir/x.xml" ] || fail "output left after a failed read"
+expect_error "no output" "no output file" -- "$BSDFSTACK" convert "$ref/L_glass_t4k5.xml"
+expect_error "bad order" "order must be" -- "$BSDFSTACK" convert -k 9 "$ref/L_glass_t4k5.xml" -o "$tmpdir/x.xml"
+expect_error "bad Klems basis" "full, half or quarter" -- "$BSDFSTACK" convert --klems=eighth "$ref/L_glass_t4k5.xml" -o "$tmpdir/x.xml"
+expect_error "-k with --klems" "exclude each other" -- "$BSDFSTACK" convert -k 4 --klems "$ref/L_glass_t4k5.xml" -o "$tmpdir/x.xml"
+expect_error "bad percentile" "percentile" -- "$BSDFSTACK" convert --reduce 100 "$ref/L_glass_t4k5.xml" -o "$tmpdir/x.xml"
+expect_error "--reduce with --no-reduce" "exclude each other" -- "$BSDFSTACK" convert --reduce 80 --no-reduce "$ref/L_glass_t4k5.xml" -o "$tmpdir/x.xml"
+expect_error "unknown option" "unknown option" -- "$BSDFSTACK" convert --frob "$ref/L_glass_t4k5.xml" -o "$tmpdir/x.xml"
+[ ! -e "$tmpdir/x.xml" ] || fail "output left after a usage error"
+finish
