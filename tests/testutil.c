@@ -4,6 +4,7 @@
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <unistd.h>
 
 #include "testutil.h"
 
@@ -39,6 +40,17 @@ const char *tu_ref(const char *name)
         dir = "../shared/reference";
     snprintf(buf, sizeof buf, "%s/%s", dir, name);
     return buf;
+}
+
+void tu_unxz_ref(const char *name, char *path, size_t size)
+{
+    snprintf(path, size, "/tmp/bst_unxz_XXXXXX");
+    int fd = mkstemp(path);
+    ck_assert_int_ge(fd, 0);
+    close(fd);
+    char cmd[8192];
+    snprintf(cmd, sizeof cmd, "xz -dc '%s' > '%s'", tu_ref(name), path);
+    ck_assert_msg(system(cmd) == 0, "cannot decompress %s", tu_ref(name));
 }
 
 const char *tu_src(const char *name)

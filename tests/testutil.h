@@ -26,6 +26,9 @@ double tu_rng_uniform(tu_rng *r); /* [0, 1) */
 
 /* Path of a file in the reference folder ($BST_REFDIR); the returned buffer is static. */
 const char *tu_ref(const char *name);
+/* Decompress the xz-compressed reference file `name` into a new temporary file whose path is
+ * written to path (size >= 32); the caller unlinks it.  Fails the test if xz fails. */
+void tu_unxz_ref(const char *name, char *path, size_t size);
 /* Path of a file in the source tree ($BST_SRCDIR, default "."); static buffer. */
 const char *tu_src(const char *name);
 
