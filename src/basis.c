@@ -274,6 +274,14 @@ size_t bst_basis_antipode(const bst_basis *b, size_t patch)
     return bst_basis_patch(b, d);
 }
 
+size_t bsti_basis_mirror_x(const bst_basis *b, size_t patch)
+{
+    double d[3];
+    bst_basis_center(b, patch, d);
+    d[0] = -d[0];
+    return bst_basis_patch(b, d);
+}
+
 int bst_basis_equal(const bst_basis *a, const bst_basis *b)
 {
     if (!a || !b || a->kind != b->kind || a->n != b->n)

@@ -34,6 +34,11 @@ struct bst_basis {
     size_t first[BSTI_KLEMS_MAX_BANDS + 1]; /* index of a band's first patch */
 };
 
+/* The patch of the mirror image x -> -x of a patch (reversing a layer about the vertical axis).
+ * Patch centres map onto patch centres in both bases (the concentric map and the Klems azimuth
+ * grid are symmetric about the Y axis), so the lookup of the mirrored centre is exact. */
+size_t bsti_basis_mirror_x(const bst_basis *b, size_t patch);
+
 /* Shirley-Chiu concentric map of RADIANCE: disk (x, y), x^2 + y^2 <= 1 -> square [0,1)^2, and back. */
 void bsti_sc_disk_to_square(double x, double y, double *sx, double *sy);
 void bsti_sc_square_to_disk(double sx, double sy, double *x, double *y);

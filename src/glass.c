@@ -675,48 +675,37 @@ int bst_glass_channel_weights(bst_ctx *ctx, const bst_glass *g, size_t ch, size_
 
 /* ------------------------------------------------------------------ inline specs */
 
-/* "6mm", "0.006m", "0.6cm", "0.25in" or a bare number of millimetres -> metres. */
-static int parse_length(const char *v, double *m)
+/* A number followed by one of the unit suffixes (NULL-terminated; "" = no suffix), scaled by the
+ * suffix's factor. */
+static int parse_scaled(const char *v, const char *const *suffix, const double *factor, double *out)
 {
     char *end;
     errno = 0;
     double x = strtod(v, &end);
     if (end == v || !isfinite(x) || errno)
         return -1;
-    double f;
-    if (strcmp(end, "mm") == 0 || *end == '\0')
-        f = 1e-3;
-    else if (strcmp(end, "m") == 0)
-        f = 1.0;
-    else if (strcmp(end, "cm") == 0)
-        f = 1e-2;
-    else if (strcmp(end, "in") == 0)
-        f = 0.0254;
-    else
-        return -1;
-    *m = x * f;
-    return 0;
+    for (int i = 0; suffix[i]; i++)
+        if (strcmp(end, suffix[i]) == 0) {
+            *out = x * factor[i];
+            return 0;
+        }
+    return -1;
+}
+
+/* "6mm", "0.006m", "0.6cm", "0.25in" or a bare number of millimetres -> metres. */
+static int parse_length(const char *v, double *m)
+{
+    static const char *const suffix[] = {"", "mm", "m", "cm", "in", NULL};
+    static const double factor[] = {1e-3, 1e-3, 1.0, 1e-2, 0.0254};
+    return parse_scaled(v, suffix, factor, m);
 }
 
 /* An extinction coefficient: "25", "25/m", "0.25/cm", "0.025/mm" -> 1/m. */
 static int parse_extinction(const char *v, double *k)
 {
-    char *end;
-    errno = 0;
-    double x = strtod(v, &end);
-    if (end == v || !isfinite(x) || errno)
-        return -1;
-    double f;
-    if (*end == '\0' || strcmp(end, "/m") == 0)
-        f = 1.0;
-    else if (strcmp(end, "/cm") == 0)
-        f = 1e2;
-    else if (strcmp(end, "/mm") == 0)
-        f = 1e3;
-    else
-        return -1;
-    *k = x * f;
-    return 0;
+    static const char *const suffix[] = {"", "/m", "/cm", "/mm", NULL};
+    static const double factor[] = {1.0, 1.0, 1e2, 1e3};
+    return parse_scaled(v, suffix, factor, k);
 }
 
 static int parse_number(const char *v, double *x)

@@ -7,6 +7,7 @@
 #include <string.h>
 #include <strings.h>
 
+#include "basis.h"
 #include "ctx.h"
 #include "layer.h"
 
@@ -167,10 +168,7 @@ const char *bst_layer_name(const bst_layer *l)
     return (l && l->name) ? l->name : "";
 }
 
-/* The mirror x -> -x of every patch, as a symmetric permutation matrix P (P = P^T = P^-1).
- * The centre of a patch maps onto the centre of its mirror image in both bases (the concentric map
- * and the Klems azimuth grid are symmetric about the Y axis), so looking the mirrored centre up is
- * exact. */
+/* The mirror x -> -x of every patch, as a symmetric permutation matrix P (P = P^T = P^-1). */
 static int mirror_x_permutation(bst_ctx *ctx, const bst_basis *b, bst_mat **out)
 {
     size_t n = bst_basis_size(b);
@@ -180,10 +178,7 @@ static int mirror_x_permutation(bst_ctx *ctx, const bst_basis *b, bst_mat **out)
     if (rc == BST_OK) {
         size_t *col = row + n;
         for (size_t j = 0; j < n; j++) {
-            double d[3];
-            bst_basis_center(b, j, d);
-            d[0] = -d[0];
-            row[j] = bst_basis_patch(b, d);
+            row[j] = bsti_basis_mirror_x(b, j);
             col[j] = j;
             one[j] = 1.0;
         }

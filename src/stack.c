@@ -24,6 +24,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "basis.h"
 #include "ctx.h"
 #include "layer.h"
 
@@ -187,7 +188,6 @@ static void report(struct combiner *cb, bst_comp c, const bst_mat *m, double t0,
 static int combine_pair(struct combiner *cb, const struct part *u, const struct part *v,
                         unsigned want, struct part *s)
 {
-    bst_ctx *ctx = cb->ctx;
     bst_mat *lrb1 = NULL, *lrf2 = NULL, *a = NULL, *w = NULL, *t = NULL, *t2 = NULL;
     int rc = BST_OK;
     double rcond, t0;
@@ -294,7 +294,6 @@ done:
         part_clear(s);
         return rc;
     }
-    (void)ctx;
     return BST_OK;
 }
 
@@ -629,10 +628,7 @@ int bst_stack_absorptance(bst_ctx *ctx, size_t n, const bst_layer *const *layers
         rc = absorptance_front(ctx, n, (const bst_layer *const *)rev, chr, opts, tmp);
     }
     for (size_t j = 0; rc >= 0 && j < N; j++) {
-        double d[3];
-        bst_basis_center(b, j, d);
-        d[0] = -d[0];
-        size_t mj = bst_basis_patch(b, d);
+        size_t mj = bsti_basis_mirror_x(b, j);
         for (size_t i = 0; i < n; i++)
             abs_back[i * N + j] = tmp[(n - 1 - i) * N + mj];
     }
