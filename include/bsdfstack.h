@@ -575,6 +575,28 @@ int bst_glass_layer_from_spec(bst_ctx *ctx, const char *spec, const char *catalo
                               const bst_basis *basis, size_t nchannels,
                               const char *const *channels, bst_layer **out);
 
+/* The pane at one wavelength (um) as a one-channel layer ("Spectral") over basis: the data
+ * interpolated to the wavelength, then the angular model; at_centre as in bst_glass_layer.  Only for
+ * panes with spectral data. */
+int bst_glass_layer_at(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, double lambda_um,
+                       int at_centre, bst_layer **out);
+
+/* A stack of spectral panes (exterior first) combined wavelength by wavelength and averaged
+ * afterwards, as WINDOW and Windows-CalcEngine do for multi-layer systems (combining band-averaged
+ * panes gives another answer: the system is not linear in the panes' T and R).  For each channel
+ * (a band: Visible, Solar, CIE-X, CIE-Y, CIE-Z; added to panes[0] when it lacks it) the wavelengths
+ * are the union of the panes' measured wavelengths, or the band's integration grid when that is
+ * shorter (WCE's rule); each wavelength's system (bst_stack_combine with opts, every matrix
+ * diagonal: O(N)) is added with its bst_glass_channel_weights weight and freed.  out has the
+ * channels in the order given.  abs_front / abs_back (may be NULL): per-layer absorptance
+ * averaged the same way, nchannels * n * N values, [(c * n + i) * N + j] (see
+ * bst_stack_absorptance).  Returns the highest warning of any wavelength, or an error. */
+int bst_stack_combine_spectral(bst_ctx *ctx, size_t n, bst_glass *const *panes,
+                               const bst_basis *basis, size_t nchannels,
+                               const char *const *channels, int at_centre,
+                               const bst_stack_opts *opts, bst_layer **out, double *abs_front,
+                               double *abs_back);
+
 /* ---------------------------------------------------------------- version */
 
 /* "MAJOR.MINOR.PATCH" of the library actually linked. */

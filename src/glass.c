@@ -966,13 +966,26 @@ int bst_glass_parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, b
 
 /* ------------------------------------------------------------------ layer */
 
-double *bsti_glass_table(bst_ctx *ctx, const bst_glass *g, size_t ch)
+/* Tf, Tb, Rf, Rb of channel ch, or at wavelength lambda (um) when lambda > 0, at theta. */
+static void optics_at(const bst_glass *g, size_t ch, double lambda, double theta, double p[4])
+{
+    if (lambda > 0)
+        bst_glass_optics_spectral(g, lambda, theta, &p[0], &p[1], &p[2], &p[3]);
+    else
+        bst_glass_optics(g, ch, theta, &p[0], &p[1], &p[2], &p[3]);
+}
+
+static double *table_at(bst_ctx *ctx, const bst_glass *g, size_t ch, double lambda)
 {
     double *t = bsti_alloc_array(ctx, 4 * (size_t)(BST_GLASS_TABLE_STEPS + 1), sizeof *t);
     for (size_t a = 0; t && a <= BST_GLASS_TABLE_STEPS; a++)
-        bst_glass_optics(g, ch, (double)a / BST_GLASS_TABLE_STEPS * (M_PI / 2), &t[4 * a],
-                         &t[4 * a + 1], &t[4 * a + 2], &t[4 * a + 3]);
+        optics_at(g, ch, lambda, (double)a / BST_GLASS_TABLE_STEPS * (M_PI / 2), &t[4 * a]);
     return t;
+}
+
+double *bsti_glass_table(bst_ctx *ctx, const bst_glass *g, size_t ch)
+{
+    return table_at(ctx, g, ch, 0.0);
 }
 
 void bsti_glass_table_optics(const double *tab, double theta, double v[4])
@@ -1062,26 +1075,12 @@ static int patch_rule(bst_ctx *ctx, int m, double **u, double **v, double **w)
     return 0;
 }
 
-int bsti_glass_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, size_t nchannels,
-                     const char *const *channels, int at_centre, int samples, int exact,
-                     bst_layer **out)
+/* The layer over basis of the channels idx[0..nc-1] (names[]), or of the one wavelength lambda
+ * (um) when lambda > 0 (one channel, names[0]). */
+static int build_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, size_t nc,
+                       const size_t *idx, const char *const *names, double lambda, int at_centre,
+                       int samples, int exact, bst_layer **out)
 {
-    if (!ctx || !g || !basis || !out || (nchannels && !channels))
-        return ctx ? bsti_error(ctx, BST_EINVAL, "glass layer: NULL argument") : BST_EINVAL;
-    *out = NULL;
-    if (!at_centre && samples < 1)
-        return bsti_error(ctx, BST_EINVAL, "glass layer: %d samples per patch", samples);
-    size_t idx[MAX_CH], nc = nchannels ? nchannels : g->nch;
-    const char *names[MAX_CH];
-    if (nc > MAX_CH)
-        return bsti_error(ctx, BST_EINVAL, "glass layer: more than %d channels", MAX_CH);
-    for (size_t c = 0; c < nc; c++) {
-        int k = nchannels ? bst_glass_find_channel(g, channels[c]) : (int)c;
-        if (k < 0)
-            return bsti_error(ctx, BST_ENOTFOUND, "%s: no channel %s", g->where, channels[c]);
-        idx[c] = (size_t)k;
-        names[c] = g->ch[k].name;
-    }
     bst_layer *l;
     int rc = bst_layer_new(ctx, basis, nc, names, &l);
     if (rc < 0)
@@ -1103,7 +1102,7 @@ int bsti_glass_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, s
     for (size_t c = 0; c < nc && rc >= 0; c++) {
         /* a patch average evaluates thousands of directions per patch: through the angular table */
         double *tab = NULL;
-        if (!at_centre && !exact && !(tab = bsti_glass_table(ctx, g, idx[c]))) {
+        if (!at_centre && !exact && !(tab = table_at(ctx, g, idx[c], lambda))) {
             rc = BST_ENOMEM;
             break;
         }
@@ -1121,7 +1120,7 @@ int bsti_glass_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, s
                 if (tab)
                     bsti_glass_table_optics(tab, th, p);
                 else
-                    bst_glass_optics(g, idx[c], th, &p[0], &p[1], &p[2], &p[3]);
+                    optics_at(g, idx[c], lambda, th, p);
                 for (int i = 0; i < 4; i++)
                     sum[i] += wq * p[i];
             }
@@ -1148,6 +1147,44 @@ int bsti_glass_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, s
     }
     *out = l;
     return BST_OK;
+}
+
+int bsti_glass_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, size_t nchannels,
+                     const char *const *channels, int at_centre, int samples, int exact,
+                     bst_layer **out)
+{
+    if (!ctx || !g || !basis || !out || (nchannels && !channels))
+        return ctx ? bsti_error(ctx, BST_EINVAL, "glass layer: NULL argument") : BST_EINVAL;
+    *out = NULL;
+    if (!at_centre && samples < 1)
+        return bsti_error(ctx, BST_EINVAL, "glass layer: %d samples per patch", samples);
+    size_t idx[MAX_CH], nc = nchannels ? nchannels : g->nch;
+    const char *names[MAX_CH];
+    if (nc > MAX_CH)
+        return bsti_error(ctx, BST_EINVAL, "glass layer: more than %d channels", MAX_CH);
+    for (size_t c = 0; c < nc; c++) {
+        int k = nchannels ? bst_glass_find_channel(g, channels[c]) : (int)c;
+        if (k < 0)
+            return bsti_error(ctx, BST_ENOTFOUND, "%s: no channel %s", g->where, channels[c]);
+        idx[c] = (size_t)k;
+        names[c] = g->ch[k].name;
+    }
+    return build_layer(ctx, g, basis, nc, idx, names, 0.0, at_centre, samples, exact, out);
+}
+
+int bst_glass_layer_at(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, double lambda_um,
+                       int at_centre, bst_layer **out)
+{
+    if (!ctx || !g || !basis || !out)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "glass layer: NULL argument") : BST_EINVAL;
+    *out = NULL;
+    if (!g->data.n)
+        return bsti_error(ctx, BST_EINVAL, "%s: no spectral data, so no layer per wavelength", g->where);
+    if (!(lambda_um > 0) || !isfinite(lambda_um))
+        return bsti_error(ctx, BST_EINVAL, "%s: wavelength %g um is not positive", g->where, lambda_um);
+    static const size_t zero = 0;
+    static const char *const name[] = {"Spectral"};
+    return build_layer(ctx, g, basis, 1, &zero, name, lambda_um, at_centre, BST_GLASS_SAMPLES, 0, out);
 }
 
 int bst_glass_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, size_t nchannels,

@@ -1,0 +1,740 @@
+/* test_wce.c - system cases computed by LBNL's Windows-CalcEngine (../shared/reference/wce):
+ * the combination and the per-layer absorptance against every row of WCE's results, in WCE's own
+ * bases (its 7-patch test basis, its "Small" basis, Klems quarter and full).
+ *  - sb_7ring_*: single-band matrix algebra on given inputs; rounding only (1e-9 relative).
+ *  - dg_* and sl_* with WCE's per-wavelength layer matrices as input: combined per wavelength,
+ *    averaged with bst_glass_channel_weights (WCE_TOL, WCE's own test tolerance).
+ *  - dg_klems_quarter_102_103 built from the spectral data alone by bst_stack_combine_spectral, and
+ *    dg_full_102_bsdf2011SA1 from NFRC 102's data and the two-band shade matrices (WCE's rule for
+ *    a two-band material, applied here in the test).
+ * WCE numbers layers from the exterior for both sides, as bsdfstack does. */
+#include <config.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "testutil.h"
+
+/* WCE's own tests compare to 1e-6 absolute. */
+#define WCE_TOL 1e-6
+/* Single-band algebra: rounding only. */
+#define SB_RTOL 1e-9
+
+static bst_ctx *ctx;
+static void setup(void) { ctx = bst_ctx_new(); }
+static void teardown(void) { bst_ctx_free(ctx); }
+
+static FILE *open_ref(const char *name)
+{
+    FILE *fp = fopen(tu_ref(name), "r");
+    ck_assert_msg(fp != NULL, "cannot open reference file %s", tu_ref(name));
+    return fp;
+}
+
+/* A basis from one of WCE's patch tables (basis/basis_*.tsv), with its Lambda checked. */
+static bst_basis *wce_basis(const char *file)
+{
+    char path[128], line[512];
+    snprintf(path, sizeof path, "wce/basis/%s", file);
+    FILE *fp = open_ref(path);
+    double bounds[32], lam[256];
+    int nphi[32] = {0}, nb = 0, ring, idx;
+    size_t np = 0;
+    while (fgets(line, sizeof line, fp)) {
+        double tlo, thi, plo, phi, tc, pc, l;
+        if (line[0] == '#' || sscanf(line, "%d %d %lf %lf %lf %lf %lf %lf %lf", &idx, &ring, &tlo,
+                                     &thi, &plo, &phi, &tc, &pc, &l) != 9)
+            continue;
+        if (ring > nb) {
+            ck_assert_int_eq(ring, nb + 1);
+            bounds[nb] = tlo, bounds[nb + 1] = thi;
+            nb = ring;
+        }
+        nphi[ring - 1]++;
+        lam[np++] = l;
+    }
+    fclose(fp);
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_klems_bands(ctx, file, (size_t)nb, bounds, nphi, &b), BST_OK);
+    ck_assert_uint_eq(bst_basis_size(b), np);
+    for (size_t i = 0; i < np; i++)
+        tu_assert_close(bst_basis_lambda(b)[i], lam[i], 1e-9, 0);
+    return b;
+}
+
+/* ------------------------------------------------------------------ a system and its quantities */
+
+/* One channel of a combined system and its per-layer absorptance (exterior first), as dense
+ * arrays. */
+struct sys {
+    const bst_basis *b;
+    size_t N, nl;
+    double *m[BST_NCOMP]; /* m[c][i * N + j]: outgoing i, incident j */
+    double *abs[2];       /* [side][layer * N + j] */
+};
+
+static void sys_init(struct sys *s, const bst_basis *b, size_t nl)
+{
+    s->b = b, s->N = bst_basis_size(b), s->nl = nl;
+    for (int c = 0; c < BST_NCOMP; c++)
+        s->m[c] = calloc(s->N * s->N, sizeof(double));
+    s->abs[0] = calloc(nl * s->N, sizeof(double));
+    s->abs[1] = calloc(nl * s->N, sizeof(double));
+}
+
+static void sys_free(struct sys *s)
+{
+    for (int c = 0; c < BST_NCOMP; c++)
+        free(s->m[c]);
+    free(s->abs[0]), free(s->abs[1]);
+}
+
+/* s += w * (system of layers[0..nl-1], channel ch). */
+static void sys_add(struct sys *s, const bst_layer *const *layers, size_t ch, double w)
+{
+    bst_layer *r;
+    int rc = bst_stack_combine(ctx, s->nl, layers, NULL, &r);
+    ck_assert_msg(rc >= 0, "%s", bst_ctx_message(ctx));
+    size_t N = s->N;
+    double *af = malloc(2 * s->nl * N * sizeof *af), *ab = af + s->nl * N;
+    ck_assert_int_ge(bst_stack_absorptance(ctx, s->nl, layers, ch, NULL, af, ab), 0);
+    size_t rch = (size_t)bst_layer_find_channel(r, bst_layer_channel(layers[0], ch));
+    for (int c = 0; c < BST_NCOMP; c++)
+        for (size_t i = 0; i < N; i++)
+            for (size_t j = 0; j < N; j++)
+                s->m[c][i * N + j] += w * bst_mat_get(bst_layer_get(r, rch, (bst_comp)c), i, j);
+    for (size_t k = 0; k < s->nl * N; k++)
+        s->abs[0][k] += w * af[k], s->abs[1][k] += w * ab[k];
+    free(af);
+    bst_layer_free(r);
+}
+
+/* The value of a results row (quantity, side, layer, 1-based incident index) of system s. */
+static double quantity(const struct sys *s, const char *qn, const char *side, const char *layer,
+                       const char *index)
+{
+    int back = strcmp(side, "back") == 0;
+    size_t N = s->N, j = (size_t)atoi(index) - 1;
+    const double *lam = bst_basis_lambda(s->b);
+    if (strncmp(qn, "Abs", 3) == 0) {
+        size_t k = (size_t)atoi(layer) - 1;
+        ck_assert_uint_lt(k, s->nl);
+        const double *a = s->abs[back] + k * N;
+        if (strcmp(qn, "Abs") == 0)
+            return a[j];
+        double sum = 0;
+        for (size_t i = 0; i < N; i++)
+            sum += lam[i] * a[i];
+        return sum / M_PI;
+    }
+    const double *m = s->m[qn[0] == 'T' ? (back ? BST_TB : BST_TF) : (back ? BST_RB : BST_RF)];
+    const char *kind = qn + 2;
+    if (strcmp(kind, "dirdir") == 0)
+        return lam[j] * m[j * N + j];
+    double sum = 0;
+    if (strcmp(kind, "dirhem") == 0) {
+        for (size_t i = 0; i < N; i++)
+            sum += lam[i] * m[i * N + j];
+        return sum;
+    }
+    ck_assert_msg(strcmp(kind, "diffdiff") == 0, "unknown quantity %s", qn);
+    for (size_t i = 0; i < N; i++)
+        for (size_t jj = 0; jj < N; jj++)
+            sum += lam[i] * m[i * N + jj] * lam[jj];
+    return sum / M_PI;
+}
+
+/* Every row of a results file for one band: |ours - WCE| <= atol + rtol |WCE|.  Returns the rows
+ * compared. */
+static int compare_results(const struct sys *s, const char *file, const char *band, double atol,
+                           double rtol)
+{
+    FILE *fp = open_ref(file);
+    char line[512], cs[64], bd[16], qn[32], side[16], layer[8], idx[8], ts[16], ps[16];
+    double value, worst = 0;
+    int rows = 0;
+    while (fgets(line, sizeof line, fp)) {
+        if (line[0] == '#' || sscanf(line, "%63s %15s %31s %15s %7s %7s %15s %15s %lf", cs, bd, qn,
+                                     side, layer, idx, ts, ps, &value) != 9 ||
+            strcmp(bd, band) != 0)
+            continue;
+        if (strstr(qn, "diffdiff") == NULL)
+            ck_assert_msg(strcmp(idx, "-") != 0, "%s: row without an incident index", file);
+        double got = quantity(s, qn, side, layer, strstr(qn, "diffdiff") ? "1" : idx);
+        ck_assert_msg(fabs(got - value) <= atol + rtol * fabs(value),
+                      "%s %s: %s %s layer %s patch %s: %.12g vs WCE %.12g", file, band, qn, side,
+                      layer, idx, got, value);
+        worst = fmax(worst, fabs(got - value));
+        rows++;
+    }
+    fclose(fp);
+    printf("%s (%s): %d rows, largest difference %.2e\n", file, band, rows, worst);
+    return rows;
+}
+
+/* ------------------------------------------------------------------ single band (sb_*) */
+
+/* Matrices of one object from a long-format matrix file (object, matrix, row_out, col_in). */
+static bst_mat *read_matrix(const char *file, const char *object, const char *which, size_t N)
+{
+    FILE *fp = open_ref(file);
+    char line[512], cs[64], band[16], obj[64], mat[8], wl[16];
+    size_t r, c;
+    double v;
+    bst_mat *m;
+    ck_assert_int_eq(bst_mat_new_dense(ctx, N, N, BST_DOUBLE, &m), BST_OK);
+    double *d = bst_mat_dense_data(m);
+    int found = 0;
+    while (fgets(line, sizeof line, fp))
+        if (line[0] != '#' && sscanf(line, "%63s %15s %63s %7s %15s %zu %zu %lf", cs, band, obj, mat,
+                                     wl, &r, &c, &v) == 8 &&
+            strcmp(obj, object) == 0 && strcmp(mat, which) == 0) {
+            ck_assert(r >= 1 && r <= N && c >= 1 && c <= N);
+            d[(c - 1) * N + (r - 1)] = v, found++;
+        }
+    fclose(fp);
+    ck_assert_msg(found > 0, "%s: no %s %s", file, object, which);
+    bst_mat *cm;
+    ck_assert_int_eq(bst_mat_compact(ctx, m, 0.3, &cm), BST_OK);
+    bst_mat_free(m);
+    return cm;
+}
+
+START_TEST(test_sb_7ring_double)
+{
+    bst_basis *b = wce_basis("basis_wce_7ring_test.tsv");
+    size_t N = bst_basis_size(b);
+    bst_layer *g;
+    ck_assert_int_eq(bst_layer_new(ctx, b, 1, (const char *const[]){"Solar"}, &g), BST_OK);
+    for (int c = 0; c < BST_NCOMP; c++) {
+        bst_mat *m = read_matrix("wce/cases/sb_7ring_inputs_matrices.tsv", "glass_NFRC_102_solar",
+                                 bst_comp_name((bst_comp)c), N);
+        ck_assert_int_eq(bst_mat_structure(m), BST_DIAG); /* a specular layer stays diagonal */
+        ck_assert_int_eq(bst_layer_set(ctx, g, 0, (bst_comp)c, m), BST_OK);
+    }
+    const bst_layer *l[2] = {g, g};
+    struct sys s;
+    sys_init(&s, b, 2);
+    sys_add(&s, l, 0, 1.0);
+    /* the full system matrices */
+    double worst = 0;
+    for (int c = 0; c < BST_NCOMP; c++) {
+        bst_mat *ref = read_matrix("wce/cases/sb_7ring_102_102_matrices.tsv", "system",
+                                   bst_comp_name((bst_comp)c), N);
+        for (size_t i = 0; i < N; i++)
+            for (size_t j = 0; j < N; j++) {
+                double x = s.m[c][i * N + j], y = bst_mat_get(ref, i, j);
+                ck_assert_msg(fabs(x - y) <= SB_RTOL * fabs(y), "%s (%zu, %zu): %.12g vs WCE %.12g",
+                              bst_comp_name((bst_comp)c), i + 1, j + 1, x, y);
+                if (y != 0)
+                    worst = fmax(worst, fabs(x - y) / fabs(y));
+            }
+        bst_mat_free(ref);
+    }
+    printf("sb_7ring_102_102 matrices: largest relative difference %.2e\n", worst);
+    ck_assert_int_eq(compare_results(&s, "wce/cases/sb_7ring_102_102_results.tsv", "solar", 1e-15,
+                                     SB_RTOL), 92);
+    sys_free(&s);
+    bst_layer_free(g);
+    bst_basis_free(b);
+}
+END_TEST
+
+/* (I - Lambda Rb Lambda Rf)^-1 for given diagonal reflectances, through the structured solve. */
+START_TEST(test_sb_7ring_interreflectance)
+{
+    bst_basis *b = wce_basis("basis_wce_7ring_test.tsv");
+    size_t N = bst_basis_size(b);
+    static const double r[7] = {1.438618083, 0.189397664, 0.112189021, 0.114376511, 0.207336671,
+                                0.951907739, 15.28298172};
+    const double *lam = bst_basis_lambda(b);
+    double a[7], one[7];
+    for (size_t i = 0; i < N; i++)
+        a[i] = lam[i] * r[i] * lam[i] * r[i], one[i] = 1;
+    bst_mat *A, *I, *X;
+    ck_assert_int_eq(bst_mat_new_diag(ctx, N, a, &A), BST_OK);
+    ck_assert_int_eq(bst_mat_new_diag(ctx, N, one, &I), BST_OK);
+    double rcond;
+    ck_assert_int_ge(bst_solve_left(ctx, A, I, 0, &X, &rcond), 0);
+    bst_mat *ref = read_matrix("wce/cases/sb_7ring_interreflectance.tsv", "result", "IR", N);
+    for (size_t i = 0; i < N; i++)
+        for (size_t j = 0; j < N; j++)
+            ck_assert_msg(fabs(bst_mat_get(X, i, j) - bst_mat_get(ref, i, j)) <=
+                              SB_RTOL * fabs(bst_mat_get(ref, i, j)) + 1e-15,
+                          "IR (%zu, %zu): %.12g vs WCE %.12g", i, j, bst_mat_get(X, i, j),
+                          bst_mat_get(ref, i, j));
+    bst_mat_free(A), bst_mat_free(I), bst_mat_free(X), bst_mat_free(ref);
+    bst_basis_free(b);
+}
+END_TEST
+
+/* ------------------------------------------------------------------ WCE's per-wavelength layers */
+
+/* A case's layer matrices (_layer_matrices.tsv) and which block applies at which wavelength
+ * (_layer_wavelength_map.tsv). */
+struct spectral_case {
+    size_t N, nl, nwl;
+    double wl[1024];
+    int block[4][BST_NCOMP][1024]; /* [layer][comp][wavelength], 0 = absent */
+    size_t nblocks;
+    struct { int layer, comp, id; double *m; } blocks[4096];
+};
+
+static int wl_index(struct spectral_case *sc, double w)
+{
+    for (size_t k = 0; k < sc->nwl; k++)
+        if (fabs(sc->wl[k] - w) < 1e-12)
+            return (int)k;
+    ck_assert_uint_lt(sc->nwl, 1024);
+    sc->wl[sc->nwl] = w;
+    return (int)sc->nwl++;
+}
+
+static void read_spectral_case(struct spectral_case *sc, const char *name, size_t N)
+{
+    char path[160], line[512], cs[64], lname[64], mat[8];
+    int layer, block;
+    size_t r, c;
+    double w, v;
+    memset(sc, 0, sizeof *sc);
+    sc->N = N;
+    snprintf(path, sizeof path, "wce/cases/%s_solar_layer_wavelength_map.tsv", name);
+    FILE *fp = open_ref(path);
+    while (fgets(line, sizeof line, fp))
+        if (line[0] != '#' && sscanf(line, "%63s %d %7s %lf %d", cs, &layer, mat, &w, &block) == 5) {
+            ck_assert(layer >= 1 && layer <= 4 && bst_comp_parse(mat) >= 0);
+            sc->block[layer - 1][bst_comp_parse(mat)][wl_index(sc, w)] = block;
+            if ((size_t)layer > sc->nl)
+                sc->nl = (size_t)layer;
+        }
+    fclose(fp);
+    for (size_t a = 1; a < sc->nwl; a++) /* the map lists wavelengths in increasing order */
+        ck_assert_double_gt(sc->wl[a], sc->wl[a - 1]);
+    snprintf(path, sizeof path, "wce/cases/%s_solar_layer_matrices.tsv", name);
+    fp = open_ref(path);
+    while (fgets(line, sizeof line, fp)) {
+        if (line[0] == '#' || sscanf(line, "%63s %d %63s %7s %d %zu %zu %lf", cs, &layer, lname, mat,
+                                     &block, &r, &c, &v) != 8)
+            continue;
+        int comp = bst_comp_parse(mat);
+        size_t b = 0;
+        while (b < sc->nblocks && !(sc->blocks[b].layer == layer && sc->blocks[b].comp == comp &&
+                                    sc->blocks[b].id == block))
+            b++;
+        if (b == sc->nblocks) {
+            ck_assert_uint_lt(sc->nblocks, 4096);
+            sc->blocks[b].layer = layer, sc->blocks[b].comp = comp, sc->blocks[b].id = block;
+            sc->blocks[b].m = calloc(N * N, sizeof(double));
+            sc->nblocks++;
+        }
+        ck_assert(r >= 1 && r <= N && c >= 1 && c <= N);
+        sc->blocks[b].m[(c - 1) * N + (r - 1)] = v;
+    }
+    fclose(fp);
+}
+
+static void free_spectral_case(struct spectral_case *sc)
+{
+    for (size_t b = 0; b < sc->nblocks; b++)
+        free(sc->blocks[b].m);
+}
+
+/* Layer l (0-based) at wavelength index k. */
+static bst_layer *case_layer(const struct spectral_case *sc, const bst_basis *basis, size_t l, size_t k)
+{
+    bst_layer *lay;
+    ck_assert_int_eq(bst_layer_new(ctx, basis, 1, (const char *const[]){"Solar"}, &lay), BST_OK);
+    for (int c = 0; c < BST_NCOMP; c++) {
+        int id = sc->block[l][c][k];
+        if (!id)
+            continue;
+        size_t b = 0;
+        while (b < sc->nblocks && !(sc->blocks[b].layer == (int)l + 1 && sc->blocks[b].comp == c &&
+                                    sc->blocks[b].id == id))
+            b++;
+        bst_mat *m, *cm;
+        ck_assert_int_eq(bst_mat_new_dense(ctx, sc->N, sc->N, BST_DOUBLE, &m), BST_OK);
+        if (b < sc->nblocks) /* a block with no entries is all zero */
+            memcpy(bst_mat_dense_data(m), sc->blocks[b].m, sc->N * sc->N * sizeof(double));
+        ck_assert_int_eq(bst_mat_compact(ctx, m, 0.3, &cm), BST_OK);
+        bst_mat_free(m);
+        ck_assert_int_eq(bst_layer_set(ctx, lay, 0, (bst_comp)c, cm), BST_OK);
+    }
+    return lay;
+}
+
+/* Solar weights of WCE's per-wavelength grid (the source spectrum comes with the catalogue). */
+static double *solar_weights(const double *wl, size_t n)
+{
+    bst_glass *g;
+    ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-102", getenv("BSDFSTACK_GLASS_DIR"), &g), BST_OK);
+    double *w = malloc(n * sizeof *w);
+    ck_assert_int_eq(bst_glass_channel_weights(ctx, g, (size_t)bst_glass_find_channel(g, "Solar"), n,
+                                               wl, w), BST_OK);
+    bst_glass_free(g);
+    return w;
+}
+
+static void layer_matrix_case(const char *name, const char *basis_file, int rows)
+{
+    bst_basis *b = wce_basis(basis_file);
+    struct spectral_case *sc = malloc(sizeof *sc);
+    read_spectral_case(sc, name, bst_basis_size(b));
+    double *w = solar_weights(sc->wl, sc->nwl);
+    struct sys s;
+    sys_init(&s, b, sc->nl);
+    bst_layer *l[4];
+    for (size_t k = 0; k < sc->nwl; k++) {
+        if (w[k] == 0)
+            continue;
+        for (size_t i = 0; i < sc->nl; i++)
+            l[i] = case_layer(sc, b, i, k);
+        sys_add(&s, (const bst_layer *const *)l, 0, w[k]);
+        for (size_t i = 0; i < sc->nl; i++)
+            bst_layer_free(l[i]);
+    }
+    char file[160];
+    snprintf(file, sizeof file, "wce/cases/%s_results.tsv", name);
+    ck_assert_int_eq(compare_results(&s, file, "solar", WCE_TOL, 0), rows);
+    sys_free(&s);
+    free(w);
+    free_spectral_case(sc);
+    free(sc);
+    bst_basis_free(b);
+}
+
+START_TEST(test_dg_small_lambertian)
+{
+    layer_matrix_case("dg_small_102_lambertian", "basis_wce_small.tsv", 92);
+}
+END_TEST
+
+START_TEST(test_dg_small_venetian)
+{
+    layer_matrix_case("dg_small_102_venetian", "basis_wce_small.tsv", 92);
+}
+END_TEST
+
+START_TEST(test_sl_quarter_homogeneous_diffuse)
+{
+    layer_matrix_case("sl_quarter_homogeneous_diffuse", "basis_klems_quarter.tsv", 416);
+}
+END_TEST
+
+START_TEST(test_dg_klems_quarter_layers)
+{
+    layer_matrix_case("dg_klems_quarter_102_103", "basis_klems_quarter.tsv", 500);
+}
+END_TEST
+
+/* ------------------------------------------------------------------ from the data alone */
+
+/* NFRC 102 / NFRC 103 in Klems quarter from the spectral data: bst_stack_combine_spectral with
+ * WCE's patch-centre layers, both bands. */
+START_TEST(test_dg_klems_quarter_from_data)
+{
+    bst_basis *b = wce_basis("basis_klems_quarter.tsv"), *kq;
+    ck_assert_int_eq(bst_basis_new_klems(ctx, "quarter", &kq), BST_OK);
+    ck_assert(bst_basis_equal(b, kq)); /* the built-in quarter basis is WCE's */
+    bst_glass *g[2];
+    ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-102", getenv("BSDFSTACK_GLASS_DIR"), &g[0]), BST_OK);
+    ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-103", getenv("BSDFSTACK_GLASS_DIR"), &g[1]), BST_OK);
+    static const char *const bands[2] = {"Solar", "Visible"};
+    size_t N = bst_basis_size(b);
+    double *af = malloc(2 * 2 * N * sizeof *af), *ab = malloc(2 * 2 * N * sizeof *ab);
+    bst_layer *r;
+    int rc = bst_stack_combine_spectral(ctx, 2, g, kq, 2, bands, 1, NULL, &r, af, ab);
+    ck_assert_msg(rc >= 0, "%s", bst_ctx_message(ctx));
+    for (size_t c = 0; c < 2; c++) {
+        struct sys s;
+        sys_init(&s, b, 2);
+        for (int m = 0; m < BST_NCOMP; m++) {
+            const bst_mat *x = bst_layer_get(r, c, (bst_comp)m);
+            ck_assert_int_eq(bst_mat_structure(x), BST_DIAG); /* glass-only: O(N) all the way */
+            for (size_t j = 0; j < N; j++)
+                s.m[m][j * N + j] = bst_mat_get(x, j, j);
+        }
+        memcpy(s.abs[0], af + c * 2 * N, 2 * N * sizeof(double));
+        memcpy(s.abs[1], ab + c * 2 * N, 2 * N * sizeof(double));
+        ck_assert_int_eq(compare_results(&s, "wce/cases/dg_klems_quarter_102_103_results.tsv",
+                                         c ? "visible" : "solar", WCE_TOL, 0), 500);
+        sys_free(&s);
+    }
+    /* the issue's figure: per wavelength 0.652314 at normal incidence, not the 0.645986 of
+     * band-averaged panes */
+    tu_assert_close(bst_basis_lambda(kq)[0] * bst_mat_get(bst_layer_get(r, 0, BST_TF), 0, 0),
+                    0.652314, 1e-6, 0);
+    bst_layer_free(r);
+    free(af), free(ab);
+    bst_glass_free(g[0]), bst_glass_free(g[1]);
+    bst_basis_free(b), bst_basis_free(kq);
+}
+END_TEST
+
+/* A full-basis matrix file (matrices/bsdf_*.tsv: rows = outgoing patches). */
+static double *read_full(const char *name, size_t N)
+{
+    char path[160], line[8192];
+    snprintf(path, sizeof path, "wce/matrices/%s.tsv", name);
+    FILE *fp = open_ref(path);
+    double *m = malloc(N * N * sizeof *m);
+    size_t i = 0;
+    while (fgets(line, sizeof line, fp) && i < N) {
+        if (line[0] == '#')
+            continue;
+        char *p = line, *e;
+        for (size_t j = 0; j < N; j++, p = e) {
+            m[i * N + j] = strtod(p, &e);
+            ck_assert_msg(e != p, "%s: row %zu has fewer than %zu values", path, i + 1, N);
+        }
+        i++;
+    }
+    fclose(fp);
+    ck_assert_uint_eq(i, N);
+    return m;
+}
+
+/* NFRC 102 (spectral, patch centres) + the two-band shade "2011-SA1" in Klems full, per wavelength
+ * on the union of NFRC 102's grid and the two-band material's {0.3, 0.38 -+ 1e-6, 0.78 -+ 1e-6, 2.5}:
+ * inside 0.38..0.78 um the visible matrix, outside (solar - f visible) / (1 - f), f = 0.499, clamped
+ * at 0 (WCE's rule for such materials). */
+START_TEST(test_dg_full_2011SA1_from_data)
+{
+    bst_basis *b = wce_basis("basis_klems_full.tsv");
+    size_t N = bst_basis_size(b);
+    bst_glass *g;
+    ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-102", getenv("BSDFSTACK_GLASS_DIR"), &g), BST_OK);
+    double *vis[BST_NCOMP], *sol[BST_NCOMP];
+    for (int c = 0; c < BST_NCOMP; c++) {
+        char name[64];
+        snprintf(name, sizeof name, "bsdf_2011SA1_full_visible_%s", bst_comp_name((bst_comp)c));
+        vis[c] = read_full(name, N);
+        snprintf(name, sizeof name, "bsdf_2011SA1_full_solar_%s", bst_comp_name((bst_comp)c));
+        sol[c] = read_full(name, N);
+    }
+    size_t n = bst_glass_nwavelengths(g), nwl = 0;
+    double *wl = malloc((n + 6) * sizeof *wl);
+    static const double extra[6] = {0.3, 0.379999, 0.380001, 0.779999, 0.780001, 2.5};
+    for (size_t k = 0, e = 0; k < n || e < 6;) { /* merge two sorted lists */
+        double x = e == 6 || (k < n && bst_glass_wavelength(g, k) < extra[e]) ? bst_glass_wavelength(g, k++)
+                                                                              : extra[e++];
+        if (nwl == 0 || x - wl[nwl - 1] > 1e-9)
+            wl[nwl++] = x;
+    }
+    double *w = solar_weights(wl, nwl);
+    struct sys s;
+    sys_init(&s, b, 2);
+    double *mat = malloc(N * N * sizeof *mat);
+    for (size_t k = 0; k < nwl; k++) {
+        if (w[k] == 0)
+            continue;
+        bst_layer *l[2];
+        ck_assert_int_eq(bst_glass_layer_at(ctx, g, b, wl[k], 1, &l[0]), BST_OK);
+        ck_assert_int_eq(bst_layer_new(ctx, b, 1, (const char *const[]){"Spectral"}, &l[1]), BST_OK);
+        int inside = wl[k] >= 0.38 && wl[k] <= 0.78;
+        for (int c = 0; c < BST_NCOMP; c++) {
+            bst_mat *m;
+            ck_assert_int_eq(bst_mat_new_dense(ctx, N, N, BST_DOUBLE, &m), BST_OK);
+            double *d = bst_mat_dense_data(m);
+            for (size_t i = 0; i < N; i++)
+                for (size_t j = 0; j < N; j++) {
+                    double v = vis[c][i * N + j], x = sol[c][i * N + j];
+                    d[j * N + i] = inside ? v : fmax(0.0, (x - 0.499 * v) / (1 - 0.499));
+                }
+            ck_assert_int_eq(bst_layer_set(ctx, l[1], 0, (bst_comp)c, m), BST_OK);
+        }
+        sys_add(&s, (const bst_layer *const *)l, 0, w[k]);
+        bst_layer_free(l[0]), bst_layer_free(l[1]);
+    }
+    ck_assert_int_eq(compare_results(&s, "wce/cases/dg_full_102_bsdf2011SA1_results.tsv", "solar",
+                                     WCE_TOL, 0), 1748);
+    sys_free(&s);
+    for (int c = 0; c < BST_NCOMP; c++)
+        free(vis[c]), free(sol[c]);
+    free(mat), free(w), free(wl);
+    bst_glass_free(g);
+    bst_basis_free(b);
+}
+END_TEST
+
+/* A two-column table (wavelength um, value) of the glass catalogue. */
+static size_t read_spectrum(const char *name, double *x, double *y, size_t cap)
+{
+    char path[512], line[256];
+    snprintf(path, sizeof path, "%s/%s", getenv("BSDFSTACK_GLASS_DIR"), name);
+    FILE *fp = fopen(path, "r");
+    ck_assert_msg(fp != NULL, "cannot open %s", path);
+    size_t n = 0;
+    while (fgets(line, sizeof line, fp) && n < cap)
+        if (line[0] != '#' && sscanf(line, "%lf %lf", &x[n], &y[n]) == 2)
+            n++;
+    fclose(fp);
+    return n;
+}
+
+static double lerp(const double *x, const double *y, size_t n, double q)
+{
+    if (q <= x[0])
+        return y[0];
+    if (q >= x[n - 1])
+        return y[n - 1];
+    size_t i = 0;
+    while (x[i + 1] < q)
+        i++;
+    return y[i] + (y[i + 1] - y[i]) * (q - x[i]) / (x[i + 1] - x[i]);
+}
+
+/* Weights of wavelengths wl[] for this case's visible average: D65 x V on D65's own 1 nm grid
+ * (values at wl[] interpolated linearly onto it), trapezoid over the intervals inside 0.38..0.78 um
+ * (WCE's test integrates this case on the source's grid, not on the 5 nm photopic set). */
+static double *weights_d65_1nm(const double *wl, size_t n)
+{
+    static double sx[2000], sy[2000], vx[200], vy[200];
+    size_t ns = read_spectrum("photopic_source_D65.tsv", sx, sy, 2000);
+    size_t nv = read_spectrum("photopic_detector_V.tsv", vx, vy, 200);
+    double *w = calloc(n, sizeof *w), total = 0;
+    for (size_t k = 0; k + 1 < ns; k++) {
+        if (sx[k] < 0.38 - 1e-6 || sx[k + 1] > 0.78 + 1e-6)
+            continue;
+        double h = 0.5 * (sx[k + 1] - sx[k]);
+        for (size_t e = 0; e < 2; e++) {
+            double x = sx[k + e], sd = h * sy[k + e] * lerp(vx, vy, nv, x);
+            total += sd;
+            /* the value at x is interpolated from wl[]: split sd between its neighbours */
+            if (x <= wl[0]) {
+                w[0] += sd;
+            } else if (x >= wl[n - 1]) {
+                w[n - 1] += sd;
+            } else {
+                size_t i = 0;
+                while (wl[i + 1] < x)
+                    i++;
+                double f = (x - wl[i]) / (wl[i + 1] - wl[i]);
+                w[i] += (1 - f) * sd, w[i + 1] += f * sd;
+            }
+        }
+    }
+    for (size_t k = 0; k < n; k++)
+        w[k] /= total;
+    return w;
+}
+
+/* NFRC 102 (spectral, patch centres) + a perfect diffuser (every element T / pi or R / pi; two-band:
+ * visible T = 0.4, R = 0.2) in Klems quarter, visible: on the photopic grid, WCE's common
+ * wavelengths for Visible, every one of them inside the diffuser's visible range, averaged with D65 x V
+ * on D65's 1 nm grid.  Agrees within 5.7e-7 (WCE's tolerance is 1e-6), not to rounding like the
+ * other cases: this case's exact wavelength set is not documented. */
+START_TEST(test_dg_quarter_lambertian_visible_from_data)
+{
+    bst_basis *b = wce_basis("basis_klems_quarter.tsv");
+    size_t N = bst_basis_size(b), n;
+    bst_glass *g;
+    ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-102", getenv("BSDFSTACK_GLASS_DIR"), &g), BST_OK);
+    size_t ch = (size_t)bst_glass_find_channel(g, "Visible");
+    const double *wl = bst_glass_channel_grid(g, ch, &n);
+    ck_assert(wl && n == 81 && wl[0] >= 0.38 && wl[n - 1] <= 0.78);
+    double *w = weights_d65_1nm(wl, n);
+    struct sys s;
+    sys_init(&s, b, 2);
+    for (size_t k = 0; k < n; k++) {
+        if (w[k] == 0)
+            continue;
+        bst_layer *l[2];
+        ck_assert_int_eq(bst_glass_layer_at(ctx, g, b, wl[k], 1, &l[0]), BST_OK);
+        ck_assert_int_eq(bst_layer_new(ctx, b, 1, (const char *const[]){"Spectral"}, &l[1]), BST_OK);
+        int inside = wl[k] >= 0.38 && wl[k] <= 0.78;
+        for (int c = 0; c < BST_NCOMP; c++) {
+            bst_mat *m;
+            ck_assert_int_eq(bst_mat_new_dense(ctx, N, N, BST_DOUBLE, &m), BST_OK);
+            double vv = c == BST_TF || c == BST_TB ? 0.4 : 0.2, sv = c == BST_TF || c == BST_TB ? 0.5 : 0.3;
+            double v = (inside ? vv : fmax(0.0, (sv - 0.499 * vv) / (1 - 0.499))) / M_PI, *d = bst_mat_dense_data(m);
+            for (size_t i = 0; i < N * N; i++)
+                d[i] = v;
+            ck_assert_int_eq(bst_layer_set(ctx, l[1], 0, (bst_comp)c, m), BST_OK);
+        }
+        sys_add(&s, (const bst_layer *const *)l, 0, w[k]);
+        bst_layer_free(l[0]), bst_layer_free(l[1]);
+    }
+    ck_assert_int_eq(compare_results(&s, "wce/cases/dg_quarter_102_lambertian_visible_results.tsv",
+                                     "visible", WCE_TOL, 0), 500);
+    sys_free(&s);
+    free(w);
+    bst_glass_free(g);
+    bst_basis_free(b);
+}
+END_TEST
+
+/* One measured layer on its own (band values only): its hemispherical integrals and absorptance. */
+static void single_layer(const char *name, const char *basis_file, const char *band, int rows)
+{
+    bst_basis *b = wce_basis(basis_file);
+    size_t N = bst_basis_size(b);
+    bst_layer *l;
+    ck_assert_int_eq(bst_layer_new(ctx, b, 1, (const char *const[]){"x"}, &l), BST_OK);
+    for (int c = 0; c < BST_NCOMP; c++) {
+        char f[96];
+        snprintf(f, sizeof f, "bsdf_%s_%s_%s", name, band, bst_comp_name((bst_comp)c));
+        double *m = read_full(f, N);
+        bst_mat *d;
+        ck_assert_int_eq(bst_mat_new_dense(ctx, N, N, BST_DOUBLE, &d), BST_OK);
+        for (size_t i = 0; i < N; i++)
+            for (size_t j = 0; j < N; j++)
+                ((double *)bst_mat_dense_data(d))[j * N + i] = m[i * N + j];
+        free(m);
+        ck_assert_int_eq(bst_layer_set(ctx, l, 0, (bst_comp)c, d), BST_OK);
+    }
+    struct sys s;
+    sys_init(&s, b, 1);
+    sys_add(&s, (const bst_layer *const *)&l, 0, 1.0);
+    char file[128];
+    const char *cs = strcmp(name, "seatex_midnight_full") == 0 ? "sl_full_seatex_visible"
+                                                               : "sl_quarter_xmlsingle_solar";
+    snprintf(file, sizeof file, "wce/cases/%s_results.tsv", cs);
+    ck_assert_int_eq(compare_results(&s, file, band, WCE_TOL, 0), rows);
+    sys_free(&s);
+    bst_layer_free(l);
+    bst_basis_free(b);
+}
+
+START_TEST(test_sl_seatex)
+{
+    single_layer("seatex_midnight_full", "basis_klems_full.tsv", "visible", 1456);
+}
+END_TEST
+
+START_TEST(test_sl_xmlsingle)
+{
+    single_layer("xmlsingle_quarter", "basis_klems_quarter.tsv", "solar", 416);
+}
+END_TEST
+
+static Suite *wce_suite(void)
+{
+    Suite *s = suite_create("wce");
+    TCase *tc = tcase_create("single band");
+    tcase_add_checked_fixture(tc, setup, teardown);
+    tcase_add_test(tc, test_sb_7ring_double);
+    tcase_add_test(tc, test_sb_7ring_interreflectance);
+    tcase_add_test(tc, test_sl_seatex);
+    tcase_add_test(tc, test_sl_xmlsingle);
+    suite_add_tcase(s, tc);
+    tc = tcase_create("per wavelength");
+    tcase_add_checked_fixture(tc, setup, teardown);
+    tcase_set_timeout(tc, 300);
+    tcase_add_test(tc, test_dg_small_lambertian);
+    tcase_add_test(tc, test_dg_small_venetian);
+    tcase_add_test(tc, test_sl_quarter_homogeneous_diffuse);
+    tcase_add_test(tc, test_dg_klems_quarter_layers);
+    tcase_add_test(tc, test_dg_klems_quarter_from_data);
+    tcase_add_test(tc, test_dg_full_2011SA1_from_data);
+    tcase_add_test(tc, test_dg_quarter_lambertian_visible_from_data);
+    suite_add_tcase(s, tc);
+    return s;
+}
+
+int main(void)
+{
+    return tu_run(wce_suite());
+}
