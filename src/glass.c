@@ -1075,11 +1075,56 @@ static int patch_rule(bst_ctx *ctx, int m, double **u, double **v, double **w)
     return 0;
 }
 
+struct bsti_glass_rule {
+    size_t n, np;  /* patches, points per patch */
+    double *theta; /* theta[j * np + q]: incidence angle of point q of patch j */
+    double *w;     /* its weight (sum 1 per patch) */
+};
+
+void bsti_glass_rule_free(bst_ctx *ctx, bsti_glass_rule *r)
+{
+    if (r)
+        bsti_free(ctx, r->theta), bsti_free(ctx, r->w), bsti_free(ctx, r);
+}
+
+int bsti_glass_rule_new(bst_ctx *ctx, const bst_basis *basis, int at_centre, int samples,
+                        bsti_glass_rule **out)
+{
+    *out = NULL;
+    if (!at_centre && samples < 1)
+        return bsti_error(ctx, BST_EINVAL, "glass layer: %d samples per patch", samples);
+    size_t n = bst_basis_size(basis), np = at_centre ? 1 : 4 * (size_t)samples * (size_t)samples;
+    bsti_glass_rule *r = bsti_calloc(ctx, 1, sizeof *r);
+    double *qu = NULL, *qv = NULL, *qw = NULL;
+    if (!r || !(r->theta = bsti_alloc_array(ctx, n * np, sizeof *r->theta)) ||
+        !(r->w = bsti_alloc_array(ctx, n * np, sizeof *r->w)) ||
+        (!at_centre && patch_rule(ctx, samples, &qu, &qv, &qw) < 0)) {
+        bsti_glass_rule_free(ctx, r);
+        return BST_ENOMEM;
+    }
+    r->n = n, r->np = np;
+    for (size_t j = 0; j < n; j++)
+        for (size_t q = 0; q < np; q++) {
+            double d[3];
+            if (at_centre)
+                bst_basis_center(basis, j, d);
+            else
+                bst_basis_sample(basis, j, qu[q], qv[q], d);
+            r->theta[j * np + q] = dir_theta(d);
+            r->w[j * np + q] = at_centre ? 1.0 : qw[q];
+        }
+    bsti_free(ctx, qu), bsti_free(ctx, qv), bsti_free(ctx, qw);
+    *out = r;
+    return BST_OK;
+}
+
 /* The layer over basis of the channels idx[0..nc-1] (names[]), or of the one wavelength lambda
- * (um) when lambda > 0 (one channel, names[0]). */
-static int build_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, size_t nc,
-                       const size_t *idx, const char *const *names, double lambda, int at_centre,
-                       int samples, int exact, bst_layer **out)
+ * (um) when lambda > 0 (one channel, names[0]), averaged with rule r over each patch.  A patch
+ * average evaluates hundreds of directions per patch: through the angular table unless exact
+ * (a rule of patch centres is always exact). */
+static int build_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis,
+                       const bsti_glass_rule *r, size_t nc, const size_t *idx,
+                       const char *const *names, double lambda, int exact, bst_layer **out)
 {
     bst_layer *l;
     int rc = bst_layer_new(ctx, basis, nc, names, &l);
@@ -1092,37 +1137,21 @@ static int build_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis,
         bst_layer_free(l);
         return BST_ENOMEM;
     }
-    size_t np = at_centre ? 1 : 4 * (size_t)samples * (size_t)samples;
-    double *qu = NULL, *qv = NULL, *qw = NULL;
-    if (!at_centre && patch_rule(ctx, samples, &qu, &qv, &qw) < 0) {
-        bsti_free(ctx, v);
-        bst_layer_free(l);
-        return BST_ENOMEM;
-    }
     for (size_t c = 0; c < nc && rc >= 0; c++) {
-        /* a patch average evaluates thousands of directions per patch: through the angular table */
         double *tab = NULL;
-        if (!at_centre && !exact && !(tab = table_at(ctx, g, idx[c], lambda))) {
+        if (r->np > 1 && !exact && !(tab = table_at(ctx, g, idx[c], lambda))) {
             rc = BST_ENOMEM;
             break;
         }
         for (size_t j = 0; j < n; j++) {
-            double sum[4] = {0, 0, 0, 0}, p[4], d[3];
-            for (size_t q = 0; q < np; q++) {
-                double wq = 1.0;
-                if (at_centre) {
-                    bst_basis_center(basis, j, d);
-                } else {
-                    bst_basis_sample(basis, j, qu[q], qv[q], d);
-                    wq = qw[q];
-                }
-                double th = dir_theta(d);
+            double sum[4] = {0, 0, 0, 0}, p[4];
+            for (size_t q = j * r->np; q < (j + 1) * r->np; q++) {
                 if (tab)
-                    bsti_glass_table_optics(tab, th, p);
+                    bsti_glass_table_optics(tab, r->theta[q], p);
                 else
-                    optics_at(g, idx[c], lambda, th, p);
+                    optics_at(g, idx[c], lambda, r->theta[q], p);
                 for (int i = 0; i < 4; i++)
-                    sum[i] += wq * p[i];
+                    sum[i] += r->w[q] * p[i];
             }
             double w = 1.0 / lam[j];
             /* p[] order Tf, Tb, Rf, Rb; v blocks in bst_comp order Tf, Rf, Tb, Rb */
@@ -1138,7 +1167,7 @@ static int build_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis,
         }
         bsti_progress(ctx, (double)(c + 1) / (double)nc, "glass layer");
     }
-    bsti_free(ctx, v), bsti_free(ctx, qu), bsti_free(ctx, qv), bsti_free(ctx, qw);
+    bsti_free(ctx, v);
     if (rc >= 0 && g->description)
         rc = bst_layer_set_name(ctx, l, g->description);
     if (rc < 0) {
@@ -1169,22 +1198,44 @@ int bsti_glass_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, s
         idx[c] = (size_t)k;
         names[c] = g->ch[k].name;
     }
-    return build_layer(ctx, g, basis, nc, idx, names, 0.0, at_centre, samples, exact, out);
+    bsti_glass_rule *r;
+    int rc = bsti_glass_rule_new(ctx, basis, at_centre, samples, &r);
+    if (rc < 0)
+        return rc;
+    rc = build_layer(ctx, g, basis, r, nc, idx, names, 0.0, exact, out);
+    bsti_glass_rule_free(ctx, r);
+    return rc;
 }
 
-int bst_glass_layer_at(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, double lambda_um,
-                       int at_centre, bst_layer **out)
+int bsti_glass_layer_at(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis,
+                        const bsti_glass_rule *rule, double lambda_um, bst_layer **out)
 {
-    if (!ctx || !g || !basis || !out)
+    if (!ctx || !g || !basis || !rule || !out)
         return ctx ? bsti_error(ctx, BST_EINVAL, "glass layer: NULL argument") : BST_EINVAL;
     *out = NULL;
     if (!g->data.n)
         return bsti_error(ctx, BST_EINVAL, "%s: no spectral data, so no layer per wavelength", g->where);
     if (!(lambda_um > 0) || !isfinite(lambda_um))
         return bsti_error(ctx, BST_EINVAL, "%s: wavelength %g um is not positive", g->where, lambda_um);
+    if (rule->n != bst_basis_size(basis))
+        return bsti_error(ctx, BST_EINVAL, "glass layer: the patch rule is for another basis");
     static const size_t zero = 0;
     static const char *const name[] = {"Spectral"};
-    return build_layer(ctx, g, basis, 1, &zero, name, lambda_um, at_centre, BST_GLASS_SAMPLES, 0, out);
+    return build_layer(ctx, g, basis, rule, 1, &zero, name, lambda_um, 0, out);
+}
+
+int bst_glass_layer_at(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, double lambda_um,
+                       int at_centre, bst_layer **out)
+{
+    if (!ctx || !basis || !out)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "glass layer: NULL argument") : BST_EINVAL;
+    bsti_glass_rule *r;
+    int rc = bsti_glass_rule_new(ctx, basis, at_centre, BST_GLASS_SAMPLES, &r);
+    if (rc < 0)
+        return rc;
+    rc = bsti_glass_layer_at(ctx, g, basis, r, lambda_um, out);
+    bsti_glass_rule_free(ctx, r);
+    return rc;
 }
 
 int bst_glass_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, size_t nchannels,

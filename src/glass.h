@@ -42,4 +42,15 @@ int bsti_glass_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, s
 double *bsti_glass_table(bst_ctx *ctx, const bst_glass *g, size_t ch);
 void bsti_glass_table_optics(const double *tab, double theta, double v[4]);
 
+/* The directions a layer's patch values average (bst_glass_layer): per patch, the incidence
+ * angles and weights of its points (at_centre: the centre alone), computed once per basis so that
+ * a stack evaluated at hundreds of wavelengths pays for the geometry once. */
+typedef struct bsti_glass_rule bsti_glass_rule;
+int bsti_glass_rule_new(bst_ctx *ctx, const bst_basis *basis, int at_centre, int samples,
+                        bsti_glass_rule **out);
+void bsti_glass_rule_free(bst_ctx *ctx, bsti_glass_rule *r);
+/* bst_glass_layer_at with a precomputed rule for basis. */
+int bsti_glass_layer_at(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis,
+                        const bsti_glass_rule *rule, double lambda_um, bst_layer **out);
+
 #endif

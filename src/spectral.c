@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "ctx.h"
+#include "glass.h"
 #include "layer.h"
 
 static int cmp_double(const void *a, const void *b)
@@ -95,7 +96,10 @@ int bst_stack_combine_spectral(bst_ctx *ctx, size_t n, bst_glass *const *panes,
     bst_layer **lay = bsti_calloc(ctx, n, sizeof *lay), *res = NULL, *sys = NULL;
     bst_mat *acc[BST_NCOMP] = {NULL};
     bst_progress_fn progress = ctx->progress_fn;
+    bsti_glass_rule *rule = NULL;
     int rc = lay ? union_grid(ctx, n, panes, &all, &nall) : BST_ENOMEM;
+    if (rc >= 0)
+        rc = bsti_glass_rule_new(ctx, basis, at_centre, BST_GLASS_SAMPLES, &rule);
     if (rc >= 0)
         rc = bst_layer_new(ctx, basis, nchannels, channels, &res);
     if (rc >= 0 && want_abs && (!(af = bsti_alloc_array(ctx, 2 * n * N, sizeof *af))))
@@ -140,7 +144,7 @@ int bst_stack_combine_spectral(bst_ctx *ctx, size_t n, bst_glass *const *panes,
             for (size_t i = 0; i < n && rc >= 0; i++) {
                 bst_layer_free(lay[i]);
                 lay[i] = NULL;
-                rc = bst_glass_layer_at(ctx, panes[i], basis, wl[k], at_centre, &lay[i]);
+                rc = bsti_glass_layer_at(ctx, panes[i], basis, rule, wl[k], &lay[i]);
             }
             ctx->progress_fn = NULL; /* one report per wavelength, below */
             if (rc >= 0)
@@ -179,6 +183,7 @@ int bst_stack_combine_spectral(bst_ctx *ctx, size_t n, bst_glass *const *panes,
     for (int m = 0; m < BST_NCOMP; m++)
         bst_mat_free(acc[m]);
     bsti_free(ctx, lay), bsti_free(ctx, all), bsti_free(ctx, w), bsti_free(ctx, af);
+    bsti_glass_rule_free(ctx, rule);
     if (rc < 0) {
         bst_layer_free(res);
         return rc;

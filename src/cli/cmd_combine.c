@@ -15,9 +15,11 @@ static const char help[] =
     "Usage: bsdfstack combine [-k K | --klems[=full|half|quarter]] [--only Tf,Rf,Tb,Rb]\n"
     "                         [--channels NAMES] [--precision double|single] [--drop-tol X]\n"
     "                         [--reduce PCT | --no-reduce] [--dense] [--absorptance FILE]\n"
-    "                         [--strict] [-v] -o OUT LAYER LAYER...\n"
+    "                         [--per-channel] [--strict] [-v] -o OUT LAYER LAYER...\n"
     "Combines the layers, listed exterior first, with every inter-reflection between them, and\n"
-    "writes the system's BSDF as BSDF XML.\n"
+    "writes the system's BSDF as BSDF XML.  When every layer is a pane with spectral data, the\n"
+    "stack is combined wavelength by wavelength and averaged per channel afterwards (as WINDOW\n"
+    "does); otherwise each channel's band values are combined.  The output's metadata says which.\n"
     "\n"
     "Layers:\n"
     "  FILE.xml           a BSDF XML file (Klems, TensorTree3/4, any resolution)\n"
@@ -37,6 +39,7 @@ static const char help[] =
     "  --dense            force every matrix dense (the baseline for comparisons)\n"
     "  --absorptance FILE also write per-layer absorptance per incident patch (TSV: channel,\n"
     "                     side, patch, theta, phi of the propagation direction, A1..An, T, R)\n"
+    "  --per-channel      combine band values even when every layer is spectral\n"
     "  --strict           ill-conditioning and energy imbalance in an input are errors\n"
     "  -v                 print each step's structures, time and peak memory\n"
     "  -o OUT             output file ('-' = standard output), written atomically\n";
@@ -52,16 +55,30 @@ static void verbose_step(const bst_stack_step *s, void *opaque)
             names[s->structure], s->nnz, s->seconds, s->rcond, ru.ru_maxrss / 1024.0);
 }
 
+/* Per-layer absorptance of every channel of sys: abs[side][(ch * n + i) * N + j]. */
+static int absorptance(bst_ctx *ctx, const char *sub, const struct cli_layers *set,
+                       const bst_layer *sys, const bst_stack_opts *so, double *abs[2])
+{
+    size_t n = set->n, N = bst_basis_size(set->basis);
+    for (size_t ch = 0; ch < bst_layer_nchannels(sys); ch++) {
+        size_t c0 = (size_t)bst_layer_find_channel(set->layers[0], bst_layer_channel(sys, ch));
+        int st = bst_stack_absorptance(ctx, n, (const bst_layer *const *)set->layers, c0, so,
+                                       abs[0] + ch * n * N, abs[1] + ch * n * N);
+        if (st < 0)
+            return cli_fail_ctx(sub, "absorptance", ctx);
+    }
+    return CLI_OK;
+}
+
 /* --absorptance: one row per channel, side and incident patch: the patch direction (the light's
  * propagation direction), each layer's absorptance, and the system's T and R for the balance. */
 static int write_absorptance(bst_ctx *ctx, const char *sub, const char *path,
-                             const struct cli_layers *set, const bst_layer *sys, const bst_stack_opts *so)
+                             const struct cli_layers *set, const bst_layer *sys, double *const abs[2])
 {
     size_t n = set->n, N = bst_basis_size(set->basis);
-    double *af = malloc(n * N * sizeof *af), *ab = malloc(n * N * sizeof *ab);
     double *t = malloc(2 * N * sizeof *t), *r = t ? t + N : NULL;
     struct cli_out out = {0};
-    int rc = (af && ab && t) ? cli_out_open(&out, sub, path) : cli_fail(sub, "out of memory");
+    int rc = t ? cli_out_open(&out, sub, path) : cli_fail(sub, "out of memory");
     if (rc == CLI_OK) {
         fprintf(out.fp, "channel\tside\tpatch\ttheta_deg\tphi_deg");
         for (size_t i = 0; i < n; i++)
@@ -70,13 +87,8 @@ static int write_absorptance(bst_ctx *ctx, const char *sub, const char *path,
     }
     for (size_t ch = 0; rc == CLI_OK && ch < bst_layer_nchannels(sys); ch++) {
         const char *name = bst_layer_channel(sys, ch);
-        size_t c0 = (size_t)bst_layer_find_channel(set->layers[0], name);
-        int st = bst_stack_absorptance(ctx, n, (const bst_layer *const *)set->layers, c0, so, af, ab);
-        if (st < 0) {
-            rc = cli_fail_ctx(sub, path, ctx);
-            break;
-        }
-        for (int side = 0; side < 2 && rc == CLI_OK; side++) {
+        for (int side = 0; side < 2; side++) {
+            const double *a = abs[side] + ch * n * N;
             bst_layer_hemispherical(ctx, sys, ch, side ? BST_TB : BST_TF, t);
             bst_layer_hemispherical(ctx, sys, ch, side ? BST_RB : BST_RF, r);
             for (size_t j = 0; j < N; j++) {
@@ -86,7 +98,7 @@ static int write_absorptance(bst_ctx *ctx, const char *sub, const char *path,
                 fprintf(out.fp, "%s\t%s\t%zu\t%.4f\t%.4f", name, side ? "back" : "front", j, th,
                         ph < 0 ? ph + 360 : ph);
                 for (size_t i = 0; i < n; i++)
-                    fprintf(out.fp, "\t%.8f", (side ? ab : af)[i * N + j]);
+                    fprintf(out.fp, "\t%.8f", a[i * N + j]);
                 fprintf(out.fp, "\t%.8f\t%.8f\n", t[j], r[j]);
             }
         }
@@ -95,14 +107,61 @@ static int write_absorptance(bst_ctx *ctx, const char *sub, const char *path,
         rc = cli_out_commit(&out, sub);
     else
         cli_out_abort(&out);
-    free(af), free(ab), free(t);
+    free(t);
     return rc;
+}
+
+/* The stack per wavelength: every layer a spectral pane.  Channels: those of layer 1. */
+static int combine_spectral(bst_ctx *ctx, const char *sub, struct cli_layers *set,
+                            const bst_stack_opts *so, double *abs[2], bst_layer **sys)
+{
+    const bst_layer *l0 = set->layers[0];
+    size_t nch = bst_layer_nchannels(l0);
+    const char **names = malloc(nch * sizeof *names);
+    if (!names)
+        return cli_fail(sub, "out of memory");
+    for (size_t c = 0; c < nch; c++)
+        names[c] = bst_layer_channel(l0, c);
+    int st = bst_stack_combine_spectral(ctx, set->n, set->panes, set->basis, nch, names, 0, so,
+                                        sys, abs[0], abs[1]);
+    free(names);
+    if (st < 0)
+        return cli_fail_ctx(sub, "combining per wavelength", ctx);
+    cli_warn_ctx(sub, NULL, st, ctx);
+    return CLI_OK;
+}
+
+/* Append how the spectrum was treated to the output's metadata. */
+static int note_spectral(const char *sub, struct cli_layers *set, int per_wavelength, int asked_band)
+{
+    char note[512];
+    if (per_wavelength) {
+        snprintf(note, sizeof note, "\nspectral: combined wavelength by wavelength (union of the "
+                 "panes' measured wavelengths, or a band's integration grid where shorter), then "
+                 "averaged per channel");
+    } else {
+        size_t i = 0;
+        while (i < set->n && set->panes[i])
+            i++;
+        if (asked_band || i == set->n)
+            snprintf(note, sizeof note, "\nspectral: band values combined per channel "
+                     "(as asked)");
+        else
+            snprintf(note, sizeof note, "\nspectral: band values combined per channel (layer %zu, "
+                     "%s, has no spectral data)", i + 1, bst_layer_name(set->layers[i]));
+    }
+    char *d = realloc(set->description, strlen(set->description) + strlen(note) + 1);
+    if (!d)
+        return cli_fail(sub, "out of memory");
+    strcat(d, note);
+    set->description = d;
+    return CLI_OK;
 }
 
 int cmd_combine(int argc, char **argv)
 {
     enum { O_KLEMS = 256, O_ONLY, O_CHANNELS, O_PRECISION, O_DROP, O_REDUCE, O_NOREDUCE, O_DENSE,
-           O_ABS, O_STRICT, O_HELP };
+           O_ABS, O_STRICT, O_PERCH, O_HELP };
     static const struct option longopts[] = {
         {"klems", optional_argument, NULL, O_KLEMS}, {"only", required_argument, NULL, O_ONLY},
         {"channels", required_argument, NULL, O_CHANNELS},
@@ -110,12 +169,13 @@ int cmd_combine(int argc, char **argv)
         {"drop-tol", required_argument, NULL, O_DROP}, {"reduce", required_argument, NULL, O_REDUCE},
         {"no-reduce", no_argument, NULL, O_NOREDUCE}, {"dense", no_argument, NULL, O_DENSE},
         {"absorptance", required_argument, NULL, O_ABS}, {"strict", no_argument, NULL, O_STRICT},
+        {"per-channel", no_argument, NULL, O_PERCH},
         {"help", no_argument, NULL, O_HELP}, {NULL, 0, NULL, 0}};
     const char *sub = "combine";
     struct cli_basis_choice basis = {0};
     const char *outpath = NULL, *channels = NULL, *abspath = NULL;
     double reduce = 90.0;
-    int verbose = 0;
+    int verbose = 0, per_channel = 0;
     bst_stack_opts so;
     bst_stack_opts_init(&so);
     optind = 1;
@@ -166,6 +226,7 @@ int cmd_combine(int argc, char **argv)
         case O_DENSE: so.force_dense = 1; break;
         case O_ABS: abspath = optarg; break;
         case O_STRICT: so.strict = 1; break;
+        case O_PERCH: per_channel = 1; break;
         case 'v': verbose = 1; break;
         case 'o': outpath = optarg; break;
         case 'h':
@@ -188,17 +249,33 @@ int cmd_combine(int argc, char **argv)
     int rc = cli_layers_load(&set, ctx, sub, (size_t)(argc - optind), argv + optind, &basis,
                              channels);
     bst_layer *sys = NULL;
-    if (rc == CLI_OK) {
+    double *abs[2] = {NULL, NULL};
+    int spectral = rc == CLI_OK && !per_channel && set.npanes == set.n;
+    if (rc == CLI_OK && abspath) {
+        size_t sz = bst_layer_nchannels(set.layers[0]) * set.n * bst_basis_size(set.basis);
+        abs[0] = malloc(2 * sz * sizeof(double));
+        abs[1] = abs[0] ? abs[0] + sz : NULL;
+        if (!abs[0])
+            rc = cli_fail(sub, "out of memory");
+    }
+    if (rc == CLI_OK)
+        rc = note_spectral(sub, &set, spectral, per_channel);
+    if (rc == CLI_OK && spectral) {
+        rc = combine_spectral(ctx, sub, &set, &so, abs, &sys);
+    } else if (rc == CLI_OK) {
         int st = bst_stack_combine(ctx, set.n, (const bst_layer *const *)set.layers, &so, &sys);
         if (st < 0)
             rc = cli_fail_ctx(sub, "combining", ctx);
         else
             cli_warn_ctx(sub, NULL, st, ctx);
+        if (rc == CLI_OK && abspath)
+            rc = absorptance(ctx, sub, &set, sys, &so, abs);
     }
     if (rc == CLI_OK && abspath)
-        rc = write_absorptance(ctx, sub, abspath, &set, sys, &so);
+        rc = write_absorptance(ctx, sub, abspath, &set, sys, abs);
     if (rc == CLI_OK)
         rc = cli_write_layer(ctx, sub, sys, outpath, reduce, argc, argv, &set);
+    free(abs[0]);
     bst_layer_free(sys);
     cli_layers_free(&set);
     bst_ctx_free(ctx);

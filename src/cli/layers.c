@@ -40,9 +40,13 @@ void cli_layers_free(struct cli_layers *set)
 {
     if (!set)
         return;
-    for (size_t i = 0; i < set->n; i++)
+    for (size_t i = 0; i < set->n; i++) {
         bst_layer_free(set->layers[i]);
+        if (set->panes)
+            bst_glass_free(set->panes[i]);
+    }
     free(set->layers);
+    free(set->panes);
     bst_basis_free(set->basis);
     free(set->description);
     memset(set, 0, sizeof *set);
@@ -58,6 +62,7 @@ int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_
 {
     memset(set, 0, sizeof *set);
     set->layers = calloc(n, sizeof *set->layers);
+    set->panes = calloc(n, sizeof *set->panes);
     bst_bsdf **files = calloc(n, sizeof *files);
     char *chcopy = channels ? strdup(channels) : NULL;
     const char *chnames[MAX_CH];
@@ -67,7 +72,7 @@ int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_
         desc_len += strlen(specs[i]) + 4;
     set->description = malloc(desc_len);
     int rc = CLI_OK;
-    if (!set->layers || !files || !set->description || (channels && !chcopy)) {
+    if (!set->layers || !set->panes || !files || !set->description || (channels && !chcopy)) {
         rc = cli_fail(sub, "out of memory");
         goto out;
     }
@@ -134,6 +139,15 @@ int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_
             st = spec ? bst_glass_layer_from_spec(ctx, spec, getenv("BSDFSTACK_GLASS_DIR"),
                                                   set->basis, nch, nch ? chnames : NULL, &l)
                       : BST_ENOMEM;
+            /* a pane with spectral data can also be evaluated per wavelength */
+            bst_glass *g = NULL;
+            if (st >= 0 && !flip && bst_glass_parse(ctx, spec, getenv("BSDFSTACK_GLASS_DIR"), &g) >= 0 &&
+                bst_glass_nwavelengths(g) > 0) {
+                set->panes[i] = g;
+                set->npanes++;
+            } else {
+                bst_glass_free(g);
+            }
             free(spec);
         }
         if (st < 0) {

@@ -15,6 +15,10 @@ struct cli_layers {
     bst_layer **layers;
     bst_basis *basis;
     char *description; /* "layers (exterior first): ..." for the output's metadata */
+    bst_glass **panes; /* panes[i]: layer i's spectral pane (glass: with spectral data, not
+                          reversed), else NULL; all non-NULL: the stack can be combined per
+                          wavelength (bst_stack_combine_spectral) */
+    size_t npanes;     /* how many are non-NULL */
 };
 
 /* Parse -k VALUE (opt 'k') or --klems[=WHICH] (opt 'K') into choice; CLI_OK or a usage error. */
