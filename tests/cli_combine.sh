@@ -17,6 +17,22 @@ awk -v g="$got" -v t1="$t1" -v t2="$t2" -v r1="$r1" -v r2="$r2" 'BEGIN {
     t = t1 * t2 / (1 - r1 * r2); v = g * 3.14159265358979 / 64; d = v - t; if (d < 0) d = -d;
     exit !(d < 2e-3) }' && pass "double glazing T(0) = T1 T2 / (1 - R1 R2)" || fail "double glazing: $got vs $t1 $t2 $r1 $r2"
 
+# spectral panes: combined per wavelength (WCE's NFRC 102 / 103 solar T at normal incidence 0.652314)
+# unless --per-channel (band values: 0.645986); Klems quarter, whose polar patch spans 0..9 degrees
+expect_status 0 "combine two spectral panes" -- "$B" combine --klems=quarter -o "$tmpdir/sp.xml" glass:nfrc-102 glass:nfrc-103
+grep -q "spectral: combined wavelength by wavelength" "$tmpdir/sp.xml" && pass "metadata: per wavelength" || fail "metadata of a spectral stack"
+expect_status 0 "query Solar" -- sh -c "echo '0 0 -1 0 0 1' | '$B' query --channel Solar '$tmpdir/sp.xml'"
+tsp=$(cat "$tmpdir/out")
+expect_status 0 "combine per channel" -- "$B" combine --klems=quarter --per-channel -o "$tmpdir/pc.xml" glass:nfrc-102 glass:nfrc-103
+grep -q "spectral: band values combined per channel" "$tmpdir/pc.xml" && pass "metadata: per channel" || fail "metadata of --per-channel"
+expect_status 0 "query Solar per channel" -- sh -c "echo '0 0 -1 0 0 1' | '$B' query --channel Solar '$tmpdir/pc.xml'"
+tpc=$(cat "$tmpdir/out")
+awk -v a="$tsp" -v b="$tpc" 'BEGIN { l = 0.0768802444241; x = a * l - 0.652314; y = b * l - 0.645986;
+    exit !(x < 1e-3 && x > -1e-3 && y < 1e-3 && y > -1e-3) }' \
+    && pass "solar T(0): per wavelength 0.6523, per channel 0.6460" || fail "solar T(0): $tsp / $tpc (x Lambda 0.07688)"
+expect_status 0 "a pane without spectral data" -- "$B" combine -k 2 -o "$tmpdir/mx.xml" glass:nfrc-102 glass:clear-6mm
+grep -q "layer 2, glass:clear-6mm, has no spectral data" "$tmpdir/mx.xml" && pass "metadata names the band-only layer" || fail "metadata of a mixed stack"
+
 # a reference blind between panes, reduced output, reads back
 expect_status 0 "combine glass + blind + glass (k = 4)" -- "$B" combine -k 4 -o "$tmpdir/s.xml" glass:clear-6mm "$ref/L_blind0_t4k5.xml" glass:clear-6mm
 expect_status 0 "result reads back" -- sh -c "echo '0 0 -1 0 0 1' | '$B' query '$tmpdir/s.xml'"

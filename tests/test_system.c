@@ -1,20 +1,24 @@
 /* test_system.c - the ray-traced ground truth: S1 = pane + specular blind + pane, ray traced as one
  * assembly by RADIANCE (../shared/reference/S1_t4k5.xml), against our combination of its three
- * separately ray-traced layers at k = 5: hemispherical totals, and the accordance (bsdfstack.h) of
- * the transmitted distribution at the paper's directions, incidence from both sides.
+ * separately ray-traced layers at k = 5: hemispherical totals, and the global accordance
+ * (bst_accordance: 100 (1 - sum L |a - b| / sum L (a + b)), the share of the scattered flux on
+ * which two distributions agree) of the transmitted distribution at the paper's directions,
+ * incidence from both sides.
  *
- * The accordance bound is the Monte Carlo noise floor of the reference data itself: two
- * independent RADIANCE traces of the same blind (L_blind0 at k = 5, and at k = 6 averaged to k = 5)
- * agree to an accordance of 95.6 - 98.4 at these directions under bst_accordance's definition,
- * so the combination of three noisy layers is required to come within 2 points of that floor at
- * every direction.  (The issue's GA >= 99 refers to Grobe's own GA definition, which this
- * definition does not reproduce; see the closing note.) */
+ * What accordance the data allow.  S1 and the blind are symmetric under x -> -x and y -> -y, so
+ * each file's column for a direction and the mirror image of its column for the mirrored
+ * direction estimate the same distribution from independent rays.  Their accordance F measures
+ * the file's Monte Carlo noise: a file deviates from the truth by about e = (100 - F) / sqrt 2
+ * points, and two independent files by about sqrt(e1^2 + e2^2).  S1 scores F = 96.1 - 98.4 against
+ * itself at these directions, so no method can reach the issue's GA >= 99 against S1 under this
+ * definition: an exact combination would score about 97.2 - 98.9.  The test requires, at every
+ * direction and side, 100 - sqrt(e_S1^2 + e_blind^2) - 1.5 (the glass layers' noise and the
+ * estimate's own scatter).  The closing note of the session has the figures. */
 #include <config.h>
 
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
-#include <unistd.h>
 
 #include "testutil.h"
 
@@ -44,49 +48,58 @@ static size_t incident_patch(const bst_basis *b, double th, double ph)
     return bst_basis_patch(b, d);
 }
 
-static double noise_floor[2][5];
+/* The accordance of layer l's component c for incident patch j with the mirror image (x -> -x
+ * and/or y -> -y, both for the incident and the exit directions) of itself. */
+static double mirror_accordance(const bst_layer *l, const bst_basis *b, bst_comp c, size_t j, int mx, int my)
+{
+    const bst_mat *m = bst_layer_get(l, 0, c);
+    const double *lam = bst_basis_lambda(b);
+    size_t N = bst_basis_size(b);
+    double d[3];
+    bst_basis_center(b, j, d);
+    d[0] = mx ? -d[0] : d[0], d[1] = my ? -d[1] : d[1];
+    size_t jm = bst_basis_patch(b, d);
+    double diff = 0, sum = 0;
+    for (size_t i = 0; i < N; i++) {
+        bst_basis_center(b, i, d);
+        d[0] = mx ? -d[0] : d[0], d[1] = my ? -d[1] : d[1];
+        double x = bst_mat_get(m, i, j), y = bst_mat_get(m, bst_basis_patch(b, d), jm);
+        diff += lam[i] * fabs(x - y), sum += lam[i] * (x + y);
+    }
+    return 100.0 * (1.0 - diff / sum);
+}
 
-static void accordance_table(const bst_layer *sys, const bst_layer *truth, const bst_basis *b,
-                             const char *what, double margin)
+/* Deviation from the truth expected of a file's column (points of accordance): from the mean of
+ * its two mirror accordances. */
+static double noise(const bst_layer *l, const bst_basis *b, bst_comp c, size_t j)
+{
+    double f = 0.5 * (mirror_accordance(l, b, c, j, 1, 0) + mirror_accordance(l, b, c, j, 0, 1));
+    return (100.0 - f) / sqrt(2.0);
+}
+
+static void accordance_table(const bst_layer *sys, const bst_layer *truth, const bst_layer *blind,
+                             const bst_basis *b, const char *what, double margin)
 {
     for (int side = 0; side < 2; side++)
         for (size_t k = 0; k < sizeof dirs / sizeof dirs[0]; k++) {
             size_t j = incident_patch(b, dirs[k][0], dirs[k][1]);
-            double ga;
-            ck_assert_int_eq(bst_accordance(ctx, sys, truth, 0, side ? BST_TB : BST_TF, j, &ga, NULL), BST_OK);
-            printf("S1 %s, %s incidence (theta %g, phi %g): accordance %.2f (noise floor %.2f)\n", what,
-                   side ? "back" : "front", dirs[k][0], dirs[k][1], ga, noise_floor[side][k]);
+            bst_comp c = side ? BST_TB : BST_TF;
+            double ga, e1 = noise(truth, b, c, j), e2 = noise(blind, b, c, j);
+            double expect = 100.0 - sqrt(e1 * e1 + e2 * e2);
+            ck_assert_int_eq(bst_accordance(ctx, sys, truth, 0, c, j, &ga, NULL), BST_OK);
+            printf("S1 %s, %s incidence (theta %g, phi %g): accordance %.2f; S1 against its mirror "
+                   "image %.2f, expected of an exact method %.2f\n", what, side ? "back" : "front",
+                   dirs[k][0], dirs[k][1], ga, 100.0 - sqrt(2.0) * e1, expect);
             fflush(stdout);
-            ck_assert_msg(ga >= noise_floor[side][k] - margin, "%s %s (%g, %g): accordance %.2f < %.2f - %g",
-                          what, side ? "back" : "front", dirs[k][0], dirs[k][1], ga,
-                          noise_floor[side][k], margin);
+            ck_assert_msg(ga >= expect - margin, "%s %s (%g, %g): accordance %.2f < %.2f - %g", what,
+                          side ? "back" : "front", dirs[k][0], dirs[k][1], ga, expect, margin);
         }
-}
-
-/* The two independent traces of the blind, k = 6 unpacked to a temporary file. */
-static void measure_noise_floor(const bst_basis *b)
-{
-    char tmp[64];
-    tu_unxz_ref("L_blind0_t4k6.xml.xz", tmp, sizeof tmp);
-    bst_bsdf *f;
-    bst_layer *b6, *b5 = load("L_blind0_t4k5.xml", b);
-    ck_assert_int_ge(bst_bsdf_read(ctx, tmp, NULL, &f), 0);
-    ck_assert_int_eq(bst_bsdf_to_layer(ctx, f, b, &b6), BST_OK);
-    bst_bsdf_free(f);
-    unlink(tmp);
-    for (int side = 0; side < 2; side++)
-        for (size_t k = 0; k < sizeof dirs / sizeof dirs[0]; k++)
-            ck_assert_int_eq(bst_accordance(ctx, b5, b6, 0, side ? BST_TB : BST_TF,
-                                            incident_patch(b, dirs[k][0], dirs[k][1]),
-                                            &noise_floor[side][k], NULL), BST_OK);
-    bst_layer_free(b5), bst_layer_free(b6);
 }
 
 START_TEST(test_s1_raytraced)
 {
     bst_basis *b;
     ck_assert_int_eq(bst_basis_new_sc(ctx, 5, &b), BST_OK);
-    measure_noise_floor(b);
     bst_layer *l[3] = {load("L_glass_t4k5.xml", b), load("L_blind0_t4k5.xml", b), load("L_glass_t4k5.xml", b)};
     bst_layer *truth = load("S1_t4k5.xml", b), *sys, *dense;
     bst_stack_opts o;
@@ -94,7 +107,7 @@ START_TEST(test_s1_raytraced)
     o.comps = BST_COMP_BIT(BST_TF) | BST_COMP_BIT(BST_TB);
     int rc = bst_stack_combine(ctx, 3, (const bst_layer *const *)l, &o, &sys);
     ck_assert_msg(rc >= 0, "%s", bst_ctx_message(ctx));
-    accordance_table(sys, truth, b, "combined layers", 2.0);
+    accordance_table(sys, truth, l[1], b, "combined layers", 1.5);
     /* hemispherical T at every incident patch below the outer ring (theta < 69.6 deg, where the
      * incident cells average steep angular changes: up to 14 % there, a discretisation effect) within
      * 6 % of the ray-traced system (Monte Carlo noise of S1 and of the blind, whose Tf comes by
@@ -137,7 +150,7 @@ START_TEST(test_s1_raytraced)
     bst_layer *sa;
     o.force_dense = 0;
     ck_assert_int_ge(bst_stack_combine(ctx, 3, la, &o, &sa), 0);
-    accordance_table(sa, truth, b, "analytic panes + blind", 3.0);
+    accordance_table(sa, truth, l[1], b, "analytic panes + blind", 1.5);
     bst_layer_free(sa), bst_layer_free(g);
     for (int k = 0; k < 3; k++)
         bst_layer_free(l[k]);
