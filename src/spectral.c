@@ -45,6 +45,18 @@ static int union_grid(bst_ctx *ctx, size_t n, bst_glass *const *panes, double **
     return BST_OK;
 }
 
+/* The wavelengths channel `name` of pane g is combined on, by WCE's rule: the union of the
+ * layers' wavelengths (all[0..nall-1]), or the band's own integration grid when that is shorter
+ * (Visible: 81 wavelengths instead of a few hundred).  NULL if the channel is not a band. */
+static const double *wavelengths(const bst_glass *g, const char *name, const double *all,
+                                 size_t nall, size_t *n)
+{
+    size_t ng;
+    const double *grid = bst_glass_channel_grid(g, (size_t)bst_glass_find_channel(g, name), &ng);
+    *n = grid && ng < nall ? ng : nall;
+    return !grid ? NULL : ng < nall ? grid : all;
+}
+
 /* acc[c] += w * m[c] for the requested components (acc[c] == NULL: acc[c] = w * m[c]). */
 static int accumulate(bst_ctx *ctx, bst_mat **acc, const bst_layer *sys, unsigned want, double w)
 {
@@ -86,10 +98,6 @@ int bst_stack_combine_spectral(bst_ctx *ctx, size_t n, bst_glass *const *panes,
     const bst_stack_opts *opts = opts_in ? opts_in : &defaults;
     unsigned want = opts->comps ? opts->comps & BST_COMP_ALL : BST_COMP_ALL;
     int want_abs = abs_front || abs_back;
-    if (want_abs)
-        want = BST_COMP_ALL; /* the absorptance needs every partial stack anyway */
-    bst_stack_opts o = *opts;
-    o.comps = want;
 
     size_t N = bst_basis_size(basis), nwl = 0, nall = 0;
     double *all = NULL, *w = NULL, *af = NULL, *ab = NULL;
@@ -110,20 +118,14 @@ int bst_stack_combine_spectral(bst_ctx *ctx, size_t n, bst_glass *const *panes,
     for (size_t c = 0; c < nchannels && rc >= 0; c++) {
         if (bst_glass_find_channel(panes[0], channels[c]) < 0)
             rc = bst_glass_add_channel(ctx, panes[0], channels[c]);
-        size_t ng;
-        if (rc >= 0 && !bst_glass_channel_grid(panes[0], (size_t)bst_glass_find_channel(panes[0], channels[c]), &ng))
+        if (rc >= 0 && !wavelengths(panes[0], channels[c], all, nall, &nwl))
             rc = bsti_error(ctx, BST_EINVAL, "spectral stack: channel %s is not a spectral band "
                             "(Visible, Solar, CIE-X, CIE-Y, CIE-Z)", channels[c]);
-        if (rc >= 0)
-            total += ng < nall ? ng : nall;
+        total += nwl;
     }
     for (size_t c = 0; c < nchannels && rc >= 0; c++) {
-        size_t ch = (size_t)bst_glass_find_channel(panes[0], channels[c]), ng;
-        const double *grid = bst_glass_channel_grid(panes[0], ch, &ng);
-        /* WCE's rule: the union of the layers' wavelengths, or the band's own integration grid
-         * when that is shorter (Visible: 81 wavelengths instead of a few hundred) */
-        const double *wl = ng < nall ? grid : all;
-        nwl = ng < nall ? ng : nall;
+        size_t ch = (size_t)bst_glass_find_channel(panes[0], channels[c]);
+        const double *wl = wavelengths(panes[0], channels[c], all, nall, &nwl);
         bsti_free(ctx, w);
         if (!(w = bsti_alloc_array(ctx, nwl, sizeof *w))) {
             rc = BST_ENOMEM;
@@ -148,11 +150,11 @@ int bst_stack_combine_spectral(bst_ctx *ctx, size_t n, bst_glass *const *panes,
             }
             ctx->progress_fn = NULL; /* one report per wavelength, below */
             if (rc >= 0)
-                rc = bst_stack_combine(ctx, n, (const bst_layer *const *)lay, &o, &sys);
+                rc = bst_stack_combine(ctx, n, (const bst_layer *const *)lay, opts, &sys);
             if (rc > 0) /* a warning (ill-conditioned, energy): kept, its message is in ctx */
                 warn = rc, rc = BST_OK;
             if (rc >= 0 && want_abs)
-                rc = bst_stack_absorptance(ctx, n, (const bst_layer *const *)lay, 0, &o, af, ab);
+                rc = bst_stack_absorptance(ctx, n, (const bst_layer *const *)lay, 0, opts, af, ab);
             if (rc > 0)
                 warn = rc, rc = BST_OK;
             ctx->progress_fn = progress;
@@ -168,9 +170,8 @@ int bst_stack_combine_spectral(bst_ctx *ctx, size_t n, bst_glass *const *panes,
             sys = NULL;
             bsti_progress(ctx, (double)(done + 1) / (double)total, "combining per wavelength");
         }
-        unsigned asked = opts->comps ? opts->comps & BST_COMP_ALL : BST_COMP_ALL;
         for (int m = 0; m < BST_NCOMP; m++) {
-            if (rc >= 0 && (asked & BST_COMP_BIT(m)) && acc[m])
+            if (rc >= 0 && acc[m])
                 rc = bst_layer_set(ctx, res, c, (bst_comp)m, acc[m]);
             else
                 bst_mat_free(acc[m]);

@@ -496,10 +496,40 @@ static double *read_full(const char *name, size_t N)
     return m;
 }
 
+/* s += the pane g (patch centres, at each wavelength) + a two-band shade given by its visible and
+ * solar matrices (vis[c], sol[c]: N x N, row = outgoing patch), on wavelengths wl[0..n-1] with
+ * weights w.  The shade follows WCE's rule for two-band materials: inside 0.38..0.78 um the visible
+ * matrix, outside (solar - f visible) / (1 - f), f = 0.499, clamped at 0, element by element. */
+static void pane_and_shade(struct sys *s, const bst_glass *g, const bst_basis *b, const double *wl,
+                           const double *w, size_t n, double *const vis[BST_NCOMP],
+                           double *const sol[BST_NCOMP])
+{
+    size_t N = bst_basis_size(b);
+    for (size_t k = 0; k < n; k++) {
+        if (w[k] == 0)
+            continue;
+        bst_layer *l[2];
+        ck_assert_int_eq(bst_glass_layer_at(ctx, g, b, wl[k], 1, &l[0]), BST_OK);
+        ck_assert_int_eq(bst_layer_new(ctx, b, 1, (const char *const[]){"Spectral"}, &l[1]), BST_OK);
+        int inside = wl[k] >= 0.38 && wl[k] <= 0.78;
+        for (int c = 0; c < BST_NCOMP; c++) {
+            bst_mat *m;
+            ck_assert_int_eq(bst_mat_new_dense(ctx, N, N, BST_DOUBLE, &m), BST_OK);
+            double *d = bst_mat_dense_data(m);
+            for (size_t i = 0; i < N; i++)
+                for (size_t j = 0; j < N; j++) {
+                    double v = vis[c][i * N + j], x = sol[c][i * N + j];
+                    d[j * N + i] = inside ? v : fmax(0.0, (x - 0.499 * v) / (1 - 0.499));
+                }
+            ck_assert_int_eq(bst_layer_set(ctx, l[1], 0, (bst_comp)c, m), BST_OK);
+        }
+        sys_add(s, (const bst_layer *const *)l, 0, w[k]);
+        bst_layer_free(l[0]), bst_layer_free(l[1]);
+    }
+}
+
 /* NFRC 102 (spectral, patch centres) + the two-band shade "2011-SA1" in Klems full, per wavelength
- * on the union of NFRC 102's grid and the two-band material's {0.3, 0.38 -+ 1e-6, 0.78 -+ 1e-6, 2.5}:
- * inside 0.38..0.78 um the visible matrix, outside (solar - f visible) / (1 - f), f = 0.499, clamped
- * at 0 (WCE's rule for such materials). */
+ * on the union of NFRC 102's grid and the two-band material's {0.3, 0.38 -+ 1e-6, 0.78 -+ 1e-6, 2.5}. */
 START_TEST(test_dg_full_2011SA1_from_data)
 {
     bst_basis *b = wce_basis("basis_klems_full.tsv");
@@ -526,34 +556,13 @@ START_TEST(test_dg_full_2011SA1_from_data)
     double *w = solar_weights(wl, nwl);
     struct sys s;
     sys_init(&s, b, 2);
-    double *mat = malloc(N * N * sizeof *mat);
-    for (size_t k = 0; k < nwl; k++) {
-        if (w[k] == 0)
-            continue;
-        bst_layer *l[2];
-        ck_assert_int_eq(bst_glass_layer_at(ctx, g, b, wl[k], 1, &l[0]), BST_OK);
-        ck_assert_int_eq(bst_layer_new(ctx, b, 1, (const char *const[]){"Spectral"}, &l[1]), BST_OK);
-        int inside = wl[k] >= 0.38 && wl[k] <= 0.78;
-        for (int c = 0; c < BST_NCOMP; c++) {
-            bst_mat *m;
-            ck_assert_int_eq(bst_mat_new_dense(ctx, N, N, BST_DOUBLE, &m), BST_OK);
-            double *d = bst_mat_dense_data(m);
-            for (size_t i = 0; i < N; i++)
-                for (size_t j = 0; j < N; j++) {
-                    double v = vis[c][i * N + j], x = sol[c][i * N + j];
-                    d[j * N + i] = inside ? v : fmax(0.0, (x - 0.499 * v) / (1 - 0.499));
-                }
-            ck_assert_int_eq(bst_layer_set(ctx, l[1], 0, (bst_comp)c, m), BST_OK);
-        }
-        sys_add(&s, (const bst_layer *const *)l, 0, w[k]);
-        bst_layer_free(l[0]), bst_layer_free(l[1]);
-    }
+    pane_and_shade(&s, g, b, wl, w, nwl, vis, sol);
     ck_assert_int_eq(compare_results(&s, "wce/cases/dg_full_102_bsdf2011SA1_results.tsv", "solar",
                                      WCE_TOL, 0), 1748);
     sys_free(&s);
     for (int c = 0; c < BST_NCOMP; c++)
         free(vis[c]), free(sol[c]);
-    free(mat), free(w), free(wl);
+    free(w), free(wl);
     bst_glass_free(g);
     bst_basis_free(b);
 }
@@ -636,30 +645,21 @@ START_TEST(test_dg_quarter_lambertian_visible_from_data)
     const double *wl = bst_glass_channel_grid(g, ch, &n);
     ck_assert(wl && n == 81 && wl[0] >= 0.38 && wl[n - 1] <= 0.78);
     double *w = weights_d65_1nm(wl, n);
+    double *vis[BST_NCOMP], *sol[BST_NCOMP];
+    for (int c = 0; c < BST_NCOMP; c++) {
+        int t = c == BST_TF || c == BST_TB;
+        vis[c] = malloc(N * N * sizeof(double)), sol[c] = malloc(N * N * sizeof(double));
+        for (size_t i = 0; i < N * N; i++)
+            vis[c][i] = (t ? 0.4 : 0.2) / M_PI, sol[c][i] = (t ? 0.5 : 0.3) / M_PI;
+    }
     struct sys s;
     sys_init(&s, b, 2);
-    for (size_t k = 0; k < n; k++) {
-        if (w[k] == 0)
-            continue;
-        bst_layer *l[2];
-        ck_assert_int_eq(bst_glass_layer_at(ctx, g, b, wl[k], 1, &l[0]), BST_OK);
-        ck_assert_int_eq(bst_layer_new(ctx, b, 1, (const char *const[]){"Spectral"}, &l[1]), BST_OK);
-        int inside = wl[k] >= 0.38 && wl[k] <= 0.78;
-        for (int c = 0; c < BST_NCOMP; c++) {
-            bst_mat *m;
-            ck_assert_int_eq(bst_mat_new_dense(ctx, N, N, BST_DOUBLE, &m), BST_OK);
-            double vv = c == BST_TF || c == BST_TB ? 0.4 : 0.2, sv = c == BST_TF || c == BST_TB ? 0.5 : 0.3;
-            double v = (inside ? vv : fmax(0.0, (sv - 0.499 * vv) / (1 - 0.499))) / M_PI, *d = bst_mat_dense_data(m);
-            for (size_t i = 0; i < N * N; i++)
-                d[i] = v;
-            ck_assert_int_eq(bst_layer_set(ctx, l[1], 0, (bst_comp)c, m), BST_OK);
-        }
-        sys_add(&s, (const bst_layer *const *)l, 0, w[k]);
-        bst_layer_free(l[0]), bst_layer_free(l[1]);
-    }
+    pane_and_shade(&s, g, b, wl, w, n, vis, sol);
     ck_assert_int_eq(compare_results(&s, "wce/cases/dg_quarter_102_lambertian_visible_results.tsv",
                                      "visible", WCE_TOL, 0), 500);
     sys_free(&s);
+    for (int c = 0; c < BST_NCOMP; c++)
+        free(vis[c]), free(sol[c]);
     free(w);
     bst_glass_free(g);
     bst_basis_free(b);

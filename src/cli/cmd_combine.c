@@ -132,7 +132,7 @@ static int combine_spectral(bst_ctx *ctx, const char *sub, struct cli_layers *se
 }
 
 /* Append how the spectrum was treated to the output's metadata. */
-static int note_spectral(const char *sub, struct cli_layers *set, int per_wavelength, int asked_band)
+static int note_spectral(const char *sub, struct cli_layers *set, int per_wavelength, int per_channel)
 {
     char note[512];
     if (per_wavelength) {
@@ -143,7 +143,7 @@ static int note_spectral(const char *sub, struct cli_layers *set, int per_wavele
         size_t i = 0;
         while (i < set->n && set->panes[i])
             i++;
-        if (asked_band || i == set->n)
+        if (per_channel || i == set->n)
             snprintf(note, sizeof note, "\nspectral: band values combined per channel "
                      "(as asked)");
         else
