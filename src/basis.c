@@ -15,40 +15,30 @@
 
 void bsti_sc_disk_to_square(double x, double y, double *sx, double *sy)
 {
-    double r = sqrt(x * x + y * y), a, b;
-    if (r == 0.0) {
-        *sx = *sy = 0.5;
+    double r = sqrt(x * x + y * y);
+    bsti_sc_polar_to_square(r, r == 0.0 ? 0.0 : atan2(y, x), sx, sy);
+}
+
+void bsti_sc_square_to_polar(double sx, double sy, double *r, double *phi)
+{
+    double a = 2 * sx - 1, b = 2 * sy - 1;
+    if (a == 0.0 && b == 0.0) {
+        *r = *phi = 0.0;
         return;
     }
-    double phi = atan2(y, x);
-    if (phi < -M_PI / 4)
-        phi += 2 * M_PI;
-    if (phi < M_PI / 4)
-        a = r, b = r * phi / (M_PI / 4);
-    else if (phi < 3 * M_PI / 4)
-        b = r, a = -r * (phi - M_PI / 2) / (M_PI / 4);
-    else if (phi < 5 * M_PI / 4)
-        a = -r, b = -r * (phi - M_PI) / (M_PI / 4);
-    else
-        b = -r, a = r * (phi - 3 * M_PI / 2) / (M_PI / 4);
-    *sx = (a + 1) / 2;
-    *sy = (b + 1) / 2;
+    if (fabs(a) >= fabs(b)) {
+        *r = fabs(a);
+        *phi = a > 0 ? (M_PI / 4) * (b / a) : (M_PI / 4) * (4 + b / a);
+    } else {
+        *r = fabs(b);
+        *phi = b > 0 ? (M_PI / 4) * (2 - a / b) : (M_PI / 4) * (6 - a / b);
+    }
 }
 
 void bsti_sc_square_to_disk(double sx, double sy, double *x, double *y)
 {
-    double a = 2 * sx - 1, b = 2 * sy - 1, r, phi;
-    if (a == 0.0 && b == 0.0) {
-        *x = *y = 0.0;
-        return;
-    }
-    if (fabs(a) >= fabs(b)) {
-        r = fabs(a);
-        phi = a > 0 ? (M_PI / 4) * (b / a) : (M_PI / 4) * (4 + b / a);
-    } else {
-        r = fabs(b);
-        phi = b > 0 ? (M_PI / 4) * (2 - a / b) : (M_PI / 4) * (6 - a / b);
-    }
+    double r, phi;
+    bsti_sc_square_to_polar(sx, sy, &r, &phi);
     *x = r * cos(phi);
     *y = r * sin(phi);
 }

@@ -16,6 +16,9 @@
 #ifndef BST_BASIS_H
 #define BST_BASIS_H
 
+#include <math.h>
+#include <stddef.h>
+
 #include "bsdfstack.h"
 
 #define BSTI_KLEMS_MAX_BANDS 64
@@ -42,5 +45,67 @@ size_t bsti_basis_mirror_x(const bst_basis *b, size_t patch);
 /* Shirley-Chiu concentric map of RADIANCE: disk (x, y), x^2 + y^2 <= 1 -> square [0,1)^2, and back. */
 void bsti_sc_disk_to_square(double x, double y, double *sx, double *sy);
 void bsti_sc_square_to_disk(double sx, double sy, double *x, double *y);
+/* The same maps with the disk point in polar form (r, phi): phi may be any angle.  Inline: the
+ * expansion of a rank-3 tree calls the first one 10^9 times at k = 7. */
+static inline void bsti_sc_polar_to_square(double r, double phi, double *sx, double *sy)
+{
+    double a, b;
+    if (r == 0.0) {
+        *sx = *sy = 0.5;
+        return;
+    }
+    while (phi < -M_PI / 4)
+        phi += 2 * M_PI;
+    while (phi >= 7 * M_PI / 4)
+        phi -= 2 * M_PI;
+    if (phi < M_PI / 4)
+        a = r, b = r * phi / (M_PI / 4);
+    else if (phi < 3 * M_PI / 4)
+        b = r, a = -r * (phi - M_PI / 2) / (M_PI / 4);
+    else if (phi < 5 * M_PI / 4)
+        a = -r, b = -r * (phi - M_PI) / (M_PI / 4);
+    else
+        b = -r, a = r * (phi - 3 * M_PI / 2) / (M_PI / 4);
+    *sx = (a + 1) / 2;
+    *sy = (b + 1) / 2;
+}
+void bsti_sc_square_to_polar(double sx, double sy, double *r, double *phi);
+
+/* One coordinate of a grid of g cells: the cell of f = x g, and in *other the cell across the
+ * boundary that f lies on within rounding (else the same cell). */
+static inline size_t bsti_cell_pair(double f, size_t g, size_t *other)
+{
+    const double eps = 1e-9;
+    size_t c = f <= 0.0 ? 0 : f >= (double)g ? g - 1 : (size_t)f;
+    double frac = f - (double)c;
+    if (frac < eps && c > 0)
+        *other = c - 1;
+    else if (frac > 1.0 - eps && c + 1 < g)
+        *other = c, c = c + 1;
+    else
+        *other = c;
+    return c;
+}
+
+/* The cells (index x g + y) of a g x g grid of the square that hold the disk point (r, phi): one,
+ * or the 2 or 4 that meet where the point lies on a cell boundary (within rounding).  Sample
+ * points turned about Z land on boundaries systematically (an exit point turned onto the plane
+ * of incidence lies on the middle line), and a rounding error must not pick the side: callers
+ * average over the cells returned.  Returns their count. */
+static inline int bsti_sc_polar_cells(double r, double phi, size_t g, size_t cells[4])
+{
+    double sx, sy;
+    bsti_sc_polar_to_square(r, phi, &sx, &sy);
+    size_t x1, y1, x0 = bsti_cell_pair(sx * (double)g, g, &x1), y0 = bsti_cell_pair(sy * (double)g, g, &y1);
+    cells[0] = x0 * g + y0;
+    if (x0 == x1 && y0 == y1)
+        return 1;
+    if (x0 == x1 || y0 == y1) {
+        cells[1] = x1 * g + y1;
+        return 2;
+    }
+    cells[1] = x0 * g + y1, cells[2] = x1 * g + y0, cells[3] = x1 * g + y1;
+    return 4;
+}
 
 #endif

@@ -53,24 +53,18 @@ static inline double mget(const struct macc *a, size_t o, size_t i)
     return bst_mat_get(a->m, o, i);
 }
 
-/* Grid cell (index ix G + iy) of the direction with disk radius rho and azimuth psi (radians). */
-static inline size_t polar_cell(double rho, double psi, size_t G)
+/* Value of the grid v (G x G cells) at the direction with disk radius rho and azimuth psi
+ * (radians); on a cell boundary the mean of the cells that meet there, as the reader does. */
+static inline double polar_value(const double *v, double rho, double psi, size_t G)
 {
-    const double q = M_PI / 4;
-    psi -= 2 * M_PI * floor((psi + q) / (2 * M_PI)); /* into [-pi/4, 7pi/4) */
-    double a, b;
-    if (psi < q)
-        a = rho, b = rho * psi / q;
-    else if (psi < 3 * q)
-        b = rho, a = -rho * (psi - 2 * q) / q;
-    else if (psi < 5 * q)
-        a = -rho, b = -rho * (psi - 4 * q) / q;
-    else
-        b = -rho, a = rho * (psi - 6 * q) / q;
-    double gx = floor((a + 1) / 2 * (double)G), gy = floor((b + 1) / 2 * (double)G);
-    size_t cx = gx < 0 ? 0 : gx >= (double)G ? G - 1 : (size_t)gx;
-    size_t cy = gy < 0 ? 0 : gy >= (double)G ? G - 1 : (size_t)gy;
-    return cx * G + cy;
+    size_t cells[4];
+    int n = bsti_sc_polar_cells(rho, psi, G, cells);
+    if (n == 1)
+        return v[cells[0]];
+    double sum = 0.0;
+    for (int j = 0; j < n; j++)
+        sum += v[cells[j]];
+    return sum / n;
 }
 
 /* Cell index rotated by 90 degrees about Z, r times. */
@@ -136,7 +130,7 @@ static void gather(const struct r3 *w, size_t i, double *row)
             double sum = 0.0;
             for (size_t t = 0; t < w->so; t++) {
                 const double *p = w->out + 2 * (q * w->so + t);
-                sum += w->s[polar_cell(p[0], p[1] + phi, w->G)];
+                sum += polar_value(w->s, p[0], p[1] + phi, w->G);
             }
             row[q] += sum;
         }
@@ -154,7 +148,7 @@ static void expand(const struct r3 *w, size_t i, const double *row)
             double sum = 0.0;
             for (size_t t = 0; t < w->so; t++) {
                 const double *p = w->out + 2 * (o * w->so + t);
-                sum += row[polar_cell(p[0], p[1] - phi, w->G)];
+                sum += polar_value(row, p[0], p[1] - phi, w->G);
             }
             w->e[o] += sum;
         }

@@ -674,6 +674,89 @@ static int centre_map(bst_ctx *ctx, const bst_basis *sc, const bst_basis *kb, si
     return BST_OK;
 }
 
+/* A rank-3 tree on the Shirley-Chiu grid of order k, M[o + N i] as bsti_ttree_expand4 lays it
+ * out: the average over TT3_IN_SAMPLES^2 points of incident cell i and TT3_OUT_SAMPLES^2 points of
+ * outgoing cell o of the tree at (sin(theta_in) on the lower half of p0, the exit point turned by
+ * -phi_in).  The tree is first laid on a grid of its own finest cells (a lookup there is the
+ * tree's lookup), and sample points are kept in polar form, so a turn is a subtraction; a point
+ * on a cell boundary takes the mean of the cells there (bsti_sc_polar_cells).  The
+ * result is invariant under quarter turns of both cells (the concentric map commutes with them and
+ * the sample points of a cell turn into those of the turned cell), so only incident cells of one
+ * quadrant are computed and the other three columns are copied. */
+static int expand3(bst_ctx *ctx, const bsti_ttree *t, int k, double *m)
+{
+    size_t G = (size_t)1 << k, n = G * G;
+    size_t gd = (size_t)1 << t->depth, h0 = gd > 1 ? gd / 2 : 1;
+    size_t ni = TT3_IN_SAMPLES * TT3_IN_SAMPLES, no = TT3_OUT_SAMPLES * TT3_OUT_SAMPLES;
+    float *grid = bsti_alloc_array(ctx, h0 * gd * gd, sizeof *grid);
+    double *pol = bsti_alloc_array(ctx, 2 * n * no, sizeof *pol);
+    if (!grid || !pol) {
+        bsti_free(ctx, grid), bsti_free(ctx, pol);
+        return BST_ENOMEM;
+    }
+    for (size_t i0 = 0; i0 < h0; i0++) /* p0 < 1/2 only: sin(theta_in) lies there */
+        for (size_t q = 0; q < gd * gd; q++) {
+            double p[3] = {(i0 + 0.5) / gd, (q / gd + 0.5) / gd, (q % gd + 0.5) / gd};
+            grid[i0 * gd * gd + q] = (float)bsti_ttree_eval(t, p);
+        }
+    for (size_t o = 0; o < n; o++)
+        for (size_t s = 0; s < no; s++)
+            bsti_sc_square_to_polar(((double)(o / G) + (s / TT3_OUT_SAMPLES + 0.5) / TT3_OUT_SAMPLES) / G,
+                                    ((double)(o % G) + (s % TT3_OUT_SAMPLES + 0.5) / TT3_OUT_SAMPLES) / G,
+                                    &pol[2 * (o * no + s)], &pol[2 * (o * no + s) + 1]);
+    size_t lo = G > 1 ? G / 2 : 0, done = 0, todo = (G - lo) * (G - lo);
+    for (size_t ix = lo; ix < G; ix++)
+        for (size_t iy = lo; iy < G; iy++) {
+            double *col = m + n * (ix * G + iy);
+            memset(col, 0, n * sizeof *col);
+            for (size_t si = 0; si < ni; si++) {
+                double r, phi;
+                bsti_sc_square_to_polar(((double)ix + (si / TT3_IN_SAMPLES + 0.5) / TT3_IN_SAMPLES) / G,
+                                        ((double)iy + (si % TT3_IN_SAMPLES + 0.5) / TT3_IN_SAMPLES) / G,
+                                        &r, &phi);
+                size_t i0 = (size_t)((0.5 - 1e-6 - 0.5 * r) * (double)gd);
+                const float *slab = grid + (i0 < h0 ? i0 : h0 - 1) * gd * gd;
+                for (size_t o = 0; o < n; o++) {
+                    const double *po = pol + 2 * o * no;
+                    double sum = 0;
+                    for (size_t s = 0; s < no; s++) {
+                        size_t cells[4];
+                        int nc = bsti_sc_polar_cells(po[2 * s], po[2 * s + 1] - phi, gd, cells);
+                        double v = 0.0;
+                        for (int j = 0; j < nc; j++)
+                            v += slab[cells[j]];
+                        sum += v / nc;
+                    }
+                    col[o] += sum / (double)(no * ni);
+                }
+            }
+            if (++done % 16 == 0)
+                bsti_progress(ctx, (double)done / (double)todo, "expanding an isotropic tree");
+        }
+    /* the three other quadrants: a quarter turn sends cell (x, y) to (G-1-y, x) */
+    for (size_t ix = lo; G > 1 && ix < G; ix++)
+        for (size_t iy = lo; iy < G; iy++) {
+            size_t x = ix, y = iy;
+            const double *src = m + n * (ix * G + iy);
+            for (int turn = 1; turn < 4; turn++) {
+                size_t nx = G - 1 - y;
+                y = x, x = nx;
+                double *dst = m + n * (x * G + y);
+                for (size_t o = 0; o < n; o++) {
+                    size_t ox = o / G, oy = o % G;
+                    for (int t2 = 0; t2 < turn; t2++) {
+                        size_t tx = G - 1 - oy;
+                        oy = ox, ox = tx;
+                    }
+                    dst[ox * G + oy] = src[o];
+                }
+            }
+        }
+    bsti_free(ctx, grid);
+    bsti_free(ctx, pol);
+    return BST_OK;
+}
+
 /* Component c of channel ch on a Shirley-Chiu grid of order k: m is N x N (N = 4^k). */
 static int to_sc(bst_ctx *ctx, const bst_bsdf *b, size_t ch, int c, int k, double *m)
 {
@@ -687,45 +770,7 @@ static int to_sc(bst_ctx *ctx, const bst_bsdf *b, size_t ch, int c, int k, doubl
     if (b->tree[ch][c] && b->tree[ch][c]->dim == 4) {
         rc = bsti_ttree_expand4(b->tree[ch][c], k, m);
     } else if (b->tree[ch][c]) {
-        /* rank 3: average over sample points of each incident and outgoing cell */
-        const bsti_ttree *t = b->tree[ch][c];
-        size_t ni = TT3_IN_SAMPLES * TT3_IN_SAMPLES, no = TT3_OUT_SAMPLES * TT3_OUT_SAMPLES;
-        double *od = bsti_alloc_array(ctx, n * no * 2, sizeof *od);
-        if (!od) {
-            bst_basis_free(own);
-            return BST_ENOMEM;
-        }
-        for (size_t o = 0; o < n; o++)
-            for (size_t s = 0; s < no; s++) {
-                double d[3];
-                bst_basis_sample(sc, o, (s / TT3_OUT_SAMPLES + 0.5) / TT3_OUT_SAMPLES,
-                                 (s % TT3_OUT_SAMPLES + 0.5) / TT3_OUT_SAMPLES, d);
-                od[2 * (o * no + s)] = d[0];
-                od[2 * (o * no + s) + 1] = d[1];
-            }
-        for (size_t i = 0; i < n; i++) {
-            double *col = m + n * i;
-            memset(col, 0, n * sizeof *col);
-            for (size_t si = 0; si < ni; si++) {
-                double d[3], p[3];
-                bst_basis_sample(sc, i, (si / TT3_IN_SAMPLES + 0.5) / TT3_IN_SAMPLES,
-                                 (si % TT3_IN_SAMPLES + 0.5) / TT3_IN_SAMPLES, d);
-                p[0] = 0.5 - 1e-6 - 0.5 * sqrt(d[0] * d[0] + d[1] * d[1]);
-                double phi = atan2(d[1], d[0]), c0 = cos(phi), s0 = sin(phi);
-                for (size_t o = 0; o < n; o++) {
-                    double sum = 0;
-                    for (size_t s = 0; s < no; s++) {
-                        double x = od[2 * (o * no + s)], y = od[2 * (o * no + s) + 1];
-                        bsti_sc_disk_to_square(x * c0 + y * s0, -x * s0 + y * c0, &p[1], &p[2]);
-                        sum += bsti_ttree_eval(t, p);
-                    }
-                    col[o] += sum / (double)(no * ni);
-                }
-            }
-            if (i % 64 == 0)
-                bsti_progress(ctx, (double)i / (double)n, "expanding an isotropic tree");
-        }
-        bsti_free(ctx, od);
+        rc = expand3(ctx, b->tree[ch][c], k, m);
     } else {
         /* Klems -> Shirley-Chiu: each cell takes the value of the Klems patch holding its centre,
          * weighted so that every incident patch keeps its hemispherical totals. */
