@@ -373,7 +373,8 @@ int bst_bsdf_eval(bst_ctx *ctx, const bst_bsdf *b, size_t ch, const double in[3]
 /* The file's BSDF as a layer over `target` (NULL: the file's own basis, Shirley-Chiu of order
  * bst_bsdf_order for trees).  Tensor trees at their own or a coarser order are averaged exactly
  * (finer orders replicate); rank-3 trees are averaged over 2 x 2 incident x 3 x 3 outgoing points
- * per cell; Klems -> Shirley-Chiu maps cells by their centres with weights that keep every
+ * per cell (2^j times as many per side in a cell 2^j times wider than the tree's or order 5's
+ * cells; a point on a cell boundary takes the mean of the cells there); Klems -> Shirley-Chiu maps cells by their centres with weights that keep every
  * incident patch's hemispherical totals; Shirley-Chiu -> Klems (trees on their own grid, Klems
  * files via order 6) averages by the overlaps of cells and patches, so every incident patch keeps
  * the average of its directions' hemispherical totals.  Each component lands in its cheapest

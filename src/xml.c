@@ -676,7 +676,8 @@ static int centre_map(bst_ctx *ctx, const bst_basis *sc, const bst_basis *kb, si
 
 /* A rank-3 tree on the Shirley-Chiu grid of order k, M[o + N i] as bsti_ttree_expand4 lays it
  * out: the average over TT3_IN_SAMPLES^2 points of incident cell i and TT3_OUT_SAMPLES^2 points of
- * outgoing cell o of the tree at (sin(theta_in) on the lower half of p0, the exit point turned by
+ * outgoing cell o (times 4^(5-k) for cells coarser than both the tree's and order 5: 2 x 2 x 3 x 3
+ * points of a cell 8 tree cells wide estimate a peaked distribution's mean to 95 %) of the tree at (sin(theta_in) on the lower half of p0, the exit point turned by
  * -phi_in).  The tree is first laid on a grid of its own finest cells (a lookup there is the
  * tree's lookup), and sample points are kept in polar form, so a turn is a subtraction; a point
  * on a cell boundary takes the mean of the cells there (bsti_sc_polar_cells).  The
@@ -687,7 +688,10 @@ static int expand3(bst_ctx *ctx, const bsti_ttree *t, int k, double *m)
 {
     size_t G = (size_t)1 << k, n = G * G;
     size_t gd = (size_t)1 << t->depth, h0 = gd > 1 ? gd / 2 : 1;
-    size_t ni = TT3_IN_SAMPLES * TT3_IN_SAMPLES, no = TT3_OUT_SAMPLES * TT3_OUT_SAMPLES;
+    /* cells coarser than the tree's get proportionally more points, up to those of order 5 */
+    int fine = (t->depth < 5 ? t->depth : 5) - k;
+    size_t f = fine > 0 ? (size_t)1 << fine : 1;
+    size_t S = TT3_IN_SAMPLES * f, T = TT3_OUT_SAMPLES * f, ni = S * S, no = T * T;
     float *grid = bsti_alloc_array(ctx, h0 * gd * gd, sizeof *grid);
     double *pol = bsti_alloc_array(ctx, 2 * n * no, sizeof *pol);
     if (!grid || !pol) {
@@ -701,8 +705,8 @@ static int expand3(bst_ctx *ctx, const bsti_ttree *t, int k, double *m)
         }
     for (size_t o = 0; o < n; o++)
         for (size_t s = 0; s < no; s++)
-            bsti_sc_square_to_polar(((double)(o / G) + (s / TT3_OUT_SAMPLES + 0.5) / TT3_OUT_SAMPLES) / G,
-                                    ((double)(o % G) + (s % TT3_OUT_SAMPLES + 0.5) / TT3_OUT_SAMPLES) / G,
+            bsti_sc_square_to_polar(((double)(o / G) + ((double)(s / T) + 0.5) / (double)T) / G,
+                                    ((double)(o % G) + ((double)(s % T) + 0.5) / (double)T) / G,
                                     &pol[2 * (o * no + s)], &pol[2 * (o * no + s) + 1]);
     size_t lo = G > 1 ? G / 2 : 0, done = 0, todo = (G - lo) * (G - lo);
     for (size_t ix = lo; ix < G; ix++)
@@ -711,8 +715,8 @@ static int expand3(bst_ctx *ctx, const bsti_ttree *t, int k, double *m)
             memset(col, 0, n * sizeof *col);
             for (size_t si = 0; si < ni; si++) {
                 double r, phi;
-                bsti_sc_square_to_polar(((double)ix + (si / TT3_IN_SAMPLES + 0.5) / TT3_IN_SAMPLES) / G,
-                                        ((double)iy + (si % TT3_IN_SAMPLES + 0.5) / TT3_IN_SAMPLES) / G,
+                bsti_sc_square_to_polar(((double)ix + ((double)(si / S) + 0.5) / (double)S) / G,
+                                        ((double)iy + ((double)(si % S) + 0.5) / (double)S) / G,
                                         &r, &phi);
                 size_t i0 = (size_t)((0.5 - 1e-6 - 0.5 * r) * (double)gd);
                 const float *slab = grid + (i0 < h0 ? i0 : h0 - 1) * gd * gd;
