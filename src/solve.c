@@ -397,12 +397,15 @@ static int solve(bst_ctx *ctx, int right, const bst_mat *a, const bst_mat *b, do
         *rcond_out = rcond;
     bst_mat *bt = NULL, *xt = NULL, *x = NULL;
     if (rc >= 0) {
-        if (right) { /* Y^T = (I - A)^-T B^T */
+        if (right) { /* Y^T = (I - A)^-T B^T; each workspace freed as soon as it is dead */
             rc = bst_mat_transpose(ctx, b, &bt);
             if (rc >= 0)
                 rc = factor_solve(&f, 1, bt, &xt);
+            bst_mat_free(bt);
+            factor_free(&f);
             if (rc >= 0)
                 rc = bst_mat_transpose(ctx, xt, &x);
+            bst_mat_free(xt);
         } else {
             rc = factor_solve(&f, 0, b, &x);
         }
@@ -411,8 +414,6 @@ static int solve(bst_ctx *ctx, int right, const bst_mat *a, const bst_mat *b, do
     rcond = fmin(rcond, 1.0); /* rounding in the estimate may exceed the bound 1 */
     if (rcond_out)
         *rcond_out = rcond;
-    bst_mat_free(bt);
-    bst_mat_free(xt);
     if (rc >= 0 && !bst_mat_all_finite(x))
         rc = bsti_error(ctx, BST_ESINGULAR, "solve: the result is not finite (I - A is singular "
                         "to working precision, rcond %.3g)", rcond);

@@ -184,53 +184,81 @@ static void report(struct combiner *cb, bst_comp c, const bst_mat *m, double t0,
     cb->opts->on_step(&s, cb->opts->opaque);
 }
 
-/* Combine U (exterior part) and V (interior layer) into S, forming the components `want`. */
+/* L m L (both sides scaled by the projected solid angles), NULL for NULL. */
+static int lam_both(struct combiner *cb, const bst_mat *m, bst_mat **out)
+{
+    *out = NULL;
+    if (!m)
+        return BST_OK;
+    return bst_mat_scale(cb->ctx, cb->lam, m, cb->lam, out);
+}
+
+/* L (a b): the product scaled by L afterwards, so that no scaled copy of a is formed. */
+static int lam_mul(struct combiner *cb, const bst_mat *a, const bst_mat *b, bst_mat **out)
+{
+    bst_mat *p = NULL;
+    int rc = mul(cb, a, b, &p);
+    if (rc >= 0)
+        rc = lam_times(cb, p, out);
+    bst_mat_free(p);
+    return rc;
+}
+
+/* Combine U (exterior part) and V (interior layer) into S, forming the components `want`.
+ * Memory: the scalings by L go on the cheaper factor (U's reflection is the exterior part's, often
+ * a diagonal pane), so V's dense matrices are never copied just to be scaled. */
 static int combine_pair(struct combiner *cb, const struct part *u, const struct part *v,
                         unsigned want, struct part *s)
 {
-    bst_mat *lrb1 = NULL, *lrf2 = NULL, *a = NULL, *w = NULL, *t = NULL, *t2 = NULL;
+    bst_mat *llrb1 = NULL, *lrb1 = NULL, *a = NULL, *w = NULL, *t = NULL, *t2 = NULL;
     int rc = BST_OK;
     double rcond, t0;
     memset(s, 0, sizeof *s);
 
-    /* Light travelling inwards in the gap: Tf and Rb share A1 = L Rb1 L Rf2. */
+    /* Light travelling inwards in the gap: Tf and Rb share A1 = L Rb1 L Rf2 = (L Rb1 L) Rf2. */
     unsigned pair1 = want & (BIT(BST_TF) | BIT(BST_RB));
     if (pair1) {
         t0 = now_seconds();
-        if ((rc = lam_times(cb, u->m[BST_RB], &lrb1)) < 0 || (rc = lam_times(cb, v->m[BST_RF], &lrf2)) < 0 ||
-            (rc = mul(cb, lrb1, lrf2, &a)) < 0)
+        if ((rc = lam_both(cb, u->m[BST_RB], &llrb1)) < 0 || (rc = mul(cb, llrb1, v->m[BST_RF], &a)) < 0)
             goto done;
         if (pair1 == (BIT(BST_TF) | BIT(BST_RB))) {
-            /* W = Tf2 (I - A1)^-1; Tf = W L Tf1; Rb = Rb2 + W L Rb1 L Tb2 */
-            if ((rc = solve(cb, 1, a, v->m[BST_TF], &w, &rcond, "towards the interior")) < 0 ||
-                (rc = lam_times(cb, u->m[BST_TF], &t)) < 0 ||
-                (rc = mul(cb, w, t, &s->own[BST_TF])) < 0)
+            /* W = Tf2 (I - A1)^-1; Tf = W L Tf1; Rb = Rb2 + W (L Rb1 L) Tb2 */
+            if ((rc = solve(cb, 1, a, v->m[BST_TF], &w, &rcond, "towards the interior")) < 0)
+                goto done;
+            bst_mat_free(a);
+            a = NULL;
+            if ((rc = lam_times(cb, u->m[BST_TF], &t)) < 0 || (rc = mul(cb, w, t, &s->own[BST_TF])) < 0)
                 goto done;
             report(cb, BST_TF, s->own[BST_TF], t0, rcond);
             t0 = now_seconds();
             bst_mat_free(t);
             t = NULL;
-            if ((rc = lam_times(cb, v->m[BST_TB], &t2)) < 0 || (rc = mul(cb, lrb1, t2, &t)) < 0)
+            if ((rc = mul(cb, llrb1, v->m[BST_TB], &t)) < 0)
                 goto done;
-            bst_mat_free(t2);
-            t2 = NULL;
-            if ((rc = mul(cb, w, t, &t2)) < 0 || (rc = add(cb, v->m[BST_RB], t2, &s->own[BST_RB])) < 0)
+            if ((rc = mul(cb, w, t, &t2)) < 0)
+                goto done;
+            bst_mat_free(w), bst_mat_free(t);
+            w = t = NULL;
+            if ((rc = add(cb, v->m[BST_RB], t2, &s->own[BST_RB])) < 0)
                 goto done;
             report(cb, BST_RB, s->own[BST_RB], t0, rcond);
         } else if (pair1 == BIT(BST_TF)) {
             /* X = (I - A1)^-1 L Tf1; Tf = Tf2 X */
             if ((rc = lam_times(cb, u->m[BST_TF], &t)) < 0 ||
-                (rc = solve(cb, 0, a, t, &w, &rcond, "towards the interior")) < 0 ||
-                (rc = mul(cb, v->m[BST_TF], w, &s->own[BST_TF])) < 0)
+                (rc = solve(cb, 0, a, t, &w, &rcond, "towards the interior")) < 0)
+                goto done;
+            bst_mat_free(a), bst_mat_free(t);
+            a = t = NULL;
+            if ((rc = mul(cb, v->m[BST_TF], w, &s->own[BST_TF])) < 0)
                 goto done;
             report(cb, BST_TF, s->own[BST_TF], t0, rcond);
         } else {
-            /* X = (I - A1)^-1 L Rb1 L Tb2; Rb = Rb2 + Tf2 X */
-            if ((rc = lam_times(cb, v->m[BST_TB], &t2)) < 0 || (rc = mul(cb, lrb1, t2, &t)) < 0 ||
+            /* X = (I - A1)^-1 (L Rb1 L) Tb2; Rb = Rb2 + Tf2 X */
+            if ((rc = mul(cb, llrb1, v->m[BST_TB], &t)) < 0 ||
                 (rc = solve(cb, 0, a, t, &w, &rcond, "towards the interior")) < 0)
                 goto done;
-            bst_mat_free(t2);
-            t2 = NULL;
+            bst_mat_free(a), bst_mat_free(t);
+            a = t = NULL;
             if ((rc = mul(cb, v->m[BST_TF], w, &t2)) < 0 ||
                 (rc = add(cb, v->m[BST_RB], t2, &s->own[BST_RB])) < 0)
                 goto done;
@@ -240,45 +268,52 @@ static int combine_pair(struct combiner *cb, const struct part *u, const struct 
         a = w = t = t2 = NULL;
     }
 
-    /* Light travelling outwards in the gap: Tb and Rf share A2 = L Rf2 L Rb1. */
+    /* Light travelling outwards in the gap: Tb and Rf share A2 = L Rf2 L Rb1 = L (Rf2 (L Rb1)). */
     unsigned pair2 = want & (BIT(BST_TB) | BIT(BST_RF));
     if (pair2) {
         t0 = now_seconds();
-        if ((!lrb1 && (rc = lam_times(cb, u->m[BST_RB], &lrb1)) < 0) ||
-            (!lrf2 && (rc = lam_times(cb, v->m[BST_RF], &lrf2)) < 0) ||
-            (rc = mul(cb, lrf2, lrb1, &a)) < 0)
+        if ((rc = lam_times(cb, u->m[BST_RB], &lrb1)) < 0 || (rc = lam_mul(cb, v->m[BST_RF], lrb1, &a)) < 0)
             goto done;
         if (pair2 == (BIT(BST_TB) | BIT(BST_RF))) {
             /* W = Tb1 (I - A2)^-1; Tb = W L Tb2; Rf = Rf1 + W L Rf2 L Tf1 */
-            if ((rc = solve(cb, 1, a, u->m[BST_TB], &w, &rcond, "towards the exterior")) < 0 ||
-                (rc = lam_times(cb, v->m[BST_TB], &t)) < 0 ||
-                (rc = mul(cb, w, t, &s->own[BST_TB])) < 0)
+            if ((rc = solve(cb, 1, a, u->m[BST_TB], &w, &rcond, "towards the exterior")) < 0)
+                goto done;
+            bst_mat_free(a);
+            a = NULL;
+            if ((rc = lam_times(cb, v->m[BST_TB], &t)) < 0 || (rc = mul(cb, w, t, &s->own[BST_TB])) < 0)
                 goto done;
             report(cb, BST_TB, s->own[BST_TB], t0, rcond);
             t0 = now_seconds();
             bst_mat_free(t);
             t = NULL;
-            if ((rc = lam_times(cb, u->m[BST_TF], &t2)) < 0 || (rc = mul(cb, lrf2, t2, &t)) < 0)
+            if ((rc = lam_times(cb, u->m[BST_TF], &t2)) < 0 || (rc = lam_mul(cb, v->m[BST_RF], t2, &t)) < 0)
                 goto done;
             bst_mat_free(t2);
             t2 = NULL;
-            if ((rc = mul(cb, w, t, &t2)) < 0 || (rc = add(cb, u->m[BST_RF], t2, &s->own[BST_RF])) < 0)
+            if ((rc = mul(cb, w, t, &t2)) < 0)
+                goto done;
+            bst_mat_free(w), bst_mat_free(t);
+            w = t = NULL;
+            if ((rc = add(cb, u->m[BST_RF], t2, &s->own[BST_RF])) < 0)
                 goto done;
             report(cb, BST_RF, s->own[BST_RF], t0, rcond);
         } else if (pair2 == BIT(BST_TB)) {
             /* X = (I - A2)^-1 L Tb2; Tb = Tb1 X */
             if ((rc = lam_times(cb, v->m[BST_TB], &t)) < 0 ||
-                (rc = solve(cb, 0, a, t, &w, &rcond, "towards the exterior")) < 0 ||
-                (rc = mul(cb, u->m[BST_TB], w, &s->own[BST_TB])) < 0)
+                (rc = solve(cb, 0, a, t, &w, &rcond, "towards the exterior")) < 0)
+                goto done;
+            bst_mat_free(a), bst_mat_free(t);
+            a = t = NULL;
+            if ((rc = mul(cb, u->m[BST_TB], w, &s->own[BST_TB])) < 0)
                 goto done;
             report(cb, BST_TB, s->own[BST_TB], t0, rcond);
         } else {
             /* X = (I - A2)^-1 L Rf2 L Tf1; Rf = Rf1 + Tb1 X */
-            if ((rc = lam_times(cb, u->m[BST_TF], &t2)) < 0 || (rc = mul(cb, lrf2, t2, &t)) < 0 ||
+            if ((rc = lam_times(cb, u->m[BST_TF], &t2)) < 0 || (rc = lam_mul(cb, v->m[BST_RF], t2, &t)) < 0 ||
                 (rc = solve(cb, 0, a, t, &w, &rcond, "towards the exterior")) < 0)
                 goto done;
-            bst_mat_free(t2);
-            t2 = NULL;
+            bst_mat_free(a), bst_mat_free(t), bst_mat_free(t2);
+            a = t = t2 = NULL;
             if ((rc = mul(cb, u->m[BST_TB], w, &t2)) < 0 ||
                 (rc = add(cb, u->m[BST_RF], t2, &s->own[BST_RF])) < 0)
                 goto done;
@@ -286,7 +321,7 @@ static int combine_pair(struct combiner *cb, const struct part *u, const struct 
         }
     }
 done:
-    bst_mat_free(lrb1), bst_mat_free(lrf2), bst_mat_free(a);
+    bst_mat_free(llrb1), bst_mat_free(lrb1), bst_mat_free(a);
     bst_mat_free(w), bst_mat_free(t), bst_mat_free(t2);
     for (int c = 0; c < BST_NCOMP; c++)
         s->m[c] = s->own[c];

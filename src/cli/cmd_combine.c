@@ -158,6 +158,26 @@ static int note_spectral(const char *sub, struct cli_layers *set, int per_wavele
     return CLI_OK;
 }
 
+/* Dense layer components stored at the working precision: in single precision the layers then
+ * take half the memory and the combination makes no converted copies of them. */
+static int layers_to_precision(bst_ctx *ctx, const char *sub, struct cli_layers *set, bst_precision p)
+{
+    for (size_t i = 0; i < set->n; i++)
+        for (size_t ch = 0; ch < bst_layer_nchannels(set->layers[i]); ch++)
+            for (int c = 0; c < BST_NCOMP; c++) {
+                const bst_mat *m = bst_layer_get(set->layers[i], ch, (bst_comp)c);
+                bst_mat *conv;
+                if (!m || bst_mat_structure(m) != BST_DENSE || bst_mat_precision(m) == p)
+                    continue;
+                if (bst_mat_convert(ctx, m, BST_DENSE, p, &conv) < 0)
+                    return cli_fail_ctx(sub, "converting a layer's precision", ctx);
+                bst_mat_free(bst_layer_take(set->layers[i], ch, (bst_comp)c));
+                if (bst_layer_set(ctx, set->layers[i], ch, (bst_comp)c, conv) < 0)
+                    return cli_fail_ctx(sub, "converting a layer's precision", ctx);
+            }
+    return CLI_OK;
+}
+
 int cmd_combine(int argc, char **argv)
 {
     enum { O_KLEMS = 256, O_ONLY, O_CHANNELS, O_PRECISION, O_DROP, O_REDUCE, O_NOREDUCE, O_DENSE,
@@ -258,6 +278,8 @@ int cmd_combine(int argc, char **argv)
         if (!abs[0])
             rc = cli_fail(sub, "out of memory");
     }
+    if (rc == CLI_OK && so.precision == BST_FLOAT)
+        rc = layers_to_precision(ctx, sub, &set, BST_FLOAT);
     if (rc == CLI_OK)
         rc = note_spectral(sub, &set, spectral, per_channel);
     if (rc == CLI_OK && spectral) {
@@ -273,6 +295,12 @@ int cmd_combine(int argc, char **argv)
     }
     if (rc == CLI_OK && abspath)
         rc = write_absorptance(ctx, sub, abspath, &set, sys, abs);
+    /* the layers are dead once the system exists: free them before writing (at k = 7 a dense
+     * layer holds 8 GiB that the writer can use) */
+    for (size_t i = 0; rc == CLI_OK && i < set.n; i++) {
+        bst_layer_free(set.layers[i]);
+        set.layers[i] = NULL;
+    }
     if (rc == CLI_OK)
         rc = cli_write_layer(ctx, sub, sys, outpath, reduce, argc, argv, &set);
     free(abs[0]);
