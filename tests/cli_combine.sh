@@ -50,7 +50,7 @@ awk -F'\t' 'NR == 1 { ok = ($6 == "A1" && $9 == "T"); next } { n++; s = $6 + $7 
 # errors: one line, non-zero exit, no output file left behind
 expect_error "unknown layer file" "nothere.xml: cannot open" -- "$B" combine -o "$tmpdir/x.xml" glass:clear-6mm "$tmpdir/nothere.xml"
 [ ! -e "$tmpdir/x.xml" ] && ! ls "$tmpdir"/x.xml.tmp* >/dev/null 2>&1 && pass "no partial output" || fail "partial output left"
-expect_error "unknown pane" "no such pane" -- "$B" combine -o "$tmpdir/x.xml" glass:clear-5mm glass:clear-6mm
+expect_error "unknown pane" "^bsdfstack combine: glass:clear-5mm: no such pane" -- "$B" combine -o "$tmpdir/x.xml" glass:clear-5mm glass:clear-6mm
 expect_error "k out of range" "-k 9" -- "$B" combine -k 9 -o "$tmpdir/x.xml" glass:clear-6mm
 expect_error "no output" "no output file" -- "$B" combine glass:clear-6mm
 expect_error "bad component" "unknown component 'Tx'" -- "$B" combine --only Tx -o "$tmpdir/x.xml" glass:clear-6mm
