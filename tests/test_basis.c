@@ -37,6 +37,37 @@ START_TEST(test_concentric_examples)
 }
 END_TEST
 
+/* Polar form of the concentric map: the same square points as the Cartesian form for any angle
+ * (also beyond one turn); the cells holding a point, with the 2 or 4 that meet on a boundary. */
+START_TEST(test_polar_cells)
+{
+    tu_rng r;
+    tu_rng_seed(&r, 5);
+    for (int i = 0; i < 10000; i++) {
+        double rho = tu_rng_uniform(&r), phi = 4 * M_PI * (tu_rng_uniform(&r) - 0.5), a, b, c, d;
+        bsti_sc_polar_to_square(rho, phi, &a, &b);
+        bsti_sc_disk_to_square(rho * cos(phi), rho * sin(phi), &c, &d);
+        tu_assert_close(a, c, 1e-12, 1.0);
+        tu_assert_close(b, d, 1e-12, 1.0);
+    }
+    size_t cells[4];
+    /* (0.3, 0.4) lies in cell (5, 6) of 8 (square point 0.7048, 0.75: on the line y = 6/8) */
+    ck_assert_int_eq(bsti_sc_polar_cells(0.5, atan2(0.4, 0.3), 8, cells), 2);
+    ck_assert_uint_eq(cells[0], 5 * 8 + 6);
+    ck_assert_uint_eq(cells[1], 5 * 8 + 5);
+    /* straight along +x at radius 0.5: square (0.75, 0.5), the corner of four cells of 8 */
+    ck_assert_int_eq(bsti_sc_polar_cells(0.5, 0.0, 8, cells), 4);
+    size_t want[4] = {6 * 8 + 4, 6 * 8 + 3, 5 * 8 + 4, 5 * 8 + 3};
+    for (int j = 0; j < 4; j++)
+        ck_assert_uint_eq(cells[j], want[j]);
+    /* rounding: one ulp off the boundary still counts as on it; a cell interior is one cell */
+    ck_assert_int_eq(bsti_sc_polar_cells(0.5, 1e-17, 8, cells), 4);
+    ck_assert_int_eq(bsti_sc_polar_cells(0.3, 0.1, 8, cells), 1);
+    ck_assert_int_eq(bsti_sc_polar_cells(1.0, 0.1, 8, cells), 1); /* the rim: no cell beyond */
+    ck_assert_uint_eq(cells[0], 7 * 8 + 4);
+}
+END_TEST
+
 START_TEST(test_sc_patches)
 {
     bst_basis *b;
@@ -156,6 +187,7 @@ static Suite *basis_suite(void)
     TCase *tc = tcase_create("basis");
     tcase_add_checked_fixture(tc, setup, teardown);
     tcase_add_test(tc, test_concentric_examples);
+    tcase_add_test(tc, test_polar_cells);
     tcase_add_test(tc, test_sc_patches);
     tcase_add_loop_test(tc, test_klems_against_wce, 0, 3);
     tcase_add_test(tc, test_klems_example);
