@@ -676,14 +676,16 @@ static int centre_map(bst_ctx *ctx, const bst_basis *sc, const bst_basis *kb, si
 
 /* A rank-3 tree on the Shirley-Chiu grid of order k, M[o + N i] as bsti_ttree_expand4 lays it
  * out: the average over TT3_IN_SAMPLES^2 points of incident cell i and TT3_OUT_SAMPLES^2 points of
- * outgoing cell o (times 4^(5-k) for cells coarser than both the tree's and order 5: 2 x 2 x 3 x 3
- * points of a cell 8 tree cells wide estimate a peaked distribution's mean to 95 %) of the tree at (sin(theta_in) on the lower half of p0, the exit point turned by
- * -phi_in).  The tree is first laid on a grid of its own finest cells (a lookup there is the
- * tree's lookup), and sample points are kept in polar form, so a turn is a subtraction; a point
- * on a cell boundary takes the mean of the cells there (bsti_sc_polar_cells).  The
- * result is invariant under quarter turns of both cells (the concentric map commutes with them and
- * the sample points of a cell turn into those of the turned cell), so only incident cells of one
- * quadrant are computed and the other three columns are copied. */
+ * outgoing cell o of the tree at (sin(theta_in) on the lower half of p0, the exit point turned by
+ * -phi_in).  A cell coarser than both the tree's and order 5's gets 2^j times as many points per
+ * side, 2^j being how much wider it is: 2 x 2 x 3 x 3 points in a cell 4 tree cells wide miss a
+ * peaked distribution's cell mean by up to 5 % of its light (tests/test_xml.c).
+ * The tree is first laid on a grid of its own finest cells (a lookup there is the tree's lookup),
+ * and sample points are kept in polar form, so a turn is a subtraction; a point on a cell
+ * boundary takes the mean of the cells there (bsti_sc_polar_cells).  The result is invariant
+ * under quarter turns of both cells (the concentric map commutes with them and the sample points
+ * of a cell turn into those of the turned cell), so only incident cells of one quadrant are
+ * computed and the other three columns are copied. */
 static int expand3(bst_ctx *ctx, const bsti_ttree *t, int k, double *m)
 {
     size_t G = (size_t)1 << k, n = G * G;

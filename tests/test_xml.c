@@ -265,11 +265,12 @@ static double cell_mean(const bst_bsdf *b, const bst_basis *sc, int c, size_t i,
 }
 
 /* A rank-3 tree on a Shirley-Chiu grid of order k (bst_bsdf_to_layer) is the mean over 2 x 2
- * points of each incident cell and 3 x 3 of each outgoing cell, a point on a cell boundary taking
- * the mean of the cells there.  Checked against the cell mean estimated independently, point by
- * point through bst_bsdf_eval (the lookup that matches libBSDF's query tables) on 4 x 4 x 8 x 8
- * jittered points: per column, accordance and the hemispherical value.  The same 2 x 2 x 3 x 3
- * points looked up one-sided (as a plain lookup does on a boundary) are reported beside it. */
+ * points of each incident cell and 3 x 3 of each outgoing cell (2^(5-k) times as many per side
+ * below order 5), a point on a cell boundary taking the mean of the cells there.  Checked against
+ * the cell mean estimated independently, point by point through bst_bsdf_eval (the lookup that
+ * matches libBSDF's query tables), on twice as many points per side, each jittered in its
+ * stratum: per column, accordance and the hemispherical value.  Beside it, the plain 2 x 2 x 3 x 3
+ * points looked up one-sided (as a lookup does on a boundary) are reported: the scheme before. */
 START_TEST(test_rank3_expansion)
 {
     int k = _i;
