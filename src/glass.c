@@ -40,6 +40,7 @@
 #include <string.h>
 #include <strings.h>
 
+#include "basis.h"
 #include "ctx.h"
 #include "glass.h"
 
@@ -1079,12 +1080,43 @@ struct bsti_glass_rule {
     size_t n, np;  /* patches, points per patch */
     double *theta; /* theta[j * np + q]: incidence angle of point q of patch j */
     double *w;     /* its weight (sum 1 per patch) */
+    size_t *rep;   /* rep[j] <= j: a patch with the same incidence angles and Lambda as j */
 };
 
 void bsti_glass_rule_free(bst_ctx *ctx, bsti_glass_rule *r)
 {
     if (r)
-        bsti_free(ctx, r->theta), bsti_free(ctx, r->w), bsti_free(ctx, r);
+        bsti_free(ctx, r->theta), bsti_free(ctx, r->w), bsti_free(ctx, r->rep), bsti_free(ctx, r);
+}
+
+/* A pane is isotropic, so a patch's average depends only on the incidence angles of its points.
+ * Shirley-Chiu: the concentric map commutes with the 8 symmetries of the square (quarter turns,
+ * mirrors), and the patch rule's points are symmetric too, so the patches of one orbit share their
+ * angles; the orbit's least index stands for it (8x fewer evaluations).  Klems: a patch's angles
+ * depend only on its band, whose first patch stands for it. */
+static void patch_representatives(const bst_basis *b, size_t *rep)
+{
+    size_t n = bst_basis_size(b);
+    if (b->kind == BST_BASIS_SHIRLEY_CHIU) {
+        size_t G = b->g;
+        for (size_t j = 0; j < n; j++) {
+            size_t x = j / G, y = j % G, best = j;
+            size_t xs[2] = {x, G - 1 - x}, ys[2] = {y, G - 1 - y};
+            for (int a = 0; a < 2; a++)
+                for (int c = 0; c < 2; c++) {
+                    size_t p = xs[a] * G + ys[c], q = ys[c] * G + xs[a];
+                    best = p < best ? p : best;
+                    best = q < best ? q : best;
+                }
+            rep[j] = best;
+        }
+    } else {
+        for (size_t band = 0; band < b->nbands; band++) {
+            size_t end = band + 1 < b->nbands ? b->first[band + 1] : n;
+            for (size_t j = b->first[band]; j < end; j++)
+                rep[j] = b->first[band];
+        }
+    }
 }
 
 int bsti_glass_rule_new(bst_ctx *ctx, const bst_basis *basis, int at_centre, int samples,
@@ -1098,11 +1130,13 @@ int bsti_glass_rule_new(bst_ctx *ctx, const bst_basis *basis, int at_centre, int
     double *qu = NULL, *qv = NULL, *qw = NULL;
     if (!r || !(r->theta = bsti_alloc_array(ctx, n * np, sizeof *r->theta)) ||
         !(r->w = bsti_alloc_array(ctx, n * np, sizeof *r->w)) ||
+        !(r->rep = bsti_alloc_array(ctx, n, sizeof *r->rep)) ||
         (!at_centre && patch_rule(ctx, samples, &qu, &qv, &qw) < 0)) {
         bsti_glass_rule_free(ctx, r);
         return BST_ENOMEM;
     }
     r->n = n, r->np = np;
+    patch_representatives(basis, r->rep);
     for (size_t j = 0; j < n; j++)
         for (size_t q = 0; q < np; q++) {
             double d[3];
@@ -1144,6 +1178,11 @@ static int build_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis,
             break;
         }
         for (size_t j = 0; j < n; j++) {
+            if (r->rep[j] != j) { /* the same angles (and Lambda) as an earlier patch */
+                for (int k = 0; k < 4; k++)
+                    v[(size_t)k * n + j] = v[(size_t)k * n + r->rep[j]];
+                continue;
+            }
             double sum[4] = {0, 0, 0, 0}, p[4];
             for (size_t q = j * r->np; q < (j + 1) * r->np; q++) {
                 if (tab)
