@@ -374,8 +374,9 @@ int bst_bsdf_eval(bst_ctx *ctx, const bst_bsdf *b, size_t ch, const double in[3]
  * bst_bsdf_order for trees).  Tensor trees at their own or a coarser order are averaged exactly
  * (finer orders replicate); rank-3 trees are averaged over 2 x 2 incident x 3 x 3 outgoing points
  * per cell (2^j times as many per side in a cell 2^j times wider than the tree's or order 5's
- * cells; a point on a cell boundary takes the mean of the cells there); Klems -> Shirley-Chiu maps cells by their centres with weights that keep every
- * incident patch's hemispherical totals; Shirley-Chiu -> Klems (trees on their own grid, Klems
+ * cells; a point on a cell boundary takes the mean of the cells there); Klems -> Shirley-Chiu
+ * maps cells by their centres with weights that keep every incident patch's hemispherical
+ * totals; Shirley-Chiu -> Klems (trees on their own grid, Klems
  * files via order 6) averages by the overlaps of cells and patches, so every incident patch keeps
  * the average of its directions' hemispherical totals.  Each component lands in its cheapest
  * structure. */
@@ -419,7 +420,7 @@ typedef enum { BST_RANK_AUTO = 0, BST_RANK_3 = 3, BST_RANK_4 = 4 } bst_tree_rank
 /* Isotropy: TensorTree3 is chosen only if, for every component and every incident patch, the
  * global accordance (bst_accordance) between the component and its rank-3 form as
  * bst_bsdf_to_layer reads it back is at least this (percent).  A rank-3 tree read onto the grid
- * and rebuilt from it keeps GA >= 99.3 (RADIANCE's diffuser at k = 5: the loss is the rotational
+ * and rebuilt from it keeps GA >= 99.7 (RADIANCE's diffuser at k = 5: the loss is the rotational
  * smoothing of the grid's incident cells near normal incidence); clear glass gives about 54, a
  * venetian blind 10 to 20. */
 #define BST_ISO_GA_MIN 99.0
