@@ -147,6 +147,11 @@ static double build(struct tw *w, int l, const size_t *c, float *m_out)
     int D = w->D, nk = 1 << D;
     double vals[16], mean = 0.0;
     float m;
+    if (D == 4 && w->t->diagonal && (c[0] != c[2] || c[1] != c[3])) {
+        /* an aligned block off the diagonal: zero, its measures left at 0 (calloc) */
+        *m_out = 0.0f;
+        return 0.0;
+    }
     if (l == 1) {
         double lo = INFINITY, hi = -INFINITY, sum = 0.0;
         for (int j = 0; j < nk; j++) {
@@ -399,7 +404,7 @@ int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, b
     }
     size_t nblocks = (w.k >= 2 ? w.off[2] : nodes) - w.off[1]; /* the finest 2^D blocks */
     w.nin = w.D == 4 ? w.G * w.G : w.half;
-    w.m = bsti_alloc_array(ctx, nodes, sizeof *w.m);
+    w.m = bsti_calloc(ctx, nodes, sizeof *w.m);
     w.hemi = bsti_calloc(ctx, w.nin, sizeof *w.hemi);
     if (!w.m || !w.hemi) {
         bsti_free(ctx, w.m), bsti_free(ctx, w.hemi);

@@ -28,6 +28,8 @@ typedef struct {
     const float *f;
     double (*get)(const void *opaque, size_t index);
     const void *opaque;
+    int diagonal;           /* rank 4: only cells with (ix, iy) = (ox, oy) may be non-zero (clear
+                               glass); the other blocks are not scanned */
 } bsti_tensor;
 
 typedef struct {

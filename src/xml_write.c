@@ -478,7 +478,7 @@ static int write_blocks(struct xw *w)
                 if (w->kind == BST_FILE_KLEMS) {
                     klems_data(w, m, &rep);
                 } else {
-                    bsti_tensor t = {w->kind == BST_FILE_TT3 ? 3 : 4, w->k, NULL, NULL, NULL, NULL};
+                    bsti_tensor t = {w->kind == BST_FILE_TT3 ? 3 : 4, w->k, NULL, NULL, NULL, NULL, 0};
                     if (w->kind == BST_FILE_TT3)
                         t.d = w->t3[idx];
                     else if (m && m->s == BST_DENSE && m->prec == BST_DOUBLE)
@@ -486,7 +486,7 @@ static int write_blocks(struct xw *w)
                     else if (m && m->s == BST_DENSE)
                         t.f = m->dense;
                     else if (m && m->s != BST_ZERO)
-                        t.get = tensor_get, t.opaque = m;
+                        t.get = tensor_get, t.opaque = m, t.diagonal = m->s == BST_DIAG;
                     else
                         t.get = zero_get;
                     bsti_reduce r = {o->reduce_pct, o->reduce_floor, o->digits};
