@@ -35,6 +35,21 @@ void bsti_sc_square_to_polar(double sx, double sy, double *r, double *phi)
     }
 }
 
+int bsti_sc_cell_points(bst_ctx *ctx, size_t g, size_t ns, double **pol)
+{
+    size_t n = g * g, per = ns * ns;
+    double *p = bsti_alloc_array(ctx, 2 * n * per, sizeof *p);
+    *pol = p;
+    if (!p)
+        return BST_ENOMEM;
+    for (size_t c = 0; c < n; c++)
+        for (size_t s = 0; s < per; s++)
+            bsti_sc_square_to_polar(((double)(c / g) + ((double)(s / ns) + 0.5) / (double)ns) / (double)g,
+                                    ((double)(c % g) + ((double)(s % ns) + 0.5) / (double)ns) / (double)g,
+                                    &p[2 * (c * per + s)], &p[2 * (c * per + s) + 1]);
+    return BST_OK;
+}
+
 void bsti_sc_square_to_disk(double sx, double sy, double *x, double *y)
 {
     double r, phi;

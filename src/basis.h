@@ -71,6 +71,22 @@ static inline void bsti_sc_polar_to_square(double r, double phi, double *sx, dou
 }
 void bsti_sc_square_to_polar(double sx, double sy, double *r, double *phi);
 
+/* Cell index (x g + y) of a g x g grid turned r quarter turns about the square's centre (the
+ * concentric map turns the disk with it): (x, y) -> (g-1-y, x) per turn. */
+static inline size_t bsti_sc_turn(size_t c, int r, size_t g)
+{
+    for (; r > 0; r--) {
+        size_t x = c / g, y = c % g;
+        c = (g - 1 - y) * g + x;
+    }
+    return c;
+}
+
+/* (r, phi) on the disk of ns x ns points of every cell of a g x g grid, at (s + 1/2) / ns of the
+ * cell per side: pol[2 (c ns^2 + s)] and pol[2 (c ns^2 + s) + 1].  The point patterns are
+ * invariant under the square's symmetries.  Allocated with ctx's allocator. */
+int bsti_sc_cell_points(bst_ctx *ctx, size_t g, size_t ns, double **pol);
+
 /* One coordinate of a grid of g cells: the cell of f = x g, and in *other the cell across the
  * boundary that f lies on within rounding (else the same cell). */
 static inline size_t bsti_cell_pair(double f, size_t g, size_t *other)

@@ -67,41 +67,12 @@ static inline double polar_value(const double *v, double rho, double psi, size_t
     return sum / n;
 }
 
-/* Cell index rotated by 90 degrees about Z, r times. */
-static inline size_t rot(size_t c, int r, size_t G)
-{
-    for (; r > 0; r--) {
-        size_t cx = c / G, cy = c % G;
-        c = (G - 1 - cy) * G + cx;
-    }
-    return c;
-}
-
 /* Ring of a grid cell: j = max(|2 cx + 1 - G|, |2 cy + 1 - G|) / 2 (integer). */
 static inline size_t ring(size_t c, size_t G)
 {
     long cx = (long)(c / G), cy = (long)(c % G), g = (long)G;
     long a = labs(2 * cx + 1 - g), b = labs(2 * cy + 1 - g);
     return (size_t)((a > b ? a : b) / 2);
-}
-
-/* (radius, azimuth) of the sample points of every cell: ns x ns points at (s + 1/2) / ns. */
-static int cell_samples(bst_ctx *ctx, const bst_basis *sc, int ns, double **pol)
-{
-    size_t n = bst_basis_size(sc), per = (size_t)(ns * ns);
-    double *p = bsti_alloc_array(ctx, n * per * 2, sizeof *p);
-    if (!p)
-        return BST_ENOMEM;
-    for (size_t c = 0; c < n; c++)
-        for (size_t s = 0; s < per; s++) {
-            double d[3];
-            bst_basis_sample(sc, c, ((double)(s / (size_t)ns) + 0.5) / ns,
-                             ((double)(s % (size_t)ns) + 0.5) / ns, d);
-            p[2 * (c * per + s)] = hypot(d[0], d[1]);
-            p[2 * (c * per + s) + 1] = atan2(d[1], d[0]);
-        }
-    *pol = p;
-    return BST_OK;
 }
 
 static int check_args(bst_ctx *ctx, const bst_mat *m, int k)
@@ -169,14 +140,14 @@ static void sweep(struct r3 *w, const double *cur, double *next, double *ga_min,
     for (size_t cx = half; cx < G; cx++)
         for (size_t cy = half; cy < G; cy++) {
             size_t i = cx * G + cy, j = ring(i, G);
-            size_t ri[4] = {i, rot(i, 1, G), rot(i, 2, G), rot(i, 3, G)};
+            size_t ri[4] = {i, bsti_sc_turn(i, 1, G), bsti_sc_turn(i, 2, G), bsti_sc_turn(i, 3, G)};
             if (cur)
                 expand(w, i, cur + (half - 1 - j) * N);
             double diff[4] = {0}, sum[4] = {0}, dh[4] = {0};
             for (size_t o = 0; o < N; o++) {
                 size_t oo = o;
                 w->s[o] = 0.0;
-                for (int r = 0; r < 4; r++, oo = rot(oo, 1, G)) {
+                for (int r = 0; r < 4; r++, oo = bsti_sc_turn(oo, 1, G)) {
                     double x = mget(&w->a, oo, ri[r]);
                     w->s[o] += x;
                     if (cur) { /* E(R o, R i) = E(o, i) */
@@ -229,11 +200,9 @@ int bsti_tt3_from_sc(bst_ctx *ctx, const bst_mat *m, int k, int refine, double g
         *ga_min = 100.0, *hemi_max = 0.0;
         return BST_OK;
     }
-    bst_basis *sc = NULL;
     double *tmp = NULL;
-    if ((rc = bst_basis_new_sc(ctx, k, &sc)) < 0 ||
-        (rc = cell_samples(ctx, sc, BSTI_TT3_IN_SAMPLES, &w.in)) < 0 ||
-        (rc = cell_samples(ctx, sc, BSTI_TT3_OUT_SAMPLES, &w.out)) < 0 ||
+    if ((rc = bsti_sc_cell_points(ctx, w.G, BSTI_TT3_IN_SAMPLES, &w.in)) < 0 ||
+        (rc = bsti_sc_cell_points(ctx, w.G, BSTI_TT3_OUT_SAMPLES, &w.out)) < 0 ||
         !(w.s = bsti_alloc_array(ctx, w.N, sizeof *w.s)) ||
         !(w.e = bsti_alloc_array(ctx, w.N, sizeof *w.e)) ||
         !(tmp = bsti_alloc_array(ctx, w.half * w.N, sizeof *tmp))) {
@@ -254,7 +223,6 @@ int bsti_tt3_from_sc(bst_ctx *ctx, const bst_mat *m, int k, int refine, double g
     bsti_free(ctx, w.out);
     bsti_free(ctx, w.s);
     bsti_free(ctx, w.e);
-    bst_basis_free(sc);
     return rc;
 }
 
@@ -267,10 +235,10 @@ double bsti_tt3_rotation_ga(const bst_mat *m, int k)
     macc_init(&a, m);
     double worst = 100.0;
     for (size_t i = 0; i < N; i++) {
-        size_t ri = rot(i, 1, G);
+        size_t ri = bsti_sc_turn(i, 1, G);
         double diff = 0.0, sum = 0.0;
         for (size_t o = 0; o < N; o++) {
-            double x = mget(&a, o, i), y = mget(&a, rot(o, 1, G), ri);
+            double x = mget(&a, o, i), y = mget(&a, bsti_sc_turn(o, 1, G), ri);
             diff += fabs(x - y);
             sum += fabs(x) + fabs(y);
         }

@@ -695,9 +695,9 @@ static int expand3(bst_ctx *ctx, const bsti_ttree *t, int k, double *m)
     size_t f = fine > 0 ? (size_t)1 << fine : 1;
     size_t S = TT3_IN_SAMPLES * f, T = TT3_OUT_SAMPLES * f, ni = S * S, no = T * T;
     float *grid = bsti_alloc_array(ctx, h0 * gd * gd, sizeof *grid);
-    double *pol = bsti_alloc_array(ctx, 2 * n * no, sizeof *pol);
-    if (!grid || !pol) {
-        bsti_free(ctx, grid), bsti_free(ctx, pol);
+    double *pin = NULL, *pol = NULL;
+    if (!grid || bsti_sc_cell_points(ctx, G, S, &pin) < 0 || bsti_sc_cell_points(ctx, G, T, &pol) < 0) {
+        bsti_free(ctx, grid), bsti_free(ctx, pin), bsti_free(ctx, pol);
         return BST_ENOMEM;
     }
     for (size_t i0 = 0; i0 < h0; i0++) /* p0 < 1/2 only: sin(theta_in) lies there */
@@ -705,21 +705,14 @@ static int expand3(bst_ctx *ctx, const bsti_ttree *t, int k, double *m)
             double p[3] = {(i0 + 0.5) / gd, (q / gd + 0.5) / gd, (q % gd + 0.5) / gd};
             grid[i0 * gd * gd + q] = (float)bsti_ttree_eval(t, p);
         }
-    for (size_t o = 0; o < n; o++)
-        for (size_t s = 0; s < no; s++)
-            bsti_sc_square_to_polar(((double)(o / G) + ((double)(s / T) + 0.5) / (double)T) / G,
-                                    ((double)(o % G) + ((double)(s % T) + 0.5) / (double)T) / G,
-                                    &pol[2 * (o * no + s)], &pol[2 * (o * no + s) + 1]);
     size_t lo = G > 1 ? G / 2 : 0, done = 0, todo = (G - lo) * (G - lo);
     for (size_t ix = lo; ix < G; ix++)
         for (size_t iy = lo; iy < G; iy++) {
-            double *col = m + n * (ix * G + iy);
+            size_t i = ix * G + iy;
+            double *col = m + n * i;
             memset(col, 0, n * sizeof *col);
             for (size_t si = 0; si < ni; si++) {
-                double r, phi;
-                bsti_sc_square_to_polar(((double)ix + ((double)(si / S) + 0.5) / (double)S) / G,
-                                        ((double)iy + ((double)(si % S) + 0.5) / (double)S) / G,
-                                        &r, &phi);
+                double r = pin[2 * (i * ni + si)], phi = pin[2 * (i * ni + si) + 1];
                 size_t i0 = (size_t)((0.5 - 1e-6 - 0.5 * r) * (double)gd);
                 const float *slab = grid + (i0 < h0 ? i0 : h0 - 1) * gd * gd;
                 for (size_t o = 0; o < n; o++) {
@@ -739,27 +732,17 @@ static int expand3(bst_ctx *ctx, const bsti_ttree *t, int k, double *m)
             if (++done % 16 == 0)
                 bsti_progress(ctx, (double)done / (double)todo, "expanding an isotropic tree");
         }
-    /* the three other quadrants: a quarter turn sends cell (x, y) to (G-1-y, x) */
+    /* the three other quadrants, by quarter turns of both cells */
     for (size_t ix = lo; G > 1 && ix < G; ix++)
         for (size_t iy = lo; iy < G; iy++) {
-            size_t x = ix, y = iy;
             const double *src = m + n * (ix * G + iy);
             for (int turn = 1; turn < 4; turn++) {
-                size_t nx = G - 1 - y;
-                y = x, x = nx;
-                double *dst = m + n * (x * G + y);
-                for (size_t o = 0; o < n; o++) {
-                    size_t ox = o / G, oy = o % G;
-                    for (int t2 = 0; t2 < turn; t2++) {
-                        size_t tx = G - 1 - oy;
-                        oy = ox, ox = tx;
-                    }
-                    dst[ox * G + oy] = src[o];
-                }
+                double *dst = m + n * bsti_sc_turn(ix * G + iy, turn, G);
+                for (size_t o = 0; o < n; o++)
+                    dst[bsti_sc_turn(o, turn, G)] = src[o];
             }
         }
-    bsti_free(ctx, grid);
-    bsti_free(ctx, pol);
+    bsti_free(ctx, grid), bsti_free(ctx, pin), bsti_free(ctx, pol);
     return BST_OK;
 }
 
