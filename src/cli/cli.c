@@ -44,7 +44,9 @@ int cli_fail_ctx(const char *sub, const char *what, bst_ctx *ctx)
     const char *msg = bst_ctx_message(ctx);
     if (!msg || !*msg)
         msg = bst_strerror(bst_ctx_status(ctx));
-    if (what && *what)
+    /* the library often names the file or spec itself: name it once */
+    size_t wl = what ? strlen(what) : 0;
+    if (wl && !(strncmp(msg, what, wl) == 0 && msg[wl] == ':'))
         return cli_fail(sub, "%s: %s", what, msg);
     return cli_fail(sub, "%s", msg);
 }

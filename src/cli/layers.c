@@ -150,8 +150,8 @@ int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_
             }
             free(spec);
         }
-        if (st < 0) { /* the glass catalogue's messages name the glass: spec themselves */
-            rc = cli_fail_ctx(sub, strncmp(specs[i], "glass:", 6) == 0 ? NULL : specs[i], ctx);
+        if (st < 0) {
+            rc = cli_fail_ctx(sub, specs[i], ctx);
             break;
         }
         if (flip) {
