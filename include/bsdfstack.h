@@ -326,15 +326,23 @@ int bst_stack_absorptance(bst_ctx *ctx, size_t n, const bst_layer *const *layers
 
 /* ---------------------------------------------------------------- metrics (metrics) */
 
-/* Accordance of two distributions of scattered light for one incident patch (after Grobe 2017),
- * computed on the directional scatter function DSF = BSDF * cos(theta_out), integrated over the
- * outgoing hemisphere with the basis' projected solid angles L_i:
- *   GA = 100 * (1 - sum_i L_i |a_i - b_i| / sum_i L_i (a_i + b_i))        (global accordance, %)
+/* Accordance of two distributions of scattered light for one incident patch: column `incident` of
+ * component c of channel ch of layers a and b (same basis), as directional scatter functions
+ * DSF = BSDF * cos(theta_out) over the outgoing hemisphere.  With L_i the projected solid angle of
+ * outgoing patch i and mu_i its mean cos(theta):
+ *   GA = 100 * S_ab / sqrt(S_aa * S_bb),  S_xy = sum_i (L_i / mu_i) DSF_x,i DSF_y,i
+ *        global accordance (%): the normalised cross-correlation of the two DSFs over solid angle.
+ *        It compares shapes (a common factor leaves it at 100) and tolerates uncorrelated noise
+ *        (two ray-traced estimates of one distribution at 1-3 % cell noise score 99.8-99.99),
+ *        so compare amounts with FA or bst_layer_hemispherical beside it.
+ *   FA = 100 * (1 - sum_i L_i |a_i - b_i| / sum_i L_i (a_i + b_i))
+ *        flux accordance (%): the share of the scattered flux on which the two agree; every
+ *        percent of cell noise costs it about a point.
  *   LA_i = 100 * (1 - |a_i - b_i| / (a_i + b_i))   (local accordance, %; 100 where both are 0)
- * a_i, b_i are column `incident` of component c of channel ch of the two layers, which must share
- * a basis.  la (may be NULL) receives N values.  Identical distributions give 100, disjoint 0. */
+ * Identical distributions give 100, disjoint ones 0; GA is 100 when both are zero and 0 when only
+ * one is.  Any of ga, fa, la (N values) may be NULL, not all three. */
 int bst_accordance(bst_ctx *ctx, const bst_layer *a, const bst_layer *b, size_t ch, bst_comp c,
-                   size_t incident, double *ga, double *la);
+                   size_t incident, double *ga, double *fa, double *la);
 
 /* ---------------------------------------------------------------- BSDF XML reader (xml, ttree) */
 
@@ -392,7 +400,7 @@ int bst_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target, 
  *   a missing transmission from the other side's by reciprocity): write a zero matrix to state a
  *   zero component.
  * - Shirley-Chiu basis of order k: a RADIANCE tensor tree, "TensorTree3" when every component is
- *   isotropic (tested: see iso_ga_min), else "TensorTree4".
+ *   isotropic (tested: see iso_fa_min), else "TensorTree4".
  * Nothing is converted at the boundary: our front is the XML "Front" (exterior, -Z) and our
  * matrices index like RADIANCE's trees and Klems files (incident patch of the propagation
  * direction, outgoing patch of the exit direction).  Values are BSDF in 1/sr.
@@ -418,12 +426,13 @@ typedef enum { BST_RANK_AUTO = 0, BST_RANK_3 = 3, BST_RANK_4 = 4 } bst_tree_rank
  * counting as highly variable (rttree_reduce uses the same 0.03). */
 #define BST_REDUCE_FLOOR 0.03
 /* Isotropy: TensorTree3 is chosen only if, for every component and every incident patch, the
- * global accordance (bst_accordance) between the component and its rank-3 form as
- * bst_bsdf_to_layer reads it back is at least this (percent).  A rank-3 tree read onto the grid
- * and rebuilt from it keeps GA >= 99.7 (RADIANCE's diffuser at k = 5: the loss is the rotational
+ * flux accordance FA (bst_accordance: the stricter of its measures, which counts every difference
+ * in proportion to its flux) between the component and its rank-3 form as bst_bsdf_to_layer
+ * reads it back is at least this (percent).  A rank-3 tree read onto the grid and rebuilt from it
+ * keeps FA >= 99.7 (RADIANCE's diffuser at k = 5: the loss is the rotational
  * smoothing of the grid's incident cells near normal incidence); clear glass gives about 54, a
  * venetian blind 10 to 20. */
-#define BST_ISO_GA_MIN 99.0
+#define BST_ISO_FA_MIN 99.0
 /* Reciprocity test for leaving out a tree transmission: |Tf(o,i) - Tb(a(i),a(o))| <= recip_tol *
  * max|T| for every element (a = antipodal patch). */
 #define BST_RECIP_TOL 1e-6
@@ -442,11 +451,11 @@ typedef struct {
     uint64_t bytes;         /* bytes of the ScatteringData text */
     double threshold;       /* reduction threshold of the variation measure (0: lossless) */
     /* Error of the file against the layer's matrix, as a reader will see it (rank 3: against the
-     * rank-3 tensor; iso_ga measures that step): */
+     * rank-3 tensor; iso_fa measures that step): */
     double l1_error;        /* sum |f - f_file| / sum |f| over all cells (0 when f is 0) */
     double max_error;       /* largest |f - f_file| (1/sr) */
     double hemi_error;      /* largest change of a directional-hemispherical value */
-    double iso_ga;          /* rank 3: least GA (%) between the component and its rank-3 form;
+    double iso_fa;          /* rank 3: least FA (%) between the component and its rank-3 form;
                                NaN otherwise */
 } bst_write_block;
 
@@ -460,15 +469,15 @@ typedef struct {
     double reduce_floor;    /* default BST_REDUCE_FLOOR */
     int digits;             /* significant digits of every value; 0 (default) = as many as needed
                                to read back exactly (float for trees, double for Klems) */
-    double iso_ga_min;      /* default BST_ISO_GA_MIN */
+    double iso_fa_min;      /* default BST_ISO_FA_MIN */
     double recip_tol;       /* default BST_RECIP_TOL; < 0 always writes both transmissions */
     int iso_refine;         /* rank 3 built from the layer: corrections of the rank-3 tensor
                                towards the layer (each costs about one isotropy check), default
                                BST_ISO_REFINE */
     /* The file the layer was read from at its own order (may be NULL): when it holds rank-3 trees
      * of the layer's order and channels, and rank 3 is written, the rank-3 tensors are taken from
-     * it exactly instead of being rebuilt from the layer (which loses about 1 % of GA near normal
-     * incidence, see BST_ISO_GA_MIN). */
+     * it exactly instead of being rebuilt from the layer (which loses about 1 % of FA near normal
+     * incidence, see BST_ISO_FA_MIN). */
     const bst_bsdf *rank3_source;
     /* Metadata (NULL / <= 0: left out).  Material fields: */
     const char *name;       /* default: the layer's name */

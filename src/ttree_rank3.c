@@ -130,12 +130,12 @@ static void expand(const struct r3 *w, size_t i, const double *row)
 
 /* One pass over the incident cells of the quadrant cx, cy >= G/2 (one of each 90-degree orbit).
  * With cur == NULL: next = the gathered matrix.  Otherwise next = cur + gathered residual
- * (matrix - expansion of cur), and *ga_min, *hemi_max describe cur. */
-static void sweep(struct r3 *w, const double *cur, double *next, double *ga_min, double *hemi_max,
+ * (matrix - expansion of cur), and *fa_min, *hemi_max describe cur. */
+static void sweep(struct r3 *w, const double *cur, double *next, double *fa_min, double *hemi_max,
                   const char *label)
 {
     size_t G = w->G, N = w->N, half = w->half, done = 0;
-    double worst_ga = 100.0, worst_h = 0.0, lam = M_PI / (double)N;
+    double worst_fa = 100.0, worst_h = 0.0, lam = M_PI / (double)N;
     memset(next, 0, half * N * sizeof *next);
     for (size_t cx = half; cx < G; cx++)
         for (size_t cy = half; cy < G; cy++) {
@@ -159,7 +159,7 @@ static void sweep(struct r3 *w, const double *cur, double *next, double *ga_min,
                     w->s[o] -= 4.0 * w->e[o];
             }
             for (int r = 0; cur && r < 4; r++) {
-                worst_ga = fmin(worst_ga, sum[r] > 0.0 ? 100.0 * (1.0 - diff[r] / sum[r]) : 100.0);
+                worst_fa = fmin(worst_fa, sum[r] > 0.0 ? 100.0 * (1.0 - diff[r] / sum[r]) : 100.0);
                 worst_h = fmax(worst_h, fabs(dh[r]) * lam);
             }
             gather(w, i, next + (half - 1 - j) * N);
@@ -176,12 +176,12 @@ static void sweep(struct r3 *w, const double *cur, double *next, double *ga_min,
                 row[q] = 0.0; /* a BSDF is not negative */
         }
     }
-    if (ga_min)
-        *ga_min = worst_ga, *hemi_max = worst_h;
+    if (fa_min)
+        *fa_min = worst_fa, *hemi_max = worst_h;
 }
 
-int bsti_tt3_from_sc(bst_ctx *ctx, const bst_mat *m, int k, int refine, double ga_stop,
-                     double *t3, double *ga_min, double *hemi_max)
+int bsti_tt3_from_sc(bst_ctx *ctx, const bst_mat *m, int k, int refine, double fa_stop,
+                     double *t3, double *fa_min, double *hemi_max)
 {
     int rc = check_args(ctx, m, k);
     if (rc < 0)
@@ -197,7 +197,7 @@ int bsti_tt3_from_sc(bst_ctx *ctx, const bst_mat *m, int k, int refine, double g
     macc_init(&w.a, m);
     if (m->s == BST_ZERO) {
         memset(t3, 0, w.half * w.N * sizeof *t3);
-        *ga_min = 100.0, *hemi_max = 0.0;
+        *fa_min = 100.0, *hemi_max = 0.0;
         return BST_OK;
     }
     double *tmp = NULL;
@@ -212,8 +212,8 @@ int bsti_tt3_from_sc(bst_ctx *ctx, const bst_mat *m, int k, int refine, double g
          * correction is not kept, so what is measured is what is returned */
         sweep(&w, NULL, t3, NULL, NULL, "rank-3 tree");
         for (int it = 0; it <= refine; it++) {
-            sweep(&w, t3, tmp, ga_min, hemi_max, it ? "rank-3 tree: refining" : "isotropy check");
-            if (it == refine || *ga_min < ga_stop)
+            sweep(&w, t3, tmp, fa_min, hemi_max, it ? "rank-3 tree: refining" : "isotropy check");
+            if (it == refine || *fa_min < fa_stop)
                 break;
             memcpy(t3, tmp, w.half * w.N * sizeof *t3);
         }
@@ -226,7 +226,7 @@ int bsti_tt3_from_sc(bst_ctx *ctx, const bst_mat *m, int k, int refine, double g
     return rc;
 }
 
-double bsti_tt3_rotation_ga(const bst_mat *m, int k)
+double bsti_tt3_rotation_fa(const bst_mat *m, int k)
 {
     size_t G = (size_t)1 << k, N = G * G;
     if (!m || m->s == BST_ZERO || m->rows != N)

@@ -68,25 +68,25 @@ int bsti_format_double(double v, int digits, char *buf, double *back);
  * of the residual (m minus the expansion of t3), which drive the expansion towards m.  The
  * expansion is the one bst_bsdf_to_layer applies to a rank-3 tree: the average over
  * BSTI_TT3_IN_SAMPLES^2 points of each incident cell and BSTI_TT3_OUT_SAMPLES^2 of each outgoing
- * cell.  On return *ga_min is the least global accordance (percent, bst_accordance's definition)
+ * cell.  On return *fa_min is the least flux accordance (percent, bst_accordance's FA)
  * over the incident patches between m and the expansion of t3, *hemi_max the largest change of a
  * directional-hemispherical value.  Sample points on a cell boundary (exit points turned onto the
  * plane of incidence lie on one) take the mean of the cells there, here and in the reader alike,
- * so the GA measured here is what the file reads back as to within about 0.1 (RADIANCE's
- * diffuser: 99.82-99.83 predicted, 99.73-99.80 read back).  Corrections stop early when *ga_min
- * falls below ga_stop (the matrix is clearly not isotropic; -INFINITY never stops).  The exact
+ * so the FA measured here is what the file reads back as to within about 0.1 (RADIANCE's
+ * diffuser: 99.82-99.83 predicted, 99.73-99.80 read back).  Corrections stop early when *fa_min
+ * falls below fa_stop (the matrix is clearly not isotropic; -INFINITY never stops).  The exact
  * 90-degree rotation symmetry of the grid cuts the work to a quarter; memory: about
  * 2 N + G N / 2 doubles. */
 #define BSTI_TT3_IN_SAMPLES 2
 #define BSTI_TT3_OUT_SAMPLES 3
 #define BSTI_TT3_REFINE 3
-int bsti_tt3_from_sc(bst_ctx *ctx, const bst_mat *m, int k, int refine, double ga_stop,
-                     double *t3, double *ga_min, double *hemi_max);
+int bsti_tt3_from_sc(bst_ctx *ctx, const bst_mat *m, int k, int refine, double fa_stop,
+                     double *t3, double *fa_min, double *hemi_max);
 
-/* The least GA over the incident patches between m and m turned by 90 degrees about Z (exact on
+/* The least FA over the incident patches between m and m turned by 90 degrees about Z (exact on
  * the grid).  A rank-3 form is turned into itself, so by the triangle inequality a matrix whose
- * rank-3 form keeps GA >= g everywhere has a rotation GA of about 2 g - 100 or more: a cheap test
+ * rank-3 form keeps FA >= g everywhere has a rotation FA of about 2 g - 100 or more: a cheap test
  * that rejects anisotropic layers (blinds: 10 to 50) before the rank-3 form is built. */
-double bsti_tt3_rotation_ga(const bst_mat *m, int k);
+double bsti_tt3_rotation_fa(const bst_mat *m, int k);
 
 #endif

@@ -40,7 +40,7 @@ void bst_write_opts_init(bst_write_opts *o)
     o->reduce_pct = BST_REDUCE_PCT;
     o->reduce_floor = BST_REDUCE_FLOOR;
     o->digits = 0;
-    o->iso_ga_min = BST_ISO_GA_MIN;
+    o->iso_fa_min = BST_ISO_FA_MIN;
     o->recip_tol = BST_RECIP_TOL;
     o->iso_refine = BST_ISO_REFINE;
 }
@@ -54,7 +54,7 @@ struct xw {
     int k;                  /* Shirley-Chiu order (0: Klems) */
     bst_file_kind kind;
     double **t3;            /* rank 3: nch * BST_NCOMP tensors of (G/2) N values */
-    double *iso;            /* rank 3: the GA of each */
+    double *iso;            /* rank 3: the FA of each */
     int *omit;              /* nch * BST_NCOMP: 1 = left out (reciprocal) */
     double *hemi;           /* Klems: n values, the hemispherical error per incident patch */
 };
@@ -258,16 +258,16 @@ static int build_t3(struct xw *w, int *isotropic)
                  * tried, which spares O(N^2) sweeps (100 s at k = 7); cheap rejection next
                  * (factor 4 instead of the triangle inequality's 2) */
                 if (bst_mat_structure(m) == BST_DIAG ||
-                    bsti_tt3_rotation_ga(m, w->k) < 100.0 - 4.0 * (100.0 - o->iso_ga_min)) {
+                    bsti_tt3_rotation_fa(m, w->k) < 100.0 - 4.0 * (100.0 - o->iso_fa_min)) {
                     *isotropic = 0;
                     if (o->rank != BST_RANK_3)
                         return BST_OK;
                 }
-                /* corrections gain less than a point of GA: give up well below the bar */
-                double stop = o->rank == BST_RANK_3 ? -INFINITY : o->iso_ga_min - 2.0;
+                /* corrections gain less than a point of FA: give up well below the bar */
+                double stop = o->rank == BST_RANK_3 ? -INFINITY : o->iso_fa_min - 2.0;
                 rc = bsti_tt3_from_sc(w->ctx, m, w->k, o->iso_refine, stop, w->t3[idx],
                                       &w->iso[idx], &h);
-                if (rc >= 0 && w->iso[idx] < o->iso_ga_min) {
+                if (rc >= 0 && w->iso[idx] < o->iso_fa_min) {
                     *isotropic = 0;
                     if (o->rank != BST_RANK_3)
                         return BST_OK;
@@ -469,7 +469,7 @@ static int write_blocks(struct xw *w)
             rep.channel = bst_layer_channel(w->l, ch);
             rep.comp = (bst_comp)c;
             rep.kind = w->kind;
-            rep.iso_ga = w->kind == BST_FILE_TT3 ? w->iso[idx] : NAN;
+            rep.iso_fa = w->kind == BST_FILE_TT3 ? w->iso[idx] : NAN;
             if (!w->omit[idx]) {
                 rep.written = 1;
                 const bst_mat *m = bst_layer_get(w->l, ch, (bst_comp)c);
@@ -528,7 +528,7 @@ static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst
         opts = &def;
     }
     if (opts->reduce_pct >= 100.0 || isnan(opts->reduce_pct) || !(opts->reduce_floor > 0.0) ||
-        opts->digits < 0 || opts->iso_refine < 0 || isnan(opts->iso_ga_min) ||
+        opts->digits < 0 || opts->iso_refine < 0 || isnan(opts->iso_fa_min) ||
         (opts->rank != BST_RANK_AUTO && opts->rank != BST_RANK_3 && opts->rank != BST_RANK_4))
         return bsti_error(ctx, BST_EINVAL, "writing BSDF XML: invalid options (reduce_pct %g must "
                           "be < 100, reduce_floor %g > 0, digits %d >= 0, rank %d 0, 3 or 4)",

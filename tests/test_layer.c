@@ -175,18 +175,54 @@ START_TEST(test_hemispherical_and_accordance)
         for (size_t i = 0; i < n; i++)
             d[j * n + i] = i < n / 2 ? 1.0 / M_PI : 0.0;
     ck_assert_int_eq(bst_layer_set(ctx, y, 0, BST_TF, m), BST_OK);
-    double ga, la[16];
-    ck_assert_int_eq(bst_accordance(ctx, x, x, 0, BST_TF, 5, &ga, la), BST_OK);
+    double ga, fa, la[16];
+    ck_assert_int_eq(bst_accordance(ctx, x, x, 0, BST_TF, 5, &ga, &fa, la), BST_OK);
     ck_assert_double_eq(ga, 100.0);
-    ck_assert_int_eq(bst_accordance(ctx, x, y, 0, BST_TF, 5, &ga, la), BST_OK);
-    /* sum L|a-b| = n L (0.5/pi) = 0.5, sum L(a+b) = 0.5 + 0.5 -> GA = 50 */
-    tu_assert_close(ga, 50.0, 1e-12, 0.0);
+    ck_assert_double_eq(fa, 100.0);
+    ck_assert_int_eq(bst_accordance(ctx, x, y, 0, BST_TF, 5, &ga, &fa, la), BST_OK);
+    /* FA: sum L|a-b| = n L (0.5/pi) = 0.5, sum L(a+b) = 0.5 + 0.5 -> 50 */
+    tu_assert_close(fa, 50.0, 1e-12, 0.0);
+    /* GA: with w_i = L_i mu_i (mu_i: mean cos theta of patch i), a = 0.5/pi, b = 1/pi on the first
+     * half H:  S_ab = sum_H w / (2 pi^2), S_aa = sum_all w / (4 pi^2), S_bb = sum_H w / pi^2, so
+     * GA = 100 sqrt(sum_H w / sum_all w); mu_i from 64 x 64 points of each patch */
+    double wh = 0, wall = 0;
+    for (size_t i = 0; i < n; i++) {
+        double mu = 0, dir[3];
+        for (int u = 0; u < 64; u++)
+            for (int v = 0; v < 64; v++) {
+                bst_basis_sample(b, i, (u + 0.5) / 64, (v + 0.5) / 64, dir);
+                mu += dir[2] / 4096;
+            }
+        wall += lam[i] * mu, wh += i < n / 2 ? lam[i] * mu : 0;
+    }
+    tu_assert_close(ga, 100.0 * sqrt(wh / wall), 2e-4, 0.0);
+    ck_assert_double_lt(ga, 80.0);
     tu_assert_close(la[0], 100.0 * (1.0 - 0.5 / 1.5), 1e-12, 0.0);
     ck_assert_double_eq(la[n - 1], 0.0);
-    ck_assert_int_eq(bst_accordance(ctx, x, y, 0, BST_RF, 5, &ga, NULL), BST_OK);
+    /* GA compares shapes: x against 3 x scores 100; FA 100 (1 - 2/4) = 50 */
+    bst_layer *z;
+    ck_assert_int_eq(bst_layer_new(ctx, b, 1, two, &z), BST_OK);
+    ck_assert_int_eq(bst_mat_new_dense(ctx, n, n, BST_DOUBLE, &m), BST_OK);
+    d = bst_mat_dense_data(m);
+    for (size_t i = 0; i < n * n; i++)
+        d[i] = 1.5 / M_PI;
+    ck_assert_int_eq(bst_layer_set(ctx, z, 0, BST_TF, m), BST_OK);
+    ck_assert_int_eq(bst_accordance(ctx, x, z, 0, BST_TF, 2, &ga, &fa, NULL), BST_OK);
+    tu_assert_close(ga, 100.0, 1e-12, 0.0);
+    tu_assert_close(fa, 50.0, 1e-12, 0.0);
+    /* one side zero, both zero */
+    ck_assert_int_eq(bst_accordance(ctx, x, z, 0, BST_RF, 5, &ga, &fa, NULL), BST_OK);
     ck_assert_double_eq(ga, 100.0); /* both absent */
-    ck_assert_int_eq(bst_accordance(ctx, x, y, 0, BST_TF, n, &ga, NULL), BST_EINVAL);
-    (void)lam;
+    ck_assert_double_eq(fa, 100.0);
+    ck_assert_int_eq(bst_mat_new_dense(ctx, n, n, BST_DOUBLE, &m), BST_OK);
+    ((double *)bst_mat_dense_data(m))[5 * n + 3] = 1.0;
+    ck_assert_int_eq(bst_layer_set(ctx, z, 0, BST_RF, m), BST_OK);
+    ck_assert_int_eq(bst_accordance(ctx, x, z, 0, BST_RF, 5, &ga, &fa, NULL), BST_OK);
+    ck_assert_double_eq(ga, 0.0);
+    ck_assert_double_eq(fa, 0.0);
+    ck_assert_int_eq(bst_accordance(ctx, x, y, 0, BST_TF, n, &ga, NULL, NULL), BST_EINVAL);
+    ck_assert_int_eq(bst_accordance(ctx, x, y, 0, BST_TF, 0, NULL, NULL, NULL), BST_EINVAL);
+    bst_layer_free(z);
     bst_layer_free(x);
     bst_layer_free(y);
     bst_basis_free(b);

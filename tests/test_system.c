@@ -1,19 +1,23 @@
 /* test_system.c - the ray-traced ground truth: S1 = pane + specular blind + pane, ray traced as one
  * assembly by RADIANCE (../shared/reference/S1_t4k5.xml), against our combination of its three
- * separately ray-traced layers at k = 5: hemispherical totals, and the global accordance
- * (bst_accordance: 100 (1 - sum L |a - b| / sum L (a + b)), the share of the scattered flux on
- * which two distributions agree) of the transmitted distribution at the paper's directions,
- * incidence from both sides.
+ * separately ray-traced layers at k = 5: hemispherical totals, and the accordance of the
+ * transmitted distribution at the paper's directions, incidence from both sides (bst_accordance):
+ *   GA, the global accordance of the two DSFs (their normalised cross-correlation over solid
+ *   angle): the issue's bar, GA >= 99 at every direction and side;
+ *   FA, the flux accordance (100 (1 - sum L |a - b| / sum L (a + b))), the share of the scattered
+ *   flux on which the two agree, which every percent of Monte Carlo noise costs about a point.
  *
  * What accordance the data allow.  S1 and the blind are symmetric under x -> -x and y -> -y, so
  * each file's column for a direction and the mirror image of its column for the mirrored
- * direction estimate the same distribution from independent rays.  Their accordance F measures
- * the file's Monte Carlo noise: a file deviates from the truth by about e = (100 - F) / sqrt 2
- * points, and two independent files by about sqrt(e1^2 + e2^2).  S1 scores F = 96.1 - 98.4 against
- * itself at these directions, so no method can reach the issue's GA >= 99 against S1 under this
- * definition: an exact combination would score about 97.2 - 98.9.  The test requires, at every
- * direction and side, 100 - sqrt(e_S1^2 + e_blind^2) - 1.5 (the glass layers' noise and the
- * estimate's own scatter).  The closing note of the session has the figures. */
+ * direction estimate the same distribution from independent rays: their accordance measures the
+ * file's noise.  At these directions S1 scores GA 99.90-99.98 against its mirror images (mean of
+ * the two), the blind 99.78-99.97, and the combination inherits the blind's noise (it scores what
+ * the blind scores against its mirror image): GA of about 99.8 or better is what an exact method
+ * can show with these files.  In FA the same noise costs 1.7-3.7 points (S1 96.3-98.3 against its
+ * mirror images): FA is held to 100 - sqrt(e_S1^2 + e_blind^2) - 1.5, with e = (100 - FA_mirror)
+ * / sqrt 2 each file's expected deviation from the truth (1.5: the glass layers' noise and the
+ * estimate's scatter).  The analytic panes in place of the ray-traced ones give the same figures
+ * to 0.01: RADIANCE's glass is the same Fresnel model, and both are k = 5 cell averages. */
 #include <config.h>
 
 #include <math.h>
@@ -48,9 +52,11 @@ static size_t incident_patch(const bst_basis *b, double th, double ph)
     return bst_basis_patch(b, d);
 }
 
-/* The accordance of layer l's component c for incident patch j with the mirror image (x -> -x
- * and/or y -> -y, both for the incident and the exit directions) of itself. */
-static double mirror_accordance(const bst_layer *l, const bst_basis *b, bst_comp c, size_t j, int mx, int my)
+/* Global and flux accordance of layer l's component c for incident patch j with its mirror image
+ * (x -> -x and/or y -> -y, both for the incident and the exit directions), with
+ * bst_accordance's definitions. */
+static void mirror_accordance(const bst_layer *l, const bst_basis *b, bst_comp c, size_t j, int mx,
+                              int my, double *ga, double *fa)
 {
     const bst_mat *m = bst_layer_get(l, 0, c);
     const double *lam = bst_basis_lambda(b);
@@ -59,40 +65,54 @@ static double mirror_accordance(const bst_layer *l, const bst_basis *b, bst_comp
     bst_basis_center(b, j, d);
     d[0] = mx ? -d[0] : d[0], d[1] = my ? -d[1] : d[1];
     size_t jm = bst_basis_patch(b, d);
-    double diff = 0, sum = 0;
+    double diff = 0, sum = 0, xy = 0, xx = 0, yy = 0;
     for (size_t i = 0; i < N; i++) {
+        double mu = 0, s[3];
+        for (int u = 0; u < 4; u++)
+            for (int v = 0; v < 4; v++) {
+                bst_basis_sample(b, i, (u + 0.5) / 4, (v + 0.5) / 4, s);
+                mu += s[2] / 16;
+            }
         bst_basis_center(b, i, d);
         d[0] = mx ? -d[0] : d[0], d[1] = my ? -d[1] : d[1];
         double x = bst_mat_get(m, i, j), y = bst_mat_get(m, bst_basis_patch(b, d), jm);
         diff += lam[i] * fabs(x - y), sum += lam[i] * (x + y);
+        xy += lam[i] * mu * x * y, xx += lam[i] * mu * x * x, yy += lam[i] * mu * y * y;
     }
-    return 100.0 * (1.0 - diff / sum);
+    *fa = 100.0 * (1.0 - diff / sum);
+    *ga = 100.0 * xy / sqrt(xx * yy);
 }
 
-/* Deviation from the truth expected of a file's column (points of accordance): from the mean of
- * its two mirror accordances. */
-static double noise(const bst_layer *l, const bst_basis *b, bst_comp c, size_t j)
+/* Mean of a file's two mirror accordances for column j. */
+static void noise(const bst_layer *l, const bst_basis *b, bst_comp c, size_t j, double *ga, double *fa)
 {
-    double f = 0.5 * (mirror_accordance(l, b, c, j, 1, 0) + mirror_accordance(l, b, c, j, 0, 1));
-    return (100.0 - f) / sqrt(2.0);
+    double g1, f1, g2, f2;
+    mirror_accordance(l, b, c, j, 1, 0, &g1, &f1);
+    mirror_accordance(l, b, c, j, 0, 1, &g2, &f2);
+    *ga = 0.5 * (g1 + g2), *fa = 0.5 * (f1 + f2);
 }
 
 static void accordance_table(const bst_layer *sys, const bst_layer *truth, const bst_layer *blind,
-                             const bst_basis *b, const char *what, double margin)
+                             const bst_basis *b, const char *what, double ga_min)
 {
     for (int side = 0; side < 2; side++)
         for (size_t k = 0; k < sizeof dirs / sizeof dirs[0]; k++) {
             size_t j = incident_patch(b, dirs[k][0], dirs[k][1]);
             bst_comp c = side ? BST_TB : BST_TF;
-            double ga, e1 = noise(truth, b, c, j), e2 = noise(blind, b, c, j);
-            double expect = 100.0 - sqrt(e1 * e1 + e2 * e2);
-            ck_assert_int_eq(bst_accordance(ctx, sys, truth, 0, c, j, &ga, NULL), BST_OK);
-            printf("S1 %s, %s incidence (theta %g, phi %g): accordance %.2f; S1 against its mirror "
-                   "image %.2f, expected of an exact method %.2f\n", what, side ? "back" : "front",
-                   dirs[k][0], dirs[k][1], ga, 100.0 - sqrt(2.0) * e1, expect);
+            double ga, fa, ga_s1, fa_s1, ga_bl, fa_bl;
+            noise(truth, b, c, j, &ga_s1, &fa_s1);
+            noise(blind, b, c, j, &ga_bl, &fa_bl);
+            double e1 = (100.0 - fa_s1) / sqrt(2.0), e2 = (100.0 - fa_bl) / sqrt(2.0);
+            double fa_expect = 100.0 - sqrt(e1 * e1 + e2 * e2);
+            ck_assert_int_eq(bst_accordance(ctx, sys, truth, 0, c, j, &ga, &fa, NULL), BST_OK);
+            printf("S1 %s, %s incidence (theta %g, phi %g): GA %.3f, FA %.2f; against their mirror "
+                   "images: S1 GA %.3f FA %.2f, blind GA %.3f FA %.2f\n", what, side ? "back" : "front",
+                   dirs[k][0], dirs[k][1], ga, fa, ga_s1, fa_s1, ga_bl, fa_bl);
             fflush(stdout);
-            ck_assert_msg(ga >= expect - margin, "%s %s (%g, %g): accordance %.2f < %.2f - %g", what,
-                          side ? "back" : "front", dirs[k][0], dirs[k][1], ga, expect, margin);
+            ck_assert_msg(ga >= ga_min, "%s %s (%g, %g): GA %.3f < %g", what, side ? "back" : "front",
+                          dirs[k][0], dirs[k][1], ga, ga_min);
+            ck_assert_msg(fa >= fa_expect - 1.5, "%s %s (%g, %g): FA %.2f < %.2f - 1.5", what,
+                          side ? "back" : "front", dirs[k][0], dirs[k][1], fa, fa_expect);
         }
 }
 
@@ -107,7 +127,7 @@ START_TEST(test_s1_raytraced)
     o.comps = BST_COMP_BIT(BST_TF) | BST_COMP_BIT(BST_TB);
     int rc = bst_stack_combine(ctx, 3, (const bst_layer *const *)l, &o, &sys);
     ck_assert_msg(rc >= 0, "%s", bst_ctx_message(ctx));
-    accordance_table(sys, truth, l[1], b, "combined layers", 1.5);
+    accordance_table(sys, truth, l[1], b, "combined layers", 99.0);
     /* hemispherical T at every incident patch below the outer ring (theta < 69.6 deg, where the
      * incident cells average steep angular changes: up to 14 % there, a discretisation effect) within
      * 6 % of the ray-traced system (Monte Carlo noise of S1 and of the blind, whose Tf comes by
@@ -150,7 +170,7 @@ START_TEST(test_s1_raytraced)
     bst_layer *sa;
     o.force_dense = 0;
     ck_assert_int_ge(bst_stack_combine(ctx, 3, la, &o, &sa), 0);
-    accordance_table(sa, truth, l[1], b, "analytic panes + blind", 1.5);
+    accordance_table(sa, truth, l[1], b, "analytic panes + blind", 99.0);
     bst_layer_free(sa), bst_layer_free(g);
     for (int k = 0; k < 3; k++)
         bst_layer_free(l[k]);

@@ -723,17 +723,22 @@ static void hemi_row(bst_bsdf *b, const bst_basis *g, int front, double th, doub
     }
 }
 
-static double accordance(const double *a, const double *b, size_t n)
+/* Global and flux accordance (bst_accordance's definitions) of two distributions over the
+ * outgoing cells of the k = 6 grid (equal projected solid angles), mu: cos theta of each centre. */
+static void accordance(const double *a, const double *b, const double *mu, size_t n, double *ga, double *fa)
 {
-    double d = 0, s = 0;
-    for (size_t i = 0; i < n; i++)
+    double d = 0, s = 0, ab = 0, aa = 0, bb = 0;
+    for (size_t i = 0; i < n; i++) {
         d += fabs(a[i] - b[i]), s += a[i] + b[i];
-    return s > 0 ? 100 * (1 - d / s) : 100;
+        ab += mu[i] * a[i] * b[i], aa += mu[i] * a[i] * a[i], bb += mu[i] * b[i] * b[i];
+    }
+    *fa = s > 0 ? 100 * (1 - d / s) : 100;
+    *ga = aa > 0 && bb > 0 ? 100 * ab / sqrt(aa * bb) : (aa == bb ? 100 : 0);
 }
 
 /* Every reference layer written as a (reduced) tree at its own k: directional-hemispherical T and
  * R at the hemi.tsv directions within 1e-3 of RADIANCE's table, and global accordance >= 99.9 with
- * the original over the outgoing grid.  The rank-3 diffuser is written as rank 3 from its file. */
+ * the original over the outgoing grid (and the stricter flux accordance too).  The rank-3 diffuser is written as rank 3 from its file. */
 START_TEST(test_reference_hemi)
 {
     static const char *const names[] = {"L_glass_t4k5", "L_blind0_t4k5", "L_blind45_t4k5",
@@ -758,8 +763,13 @@ START_TEST(test_reference_hemi)
     ck_assert_ptr_nonnull(fp);
     char line[512];
     int rows = 0;
-    double worst_dt = 0, worst_ga = 100;
-    static double tv[4096], rv[4096], tv0[4096], rv0[4096];
+    double worst_dt = 0, worst_ga = 100, worst_fa = 100;
+    static double tv[4096], rv[4096], tv0[4096], rv0[4096], mu[4096];
+    for (size_t o = 0; o < 4096; o++) {
+        double c[3];
+        bst_basis_center(g, o, c);
+        mu[o] = c[2];
+    }
     while (fgets(line, sizeof line, fp)) {
         double th, ph, t_ref, r_ref, t, r, t0, r0;
         char side[32];
@@ -770,17 +780,20 @@ START_TEST(test_reference_hemi)
         hemi_row(b, g, front, th, ph, &t0, &r0, tv0, rv0);
         ck_assert_msg(fabs(t - t_ref) <= 1e-3 && fabs(r - r_ref) <= 1e-3, "%s %s %g %g: T %.5f "
                       "vs %.4f, R %.5f vs %.4f", names[_i], side, th, ph, t, t_ref, r, r_ref);
-        double ga = fmin(accordance(tv, tv0, 4096), accordance(rv, rv0, 4096));
-        ck_assert_msg(ga >= 99.9, "%s %s %g %g: GA %.3f", names[_i], side, th, ph, ga);
+        double ga, fa, ga_r, fa_r;
+        accordance(tv, tv0, mu, 4096, &ga, &fa);
+        accordance(rv, rv0, mu, 4096, &ga_r, &fa_r);
+        ga = fmin(ga, ga_r), fa = fmin(fa, fa_r);
+        ck_assert_msg(ga >= 99.9 && fa >= 99.9, "%s %s %g %g: GA %.3f FA %.3f", names[_i], side, th, ph, ga, fa);
         worst_dt = fmax(worst_dt, fmax(fabs(t - t_ref), fabs(r - r_ref)));
-        worst_ga = fmin(worst_ga, ga);
+        worst_ga = fmin(worst_ga, ga), worst_fa = fmin(worst_fa, fa);
         rows++;
     }
     fclose(fp);
     ck_assert_int_eq(rows, 26);
     printf("%s -> tree (90 %% reduction): %ld bytes (RADIANCE %ld, ratio %.2f), hemispherical "
-           "T/R off the table by <= %.1e, GA >= %.3f\n", names[_i], ours, theirs,
-           (double)ours / theirs, worst_dt, worst_ga);
+           "T/R off the table by <= %.1e, GA >= %.3f, FA >= %.3f\n", names[_i], ours, theirs,
+           (double)ours / theirs, worst_dt, worst_ga, worst_fa);
     bst_basis_free(g), bst_bsdf_free(b2), bst_layer_free(l), bst_bsdf_free(b);
     unlink(path);
 }
@@ -812,31 +825,35 @@ static void patch_average(const bst_layer *sc, const bst_basis *kb, int S, doubl
     free(h);
 }
 
-/* GA (bst_accordance's definition) of column i of a and of b, or of b's reciprocal
- * (b(a(i), a(o)), a = antipode) when recip. */
-static double column_ga(const bst_mat *a, const bst_mat *b, int recip, const bst_basis *kb, size_t i)
+/* Global and flux accordance (bst_accordance's definitions; mu: mean cos theta of each patch) of
+ * column i of a and of b, or of b's reciprocal (b(a(i), a(o)), a = antipode) when recip. */
+static void column_accordance(const bst_mat *a, const bst_mat *b, int recip, const bst_basis *kb,
+                              const double *mu, size_t i, double *ga, double *fa)
 {
     const double *lam = bst_basis_lambda(kb);
     size_t n = bst_basis_size(kb);
-    double d = 0, s = 0;
+    double d = 0, s = 0, ab = 0, aa = 0, bb = 0;
     for (size_t o = 0; o < n; o++) {
         double x = bst_mat_get(a, o, i);
         double y = recip ? bst_mat_get(b, bst_basis_antipode(kb, i), bst_basis_antipode(kb, o))
                          : bst_mat_get(b, o, i);
         d += lam[o] * fabs(x - y), s += lam[o] * (x + y);
+        ab += lam[o] * mu[o] * x * y, aa += lam[o] * mu[o] * x * x, bb += lam[o] * mu[o] * y * y;
     }
-    return s > 0 ? 100 * (1 - d / s) : 100;
+    *fa = s > 0 ? 100 * (1 - d / s) : 100;
+    *ga = aa > 0 && bb > 0 ? 100 * ab / sqrt(aa * bb) : (aa == bb ? 100 : 0);
 }
 
 /* Every reference tree converted to Klems Full and written: it reads back exactly; every block
  * (Transmission Front included) keeps the tree's hemispherical T and R per incident patch within
- * 1e-3; Transmission Back and both reflections agree with RADIANCE's bsdf2klems file as well as
- * that file agrees with itself.  (bsdf2klems averages 1024 random (in, out) pairs per element:
- * its Klems Tb and Tf of the same tree, or its Rf and Rf's reciprocal, differ by GA 86 to 99 for
- * these layers - the Monte Carlo noise of a few hits per specular element.  So we require: the
- * mean over patches of GA(ours, RADIANCE) at least that of GA(RADIANCE, RADIANCE's reciprocal)
- * minus 0.25, the least at least the least minus 1.5, and a mean GA >= 99 wherever RADIANCE's
- * own mean is 99 or better.) */
+ * 1e-3; Transmission Back and both reflections agree with RADIANCE's bsdf2klems file: mean global
+ * accordance over the 145 incident patches >= 99, and >= 99 at every incident patch where
+ * RADIANCE's file agrees with itself to 99 outside the grazing band (theta > 75 deg, patches
+ * 133-144), >= 97.5 at the others.  bsdf2klems averages 1024 random (in, out) pairs per element,
+ * so its file is noisy where few pairs hit a specular element: its Tb against the reciprocal of
+ * its own Tf, or Rf against Rf's reciprocal, score GA 98.0-99.8 per patch for the clear pane
+ * beyond 65 deg, where the pane's tree is one cell wide from 69.6 to 90 deg.  The flux accordance is printed beside: as noisy as RADIANCE's file (about 95
+ * for the pane, where RADIANCE scores the same against itself). */
 START_TEST(test_reference_klems)
 {
     static const char *const names[] = {"L_glass_t4k5", "L_blind0_t4k5", "L_blind45_t4k5",
@@ -875,22 +892,35 @@ START_TEST(test_reference_klems)
     bst_bsdf *br = read_ok(tu_ref(kfile));
     bst_layer *lr = layer_of(br, NULL);
     static const int pairs[3][2] = {{BST_TB, BST_TF}, {BST_RF, BST_RF}, {BST_RB, BST_RB}};
+    double mu[145];
+    for (size_t o = 0; o < 145; o++) {
+        mu[o] = 0;
+        for (int u = 0; u < 16; u++)
+            for (int v = 0; v < 16; v++) {
+                double d[3];
+                bst_basis_sample(kb, o, (u + 0.5) / 16, (v + 0.5) / 16, d);
+                mu[o] += d[2] / 256;
+            }
+    }
     printf("%s -> Klems: hemispherical per patch within %.1e of the tree;", names[_i], worst);
     for (int q = 0; q < 3; q++) {
         bst_comp x = (bst_comp)pairs[q][0], y = (bst_comp)pairs[q][1];
-        double mo = 100, ms = 100, so = 0, ss = 0;
+        double go_min = 100, gs_min = 100, go_sum = 0, gs_sum = 0, fo_sum = 0, fs_sum = 0;
+        int below = 0, below_self = 0;
         for (size_t i = 0; i < 145; i++) {
-            double go = column_ga(bst_layer_get(lk2, 0, x), bst_layer_get(lr, 0, x), 0, kb, i);
-            double gs = column_ga(bst_layer_get(lr, 0, x), bst_layer_get(lr, 0, y), 1, kb, i);
-            mo = fmin(mo, go), ms = fmin(ms, gs), so += go, ss += gs;
+            double go, gs, fo, fs;
+            column_accordance(bst_layer_get(lk2, 0, x), bst_layer_get(lr, 0, x), 0, kb, mu, i, &go, &fo);
+            column_accordance(bst_layer_get(lr, 0, x), bst_layer_get(lr, 0, y), 1, kb, mu, i, &gs, &fs);
+            go_min = fmin(go_min, go), gs_min = fmin(gs_min, gs);
+            go_sum += go, gs_sum += gs, fo_sum += fo, fs_sum += fs;
+            below += go < 99, below_self += gs < 99;
+            ck_assert_msg(go >= (i < 133 && gs >= 99 ? 99.0 : 97.5), "%s %s patch %zu: GA %.2f "
+                          "(RADIANCE against itself %.2f)", names[_i], bst_comp_name(x), i, go, gs);
         }
-        if (ss / 145 >= 99)
-            ck_assert_double_ge(so / 145, 99);
-        ck_assert_msg(so / 145 >= ss / 145 - 0.25 && mo >= ms - 1.5, "%s %s: GA mean %.2f min %.2f, "
-                      "RADIANCE self mean %.2f min %.2f", names[_i], bst_comp_name(x), so / 145, mo,
-                      ss / 145, ms);
-        printf(" %s GA vs RADIANCE mean %.2f min %.2f (RADIANCE vs itself %.2f / %.2f);",
-               bst_comp_name(x), so / 145, mo, ss / 145, ms);
+        ck_assert_double_ge(go_sum / 145, 99.0);
+        printf(" %s GA mean %.2f, least %.2f, %d patches < 99 (RADIANCE against itself %.2f, %.2f, "
+               "%d), FA mean %.2f (itself %.2f);", bst_comp_name(x), go_sum / 145, go_min, below,
+               gs_sum / 145, gs_min, below_self, fo_sum / 145, fs_sum / 145);
     }
     printf("\n");
     bst_layer_free(lr), bst_bsdf_free(br), bst_layer_free(lk2), bst_bsdf_free(b2);
@@ -901,9 +931,9 @@ END_TEST
 
 /* The diffuser on the grid (its rank-3 file read as a 4-D layer) is written as rank 3 on its own
  * (the isotropy check passes; glass and blinds stay rank 4, see test_reference_round_trip) and
- * reads back like its rank-4 form: GA >= 99.5 per incident patch (the grid's incident cells near
+ * reads back like its rank-4 form: flux accordance >= 99.5 per incident patch (the grid's incident cells near
  * normal incidence span up to 90 degrees of azimuth, which no rank-3 tensor reproduces exactly:
- * see BST_ISO_GA_MIN), hemispherical values within 1e-3. */
+ * see BST_ISO_FA_MIN), hemispherical values within 1e-3. */
 START_TEST(test_rank3_auto)
 {
     bst_bsdf *b = read_ok(tu_ref("L_diffuser_t3k5.xml"));
@@ -926,22 +956,22 @@ START_TEST(test_rank3_auto)
     ck_assert_int_eq(rep.n, 4);
     for (int c = 0; c < 4; c++) {
         ck_assert(rep.b[c].written && rep.b[c].kind == BST_FILE_TT3);
-        ck_assert_double_ge(rep.b[c].iso_ga, BST_ISO_GA_MIN);
+        ck_assert_double_ge(rep.b[c].iso_fa, BST_ISO_FA_MIN);
         /* the layer holds doubles, a tree floats */
         ck_assert_double_le(max_diff(l, l4, 0, (bst_comp)c),
                             FLT_EPSILON * bst_mat_max_abs(bst_layer_get(l, 0, (bst_comp)c)));
-        double h3[1024], h4[1024], worst_ga = 100, worst_h = 0;
+        double h3[1024], h4[1024], worst_fa = 100, worst_h = 0;
         bst_layer_hemispherical(ctx, l3, 0, (bst_comp)c, h3);
         bst_layer_hemispherical(ctx, l4, 0, (bst_comp)c, h4);
         for (size_t i = 0; i < 1024; i++) {
-            double ga;
-            ck_assert_int_eq(bst_accordance(ctx, l3, l4, 0, (bst_comp)c, i, &ga, NULL), BST_OK);
-            worst_ga = fmin(worst_ga, ga), worst_h = fmax(worst_h, fabs(h3[i] - h4[i]));
+            double fa;
+            ck_assert_int_eq(bst_accordance(ctx, l3, l4, 0, (bst_comp)c, i, NULL, &fa, NULL), BST_OK);
+            worst_fa = fmin(worst_fa, fa), worst_h = fmax(worst_h, fabs(h3[i] - h4[i]));
         }
-        printf("diffuser %s as rank 3 (%llu bytes): least GA with its rank-4 form %.3f (check "
-               "predicted %.3f), hemispherical within %.1e\n", bst_comp_name((bst_comp)c),
-               (unsigned long long)rep.b[c].bytes, worst_ga, rep.b[c].iso_ga, worst_h);
-        ck_assert_double_ge(worst_ga, 99.5);
+        printf("diffuser %s as rank 3 (%llu bytes): least flux accordance with its rank-4 "
+               "form %.3f (check predicted %.3f), hemispherical within %.1e\n", bst_comp_name((bst_comp)c),
+               (unsigned long long)rep.b[c].bytes, worst_fa, rep.b[c].iso_fa, worst_h);
+        ck_assert_double_ge(worst_fa, 99.5);
         ck_assert_double_le(worst_h, 1e-3);
     }
     bst_layer_free(l3), bst_layer_free(l4), bst_bsdf_free(b3), bst_bsdf_free(b4);

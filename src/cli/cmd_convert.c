@@ -62,8 +62,8 @@ static void report(const bst_write_block *b, void *opaque)
     if (b->kind != BST_FILE_KLEMS)
         fprintf(stderr, ", %zu leaves, error L1 %.2e, largest %.2e 1/sr, hemispherical %.2e",
                 b->leaves, b->l1_error, b->max_error, b->hemi_error);
-    if (!isnan(b->iso_ga))
-        fprintf(stderr, ", rank-3 GA %.2f %%", b->iso_ga);
+    if (!isnan(b->iso_fa))
+        fprintf(stderr, ", rank-3 flux accordance %.2f %%", b->iso_fa);
     fputc('\n', stderr);
 }
 
