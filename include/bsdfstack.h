@@ -343,6 +343,9 @@ int bst_stack_absorptance(bst_ctx *ctx, size_t n, const bst_layer *const *layers
  * one is.  Any of ga, fa, la (N values) may be NULL, not all three. */
 int bst_accordance(bst_ctx *ctx, const bst_layer *a, const bst_layer *b, size_t ch, bst_comp c,
                    size_t incident, double *ga, double *fa, double *la);
+/* GA and FA (either may be NULL) for every incident patch: N values each. */
+int bst_accordance_all(bst_ctx *ctx, const bst_layer *a, const bst_layer *b, size_t ch, bst_comp c,
+                       double *ga, double *fa);
 
 /* ---------------------------------------------------------------- BSDF XML reader (xml, ttree) */
 

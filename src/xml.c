@@ -554,9 +554,18 @@ int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_read_opts *opts, bst
             b->kind = r.structure[10] == '3' ? BST_FILE_TT3 : BST_FILE_TT4;
         else
             b->kind = BST_FILE_KLEMS;
-        if (b->nch == 0)
+        if (b->nch == 0 && opts && opts->nchannels) {
+            char names[256] = "";
+            for (size_t i = 0; i < opts->nchannels; i++) {
+                size_t len = strlen(names);
+                snprintf(names + len, sizeof names - len, "%s'%s'", i ? ", " : "", opts->channels[i]);
+            }
+            rc = bsti_error(ctx, BST_EFORMAT, "%s: no <ScatteringData> for channel %s%s", path, names,
+                            opts->comps ? " and the requested components" : "");
+        } else if (b->nch == 0) {
             rc = bsti_error(ctx, BST_EFORMAT, "%s: no <ScatteringData> %s", path,
-                            opts && (opts->nchannels || opts->comps) ? "for the requested channels or components" : "found");
+                            opts && opts->comps ? "for the requested components" : "found");
+        }
     }
     if (rc >= 0 && b->kind != BST_FILE_KLEMS && b->k < 1)
         rc = bsti_error(ctx, BST_EFORMAT, "%s: tensor trees of depth 0 (a single value) have no basis", path);

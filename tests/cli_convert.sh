@@ -48,7 +48,7 @@ expect_status 0 "convert glass:clear-6mm" -- "$BSDFSTACK" convert -k 3 glass:cle
 grep -q 'TensorTree4' "$tmpdir/pane.xml" || fail "a specular pane is not isotropic on the grid: TensorTree4"
 expect_status 0 "convert a reversed layer" -- "$BSDFSTACK" convert -k 3 "$ref/L_blind45_t4k5.xml^" -o "$tmpdir/rev.xml"
 expect_status 0 "convert --channels" -- "$BSDFSTACK" convert --channels Visible "$ref/L_glass_t4k5.xml" -o "$tmpdir/ch.xml"
-expect_error "convert --channels without such a channel" "no <ScatteringData> for the requested channels" -- "$BSDFSTACK" convert --channels Solar "$ref/L_glass_t4k5.xml" -o "$tmpdir/ch2.xml"
+expect_error "convert --channels without such a channel" "no <ScatteringData> for channel 'Solar'" -- "$BSDFSTACK" convert --channels Solar "$ref/L_glass_t4k5.xml" -o "$tmpdir/ch2.xml"
 
 # failures leave nothing behind
 mkdir "$tmpdir/mid"

@@ -220,6 +220,15 @@ START_TEST(test_hemispherical_and_accordance)
     ck_assert_int_eq(bst_accordance(ctx, x, z, 0, BST_RF, 5, &ga, &fa, NULL), BST_OK);
     ck_assert_double_eq(ga, 0.0);
     ck_assert_double_eq(fa, 0.0);
+    /* every incident patch at once: the same values */
+    double gall[16], fall[16];
+    ck_assert_int_eq(bst_accordance_all(ctx, x, y, 0, BST_TF, gall, fall), BST_OK);
+    for (size_t j = 0; j < n; j++) {
+        ck_assert_int_eq(bst_accordance(ctx, x, y, 0, BST_TF, j, &ga, &fa, NULL), BST_OK);
+        ck_assert_double_eq(gall[j], ga);
+        ck_assert_double_eq(fall[j], fa);
+    }
+    ck_assert_int_eq(bst_accordance_all(ctx, x, y, 0, BST_TF, NULL, NULL), BST_EINVAL);
     ck_assert_int_eq(bst_accordance(ctx, x, y, 0, BST_TF, n, &ga, NULL, NULL), BST_EINVAL);
     ck_assert_int_eq(bst_accordance(ctx, x, y, 0, BST_TF, 0, NULL, NULL, NULL), BST_EINVAL);
     bst_layer_free(z);

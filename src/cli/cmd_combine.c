@@ -267,7 +267,7 @@ int cmd_combine(int argc, char **argv)
         return CLI_FAIL;
     struct cli_layers set;
     int rc = cli_layers_load(&set, ctx, sub, (size_t)(argc - optind), argv + optind, &basis,
-                             channels);
+                             channels, 0);
     bst_layer *sys = NULL;
     double *abs[2] = {NULL, NULL};
     int spectral = rc == CLI_OK && !per_channel && set.npanes == set.n;

@@ -52,13 +52,35 @@ void cli_layers_free(struct cli_layers *set)
     memset(set, 0, sizeof *set);
 }
 
+/* The reader completes what a file leaves out (BST_WDATA): a transmission from the other side's by
+ * reciprocity, as every TensorTree4 file expects (silently here), anything else as zero, which
+ * changes the physics of a stack: that is worth a warning. */
+static void warn_zero_components(const char *sub, const char *path, const bst_bsdf *b, unsigned comps,
+                                 bst_ctx *ctx)
+{
+    char note[256] = "";
+    for (size_t ch = 0; ch < bst_bsdf_nchannels(b); ch++)
+        for (int c = 0; c < BST_NCOMP; c++) {
+            int other = c == BST_TF ? BST_TB : c == BST_TB ? BST_TF : -1;
+            if ((comps && !(comps & BST_COMP_BIT(c))) || bst_bsdf_stored(b, ch, (bst_comp)c) || (other >= 0 && bst_bsdf_stored(b, ch, (bst_comp)other)))
+                continue;
+            size_t len = strlen(note);
+            snprintf(note + len, sizeof note - len, "%s%s %s", len ? ", " : "", bst_bsdf_channel(b, ch),
+                     bst_comp_name((bst_comp)c));
+        }
+    if (note[0])
+        fprintf(stderr, "bsdfstack %s: warning: %s: not in the file, taken as zero: %s\n", sub, path, note);
+    bst_ctx_clear(ctx);
+}
+
 static int is_glass(const char *spec)
 {
     return strncmp(spec, "glass:", 6) == 0;
 }
 
 int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_t n, char **specs,
-                    const struct cli_basis_choice *choice, const char *channels)
+                    const struct cli_basis_choice *choice, const char *channels,
+                    unsigned comps)
 {
     memset(set, 0, sizeof *set);
     set->layers = calloc(n, sizeof *set->layers);
@@ -84,7 +106,7 @@ int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_
     /* 1. read the files, remembering the finest tree order and the first Klems basis */
     int kmax = 0;
     const bst_basis *klems_file = NULL;
-    bst_read_opts ro = {.nchannels = nch, .channels = chnames};
+    bst_read_opts ro = {.nchannels = nch, .channels = chnames, .comps = comps};
     for (size_t i = 0; i < n && rc == CLI_OK; i++) {
         char *path = strdup(specs[i]);
         size_t len = strlen(path);
@@ -95,11 +117,13 @@ int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_
             continue;
         }
         int st = bst_bsdf_read(ctx, path, &ro, &files[i]);
-        free(path);
         if (st < 0)
             rc = cli_fail_ctx(sub, NULL, ctx);
+        else if (st == BST_WDATA)
+            warn_zero_components(sub, path, files[i], comps, ctx);
         else
             cli_warn_ctx(sub, NULL, st, ctx);
+        free(path);
         if (rc == CLI_OK) {
             if (bst_bsdf_order(files[i]) > kmax)
                 kmax = bst_bsdf_order(files[i]);

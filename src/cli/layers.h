@@ -26,9 +26,11 @@ int cli_parse_basis_option(const char *sub, int opt, const char *value, struct c
 
 /* Load every layer spec over the basis chosen by `choice` (or the default: the finest tensor-tree
  * order among the files, else the Klems basis of a Klems file, else Shirley-Chiu k = 5).
- * channels: comma-separated names or NULL.  Prints one error line and returns CLI_FAIL. */
+ * channels: comma-separated names or NULL; comps: the components to read from files (BST_COMP_BIT
+ * mask, 0 = all).  Prints one error line and returns CLI_FAIL. */
 int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_t n,
-                    char **specs, const struct cli_basis_choice *choice, const char *channels);
+                    char **specs, const struct cli_basis_choice *choice, const char *channels,
+                    unsigned comps);
 void cli_layers_free(struct cli_layers *set);
 
 /* Write a layer as BSDF XML to path ("-" = stdout), atomically; reduce < 0: no reduction. */

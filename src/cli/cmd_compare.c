@@ -1,0 +1,202 @@
+/* cmd_compare.c - `bsdfstack compare A B`: how far two BSDFs agree, on one basis: global and flux
+ * accordance of the scattered light and directional-hemispherical values, at chosen incidence
+ * directions and summarised over every incident patch. */
+#include <config.h>
+
+#include <getopt.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli.h"
+#include "layers.h"
+
+static const char help[] =
+    "Usage: bsdfstack compare [-k K | --klems[=full|half|quarter]] [--channel NAME]\n"
+    "                         [--only Tf,Rf,Tb,Rb] [--incident THETA,PHI]... [--fail-below GA]\n"
+    "                         A B\n"
+    "Compares two BSDFs (files or glass: specs, a trailing ^ reverses one), both resampled onto one\n"
+    "basis (default: the finer tensor-tree order of the two, else the Klems basis of a Klems file).\n"
+    "For each component and incidence direction it prints\n"
+    "  GA  global accordance (%): the normalised cross-correlation of the two distributions of\n"
+    "      scattered light (DSF = BSDF cos theta) over the exit hemisphere; it judges their shape\n"
+    "      and tolerates uncorrelated Monte Carlo noise (a common factor leaves it at 100)\n"
+    "  FA  flux accordance (%): the share of the scattered flux on which A and B agree; every\n"
+    "      percent of noise costs it about a point\n"
+    "  the directional-hemispherical value of A and of B\n"
+    "and, over every incident patch, the least and the mean GA and FA and the largest\n"
+    "hemispherical difference.  Directions are those the light propagates in, (theta, phi) in\n"
+    "degrees as in `info`; a direction on a cell boundary takes the cell on its +x, +y side.\n"
+    "\n"
+    "Options:\n"
+    "  -k K               Shirley-Chiu order of the common basis (1-7)\n"
+    "  --klems[=WHICH]    compare in a Klems basis (default full)\n"
+    "  --channel NAME     spectral channel (default: A's first; B must have it too)\n"
+    "  --only LIST        components to compare (default: every one either holds)\n"
+    "  --incident T,P     an incidence direction, repeatable (default: 0,0 25,90 45,90 50,90 45,45\n"
+    "                     65,90, the last five Grobe 2017's)\n"
+    "  --fail-below GA    exit status 1 when any printed GA falls below GA\n";
+
+#define MAX_DIRS 64
+
+int cmd_compare(int argc, char **argv)
+{
+    static const struct option longopts[] = {{"klems", optional_argument, NULL, 'K'},
+                                             {"channel", required_argument, NULL, 'c'},
+                                             {"only", required_argument, NULL, 'o'},
+                                             {"incident", required_argument, NULL, 'i'},
+                                             {"fail-below", required_argument, NULL, 'f'},
+                                             {"help", no_argument, NULL, 'h'},
+                                             {NULL, 0, NULL, 0}};
+    const char *sub = "compare", *channel = NULL;
+    struct cli_basis_choice choice = {0, NULL};
+    unsigned comps = 0;
+    double dirs[MAX_DIRS][2], fail_below = -INFINITY;
+    size_t ndirs = 0;
+    int c;
+    optind = 1;
+    opterr = 0;
+    while ((c = getopt_long(argc, argv, ":hk:", longopts, NULL)) != -1) {
+        int rc;
+        switch (c) {
+        case 'k':
+        case 'K':
+            if ((rc = cli_parse_basis_option(sub, c, optarg, &choice)) != CLI_OK)
+                return rc;
+            break;
+        case 'c': channel = optarg; break;
+        case 'o': {
+            char *list = strdup(optarg);
+            if (!list)
+                return cli_fail(sub, "out of memory");
+            for (char *t = strtok(list, ","); t; t = strtok(NULL, ",")) {
+                int cc = bst_comp_parse(t);
+                if (cc < 0) {
+                    free(list);
+                    return cli_usage(sub, "--only: unknown component '%s' (use Tf, Rf, Tb, Rb)", optarg);
+                }
+                comps |= 1u << cc;
+            }
+            free(list);
+            if (!comps)
+                return cli_usage(sub, "--only: no component given");
+            break;
+        }
+        case 'i': {
+            double t, p;
+            char extra;
+            if (ndirs == MAX_DIRS)
+                return cli_usage(sub, "--incident: at most %d directions", MAX_DIRS);
+            if (sscanf(optarg, "%lf,%lf%c", &t, &p, &extra) != 2 || !isfinite(t) || !isfinite(p) ||
+                t < 0 || t >= 90)
+                return cli_usage(sub, "--incident %s: give THETA,PHI in degrees, 0 <= THETA < 90", optarg);
+            dirs[ndirs][0] = t, dirs[ndirs][1] = p, ndirs++;
+            break;
+        }
+        case 'f':
+            if (cli_parse_double(optarg, &fail_below) != 0 || fail_below < 0 || fail_below > 100)
+                return cli_usage(sub, "--fail-below %s: give a GA between 0 and 100", optarg);
+            break;
+        case 'h': fputs(help, stdout); return CLI_OK;
+        case ':': return cli_usage(sub, "option %s needs a value", argv[optind - 1]);
+        default: return cli_usage(sub, "unknown option '%s'", argv[optind - 1]);
+        }
+    }
+    if (argc - optind != 2)
+        return cli_usage(sub, argc - optind < 2 ? "two BSDFs expected, A and B" : "only two BSDFs, A and B");
+    if (!ndirs) {
+        static const double paper[][2] = {{0, 0}, {25, 90}, {45, 90}, {50, 90}, {45, 45}, {65, 90}};
+        ndirs = sizeof paper / sizeof paper[0];
+        memcpy(dirs, paper, sizeof paper);
+    }
+    bst_ctx *ctx = cli_ctx_new(sub);
+    if (!ctx)
+        return CLI_FAIL;
+    /* both over one basis, one channel: A's first unless named (loaded again with that channel
+     * alone when B holds it at another index) */
+    char **specs = argv + optind;
+    struct cli_layers set;
+    int rc = cli_layers_load(&set, ctx, sub, 2, specs, &choice, channel, comps);
+    if (rc == CLI_OK && !channel) {
+        const char *name = bst_layer_channel(set.layers[0], 0);
+        int chb = bst_layer_find_channel(set.layers[1], name);
+        if (chb < 0) {
+            rc = cli_fail(sub, "%s has no channel '%s' (the first of %s): name one both hold with "
+                          "--channel", specs[1], name, specs[0]);
+            cli_layers_free(&set);
+        } else if (chb != 0) {
+            char *keep = strdup(name);
+            cli_layers_free(&set);
+            rc = keep ? cli_layers_load(&set, ctx, sub, 2, specs, &choice, keep, comps) : cli_fail(sub, "out of memory");
+            free(keep);
+        }
+    }
+    if (rc != CLI_OK) {
+        bst_ctx_free(ctx);
+        return rc;
+    }
+    const bst_layer *a = set.layers[0], *b = set.layers[1];
+    const bst_basis *basis = set.basis;
+    size_t n = bst_basis_size(basis);
+    double *ha = malloc(n * sizeof *ha), *hb = malloc(n * sizeof *hb);
+    double *ga = malloc(n * sizeof *ga), *fa = malloc(n * sizeof *fa);
+    if (!ha || !hb || !ga || !fa) {
+        rc = cli_fail(sub, "out of memory");
+        goto out;
+    }
+    if (bst_basis_kind_of(basis) == BST_BASIS_KLEMS)
+        printf("basis     %s, %zu patches per hemisphere\n", bst_basis_name(basis), n);
+    else
+        printf("basis     Shirley-Chiu k = %d, %zu patches per hemisphere\n", bst_basis_order(basis), n);
+    printf("A         %s\nB         %s\nchannel   %s\n", specs[0], specs[1], bst_layer_channel(a, 0));
+    printf("GA: global accordance (normalised cross-correlation of the DSFs, %%); FA: flux\n"
+           "accordance (share of the scattered flux on which A and B agree, %%); hem:\n"
+           "directional-hemispherical value.  Directions: light propagation, degrees.\n");
+    int below = 0, shown = 0;
+    for (int cc = 0; cc < BST_NCOMP && rc == CLI_OK; cc++) {
+        bst_comp comp = (bst_comp)cc;
+        int in_a = bst_layer_get(a, 0, comp) != NULL, in_b = bst_layer_get(b, 0, comp) != NULL;
+        if (comps ? !(comps & (1u << cc)) : !(in_a || in_b))
+            continue;
+        if (bst_accordance_all(ctx, a, b, 0, comp, ga, fa) < 0 ||
+            bst_layer_hemispherical(ctx, a, 0, comp, ha) < 0 || bst_layer_hemispherical(ctx, b, 0, comp, hb) < 0) {
+            rc = cli_fail_ctx(sub, NULL, ctx);
+            break;
+        }
+        const char *side = comp == BST_TF || comp == BST_RF ? "front" : "back";
+        printf("\n%s (%s incidence)%s%s\n", bst_comp_name(comp), side, in_a ? "" : ": absent from A",
+               in_b ? "" : ": absent from B");
+        printf("  theta    phi  patch       GA      FA    hem A    hem B\n");
+        for (size_t q = 0; q < ndirs; q++) {
+            double t = dirs[q][0] * M_PI / 180, p = dirs[q][1] * M_PI / 180;
+            double d[3] = {sin(t) * cos(p) + 1e-9, sin(t) * sin(p) + 1e-9, cos(t)};
+            size_t j = bst_basis_patch(basis, d);
+            printf("%7.2f %6.2f %6zu %8.3f %7.2f %8.4f %8.4f\n", dirs[q][0], dirs[q][1], j, ga[j],
+                   fa[j], ha[j], hb[j]);
+            below |= ga[j] < fail_below;
+        }
+        size_t jg = 0, jf = 0, jh = 0;
+        double mg = 0, mf = 0;
+        for (size_t j = 0; j < n; j++) {
+            jg = ga[j] < ga[jg] ? j : jg, jf = fa[j] < fa[jf] ? j : jf;
+            jh = fabs(ha[j] - hb[j]) > fabs(ha[jh] - hb[jh]) ? j : jh;
+            mg += ga[j] / n, mf += fa[j] / n;
+        }
+        double dg[3], df[3], dh[3];
+        bst_basis_center(basis, jg, dg), bst_basis_center(basis, jf, df), bst_basis_center(basis, jh, dh);
+        printf("  all %zu incident patches: GA mean %.3f, least %.3f (patch %zu, theta %.1f); FA mean "
+               "%.2f, least %.2f (patch %zu, theta %.1f); largest |hem A - hem B| %.4f (patch %zu, "
+               "theta %.1f)\n", n, mg, ga[jg], jg, acos(dg[2]) * 180 / M_PI, mf, fa[jf], jf,
+               acos(df[2]) * 180 / M_PI, fabs(ha[jh] - hb[jh]), jh, acos(dh[2]) * 180 / M_PI);
+        shown++;
+    }
+    if (rc == CLI_OK && !shown)
+        rc = cli_fail(sub, "neither BSDF holds %s", comps ? "the components asked for" : "any component");
+    if (rc == CLI_OK && below)
+        rc = cli_fail(sub, "GA below %g at a direction shown", fail_below);
+out:
+    free(ha), free(hb), free(ga), free(fa);
+    cli_layers_free(&set);
+    bst_ctx_free(ctx);
+    return rc;
+}
