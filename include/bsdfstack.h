@@ -392,6 +392,11 @@ int bst_bsdf_eval(bst_ctx *ctx, const bst_bsdf *b, size_t ch, const double in[3]
  * the average of its directions' hemispherical totals.  Each component lands in its cheapest
  * structure. */
 int bst_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target, bst_layer **out);
+/* The same with dense components stored in precision prec: BST_FLOAT halves their memory, and the
+ * double copy is never made (diagonal and sparse components stay double).  Peak while converting
+ * one dense component: N^2 doubles of work space plus the component. */
+int bst_bsdf_to_layer_prec(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target,
+                           bst_precision prec, bst_layer **out);
 
 /* ---------------------------------------------------------------- BSDF XML writer (xml_write) */
 

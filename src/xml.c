@@ -987,10 +987,68 @@ static void antipode_transpose(double *m, size_t n)
  * through their own order, which holds them exactly). */
 #define KLEMS_VIA_ORDER 6
 
-int bst_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target_in, bst_layer **out)
+int bst_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target, bst_layer **out)
+{
+    return bst_bsdf_to_layer_prec(ctx, b, target, BST_DOUBLE, out);
+}
+
+/* The component in work (N x N column-major, recip: to be taken as its reciprocal) as a matrix in
+ * its cheapest structure; a dense one is filled straight from work in precision prec. */
+static int component_from_work(bst_ctx *ctx, const bst_basis *target, const double *work, int recip,
+                               bst_precision prec, bst_mat **out)
+{
+    size_t n = bst_basis_size(target), nnz = 0;
+    int diag_only = 1;
+    /* the reciprocal maps (o, i) to (a(i), a(o)): diagonal to diagonal, so the census is the same */
+    for (size_t q = 0; q < n * n; q++)
+        if (work[q] != 0.0) {
+            nnz++;
+            diag_only &= q % (n + 1) == 0;
+        }
+    int rc;
+    bst_mat *d;
+    if (nnz > 0 && !diag_only && (double)nnz > BST_SPARSE_MAX_FILL * (double)n * (double)n) {
+        if ((rc = bst_mat_new_dense(ctx, n, n, prec, &d)) < 0)
+            return rc;
+        double *dd = prec == BST_DOUBLE ? bst_mat_dense_data(d) : NULL;
+        float *df = prec == BST_FLOAT ? bst_mat_dense_data(d) : NULL;
+        for (size_t i = 0; i < n; i++) {
+            size_t ai = recip ? bst_basis_antipode(target, i) : 0;
+            for (size_t o = 0; o < n; o++) {
+                double v = recip ? work[ai + n * bst_basis_antipode(target, o)] : work[o + n * i];
+                if (dd)
+                    dd[o + n * i] = v;
+                else
+                    df[o + n * i] = (float)v;
+            }
+        }
+        *out = d;
+        return BST_OK;
+    }
+    if ((rc = bst_mat_new_dense(ctx, n, n, BST_DOUBLE, &d)) < 0)
+        return rc;
+    double *dd = bst_mat_dense_data(d);
+    if (recip) { /* Tf[o][i] = Tb[a(i)][a(o)], a = antipode */
+        for (size_t i = 0; i < n; i++) {
+            size_t ai = bst_basis_antipode(target, i);
+            for (size_t o = 0; o < n; o++)
+                dd[o + n * i] = work[ai + n * bst_basis_antipode(target, o)];
+        }
+    } else {
+        memcpy(dd, work, n * n * sizeof *dd);
+    }
+    rc = bst_mat_compact(ctx, d, BST_SPARSE_MAX_FILL, out);
+    bst_mat_free(d);
+    return rc;
+}
+
+int bst_bsdf_to_layer_prec(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target_in,
+                           bst_precision prec, bst_layer **out)
 {
     if (!ctx || !b || !out)
         return ctx ? bsti_error(ctx, BST_EINVAL, "to_layer: NULL argument") : BST_EINVAL;
+    if (prec != BST_DOUBLE && prec != BST_FLOAT)
+        return bsti_error(ctx, BST_EINVAL, "to_layer: unknown precision %d", (int)prec);
     *out = NULL;
     bst_basis *native = NULL;
     int rc = BST_OK;
@@ -1052,21 +1110,8 @@ int bst_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target_i
             }
             if (rc < 0)
                 break;
-            bst_mat *d, *m;
-            if ((rc = bst_mat_new_dense(ctx, n, n, BST_DOUBLE, &d)) < 0)
-                break;
-            double *dd = bst_mat_dense_data(d);
-            if (recip) { /* Tf[o][i] = Tb[a(i)][a(o)], a = antipode */
-                for (size_t i = 0; i < n; i++) {
-                    size_t ai = bst_basis_antipode(target, i);
-                    for (size_t o = 0; o < n; o++)
-                        dd[o + n * i] = work[ai + n * bst_basis_antipode(target, o)];
-                }
-            } else {
-                memcpy(dd, work, n * n * sizeof *dd);
-            }
-            rc = bst_mat_compact(ctx, d, BST_SPARSE_MAX_FILL, &m);
-            bst_mat_free(d);
+            bst_mat *m;
+            rc = component_from_work(ctx, target, work, recip, prec, &m);
             if (rc >= 0)
                 rc = bst_layer_set(ctx, l, ch, (bst_comp)c, m);
         }

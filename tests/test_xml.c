@@ -372,6 +372,50 @@ static const char *write_tmp(const char *text, size_t len)
              "<WavelengthDataDirection>%s</WavelengthDataDirection><AngleBasis>%s</AngleBasis>" \
              "<ScatteringData>%s</ScatteringData></WavelengthDataBlock></WavelengthData></Layer></Optical></WindowElement>\n"
 
+/* Layers read in single precision: dense components are the double ones rounded to float (the
+ * diffuser, at k = 4 and in Klems half, with Tf completed by reciprocity for the blind's Klems
+ * read), diagonal and sparse ones are unchanged (double). */
+START_TEST(test_to_layer_single)
+{
+    static const char *const files[] = {"L_diffuser_t3k5.xml", "L_glass_t4k5.xml", "L_blind0_t4k5.xml"};
+    bst_basis *bases[2];
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 4, &bases[0]), BST_OK);
+    ck_assert_int_eq(bst_basis_new_klems(ctx, "half", &bases[1]), BST_OK);
+    int dense_seen = 0;
+    for (size_t f = 0; f < 3; f++) {
+        bst_bsdf *b;
+        ck_assert_int_ge(bst_bsdf_read(ctx, tu_ref(files[f]), NULL, &b), 0);
+        for (int q = 0; q < 2; q++) {
+            bst_layer *ld, *ls;
+            ck_assert_int_eq(bst_bsdf_to_layer(ctx, b, bases[q], &ld), BST_OK);
+            ck_assert_int_eq(bst_bsdf_to_layer_prec(ctx, b, bases[q], BST_FLOAT, &ls), BST_OK);
+            size_t n = bst_basis_size(bases[q]);
+            for (int c = 0; c < BST_NCOMP; c++) {
+                const bst_mat *md = bst_layer_get(ld, 0, (bst_comp)c), *ms = bst_layer_get(ls, 0, (bst_comp)c);
+                ck_assert_int_eq(bst_mat_structure(md), bst_mat_structure(ms));
+                int dense = bst_mat_structure(md) == BST_DENSE;
+                dense_seen += dense;
+                ck_assert_int_eq(bst_mat_precision(ms), dense ? BST_FLOAT : BST_DOUBLE);
+                for (size_t j = 0; j < n; j++)
+                    for (size_t i = 0; i < n; i++) {
+                        double x = bst_mat_get(md, i, j);
+                        ck_assert(bst_mat_get(ms, i, j) == (dense ? (double)(float)x : x));
+                    }
+            }
+            bst_layer_free(ld), bst_layer_free(ls);
+        }
+        bst_bsdf_free(b);
+    }
+    ck_assert_int_ge(dense_seen, 8);
+    bst_layer *l;
+    bst_bsdf *b;
+    ck_assert_int_ge(bst_bsdf_read(ctx, tu_ref(files[0]), NULL, &b), 0);
+    ck_assert_int_eq(bst_bsdf_to_layer_prec(ctx, b, bases[0], (bst_precision)7, &l), BST_EINVAL);
+    bst_bsdf_free(b);
+    bst_basis_free(bases[0]), bst_basis_free(bases[1]);
+}
+END_TEST
+
 START_TEST(test_bad_files)
 {
     static const struct { const char *structure, *dir, *basis, *data, *expect; } bad[] = {
@@ -460,6 +504,7 @@ static Suite *xml_suite(void)
     tcase_add_test(tc, test_resampling_conserves);
     tcase_add_loop_test(tc, test_rank3_expansion, 4, 6);
     tcase_add_test(tc, test_klems_resampling_energy);
+    tcase_add_test(tc, test_to_layer_single);
     tcase_add_test(tc, test_bad_files);
     suite_add_tcase(s, tc);
     return s;

@@ -199,6 +199,36 @@ int cli_parse_int(const char *s, int *out)
     return 0;
 }
 
+int cli_parse_comps(const char *sub, const char *list, unsigned *comps)
+{
+    char *copy = strdup(list), *save = NULL;
+    if (!copy)
+        return cli_fail(sub, "out of memory");
+    *comps = 0;
+    for (char *t = strtok_r(copy, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
+        int c = bst_comp_parse(t);
+        if (c < 0) {
+            int rc = cli_usage(sub, "--only: unknown component '%s' (use Tf, Rf, Tb, Rb)", t);
+            free(copy);
+            return rc;
+        }
+        *comps |= BST_COMP_BIT(c);
+    }
+    free(copy);
+    return *comps ? CLI_OK : cli_usage(sub, "--only: no component given");
+}
+
+int cli_parse_precision(const char *sub, const char *s, bst_precision *prec)
+{
+    if (strcmp(s, "double") == 0)
+        *prec = BST_DOUBLE;
+    else if (strcmp(s, "single") == 0)
+        *prec = BST_FLOAT;
+    else
+        return cli_usage(sub, "--precision %s: use double or single", s);
+    return CLI_OK;
+}
+
 void cli_print_help(FILE *fp, const char *text)
 {
     fputs(text, fp);

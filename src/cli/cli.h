@@ -24,6 +24,7 @@ int cmd_combine(int argc, char **argv);
 int cmd_convert(int argc, char **argv);
 int cmd_info(int argc, char **argv);
 int cmd_compare(int argc, char **argv);
+int cmd_batch(int argc, char **argv);
 
 /* "bsdfstack SUB: message" on stderr, one line.  Returns CLI_FAIL. */
 int cli_fail(const char *sub, const char *fmt, ...)
@@ -61,6 +62,11 @@ void cli_out_abort(struct cli_out *o);
 /* Parse a double / int option value strictly (the whole string, finite). 0 on success. */
 int cli_parse_double(const char *s, double *out);
 int cli_parse_int(const char *s, int *out);
+
+/* --only LIST (comma-separated Tf, Rf, Tb, Rb) into a BST_COMP_BIT mask; --precision double|single.
+ * CLI_OK or a usage error (printed). */
+int cli_parse_comps(const char *sub, const char *list, unsigned *comps);
+int cli_parse_precision(const char *sub, const char *s, bst_precision *prec);
 
 /* Print a subcommand's help text (the same text as its man page's synopsis and options). */
 void cli_print_help(FILE *fp, const char *text);

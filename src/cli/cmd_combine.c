@@ -111,53 +111,6 @@ static int write_absorptance(bst_ctx *ctx, const char *sub, const char *path,
     return rc;
 }
 
-/* The stack per wavelength: every layer a spectral pane.  Channels: those of layer 1. */
-static int combine_spectral(bst_ctx *ctx, const char *sub, struct cli_layers *set,
-                            const bst_stack_opts *so, double *abs[2], bst_layer **sys)
-{
-    const bst_layer *l0 = set->layers[0];
-    size_t nch = bst_layer_nchannels(l0);
-    const char **names = malloc(nch * sizeof *names);
-    if (!names)
-        return cli_fail(sub, "out of memory");
-    for (size_t c = 0; c < nch; c++)
-        names[c] = bst_layer_channel(l0, c);
-    int st = bst_stack_combine_spectral(ctx, set->n, set->panes, set->basis, nch, names, 0, so,
-                                        sys, abs[0], abs[1]);
-    free(names);
-    if (st < 0)
-        return cli_fail_ctx(sub, "combining per wavelength", ctx);
-    cli_warn_ctx(sub, NULL, st, ctx);
-    return CLI_OK;
-}
-
-/* Append how the spectrum was treated to the output's metadata. */
-static int note_spectral(const char *sub, struct cli_layers *set, int per_wavelength, int per_channel)
-{
-    char note[512];
-    if (per_wavelength) {
-        snprintf(note, sizeof note, "\nspectral: combined wavelength by wavelength (union of the "
-                 "panes' measured wavelengths, or a band's integration grid where shorter), then "
-                 "averaged per channel");
-    } else {
-        size_t i = 0;
-        while (i < set->n && set->panes[i])
-            i++;
-        if (per_channel || i == set->n)
-            snprintf(note, sizeof note, "\nspectral: band values combined per channel "
-                     "(as asked)");
-        else
-            snprintf(note, sizeof note, "\nspectral: band values combined per channel (layer %zu, "
-                     "%s, has no spectral data)", i + 1, bst_layer_name(set->layers[i]));
-    }
-    char *d = realloc(set->description, strlen(set->description) + strlen(note) + 1);
-    if (!d)
-        return cli_fail(sub, "out of memory");
-    strcat(d, note);
-    set->description = d;
-    return CLI_OK;
-}
-
 /* Dense layer components stored at the working precision: in single precision the layers then
  * take half the memory and the combination makes no converted copies of them. */
 static int layers_to_precision(bst_ctx *ctx, const char *sub, struct cli_layers *set, bst_precision p)
@@ -208,31 +161,14 @@ int cmd_combine(int argc, char **argv)
             if (cli_parse_basis_option(sub, c == 'k' ? 'k' : 'K', optarg, &basis) != CLI_OK)
                 return CLI_USAGE;
             break;
-        case O_ONLY: {
-            so.comps = 0;
-            char *list = strdup(optarg), *save = NULL;
-            for (char *t = strtok_r(list, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
-                int comp = bst_comp_parse(t);
-                if (comp < 0) {
-                    int rc = cli_usage(sub, "--only: unknown component '%s' (use Tf, Rf, Tb, Rb)", t);
-                    free(list);
-                    return rc;
-                }
-                so.comps |= BST_COMP_BIT(comp);
-            }
-            free(list);
-            if (!so.comps)
-                return cli_usage(sub, "--only: no component given");
+        case O_ONLY:
+            if (cli_parse_comps(sub, optarg, &so.comps) != CLI_OK)
+                return CLI_USAGE;
             break;
-        }
         case O_CHANNELS: channels = optarg; break;
         case O_PRECISION:
-            if (strcmp(optarg, "double") == 0)
-                so.precision = BST_DOUBLE;
-            else if (strcmp(optarg, "single") == 0)
-                so.precision = BST_FLOAT;
-            else
-                return cli_usage(sub, "--precision %s: use double or single", optarg);
+            if (cli_parse_precision(sub, optarg, &so.precision) != CLI_OK)
+                return CLI_USAGE;
             break;
         case O_DROP:
             if (cli_parse_double(optarg, &so.drop_tol) || so.drop_tol < 0 || so.drop_tol >= 1)
@@ -267,7 +203,7 @@ int cmd_combine(int argc, char **argv)
         return CLI_FAIL;
     struct cli_layers set;
     int rc = cli_layers_load(&set, ctx, sub, (size_t)(argc - optind), argv + optind, &basis,
-                             channels, 0);
+                             channels, 0, so.precision);
     bst_layer *sys = NULL;
     double *abs[2] = {NULL, NULL};
     int spectral = rc == CLI_OK && !per_channel && set.npanes == set.n;
@@ -281,9 +217,9 @@ int cmd_combine(int argc, char **argv)
     if (rc == CLI_OK && so.precision == BST_FLOAT)
         rc = layers_to_precision(ctx, sub, &set, BST_FLOAT);
     if (rc == CLI_OK)
-        rc = note_spectral(sub, &set, spectral, per_channel);
+        rc = cli_note_spectral(sub, &set, spectral, per_channel);
     if (rc == CLI_OK && spectral) {
-        rc = combine_spectral(ctx, sub, &set, &so, abs, &sys);
+        rc = cli_combine_spectral(ctx, sub, &set, &so, abs, &sys);
     } else if (rc == CLI_OK) {
         int st = bst_stack_combine(ctx, set.n, (const bst_layer *const *)set.layers, &so, &sys);
         if (st < 0)

@@ -65,23 +65,10 @@ int cmd_compare(int argc, char **argv)
                 return rc;
             break;
         case 'c': channel = optarg; break;
-        case 'o': {
-            char *list = strdup(optarg);
-            if (!list)
-                return cli_fail(sub, "out of memory");
-            for (char *t = strtok(list, ","); t; t = strtok(NULL, ",")) {
-                int cc = bst_comp_parse(t);
-                if (cc < 0) {
-                    free(list);
-                    return cli_usage(sub, "--only: unknown component '%s' (use Tf, Rf, Tb, Rb)", optarg);
-                }
-                comps |= 1u << cc;
-            }
-            free(list);
-            if (!comps)
-                return cli_usage(sub, "--only: no component given");
+        case 'o':
+            if ((rc = cli_parse_comps(sub, optarg, &comps)) != CLI_OK)
+                return rc;
             break;
-        }
         case 'i': {
             double t, p;
             char extra;
@@ -116,7 +103,7 @@ int cmd_compare(int argc, char **argv)
      * alone when B holds it at another index) */
     char **specs = argv + optind;
     struct cli_layers set;
-    int rc = cli_layers_load(&set, ctx, sub, 2, specs, &choice, channel, comps);
+    int rc = cli_layers_load(&set, ctx, sub, 2, specs, &choice, channel, comps, BST_DOUBLE);
     if (rc == CLI_OK && !channel) {
         const char *name = bst_layer_channel(set.layers[0], 0);
         int chb = bst_layer_find_channel(set.layers[1], name);
@@ -127,7 +114,8 @@ int cmd_compare(int argc, char **argv)
         } else if (chb != 0) {
             char *keep = strdup(name);
             cli_layers_free(&set);
-            rc = keep ? cli_layers_load(&set, ctx, sub, 2, specs, &choice, keep, comps) : cli_fail(sub, "out of memory");
+            rc = keep ? cli_layers_load(&set, ctx, sub, 2, specs, &choice, keep, comps, BST_DOUBLE)
+                      : cli_fail(sub, "out of memory");
             free(keep);
         }
     }

@@ -151,7 +151,7 @@ int cmd_convert(int argc, char **argv)
     }
     if (via_loader) {
         char *spec = (char *)in;
-        if ((rc = cli_layers_load(&set, ctx, sub, 1, &spec, &basis, channels, 0)) != CLI_OK)
+        if ((rc = cli_layers_load(&set, ctx, sub, 1, &spec, &basis, channels, 0, BST_DOUBLE)) != CLI_OK)
             goto done;
         lw = set.layers[0];
         goto write;

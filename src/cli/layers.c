@@ -80,7 +80,7 @@ static int is_glass(const char *spec)
 
 int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_t n, char **specs,
                     const struct cli_basis_choice *choice, const char *channels,
-                    unsigned comps)
+                    unsigned comps, bst_precision prec)
 {
     memset(set, 0, sizeof *set);
     set->layers = calloc(n, sizeof *set->layers);
@@ -155,7 +155,7 @@ int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_
         int flip = len && specs[i][len - 1] == '^';
         bst_layer *l = NULL;
         if (files[i]) {
-            st = bst_bsdf_to_layer(ctx, files[i], set->basis, &l);
+            st = bst_bsdf_to_layer_prec(ctx, files[i], set->basis, prec, &l);
             bst_bsdf_free(files[i]);
             files[i] = NULL;
         } else {
@@ -232,4 +232,49 @@ int cli_write_layer(bst_ctx *ctx, const char *sub, const bst_layer *l, const cha
     }
     free(desc);
     return rc;
+}
+
+int cli_combine_spectral(bst_ctx *ctx, const char *sub, const struct cli_layers *set,
+                         const bst_stack_opts *so, double *abs[2], bst_layer **sys)
+{
+    const bst_layer *l0 = set->layers[0];
+    size_t nch = bst_layer_nchannels(l0);
+    const char **names = malloc(nch * sizeof *names);
+    if (!names)
+        return cli_fail(sub, "out of memory");
+    for (size_t c = 0; c < nch; c++)
+        names[c] = bst_layer_channel(l0, c);
+    int st = bst_stack_combine_spectral(ctx, set->n, set->panes, set->basis, nch, names, 0, so,
+                                        sys, abs[0], abs[1]);
+    free(names);
+    if (st < 0)
+        return cli_fail_ctx(sub, "combining per wavelength", ctx);
+    cli_warn_ctx(sub, NULL, st, ctx);
+    return CLI_OK;
+}
+
+int cli_note_spectral(const char *sub, struct cli_layers *set, int per_wavelength, int per_channel)
+{
+    char note[512];
+    if (per_wavelength) {
+        snprintf(note, sizeof note, "\nspectral: combined wavelength by wavelength (union of the "
+                 "panes' measured wavelengths, or a band's integration grid where shorter), then "
+                 "averaged per channel");
+    } else {
+        size_t i = 0;
+        while (i < set->n && set->panes[i])
+            i++;
+        if (per_channel || i == set->n)
+            snprintf(note, sizeof note, "\nspectral: band values combined per channel "
+                     "(as asked)");
+        else
+            snprintf(note, sizeof note, "\nspectral: band values combined per channel (layer %zu, "
+                     "%s, has no spectral data)", i + 1, bst_layer_name(set->layers[i]));
+    }
+    char *d = realloc(set->description, strlen(set->description) + strlen(note) + 1);
+    if (!d)
+        return cli_fail(sub, "out of memory");
+    strcat(d, note);
+    set->description = d;
+    return CLI_OK;
 }

@@ -27,14 +27,23 @@ int cli_parse_basis_option(const char *sub, int opt, const char *value, struct c
 /* Load every layer spec over the basis chosen by `choice` (or the default: the finest tensor-tree
  * order among the files, else the Klems basis of a Klems file, else Shirley-Chiu k = 5).
  * channels: comma-separated names or NULL; comps: the components to read from files (BST_COMP_BIT
- * mask, 0 = all).  Prints one error line and returns CLI_FAIL. */
+ * mask, 0 = all); prec: the precision of dense components read from files.  Prints one error
+ * line and returns CLI_FAIL. */
 int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_t n,
                     char **specs, const struct cli_basis_choice *choice, const char *channels,
-                    unsigned comps);
+                    unsigned comps, bst_precision prec);
 void cli_layers_free(struct cli_layers *set);
 
 /* Write a layer as BSDF XML to path ("-" = stdout), atomically; reduce < 0: no reduction. */
 int cli_write_layer(bst_ctx *ctx, const char *sub, const bst_layer *l, const char *path,
                     double reduce, int argc, char **argv, const struct cli_layers *set);
+
+/* The stack per wavelength (every layer a spectral pane; channels: those of layer 1), with
+ * per-layer absorptance into abs[0], abs[1] when they are not NULL. */
+int cli_combine_spectral(bst_ctx *ctx, const char *sub, const struct cli_layers *set,
+                         const bst_stack_opts *so, double *abs[2], bst_layer **sys);
+/* Append to set->description how the spectrum was treated: per wavelength, or band values per
+ * channel (as asked, or naming the first layer without spectral data). */
+int cli_note_spectral(const char *sub, struct cli_layers *set, int per_wavelength, int per_channel);
 
 #endif
