@@ -101,8 +101,11 @@ static int note_warning(struct combiner *cb, int status)
 {
     if (status <= 0)
         return status;
-    if (cb->opts->strict)
-        return bsti_error(cb->ctx, BST_EINVAL, "%s (--strict)", cb->ctx->msg);
+    if (cb->opts->strict) {
+        char msg[BSTI_MSG_MAX]; /* the warning is in ctx->msg, which bsti_error overwrites */
+        snprintf(msg, sizeof msg, "%s", cb->ctx->msg);
+        return bsti_error(cb->ctx, BST_EINVAL, "%s (--strict)", msg);
+    }
     if (status > cb->warning)
         cb->warning = status;
     return BST_OK;

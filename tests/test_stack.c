@@ -298,6 +298,9 @@ START_TEST(test_mirrors)
     o.strict = 1;
     ck_assert_int_lt(bst_stack_combine(ctx, 2, (const bst_layer *const *)l, &o, &s), 0);
     ck_assert_ptr_null(s);
+    /* the error keeps the warning's text */
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "ill-conditioned"));
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "(--strict)"));
     for (int k = 0; k < 2; k++)
         bst_layer_free(l[k]);
     bst_basis_free(b);
