@@ -35,6 +35,12 @@ static inline double bsti_dense_get(const bst_mat *m, size_t i, size_t j)
 
 
 
+/* bst_solve_left (right = 0) or bst_solve_right (right = 1) taking A: it is freed as soon as
+ * I - A is factored (on every path), so that A, its factorization and the result are never all
+ * held at once; a dense right-hand side of a right solve is solved in place in its transpose. */
+int bsti_solve_take(bst_ctx *ctx, int right, bst_mat *a, const bst_mat *b, double rcond_warn,
+                    bst_mat **out, double *rcond);
+
 /* The generic product: both operands converted to dense, then GEMM (the tests' baseline). */
 int bsti_mat_mul_generic(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, bst_mat **out);
 #endif

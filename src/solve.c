@@ -277,6 +277,22 @@ static int factor_new(bst_ctx *ctx, const bst_mat *a, bst_precision prec, struct
     return bsti_error(ctx, BST_EINVAL, "solve: unknown structure");
 }
 
+/* x := M^-1 x or M^-T x with the dense factorization; x is dense in the factor's precision. */
+static int dense_solve_in_place(struct factor *f, int trans, bst_mat *x)
+{
+    lapack_int N = (lapack_int)f->n, nrhs = (lapack_int)x->cols, info = 0;
+    if (f->n && x->cols) {
+        char t = trans ? 'T' : 'N';
+        if (f->prec == BST_DOUBLE)
+            info = LAPACKE_dgetrs(LAPACK_COL_MAJOR, t, N, nrhs, f->lu, N, f->ipiv, x->dense, N);
+        else
+            info = LAPACKE_sgetrs(LAPACK_COL_MAJOR, t, N, nrhs, f->lu, N, f->ipiv, x->dense, N);
+    }
+    if (info != 0)
+        return bsti_error(f->ctx, BST_EINTERNAL, "LAPACK getrs: argument %d", (int)-info);
+    return BST_OK;
+}
+
 /* X = M^-1 B (trans 0) or M^-T B (trans 1) for the factored M = I - A. */
 static int factor_solve(struct factor *f, int trans, const bst_mat *b, bst_mat **out)
 {
@@ -299,17 +315,9 @@ static int factor_solve(struct factor *f, int trans, const bst_mat *b, bst_mat *
         bst_mat *x;
         if ((rc = bst_mat_convert(ctx, b, BST_DENSE, f->prec, &x)) < 0)
             return rc;
-        lapack_int N = (lapack_int)n, nrhs = (lapack_int)b->cols, info = 0;
-        if (n && b->cols) {
-            char t = trans ? 'T' : 'N';
-            if (f->prec == BST_DOUBLE)
-                info = LAPACKE_dgetrs(LAPACK_COL_MAJOR, t, N, nrhs, f->lu, N, f->ipiv, x->dense, N);
-            else
-                info = LAPACKE_sgetrs(LAPACK_COL_MAJOR, t, N, nrhs, f->lu, N, f->ipiv, x->dense, N);
-        }
-        if (info != 0) {
+        if ((rc = dense_solve_in_place(f, trans, x)) < 0) {
             bst_mat_free(x);
-            return bsti_error(ctx, BST_EINTERNAL, "LAPACK getrs: argument %d", (int)-info);
+            return rc;
         }
         *out = x;
         return BST_OK;
@@ -361,8 +369,10 @@ static int factor_solve(struct factor *f, int trans, const bst_mat *b, bst_mat *
     return BST_OK;
 }
 
-static int solve(bst_ctx *ctx, int right, const bst_mat *a, const bst_mat *b, double rcond_warn,
-                 bst_mat **out, double *rcond_out)
+/* The solve; *own_a (NULL or a itself) is freed, and set to NULL, as soon as I - A is factored,
+ * so that A and its factorization are never both held beside the result. */
+static int solve_owning(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a, const bst_mat *b,
+                        double rcond_warn, bst_mat **out, double *rcond_out)
 {
     if (!ctx)
         return BST_EINVAL;
@@ -393,14 +403,26 @@ static int solve(bst_ctx *ctx, int right, const bst_mat *a, const bst_mat *b, do
             rc = factor_new(ctx, adense, prec, &f, &rcond);
         bst_mat_free(adense);
     }
+    int a_dense = a->s == BST_DENSE;
+    if (*own_a) {
+        bst_mat_free(*own_a);
+        *own_a = NULL;
+        a = NULL;
+    }
     if (rcond_out)
         *rcond_out = rcond;
     bst_mat *bt = NULL, *xt = NULL, *x = NULL;
     if (rc >= 0) {
-        if (right) { /* Y^T = (I - A)^-T B^T; each workspace freed as soon as it is dead */
+        if (right) { /* Y^T = (I - A)^-T B^T; each workspace freed as soon as it is dead, B^T
+                      * solved in place when it is dense in the factor's precision */
             rc = bst_mat_transpose(ctx, b, &bt);
-            if (rc >= 0)
+            if (rc >= 0 && f.s == BST_DENSE && bt->s == BST_DENSE && bt->prec == f.prec) {
+                rc = dense_solve_in_place(&f, 1, bt);
+                xt = bt;
+                bt = NULL;
+            } else if (rc >= 0) {
                 rc = factor_solve(&f, 1, bt, &xt);
+            }
             bst_mat_free(bt);
             factor_free(&f);
             if (rc >= 0)
@@ -423,7 +445,7 @@ static int solve(bst_ctx *ctx, int right, const bst_mat *a, const bst_mat *b, do
     }
     *out = x;
     /* Single precision keeps about 7 digits: warn from sqrt(eps_float) on, whatever was asked. */
-    if (prec == BST_FLOAT && a->s == BST_DENSE)
+    if (prec == BST_FLOAT && a_dense)
         rcond_warn = fmax(rcond_warn, BSTI_RCOND_WARN_FLOAT);
     if (rcond < rcond_warn)
         return bsti_error(ctx, BST_WILLCOND, "solve: I - A is ill-conditioned (rcond %.3g < %.3g)",
@@ -434,11 +456,22 @@ static int solve(bst_ctx *ctx, int right, const bst_mat *a, const bst_mat *b, do
 int bst_solve_left(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double rcond_warn,
                    bst_mat **x, double *rcond)
 {
-    return solve(ctx, 0, a, b, rcond_warn, x, rcond);
+    bst_mat *none = NULL;
+    return solve_owning(ctx, 0, a, &none, b, rcond_warn, x, rcond);
 }
 
 int bst_solve_right(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double rcond_warn,
                     bst_mat **y, double *rcond)
 {
-    return solve(ctx, 1, a, b, rcond_warn, y, rcond);
+    bst_mat *none = NULL;
+    return solve_owning(ctx, 1, a, &none, b, rcond_warn, y, rcond);
+}
+
+int bsti_solve_take(bst_ctx *ctx, int right, bst_mat *a, const bst_mat *b, double rcond_warn,
+                    bst_mat **out, double *rcond)
+{
+    bst_mat *own = a;
+    int rc = solve_owning(ctx, right, a, &own, b, rcond_warn, out, rcond);
+    bst_mat_free(own); /* when an error came before the factorization */
+    return rc;
 }

@@ -27,6 +27,7 @@
 #include "basis.h"
 #include "ctx.h"
 #include "layer.h"
+#include "mat.h"
 
 #define BIT(c) BST_COMP_BIT(c)
 
@@ -76,6 +77,17 @@ struct part {
     const bst_mat *m[BST_NCOMP];
     bst_mat *own[BST_NCOMP];
 };
+
+/* Free a component this module owns at its last use in a step (a borrowed one is left alone:
+ * it is the caller's).  Keeps the peak of a step near its live matrices. */
+static void part_drop(struct part *p, bst_comp c)
+{
+    if (p->own[c]) {
+        bst_mat_free(p->own[c]);
+        p->own[c] = NULL;
+        p->m[c] = NULL;
+    }
+}
 
 static void part_clear(struct part *p)
 {
@@ -143,21 +155,24 @@ static int add(struct combiner *cb, const bst_mat *r, const bst_mat *s, bst_mat 
 }
 
 /* Solve with A possibly NULL (zero: (I - 0)^-1 = I); left: (I-A)^-1 B, right: B (I-A)^-1.
- * B NULL gives NULL.  *rcond receives the condition estimate. */
-static int solve(struct combiner *cb, int right, const bst_mat *a, const bst_mat *b, bst_mat **out,
+ * B NULL gives NULL.  *rcond receives the condition estimate.  Takes *a: it is freed once
+ * factored (its last use) and *a set to NULL. */
+static int solve(struct combiner *cb, int right, bst_mat **a, const bst_mat *b, bst_mat **out,
                  double *rcond, const char *what)
 {
     *out = NULL;
     *rcond = 1.0;
-    if (!b)
+    bst_mat *am = *a;
+    *a = NULL;
+    if (!b) {
+        bst_mat_free(am);
         return BST_OK;
+    }
     int rc;
-    if (!a)
+    if (!am)
         rc = bst_mat_convert(cb->ctx, b, bst_mat_structure(b), bst_mat_precision(b), out);
-    else if (right)
-        rc = bst_solve_right(cb->ctx, a, b, cb->opts->rcond_warn, out, rcond);
     else
-        rc = bst_solve_left(cb->ctx, a, b, cb->opts->rcond_warn, out, rcond);
+        rc = bsti_solve_take(cb->ctx, right, am, b, cb->opts->rcond_warn, out, rcond);
     if (rc == BST_ESINGULAR)
         bsti_error_prefix(cb->ctx, "layers 1-%zu, channel %s: inter-reflection %s", cb->step + 1,
                           cb->channel, what);
@@ -199,6 +214,9 @@ static int lam_both(struct combiner *cb, const bst_mat *m, bst_mat **out)
 /* L (a b): the product scaled by L afterwards, so that no scaled copy of a is formed. */
 static int lam_mul(struct combiner *cb, const bst_mat *a, const bst_mat *b, bst_mat **out)
 {
+    /* a diagonal factor folds into one scaling: no product held beside its scaled copy */
+    if (a && b && bst_mat_structure(b) == BST_DIAG)
+        return bst_mat_scale(cb->ctx, cb->lam, a, bst_mat_diag_data((bst_mat *)b), out);
     bst_mat *p = NULL;
     int rc = mul(cb, a, b, &p);
     if (rc >= 0)
@@ -209,9 +227,10 @@ static int lam_mul(struct combiner *cb, const bst_mat *a, const bst_mat *b, bst_
 
 /* Combine U (exterior part) and V (interior layer) into S, forming the components `want`.
  * Memory: the scalings by L go on the cheaper factor (U's reflection is the exterior part's, often
- * a diagonal pane), so V's dense matrices are never copied just to be scaled. */
-static int combine_pair(struct combiner *cb, const struct part *u, const struct part *v,
-                        unsigned want, struct part *s)
+ * a diagonal pane), so V's dense matrices are never copied just to be scaled; and every component
+ * U and V own is freed at its last use (part_drop), the pair computed second using fewer. */
+static int combine_pair(struct combiner *cb, struct part *u, struct part *v, unsigned want,
+                        struct part *s)
 {
     bst_mat *llrb1 = NULL, *lrb1 = NULL, *a = NULL, *w = NULL, *t = NULL, *t2 = NULL;
     int rc = BST_OK;
@@ -219,78 +238,105 @@ static int combine_pair(struct combiner *cb, const struct part *u, const struct 
     memset(s, 0, sizeof *s);
 
     /* Light travelling inwards in the gap: Tf and Rb share A1 = L Rb1 L Rf2 = (L Rb1 L) Rf2. */
-    unsigned pair1 = want & (BIT(BST_TF) | BIT(BST_RB));
+    unsigned pair1 = want & (BIT(BST_TF) | BIT(BST_RB)), pair2 = want & (BIT(BST_TB) | BIT(BST_RF));
     if (pair1) {
+        /* the second pair uses Rb1, Tf1 of U and Rf2, Tb2 of V again; Tf2 and Rb2 die here */
         t0 = now_seconds();
         if ((rc = lam_both(cb, u->m[BST_RB], &llrb1)) < 0 || (rc = mul(cb, llrb1, v->m[BST_RF], &a)) < 0)
             goto done;
+        if (!pair2)
+            part_drop(u, BST_RB), part_drop(v, BST_RF);
         if (pair1 == (BIT(BST_TF) | BIT(BST_RB))) {
-            /* W = Tf2 (I - A1)^-1; Tf = W L Tf1; Rb = Rb2 + W (L Rb1 L) Tb2 */
-            if ((rc = solve(cb, 1, a, v->m[BST_TF], &w, &rcond, "towards the interior")) < 0)
+            /* W = Tf2 (I - A1)^-1; Rb = Rb2 + W (L Rb1 L) Tb2; Tf = W L Tf1.  Rb first: its two
+             * temporaries beside W are gone before Tf exists. */
+            if ((rc = solve(cb, 1, &a, v->m[BST_TF], &w, &rcond, "towards the interior")) < 0)
                 goto done;
-            bst_mat_free(a);
-            a = NULL;
-            if ((rc = lam_times(cb, u->m[BST_TF], &t)) < 0 || (rc = mul(cb, w, t, &s->own[BST_TF])) < 0)
-                goto done;
-            report(cb, BST_TF, s->own[BST_TF], t0, rcond);
-            t0 = now_seconds();
-            bst_mat_free(t);
-            t = NULL;
+            part_drop(v, BST_TF);
             if ((rc = mul(cb, llrb1, v->m[BST_TB], &t)) < 0)
                 goto done;
+            if (!pair2)
+                part_drop(v, BST_TB);
             if ((rc = mul(cb, w, t, &t2)) < 0)
                 goto done;
-            bst_mat_free(w), bst_mat_free(t);
-            w = t = NULL;
+            bst_mat_free(t);
+            t = NULL;
             if ((rc = add(cb, v->m[BST_RB], t2, &s->own[BST_RB])) < 0)
                 goto done;
+            part_drop(v, BST_RB);
+            bst_mat_free(t2);
+            t2 = NULL;
             report(cb, BST_RB, s->own[BST_RB], t0, rcond);
+            t0 = now_seconds();
+            if ((rc = lam_times(cb, u->m[BST_TF], &t)) < 0 || (rc = mul(cb, w, t, &s->own[BST_TF])) < 0)
+                goto done;
+            if (!pair2)
+                part_drop(u, BST_TF);
+            report(cb, BST_TF, s->own[BST_TF], t0, rcond);
         } else if (pair1 == BIT(BST_TF)) {
             /* X = (I - A1)^-1 L Tf1; Tf = Tf2 X */
             if ((rc = lam_times(cb, u->m[BST_TF], &t)) < 0 ||
-                (rc = solve(cb, 0, a, t, &w, &rcond, "towards the interior")) < 0)
+                (rc = solve(cb, 0, &a, t, &w, &rcond, "towards the interior")) < 0)
                 goto done;
             bst_mat_free(a), bst_mat_free(t);
             a = t = NULL;
+            if (!pair2)
+                part_drop(u, BST_TF);
             if ((rc = mul(cb, v->m[BST_TF], w, &s->own[BST_TF])) < 0)
                 goto done;
+            part_drop(v, BST_TF);
             report(cb, BST_TF, s->own[BST_TF], t0, rcond);
         } else {
             /* X = (I - A1)^-1 (L Rb1 L) Tb2; Rb = Rb2 + Tf2 X */
             if ((rc = mul(cb, llrb1, v->m[BST_TB], &t)) < 0 ||
-                (rc = solve(cb, 0, a, t, &w, &rcond, "towards the interior")) < 0)
+                (rc = solve(cb, 0, &a, t, &w, &rcond, "towards the interior")) < 0)
                 goto done;
             bst_mat_free(a), bst_mat_free(t);
             a = t = NULL;
-            if ((rc = mul(cb, v->m[BST_TF], w, &t2)) < 0 ||
-                (rc = add(cb, v->m[BST_RB], t2, &s->own[BST_RB])) < 0)
+            if (!pair2)
+                part_drop(v, BST_TB);
+            if ((rc = mul(cb, v->m[BST_TF], w, &t2)) < 0)
                 goto done;
+            part_drop(v, BST_TF);
+            if ((rc = add(cb, v->m[BST_RB], t2, &s->own[BST_RB])) < 0)
+                goto done;
+            part_drop(v, BST_RB);
             report(cb, BST_RB, s->own[BST_RB], t0, rcond);
         }
         bst_mat_free(a), bst_mat_free(w), bst_mat_free(t), bst_mat_free(t2);
         a = w = t = t2 = NULL;
     }
 
-    /* Light travelling outwards in the gap: Tb and Rf share A2 = L Rf2 L Rb1 = L (Rf2 (L Rb1)). */
-    unsigned pair2 = want & (BIT(BST_TB) | BIT(BST_RF));
+    /* Light travelling outwards in the gap: Tb and Rf share A2 = L Rf2 L Rb1 = L (Rf2 (L Rb1)).
+     * Every component is at its last use here. */
     if (pair2) {
         t0 = now_seconds();
-        if ((rc = lam_times(cb, u->m[BST_RB], &lrb1)) < 0 || (rc = lam_mul(cb, v->m[BST_RF], lrb1, &a)) < 0)
+        if ((rc = lam_times(cb, u->m[BST_RB], &lrb1)) < 0)
+            goto done;
+        part_drop(u, BST_RB);
+        if ((rc = lam_mul(cb, v->m[BST_RF], lrb1, &a)) < 0)
             goto done;
         if (pair2 == (BIT(BST_TB) | BIT(BST_RF))) {
             /* W = Tb1 (I - A2)^-1; Tb = W L Tb2; Rf = Rf1 + W L Rf2 L Tf1 */
-            if ((rc = solve(cb, 1, a, u->m[BST_TB], &w, &rcond, "towards the exterior")) < 0)
+            if ((rc = solve(cb, 1, &a, u->m[BST_TB], &w, &rcond, "towards the exterior")) < 0)
                 goto done;
             bst_mat_free(a);
             a = NULL;
-            if ((rc = lam_times(cb, v->m[BST_TB], &t)) < 0 || (rc = mul(cb, w, t, &s->own[BST_TB])) < 0)
+            part_drop(u, BST_TB);
+            if ((rc = lam_times(cb, v->m[BST_TB], &t)) < 0)
+                goto done;
+            part_drop(v, BST_TB);
+            if ((rc = mul(cb, w, t, &s->own[BST_TB])) < 0)
                 goto done;
             report(cb, BST_TB, s->own[BST_TB], t0, rcond);
             t0 = now_seconds();
             bst_mat_free(t);
             t = NULL;
-            if ((rc = lam_times(cb, u->m[BST_TF], &t2)) < 0 || (rc = lam_mul(cb, v->m[BST_RF], t2, &t)) < 0)
+            if ((rc = lam_times(cb, u->m[BST_TF], &t2)) < 0)
                 goto done;
+            part_drop(u, BST_TF);
+            if ((rc = lam_mul(cb, v->m[BST_RF], t2, &t)) < 0)
+                goto done;
+            part_drop(v, BST_RF);
             bst_mat_free(t2);
             t2 = NULL;
             if ((rc = mul(cb, w, t, &t2)) < 0)
@@ -299,27 +345,40 @@ static int combine_pair(struct combiner *cb, const struct part *u, const struct 
             w = t = NULL;
             if ((rc = add(cb, u->m[BST_RF], t2, &s->own[BST_RF])) < 0)
                 goto done;
+            part_drop(u, BST_RF);
             report(cb, BST_RF, s->own[BST_RF], t0, rcond);
         } else if (pair2 == BIT(BST_TB)) {
             /* X = (I - A2)^-1 L Tb2; Tb = Tb1 X */
-            if ((rc = lam_times(cb, v->m[BST_TB], &t)) < 0 ||
-                (rc = solve(cb, 0, a, t, &w, &rcond, "towards the exterior")) < 0)
+            part_drop(v, BST_RF);
+            if ((rc = lam_times(cb, v->m[BST_TB], &t)) < 0)
+                goto done;
+            part_drop(v, BST_TB);
+            if ((rc = solve(cb, 0, &a, t, &w, &rcond, "towards the exterior")) < 0)
                 goto done;
             bst_mat_free(a), bst_mat_free(t);
             a = t = NULL;
             if ((rc = mul(cb, u->m[BST_TB], w, &s->own[BST_TB])) < 0)
                 goto done;
+            part_drop(u, BST_TB);
             report(cb, BST_TB, s->own[BST_TB], t0, rcond);
         } else {
             /* X = (I - A2)^-1 L Rf2 L Tf1; Rf = Rf1 + Tb1 X */
-            if ((rc = lam_times(cb, u->m[BST_TF], &t2)) < 0 || (rc = lam_mul(cb, v->m[BST_RF], t2, &t)) < 0 ||
-                (rc = solve(cb, 0, a, t, &w, &rcond, "towards the exterior")) < 0)
+            if ((rc = lam_times(cb, u->m[BST_TF], &t2)) < 0)
+                goto done;
+            part_drop(u, BST_TF);
+            if ((rc = lam_mul(cb, v->m[BST_RF], t2, &t)) < 0)
+                goto done;
+            part_drop(v, BST_RF);
+            if ((rc = solve(cb, 0, &a, t, &w, &rcond, "towards the exterior")) < 0)
                 goto done;
             bst_mat_free(a), bst_mat_free(t), bst_mat_free(t2);
             a = t = t2 = NULL;
-            if ((rc = mul(cb, u->m[BST_TB], w, &t2)) < 0 ||
-                (rc = add(cb, u->m[BST_RF], t2, &s->own[BST_RF])) < 0)
+            if ((rc = mul(cb, u->m[BST_TB], w, &t2)) < 0)
                 goto done;
+            part_drop(u, BST_TB);
+            if ((rc = add(cb, u->m[BST_RF], t2, &s->own[BST_RF])) < 0)
+                goto done;
+            part_drop(u, BST_RF);
             report(cb, BST_RF, s->own[BST_RF], t0, rcond);
         }
     }
@@ -391,11 +450,16 @@ static int check_energy(struct combiner *cb, const bst_layer *l, size_t li, size
     return rc;
 }
 
-/* A component of an input layer in the form the combination works on: borrowed as it is, or a
- * dense copy (force_dense), or a float copy of a dense double matrix (single precision). */
-static int prepare(struct combiner *cb, const bst_mat *m, struct part *p, bst_comp c)
+/* A component of an input layer in the form the combination works on: borrowed as it is (taken
+ * from the layer, when `take` is the layer, to be freed at its last use), or a dense copy
+ * (force_dense), or a float copy of a dense double matrix (single precision). */
+static int prepare(struct combiner *cb, const bst_layer *l, bst_layer *take, size_t ch,
+                   struct part *p, bst_comp c)
 {
+    const bst_mat *m = bst_layer_get(l, ch, c);
+    bst_mat *taken = take ? bst_layer_take(take, ch, c) : NULL;
     p->m[c] = m;
+    p->own[c] = taken;
     if (!m)
         return BST_OK;
     const bst_stack_opts *o = cb->opts;
@@ -404,14 +468,18 @@ static int prepare(struct combiner *cb, const bst_mat *m, struct part *p, bst_co
     int to_prec = s == BST_DENSE && bst_mat_precision(m) != o->precision;
     if (!to_dense && !to_prec)
         return BST_OK;
-    int rc = bst_mat_convert(cb->ctx, m, BST_DENSE, o->precision, &p->own[c]);
-    if (rc >= 0)
-        p->m[c] = p->own[c];
+    bst_mat *copy = NULL;
+    int rc = bst_mat_convert(cb->ctx, m, BST_DENSE, o->precision, &copy);
+    bst_mat_free(taken);
+    p->own[c] = copy;
+    p->m[c] = copy;
     return rc;
 }
 
-int bst_stack_combine(bst_ctx *ctx, size_t n, const bst_layer *const *layers,
-                      const bst_stack_opts *opts_in, bst_layer **out)
+/* The combination; with `take` (the same layers, writable) each input component is taken from
+ * its layer when the combination reaches it and freed at its last use. */
+static int combine(bst_ctx *ctx, size_t n, const bst_layer *const *layers, bst_layer **take,
+                   const bst_stack_opts *opts_in, bst_layer **out)
 {
     if (!ctx || !out)
         return BST_EINVAL;
@@ -477,12 +545,12 @@ int bst_stack_combine(bst_ctx *ctx, size_t n, const bst_layer *const *layers,
         size_t ch0 = (size_t)bst_layer_find_channel(l0, names[ch]);
         for (int c = 0; c < BST_NCOMP && rc >= 0; c++)
             if (need_l[0] & BIT(c))
-                rc = prepare(&cb, bst_layer_get(l0, ch0, (bst_comp)c), &acc, (bst_comp)c);
+                rc = prepare(&cb, l0, take ? take[0] : NULL, ch0, &acc, (bst_comp)c);
         for (size_t k = 1; k < n && rc >= 0; k++) {
             size_t chk = (size_t)bst_layer_find_channel(layers[k], names[ch]);
             for (int c = 0; c < BST_NCOMP && rc >= 0; c++)
                 if (need_l[k] & BIT(c))
-                    rc = prepare(&cb, bst_layer_get(layers[k], chk, (bst_comp)c), &lay, (bst_comp)c);
+                    rc = prepare(&cb, layers[k], take ? take[k] : NULL, chk, &lay, (bst_comp)c);
             cb.step = k;
             if (rc >= 0)
                 rc = combine_pair(&cb, &acc, &lay, need_s[k], &next);
@@ -519,6 +587,43 @@ out:
         return rc;
     }
     *out = res;
+    return rc;
+}
+
+int bst_stack_combine(bst_ctx *ctx, size_t n, const bst_layer *const *layers,
+                      const bst_stack_opts *opts, bst_layer **out)
+{
+    return combine(ctx, n, layers, NULL, opts, out);
+}
+
+int bst_stack_combine_consume(bst_ctx *ctx, size_t n, bst_layer **layers,
+                              const bst_stack_opts *opts, bst_layer **out)
+{
+    if (!ctx || !out || !layers)
+        return combine(ctx, n, (const bst_layer *const *)layers, NULL, opts, out);
+    /* A layer listed twice (one pane object for both panes) is borrowed where it occurs first and
+     * taken only at its last occurrence, and freed once. */
+    bst_layer **take = bsti_calloc(ctx, n, sizeof *take);
+    int rc = BST_ENOMEM;
+    if (take) {
+        for (size_t i = 0; i < n; i++) {
+            size_t j = i + 1;
+            while (j < n && layers[j] != layers[i])
+                j++;
+            take[i] = j == n ? layers[i] : NULL;
+        }
+        rc = combine(ctx, n, (const bst_layer *const *)layers, take, opts, out);
+    }
+    for (size_t i = 0; i < n; i++) {
+        int last = 1;
+        for (size_t j = i + 1; j < n && last; j++)
+            last = layers[j] != layers[i];
+        if (last)
+            bst_layer_free(layers[i]);
+    }
+    for (size_t i = 0; i < n; i++)
+        layers[i] = NULL;
+    bsti_free(ctx, take);
     return rc;
 }
 

@@ -275,6 +275,67 @@ START_TEST(test_only_requested)
 }
 END_TEST
 
+/* Components freed at their last use give the same numbers: for every structure triple and every
+ * subset of requested components, the consuming combination (which takes the inputs and frees
+ * each at its last use), the forced-dense one (whose own copies are freed likewise) and the
+ * borrowing one agree with the full result; a layer listed twice (one object, both panes) is
+ * borrowed first and taken last. */
+START_TEST(test_consume)
+{
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 2, &b), BST_OK);
+    int s[3] = {_i % 3, (_i / 3) % 3, (_i / 9) % 3};
+    tu_rng rng;
+    bst_layer *l[3], *all;
+    tu_rng_seed(&rng, 4242 + (uint64_t)_i);
+    for (int k = 0; k < 3; k++)
+        l[k] = random_layer(b, s[k], 0.1, &rng);
+    ck_assert_int_eq(bst_stack_combine(ctx, 3, (const bst_layer *const *)l, NULL, &all), BST_OK);
+    for (unsigned want = 1; want <= BST_COMP_ALL; want++) {
+        bst_stack_opts o;
+        bst_stack_opts_init(&o);
+        o.comps = want;
+        bst_layer *fresh[3], *consumed, *dense;
+        tu_rng_seed(&rng, 4242 + (uint64_t)_i);
+        for (int k = 0; k < 3; k++)
+            fresh[k] = random_layer(b, s[k], 0.1, &rng);
+        ck_assert_int_eq(bst_stack_combine_consume(ctx, 3, fresh, &o, &consumed), BST_OK);
+        for (int k = 0; k < 3; k++)
+            ck_assert_ptr_null(fresh[k]);
+        o.force_dense = 1;
+        ck_assert_int_eq(bst_stack_combine(ctx, 3, (const bst_layer *const *)l, &o, &dense), BST_OK);
+        for (int c = 0; c < BST_NCOMP; c++) {
+            const bst_mat *mc = bst_layer_get(consumed, 0, (bst_comp)c), *md = bst_layer_get(dense, 0, (bst_comp)c);
+            if (!(want & BST_COMP_BIT(c))) {
+                ck_assert_ptr_null(mc);
+                continue;
+            }
+            ck_assert_double_le(max_rel_diff(mc, bst_layer_get(all, 0, (bst_comp)c)), 1e-13);
+            ck_assert_double_le(max_rel_diff(md, bst_layer_get(all, 0, (bst_comp)c)), 1e-10);
+        }
+        bst_layer_free(consumed);
+        bst_layer_free(dense);
+    }
+    /* A, B, A with one object for A */
+    bst_layer *aba[3] = {l[0], l[1], l[0]}, *ref, *got;
+    ck_assert_int_eq(bst_stack_combine(ctx, 3, (const bst_layer *const *)aba, NULL, &ref), BST_OK);
+    tu_rng_seed(&rng, 4242 + (uint64_t)_i);
+    aba[0] = random_layer(b, s[0], 0.1, &rng);
+    aba[1] = random_layer(b, s[1], 0.1, &rng);
+    aba[2] = aba[0];
+    ck_assert_int_eq(bst_stack_combine_consume(ctx, 3, aba, NULL, &got), BST_OK);
+    for (int c = 0; c < BST_NCOMP; c++)
+        ck_assert_double_le(max_rel_diff(bst_layer_get(got, 0, (bst_comp)c),
+                                         bst_layer_get(ref, 0, (bst_comp)c)), 1e-13);
+    bst_layer_free(ref);
+    bst_layer_free(got);
+    for (int k = 0; k < 3; k++)
+        bst_layer_free(l[k]);
+    bst_layer_free(all);
+    bst_basis_free(b);
+}
+END_TEST
+
 /* Two facing near-perfect mirrors: the inter-reflection is ill-conditioned; the library warns
  * (or fails with strict) and never returns NaN. */
 START_TEST(test_mirrors)
@@ -355,6 +416,7 @@ static Suite *stack_suite(void)
     tcase_add_test(tc, test_panes_closed_form);
     tcase_add_loop_test(tc, test_energy_and_dense, 0, 27);
     tcase_add_test(tc, test_only_requested);
+    tcase_add_loop_test(tc, test_consume, 0, 27);
     tcase_add_loop_test(tc, test_absorptance_balance, 0, 3);
     tcase_add_test(tc, test_mirrors);
     tcase_add_test(tc, test_energy_warning);
