@@ -70,7 +70,8 @@ int main(int argc, char **argv)
     o.force_dense = strcmp(mode, "typed") != 0;
     o.precision = strcmp(mode, "single") == 0 ? BST_FLOAT : BST_DOUBLE;
     bst_layer *sys;
-    if (bst_stack_combine(ctx, n, (const bst_layer *const *)l, &o, &sys) < 0)
+    /* as `bsdfstack combine` does: each input component freed at its last use */
+    if (bst_stack_combine_consume(ctx, n, l, &o, &sys) < 0)
         die(ctx, "combine");
     double t2 = now();
     struct rusage ru;

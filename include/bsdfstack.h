@@ -316,8 +316,8 @@ int bst_stack_combine(bst_ctx *ctx, size_t n, const bst_layer *const *layers,
                       const bst_stack_opts *opts, bst_layer **out);
 /* The same, consuming the layers: each input component is freed as soon as the combination has
  * used it for the last time, so that the peak holds fewer of them (a pane and a dense layer at
- * k = 7: 14 instead of 20 GiB in double).  On return, success or not, every layers[i] is freed and
- * set to NULL. */
+ * k = 7: 12 instead of 20 GiB in double).  On return, success or not, every layers[i] is freed and
+ * set to NULL; a layer object listed more than once (one pane for both panes) is freed once. */
 int bst_stack_combine_consume(bst_ctx *ctx, size_t n, bst_layer **layers,
                               const bst_stack_opts *opts, bst_layer **out);
 

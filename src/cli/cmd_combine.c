@@ -222,7 +222,7 @@ int cmd_combine(int argc, char **argv)
         rc = cli_combine_spectral(ctx, sub, &set, &so, abs, &sys);
     } else if (rc == CLI_OK) {
         /* without --absorptance the layers die with the combination: let it free each component
-         * at its last use (a pane and a dense layer at k = 7: 14 instead of 20 GiB in double) */
+         * at its last use (a pane and a dense layer at k = 7: 12 instead of 20 GiB in double) */
         int st = abspath ? bst_stack_combine(ctx, set.n, (const bst_layer *const *)set.layers, &so, &sys)
                          : bst_stack_combine_consume(ctx, set.n, set.layers, &so, &sys);
         if (st < 0)
