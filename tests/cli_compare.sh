@@ -35,6 +35,19 @@ n=$( (rows Tf; rows Tb) | awk '$4 >= 99.8' | wc -l)
 [ "$n" -eq 12 ] && pass "S1: GA >= 99.8 at all 12 rows" || fail "S1: $(rows Tf) $(rows Tb)"
 expect_error "--fail-below beyond the data" "GA below 99.99" -- "$B" compare --only Tb --fail-below 99.99 "$ref/S1_t4k5.xml" "$tmpdir/s1.xml"
 
+# --map: local accordance per exit cell as SVG; a file against itself is 100 everywhere (the top
+# colour of the scale, (255, 250, 200)), S1 against the combination is not
+expect_status 0 "map of a file against itself" -- "$B" compare --only Tf --incident 45,90 --map "$tmpdir/self.svg" "$ref/S1_t4k5.xml" "$ref/S1_t4k5.xml"
+[ "$(grep -c '^<path fill="#fffac8"' "$tmpdir/self.svg")" -eq 1024 ] && pass "self map: LA 100 in all 1024 cells" ||
+    fail "self map: $(grep -c '^<path fill="#fffac8"' "$tmpdir/self.svg") of 1024 cells at 100"
+expect_status 0 "map of S1 against its layers" -- "$B" compare --only Tf --incident 45,90 --map "$tmpdir/s1.svg" "$ref/S1_t4k5.xml" "$tmpdir/s1.xml"
+n=$(grep -c '^<path fill' "$tmpdir/s1.svg"); m=$(grep -c '^<path fill="#fffac8"' "$tmpdir/s1.svg")
+[ "$n" -eq 1024 ] && [ "$m" -lt 1024 ] && pass "S1 map: 1024 cells, $m of them at LA 100" || fail "S1 map: $n cells, $m at 100"
+expect_status 0 "map as PNG" -- "$B" compare --only Tb --map "$tmpdir/s1.png" "$ref/S1_t4k5.xml" "$tmpdir/s1.xml"
+[ "$(od -An -tx1 -N8 "$tmpdir/s1.png" | tr -d ' \n')" = 89504e470d0a1a0a ] && pass "map PNG signature" || fail "map PNG"
+expect_error "map extension" "name a .png or .svg" -- "$B" compare --map "$tmpdir/m.jpg" glass:clear-6mm glass:clear-6mm
+[ ! -e "$tmpdir/m.jpg" ] && pass "no map after the error" || fail "m.jpg left behind"
+
 # usage and input errors
 expect_error "one BSDF" "two BSDFs expected" -- "$B" compare "$ref/L_glass_t4k5.xml"
 expect_error "bad direction" "--incident 95,0" -- "$B" compare --incident 95,0 glass:clear-6mm glass:clear-6mm

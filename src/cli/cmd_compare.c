@@ -9,12 +9,13 @@
 #include <string.h>
 
 #include "cli.h"
+#include "hemimap.h"
 #include "layers.h"
 
 static const char help[] =
     "Usage: bsdfstack compare [-k K | --klems[=full|half|quarter]] [--channel NAME]\n"
     "                         [--only Tf,Rf,Tb,Rb] [--incident THETA,PHI]... [--fail-below GA]\n"
-    "                         A B\n"
+    "                         [--map OUT.png|OUT.svg] A B\n"
     "Compares two BSDFs (files or glass: specs, a trailing ^ reverses one), both resampled onto one\n"
     "basis (default: the finer tensor-tree order of the two, else the Klems basis of a Klems file).\n"
     "For each component and incidence direction it prints\n"
@@ -35,9 +36,39 @@ static const char help[] =
     "  --only LIST        components to compare (default: every one either holds)\n"
     "  --incident T,P     an incidence direction, repeatable (default: 0,0 25,90 45,90 50,90 45,45\n"
     "                     65,90, the last five Grobe 2017's)\n"
-    "  --fail-below GA    exit status 1 when any printed GA falls below GA\n";
+    "  --fail-below GA    exit status 1 when any printed GA falls below GA\n"
+    "  --map OUT          draw the local accordance LA = 100 (1 - |a - b| / (a + b)) of every exit\n"
+    "                     cell for the first component and the first direction (PNG or SVG, by\n"
+    "                     the extension; as `plot` draws, +X right, +Y up, seen from +Z)\n";
 
 #define MAX_DIRS 64
+
+/* The local accordance of component c for incident patch j over the exit cells, drawn. */
+static int write_map(bst_ctx *ctx, const char *sub, const char *path, int svg, const bst_layer *a,
+                     const bst_layer *b, bst_comp c, size_t j, const double dir[2], char **specs,
+                     double *la)
+{
+    if (bst_accordance(ctx, a, b, 0, c, j, NULL, NULL, la) < 0)
+        return cli_fail_ctx(sub, NULL, ctx);
+    char title[1024];
+    const char *na = strrchr(specs[0], '/') ? strrchr(specs[0], '/') + 1 : specs[0];
+    const char *nb = strrchr(specs[1], '/') ? strrchr(specs[1], '/') + 1 : specs[1];
+    snprintf(title, sizeof title, "local accordance %s vs %s, %s, %s, incidence theta %g phi %g, %%",
+             na, nb, bst_comp_name(c), bst_layer_channel(a, 0), dir[0], dir[1]);
+    double t = dir[0] * M_PI / 180, p = dir[1] * M_PI / 180;
+    struct cli_hemimap m = {.basis = bst_layer_basis(a), .cell = la, .log = 0, .lo = 0, .hi = 100,
+                            .size = 480, .title = title, .unit = "%",
+                            .mark = {sin(t) * cos(p), sin(t) * sin(p), cos(t)}};
+    struct cli_out out;
+    int rc = cli_out_open(&out, sub, path);
+    if (rc != CLI_OK)
+        return rc;
+    if (cli_hemimap_write(out.fp, svg, &m) < 0) {
+        cli_out_abort(&out);
+        return cli_fail(sub, "%s: error writing the image (or out of memory)", path);
+    }
+    return cli_out_commit(&out, sub);
+}
 
 int cmd_compare(int argc, char **argv)
 {
@@ -46,9 +77,11 @@ int cmd_compare(int argc, char **argv)
                                              {"only", required_argument, NULL, 'o'},
                                              {"incident", required_argument, NULL, 'i'},
                                              {"fail-below", required_argument, NULL, 'f'},
+                                             {"map", required_argument, NULL, 'm'},
                                              {"help", no_argument, NULL, 'h'},
                                              {NULL, 0, NULL, 0}};
-    const char *sub = "compare", *channel = NULL;
+    const char *sub = "compare", *channel = NULL, *mappath = NULL;
+    int map_svg = 0;
     struct cli_basis_choice choice = {0, NULL};
     unsigned comps = 0;
     double dirs[MAX_DIRS][2], fail_below = -INFINITY;
@@ -84,6 +117,14 @@ int cmd_compare(int argc, char **argv)
             if (cli_parse_double(optarg, &fail_below) != 0 || fail_below < 0 || fail_below > 100)
                 return cli_usage(sub, "--fail-below %s: give a GA between 0 and 100", optarg);
             break;
+        case 'm': {
+            size_t n = strlen(optarg);
+            map_svg = n > 4 && strcmp(optarg + n - 4, ".svg") == 0;
+            if (!map_svg && !(n > 4 && strcmp(optarg + n - 4, ".png") == 0))
+                return cli_usage(sub, "--map %s: name a .png or .svg file", optarg);
+            mappath = optarg;
+            break;
+        }
         case 'h': fputs(help, stdout); return CLI_OK;
         case ':': return cli_usage(sub, "option %s needs a value", argv[optind - 1]);
         default: return cli_usage(sub, "unknown option '%s'", argv[optind - 1]);
@@ -127,8 +168,8 @@ int cmd_compare(int argc, char **argv)
     const bst_basis *basis = set.basis;
     size_t n = bst_basis_size(basis);
     double *ha = malloc(n * sizeof *ha), *hb = malloc(n * sizeof *hb);
-    double *ga = malloc(n * sizeof *ga), *fa = malloc(n * sizeof *fa);
-    if (!ha || !hb || !ga || !fa) {
+    double *ga = malloc(n * sizeof *ga), *fa = malloc(n * sizeof *fa), *la = malloc(n * sizeof *la);
+    if (!ha || !hb || !ga || !fa || !la) {
         rc = cli_fail(sub, "out of memory");
         goto out;
     }
@@ -162,7 +203,15 @@ int cmd_compare(int argc, char **argv)
             printf("%7.2f %6.2f %6zu %8.3f %7.2f %8.4f %8.4f\n", dirs[q][0], dirs[q][1], j, ga[j],
                    fa[j], ha[j], hb[j]);
             below |= ga[j] < fail_below;
+            if (mappath && q == 0 && (rc = write_map(ctx, sub, mappath, map_svg, a, b, comp, j, dirs[0],
+                                                     specs, la)) == CLI_OK)
+                printf("  local accordance at (%g, %g) drawn in %s\n", dirs[0][0], dirs[0][1], mappath);
+            if (rc != CLI_OK)
+                break;
         }
+        mappath = NULL; /* one map: the first component's */
+        if (rc != CLI_OK)
+            break;
         size_t jg = 0, jf = 0, jh = 0;
         double mg = 0, mf = 0;
         for (size_t j = 0; j < n; j++) {
@@ -183,7 +232,7 @@ int cmd_compare(int argc, char **argv)
     if (rc == CLI_OK && below)
         rc = cli_fail(sub, "GA below %g at a direction shown", fail_below);
 out:
-    free(ha), free(hb), free(ga), free(fa);
+    free(ha), free(hb), free(ga), free(fa), free(la);
     cli_layers_free(&set);
     bst_ctx_free(ctx);
     return rc;
