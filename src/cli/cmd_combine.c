@@ -7,6 +7,8 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
+#include <time.h>
 
 #include "cli.h"
 #include "layers.h"
@@ -41,7 +43,8 @@ static const char help[] =
     "                     side, patch, theta, phi of the propagation direction, A1..An, T, R)\n"
     "  --per-channel      combine band values even when every layer is spectral\n"
     "  --strict           ill-conditioning and energy imbalance in an input are errors\n"
-    "  -v                 print each step's structures, time and peak memory\n"
+    "  -v                 print the time and peak memory of reading, of each step (with its\n"
+    "                     structures) and of writing\n"
     "  -o OUT             output file ('-' = standard output), written atomically\n";
 
 static void verbose_step(const bst_stack_step *s, void *opaque)
@@ -53,6 +56,22 @@ static void verbose_step(const bst_stack_step *s, void *opaque)
     fprintf(stderr, "bsdfstack combine: layers 1-%zu %s %s: %s, %zu stored, %.3f s, rcond %.3g, "
             "peak RSS %.1f MiB\n", s->step + 1, s->channel, bst_comp_name(s->comp),
             names[s->structure], s->nnz, s->seconds, s->rcond, ru.ru_maxrss / 1024.0);
+}
+
+static double now_s(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+/* -v: one line for reading the layers or writing the result, with its time and the peak so far */
+static void verbose_phase(const char *what, double t0)
+{
+    struct rusage ru;
+    getrusage(RUSAGE_SELF, &ru);
+    fprintf(stderr, "bsdfstack combine: %s: %.3f s, peak RSS %.1f MiB\n", what, now_s() - t0,
+            ru.ru_maxrss / 1024.0);
 }
 
 /* Per-layer absorptance of every channel of sys: abs[side][(ch * n + i) * N + j]. */
@@ -202,8 +221,15 @@ int cmd_combine(int argc, char **argv)
     if (!ctx)
         return CLI_FAIL;
     struct cli_layers set;
+    double t0 = now_s();
     int rc = cli_layers_load(&set, ctx, sub, (size_t)(argc - optind), argv + optind, &basis,
                              channels, 0, so.precision);
+    if (rc == CLI_OK && verbose) {
+        char what[96];
+        snprintf(what, sizeof what, "read %zu layer%s onto %zu patches", set.n, set.n == 1 ? "" : "s",
+                 bst_basis_size(set.basis));
+        verbose_phase(what, t0);
+    }
     bst_layer *sys = NULL;
     double *abs[2] = {NULL, NULL};
     int spectral = rc == CLI_OK && !per_channel && set.npanes == set.n;
@@ -240,8 +266,16 @@ int cmd_combine(int argc, char **argv)
         bst_layer_free(set.layers[i]);
         set.layers[i] = NULL;
     }
+    t0 = now_s();
     if (rc == CLI_OK)
         rc = cli_write_layer(ctx, sub, sys, outpath, reduce, argc, argv, &set);
+    struct stat st_out;
+    if (rc == CLI_OK && verbose) {
+        char what[64] = "wrote the result";
+        if (strcmp(outpath, "-") != 0 && stat(outpath, &st_out) == 0)
+            snprintf(what, sizeof what, "wrote %.1f MB", st_out.st_size / 1e6);
+        verbose_phase(what, t0);
+    }
     free(abs[0]);
     bst_layer_free(sys);
     cli_layers_free(&set);
