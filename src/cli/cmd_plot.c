@@ -224,13 +224,13 @@ int cmd_plot(int argc, char **argv)
         jmax = cell[j] > cell[jmax] ? j : jmax;
     }
     double peak = cell[jmax];
-    struct cli_hemimap sc = {.log = !linear};
+    struct cli_hemimap map = {.log = !linear};
     if (isfinite(rmin))
-        sc.lo = rmin, sc.hi = rmax;
+        map.lo = rmin, map.hi = rmax;
     else if (peak <= 0)
-        sc.lo = linear ? 0 : 1e-4, sc.hi = 1; /* all zero: a scale that shows it */
+        map.lo = linear ? 0 : 1e-4, map.hi = 1; /* all zero: a scale that shows it */
     else
-        sc.lo = linear ? 0 : peak * pow(10.0, -decades), sc.hi = peak;
+        map.lo = linear ? 0 : peak * pow(10.0, -decades), map.hi = peak;
 
     const char *quantity = dsf ? "DSF" : "BSDF";
     char title[1024];
@@ -245,14 +245,14 @@ int cmd_plot(int argc, char **argv)
     fprintf(info, "peak %s %.6g 1/sr at exit (theta, phi) = (%.1f, %.1f) deg; directional-"
                   "hemispherical %.4f\n", quantity, peak, acos(dm[2]) * 180 / M_PI,
             fmod(atan2(dm[1], dm[0]) * 180 / M_PI + 360, 360), hem);
-    fprintf(info, "scale %s %.4g .. %.4g 1/sr\n", sc.log ? "log" : "linear", sc.lo, sc.hi);
+    fprintf(info, "scale %s %.4g .. %.4g 1/sr\n", map.log ? "log" : "linear", map.lo, map.hi);
 
-    sc.basis = basis, sc.cell = cell, sc.value = pixel_value, sc.opaque = &p;
-    sc.angle = angle, sc.size = size, sc.title = title, sc.unit = "1/sr";
-    memcpy(sc.mark, mark, sizeof mark);
+    map.basis = basis, map.cell = cell, map.value = pixel_value, map.opaque = &p;
+    map.angle = angle, map.size = size, map.title = title, map.unit = "1/sr";
+    memcpy(map.mark, mark, sizeof mark);
     if ((rc = cli_out_open(&out, sub, outpath)) != CLI_OK)
         goto done;
-    int st = cli_hemimap_write(out.fp, strcmp(format, "svg") == 0, &sc);
+    int st = cli_hemimap_write(out.fp, strcmp(format, "svg") == 0, &map);
     if (st == CLI_HEMIMAP_EVALUE)
         rc = cli_fail_ctx(sub, path, ctx);
     else if (st < 0)
