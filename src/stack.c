@@ -225,6 +225,23 @@ static int lam_mul(struct combiner *cb, const bst_mat *a, const bst_mat *b, bst_
     return rc;
 }
 
+/* L Rf2 L Tf1: the light V reflects back into the gap, the right-hand side of Rf.  Tf1 and Rf2
+ * are at their last use. */
+static int reflected_outwards(struct combiner *cb, struct part *u, struct part *v, bst_mat **out)
+{
+    bst_mat *ltf1 = NULL;
+    *out = NULL;
+    int rc = lam_times(cb, u->m[BST_TF], &ltf1);
+    if (rc >= 0) {
+        part_drop(u, BST_TF);
+        rc = lam_mul(cb, v->m[BST_RF], ltf1, out);
+    }
+    if (rc >= 0)
+        part_drop(v, BST_RF);
+    bst_mat_free(ltf1);
+    return rc;
+}
+
 /* Combine U (exterior part) and V (interior layer) into S, forming the components `want`.
  * Memory: the scalings by L go on the cheaper factor (U's reflection is the exterior part's, often
  * a diagonal pane), so V's dense matrices are never copied just to be scaled; and every component
@@ -277,8 +294,8 @@ static int combine_pair(struct combiner *cb, struct part *u, struct part *v, uns
             if ((rc = lam_times(cb, u->m[BST_TF], &t)) < 0 ||
                 (rc = solve(cb, 0, &a, t, &w, &rcond, "towards the interior")) < 0)
                 goto done;
-            bst_mat_free(a), bst_mat_free(t);
-            a = t = NULL;
+            bst_mat_free(t);
+            t = NULL;
             if (!pair2)
                 part_drop(u, BST_TF);
             if ((rc = mul(cb, v->m[BST_TF], w, &s->own[BST_TF])) < 0)
@@ -290,8 +307,8 @@ static int combine_pair(struct combiner *cb, struct part *u, struct part *v, uns
             if ((rc = mul(cb, llrb1, v->m[BST_TB], &t)) < 0 ||
                 (rc = solve(cb, 0, &a, t, &w, &rcond, "towards the interior")) < 0)
                 goto done;
-            bst_mat_free(a), bst_mat_free(t);
-            a = t = NULL;
+            bst_mat_free(t);
+            t = NULL;
             if (!pair2)
                 part_drop(v, BST_TB);
             if ((rc = mul(cb, v->m[BST_TF], w, &t2)) < 0)
@@ -302,8 +319,8 @@ static int combine_pair(struct combiner *cb, struct part *u, struct part *v, uns
             part_drop(v, BST_RB);
             report(cb, BST_RB, s->own[BST_RB], t0, rcond);
         }
-        bst_mat_free(a), bst_mat_free(w), bst_mat_free(t), bst_mat_free(t2);
-        a = w = t = t2 = NULL;
+        bst_mat_free(w), bst_mat_free(t), bst_mat_free(t2);
+        w = t = t2 = NULL;
     }
 
     /* Light travelling outwards in the gap: Tb and Rf share A2 = L Rf2 L Rb1 = L (Rf2 (L Rb1)).
@@ -319,8 +336,6 @@ static int combine_pair(struct combiner *cb, struct part *u, struct part *v, uns
             /* W = Tb1 (I - A2)^-1; Tb = W L Tb2; Rf = Rf1 + W L Rf2 L Tf1 */
             if ((rc = solve(cb, 1, &a, u->m[BST_TB], &w, &rcond, "towards the exterior")) < 0)
                 goto done;
-            bst_mat_free(a);
-            a = NULL;
             part_drop(u, BST_TB);
             if ((rc = lam_times(cb, v->m[BST_TB], &t)) < 0)
                 goto done;
@@ -331,15 +346,7 @@ static int combine_pair(struct combiner *cb, struct part *u, struct part *v, uns
             t0 = now_seconds();
             bst_mat_free(t);
             t = NULL;
-            if ((rc = lam_times(cb, u->m[BST_TF], &t2)) < 0)
-                goto done;
-            part_drop(u, BST_TF);
-            if ((rc = lam_mul(cb, v->m[BST_RF], t2, &t)) < 0)
-                goto done;
-            part_drop(v, BST_RF);
-            bst_mat_free(t2);
-            t2 = NULL;
-            if ((rc = mul(cb, w, t, &t2)) < 0)
+            if ((rc = reflected_outwards(cb, u, v, &t)) < 0 || (rc = mul(cb, w, t, &t2)) < 0)
                 goto done;
             bst_mat_free(w), bst_mat_free(t);
             w = t = NULL;
@@ -355,24 +362,19 @@ static int combine_pair(struct combiner *cb, struct part *u, struct part *v, uns
             part_drop(v, BST_TB);
             if ((rc = solve(cb, 0, &a, t, &w, &rcond, "towards the exterior")) < 0)
                 goto done;
-            bst_mat_free(a), bst_mat_free(t);
-            a = t = NULL;
+            bst_mat_free(t);
+            t = NULL;
             if ((rc = mul(cb, u->m[BST_TB], w, &s->own[BST_TB])) < 0)
                 goto done;
             part_drop(u, BST_TB);
             report(cb, BST_TB, s->own[BST_TB], t0, rcond);
         } else {
             /* X = (I - A2)^-1 L Rf2 L Tf1; Rf = Rf1 + Tb1 X */
-            if ((rc = lam_times(cb, u->m[BST_TF], &t2)) < 0)
+            if ((rc = reflected_outwards(cb, u, v, &t)) < 0 ||
+                (rc = solve(cb, 0, &a, t, &w, &rcond, "towards the exterior")) < 0)
                 goto done;
-            part_drop(u, BST_TF);
-            if ((rc = lam_mul(cb, v->m[BST_RF], t2, &t)) < 0)
-                goto done;
-            part_drop(v, BST_RF);
-            if ((rc = solve(cb, 0, &a, t, &w, &rcond, "towards the exterior")) < 0)
-                goto done;
-            bst_mat_free(a), bst_mat_free(t), bst_mat_free(t2);
-            a = t = t2 = NULL;
+            bst_mat_free(t);
+            t = NULL;
             if ((rc = mul(cb, u->m[BST_TB], w, &t2)) < 0)
                 goto done;
             part_drop(u, BST_TB);

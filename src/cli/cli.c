@@ -218,6 +218,15 @@ int cli_parse_comps(const char *sub, const char *list, unsigned *comps)
     return *comps ? CLI_OK : cli_usage(sub, "--only: no component given");
 }
 
+int cli_parse_incident(const char *sub, const char *s, double dir[2])
+{
+    char extra;
+    if (sscanf(s, "%lf,%lf%c", &dir[0], &dir[1], &extra) != 2 || !isfinite(dir[0]) ||
+        !isfinite(dir[1]) || dir[0] < 0 || dir[0] >= 90)
+        return cli_usage(sub, "--incident %s: give THETA,PHI in degrees, 0 <= THETA < 90", s);
+    return CLI_OK;
+}
+
 int cli_parse_precision(const char *sub, const char *s, bst_precision *prec)
 {
     if (strcmp(s, "double") == 0)

@@ -68,6 +68,8 @@ int cli_parse_int(const char *s, int *out);
  * CLI_OK or a usage error (printed). */
 int cli_parse_comps(const char *sub, const char *list, unsigned *comps);
 int cli_parse_precision(const char *sub, const char *s, bst_precision *prec);
+/* --incident THETA,PHI (degrees, 0 <= THETA < 90) into dir[0], dir[1]; CLI_OK or a usage error. */
+int cli_parse_incident(const char *sub, const char *s, double dir[2]);
 
 /* Print a subcommand's help text (the same text as its man page's synopsis and options). */
 void cli_print_help(FILE *fp, const char *text);

@@ -196,52 +196,22 @@ static int run_stack(bst_ctx *ctx, const char *sub, const char *path, const stru
 
 int cmd_batch(int argc, char **argv)
 {
-    enum { O_KLEMS = 256, O_ONLY, O_CHANNELS, O_PRECISION, O_DROP, O_REDUCE, O_NOREDUCE, O_DENSE,
-           O_STRICT, O_PERCH, O_HELP };
-    static const struct option longopts[] = {
-        {"klems", optional_argument, NULL, O_KLEMS}, {"only", required_argument, NULL, O_ONLY},
-        {"channels", required_argument, NULL, O_CHANNELS},
-        {"precision", required_argument, NULL, O_PRECISION},
-        {"drop-tol", required_argument, NULL, O_DROP}, {"reduce", required_argument, NULL, O_REDUCE},
-        {"no-reduce", no_argument, NULL, O_NOREDUCE}, {"dense", no_argument, NULL, O_DENSE},
-        {"strict", no_argument, NULL, O_STRICT}, {"per-channel", no_argument, NULL, O_PERCH},
-        {"help", no_argument, NULL, O_HELP}, {NULL, 0, NULL, 0}};
-    const char *sub = "batch", *channels = NULL;
-    struct cli_basis_choice basis = {0, NULL};
-    double reduce = 90.0;
-    int per_channel = 0, c;
-    bst_stack_opts so;
-    bst_stack_opts_init(&so);
+    enum { O_HELP = CLI_O_OWN };
+    static const struct option longopts[] = {CLI_STACK_LONGOPTS, {"help", no_argument, NULL, O_HELP},
+                                             {NULL, 0, NULL, 0}};
+    const char *sub = "batch";
+    struct cli_stack_args args;
+    cli_stack_args_init(&args);
+    int c;
     optind = 1;
     opterr = 0;
     while ((c = getopt_long(argc, argv, ":k:h", longopts, NULL)) != -1) {
+        int shared = cli_stack_option(sub, c, optarg, &args);
+        if (shared == CLI_USAGE)
+            return CLI_USAGE;
+        if (shared == CLI_OK)
+            continue;
         switch (c) {
-        case 'k':
-        case O_KLEMS:
-            if (cli_parse_basis_option(sub, c == 'k' ? 'k' : 'K', optarg, &basis) != CLI_OK)
-                return CLI_USAGE;
-            break;
-        case O_ONLY:
-            if (cli_parse_comps(sub, optarg, &so.comps) != CLI_OK)
-                return CLI_USAGE;
-            break;
-        case O_CHANNELS: channels = optarg; break;
-        case O_PRECISION:
-            if (cli_parse_precision(sub, optarg, &so.precision) != CLI_OK)
-                return CLI_USAGE;
-            break;
-        case O_DROP:
-            if (cli_parse_double(optarg, &so.drop_tol) || so.drop_tol < 0 || so.drop_tol >= 1)
-                return cli_usage(sub, "--drop-tol %s: a number in [0, 1) is required", optarg);
-            break;
-        case O_REDUCE:
-            if (cli_parse_double(optarg, &reduce) || reduce < 0 || reduce >= 100)
-                return cli_usage(sub, "--reduce %s: a percentile in [0, 100) is required", optarg);
-            break;
-        case O_NOREDUCE: reduce = -1; break;
-        case O_DENSE: so.force_dense = 1; break;
-        case O_STRICT: so.strict = 1; break;
-        case O_PERCH: per_channel = 1; break;
         case 'h':
         case O_HELP: fputs(help, stdout); return CLI_OK;
         case ':': return cli_usage(sub, "option %s needs a value", argv[optind - 1]);
@@ -261,10 +231,12 @@ int cmd_batch(int argc, char **argv)
     struct cli_layers all;
     memset(&all, 0, sizeof all);
     if (rc == CLI_OK)
-        rc = cli_layers_load(&all, ctx, sub, nspecs, specs, &basis, channels, 0, so.precision);
+        rc = cli_layers_load(&all, ctx, sub, nspecs, specs, &args.basis, args.channels, 0,
+                             args.so.precision);
     size_t failed = 0;
     for (size_t i = 0; rc == CLI_OK && i < nlines; i++)
-        if (run_stack(ctx, sub, path, &lines[i], &all, specs, &so, per_channel, reduce, argc, argv) != CLI_OK) {
+        if (run_stack(ctx, sub, path, &lines[i], &all, specs, &args.so, args.per_channel, args.reduce,
+                      argc, argv) != CLI_OK) {
             failed++;
             bst_ctx_clear(ctx);
         }

@@ -130,80 +130,30 @@ static int write_absorptance(bst_ctx *ctx, const char *sub, const char *path,
     return rc;
 }
 
-/* Dense layer components stored at the working precision: in single precision the layers then
- * take half the memory and the combination makes no converted copies of them. */
-static int layers_to_precision(bst_ctx *ctx, const char *sub, struct cli_layers *set, bst_precision p)
-{
-    for (size_t i = 0; i < set->n; i++)
-        for (size_t ch = 0; ch < bst_layer_nchannels(set->layers[i]); ch++)
-            for (int c = 0; c < BST_NCOMP; c++) {
-                const bst_mat *m = bst_layer_get(set->layers[i], ch, (bst_comp)c);
-                bst_mat *conv;
-                if (!m || bst_mat_structure(m) != BST_DENSE || bst_mat_precision(m) == p)
-                    continue;
-                if (bst_mat_convert(ctx, m, BST_DENSE, p, &conv) < 0)
-                    return cli_fail_ctx(sub, "converting a layer's precision", ctx);
-                bst_mat_free(bst_layer_take(set->layers[i], ch, (bst_comp)c));
-                if (bst_layer_set(ctx, set->layers[i], ch, (bst_comp)c, conv) < 0)
-                    return cli_fail_ctx(sub, "converting a layer's precision", ctx);
-            }
-    return CLI_OK;
-}
-
 int cmd_combine(int argc, char **argv)
 {
-    enum { O_KLEMS = 256, O_ONLY, O_CHANNELS, O_PRECISION, O_DROP, O_REDUCE, O_NOREDUCE, O_DENSE,
-           O_ABS, O_STRICT, O_PERCH, O_HELP };
+    enum { O_ABS = CLI_O_OWN, O_HELP };
     static const struct option longopts[] = {
-        {"klems", optional_argument, NULL, O_KLEMS}, {"only", required_argument, NULL, O_ONLY},
-        {"channels", required_argument, NULL, O_CHANNELS},
-        {"precision", required_argument, NULL, O_PRECISION},
-        {"drop-tol", required_argument, NULL, O_DROP}, {"reduce", required_argument, NULL, O_REDUCE},
-        {"no-reduce", no_argument, NULL, O_NOREDUCE}, {"dense", no_argument, NULL, O_DENSE},
-        {"absorptance", required_argument, NULL, O_ABS}, {"strict", no_argument, NULL, O_STRICT},
-        {"per-channel", no_argument, NULL, O_PERCH},
+        CLI_STACK_LONGOPTS, {"absorptance", required_argument, NULL, O_ABS},
         {"help", no_argument, NULL, O_HELP}, {NULL, 0, NULL, 0}};
     const char *sub = "combine";
-    struct cli_basis_choice basis = {0};
-    const char *outpath = NULL, *channels = NULL, *abspath = NULL;
-    double reduce = 90.0;
-    int verbose = 0, per_channel = 0;
-    bst_stack_opts so;
-    bst_stack_opts_init(&so);
+    const char *outpath = NULL, *abspath = NULL;
+    int verbose = 0;
+    struct cli_stack_args args;
+    cli_stack_args_init(&args);
     optind = 1;
     opterr = 0;
     int c;
     while ((c = getopt_long(argc, argv, ":k:o:vh", longopts, NULL)) != -1) {
+        int shared = cli_stack_option(sub, c, optarg, &args);
+        if (shared == CLI_USAGE)
+            return CLI_USAGE;
+        if (shared == CLI_OK)
+            continue;
         switch (c) {
-        case 'k':
-        case O_KLEMS:
-            if (cli_parse_basis_option(sub, c == 'k' ? 'k' : 'K', optarg, &basis) != CLI_OK)
-                return CLI_USAGE;
-            break;
-        case O_ONLY:
-            if (cli_parse_comps(sub, optarg, &so.comps) != CLI_OK)
-                return CLI_USAGE;
-            break;
-        case O_CHANNELS: channels = optarg; break;
-        case O_PRECISION:
-            if (cli_parse_precision(sub, optarg, &so.precision) != CLI_OK)
-                return CLI_USAGE;
-            break;
-        case O_DROP:
-            if (cli_parse_double(optarg, &so.drop_tol) || so.drop_tol < 0 || so.drop_tol >= 1)
-                return cli_usage(sub, "--drop-tol %s: a number in [0, 1) is required", optarg);
-            break;
-        case O_REDUCE:
-            if (cli_parse_double(optarg, &reduce) || reduce < 0 || reduce >= 100)
-                return cli_usage(sub, "--reduce %s: a percentile in [0, 100) is required", optarg);
-            break;
-        case O_NOREDUCE: reduce = -1; break;
-        case O_DENSE: so.force_dense = 1; break;
-        case O_ABS: abspath = optarg; break;
-        case O_STRICT: so.strict = 1; break;
-        case O_PERCH: per_channel = 1; break;
-        case 'v': verbose = 1; break;
         case 'o': outpath = optarg; break;
+        case O_ABS: abspath = optarg; break;
+        case 'v': verbose = 1; break;
         case 'h':
         case O_HELP: fputs(help, stdout); return CLI_OK;
         case ':': return cli_usage(sub, "option %s needs a value", argv[optind - 1]);
@@ -215,15 +165,15 @@ int cmd_combine(int argc, char **argv)
     if (argc - optind < 1)
         return cli_usage(sub, "no layers given");
     if (verbose)
-        so.on_step = verbose_step;
+        args.so.on_step = verbose_step;
 
     bst_ctx *ctx = cli_ctx_new(sub);
     if (!ctx)
         return CLI_FAIL;
     struct cli_layers set;
     double t0 = now_s();
-    int rc = cli_layers_load(&set, ctx, sub, (size_t)(argc - optind), argv + optind, &basis,
-                             channels, 0, so.precision);
+    int rc = cli_layers_load(&set, ctx, sub, (size_t)(argc - optind), argv + optind, &args.basis,
+                             args.channels, 0, args.so.precision);
     if (rc == CLI_OK && verbose) {
         char what[96];
         snprintf(what, sizeof what, "read %zu layer%s onto %zu patches", set.n, set.n == 1 ? "" : "s",
@@ -232,7 +182,7 @@ int cmd_combine(int argc, char **argv)
     }
     bst_layer *sys = NULL;
     double *abs[2] = {NULL, NULL};
-    int spectral = rc == CLI_OK && !per_channel && set.npanes == set.n;
+    int spectral = rc == CLI_OK && !args.per_channel && set.npanes == set.n;
     if (rc == CLI_OK && abspath) {
         size_t sz = bst_layer_nchannels(set.layers[0]) * set.n * bst_basis_size(set.basis);
         abs[0] = malloc(2 * sz * sizeof(double));
@@ -240,23 +190,22 @@ int cmd_combine(int argc, char **argv)
         if (!abs[0])
             rc = cli_fail(sub, "out of memory");
     }
-    if (rc == CLI_OK && so.precision == BST_FLOAT)
-        rc = layers_to_precision(ctx, sub, &set, BST_FLOAT);
     if (rc == CLI_OK)
-        rc = cli_note_spectral(sub, &set, spectral, per_channel);
+        rc = cli_note_spectral(sub, &set, spectral, args.per_channel);
     if (rc == CLI_OK && spectral) {
-        rc = cli_combine_spectral(ctx, sub, &set, &so, abs, &sys);
+        rc = cli_combine_spectral(ctx, sub, &set, &args.so, abs, &sys);
     } else if (rc == CLI_OK) {
         /* without --absorptance the layers die with the combination: let it free each component
          * at its last use (a pane and a dense layer at k = 7: 12 instead of 20 GiB in double) */
-        int st = abspath ? bst_stack_combine(ctx, set.n, (const bst_layer *const *)set.layers, &so, &sys)
-                         : bst_stack_combine_consume(ctx, set.n, set.layers, &so, &sys);
+        const bst_stack_opts *so = &args.so;
+        int st = abspath ? bst_stack_combine(ctx, set.n, (const bst_layer *const *)set.layers, so, &sys)
+                         : bst_stack_combine_consume(ctx, set.n, set.layers, so, &sys);
         if (st < 0)
             rc = cli_fail_ctx(sub, "combining", ctx);
         else
             cli_warn_ctx(sub, NULL, st, ctx);
         if (rc == CLI_OK && abspath)
-            rc = absorptance(ctx, sub, &set, sys, &so, abs);
+            rc = absorptance(ctx, sub, &set, sys, &args.so, abs);
     }
     if (rc == CLI_OK && abspath)
         rc = write_absorptance(ctx, sub, abspath, &set, sys, abs);
@@ -268,7 +217,7 @@ int cmd_combine(int argc, char **argv)
     }
     t0 = now_s();
     if (rc == CLI_OK)
-        rc = cli_write_layer(ctx, sub, sys, outpath, reduce, argc, argv, &set);
+        rc = cli_write_layer(ctx, sub, sys, outpath, args.reduce, argc, argv, &set);
     struct stat st_out;
     if (rc == CLI_OK && verbose) {
         char what[64] = "wrote the result";

@@ -102,17 +102,13 @@ int cmd_compare(int argc, char **argv)
             if ((rc = cli_parse_comps(sub, optarg, &comps)) != CLI_OK)
                 return rc;
             break;
-        case 'i': {
-            double t, p;
-            char extra;
+        case 'i':
             if (ndirs == MAX_DIRS)
                 return cli_usage(sub, "--incident: at most %d directions", MAX_DIRS);
-            if (sscanf(optarg, "%lf,%lf%c", &t, &p, &extra) != 2 || !isfinite(t) || !isfinite(p) ||
-                t < 0 || t >= 90)
-                return cli_usage(sub, "--incident %s: give THETA,PHI in degrees, 0 <= THETA < 90", optarg);
-            dirs[ndirs][0] = t, dirs[ndirs][1] = p, ndirs++;
+            if ((rc = cli_parse_incident(sub, optarg, dirs[ndirs])) != CLI_OK)
+                return rc;
+            ndirs++;
             break;
-        }
         case 'f':
             if (cli_parse_double(optarg, &fail_below) != 0 || fail_below < 0 || fail_below > 100)
                 return cli_usage(sub, "--fail-below %s: give a GA between 0 and 100", optarg);

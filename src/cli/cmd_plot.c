@@ -88,7 +88,7 @@ int cmd_plot(int argc, char **argv)
                                              {NULL, 0, NULL, 0}};
     const char *sub = "plot", *channel = NULL, *outpath = NULL, *format = NULL;
     int comp = BST_TF, dsf = 0, linear = 0, angle = 0, size = 480, c, have_decades = 0;
-    double theta = 0, phi = 0, decades = 4, rmin = NAN, rmax = NAN;
+    double incident[2] = {0, 0}, decades = 4, rmin = NAN, rmax = NAN;
     optind = 1;
     opterr = 0;
     while ((c = getopt_long(argc, argv, ":ho:", longopts, NULL)) != -1) {
@@ -99,9 +99,8 @@ int cmd_plot(int argc, char **argv)
                 return cli_usage(sub, "--comp %s: use Tf, Rf, Tb or Rb", optarg);
             break;
         case 'i':
-            if (sscanf(optarg, "%lf,%lf%c", &theta, &phi, &extra) != 2 || !isfinite(theta) ||
-                !isfinite(phi) || theta < 0 || theta >= 90)
-                return cli_usage(sub, "--incident %s: give THETA,PHI in degrees, 0 <= THETA < 90", optarg);
+            if (cli_parse_incident(sub, optarg, incident) != CLI_OK)
+                return CLI_USAGE;
             break;
         case 'c': channel = optarg; break;
         case 'D': dsf = 1; break;
@@ -185,6 +184,7 @@ int cmd_plot(int argc, char **argv)
     }
     /* incidence side: front (Tf, Rf) light travels towards +Z; in points back at the source */
     int front = comp == BST_TF || comp == BST_RF;
+    double theta = incident[0], phi = incident[1];
     double t = theta * M_PI / 180, f = phi * M_PI / 180;
     double prop[3] = {sin(t) * cos(f), sin(t) * sin(f), (front ? 1 : -1) * cos(t)};
     p.in[0] = -prop[0], p.in[1] = -prop[1], p.in[2] = -prop[2];

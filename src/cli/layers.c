@@ -36,6 +36,37 @@ int cli_parse_basis_option(const char *sub, int opt, const char *value, struct c
     return CLI_OK;
 }
 
+void cli_stack_args_init(struct cli_stack_args *a)
+{
+    memset(a, 0, sizeof *a);
+    a->reduce = 90.0;
+    bst_stack_opts_init(&a->so);
+}
+
+int cli_stack_option(const char *sub, int c, const char *arg, struct cli_stack_args *a)
+{
+    switch (c) {
+    case 'k':
+    case CLI_O_KLEMS: return cli_parse_basis_option(sub, c == 'k' ? 'k' : 'K', arg, &a->basis);
+    case CLI_O_ONLY: return cli_parse_comps(sub, arg, &a->so.comps);
+    case CLI_O_CHANNELS: a->channels = arg; return CLI_OK;
+    case CLI_O_PRECISION: return cli_parse_precision(sub, arg, &a->so.precision);
+    case CLI_O_DROP:
+        if (cli_parse_double(arg, &a->so.drop_tol) || a->so.drop_tol < 0 || a->so.drop_tol >= 1)
+            return cli_usage(sub, "--drop-tol %s: a number in [0, 1) is required", arg);
+        return CLI_OK;
+    case CLI_O_REDUCE:
+        if (cli_parse_double(arg, &a->reduce) || a->reduce < 0 || a->reduce >= 100)
+            return cli_usage(sub, "--reduce %s: a percentile in [0, 100) is required", arg);
+        return CLI_OK;
+    case CLI_O_NOREDUCE: a->reduce = -1; return CLI_OK;
+    case CLI_O_DENSE: a->so.force_dense = 1; return CLI_OK;
+    case CLI_O_STRICT: a->so.strict = 1; return CLI_OK;
+    case CLI_O_PERCH: a->per_channel = 1; return CLI_OK;
+    default: return -1;
+    }
+}
+
 void cli_layers_free(struct cli_layers *set)
 {
     if (!set)

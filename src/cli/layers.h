@@ -24,6 +24,32 @@ struct cli_layers {
 /* Parse -k VALUE (opt 'k') or --klems[=WHICH] (opt 'K') into choice; CLI_OK or a usage error. */
 int cli_parse_basis_option(const char *sub, int opt, const char *value, struct cli_basis_choice *choice);
 
+/* The options `combine` and `batch` share, parsed in one place: -k (short option 'k') and the
+ * long options below, listed in a getopt_long table by CLI_STACK_LONGOPTS; a command's own long
+ * options start at CLI_O_OWN. */
+enum { CLI_O_KLEMS = 256, CLI_O_ONLY, CLI_O_CHANNELS, CLI_O_PRECISION, CLI_O_DROP, CLI_O_REDUCE,
+       CLI_O_NOREDUCE, CLI_O_DENSE, CLI_O_STRICT, CLI_O_PERCH, CLI_O_OWN };
+#define CLI_STACK_LONGOPTS                                                                         \
+    {"klems", optional_argument, NULL, CLI_O_KLEMS}, {"only", required_argument, NULL, CLI_O_ONLY},  \
+    {"channels", required_argument, NULL, CLI_O_CHANNELS},                                          \
+    {"precision", required_argument, NULL, CLI_O_PRECISION},                                        \
+    {"drop-tol", required_argument, NULL, CLI_O_DROP},                                              \
+    {"reduce", required_argument, NULL, CLI_O_REDUCE},                                              \
+    {"no-reduce", no_argument, NULL, CLI_O_NOREDUCE}, {"dense", no_argument, NULL, CLI_O_DENSE},     \
+    {"strict", no_argument, NULL, CLI_O_STRICT}, {"per-channel", no_argument, NULL, CLI_O_PERCH}
+
+struct cli_stack_args {
+    struct cli_basis_choice basis;
+    const char *channels; /* --channels, or NULL */
+    double reduce;        /* --reduce percentile, -1 for --no-reduce (default 90) */
+    int per_channel;      /* --per-channel */
+    bst_stack_opts so;    /* --only, --precision, --drop-tol, --dense, --strict */
+};
+void cli_stack_args_init(struct cli_stack_args *a);
+/* Option c with value arg: CLI_OK when it is one of the shared options and parsed, a usage error
+ * (printed) when its value is wrong, -1 when c is not one of them. */
+int cli_stack_option(const char *sub, int c, const char *arg, struct cli_stack_args *a);
+
 /* Load every layer spec over the basis chosen by `choice` (or the default: the finest tensor-tree
  * order among the files, else the Klems basis of a Klems file, else Shirley-Chiu k = 5).
  * channels: comma-separated names or NULL; comps: the components to read from files (BST_COMP_BIT
