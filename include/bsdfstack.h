@@ -353,7 +353,7 @@ int bst_accordance(bst_ctx *ctx, const bst_layer *a, const bst_layer *b, size_t 
 int bst_accordance_all(bst_ctx *ctx, const bst_layer *a, const bst_layer *b, size_t ch, bst_comp c,
                        double *ga, double *fa);
 
-/* ---------------------------------------------------------------- BSDF XML reader (xml, ttree) */
+/* ---------------------------------------------------------------- BSDF XML reader (xml, ttree, resample) */
 
 /* A BSDF XML file as stored: Klems matrices or RADIANCE tensor trees (rank 3 or 4), per spectral
  * channel and component.  The reader streams the file (SAX), never holding its text, and keeps
@@ -391,12 +391,14 @@ int bst_bsdf_eval(bst_ctx *ctx, const bst_bsdf *b, size_t ch, const double in[3]
  * bst_bsdf_order for trees).  Tensor trees at their own or a coarser order are averaged exactly
  * (finer orders replicate); rank-3 trees are averaged over 2 x 2 incident x 3 x 3 outgoing points
  * per cell (2^j times as many per side in a cell 2^j times wider than the tree's or order 5's
- * cells; a point on a cell boundary takes the mean of the cells there); Klems -> Shirley-Chiu
- * maps cells by their centres with weights that keep every incident patch's hemispherical
- * totals; Shirley-Chiu -> Klems (trees on their own grid, Klems
- * files via order 6) averages by the overlaps of cells and patches, so every incident patch keeps
- * the average of its directions' hemispherical totals.  Each component lands in its cheapest
- * structure. */
+ * cells; a point on a cell boundary takes the mean of the cells there).  Klems patches and
+ * Shirley-Chiu cells meet by their exact overlaps, in both directions and on both sides:
+ * Klems -> Shirley-Chiu gives each pair of cells the mean of the Klems BSDF over them, so every
+ * incident cell's directional-hemispherical values are the overlap-weighted mean of its patches'
+ * (no light lost or made at any order); Shirley-Chiu -> Klems (trees on their own grid, Klems
+ * files via order 6) gives every incident patch the mean of its directions' hemispherical values.
+ * Where a cell straddles patches, a round trip Klems -> tree -> Klems smooths: see
+ * bsdfstack-convert(1).  Each component lands in its cheapest structure. */
 int bst_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target, bst_layer **out);
 /* The same with dense components stored in precision prec: BST_FLOAT halves their memory, and the
  * double copy is never made (diagonal and sparse components stay double).  Peak while converting

@@ -1,0 +1,548 @@
+/* resample.c - a BSDF file's components on the basis a stack works in.
+ *
+ * Tensor trees of rank 4 lie on Shirley-Chiu grids already (ttree.c averages or replicates them
+ * onto another order); rank-3 trees are expanded by sampling (expand3); Klems files and the Klems
+ * output basis meet the Shirley-Chiu grid through one table of exact cell/patch overlaps
+ * (bsti_overlap), which both directions use, so light is neither lost nor made where a patch
+ * boundary cuts a cell.  Conventions: resample.h, basis.h. */
+#include <config.h>
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "basis.h"
+#include "bsdf.h"
+#include "ctx.h"
+#include "layer.h"
+#include "mat.h"
+#include "resample.h"
+#include "ttree.h"
+
+/* Sample points per cell when a rank-3 tree is expanded (DESIGN.md 1). */
+#define TT3_IN_SAMPLES 2
+#define TT3_OUT_SAMPLES 3
+/* Order of the Shirley-Chiu grid through which a Klems file goes to another Klems basis (trees go
+ * through their own order, which holds them exactly). */
+#define KLEMS_VIA_ORDER 6
+
+/* ------------------------------------------------------------------ cell/patch overlaps */
+
+/* Exact overlap of Shirley-Chiu cells and Klems patches.  The concentric map preserves area and
+ * sends a circle sin(theta) = r to the square ring max(|a|, |b|) = r and, inside each of its four
+ * wedges, an azimuth to a ray through the centre ((a, b) = 2 (sx, sy) - 1; in wedge w, turned by
+ * -w 90 degrees into (u, v): u = r, v = r (phi - w pi/2) / (pi/4)).  So the part of a Klems patch
+ * inside a wedge is the trapezoid r0 <= u <= r1, t0 u <= v <= t1 u, and its overlap with a cell
+ * (an axis-parallel square) is a convex polygon clip. */
+struct kpiece {
+    size_t patch;
+    int wedge;
+    double r0, r1, t0, t1;
+};
+
+/* Clip the polygon (x[i], y[i]), n vertices, by alpha x + beta y + gamma >= 0. */
+static int clip(double *x, double *y, int n, double alpha, double beta, double gamma)
+{
+    double ox[16], oy[16];
+    int m = 0;
+    for (int i = 0; i < n; i++) {
+        int j = (i + 1) % n;
+        double di = alpha * x[i] + beta * y[i] + gamma, dj = alpha * x[j] + beta * y[j] + gamma;
+        if (di >= 0)
+            ox[m] = x[i], oy[m++] = y[i];
+        if ((di >= 0) != (dj >= 0) && m < 16) {
+            double t = di / (di - dj);
+            ox[m] = x[i] + t * (x[j] - x[i]), oy[m++] = y[i] + t * (y[j] - y[i]);
+        }
+    }
+    memcpy(x, ox, (size_t)m * sizeof *x);
+    memcpy(y, oy, (size_t)m * sizeof *y);
+    return m;
+}
+
+/* Area (in (a, b) units) of cell [a0, a1] x [b0, b1] inside piece pc. */
+static double piece_overlap(const struct kpiece *pc, double a0, double a1, double b0, double b1)
+{
+    double ca[4] = {a0, a1, a1, a0}, cb[4] = {b0, b0, b1, b1}, x[16], y[16];
+    for (int i = 0; i < 4; i++) {
+        double a = ca[i], b = cb[i];
+        switch (pc->wedge) { /* turn by -w 90 degrees */
+        case 0: x[i] = a, y[i] = b; break;
+        case 1: x[i] = b, y[i] = -a; break;
+        case 2: x[i] = -a, y[i] = -b; break;
+        default: x[i] = -b, y[i] = a; break;
+        }
+    }
+    int n = 4;
+    double umin = fmin(fmin(x[0], x[1]), fmin(x[2], x[3])), umax = fmax(fmax(x[0], x[1]), fmax(x[2], x[3]));
+    if (umax <= pc->r0 || umin >= pc->r1)
+        return 0.0;
+    n = clip(x, y, n, 1, 0, -pc->r0);
+    if (n)
+        n = clip(x, y, n, -1, 0, pc->r1);
+    if (n)
+        n = clip(x, y, n, -pc->t0, 1, 0);
+    if (n)
+        n = clip(x, y, n, pc->t1, -1, 0);
+    double area = 0.0;
+    for (int i = 0; i < n; i++) {
+        int j = (i + 1) % n;
+        area += x[i] * y[j] - x[j] * y[i];
+    }
+    return fabs(area) / 2;
+}
+
+
+/* The trapezoids of every patch of kb: at most 4 per patch (a patch spanning all azimuths). */
+static size_t klems_pieces(const bst_basis *kb, struct kpiece *pc)
+{
+    size_t np = 0;
+    for (size_t band = 0; band < kb->nbands; band++) {
+        int n = kb->nphi[band];
+        double r0 = sin(kb->theta[band] * M_PI / 180), r1 = sin(kb->theta[band + 1] * M_PI / 180);
+        for (int j = 0; j < n; j++) {
+            double lo = 2 * M_PI * (j - 0.5) / n, hi = 2 * M_PI * (j + 0.5) / n;
+            if (n == 1)
+                lo = -M_PI / 4, hi = 7 * M_PI / 4;
+            for (int w = 0; w < 4; w++)
+                for (int shift = -1; shift <= 1; shift++) {
+                    double wl = w * M_PI / 2 - M_PI / 4 + shift * 2 * M_PI, wh = wl + M_PI / 2;
+                    double a = fmax(lo, wl), b = fmin(hi, wh);
+                    if (b - a <= 1e-12)
+                        continue;
+                    double c = wl + M_PI / 4; /* wedge centre */
+                    pc[np++] = (struct kpiece){kb->first[band] + (size_t)j, w, r0, r1,
+                                               (a - c) / (M_PI / 4), (b - c) / (M_PI / 4)};
+                }
+        }
+    }
+    return np;
+}
+
+
+void bsti_overlap_free(bsti_overlap *ov)
+{
+    if (!ov)
+        return;
+    bsti_free(ov->ctx, ov->first), bsti_free(ov->ctx, ov->patch), bsti_free(ov->ctx, ov->w);
+    bsti_free(ov->ctx, ov->area), bsti_free(ov->ctx, ov);
+}
+
+int bsti_overlap_new(bst_ctx *ctx, int k, const bst_basis *kb, bsti_overlap **out)
+{
+    *out = NULL;
+    if (k < BST_K_MIN || k > BST_K_MAX || !kb || kb->kind != BST_BASIS_KLEMS)
+        return bsti_error(ctx, BST_EINVAL, "overlap: needs a Shirley-Chiu order %d..%d and a Klems basis",
+                          BST_K_MIN, BST_K_MAX);
+    size_t G = (size_t)1 << k, n = G * G, nk = kb->n, maxp = 0;
+    for (size_t band = 0; band < kb->nbands; band++)
+        maxp += 4 * (size_t)kb->nphi[band];
+    bsti_overlap *ov = bsti_calloc(ctx, 1, sizeof *ov);
+    struct kpiece *pc = bsti_alloc_array(ctx, maxp, sizeof *pc);
+    size_t cap = 2 * n + nk;
+    if (ov) {
+        ov->ctx = ctx, ov->k = k, ov->n = n, ov->nk = nk;
+        ov->first = bsti_alloc_array(ctx, n + 1, sizeof *ov->first);
+        ov->patch = bsti_alloc_array(ctx, cap, sizeof *ov->patch);
+        ov->w = bsti_alloc_array(ctx, cap, sizeof *ov->w);
+        ov->area = bsti_calloc(ctx, nk, sizeof *ov->area);
+    }
+    if (!ov || !pc || !ov->first || !ov->patch || !ov->w || !ov->area) {
+        bsti_free(ctx, pc), bsti_overlap_free(ov);
+        return BST_ENOMEM;
+    }
+    size_t npc = klems_pieces(kb, pc), ne = 0;
+    double side = 2.0 / (double)G, cell = side * side;
+    for (size_t c = 0; c < n; c++) {
+        ov->first[c] = ne;
+        double a0 = side * (double)(c / G) - 1, b0 = side * (double)(c % G) - 1;
+        for (size_t q = 0; q < npc; q++) {
+            double f = piece_overlap(&pc[q], a0, a0 + side, b0, b0 + side) / cell;
+            if (f <= 1e-14)
+                continue;
+            size_t e = ov->first[c];
+            while (e < ne && ov->patch[e] != pc[q].patch)
+                e++;
+            if (e == ne) {
+                if (ne == cap) {
+                    size_t *np2 = bsti_alloc_array(ctx, 2 * cap, sizeof *np2);
+                    double *nw = bsti_alloc_array(ctx, 2 * cap, sizeof *nw);
+                    if (!np2 || !nw) {
+                        bsti_free(ctx, np2), bsti_free(ctx, nw), bsti_free(ctx, pc), bsti_overlap_free(ov);
+                        return BST_ENOMEM;
+                    }
+                    memcpy(np2, ov->patch, ne * sizeof *np2), memcpy(nw, ov->w, ne * sizeof *nw);
+                    bsti_free(ctx, ov->patch), bsti_free(ctx, ov->w);
+                    ov->patch = np2, ov->w = nw, cap *= 2;
+                }
+                ov->patch[ne] = pc[q].patch, ov->w[ne++] = 0.0;
+            }
+            ov->w[e] += f;
+        }
+        for (size_t e = ov->first[c]; e < ne; e++)
+            ov->area[ov->patch[e]] += ov->w[e];
+    }
+    ov->first[n] = ne;
+    bsti_free(ctx, pc);
+    for (size_t p = 0; p < nk; p++)
+        if (ov->area[p] == 0.0) {
+            bsti_overlap_free(ov);
+            return bsti_error(ctx, BST_EBASIS, "Klems patch %zu overlaps no cell of the Shirley-Chiu "
+                              "grid of order %d", p, k);
+        }
+    *out = ov;
+    return BST_OK;
+}
+
+int bsti_klems_to_sc(bst_ctx *ctx, const bsti_overlap *ov, const double *km, double *m)
+{
+    size_t n = ov->n, nk = ov->nk;
+    const size_t *first = ov->first, *patch = ov->patch;
+    const double *w = ov->w;
+    double *kw = bsti_alloc_array(ctx, nk, sizeof *kw);
+    if (!kw)
+        return BST_ENOMEM;
+    for (size_t i = 0; i < n; i++) {
+        for (size_t q = 0; q < nk; q++) { /* column i of K W^T */
+            double s = 0.0;
+            for (size_t e = first[i]; e < first[i + 1]; e++)
+                s += w[e] * km[q + nk * patch[e]];
+            kw[q] = s;
+        }
+        double *col = m + n * i;
+        for (size_t o = 0; o < n; o++) {
+            double s = 0.0;
+            for (size_t e = first[o]; e < first[o + 1]; e++)
+                s += w[e] * kw[patch[e]];
+            col[o] = s;
+        }
+        if (n >= 4096 && (i + 1) % 256 == 0)
+            bsti_progress(ctx, (double)(i + 1) / (double)n, "resampling a Klems matrix");
+    }
+    bsti_free(ctx, kw);
+    return BST_OK;
+}
+
+int bsti_sc_to_klems(bst_ctx *ctx, const bsti_overlap *ov, const double *m, const bst_basis *kb, double *out)
+{
+    size_t n = ov->n, nk = ov->nk;
+    const size_t *first = ov->first, *patch = ov->patch;
+    const double *w = ov->w, *lk = bst_basis_lambda(kb), lsc = M_PI / (double)n;
+    double *row = bsti_alloc_array(ctx, nk, sizeof *row);
+    if (!row)
+        return BST_ENOMEM;
+    memset(out, 0, nk * nk * sizeof *out);
+    for (size_t i = 0; i < n; i++) {
+        memset(row, 0, nk * sizeof *row); /* flux of incident cell i into each outgoing patch */
+        const double *col = m + n * i;
+        for (size_t o = 0; o < n; o++)
+            if (col[o] != 0.0)
+                for (size_t e = first[o]; e < first[o + 1]; e++)
+                    row[patch[e]] += col[o] * w[e];
+        for (size_t e = first[i]; e < first[i + 1]; e++) {
+            double wi = w[e] / ov->area[patch[e]];
+            double *dst = out + nk * patch[e];
+            for (size_t q = 0; q < nk; q++)
+                dst[q] += row[q] * wi * lsc / lk[q];
+        }
+        if (n >= 4096 && (i + 1) % 256 == 0)
+            bsti_progress(ctx, (double)(i + 1) / (double)n, "averaging onto Klems patches");
+    }
+    bsti_free(ctx, row);
+    return BST_OK;
+}
+
+/* ------------------------------------------------------------------ rank-3 trees */
+
+/* A rank-3 tree on the Shirley-Chiu grid of order k, M[o + N i] as bsti_ttree_expand4 lays it
+ * out: the average over TT3_IN_SAMPLES^2 points of incident cell i and TT3_OUT_SAMPLES^2 points of
+ * outgoing cell o of the tree at (sin(theta_in) on the lower half of p0, the exit point turned by
+ * -phi_in).  A cell coarser than both the tree's and order 5's gets 2^j times as many points per
+ * side, 2^j being how much wider it is: 2 x 2 x 3 x 3 points in a cell 4 tree cells wide miss a
+ * peaked distribution's cell mean by up to 5 % of its light (tests/test_xml.c).
+ * The tree is first laid on a grid of its own finest cells (a lookup there is the tree's lookup),
+ * and sample points are kept in polar form, so a turn is a subtraction; a point on a cell
+ * boundary takes the mean of the cells there (bsti_sc_polar_cells).  The result is invariant
+ * under quarter turns of both cells (the concentric map commutes with them and the sample points
+ * of a cell turn into those of the turned cell), so only incident cells of one quadrant are
+ * computed and the other three columns are copied. */
+static int expand3(bst_ctx *ctx, const bsti_ttree *t, int k, double *m)
+{
+    size_t G = (size_t)1 << k, n = G * G;
+    size_t gd = (size_t)1 << t->depth, h0 = gd > 1 ? gd / 2 : 1;
+    /* cells coarser than the tree's get proportionally more points, up to those of order 5 */
+    int fine = (t->depth < 5 ? t->depth : 5) - k;
+    size_t f = fine > 0 ? (size_t)1 << fine : 1;
+    size_t S = TT3_IN_SAMPLES * f, T = TT3_OUT_SAMPLES * f, ni = S * S, no = T * T;
+    float *grid = bsti_alloc_array(ctx, h0 * gd * gd, sizeof *grid);
+    double *pin = NULL, *pol = NULL;
+    if (!grid || bsti_sc_cell_points(ctx, G, S, &pin) < 0 || bsti_sc_cell_points(ctx, G, T, &pol) < 0) {
+        bsti_free(ctx, grid), bsti_free(ctx, pin), bsti_free(ctx, pol);
+        return BST_ENOMEM;
+    }
+    for (size_t i0 = 0; i0 < h0; i0++) /* p0 < 1/2 only: sin(theta_in) lies there */
+        for (size_t q = 0; q < gd * gd; q++) {
+            double p[3] = {(i0 + 0.5) / gd, (q / gd + 0.5) / gd, (q % gd + 0.5) / gd};
+            grid[i0 * gd * gd + q] = (float)bsti_ttree_eval(t, p);
+        }
+    size_t lo = G > 1 ? G / 2 : 0, done = 0, todo = (G - lo) * (G - lo);
+    for (size_t ix = lo; ix < G; ix++)
+        for (size_t iy = lo; iy < G; iy++) {
+            size_t i = ix * G + iy;
+            double *col = m + n * i;
+            memset(col, 0, n * sizeof *col);
+            for (size_t si = 0; si < ni; si++) {
+                double r = pin[2 * (i * ni + si)], phi = pin[2 * (i * ni + si) + 1];
+                size_t i0 = (size_t)((0.5 - 1e-6 - 0.5 * r) * (double)gd);
+                const float *slab = grid + (i0 < h0 ? i0 : h0 - 1) * gd * gd;
+                for (size_t o = 0; o < n; o++) {
+                    const double *po = pol + 2 * o * no;
+                    double sum = 0;
+                    for (size_t s = 0; s < no; s++) {
+                        size_t cells[4];
+                        int nc = bsti_sc_polar_cells(po[2 * s], po[2 * s + 1] - phi, gd, cells);
+                        double v = 0.0;
+                        for (int j = 0; j < nc; j++)
+                            v += slab[cells[j]];
+                        sum += v / nc;
+                    }
+                    col[o] += sum / (double)(no * ni);
+                }
+            }
+            if (++done % 16 == 0)
+                bsti_progress(ctx, (double)done / (double)todo, "expanding an isotropic tree");
+        }
+    /* the three other quadrants, by quarter turns of both cells */
+    for (size_t ix = lo; G > 1 && ix < G; ix++)
+        for (size_t iy = lo; iy < G; iy++) {
+            const double *src = m + n * (ix * G + iy);
+            for (int turn = 1; turn < 4; turn++) {
+                double *dst = m + n * bsti_sc_turn(ix * G + iy, turn, G);
+                for (size_t o = 0; o < n; o++)
+                    dst[bsti_sc_turn(o, turn, G)] = src[o];
+            }
+        }
+    bsti_free(ctx, grid), bsti_free(ctx, pin), bsti_free(ctx, pol);
+    return BST_OK;
+}
+
+
+/* In place on a Shirley-Chiu matrix (antipode(j) = N - 1 - j): M'[o + N i] = M[a(i) + N a(o)], the
+ * transmission of the other side by reciprocity.  The map swaps pairs, so it is its own inverse. */
+static void antipode_transpose(double *m, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        for (size_t o = 0; o < n; o++) {
+            size_t p = o + n * i, q = (n - 1 - i) + n * (n - 1 - o);
+            if (p < q) {
+                double t = m[p];
+                m[p] = m[q];
+                m[q] = t;
+            }
+        }
+}
+
+
+/* ------------------------------------------------------------------ one file onto one basis */
+
+/* What moving the components of one file onto one basis needs, made once for all of them. */
+struct plan {
+    const bst_bsdf *b;
+    const bst_basis *target;
+    int direct;          /* a Klems file onto its own basis */
+    int kfine;           /* Klems target: order of the grid the file goes through, else 0 */
+    bsti_overlap *in;    /* a Klems file with the grid it lands on (target's or the fine one) */
+    bsti_overlap *out;   /* Klems target: the fine grid with the target's patches */
+    double *fine;        /* Klems target: the component on the fine grid */
+};
+
+static void plan_free(bst_ctx *ctx, struct plan *p)
+{
+    bsti_overlap_free(p->in), bsti_overlap_free(p->out), bsti_free(ctx, p->fine);
+}
+
+static int plan_make(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target, struct plan *p)
+{
+    *p = (struct plan){.b = b, .target = target};
+    int klems = b->kind == BST_FILE_KLEMS, rc = BST_OK;
+    if (target->kind == BST_BASIS_KLEMS && klems && bst_basis_equal(target, b->klems)) {
+        p->direct = 1;
+        return BST_OK;
+    }
+    if (target->kind == BST_BASIS_KLEMS) {
+        p->kfine = klems ? KLEMS_VIA_ORDER : b->k > BST_K_MAX ? BST_K_MAX : b->k;
+        size_t nf = (size_t)1 << (2 * p->kfine);
+        if (!(p->fine = bsti_alloc_array(ctx, nf * nf, sizeof *p->fine)))
+            rc = BST_ENOMEM;
+        if (rc >= 0)
+            rc = bsti_overlap_new(ctx, p->kfine, target, &p->out);
+    }
+    if (rc >= 0 && klems)
+        rc = bsti_overlap_new(ctx, p->kfine ? p->kfine : target->k, b->klems, &p->in);
+    if (rc < 0) {
+        plan_free(ctx, p);
+        *p = (struct plan){0};
+    }
+    return rc;
+}
+
+/* Stored component c on the Shirley-Chiu grid of order k (m: N x N). */
+static int to_grid(bst_ctx *ctx, const struct plan *p, size_t ch, int c, int k, double *m)
+{
+    const bst_bsdf *b = p->b;
+    if (b->mat[ch][c])
+        return bsti_klems_to_sc(ctx, p->in, b->mat[ch][c], m);
+    if (b->tree[ch][c]->dim == 4)
+        return bsti_ttree_expand4(b->tree[ch][c], k, m);
+    return expand3(ctx, b->tree[ch][c], k, m);
+}
+
+static int plan_component(bst_ctx *ctx, const struct plan *p, size_t ch, int c, double *work, int *recip)
+{
+    const bst_bsdf *b = p->b;
+    size_t n = bst_basis_size(p->target);
+    *recip = 0;
+    if (!bsti_bsdf_stored(b, ch, c)) {
+        int other = bsti_bsdf_reciprocal(c);
+        if (other < 0 || !bsti_bsdf_stored(b, ch, other))
+            return bsti_error(ctx, BST_EINVAL, "%s: no %s in channel %zu", b->path,
+                              bst_comp_name((bst_comp)c), ch);
+        c = other, *recip = 1;
+    }
+    if (p->direct) {
+        memcpy(work, b->mat[ch][c], n * n * sizeof *work);
+        return BST_OK;
+    }
+    if (!p->kfine)
+        return to_grid(ctx, p, ch, c, p->target->k, work);
+    int rc = to_grid(ctx, p, ch, c, p->kfine, p->fine);
+    if (rc < 0)
+        return rc;
+    /* A Klems patch is not a union of cells of the other side's patches: apply reciprocity on the
+     * fine grid, where it is exact, then average (otherwise the hemispherical Tf of a file
+     * storing only Tb is not kept). */
+    if (*recip)
+        antipode_transpose(p->fine, (size_t)1 << (2 * p->kfine));
+    *recip = 0;
+    return bsti_sc_to_klems(ctx, p->out, p->fine, p->target, work);
+}
+
+int bsti_resample_component(bst_ctx *ctx, const bst_bsdf *b, size_t ch, int c,
+                            const bst_basis *target, double *work, int *recip)
+{
+    struct plan p;
+    int rc = plan_make(ctx, b, target, &p);
+    if (rc < 0)
+        return rc;
+    rc = plan_component(ctx, &p, ch, c, work, recip);
+    plan_free(ctx, &p);
+    return rc;
+}
+
+int bst_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target, bst_layer **out)
+{
+    return bst_bsdf_to_layer_prec(ctx, b, target, BST_DOUBLE, out);
+}
+
+/* The component in work (N x N column-major, recip: to be taken as its reciprocal) as a matrix in
+ * its cheapest structure; a dense one is filled straight from work in precision prec. */
+static int component_from_work(bst_ctx *ctx, const bst_basis *target, const double *work, int recip,
+                               bst_precision prec, bst_mat **out)
+{
+    size_t n = bst_basis_size(target), nnz = 0;
+    int diag_only = 1;
+    /* the reciprocal maps (o, i) to (a(i), a(o)): diagonal to diagonal, so the census is the same */
+    for (size_t q = 0; q < n * n; q++)
+        if (work[q] != 0.0) {
+            nnz++;
+            diag_only &= q % (n + 1) == 0;
+        }
+    int rc;
+    bst_mat *d;
+    if (nnz > 0 && !diag_only && (double)nnz > BST_SPARSE_MAX_FILL * (double)n * (double)n) {
+        if ((rc = bst_mat_new_dense(ctx, n, n, prec, &d)) < 0)
+            return rc;
+        double *dd = prec == BST_DOUBLE ? bst_mat_dense_data(d) : NULL;
+        float *df = prec == BST_FLOAT ? bst_mat_dense_data(d) : NULL;
+        for (size_t i = 0; i < n; i++) {
+            size_t ai = recip ? bst_basis_antipode(target, i) : 0;
+            for (size_t o = 0; o < n; o++) {
+                double v = recip ? work[ai + n * bst_basis_antipode(target, o)] : work[o + n * i];
+                if (dd)
+                    dd[o + n * i] = v;
+                else
+                    df[o + n * i] = (float)v;
+            }
+        }
+        *out = d;
+        return BST_OK;
+    }
+    if ((rc = bst_mat_new_dense(ctx, n, n, BST_DOUBLE, &d)) < 0)
+        return rc;
+    double *dd = bst_mat_dense_data(d);
+    if (recip) { /* Tf[o][i] = Tb[a(i)][a(o)], a = antipode */
+        for (size_t i = 0; i < n; i++) {
+            size_t ai = bst_basis_antipode(target, i);
+            for (size_t o = 0; o < n; o++)
+                dd[o + n * i] = work[ai + n * bst_basis_antipode(target, o)];
+        }
+    } else {
+        memcpy(dd, work, n * n * sizeof *dd);
+    }
+    rc = bst_mat_compact(ctx, d, BST_SPARSE_MAX_FILL, out);
+    bst_mat_free(d);
+    return rc;
+}
+
+
+int bst_bsdf_to_layer_prec(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target_in,
+                           bst_precision prec, bst_layer **out)
+{
+    if (!ctx || !b || !out)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "to_layer: NULL argument") : BST_EINVAL;
+    if (prec != BST_DOUBLE && prec != BST_FLOAT)
+        return bsti_error(ctx, BST_EINVAL, "to_layer: unknown precision %d", (int)prec);
+    *out = NULL;
+    bst_basis *native = NULL;
+    int rc = BST_OK;
+    if (!target_in) {
+        rc = b->kind == BST_FILE_KLEMS ? bst_basis_copy(ctx, b->klems, &native)
+                                       : bst_basis_new_sc(ctx, b->k > BST_K_MAX ? BST_K_MAX : b->k, &native);
+        if (rc < 0)
+            return rc;
+    }
+    const bst_basis *target = target_in ? target_in : native;
+    size_t n = bst_basis_size(target);
+    bst_layer *l = NULL;
+    struct plan p = {0};
+    double *work = NULL;
+    rc = bst_layer_new(ctx, target, b->nch, (const char *const *)b->channels, &l);
+    if (rc >= 0)
+        rc = bst_layer_set_name(ctx, l, b->path);
+    if (rc >= 0 && !(work = bsti_alloc_array(ctx, n * n, sizeof *work)))
+        rc = BST_ENOMEM;
+    if (rc >= 0)
+        rc = plan_make(ctx, b, target, &p);
+    for (size_t ch = 0; rc >= 0 && ch < b->nch; ch++)
+        for (int c = 0; rc >= 0 && c < BST_NCOMP; c++) {
+            bst_mat *m;
+            int other = bsti_bsdf_reciprocal(c), recip;
+            if (!bsti_bsdf_stored(b, ch, c) && (other < 0 || !bsti_bsdf_stored(b, ch, other))) {
+                if ((rc = bst_mat_new_zero(ctx, n, n, &m)) >= 0)
+                    rc = bst_layer_set(ctx, l, ch, (bst_comp)c, m);
+                continue;
+            }
+            if ((rc = plan_component(ctx, &p, ch, c, work, &recip)) >= 0 &&
+                (rc = component_from_work(ctx, target, work, recip, prec, &m)) >= 0)
+                rc = bst_layer_set(ctx, l, ch, (bst_comp)c, m);
+        }
+    plan_free(ctx, &p);
+    bsti_free(ctx, work);
+    bst_basis_free(native);
+    if (rc < 0) {
+        bst_layer_free(l);
+        return rc;
+    }
+    *out = l;
+    return BST_OK;
+}
