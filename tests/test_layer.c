@@ -151,7 +151,6 @@ START_TEST(test_hemispherical_and_accordance)
     bst_basis *b;
     ck_assert_int_eq(bst_basis_new_sc(ctx, 2, &b), BST_OK);
     size_t n = bst_basis_size(b);
-    const double *lam = bst_basis_lambda(b);
     bst_layer *x, *y;
     ck_assert_int_eq(bst_layer_new(ctx, b, 1, two, &x), BST_OK);
     ck_assert_int_eq(bst_layer_new(ctx, b, 1, two, &y), BST_OK);
@@ -182,24 +181,13 @@ START_TEST(test_hemispherical_and_accordance)
     ck_assert_int_eq(bst_accordance(ctx, x, y, 0, BST_TF, 5, &ga, &fa, la), BST_OK);
     /* FA: sum L|a-b| = n L (0.5/pi) = 0.5, sum L(a+b) = 0.5 + 0.5 -> 50 */
     tu_assert_close(fa, 50.0, 1e-12, 0.0);
-    /* GA: with w_i = L_i mu_i (mu_i: mean cos theta of patch i), a = 0.5/pi, b = 1/pi on the first
-     * half H:  S_ab = sum_H w / (2 pi^2), S_aa = sum_all w / (4 pi^2), S_bb = sum_H w / pi^2, so
-     * GA = 100 sqrt(sum_H w / sum_all w); mu_i from 64 x 64 points of each patch */
-    double wh = 0, wall = 0;
-    for (size_t i = 0; i < n; i++) {
-        double mu = 0, dir[3];
-        for (int u = 0; u < 64; u++)
-            for (int v = 0; v < 64; v++) {
-                bst_basis_sample(b, i, (u + 0.5) / 64, (v + 0.5) / 64, dir);
-                mu += dir[2] / 4096;
-            }
-        wall += lam[i] * mu, wh += i < n / 2 ? lam[i] * mu : 0;
-    }
-    tu_assert_close(ga, 100.0 * sqrt(wh / wall), 2e-4, 0.0);
-    ck_assert_double_lt(ga, 80.0);
+    /* GA (eq. 7, equal patches: plain sums), by hand: the first half has a = 0.5/pi, b = 1/pi,
+     * the second a = 0.5/pi, b = 0, so sum (a-b)^2 = n/2 (0.25 + 0.25) / pi^2 and sum (a+b)^2 =
+     * n/2 (2.25 + 0.25) / pi^2: GA = 100 (1 - 0.5 / 2.5) = 80 */
+    tu_assert_close(ga, 80.0, 1e-12, 0.0);
     tu_assert_close(la[0], 100.0 * (1.0 - 0.5 / 1.5), 1e-12, 0.0);
     ck_assert_double_eq(la[n - 1], 0.0);
-    /* GA compares shapes: x against 3 x scores 100; FA 100 (1 - 2/4) = 50 */
+    /* x against 3 x: GA 100 (1 - 1/4) = 75, FA 100 (1 - 2/4) = 50 */
     bst_layer *z;
     ck_assert_int_eq(bst_layer_new(ctx, b, 1, two, &z), BST_OK);
     ck_assert_int_eq(bst_mat_new_dense(ctx, n, n, BST_DOUBLE, &m), BST_OK);
@@ -208,8 +196,36 @@ START_TEST(test_hemispherical_and_accordance)
         d[i] = 1.5 / M_PI;
     ck_assert_int_eq(bst_layer_set(ctx, z, 0, BST_TF, m), BST_OK);
     ck_assert_int_eq(bst_accordance(ctx, x, z, 0, BST_TF, 2, &ga, &fa, NULL), BST_OK);
-    tu_assert_close(ga, 100.0, 1e-12, 0.0);
+    tu_assert_close(ga, 75.0, 1e-12, 0.0);
     tu_assert_close(fa, 50.0, 1e-12, 0.0);
+    /* a copy scaled by 1.1: GA 100 (1 - 0.1^2 / 2.1^2) = 99.7732..., FA 100 (1 - 0.1 / 2.1) */
+    for (size_t i = 0; i < n * n; i++)
+        d[i] = 1.1 * 0.5 / M_PI;
+    ck_assert_int_eq(bst_accordance(ctx, x, z, 0, BST_TF, 2, &ga, &fa, NULL), BST_OK);
+    tu_assert_close(ga, 100.0 * (1.0 - 0.01 / 4.41), 1e-12, 0.0);
+    tu_assert_close(fa, 100.0 * (1.0 - 0.1 / 2.1), 1e-12, 0.0);
+    /* a peak of 3 on a background of 1 moved by one patch (column 7): (a-b)^2 = 4 twice,
+     * (a+b)^2 = 16 twice and 4 in the n - 2 others: GA = 100 (1 - 8 / (32 + 4 (n - 2))) = 85.71...
+     * for n = 16; LA 100 (1 - 2/4) = 50 at both peaks, 100 elsewhere */
+    bst_mat *pa, *pb;
+    ck_assert_int_eq(bst_mat_new_dense(ctx, n, n, BST_DOUBLE, &pa), BST_OK);
+    ck_assert_int_eq(bst_mat_new_dense(ctx, n, n, BST_DOUBLE, &pb), BST_OK);
+    double *da = bst_mat_dense_data(pa), *db = bst_mat_dense_data(pb);
+    for (size_t i = 0; i < n * n; i++)
+        da[i] = i % n == 4 ? 3.0 : 1.0, db[i] = i % n == 5 ? 3.0 : 1.0;
+    ck_assert_int_eq(bst_layer_set(ctx, y, 0, BST_TB, pa), BST_OK);
+    ck_assert_int_eq(bst_layer_set(ctx, z, 0, BST_TB, pb), BST_OK);
+    ck_assert_int_eq(bst_accordance(ctx, y, z, 0, BST_TB, 7, &ga, NULL, la), BST_OK);
+    tu_assert_close(ga, 100.0 * (1.0 - 8.0 / (32.0 + 4.0 * (double)(n - 2))), 1e-12, 0.0);
+    tu_assert_close(la[4], 50.0, 1e-12, 0.0);
+    tu_assert_close(la[5], 50.0, 1e-12, 0.0);
+    tu_assert_close(la[6], 100.0, 1e-12, 0.0);
+    /* disjoint supports: 0 */
+    for (size_t i = 0; i < n; i++)
+        da[7 * n + i] = i == 4 ? 3.0 : 0.0, db[7 * n + i] = i == 5 ? 3.0 : 0.0;
+    ck_assert_int_eq(bst_accordance(ctx, y, z, 0, BST_TB, 7, &ga, &fa, NULL), BST_OK);
+    ck_assert_double_eq(ga, 0.0);
+    ck_assert_double_eq(fa, 0.0);
     /* one side zero, both zero */
     ck_assert_int_eq(bst_accordance(ctx, x, z, 0, BST_RF, 5, &ga, &fa, NULL), BST_OK);
     ck_assert_double_eq(ga, 100.0); /* both absent */
@@ -220,6 +236,27 @@ START_TEST(test_hemispherical_and_accordance)
     ck_assert_int_eq(bst_accordance(ctx, x, z, 0, BST_RF, 5, &ga, &fa, NULL), BST_OK);
     ck_assert_double_eq(ga, 0.0);
     ck_assert_double_eq(fa, 0.0);
+    /* Klems patches enter eq. 7 weighted by their projected solid angles L: a = 1 in patches 0
+     * and 144, b = 1 in patch 0 only: GA = 100 (1 - L_144 / (4 L_0 + L_144)) */
+    {
+        bst_basis *kb;
+        bst_layer *ka, *kbl;
+        ck_assert_int_eq(bst_basis_new_klems(ctx, "full", &kb), BST_OK);
+        const double *lk = bst_basis_lambda(kb);
+        ck_assert_int_eq(bst_layer_new(ctx, kb, 1, two, &ka), BST_OK);
+        ck_assert_int_eq(bst_layer_new(ctx, kb, 1, two, &kbl), BST_OK);
+        bst_mat *m1, *m2;
+        ck_assert_int_eq(bst_mat_new_dense(ctx, 145, 145, BST_DOUBLE, &m1), BST_OK);
+        ck_assert_int_eq(bst_mat_new_dense(ctx, 145, 145, BST_DOUBLE, &m2), BST_OK);
+        double *p1 = bst_mat_dense_data(m1), *p2 = bst_mat_dense_data(m2);
+        p1[0] = p1[144] = 1.0, p2[0] = 1.0;
+        ck_assert_int_eq(bst_layer_set(ctx, ka, 0, BST_TF, m1), BST_OK);
+        ck_assert_int_eq(bst_layer_set(ctx, kbl, 0, BST_TF, m2), BST_OK);
+        ck_assert_int_eq(bst_accordance(ctx, ka, kbl, 0, BST_TF, 0, &ga, NULL, NULL), BST_OK);
+        tu_assert_close(ga, 100.0 * (1.0 - lk[144] / (4.0 * lk[0] + lk[144])), 1e-12, 0.0);
+        ck_assert_double_gt(fabs(lk[144] - lk[0]), 1e-3); /* the weights matter here */
+        bst_layer_free(ka), bst_layer_free(kbl), bst_basis_free(kb);
+    }
     /* every incident patch at once: the same values */
     double gall[16], fall[16];
     ck_assert_int_eq(bst_accordance_all(ctx, x, y, 0, BST_TF, gall, fall), BST_OK);

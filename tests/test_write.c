@@ -723,17 +723,17 @@ static void hemi_row(bst_bsdf *b, const bst_basis *g, int front, double th, doub
     }
 }
 
-/* Global and flux accordance (bst_accordance's definitions) of two distributions over the
- * outgoing cells of the k = 6 grid (equal projected solid angles), mu: cos theta of each centre. */
-static void accordance(const double *a, const double *b, const double *mu, size_t n, double *ga, double *fa)
+/* Global (Grobe 2017 eq. 7) and flux accordance (bst_accordance's definitions) of two
+ * distributions over the outgoing cells of the k = 6 grid (equal projected solid angles). */
+static void accordance(const double *a, const double *b, size_t n, double *ga, double *fa)
 {
-    double d = 0, s = 0, ab = 0, aa = 0, bb = 0;
+    double d = 0, s = 0, d2 = 0, s2 = 0;
     for (size_t i = 0; i < n; i++) {
         d += fabs(a[i] - b[i]), s += a[i] + b[i];
-        ab += mu[i] * a[i] * b[i], aa += mu[i] * a[i] * a[i], bb += mu[i] * b[i] * b[i];
+        d2 += (a[i] - b[i]) * (a[i] - b[i]), s2 += (a[i] + b[i]) * (a[i] + b[i]);
     }
     *fa = s > 0 ? 100 * (1 - d / s) : 100;
-    *ga = aa > 0 && bb > 0 ? 100 * ab / sqrt(aa * bb) : (aa == bb ? 100 : 0);
+    *ga = s2 > 0 ? 100 * (1 - d2 / s2) : 100;
 }
 
 /* Every reference layer written as a (reduced) tree at its own k: directional-hemispherical T and
@@ -764,12 +764,7 @@ START_TEST(test_reference_hemi)
     char line[512];
     int rows = 0;
     double worst_dt = 0, worst_ga = 100, worst_fa = 100;
-    static double tv[4096], rv[4096], tv0[4096], rv0[4096], mu[4096];
-    for (size_t o = 0; o < 4096; o++) {
-        double c[3];
-        bst_basis_center(g, o, c);
-        mu[o] = c[2];
-    }
+    static double tv[4096], rv[4096], tv0[4096], rv0[4096];
     while (fgets(line, sizeof line, fp)) {
         double th, ph, t_ref, r_ref, t, r, t0, r0;
         char side[32];
@@ -781,8 +776,8 @@ START_TEST(test_reference_hemi)
         ck_assert_msg(fabs(t - t_ref) <= 1e-3 && fabs(r - r_ref) <= 1e-3, "%s %s %g %g: T %.5f "
                       "vs %.4f, R %.5f vs %.4f", names[_i], side, th, ph, t, t_ref, r, r_ref);
         double ga, fa, ga_r, fa_r;
-        accordance(tv, tv0, mu, 4096, &ga, &fa);
-        accordance(rv, rv0, mu, 4096, &ga_r, &fa_r);
+        accordance(tv, tv0, 4096, &ga, &fa);
+        accordance(rv, rv0, 4096, &ga_r, &fa_r);
         ga = fmin(ga, ga_r), fa = fmin(fa, fa_r);
         ck_assert_msg(ga >= 99.9 && fa >= 99.9, "%s %s %g %g: GA %.3f FA %.3f", names[_i], side, th, ph, ga, fa);
         worst_dt = fmax(worst_dt, fmax(fabs(t - t_ref), fabs(r - r_ref)));
@@ -825,31 +820,31 @@ static void patch_average(const bst_layer *sc, const bst_basis *kb, int S, doubl
     free(h);
 }
 
-/* Global and flux accordance (bst_accordance's definitions; mu: mean cos theta of each patch) of
+/* Global (eq. 7) and flux accordance (bst_accordance's definitions) of
  * column i of a and of b, or of b's reciprocal (b(a(i), a(o)), a = antipode) when recip. */
 static void column_accordance(const bst_mat *a, const bst_mat *b, int recip, const bst_basis *kb,
-                              const double *mu, size_t i, double *ga, double *fa)
+                              size_t i, double *ga, double *fa)
 {
     const double *lam = bst_basis_lambda(kb);
     size_t n = bst_basis_size(kb);
-    double d = 0, s = 0, ab = 0, aa = 0, bb = 0;
+    double d = 0, s = 0, d2 = 0, s2 = 0;
     for (size_t o = 0; o < n; o++) {
         double x = bst_mat_get(a, o, i);
         double y = recip ? bst_mat_get(b, bst_basis_antipode(kb, i), bst_basis_antipode(kb, o))
                          : bst_mat_get(b, o, i);
         d += lam[o] * fabs(x - y), s += lam[o] * (x + y);
-        ab += lam[o] * mu[o] * x * y, aa += lam[o] * mu[o] * x * x, bb += lam[o] * mu[o] * y * y;
+        d2 += lam[o] * (x - y) * (x - y), s2 += lam[o] * (x + y) * (x + y);
     }
     *fa = s > 0 ? 100 * (1 - d / s) : 100;
-    *ga = aa > 0 && bb > 0 ? 100 * ab / sqrt(aa * bb) : (aa == bb ? 100 : 0);
+    *ga = s2 > 0 ? 100 * (1 - d2 / s2) : 100;
 }
 
 /* Every reference tree converted to Klems Full and written: it reads back exactly; every block
  * (Transmission Front included) keeps the tree's hemispherical T and R per incident patch within
  * 1e-3; Transmission Back and both reflections agree with RADIANCE's bsdf2klems file: mean global
- * accordance over the 145 incident patches >= 99, and >= 99 at every incident patch where
- * RADIANCE's file agrees with itself to 99 outside the grazing band (theta > 75 deg, patches
- * 133-144), >= 97.5 at the others.  bsdf2klems averages 1024 random (in, out) pairs per element,
+ * accordance (eq. 7) over the 145 incident patches >= 99, and at every incident patch outside the
+ * grazing band (theta > 75 deg, patches 133-144) >= 99 or within one point of what RADIANCE's
+ * file scores against itself (its Monte Carlo noise), >= 97.5 in the grazing band.  bsdf2klems averages 1024 random (in, out) pairs per element,
  * so its file is noisy where few pairs hit a specular element: its Tb against the reciprocal of
  * its own Tf, or Rf against Rf's reciprocal, score GA 98.0-99.8 per patch for the clear pane
  * beyond 65 deg, where the pane's tree is one cell wide from 69.6 to 90 deg.  The flux accordance is printed beside: as noisy as RADIANCE's file (about 95
@@ -892,16 +887,6 @@ START_TEST(test_reference_klems)
     bst_bsdf *br = read_ok(tu_ref(kfile));
     bst_layer *lr = layer_of(br, NULL);
     static const int pairs[3][2] = {{BST_TB, BST_TF}, {BST_RF, BST_RF}, {BST_RB, BST_RB}};
-    double mu[145];
-    for (size_t o = 0; o < 145; o++) {
-        mu[o] = 0;
-        for (int u = 0; u < 16; u++)
-            for (int v = 0; v < 16; v++) {
-                double d[3];
-                bst_basis_sample(kb, o, (u + 0.5) / 16, (v + 0.5) / 16, d);
-                mu[o] += d[2] / 256;
-            }
-    }
     printf("%s -> Klems: hemispherical per patch within %.1e of the tree;", names[_i], worst);
     for (int q = 0; q < 3; q++) {
         bst_comp x = (bst_comp)pairs[q][0], y = (bst_comp)pairs[q][1];
@@ -909,12 +894,12 @@ START_TEST(test_reference_klems)
         int below = 0, below_self = 0;
         for (size_t i = 0; i < 145; i++) {
             double go, gs, fo, fs;
-            column_accordance(bst_layer_get(lk2, 0, x), bst_layer_get(lr, 0, x), 0, kb, mu, i, &go, &fo);
-            column_accordance(bst_layer_get(lr, 0, x), bst_layer_get(lr, 0, y), 1, kb, mu, i, &gs, &fs);
+            column_accordance(bst_layer_get(lk2, 0, x), bst_layer_get(lr, 0, x), 0, kb, i, &go, &fo);
+            column_accordance(bst_layer_get(lr, 0, x), bst_layer_get(lr, 0, y), 1, kb, i, &gs, &fs);
             go_min = fmin(go_min, go), gs_min = fmin(gs_min, gs);
             go_sum += go, gs_sum += gs, fo_sum += fo, fs_sum += fs;
             below += go < 99, below_self += gs < 99;
-            ck_assert_msg(go >= (i < 133 && gs >= 99 ? 99.0 : 97.5), "%s %s patch %zu: GA %.2f "
+            ck_assert_msg(go >= (i < 133 ? fmin(99.0, gs - 1.0) : 97.5), "%s %s patch %zu: GA %.2f "
                           "(RADIANCE against itself %.2f)", names[_i], bst_comp_name(x), i, go, gs);
         }
         ck_assert_double_ge(go_sum / 145, 99.0);
