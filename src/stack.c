@@ -404,19 +404,6 @@ static double patch_theta_deg(const bst_basis *b, size_t patch)
     return acos(fmin(1.0, fabs(d[2]))) * 180.0 / M_PI;
 }
 
-int bst_layer_hemispherical(bst_ctx *ctx, const bst_layer *l, size_t ch, bst_comp c, double *out)
-{
-    if (!ctx || !l || !out || ch >= l->nchannels || (unsigned)c >= BST_NCOMP)
-        return ctx ? bsti_error(ctx, BST_EINVAL, "hemispherical: invalid argument") : BST_EINVAL;
-    size_t n = bst_basis_size(l->basis);
-    const bst_mat *m = bst_layer_get(l, ch, c);
-    if (!m) {
-        memset(out, 0, n * sizeof *out);
-        return BST_OK;
-    }
-    return bst_mat_col_weighted_sum(ctx, m, bst_basis_lambda(l->basis), out);
-}
-
 /* Warn (BST_WENERGY) when T + R of an input layer exceeds 1 + tol for some incident patch, on
  * either side; the message names the layer, side, patch and value of the worst case. */
 static int check_energy(struct combiner *cb, const bst_layer *l, size_t li, size_t ch)
