@@ -590,6 +590,7 @@ int bst_stack_combine_consume(bst_ctx *ctx, size_t n, bst_layer **layers,
 {
     if (!ctx || !out || !layers)
         return combine(ctx, n, (const bst_layer *const *)layers, NULL, opts, out);
+    *out = NULL; /* also when the list below cannot be allocated */
     /* A layer listed twice (one pane object for both panes) is borrowed where it occurs first and
      * taken only at its last occurrence, and freed once. */
     bst_layer **take = bsti_calloc(ctx, n, sizeof *take);
