@@ -272,7 +272,7 @@ int bst_layer_flip(bst_ctx *ctx, const bst_layer *l, bst_layer **out);
  * gives zeros. */
 int bst_layer_hemispherical(bst_ctx *ctx, const bst_layer *l, size_t ch, bst_comp c, double *out);
 
-/* ---------------------------------------------------------------- stacks (stack) */
+/* ---------------------------------------------------------------- stacks (stack, spectral) */
 
 /* Combination of layers listed exterior first, all over the same basis, by the matrix formalism
  * (two layers 1 = exterior, 2 = interior, Lambda the projected solid angles):
@@ -329,6 +329,25 @@ int bst_stack_combine_consume(bst_ctx *ctx, size_t n, bst_layer **layers,
  * For layers that conserve energy, system T + R + sum_i abs_i = 1 per incident patch. */
 int bst_stack_absorptance(bst_ctx *ctx, size_t n, const bst_layer *const *layers, size_t ch,
                           const bst_stack_opts *opts, double *abs_front, double *abs_back);
+
+/* A clear pane (analytic glass, below). */
+typedef struct bst_glass bst_glass;
+
+/* A stack of spectral panes (exterior first) combined wavelength by wavelength and averaged
+ * afterwards, as WINDOW and Windows-CalcEngine do for multi-layer systems (combining band-averaged
+ * panes gives another answer: the system is not linear in the panes' T and R).  For each channel
+ * (a band: Visible, Solar, CIE-X, CIE-Y, CIE-Z; added to panes[0] when it lacks it) the wavelengths
+ * are the union of the panes' measured wavelengths, or the band's integration grid when that is
+ * shorter (WCE's rule); each wavelength's system (bst_stack_combine with opts, every matrix
+ * diagonal: O(N)) is added with its bst_glass_channel_weights weight and freed.  out has the
+ * channels in the order given.  abs_front / abs_back (may be NULL): per-layer absorptance
+ * averaged the same way, nchannels * n * N values, [(c * n + i) * N + j] (see
+ * bst_stack_absorptance).  Returns the highest warning of any wavelength, or an error. */
+int bst_stack_combine_spectral(bst_ctx *ctx, size_t n, bst_glass *const *panes,
+                               const bst_basis *basis, size_t nchannels,
+                               const char *const *channels, int at_centre,
+                               const bst_stack_opts *opts, bst_layer **out, double *abs_front,
+                               double *abs_back);
 
 /* ---------------------------------------------------------------- metrics (metrics) */
 
@@ -539,8 +558,8 @@ int bst_xml_write_path(bst_ctx *ctx, const bst_layer *layer, const char *path,
  *   d=6mm,n=1.52,tn=0.89       thickness, refractive index, normal-incidence transmittance
  *   d=6mm,n=1.52,k=25/m        thickness, index and extinction coefficient: tau0 = exp(-k d)
  *   t0=0.834,r0=0.0747[,r0b=]  normal-incidence T and R directly
- * Inline specs apply to the channels Visible and Solar alike. */
-typedef struct bst_glass bst_glass;
+ * Inline specs apply to the channels Visible and Solar alike.  (The type bst_glass is declared
+ * with the stacks above, for bst_stack_combine_spectral.) */
 /* catalogue_dir: where NAME.glass files and the band spectra (solar, D65, V, photopic grid) are;
  * NULL = the installed catalogue (BST_GLASS_DIR at build time). */
 int bst_glass_parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, bst_glass **out);
@@ -606,22 +625,6 @@ int bst_glass_layer_from_spec(bst_ctx *ctx, const char *spec, const char *catalo
  * panes with spectral data. */
 int bst_glass_layer_at(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, double lambda_um,
                        int at_centre, bst_layer **out);
-
-/* A stack of spectral panes (exterior first) combined wavelength by wavelength and averaged
- * afterwards, as WINDOW and Windows-CalcEngine do for multi-layer systems (combining band-averaged
- * panes gives another answer: the system is not linear in the panes' T and R).  For each channel
- * (a band: Visible, Solar, CIE-X, CIE-Y, CIE-Z; added to panes[0] when it lacks it) the wavelengths
- * are the union of the panes' measured wavelengths, or the band's integration grid when that is
- * shorter (WCE's rule); each wavelength's system (bst_stack_combine with opts, every matrix
- * diagonal: O(N)) is added with its bst_glass_channel_weights weight and freed.  out has the
- * channels in the order given.  abs_front / abs_back (may be NULL): per-layer absorptance
- * averaged the same way, nchannels * n * N values, [(c * n + i) * N + j] (see
- * bst_stack_absorptance).  Returns the highest warning of any wavelength, or an error. */
-int bst_stack_combine_spectral(bst_ctx *ctx, size_t n, bst_glass *const *panes,
-                               const bst_basis *basis, size_t nchannels,
-                               const char *const *channels, int at_centre,
-                               const bst_stack_opts *opts, bst_layer **out, double *abs_front,
-                               double *abs_back);
 
 /* ---------------------------------------------------------------- version */
 

@@ -1,6 +1,13 @@
-/* glass.h - internal side of the analytic glass module (glass.c): the layer builder with its
- * numerical parameters exposed, so that tests and benchmarks can compare its fast path with exact
- * evaluation and measure what patch averaging changes.
+/* glass.h - internal side of the analytic glass module, shared by its files:
+ *   glass.c        the slab model (Fresnel, a slab with bulk absorption), the pane object and its
+ *                  evaluation at an angle, per channel or per wavelength;
+ *   glass_band.c   spectral panes: their data tables, the band spectra and the CIE fits, band
+ *                  channels and their wavelength weights;
+ *   glass_spec.c   specifications ("glass:NAME|PATH|key=value") and catalogue files;
+ *   glass_layer.c  the pane as a diagonal layer: patch quadrature over a basis;
+ *   spectral.c     stacks of spectral panes combined per wavelength (bst_stack_combine_spectral).
+ * Tests and benchmarks use the layer builder below with its numerical parameters exposed, to
+ * compare the fast path with exact evaluation and to measure what patch averaging changes.
  *
  * Conventions: angles in radians, wavelengths in micrometres, thickness in metres.  A layer's patch
  * value is P / Lambda (1/sr) with P the pane's directional T or R, either at the patch centre or
@@ -10,10 +17,91 @@
 
 #include "bsdfstack.h"
 
+/* ------------------------------------------------------------------ the pane (glass.c) */
+
+/* Channels a pane may have (five spectral bands plus a few catalogue bands). */
+#define BSTI_GLASS_MAX_CH 8
+
+/* One side of a pane at one wavelength or band: the measured values and the derived slab. */
+struct bsti_glass_side {
+    double t0, r0;  /* normal-incidence transmittance and reflectance */
+    double rho0;    /* reflectance of one interface at normal incidence */
+    double n;       /* refractive index */
+    double tau0;    /* single-pass internal transmittance at normal incidence */
+};
+
+/* Measured normal-incidence spectrum of a pane (wavelength in um). */
+struct bsti_glass_data {
+    size_t n;
+    double *wl, *tf, *tb, *rf, *rb;
+};
+
+/* A source or detector spectrum, or an integration grid (x only). */
+struct bsti_glass_spectrum {
+    size_t n;
+    double *x, *y;
+};
+
+/* A channel is a weighted sum over nodes: property(theta) = sum_k w_k model(T0_k, R0_k, theta);
+ * a band channel has one node of weight 1, a spectral channel the trapezoid rule folded into w.
+ * A spectral channel also keeps the integration grid that stacks combining per wavelength use
+ * (bst_glass_channel_weights): wavelengths grid[], source x detector sd[], range lo..hi. */
+struct bsti_glass_channel {
+    char *name;
+    size_t nk;
+    double *w;
+    struct bsti_glass_side *front, *back;
+    size_t ng;
+    double *grid, *sd;
+    double lo, hi;
+};
+
+struct bst_glass {
+    bst_ctx *ctx;
+    size_t nch;
+    struct bsti_glass_channel ch[BSTI_GLASS_MAX_CH];
+    char *description;
+    char *where;                       /* "glass:SPEC", for messages */
+    struct bsti_glass_data data;       /* spectral panes only (data.n > 0) */
+    struct bsti_glass_spectrum solar, d65, v, photopic; /* spectra of the bands, spectral panes */
+};
+
+/* The slab of one side from its normal-incidence T0 and R0 (steps 1-3 of the model in glass.c);
+ * -1 when no slab has these values. */
+int bsti_glass_side_init(struct bsti_glass_side *s, double t0, double r0);
+/* T and R of one side at theta (radians, 0..pi/2). */
+void bsti_glass_side_optics(const struct bsti_glass_side *s, double theta, double *t, double *r);
+/* y(xq) by linear interpolation in increasing x[0..n-1], constant outside the range. */
+double bsti_glass_interp(const double *x, const double *y, size_t n, double xq);
+/* Normal-incidence data of the pane at um, interpolated linearly (constant outside). */
+void bsti_glass_data_at(const struct bsti_glass_data *d, double um, double *tf, double *tb,
+                        double *rf, double *rb);
+/* A new channel is built in place at g->ch[g->nch] and is then complete or absent:
+ * bsti_glass_channel_new allocates its name, weights and nk sides (zeroed), and
+ * bsti_glass_channel_commit(rc) keeps it (rc >= 0) or clears it; it returns rc. */
+int bsti_glass_channel_new(bst_ctx *ctx, bst_glass *g, const char *where, const char *name,
+                           size_t nk);
+int bsti_glass_channel_commit(bst_ctx *ctx, bst_glass *g, int rc);
+
+/* ------------------------------------------------------------------ spectral bands (glass_band.c) */
+
+#define BSTI_GLASS_BAND_LIST "Visible, Solar, CIE-X, CIE-Y, CIE-Z"
+struct bsti_glass_band;
+/* The band of that name (case-insensitive), NULL if none. */
+const struct bsti_glass_band *bsti_glass_find_band(const char *name);
+/* Read a pane's spectral data file (wavelength, Tf, Tb, Rf, Rb) into g->data and the band spectra
+ * from the catalogue directory dir. */
+int bsti_glass_load_spectral(bst_ctx *ctx, bst_glass *g, const char *path, const char *dir);
+/* Add band b as a channel of spectral pane g (where: for messages); complete or absent. */
+int bsti_glass_add_band(bst_ctx *ctx, bst_glass *g, const char *where,
+                        const struct bsti_glass_band *b);
+
+/* ------------------------------------------------------------------ layers (glass_layer.c) */
+
 /* Patch averages (bst_glass_layer with at_centre = 0) integrate over bst_basis_sample's (u, v)
  * square split into four triangles, each with BST_GLASS_SAMPLES^2 Gauss-Legendre points after a
- * substitution that removes the rim's square-root singularity (glass.c, patch_rule): 4 x 8^2 = 256
- * directions per patch.  Against 4 x 32^2 points the patch values (Lambda x value, i.e. T or R)
+ * substitution that removes the rim's square-root singularity (glass_layer.c, patch_rule):
+ * 4 x 8^2 = 256 directions per patch.  Against 4 x 32^2 points the patch values (Lambda x value, i.e. T or R)
  * differ by at most 7.6e-6 at k = 1, 2.5e-6 at k = 2..7 and 1e-6 in Klems full; the diffuse-diffuse
  * sum over patches matches the continuous pane's 2 int P sin cos dtheta to 7.6e-6 (k = 1), 6.3e-7
  * (k = 3) and 2.8e-8 (k = 7) (clear 6 mm and NFRC 103, Visible: bench/bench_glass; test_glass

@@ -1,7 +1,8 @@
 /* layer.c - a layer (or combined stack): per spectral channel the four components Tf, Rf, Tb, Rb,
  * each an N x N bst_mat over the layer's basis (column = incident patch, row = outgoing patch,
  * BSDF in 1/sr; index convention in bsdfstack.h).  A component may be absent (NULL): absent is not
- * the same as zero, a reader decides what an absent component means. */
+ * the same as zero, a reader decides what an absent component means.  Directional-hemispherical
+ * values weight a column's rows by the outgoing patches' Lambda. */
 #include <config.h>
 
 #include <string.h>
@@ -230,4 +231,17 @@ int bst_layer_flip(bst_ctx *ctx, const bst_layer *l, bst_layer **out)
     }
     *out = f;
     return BST_OK;
+}
+
+int bst_layer_hemispherical(bst_ctx *ctx, const bst_layer *l, size_t ch, bst_comp c, double *out)
+{
+    if (!ctx || !l || !out || ch >= l->nchannels || (unsigned)c >= BST_NCOMP)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "hemispherical: invalid argument") : BST_EINVAL;
+    size_t n = bst_basis_size(l->basis);
+    const bst_mat *m = bst_layer_get(l, ch, c);
+    if (!m) {
+        memset(out, 0, n * sizeof *out);
+        return BST_OK;
+    }
+    return bst_mat_col_weighted_sum(ctx, m, bst_basis_lambda(l->basis), out);
 }

@@ -1,17 +1,8 @@
-/* mat.c - the structured-matrix algebra: construction, conversion, products, sums, scaling.
+/* mat.c - the structured-matrix algebra: construction, conversion, scaling, sums and the other
+ * operations; products, with their dispatch table, are in mat_mul.c.
  *
- * Dispatch.  Products and sums look up a kernel in a table indexed by the operand structures
- * (ZERO, DIAG, SPARSE, DENSE).  Order of the lookup, for C = A * B:
- *   1. a ZERO operand gives a ZERO result (no work);
- *   2. a DIAG operand is a row (left) or column (right) scaling of the other operand, whose
- *      structure the result keeps;
- *   3. SPARSE * SPARSE: cholmod_l_ssmult, then the drop tolerance;
- *   4. SPARSE * DENSE: cholmod_l_sdmult (double) or a loop over the non-zeros (float), O(nnz N);
- *      DENSE * SPARSE: one axpy of a dense column per non-zero of the sparse operand, O(nnz N);
- *   5. DENSE * DENSE: GEMM (OpenBLAS), in single precision when either operand is float.
- * Every pair has a kernel; the generic fallback (both operands converted to dense, GEMM) is what
- * the tests compare each kernel with (bsti_mat_mul_generic).  Sums: ZERO is the identity; DIAG and
- * SPARSE add as sparse (a DIAG pair stays DIAG); anything with DENSE is dense.
+ * Sums: ZERO is the identity; DIAG and SPARSE add as sparse (a DIAG pair stays DIAG); anything
+ * with DENSE is dense.
  *
  * Precision: sparse and diagonal storage are double.  A dense float operand makes a dense result
  * float (single precision is the user's choice for a whole stack); otherwise results are double.
@@ -60,7 +51,7 @@ void bst_mat_free(bst_mat *m)
     bsti_free(ctx, m);
 }
 
-static int check_out(bst_ctx *ctx, bst_mat **out)
+int bsti_mat_check_out(bst_ctx *ctx, bst_mat **out)
 {
     if (!ctx)
         return BST_EINVAL;
@@ -72,13 +63,13 @@ static int check_out(bst_ctx *ctx, bst_mat **out)
 
 int bst_mat_new_zero(bst_ctx *ctx, size_t rows, size_t cols, bst_mat **out)
 {
-    int rc = check_out(ctx, out);
+    int rc = bsti_mat_check_out(ctx, out);
     return rc < 0 ? rc : bsti_mat_alloc(ctx, BST_ZERO, BST_DOUBLE, rows, cols, out);
 }
 
 int bst_mat_new_diag(bst_ctx *ctx, size_t n, const double *diag, bst_mat **out)
 {
-    int rc = check_out(ctx, out);
+    int rc = bsti_mat_check_out(ctx, out);
     if (rc < 0)
         return rc;
     if (!diag)
@@ -97,7 +88,7 @@ int bst_mat_new_diag(bst_ctx *ctx, size_t n, const double *diag, bst_mat **out)
 
 int bst_mat_new_dense(bst_ctx *ctx, size_t rows, size_t cols, bst_precision prec, bst_mat **out)
 {
-    int rc = check_out(ctx, out);
+    int rc = bsti_mat_check_out(ctx, out);
     if (rc < 0)
         return rc;
     if (prec != BST_DOUBLE && prec != BST_FLOAT)
@@ -129,7 +120,7 @@ int bsti_mat_from_cholmod(bst_ctx *ctx, cholmod_sparse *sp, bst_mat **out)
     return BST_OK;
 }
 
-static int cholmod_failed(bst_ctx *ctx, const char *what)
+int bsti_mat_cholmod_failed(bst_ctx *ctx, const char *what)
 {
     cholmod_common *cc = bsti_cholmod(ctx);
     if (cc && cc->status == CHOLMOD_OUT_OF_MEMORY)
@@ -137,10 +128,25 @@ static int cholmod_failed(bst_ctx *ctx, const char *what)
     return bsti_error(ctx, BST_EINTERNAL, "CHOLMOD %s failed (status %d)", what, cc ? cc->status : 0);
 }
 
+/* Remove entries |x| <= drop * max|x| from a sparse result (drop = 0: exact zeros only). */
+int bsti_mat_drop(bst_ctx *ctx, cholmod_sparse *sp, double drop)
+{
+    cholmod_common *cc = bsti_cholmod(ctx);
+    double tol = 0.0;
+    if (drop > 0.0) {
+        const double *x = sp->x;
+        size_t nz = (size_t)((SuiteSparse_long *)sp->p)[sp->ncol];
+        for (size_t k = 0; k < nz; k++)
+            tol = fmax(tol, fabs(x[k]));
+        tol *= drop;
+    }
+    return cholmod_l_drop(tol, sp, cc) ? BST_OK : bsti_mat_cholmod_failed(ctx, "drop");
+}
+
 int bst_mat_new_sparse(bst_ctx *ctx, size_t rows, size_t cols, size_t nnz, const size_t *row,
                        const size_t *col, const double *val, bst_mat **out)
 {
-    int rc = check_out(ctx, out);
+    int rc = bsti_mat_check_out(ctx, out);
     if (rc < 0)
         return rc;
     if (nnz && (!row || !col || !val))
@@ -157,7 +163,7 @@ int bst_mat_new_sparse(bst_ctx *ctx, size_t rows, size_t cols, size_t nnz, const
         return BST_ENOMEM;
     cholmod_triplet *t = cholmod_l_allocate_triplet(rows, cols, nnz, 0, CHOLMOD_REAL, cc);
     if (!t)
-        return cholmod_failed(ctx, "allocate_triplet");
+        return bsti_mat_cholmod_failed(ctx, "allocate_triplet");
     SuiteSparse_long *ti = t->i, *tj = t->j;
     double *tx = t->x;
     for (size_t k = 0; k < nnz; k++) {
@@ -169,10 +175,10 @@ int bst_mat_new_sparse(bst_ctx *ctx, size_t rows, size_t cols, size_t nnz, const
     cholmod_sparse *sp = cholmod_l_triplet_to_sparse(t, nnz, cc); /* sums duplicates, sorted */
     cholmod_l_free_triplet(&t, cc);
     if (!sp)
-        return cholmod_failed(ctx, "triplet_to_sparse");
+        return bsti_mat_cholmod_failed(ctx, "triplet_to_sparse");
     if (!cholmod_l_drop(0.0, sp, cc)) {
         cholmod_l_free_sparse(&sp, cc);
-        return cholmod_failed(ctx, "drop");
+        return bsti_mat_cholmod_failed(ctx, "drop");
     }
     return bsti_mat_from_cholmod(ctx, sp, out);
 }
@@ -226,7 +232,7 @@ double *bst_mat_diag_data(bst_mat *m) { return (m && m->s == BST_DIAG) ? m->diag
 /* ------------------------------------------------------------------ conversion */
 
 /* Dense copy of any matrix in precision prec.  Workspace: the result only. */
-static int to_dense(bst_ctx *ctx, const bst_mat *m, bst_precision prec, bst_mat **out)
+int bsti_mat_to_dense(bst_ctx *ctx, const bst_mat *m, bst_precision prec, bst_mat **out)
 {
     bst_mat *d;
     int rc = bst_mat_new_dense(ctx, m->rows, m->cols, prec, &d);
@@ -275,7 +281,7 @@ static int to_sparse(bst_ctx *ctx, const bst_mat *m, bst_mat **out)
         return BST_ENOMEM;
     if (m->s == BST_SPARSE) {
         cholmod_sparse *c = cholmod_l_copy_sparse(m->sp, cc);
-        return c ? bsti_mat_from_cholmod(ctx, c, out) : cholmod_failed(ctx, "copy_sparse");
+        return c ? bsti_mat_from_cholmod(ctx, c, out) : bsti_mat_cholmod_failed(ctx, "copy_sparse");
     }
     size_t nnz = 0;
     if (m->s == BST_DIAG)
@@ -287,7 +293,7 @@ static int to_sparse(bst_ctx *ctx, const bst_mat *m, bst_mat **out)
                 nnz += bsti_dense_get(m, i, j) != 0.0;
     cholmod_sparse *sp = cholmod_l_allocate_sparse(m->rows, m->cols, nnz, 1, 1, 0, CHOLMOD_REAL, cc);
     if (!sp)
-        return cholmod_failed(ctx, "allocate_sparse");
+        return bsti_mat_cholmod_failed(ctx, "allocate_sparse");
     SuiteSparse_long *p = sp->p, *ri = sp->i;
     double *x = sp->x;
     size_t k = 0;
@@ -346,7 +352,7 @@ static void census(const bst_mat *m, size_t *nnz, int *diag_only)
 int bst_mat_convert(bst_ctx *ctx, const bst_mat *m, bst_structure s, bst_precision prec,
                     bst_mat **out)
 {
-    int rc = check_out(ctx, out);
+    int rc = bsti_mat_check_out(ctx, out);
     if (rc < 0)
         return rc;
     if (!m)
@@ -376,14 +382,14 @@ int bst_mat_convert(bst_ctx *ctx, const bst_mat *m, bst_structure s, bst_precisi
         return BST_OK;
     }
     case BST_SPARSE: return to_sparse(ctx, m, out);
-    case BST_DENSE: return to_dense(ctx, m, prec, out);
+    case BST_DENSE: return bsti_mat_to_dense(ctx, m, prec, out);
     }
     return bsti_error(ctx, BST_EINVAL, "convert: unknown structure %d", (int)s);
 }
 
 int bst_mat_compact(bst_ctx *ctx, const bst_mat *m, double sparse_max_fill, bst_mat **out)
 {
-    int rc = check_out(ctx, out);
+    int rc = bsti_mat_check_out(ctx, out);
     if (rc < 0)
         return rc;
     if (!m)
@@ -399,13 +405,13 @@ int bst_mat_compact(bst_ctx *ctx, const bst_mat *m, double sparse_max_fill, bst_
         return bst_mat_convert(ctx, m, BST_DIAG, BST_DOUBLE, out);
     if ((double)nnz <= sparse_max_fill * (double)m->rows * (double)m->cols)
         return to_sparse(ctx, m, out);
-    return to_dense(ctx, m, m->s == BST_DENSE ? m->prec : BST_DOUBLE, out);
+    return bsti_mat_to_dense(ctx, m, m->s == BST_DENSE ? m->prec : BST_DOUBLE, out);
 }
 
 /* ------------------------------------------------------------------ scaling */
 
 /* C = diag(dr) A diag(dc), same structure as A.  Workspace: the result only. */
-static int scale(bst_ctx *ctx, const double *dr, const bst_mat *a, const double *dc, bst_mat **out)
+int bsti_mat_scale(bst_ctx *ctx, const double *dr, const bst_mat *a, const double *dc, bst_mat **out)
 {
     bst_mat *c;
     int rc;
@@ -428,7 +434,7 @@ static int scale(bst_ctx *ctx, const double *dr, const bst_mat *a, const double 
         break;
     }
     case BST_DENSE: {
-        if ((rc = to_dense(ctx, a, a->prec, &c)) < 0)
+        if ((rc = bsti_mat_to_dense(ctx, a, a->prec, &c)) < 0)
             return rc;
         size_t r = a->rows;
         for (size_t j = 0; j < a->cols; j++) {
@@ -454,203 +460,12 @@ static int scale(bst_ctx *ctx, const double *dr, const bst_mat *a, const double 
 int bst_mat_scale(bst_ctx *ctx, const double *d_rows, const bst_mat *a, const double *d_cols,
                   bst_mat **out)
 {
-    int rc = check_out(ctx, out);
+    int rc = bsti_mat_check_out(ctx, out);
     if (rc < 0)
         return rc;
     if (!a)
         return bsti_error(ctx, BST_EINVAL, "scale: NULL matrix");
-    return scale(ctx, d_rows, a, d_cols, out);
-}
-
-/* ------------------------------------------------------------------ products */
-
-typedef int (*mul_kernel)(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop,
-                          bst_mat **out);
-
-static int mul_zero(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
-{
-    (void)drop;
-    return bst_mat_new_zero(ctx, a->rows, b->cols, out);
-}
-
-static int mul_diag_left(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
-{
-    (void)drop;
-    return scale(ctx, a->diag, b, NULL, out);
-}
-
-static int mul_diag_right(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
-{
-    (void)drop;
-    return scale(ctx, NULL, a, b->diag, out);
-}
-
-/* Remove entries |x| <= drop * max|x| from a sparse result (drop = 0: exact zeros only). */
-static int apply_drop(bst_ctx *ctx, cholmod_sparse *sp, double drop)
-{
-    cholmod_common *cc = bsti_cholmod(ctx);
-    double tol = 0.0;
-    if (drop > 0.0) {
-        const double *x = sp->x;
-        size_t nz = (size_t)((SuiteSparse_long *)sp->p)[sp->ncol];
-        for (size_t k = 0; k < nz; k++)
-            tol = fmax(tol, fabs(x[k]));
-        tol *= drop;
-    }
-    return cholmod_l_drop(tol, sp, cc) ? BST_OK : cholmod_failed(ctx, "drop");
-}
-
-/* Workspace: CHOLMOD's, O(rows + nnz(C)). */
-static int mul_sparse_sparse(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
-{
-    cholmod_common *cc = bsti_cholmod(ctx);
-    if (!cc)
-        return BST_ENOMEM;
-    cholmod_sparse *c = cholmod_l_ssmult(a->sp, b->sp, 0, 1, 1, cc);
-    if (!c)
-        return cholmod_failed(ctx, "ssmult");
-    int rc = apply_drop(ctx, c, drop);
-    if (rc < 0) {
-        cholmod_l_free_sparse(&c, cc);
-        return rc;
-    }
-    return bsti_mat_from_cholmod(ctx, c, out);
-}
-
-/* Sparse * dense.  Double: cholmod_l_sdmult on a header over our buffers (no copy).  Float: a
- * loop over the non-zeros accumulating in the float result.  Workspace: the result only. */
-static int mul_sparse_dense(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
-{
-    (void)drop;
-    bst_mat *c;
-    int rc = bst_mat_new_dense(ctx, a->rows, b->cols, b->prec, &c);
-    if (rc < 0)
-        return rc;
-    if (b->prec == BST_DOUBLE) {
-        cholmod_common *cc = bsti_cholmod(ctx);
-        cholmod_dense X = {.nrow = b->rows, .ncol = b->cols, .nzmax = b->rows * b->cols,
-                           .d = b->rows, .x = b->dense, .xtype = CHOLMOD_REAL, .dtype = CHOLMOD_DOUBLE};
-        cholmod_dense Y = {.nrow = c->rows, .ncol = c->cols, .nzmax = c->rows * c->cols,
-                           .d = c->rows, .x = c->dense, .xtype = CHOLMOD_REAL, .dtype = CHOLMOD_DOUBLE};
-        double one[2] = {1, 0}, zero[2] = {0, 0};
-        if (b->cols > 0 && a->rows > 0 && !cholmod_l_sdmult(a->sp, 0, one, zero, &X, &Y, cc)) {
-            bst_mat_free(c);
-            return cholmod_failed(ctx, "sdmult");
-        }
-    } else {
-        const SuiteSparse_long *p = a->sp->p, *ri = a->sp->i;
-        const double *x = a->sp->x;
-        const float *bd = b->dense;
-        float *cd = c->dense;
-        for (size_t j = 0; j < b->cols; j++)
-            for (size_t k = 0; k < a->cols; k++) {
-                float bkj = bd[j * b->rows + k];
-                if (bkj == 0.0f)
-                    continue;
-                for (SuiteSparse_long q = p[k]; q < p[k + 1]; q++)
-                    cd[j * c->rows + (size_t)ri[q]] += (float)x[q] * bkj;
-            }
-    }
-    *out = c;
-    return BST_OK;
-}
-
-/* Dense * sparse: column j of C is the sum over the non-zeros B(k, j) of B(k, j) * A(:, k), one
- * axpy per non-zero, O(nnz * rows).  Workspace: the result only. */
-static int mul_dense_sparse(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
-{
-    (void)drop;
-    bst_mat *c;
-    int rc = bst_mat_new_dense(ctx, a->rows, b->cols, a->prec, &c);
-    if (rc < 0)
-        return rc;
-    const SuiteSparse_long *p = b->sp->p, *ri = b->sp->i;
-    const double *x = b->sp->x;
-    size_t r = a->rows;
-    for (size_t j = 0; j < b->cols; j++)
-        for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++) {
-            size_t k = (size_t)ri[q];
-            if (a->prec == BST_DOUBLE)
-                cblas_daxpy((int)r, x[q], (const double *)a->dense + k * r, 1,
-                            (double *)c->dense + j * r, 1);
-            else
-                cblas_saxpy((int)r, (float)x[q], (const float *)a->dense + k * r, 1,
-                            (float *)c->dense + j * r, 1);
-        }
-    *out = c;
-    return BST_OK;
-}
-
-/* GEMM.  Mixed precision converts the double operand to float (workspace: that copy). */
-static int mul_dense_dense(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
-{
-    (void)drop;
-    bst_precision prec = (a->prec == BST_FLOAT || b->prec == BST_FLOAT) ? BST_FLOAT : BST_DOUBLE;
-    bst_mat *ta = NULL, *tb = NULL, *c = NULL;
-    int rc = BST_OK;
-    if (a->prec != prec)
-        rc = to_dense(ctx, a, prec, &ta);
-    if (rc >= 0 && b->prec != prec)
-        rc = to_dense(ctx, b, prec, &tb);
-    if (rc >= 0)
-        rc = bst_mat_new_dense(ctx, a->rows, b->cols, prec, &c);
-    if (rc >= 0 && a->rows && b->cols && a->cols) {
-        const bst_mat *A = ta ? ta : a, *B = tb ? tb : b;
-        int m = (int)a->rows, n = (int)b->cols, k = (int)a->cols;
-        if (prec == BST_DOUBLE)
-            cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, m, n, k, 1.0, A->dense, m,
-                        B->dense, k, 0.0, c->dense, m);
-        else
-            cblas_sgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, m, n, k, 1.0f, A->dense, m,
-                        B->dense, k, 0.0f, c->dense, m);
-    }
-    bst_mat_free(ta);
-    bst_mat_free(tb);
-    if (rc < 0) {
-        bst_mat_free(c);
-        return rc;
-    }
-    *out = c;
-    return BST_OK;
-}
-
-/* mul_table[structure of A][structure of B] */
-static const mul_kernel mul_table[4][4] = {
-    /*              ZERO      DIAG            SPARSE             DENSE            */
-    /* ZERO   */ {mul_zero, mul_zero,       mul_zero,          mul_zero},
-    /* DIAG   */ {mul_zero, mul_diag_left,  mul_diag_left,     mul_diag_left},
-    /* SPARSE */ {mul_zero, mul_diag_right, mul_sparse_sparse, mul_sparse_dense},
-    /* DENSE  */ {mul_zero, mul_diag_right, mul_dense_sparse,  mul_dense_dense},
-};
-
-int bsti_mat_mul_generic(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, bst_mat **out)
-{
-    bst_precision prec = ((a->s == BST_DENSE && a->prec == BST_FLOAT) ||
-                          (b->s == BST_DENSE && b->prec == BST_FLOAT)) ? BST_FLOAT : BST_DOUBLE;
-    bst_mat *da = NULL, *db = NULL;
-    int rc = to_dense(ctx, a, prec, &da);
-    if (rc >= 0)
-        rc = to_dense(ctx, b, prec, &db);
-    if (rc >= 0)
-        rc = mul_dense_dense(ctx, da, db, 0.0, out);
-    bst_mat_free(da);
-    bst_mat_free(db);
-    return rc;
-}
-
-int bst_mat_mul(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop_tol, bst_mat **out)
-{
-    int rc = check_out(ctx, out);
-    if (rc < 0)
-        return rc;
-    if (!a || !b)
-        return bsti_error(ctx, BST_EINVAL, "product: NULL matrix");
-    if (a->cols != b->rows)
-        return bsti_error(ctx, BST_ESIZE, "product: %zu x %zu times %zu x %zu", a->rows, a->cols,
-                          b->rows, b->cols);
-    if (!(drop_tol >= 0.0 && drop_tol < 1.0))
-        return bsti_error(ctx, BST_EINVAL, "product: drop tolerance %g is not in [0, 1)", drop_tol);
-    return mul_table[a->s][b->s](ctx, a, b, drop_tol, out);
+    return bsti_mat_scale(ctx, d_rows, a, d_cols, out);
 }
 
 /* ------------------------------------------------------------------ sums */
@@ -658,7 +473,7 @@ int bst_mat_mul(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop_to
 int bst_mat_add(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, const bst_mat *b,
                 bst_mat **out)
 {
-    int rc = check_out(ctx, out);
+    int rc = bsti_mat_check_out(ctx, out);
     if (rc < 0)
         return rc;
     if (!a || !b)
@@ -705,7 +520,7 @@ int bst_mat_add(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, const
         bst_precision prec = (a->prec == BST_FLOAT || (b->s == BST_DENSE && b->prec == BST_FLOAT))
                                  ? BST_FLOAT : BST_DOUBLE;
         bst_mat *c;
-        if ((rc = to_dense(ctx, a, prec, &c)) < 0)
+        if ((rc = bsti_mat_to_dense(ctx, a, prec, &c)) < 0)
             return rc;
         size_t r = a->rows, n = r * a->cols;
         double *cd = prec == BST_DOUBLE ? c->dense : NULL;
@@ -747,8 +562,8 @@ int bst_mat_add(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, const
         double al[2] = {alpha, 0}, be[2] = {beta, 0};
         cholmod_sparse *c = cholmod_l_add(sa ? sa->sp : a->sp, sb ? sb->sp : b->sp, al, be, 1, 1, cc);
         if (!c)
-            rc = cholmod_failed(ctx, "add");
-        else if ((rc = apply_drop(ctx, c, 0.0)) < 0)
+            rc = bsti_mat_cholmod_failed(ctx, "add");
+        else if ((rc = bsti_mat_drop(ctx, c, 0.0)) < 0)
             cholmod_l_free_sparse(&c, cc);
         else
             rc = bsti_mat_from_cholmod(ctx, c, out);
@@ -762,7 +577,7 @@ int bst_mat_add(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, const
 
 int bst_mat_transpose(bst_ctx *ctx, const bst_mat *a, bst_mat **out)
 {
-    int rc = check_out(ctx, out);
+    int rc = bsti_mat_check_out(ctx, out);
     if (rc < 0)
         return rc;
     if (!a)
@@ -773,7 +588,7 @@ int bst_mat_transpose(bst_ctx *ctx, const bst_mat *a, bst_mat **out)
     case BST_SPARSE: {
         cholmod_common *cc = bsti_cholmod(ctx);
         cholmod_sparse *t = cc ? cholmod_l_transpose(a->sp, 1, cc) : NULL;
-        return t ? bsti_mat_from_cholmod(ctx, t, out) : cholmod_failed(ctx, "transpose");
+        return t ? bsti_mat_from_cholmod(ctx, t, out) : bsti_mat_cholmod_failed(ctx, "transpose");
     }
     case BST_DENSE: {
         bst_mat *t;
@@ -859,7 +674,7 @@ int bst_mat_to_dense_array(bst_ctx *ctx, const bst_mat *m, double *out)
 int bst_mat_select_cols(bst_ctx *ctx, const bst_mat *m, size_t ncols, const size_t *cols,
                         bst_mat **out)
 {
-    int rc = check_out(ctx, out);
+    int rc = bsti_mat_check_out(ctx, out);
     if (rc < 0)
         return rc;
     if (!m || (ncols && !cols))

@@ -33,7 +33,18 @@ static inline double bsti_dense_get(const bst_mat *m, size_t i, size_t j)
                                  : (double)((const float *)m->dense)[j * m->rows + i];
 }
 
-
+/* Shared by mat.c and mat_mul.c (unchecked: the public entries validate first). */
+/* *out = NULL, or BST_EINVAL (with a message when ctx is there) for a NULL ctx or out. */
+int bsti_mat_check_out(bst_ctx *ctx, bst_mat **out);
+/* The error of a failed CHOLMOD call `what`: BST_ENOMEM when CHOLMOD ran out of memory. */
+int bsti_mat_cholmod_failed(bst_ctx *ctx, const char *what);
+/* Remove entries |x| <= drop * max|x| from a sparse result (drop = 0: exact zeros only). */
+int bsti_mat_drop(bst_ctx *ctx, cholmod_sparse *sp, double drop);
+/* Dense copy of any matrix in precision prec. */
+int bsti_mat_to_dense(bst_ctx *ctx, const bst_mat *m, bst_precision prec, bst_mat **out);
+/* C = diag(dr) A diag(dc) (either NULL = identity), in A's structure. */
+int bsti_mat_scale(bst_ctx *ctx, const double *dr, const bst_mat *a, const double *dc,
+                   bst_mat **out);
 
 /* bst_solve_left (right = 0) or bst_solve_right (right = 1) taking A: it is freed as soon as
  * I - A is factored (on every path), so that A, its factorization and the result are never all

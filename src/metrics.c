@@ -1,7 +1,6 @@
 /* metrics.c - comparisons of BSDFs: global and local accordance (Grobe 2017, eq. 6-8) and flux
  * accordance of the light scattered for one incident patch or for each (see bst_accordance in
- * bsdfstack.h).  Hemispherical integrals are
- * in layer.c/stack.c (bst_layer_hemispherical). */
+ * bsdfstack.h).  Hemispherical integrals are in layer.c (bst_layer_hemispherical). */
 #include <config.h>
 
 #include <math.h>

@@ -14,7 +14,9 @@
  *
  * Only what is asked is computed: need() below derives, from the components requested of a partial
  * stack, the components required of its two parts; a stack of n layers is n - 1 steps, and each
- * partial result is freed as soon as the next step has used it.  When both members of a pair
+ * partial result is freed as soon as the next step has used it.  Within a step, count_uses derives
+ * from need() how often each component of the two parts will be read, and every matrix the
+ * combination owns is freed at its last read (struct term, use()).  When both members of a pair
  * (Tf, Rb) or (Rf, Tb) are needed, one factorization serves both through W = T2 (I - A)^-1 (a right
  * solve); when one is needed, a left solve with its own right-hand side is cheaper. */
 #include <config.h>
@@ -72,22 +74,14 @@ static double now_seconds(void)
 }
 
 /* One channel's four components of a part; NULL = zero.  `own` marks matrices this module
- * allocated (partial results) as opposed to borrowed from an input layer. */
+ * allocated (partial results, converted copies) or took from a consumed layer, as opposed to
+ * borrowed from an input layer; `uses` counts the reads of each component still to come in the
+ * step being formed (count_uses). */
 struct part {
     const bst_mat *m[BST_NCOMP];
     bst_mat *own[BST_NCOMP];
+    int uses[BST_NCOMP];
 };
-
-/* Free a component this module owns at its last use in a step (a borrowed one is left alone:
- * it is the caller's).  Keeps the peak of a step near its live matrices. */
-static void part_drop(struct part *p, bst_comp c)
-{
-    if (p->own[c]) {
-        bst_mat_free(p->own[c]);
-        p->own[c] = NULL;
-        p->m[c] = NULL;
-    }
-}
 
 static void part_clear(struct part *p)
 {
@@ -103,7 +97,9 @@ struct combiner {
     const bst_stack_opts *opts;
     const double *lam;
     size_t n;
-    int warning; /* highest warning status so far */
+    int status;   /* the first error (BST_OK until then): the operations below do nothing after it */
+    int warning;  /* highest warning status so far */
+    double rcond; /* of the step's last inter-reflection solve (1 when none) */
     size_t step;
     const char *channel;
 };
@@ -123,56 +119,154 @@ static int note_warning(struct combiner *cb, int status)
     return BST_OK;
 }
 
-/* L * M, or NULL when M is NULL (zero). */
-static int lam_times(struct combiner *cb, const bst_mat *m, bst_mat **out)
+/* ------------------------------------------------------------------ terms and their lifetimes
+ *
+ * The operations below read and return terms: a matrix (NULL = zero) and, when this read is its
+ * last and the combination owns it, the same matrix in `dies`, which the operation frees once it
+ * has read it.  An operation's result is a new term that dies at its one read; keep() reads a term
+ * that is read again later, and use() hands out a component of U or V, which dies at the last of
+ * the reads count_uses counted.  So every matrix goes at its last use, and the formulas below free
+ * nothing themselves.  After an error (cb->status < 0) an operation computes nothing and returns
+ * zero, but still frees what dies: a step runs to its end and leaks nothing. */
+struct term {
+    const bst_mat *m;
+    bst_mat *dies;
+};
+
+/* Term t for a read after which it is read again. */
+static struct term keep(struct term t)
 {
-    *out = NULL;
-    if (!m)
-        return BST_OK;
-    return bst_mat_scale(cb->ctx, cb->lam, m, NULL, out);
+    return (struct term){t.m, NULL};
 }
 
-/* a * b treating NULL as zero. */
-static int mul(struct combiner *cb, const bst_mat *a, const bst_mat *b, bst_mat **out)
+/* Component c of part p, for one of the reads that count_uses counted; at the last, an owned
+ * matrix dies with the read (a borrowed one is the caller's). */
+static struct term use(struct part *p, bst_comp c)
 {
-    *out = NULL;
-    if (!a || !b)
-        return BST_OK;
-    return bst_mat_mul(cb->ctx, a, b, cb->opts->drop_tol, out);
-}
-
-/* r + s treating NULL as zero; the result is a new matrix or NULL. */
-static int add(struct combiner *cb, const bst_mat *r, const bst_mat *s, bst_mat **out)
-{
-    *out = NULL;
-    if (!r && !s)
-        return BST_OK;
-    if (!s)
-        return bst_mat_convert(cb->ctx, r, bst_mat_structure(r), bst_mat_precision(r), out);
-    if (!r)
-        return bst_mat_convert(cb->ctx, s, bst_mat_structure(s), bst_mat_precision(s), out);
-    return bst_mat_add(cb->ctx, 1.0, r, 1.0, s, out);
-}
-
-/* Solve with A possibly NULL (zero: (I - 0)^-1 = I); left: (I-A)^-1 B, right: B (I-A)^-1.
- * B NULL gives NULL.  *rcond receives the condition estimate.  Takes *a: it is freed once
- * factored (its last use) and *a set to NULL. */
-static int solve(struct combiner *cb, int right, bst_mat **a, const bst_mat *b, bst_mat **out,
-                 double *rcond, const char *what)
-{
-    *out = NULL;
-    *rcond = 1.0;
-    bst_mat *am = *a;
-    *a = NULL;
-    if (!b) {
-        bst_mat_free(am);
-        return BST_OK;
+    struct term t = {p->m[c], NULL};
+    if (--p->uses[c] == 0) {
+        t.dies = p->own[c];
+        p->own[c] = NULL;
+        p->m[c] = NULL;
     }
-    int rc;
-    if (!am)
-        rc = bst_mat_convert(cb->ctx, b, bst_mat_structure(b), bst_mat_precision(b), out);
+    return t;
+}
+
+#define INWARD (BIT(BST_TF) | BIT(BST_RB))
+#define OUTWARD (BIT(BST_TB) | BIT(BST_RF))
+
+/* The reads of each component of U and V that forming `want` makes (inward and outward below):
+ * each step reads once every component that need() says it needs, except Rf2, which the outward
+ * step reads twice for Rf, in A2 and in L Rf2 L Tf1 (scaling it once for both would copy V's
+ * matrix). */
+static void count_uses(unsigned want, struct part *u, struct part *v)
+{
+    unsigned ui, vi, uo, vo;
+    need(want & INWARD, &ui, &vi);
+    need(want & OUTWARD, &uo, &vo);
+    for (int c = 0; c < BST_NCOMP; c++) {
+        u->uses[c] = !!(ui & BIT(c)) + !!(uo & BIT(c));
+        v->uses[c] = !!(vi & BIT(c)) + !!(vo & BIT(c));
+    }
+    if (want & BIT(BST_RF))
+        v->uses[BST_RF]++;
+}
+
+/* The term an operation returns from the library call that formed m: on error the error becomes
+ * the combination's status and m goes. */
+static struct term result(struct combiner *cb, int rc, bst_mat *m)
+{
+    if (rc < 0) {
+        cb->status = rc;
+        bst_mat_free(m);
+        m = NULL;
+    }
+    return (struct term){m, m};
+}
+
+static void release(struct term a, struct term b)
+{
+    bst_mat_free(a.dies);
+    bst_mat_free(b.dies);
+}
+
+/* A copy of m in its own structure and precision. */
+static int copy(struct combiner *cb, const bst_mat *m, bst_mat **out)
+{
+    return bst_mat_convert(cb->ctx, m, bst_mat_structure(m), bst_mat_precision(m), out);
+}
+
+/* L a. */
+static struct term lam_times(struct combiner *cb, struct term a)
+{
+    bst_mat *out = NULL;
+    int rc = cb->status >= 0 && a.m ? bst_mat_scale(cb->ctx, cb->lam, a.m, NULL, &out) : BST_OK;
+    bst_mat_free(a.dies);
+    return result(cb, rc, out);
+}
+
+/* L a L (both sides scaled by the projected solid angles). */
+static struct term lam_both(struct combiner *cb, struct term a)
+{
+    bst_mat *out = NULL;
+    int rc = cb->status >= 0 && a.m ? bst_mat_scale(cb->ctx, cb->lam, a.m, cb->lam, &out) : BST_OK;
+    bst_mat_free(a.dies);
+    return result(cb, rc, out);
+}
+
+/* a b. */
+static struct term mul(struct combiner *cb, struct term a, struct term b)
+{
+    bst_mat *out = NULL;
+    int rc = cb->status >= 0 && a.m && b.m
+                 ? bst_mat_mul(cb->ctx, a.m, b.m, cb->opts->drop_tol, &out) : BST_OK;
+    release(a, b);
+    return result(cb, rc, out);
+}
+
+/* L (a b): the product scaled by L afterwards, so that no scaled copy of a is formed. */
+static struct term lam_mul(struct combiner *cb, struct term a, struct term b)
+{
+    if (!a.m || !b.m || bst_mat_structure(b.m) != BST_DIAG)
+        return lam_times(cb, mul(cb, a, b));
+    /* a diagonal factor folds into one scaling: no product held beside its scaled copy */
+    bst_mat *out = NULL;
+    int rc = cb->status >= 0 ? bst_mat_scale(cb->ctx, cb->lam, a.m,
+                                             bst_mat_diag_data((bst_mat *)b.m), &out) : BST_OK;
+    release(a, b);
+    return result(cb, rc, out);
+}
+
+/* r + s; a new matrix also when one of them is zero. */
+static struct term add(struct combiner *cb, struct term r, struct term s)
+{
+    bst_mat *out = NULL;
+    int rc = BST_OK;
+    if (cb->status >= 0 && r.m && s.m)
+        rc = bst_mat_add(cb->ctx, 1.0, r.m, 1.0, s.m, &out);
+    else if (cb->status >= 0 && (r.m || s.m))
+        rc = copy(cb, r.m ? r.m : s.m, &out);
+    release(r, s);
+    return result(cb, rc, out);
+}
+
+enum { LEFT = 0, RIGHT = 1 };
+
+/* (I - A)^-1 B (LEFT) or B (I - A)^-1 (RIGHT).  A is a result of the step, freed as soon as it is
+ * factored.  cb->rcond receives the condition estimate (1 without a solve). */
+static struct term solve(struct combiner *cb, int side, struct term a, struct term b,
+                         const char *what)
+{
+    bst_mat *out = NULL;
+    int rc = BST_OK;
+    cb->rcond = 1.0;
+    if (cb->status < 0 || !b.m)
+        bst_mat_free(a.dies);
+    else if (!a.m)
+        rc = copy(cb, b.m, &out);
     else
-        rc = bsti_solve_take(cb->ctx, right, am, b, cb->opts->rcond_warn, out, rcond);
+        rc = bsti_solve_take(cb->ctx, side, a.dies, b.m, cb->opts->rcond_warn, &out, &cb->rcond);
+    bst_mat_free(b.dies);
     if (rc == BST_ESINGULAR)
         bsti_error_prefix(cb->ctx, "layers 1-%zu, channel %s: inter-reflection %s", cb->step + 1,
                           cb->channel, what);
@@ -180,218 +274,115 @@ static int solve(struct combiner *cb, int right, bst_mat **a, const bst_mat *b, 
         bsti_error(cb->ctx, BST_WILLCOND,
                    "layers 1-%zu, channel %s: inter-reflection %s is ill-conditioned "
                    "(reciprocal condition %.3g): near-perfect mirrors facing each other",
-                   cb->step + 1, cb->channel, what, *rcond);
+                   cb->step + 1, cb->channel, what, cb->rcond);
         rc = note_warning(cb, rc);
     }
-    return rc;
+    return result(cb, rc, out);
 }
 
-static void report(struct combiner *cb, bst_comp c, const bst_mat *m, double t0, double rcond)
+/* Component c of S is t: kept, and reported (time since t0, the step's rcond). */
+static void form(struct combiner *cb, struct part *s, bst_comp c, double t0, struct term t)
 {
-    if (!cb->opts->on_step)
+    s->own[c] = t.dies;
+    if (!cb->opts->on_step || cb->status < 0)
         return;
-    bst_stack_step s = {
+    bst_stack_step st = {
         .comp = c,
         .step = cb->step,
         .channel = cb->channel,
-        .structure = m ? bst_mat_structure(m) : BST_ZERO,
-        .nnz = m ? bst_mat_nnz(m) : 0,
+        .structure = t.m ? bst_mat_structure(t.m) : BST_ZERO,
+        .nnz = t.m ? bst_mat_nnz(t.m) : 0,
         .seconds = now_seconds() - t0,
-        .rcond = rcond,
+        .rcond = cb->rcond,
     };
-    cb->opts->on_step(&s, cb->opts->opaque);
+    cb->opts->on_step(&st, cb->opts->opaque);
 }
 
-/* L m L (both sides scaled by the projected solid angles), NULL for NULL. */
-static int lam_both(struct combiner *cb, const bst_mat *m, bst_mat **out)
+/* ------------------------------------------------------------------ one step: U and V
+ *
+ * The scalings by L go on the cheaper factor (U's reflection is the exterior part's, often a
+ * diagonal pane), so that V's dense matrices are never copied just to be scaled.  Where a formula
+ * nests, the innermost product is formed first and each factor goes as soon as it has been read. */
+
+/* L Rf2 L X1: what V reflects back into the gap of X1's light, for X1 = Rb1 (A2) and X1 = Tf1 (the
+ * right-hand side of Rf). */
+static struct term reflected_outwards(struct combiner *cb, struct part *v, struct part *u,
+                                      bst_comp x1)
 {
-    *out = NULL;
-    if (!m)
-        return BST_OK;
-    return bst_mat_scale(cb->ctx, cb->lam, m, cb->lam, out);
+    return lam_mul(cb, use(v, BST_RF), lam_times(cb, use(u, x1)));
 }
 
-/* L (a b): the product scaled by L afterwards, so that no scaled copy of a is formed. */
-static int lam_mul(struct combiner *cb, const bst_mat *a, const bst_mat *b, bst_mat **out)
+/* Light travelling inwards in the gap, A1 = L Rb1 L Rf2 = (L Rb1 L) Rf2:
+ *   Tf = Tf2 (I - A1)^-1 L Tf1,   Rb = Rb2 + Tf2 (I - A1)^-1 (L Rb1 L) Tb2.
+ * One of them: a left solve with its own right-hand side.  Both: W = Tf2 (I - A1)^-1 serves the
+ * two, and Rb goes first, so that its temporaries beside W are gone before Tf exists. */
+static void inward(struct combiner *cb, struct part *u, struct part *v, unsigned want,
+                   struct part *s)
 {
-    /* a diagonal factor folds into one scaling: no product held beside its scaled copy */
-    if (a && b && bst_mat_structure(b) == BST_DIAG)
-        return bst_mat_scale(cb->ctx, cb->lam, a, bst_mat_diag_data((bst_mat *)b), out);
-    bst_mat *p = NULL;
-    int rc = mul(cb, a, b, &p);
-    if (rc >= 0)
-        rc = lam_times(cb, p, out);
-    bst_mat_free(p);
-    return rc;
-}
-
-/* L Rf2 L Tf1: the light V reflects back into the gap, the right-hand side of Rf.  Tf1 and Rf2
- * are at their last use. */
-static int reflected_outwards(struct combiner *cb, struct part *u, struct part *v, bst_mat **out)
-{
-    bst_mat *ltf1 = NULL;
-    *out = NULL;
-    int rc = lam_times(cb, u->m[BST_TF], &ltf1);
-    if (rc >= 0) {
-        part_drop(u, BST_TF);
-        rc = lam_mul(cb, v->m[BST_RF], ltf1, out);
+    static const char what[] = "towards the interior";
+    double t0 = now_seconds();
+    struct term llrb1 = lam_both(cb, use(u, BST_RB));
+    struct term a1 = mul(cb, want & BIT(BST_RB) ? keep(llrb1) : llrb1, use(v, BST_RF));
+    if (want == BIT(BST_TF)) {
+        struct term x = solve(cb, LEFT, a1, lam_times(cb, use(u, BST_TF)), what);
+        form(cb, s, BST_TF, t0, mul(cb, use(v, BST_TF), x));
+    } else if (want == BIT(BST_RB)) {
+        struct term x = solve(cb, LEFT, a1, mul(cb, llrb1, use(v, BST_TB)), what);
+        form(cb, s, BST_RB, t0, add(cb, use(v, BST_RB), mul(cb, use(v, BST_TF), x)));
+    } else {
+        struct term w = solve(cb, RIGHT, a1, use(v, BST_TF), what);
+        form(cb, s, BST_RB, t0,
+             add(cb, use(v, BST_RB), mul(cb, keep(w), mul(cb, llrb1, use(v, BST_TB)))));
+        t0 = now_seconds();
+        form(cb, s, BST_TF, t0, mul(cb, w, lam_times(cb, use(u, BST_TF))));
     }
-    if (rc >= 0)
-        part_drop(v, BST_RF);
-    bst_mat_free(ltf1);
-    return rc;
 }
 
-/* Combine U (exterior part) and V (interior layer) into S, forming the components `want`.
- * Memory: the scalings by L go on the cheaper factor (U's reflection is the exterior part's, often
- * a diagonal pane), so V's dense matrices are never copied just to be scaled; and every component
- * U and V own is freed at its last use (part_drop), the pair computed second using fewer. */
+/* Light travelling outwards in the gap, A2 = L Rf2 L Rb1 = L (Rf2 (L Rb1)):
+ *   Tb = Tb1 (I - A2)^-1 L Tb2,   Rf = Rf1 + Tb1 (I - A2)^-1 L Rf2 L Tf1.
+ * Both: W = Tb1 (I - A2)^-1 serves the two.  One of them: a left solve with its own right-hand
+ * side. */
+static void outward(struct combiner *cb, struct part *u, struct part *v, unsigned want,
+                    struct part *s)
+{
+    static const char what[] = "towards the exterior";
+    double t0 = now_seconds();
+    struct term a2 = reflected_outwards(cb, v, u, BST_RB);
+    if (want == OUTWARD) {
+        struct term w = solve(cb, RIGHT, a2, use(u, BST_TB), what);
+        form(cb, s, BST_TB, t0, mul(cb, keep(w), lam_times(cb, use(v, BST_TB))));
+        t0 = now_seconds();
+        form(cb, s, BST_RF, t0,
+             add(cb, use(u, BST_RF), mul(cb, w, reflected_outwards(cb, v, u, BST_TF))));
+    } else if (want == BIT(BST_TB)) {
+        struct term x = solve(cb, LEFT, a2, lam_times(cb, use(v, BST_TB)), what);
+        form(cb, s, BST_TB, t0, mul(cb, use(u, BST_TB), x));
+    } else {
+        struct term x = solve(cb, LEFT, a2, reflected_outwards(cb, v, u, BST_TF), what);
+        form(cb, s, BST_RF, t0, add(cb, use(u, BST_RF), mul(cb, use(u, BST_TB), x)));
+    }
+}
+
+/* Combine U (exterior part) and V (interior layer) into S, forming the components `want`: the
+ * inward pair, then the outward one, which finds fewer of U's and V's components still held. */
 static int combine_pair(struct combiner *cb, struct part *u, struct part *v, unsigned want,
                         struct part *s)
 {
-    bst_mat *llrb1 = NULL, *lrb1 = NULL, *a = NULL, *w = NULL, *t = NULL, *t2 = NULL;
-    int rc = BST_OK;
-    double rcond, t0;
     memset(s, 0, sizeof *s);
-
-    /* Light travelling inwards in the gap: Tf and Rb share A1 = L Rb1 L Rf2 = (L Rb1 L) Rf2. */
-    unsigned pair1 = want & (BIT(BST_TF) | BIT(BST_RB)), pair2 = want & (BIT(BST_TB) | BIT(BST_RF));
-    if (pair1) {
-        /* the second pair uses Rb1, Tf1 of U and Rf2, Tb2 of V again; Tf2 and Rb2 die here */
-        t0 = now_seconds();
-        if ((rc = lam_both(cb, u->m[BST_RB], &llrb1)) < 0 || (rc = mul(cb, llrb1, v->m[BST_RF], &a)) < 0)
-            goto done;
-        if (!pair2)
-            part_drop(u, BST_RB), part_drop(v, BST_RF);
-        if (pair1 == (BIT(BST_TF) | BIT(BST_RB))) {
-            /* W = Tf2 (I - A1)^-1; Rb = Rb2 + W (L Rb1 L) Tb2; Tf = W L Tf1.  Rb first: its two
-             * temporaries beside W are gone before Tf exists. */
-            if ((rc = solve(cb, 1, &a, v->m[BST_TF], &w, &rcond, "towards the interior")) < 0)
-                goto done;
-            part_drop(v, BST_TF);
-            if ((rc = mul(cb, llrb1, v->m[BST_TB], &t)) < 0)
-                goto done;
-            if (!pair2)
-                part_drop(v, BST_TB);
-            if ((rc = mul(cb, w, t, &t2)) < 0)
-                goto done;
-            bst_mat_free(t);
-            t = NULL;
-            if ((rc = add(cb, v->m[BST_RB], t2, &s->own[BST_RB])) < 0)
-                goto done;
-            part_drop(v, BST_RB);
-            bst_mat_free(t2);
-            t2 = NULL;
-            report(cb, BST_RB, s->own[BST_RB], t0, rcond);
-            t0 = now_seconds();
-            if ((rc = lam_times(cb, u->m[BST_TF], &t)) < 0 || (rc = mul(cb, w, t, &s->own[BST_TF])) < 0)
-                goto done;
-            if (!pair2)
-                part_drop(u, BST_TF);
-            report(cb, BST_TF, s->own[BST_TF], t0, rcond);
-        } else if (pair1 == BIT(BST_TF)) {
-            /* X = (I - A1)^-1 L Tf1; Tf = Tf2 X */
-            if ((rc = lam_times(cb, u->m[BST_TF], &t)) < 0 ||
-                (rc = solve(cb, 0, &a, t, &w, &rcond, "towards the interior")) < 0)
-                goto done;
-            bst_mat_free(t);
-            t = NULL;
-            if (!pair2)
-                part_drop(u, BST_TF);
-            if ((rc = mul(cb, v->m[BST_TF], w, &s->own[BST_TF])) < 0)
-                goto done;
-            part_drop(v, BST_TF);
-            report(cb, BST_TF, s->own[BST_TF], t0, rcond);
-        } else {
-            /* X = (I - A1)^-1 (L Rb1 L) Tb2; Rb = Rb2 + Tf2 X */
-            if ((rc = mul(cb, llrb1, v->m[BST_TB], &t)) < 0 ||
-                (rc = solve(cb, 0, &a, t, &w, &rcond, "towards the interior")) < 0)
-                goto done;
-            bst_mat_free(t);
-            t = NULL;
-            if (!pair2)
-                part_drop(v, BST_TB);
-            if ((rc = mul(cb, v->m[BST_TF], w, &t2)) < 0)
-                goto done;
-            part_drop(v, BST_TF);
-            if ((rc = add(cb, v->m[BST_RB], t2, &s->own[BST_RB])) < 0)
-                goto done;
-            part_drop(v, BST_RB);
-            report(cb, BST_RB, s->own[BST_RB], t0, rcond);
-        }
-        bst_mat_free(w), bst_mat_free(t), bst_mat_free(t2);
-        w = t = t2 = NULL;
-    }
-
-    /* Light travelling outwards in the gap: Tb and Rf share A2 = L Rf2 L Rb1 = L (Rf2 (L Rb1)).
-     * Every component is at its last use here. */
-    if (pair2) {
-        t0 = now_seconds();
-        if ((rc = lam_times(cb, u->m[BST_RB], &lrb1)) < 0)
-            goto done;
-        part_drop(u, BST_RB);
-        if ((rc = lam_mul(cb, v->m[BST_RF], lrb1, &a)) < 0)
-            goto done;
-        if (pair2 == (BIT(BST_TB) | BIT(BST_RF))) {
-            /* W = Tb1 (I - A2)^-1; Tb = W L Tb2; Rf = Rf1 + W L Rf2 L Tf1 */
-            if ((rc = solve(cb, 1, &a, u->m[BST_TB], &w, &rcond, "towards the exterior")) < 0)
-                goto done;
-            part_drop(u, BST_TB);
-            if ((rc = lam_times(cb, v->m[BST_TB], &t)) < 0)
-                goto done;
-            part_drop(v, BST_TB);
-            if ((rc = mul(cb, w, t, &s->own[BST_TB])) < 0)
-                goto done;
-            report(cb, BST_TB, s->own[BST_TB], t0, rcond);
-            t0 = now_seconds();
-            bst_mat_free(t);
-            t = NULL;
-            if ((rc = reflected_outwards(cb, u, v, &t)) < 0 || (rc = mul(cb, w, t, &t2)) < 0)
-                goto done;
-            bst_mat_free(w), bst_mat_free(t);
-            w = t = NULL;
-            if ((rc = add(cb, u->m[BST_RF], t2, &s->own[BST_RF])) < 0)
-                goto done;
-            part_drop(u, BST_RF);
-            report(cb, BST_RF, s->own[BST_RF], t0, rcond);
-        } else if (pair2 == BIT(BST_TB)) {
-            /* X = (I - A2)^-1 L Tb2; Tb = Tb1 X */
-            part_drop(v, BST_RF);
-            if ((rc = lam_times(cb, v->m[BST_TB], &t)) < 0)
-                goto done;
-            part_drop(v, BST_TB);
-            if ((rc = solve(cb, 0, &a, t, &w, &rcond, "towards the exterior")) < 0)
-                goto done;
-            bst_mat_free(t);
-            t = NULL;
-            if ((rc = mul(cb, u->m[BST_TB], w, &s->own[BST_TB])) < 0)
-                goto done;
-            part_drop(u, BST_TB);
-            report(cb, BST_TB, s->own[BST_TB], t0, rcond);
-        } else {
-            /* X = (I - A2)^-1 L Rf2 L Tf1; Rf = Rf1 + Tb1 X */
-            if ((rc = reflected_outwards(cb, u, v, &t)) < 0 ||
-                (rc = solve(cb, 0, &a, t, &w, &rcond, "towards the exterior")) < 0)
-                goto done;
-            bst_mat_free(t);
-            t = NULL;
-            if ((rc = mul(cb, u->m[BST_TB], w, &t2)) < 0)
-                goto done;
-            part_drop(u, BST_TB);
-            if ((rc = add(cb, u->m[BST_RF], t2, &s->own[BST_RF])) < 0)
-                goto done;
-            part_drop(u, BST_RF);
-            report(cb, BST_RF, s->own[BST_RF], t0, rcond);
-        }
-    }
-done:
-    bst_mat_free(llrb1), bst_mat_free(lrb1), bst_mat_free(a);
-    bst_mat_free(w), bst_mat_free(t), bst_mat_free(t2);
-    for (int c = 0; c < BST_NCOMP; c++)
+    count_uses(want, u, v);
+    if (want & INWARD)
+        inward(cb, u, v, want & INWARD, s);
+    if (want & OUTWARD)
+        outward(cb, u, v, want & OUTWARD, s);
+    for (int c = 0; c < BST_NCOMP; c++) {
         s->m[c] = s->own[c];
-    if (rc < 0) {
+        if (cb->status >= 0 && (u->uses[c] || v->uses[c]))
+            cb->status = bsti_error(cb->ctx, BST_EINTERNAL, "stack: component %s read other "
+                                    "than counted", bst_comp_name((bst_comp)c));
+    }
+    if (cb->status < 0) {
         part_clear(s);
-        return rc;
+        return cb->status;
     }
     return BST_OK;
 }
@@ -402,19 +393,6 @@ static double patch_theta_deg(const bst_basis *b, size_t patch)
     double d[3];
     bst_basis_center(b, patch, d);
     return acos(fmin(1.0, fabs(d[2]))) * 180.0 / M_PI;
-}
-
-int bst_layer_hemispherical(bst_ctx *ctx, const bst_layer *l, size_t ch, bst_comp c, double *out)
-{
-    if (!ctx || !l || !out || ch >= l->nchannels || (unsigned)c >= BST_NCOMP)
-        return ctx ? bsti_error(ctx, BST_EINVAL, "hemispherical: invalid argument") : BST_EINVAL;
-    size_t n = bst_basis_size(l->basis);
-    const bst_mat *m = bst_layer_get(l, ch, c);
-    if (!m) {
-        memset(out, 0, n * sizeof *out);
-        return BST_OK;
-    }
-    return bst_mat_col_weighted_sum(ctx, m, bst_basis_lambda(l->basis), out);
 }
 
 /* Warn (BST_WENERGY) when T + R of an input layer exceeds 1 + tol for some incident patch, on
@@ -603,6 +581,7 @@ int bst_stack_combine_consume(bst_ctx *ctx, size_t n, bst_layer **layers,
 {
     if (!ctx || !out || !layers)
         return combine(ctx, n, (const bst_layer *const *)layers, NULL, opts, out);
+    *out = NULL; /* also when the list below cannot be allocated */
     /* A layer listed twice (one pane object for both panes) is borrowed where it occurs first and
      * taken only at its last occurrence, and freed once. */
     bst_layer **take = bsti_calloc(ctx, n, sizeof *take);

@@ -387,6 +387,61 @@ START_TEST(test_energy_warning)
 }
 END_TEST
 
+/* Every allocation failure in a combination is reported as BST_ENOMEM, leaves no result and leaks
+ * nothing, whether it borrows or consumes the layers, for every requested subset of components:
+ * the frees at each component's last use hold on every path. */
+START_TEST(test_alloc_failure)
+{
+    static const int structures[3][3] = {{0, 2, 0}, {2, 1, 2}, {1, 0, 2}};
+    const int *s = structures[_i];
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 1, &b), BST_OK);
+    tu_rng rng;
+    bst_layer *l[3];
+    tu_rng_seed(&rng, 77 + (uint64_t)_i);
+    for (int k = 0; k < 3; k++)
+        l[k] = random_layer(b, s[k], 0.1, &rng);
+    for (unsigned want = 1; want <= BST_COMP_ALL; want++)
+        for (int consume = 0; consume < 2; consume++) {
+            int ok = 0;
+            for (long n = 1; n < 1000 && !ok; n++) {
+                tu_alloc a = {n, 0, 0};
+                bst_ctx *c = bst_ctx_new();
+                ck_assert_int_eq(bst_ctx_set_allocator(c, tu_alloc_malloc, tu_alloc_free, &a),
+                                 BST_OK);
+                bst_stack_opts o;
+                bst_stack_opts_init(&o);
+                o.comps = want;
+                bst_layer *out = (bst_layer *)1;
+                int rc;
+                if (consume) {
+                    bst_layer *fresh[3];
+                    tu_rng_seed(&rng, 77 + (uint64_t)_i);
+                    for (int k = 0; k < 3; k++)
+                        fresh[k] = random_layer(b, s[k], 0.1, &rng);
+                    rc = bst_stack_combine_consume(c, 3, fresh, &o, &out);
+                } else {
+                    rc = bst_stack_combine(c, 3, (const bst_layer *const *)l, &o, &out);
+                }
+                ck_assert_msg(rc == BST_OK || rc == BST_ENOMEM, "want %u, consume %d, allocation "
+                              "%ld: %d %s", want, consume, n, rc, bst_ctx_message(c));
+                ok = rc == BST_OK;
+                if (ok)
+                    bst_layer_free(out);
+                else
+                    ck_assert_ptr_null(out);
+                ck_assert_msg(a.live == 0, "want %u, consume %d: %ld blocks leaked after failing "
+                              "allocation %ld", want, consume, a.live, n);
+                bst_ctx_free(c);
+            }
+            ck_assert_msg(ok, "want %u, consume %d never succeeded", want, consume);
+        }
+    for (int k = 0; k < 3; k++)
+        bst_layer_free(l[k]);
+    bst_basis_free(b);
+}
+END_TEST
+
 START_TEST(test_errors)
 {
     bst_basis *b1, *b2;
@@ -421,6 +476,7 @@ static Suite *stack_suite(void)
     tcase_add_test(tc, test_mirrors);
     tcase_add_test(tc, test_energy_warning);
     tcase_add_test(tc, test_errors);
+    tcase_add_loop_test(tc, test_alloc_failure, 0, 3);
     suite_add_tcase(s, tc);
     return s;
 }

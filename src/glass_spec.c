@@ -1,0 +1,317 @@
+/* glass_spec.c - what "glass:SPEC" names: a catalogue pane, a spectral data file or an inline pane.
+ *
+ * Specs (bsdfstack.h, bsdfstack-glass(5)): NAME is the catalogue file NAME.glass in the catalogue
+ * directory; PATH (a '/' or a .tsv ending) a spectral data file averaged over Visible and Solar;
+ * "key=value,..." an inline pane applied to Visible and Solar alike.  Inline keys: d (thickness, a
+ * length: 6mm, 0.006m, 0.6cm, 0.25in, bare = mm), n (index), tn (normal-incidence T of a slab
+ * of index n), k (extinction coefficient, 1/m: tau0 = exp(-k d)), t0, r0 (= r0f), r0b
+ * (normal-incidence T and R).  Everything ends as normal-incidence T0 and R0 per side, the input
+ * of the slab model (glass.c); a catalogue file lists such channels and at most one spectral data
+ * file (glass_band.c).
+ * Every message names where the problem is: the spec, or the catalogue file and line. */
+#include <config.h>
+
+#include <ctype.h>
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ctx.h"
+#include "glass.h"
+
+/* Refractive index assumed by inline specs that give none (soda-lime float glass). */
+#define GLASS_DEFAULT_N 1.52
+
+/* ------------------------------------------------------------------ inline specs */
+
+/* A number followed by one of the unit suffixes (NULL-terminated; "" = no suffix), scaled by the
+ * suffix's factor. */
+static int parse_scaled(const char *v, const char *const *suffix, const double *factor, double *out)
+{
+    char *end;
+    errno = 0;
+    double x = strtod(v, &end);
+    if (end == v || !isfinite(x) || errno)
+        return -1;
+    for (int i = 0; suffix[i]; i++)
+        if (strcmp(end, suffix[i]) == 0) {
+            *out = x * factor[i];
+            return 0;
+        }
+    return -1;
+}
+
+/* "6mm", "0.006m", "0.6cm", "0.25in" or a bare number of millimetres -> metres. */
+static int parse_length(const char *v, double *m)
+{
+    static const char *const suffix[] = {"", "mm", "m", "cm", "in", NULL};
+    static const double factor[] = {1e-3, 1e-3, 1.0, 1e-2, 0.0254};
+    return parse_scaled(v, suffix, factor, m);
+}
+
+/* An extinction coefficient: "25", "25/m", "0.25/cm", "0.025/mm" -> 1/m. */
+static int parse_extinction(const char *v, double *k)
+{
+    static const char *const suffix[] = {"", "/m", "/cm", "/mm", NULL};
+    static const double factor[] = {1.0, 1.0, 1e2, 1e3};
+    return parse_scaled(v, suffix, factor, k);
+}
+
+static int parse_number(const char *v, double *x)
+{
+    char *end;
+    errno = 0;
+    *x = strtod(v, &end);
+    return (end == v || *end || !isfinite(*x) || errno) ? -1 : 0;
+}
+
+/* Parse "key=value,key=value" into the two sides of one band channel. */
+static int parse_params(bst_ctx *ctx, const char *where, const char *text,
+                        struct bsti_glass_side *f, struct bsti_glass_side *b)
+{
+    enum { D, N, TN, K, T0, R0, R0B, NKEYS };
+    static const char *const keys[NKEYS] = {"d", "n", "tn", "k", "t0", "r0", "r0b"};
+    double v[NKEYS];
+    for (int i = 0; i < NKEYS; i++)
+        v[i] = NAN;
+    char buf[512];
+    if (strlen(text) >= sizeof buf)
+        return bsti_error(ctx, BST_EINVAL, "%s: pane description too long", where);
+    strcpy(buf, text);
+    char *save = NULL;
+    for (char *kv = strtok_r(buf, ",", &save); kv; kv = strtok_r(NULL, ",", &save)) {
+        while (isspace((unsigned char)*kv))
+            kv++;
+        char *eq = strchr(kv, '=');
+        if (!eq)
+            return bsti_error(ctx, BST_EINVAL, "%s: '%s' is not key=value (keys: d, n, tn, k, t0, "
+                              "r0, r0b)", where, kv);
+        *eq = '\0';
+        const char *key = kv, *val = eq + 1;
+        int i = 0;
+        while (i < NKEYS && strcmp(key, keys[i]) != 0)
+            i++;
+        if (i == NKEYS && strcmp(key, "r0f") == 0)
+            i = R0;
+        if (i == NKEYS)
+            return bsti_error(ctx, BST_EINVAL, "%s: unknown glass parameter '%s' (keys: d, n, tn, "
+                              "k, t0, r0, r0b)", where, key);
+        if (!isnan(v[i]))
+            return bsti_error(ctx, BST_EINVAL, "%s: %s given twice", where, keys[i]);
+        double x = NAN;
+        int bad;
+        switch (i) {
+        case D: bad = parse_length(val, &x) || !(x >= 0.0 && x < 1.0); break;
+        case N: bad = parse_number(val, &x) || !(x > 1.0 && x < 5.0); break;
+        case K: bad = parse_extinction(val, &x) || !(x >= 0.0); break;
+        case R0:
+        case R0B: bad = parse_number(val, &x) || !(x >= 0.0 && x < 1.0); break;
+        default: bad = parse_number(val, &x) || !(x >= 0.0 && x <= 1.0); break; /* tn, t0 */
+        }
+        if (bad)
+            return bsti_error(ctx, BST_EINVAL, "%s: %s=%s is not a valid value (d: a length below "
+                              "1 m such as 6mm; n: 1..5; tn, t0: 0..1; k: >= 0 per metre such as "
+                              "25/m; r0, r0b: 0..1)", where, key, val);
+        v[i] = x;
+    }
+    double t0 = v[T0], r0f = v[R0], r0b = v[R0B];
+    int slab = !isnan(v[TN]) || !isnan(v[K]);
+    if (slab) { /* a slab of index n: absorption from tn, or from k and d */
+        if (!isnan(t0) || !isnan(r0f) || !isnan(r0b))
+            return bsti_error(ctx, BST_EINVAL, "%s: give n with tn or k, or t0 and r0, not both",
+                              where);
+        if (!isnan(v[TN]) && !isnan(v[K]))
+            return bsti_error(ctx, BST_EINVAL, "%s: give either tn or k (with d)", where);
+        if (!isnan(v[K]) && isnan(v[D]))
+            return bsti_error(ctx, BST_EINVAL, "%s: k needs the thickness d", where);
+        double n = isnan(v[N]) ? GLASS_DEFAULT_N : v[N];
+        double rho = (n - 1) / (n + 1);
+        rho *= rho;
+        double tau;
+        if (!isnan(v[K])) {
+            tau = exp(-v[K] * v[D]);
+            t0 = tau * (1 - rho) * (1 - rho) / ((1 - tau * rho) * (1 + tau * rho));
+        } else {
+            double tn = v[TN], tmax = (1 - rho) / (1 + rho);
+            if (tn > tmax)
+                return bsti_error(ctx, BST_EINVAL, "%s: tn=%g exceeds %.4f, the transmittance of "
+                                  "a non-absorbing pane of index %g", where, tn, tmax, n);
+            /* tau from tn = tau (1 - rho)^2 / (1 - tau^2 rho^2): the positive root of
+             * tn rho^2 tau^2 + (1 - rho)^2 tau - tn = 0, written without cancellation */
+            double p = (1 - rho) * (1 - rho);
+            tau = tn == 0.0 ? 0.0 : 2.0 * tn / (p + sqrt(p * p + 4.0 * tn * tn * rho * rho));
+            t0 = tn;
+        }
+        r0f = r0b = rho * (1 + tau * t0);
+    } else if (!isnan(v[N])) { /* d alone is descriptive, as with tn */
+        if (isnan(t0) || isnan(r0f))
+            return bsti_error(ctx, BST_EINVAL, "%s: a pane of index n needs tn or k (with d)",
+                              where);
+        return bsti_error(ctx, BST_EINVAL, "%s: t0 and r0 fix the refractive index: give no n "
+                          "with them", where);
+    }
+    if (isnan(t0) || isnan(r0f))
+        return bsti_error(ctx, BST_EINVAL, "%s: a pane needs tn (with n), k (with d and n), or t0 "
+                          "and r0", where);
+    if (isnan(r0b))
+        r0b = r0f;
+    if (t0 + r0f > 1.0 || t0 + r0b > 1.0)
+        return bsti_error(ctx, BST_EINVAL, "%s: T0 + R0 = %g exceeds 1", where, t0 + fmax(r0f, r0b));
+    if (bsti_glass_side_init(f, t0, r0f) || bsti_glass_side_init(b, t0, r0b))
+        return bsti_error(ctx, BST_EINVAL, "%s: no uncoated pane has T0 = %g and R0 = %g", where,
+                          t0, r0f);
+    return BST_OK;
+}
+
+static int add_inline(bst_ctx *ctx, bst_glass *g, const char *where, const char *name,
+                      const char *params)
+{
+    if (g->nch >= BSTI_GLASS_MAX_CH)
+        return bsti_error(ctx, BST_EINVAL, "%s: more than %d channels", where, BSTI_GLASS_MAX_CH);
+    int rc = bsti_glass_channel_new(ctx, g, where, name, 1);
+    if (rc >= 0) {
+        struct bsti_glass_channel *c = &g->ch[g->nch];
+        c->w[0] = 1.0;
+        rc = parse_params(ctx, where, params, &c->front[0], &c->back[0]);
+    }
+    return bsti_glass_channel_commit(ctx, g, rc);
+}
+
+/* A spectral data file and the bands to average it over (space-separated names; "" = Visible
+ * and Solar). */
+static int add_spectral(bst_ctx *ctx, bst_glass *g, const char *where, const char *path,
+                        const char *dir, char *names)
+{
+    if (g->data.n)
+        return bsti_error(ctx, BST_EINVAL, "%s: a second spectral data file", where);
+    int rc = bsti_glass_load_spectral(ctx, g, path, dir);
+    char def[] = "Visible Solar";
+    char *save = NULL;
+    for (char *b = strtok_r(*names ? names : def, " \t", &save); b && rc >= 0;
+         b = strtok_r(NULL, " \t", &save)) {
+        const struct bsti_glass_band *band = bsti_glass_find_band(b);
+        rc = band ? bsti_glass_add_band(ctx, g, path, band)
+                  : bsti_error(ctx, BST_EINVAL,
+                               "%s: unknown spectral band '%s' (" BSTI_GLASS_BAND_LIST ")", where,
+                               b);
+    }
+    return rc;
+}
+
+/* A catalogue file (bsdfstack-glass(5)): '#' comments; "description TEXT"; "spectral FILE
+ * [BAND...]" (FILE relative to the catalogue directory); "CHANNEL key=value,...". */
+static int read_catalogue(bst_ctx *ctx, bst_glass *g, const char *path, const char *name,
+                          const char *dir)
+{
+    FILE *fp = fopen(path, "r");
+    if (!fp)
+        return bsti_error(ctx, BST_ENOTFOUND, "glass:%s: no such pane in the catalogue (%s) and "
+                          "not a key=value description; list the catalogue with "
+                          "'bsdfstack glass --list'", name, dir);
+    char line[1024];
+    int lineno = 0, rc = BST_OK;
+    while (rc >= 0 && fgets(line, sizeof line, fp)) {
+        lineno++;
+        char *s = line;
+        while (isspace((unsigned char)*s))
+            s++;
+        size_t n = strlen(s);
+        while (n && isspace((unsigned char)s[n - 1]))
+            s[--n] = '\0';
+        if (!*s || *s == '#')
+            continue;
+        char *sp = s;
+        while (*sp && !isspace((unsigned char)*sp))
+            sp++;
+        char *rest = sp;
+        while (isspace((unsigned char)*rest))
+            rest++;
+        *sp = '\0';
+        char where[1300];
+        snprintf(where, sizeof where, "%s: line %d", path, lineno);
+        if (strcmp(s, "description") == 0) {
+            bsti_free(ctx, g->description);
+            if (!(g->description = bsti_strdup(ctx, rest)))
+                rc = BST_ENOMEM;
+        } else if (!*rest) {
+            rc = bsti_error(ctx, BST_EINVAL, "%s: '%s' without parameters", where, s);
+        } else if (strcmp(s, "spectral") == 0) {
+            char *names = rest;
+            while (*names && !isspace((unsigned char)*names))
+                names++;
+            if (*names)
+                *names++ = '\0';
+            char data[1200];
+            snprintf(data, sizeof data, "%s%s%s", rest[0] == '/' ? "" : dir,
+                     rest[0] == '/' ? "" : "/", rest);
+            rc = add_spectral(ctx, g, where, data, dir, names);
+        } else {
+            rc = add_inline(ctx, g, where, s, rest);
+        }
+    }
+    fclose(fp);
+    if (rc >= 0 && g->nch == 0)
+        rc = bsti_error(ctx, BST_EFORMAT, "%s: no channel defined", path);
+    return rc;
+}
+
+int bst_glass_parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, bst_glass **out)
+{
+    if (!ctx || !spec || !out)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "glass: NULL argument") : BST_EINVAL;
+    *out = NULL;
+    if (!*spec)
+        return bsti_error(ctx, BST_EINVAL, "glass: empty specification (glass:NAME, glass:PATH "
+                          "or glass:d=6mm,n=1.52,tn=0.89)");
+    bst_glass *g = bsti_calloc(ctx, 1, sizeof *g);
+    if (!g)
+        return BST_ENOMEM;
+    g->ctx = ctx;
+    int rc;
+    char where[600];
+    snprintf(where, sizeof where, "glass:%s", spec);
+    if (!(g->where = bsti_strdup(ctx, where))) {
+        bst_glass_free(g);
+        return BST_ENOMEM;
+    }
+    size_t sl = strlen(spec);
+    const char *dir = catalogue_dir ? catalogue_dir : BST_GLASS_DIR;
+    /* key=value,... starts with a key; PATH (a '/' or a .tsv ending); else a catalogue NAME */
+    size_t kl = 0;
+    while (isalnum((unsigned char)spec[kl]))
+        kl++;
+    int is_inline = kl > 0 && spec[kl] == '=' && isalpha((unsigned char)spec[0]);
+    if (!is_inline && (strchr(spec, '/') || (sl > 4 && strcmp(spec + sl - 4, ".tsv") == 0))) {
+        char none[1] = "";
+        rc = add_spectral(ctx, g, where, spec, dir, none);
+        if (rc >= 0 && !(g->description = bsti_strdup(ctx, spec)))
+            rc = BST_ENOMEM;
+    } else if (is_inline) {
+        rc = add_inline(ctx, g, where, "Visible", spec);
+        if (rc >= 0)
+            rc = add_inline(ctx, g, where, "Solar", spec);
+        if (rc >= 0 && !(g->description = bsti_strdup(ctx, spec)))
+            rc = BST_ENOMEM;
+    } else {
+        rc = BST_OK;
+        for (const char *c = spec; *c && rc >= 0; c++)
+            if (!(isalnum((unsigned char)*c) || *c == '-' || *c == '_' || *c == '.'))
+                rc = bsti_error(ctx, BST_EINVAL, "%s: a catalogue name has letters, digits, '-', "
+                                "'_' and '.' only", where);
+        if (rc >= 0) {
+            char path[1200];
+            snprintf(path, sizeof path, "%s/%s.glass", dir, spec);
+            rc = read_catalogue(ctx, g, path, spec, dir);
+        }
+        if (rc >= 0 && !g->description && !(g->description = bsti_strdup(ctx, spec)))
+            rc = BST_ENOMEM;
+    }
+    if (rc < 0) {
+        bst_glass_free(g);
+        return rc;
+    }
+    *out = g;
+    return BST_OK;
+}

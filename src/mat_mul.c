@@ -1,0 +1,198 @@
+/* mat_mul.c - products of structured matrices, C = A B, by a kernel per pair of structures.
+ *
+ * Dispatch.  A product looks up its kernel in a table indexed by the operand structures (ZERO,
+ * DIAG, SPARSE, DENSE).  Order of the lookup:
+ *   1. a ZERO operand gives a ZERO result (no work);
+ *   2. a DIAG operand is a row (left) or column (right) scaling of the other operand, whose
+ *      structure the result keeps;
+ *   3. SPARSE * SPARSE: cholmod_l_ssmult, then the drop tolerance;
+ *   4. SPARSE * DENSE: cholmod_l_sdmult (double) or a loop over the non-zeros (float), O(nnz N);
+ *      DENSE * SPARSE: one axpy of a dense column per non-zero of the sparse operand, O(nnz N);
+ *   5. DENSE * DENSE: GEMM (OpenBLAS), in single precision when either operand is float.
+ * Every pair has a kernel; the generic fallback (both operands converted to dense, GEMM) is what
+ * the tests compare each kernel with (bsti_mat_mul_generic).  Precision and workspace follow the
+ * conventions of mat.c: a dense float operand makes a dense result float, and each kernel's
+ * temporary memory is stated at the kernel. */
+#include <config.h>
+
+#include <math.h>
+#include <string.h>
+
+#include <cblas.h>
+
+#include "ctx.h"
+#include "mat.h"
+
+typedef int (*mul_kernel)(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop,
+                          bst_mat **out);
+
+static int mul_zero(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
+{
+    (void)drop;
+    return bst_mat_new_zero(ctx, a->rows, b->cols, out);
+}
+
+static int mul_diag_left(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
+{
+    (void)drop;
+    return bsti_mat_scale(ctx, a->diag, b, NULL, out);
+}
+
+static int mul_diag_right(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
+{
+    (void)drop;
+    return bsti_mat_scale(ctx, NULL, a, b->diag, out);
+}
+
+/* Workspace: CHOLMOD's, O(rows + nnz(C)). */
+static int mul_sparse_sparse(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
+{
+    cholmod_common *cc = bsti_cholmod(ctx);
+    if (!cc)
+        return BST_ENOMEM;
+    cholmod_sparse *c = cholmod_l_ssmult(a->sp, b->sp, 0, 1, 1, cc);
+    if (!c)
+        return bsti_mat_cholmod_failed(ctx, "ssmult");
+    int rc = bsti_mat_drop(ctx, c, drop);
+    if (rc < 0) {
+        cholmod_l_free_sparse(&c, cc);
+        return rc;
+    }
+    return bsti_mat_from_cholmod(ctx, c, out);
+}
+
+/* Sparse * dense.  Double: cholmod_l_sdmult on a header over our buffers (no copy).  Float: a
+ * loop over the non-zeros accumulating in the float result.  Workspace: the result only. */
+static int mul_sparse_dense(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
+{
+    (void)drop;
+    bst_mat *c;
+    int rc = bst_mat_new_dense(ctx, a->rows, b->cols, b->prec, &c);
+    if (rc < 0)
+        return rc;
+    if (b->prec == BST_DOUBLE) {
+        cholmod_common *cc = bsti_cholmod(ctx);
+        cholmod_dense X = {.nrow = b->rows, .ncol = b->cols, .nzmax = b->rows * b->cols,
+                           .d = b->rows, .x = b->dense, .xtype = CHOLMOD_REAL, .dtype = CHOLMOD_DOUBLE};
+        cholmod_dense Y = {.nrow = c->rows, .ncol = c->cols, .nzmax = c->rows * c->cols,
+                           .d = c->rows, .x = c->dense, .xtype = CHOLMOD_REAL, .dtype = CHOLMOD_DOUBLE};
+        double one[2] = {1, 0}, zero[2] = {0, 0};
+        if (b->cols > 0 && a->rows > 0 && !cholmod_l_sdmult(a->sp, 0, one, zero, &X, &Y, cc)) {
+            bst_mat_free(c);
+            return bsti_mat_cholmod_failed(ctx, "sdmult");
+        }
+    } else {
+        const SuiteSparse_long *p = a->sp->p, *ri = a->sp->i;
+        const double *x = a->sp->x;
+        const float *bd = b->dense;
+        float *cd = c->dense;
+        for (size_t j = 0; j < b->cols; j++)
+            for (size_t k = 0; k < a->cols; k++) {
+                float bkj = bd[j * b->rows + k];
+                if (bkj == 0.0f)
+                    continue;
+                for (SuiteSparse_long q = p[k]; q < p[k + 1]; q++)
+                    cd[j * c->rows + (size_t)ri[q]] += (float)x[q] * bkj;
+            }
+    }
+    *out = c;
+    return BST_OK;
+}
+
+/* Dense * sparse: column j of C is the sum over the non-zeros B(k, j) of B(k, j) * A(:, k), one
+ * axpy per non-zero, O(nnz * rows).  Workspace: the result only. */
+static int mul_dense_sparse(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
+{
+    (void)drop;
+    bst_mat *c;
+    int rc = bst_mat_new_dense(ctx, a->rows, b->cols, a->prec, &c);
+    if (rc < 0)
+        return rc;
+    const SuiteSparse_long *p = b->sp->p, *ri = b->sp->i;
+    const double *x = b->sp->x;
+    size_t r = a->rows;
+    for (size_t j = 0; j < b->cols; j++)
+        for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++) {
+            size_t k = (size_t)ri[q];
+            if (a->prec == BST_DOUBLE)
+                cblas_daxpy((int)r, x[q], (const double *)a->dense + k * r, 1,
+                            (double *)c->dense + j * r, 1);
+            else
+                cblas_saxpy((int)r, (float)x[q], (const float *)a->dense + k * r, 1,
+                            (float *)c->dense + j * r, 1);
+        }
+    *out = c;
+    return BST_OK;
+}
+
+/* GEMM.  Mixed precision converts the double operand to float (workspace: that copy). */
+static int mul_dense_dense(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
+{
+    (void)drop;
+    bst_precision prec = (a->prec == BST_FLOAT || b->prec == BST_FLOAT) ? BST_FLOAT : BST_DOUBLE;
+    bst_mat *ta = NULL, *tb = NULL, *c = NULL;
+    int rc = BST_OK;
+    if (a->prec != prec)
+        rc = bsti_mat_to_dense(ctx, a, prec, &ta);
+    if (rc >= 0 && b->prec != prec)
+        rc = bsti_mat_to_dense(ctx, b, prec, &tb);
+    if (rc >= 0)
+        rc = bst_mat_new_dense(ctx, a->rows, b->cols, prec, &c);
+    if (rc >= 0 && a->rows && b->cols && a->cols) {
+        const bst_mat *A = ta ? ta : a, *B = tb ? tb : b;
+        int m = (int)a->rows, n = (int)b->cols, k = (int)a->cols;
+        if (prec == BST_DOUBLE)
+            cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, m, n, k, 1.0, A->dense, m,
+                        B->dense, k, 0.0, c->dense, m);
+        else
+            cblas_sgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, m, n, k, 1.0f, A->dense, m,
+                        B->dense, k, 0.0f, c->dense, m);
+    }
+    bst_mat_free(ta);
+    bst_mat_free(tb);
+    if (rc < 0) {
+        bst_mat_free(c);
+        return rc;
+    }
+    *out = c;
+    return BST_OK;
+}
+
+/* mul_table[structure of A][structure of B] */
+static const mul_kernel mul_table[4][4] = {
+    /*              ZERO      DIAG            SPARSE             DENSE            */
+    /* ZERO   */ {mul_zero, mul_zero,       mul_zero,          mul_zero},
+    /* DIAG   */ {mul_zero, mul_diag_left,  mul_diag_left,     mul_diag_left},
+    /* SPARSE */ {mul_zero, mul_diag_right, mul_sparse_sparse, mul_sparse_dense},
+    /* DENSE  */ {mul_zero, mul_diag_right, mul_dense_sparse,  mul_dense_dense},
+};
+
+int bsti_mat_mul_generic(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, bst_mat **out)
+{
+    bst_precision prec = ((a->s == BST_DENSE && a->prec == BST_FLOAT) ||
+                          (b->s == BST_DENSE && b->prec == BST_FLOAT)) ? BST_FLOAT : BST_DOUBLE;
+    bst_mat *da = NULL, *db = NULL;
+    int rc = bsti_mat_to_dense(ctx, a, prec, &da);
+    if (rc >= 0)
+        rc = bsti_mat_to_dense(ctx, b, prec, &db);
+    if (rc >= 0)
+        rc = mul_dense_dense(ctx, da, db, 0.0, out);
+    bst_mat_free(da);
+    bst_mat_free(db);
+    return rc;
+}
+
+int bst_mat_mul(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop_tol, bst_mat **out)
+{
+    int rc = bsti_mat_check_out(ctx, out);
+    if (rc < 0)
+        return rc;
+    if (!a || !b)
+        return bsti_error(ctx, BST_EINVAL, "product: NULL matrix");
+    if (a->cols != b->rows)
+        return bsti_error(ctx, BST_ESIZE, "product: %zu x %zu times %zu x %zu", a->rows, a->cols,
+                          b->rows, b->cols);
+    if (!(drop_tol >= 0.0 && drop_tol < 1.0))
+        return bsti_error(ctx, BST_EINVAL, "product: drop tolerance %g is not in [0, 1)", drop_tol);
+    return mul_table[a->s][b->s](ctx, a, b, drop_tol, out);
+}
