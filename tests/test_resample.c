@@ -472,18 +472,66 @@ START_TEST(test_stack_klems_shade)
 }
 END_TEST
 
+/* Allocation failure anywhere in a resampling (overlap table, work matrices, plans) returns
+ * BST_ENOMEM with nothing leaked, and the first run that is not starved succeeds: a Klems file onto
+ * a tree and onto another Klems basis, a tree onto a Klems basis. */
+START_TEST(test_allocation_failure)
+{
+    static const struct {
+        const char *file;
+        int k;              /* 0: Klems */
+        const char *klems;
+    } cases[] = {{"L_diffuser_t3k5_klems.xml", 3, NULL}, {"L_blind0_t4k5_klems.xml", 0, "half"},
+                 {"L_glass_t4k5.xml", 0, "quarter"}};
+    for (size_t q = 0; q < sizeof cases / sizeof *cases; q++) {
+        bst_bsdf *b = read_ok(tu_ref(cases[q].file));
+        bst_basis *target;
+        if (cases[q].k)
+            ck_assert_int_eq(bst_basis_new_sc(ctx, cases[q].k, &target), BST_OK);
+        else
+            ck_assert_int_eq(bst_basis_new_klems(ctx, cases[q].klems, &target), BST_OK);
+        int ok = 0;
+        long n;
+        for (n = 1; n < 10000 && !ok; n++) {
+            tu_alloc a = {n, 0, 0};
+            bst_ctx *c = bst_ctx_new();
+            ck_assert_int_eq(bst_ctx_set_allocator(c, tu_alloc_malloc, tu_alloc_free, &a), BST_OK);
+            bst_layer *l = (bst_layer *)1;
+            int rc = bst_bsdf_to_layer(c, b, target, &l);
+            if (rc == BST_OK) {
+                ok = 1;
+                bst_layer_free(l);
+            } else {
+                ck_assert_int_eq(rc, BST_ENOMEM);
+                ck_assert_ptr_null(l);
+            }
+            ck_assert_msg(a.live == 0, "%s, allocation %ld failing: %ld blocks leaked", cases[q].file, n,
+                          a.live);
+            bst_ctx_free(c);
+        }
+        ck_assert_msg(ok, "%s never converted", cases[q].file);
+        bst_basis_free(target);
+        bst_bsdf_free(b);
+    }
+}
+END_TEST
+
 static Suite *suite(void)
 {
+    const struct {
+        const char *name;
+        const TTest *test;
+    } cases[] = {{"overlap", test_overlap_table}, {"uniform", test_uniform_klems},
+                 {"references", test_klems_references}, {"k7", test_klems_reference_k7},
+                 {"stack", test_stack_klems_shade}, {"allocation", test_allocation_failure}};
     Suite *s = suite_create("resample");
-    TCase *tc = tcase_create("klems");
-    tcase_add_checked_fixture(tc, setup, teardown);
-    tcase_set_timeout(tc, 600);
-    tcase_add_test(tc, test_overlap_table);
-    tcase_add_test(tc, test_uniform_klems);
-    tcase_add_test(tc, test_klems_references);
-    tcase_add_test(tc, test_klems_reference_k7);
-    tcase_add_test(tc, test_stack_klems_shade);
-    suite_add_tcase(s, tc);
+    for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+        TCase *tc = tcase_create(cases[i].name);
+        tcase_add_checked_fixture(tc, setup, teardown);
+        tcase_set_timeout(tc, 600);
+        tcase_add_test(tc, cases[i].test);
+        suite_add_tcase(s, tc);
+    }
     return s;
 }
 
