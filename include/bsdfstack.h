@@ -365,11 +365,11 @@ int bst_stack_combine_spectral(bst_ctx *ctx, size_t n, bst_glass *const *panes,
  *        alike, counting diffuse light by its flux where GA sees mostly the peak.
  * Identical distributions give 100; GA and FA are 100 when both are zero.  Any of ga, fa, la (N
  * values) may be NULL, not all three. */
-int bst_accordance(bst_ctx *ctx, const bst_layer *a, const bst_layer *b, size_t ch, bst_comp c,
-                   size_t incident, double *ga, double *fa, double *la);
+int bst_metrics_accordance(bst_ctx *ctx, const bst_layer *a, const bst_layer *b, size_t ch,
+                           bst_comp c, size_t incident, double *ga, double *fa, double *la);
 /* GA and FA (either may be NULL) for every incident patch: N values each. */
-int bst_accordance_all(bst_ctx *ctx, const bst_layer *a, const bst_layer *b, size_t ch, bst_comp c,
-                       double *ga, double *fa);
+int bst_metrics_accordance_all(bst_ctx *ctx, const bst_layer *a, const bst_layer *b, size_t ch,
+                               bst_comp c, double *ga, double *fa);
 
 /* ---------------------------------------------------------------- BSDF XML reader (xml, ttree, resample) */
 
@@ -383,12 +383,12 @@ typedef struct {
     unsigned comps;                /* components to read, BST_COMP_BIT mask; 0 = all */
     size_t nchannels;              /* channels to read (by name); 0 = all */
     const char *const *channels;
-} bst_read_opts;
+} bst_bsdf_read_opts;
 
 /* Read a file.  Errors name the file, the element and the line.  Returns BST_WDATA (a warning,
  * the object is usable) when a component had to be completed: a missing transmission is taken
  * from the other side's by reciprocity, a missing reflection is zero. */
-int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_read_opts *opts, bst_bsdf **out);
+int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_bsdf_read_opts *opts, bst_bsdf **out);
 void bst_bsdf_free(bst_bsdf *b);
 bst_file_kind bst_bsdf_kind(const bst_bsdf *b);
 /* Tensor-tree resolution k (depth of the finest cells), 0 for Klems files. */
@@ -460,7 +460,7 @@ typedef enum { BST_RANK_AUTO = 0, BST_RANK_3 = 3, BST_RANK_4 = 4 } bst_tree_rank
  * counting as highly variable (rttree_reduce uses the same 0.03). */
 #define BST_REDUCE_FLOOR 0.03
 /* Isotropy: TensorTree3 is chosen only if, for every component and every incident patch, the
- * flux accordance FA (bst_accordance: the stricter of its measures, which counts every difference
+ * flux accordance FA (bst_metrics_accordance: the stricter of its measures, which counts every difference
  * in proportion to its flux) between the component and its rank-3 form as bst_bsdf_to_layer
  * reads it back is at least this (percent).  A rank-3 tree read onto the grid and rebuilt from it
  * keeps FA >= 99.7 (RADIANCE's diffuser at k = 5: the loss is the rotational
@@ -491,10 +491,10 @@ typedef struct {
     double hemi_error;      /* largest change of a directional-hemispherical value */
     double iso_fa;          /* rank 3: least FA (%) between the component and its rank-3 form;
                                NaN otherwise */
-} bst_write_block;
+} bst_bsdf_write_block;
 
 /* Output callback: write len bytes, return 0 on success. */
-typedef int (*bst_write_fn)(const char *buf, size_t len, void *opaque);
+typedef int (*bst_bsdf_write_sink)(const char *buf, size_t len, void *opaque);
 
 typedef struct {
     bst_tree_rank rank;     /* trees: AUTO (default), or force rank 3 or 4 */
@@ -524,23 +524,23 @@ typedef struct {
     const char *command;    /* the command line that made the file */
     const char *description;/* further free text for the comment (may hold several lines) */
     const char *date;       /* default: the current UTC time, ISO 8601 */
-    void (*on_block)(const bst_write_block *block, void *opaque); /* may be NULL */
+    void (*on_block)(const bst_bsdf_write_block *block, void *opaque); /* may be NULL */
     void *opaque;
-} bst_write_opts;
+} bst_bsdf_write_opts;
 
-void bst_write_opts_init(bst_write_opts *opts);
+void bst_bsdf_write_opts_init(bst_bsdf_write_opts *opts);
 
-/* Write layer (NULL opts = defaults) to a stream, a callback, or a file.  bst_xml_write_path writes
+/* Write layer (NULL opts = defaults) to a stream, a callback, or a file.  bst_bsdf_write_path writes
  * a temporary file next to path and renames it into place only when everything succeeded, so a
  * failed write leaves nothing behind.  Errors: BST_EIO (with the system's reason) when a write
  * fails, BST_EINVAL for a value that is not finite, BST_EBASIS for a basis that has no file form.
  * Peak memory beyond the layer: for a tree about 1/10 of one dense component (the variation
  * measures of the tree nodes); for rank 3 also the rank-3 tensors (1/2^(k+1) of a component). */
-int bst_xml_write(bst_ctx *ctx, const bst_layer *layer, FILE *fp, const bst_write_opts *opts);
-int bst_xml_write_fn(bst_ctx *ctx, const bst_layer *layer, bst_write_fn fn, void *opaque,
-                     const bst_write_opts *opts);
-int bst_xml_write_path(bst_ctx *ctx, const bst_layer *layer, const char *path,
-                       const bst_write_opts *opts);
+int bst_bsdf_write(bst_ctx *ctx, const bst_layer *layer, FILE *fp, const bst_bsdf_write_opts *opts);
+int bst_bsdf_write_fn(bst_ctx *ctx, const bst_layer *layer, bst_bsdf_write_sink fn, void *opaque,
+                      const bst_bsdf_write_opts *opts);
+int bst_bsdf_write_path(bst_ctx *ctx, const bst_layer *layer, const char *path,
+                        const bst_bsdf_write_opts *opts);
 
 /* ---------------------------------------------------------------- analytic glass (glass) */
 

@@ -38,7 +38,7 @@
 struct reader {
     bst_ctx *ctx;
     const char *path;
-    const bst_read_opts *opts;
+    const bst_bsdf_read_opts *opts;
     xmlParserCtxtPtr pctxt;
     bst_bsdf *b;
     int status;
@@ -467,7 +467,7 @@ void bst_bsdf_free(bst_bsdf *b)
     bsti_free(b->ctx, b);
 }
 
-int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_read_opts *opts, bst_bsdf **out)
+int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_bsdf_read_opts *opts, bst_bsdf **out)
 {
     if (!ctx || !out)
         return ctx ? bsti_error(ctx, BST_EINVAL, "read: NULL argument") : BST_EINVAL;
