@@ -383,6 +383,8 @@ typedef struct {
     unsigned comps;                /* components to read, BST_COMP_BIT mask; 0 = all */
     size_t nchannels;              /* channels to read (by name); 0 = all */
     const char *const *channels;
+    bst_precision precision;       /* of the dense components bst_bsdf_to_layer makes; default
+                                      BST_DOUBLE, BST_FLOAT halves their memory */
 } bst_bsdf_read_opts;
 
 /* Read a file.  Errors name the file, the element and the line.  Returns BST_WDATA (a warning,
@@ -416,13 +418,9 @@ int bst_bsdf_eval(bst_ctx *ctx, const bst_bsdf *b, size_t ch, const double in[3]
  * (no light lost or made at any order); Shirley-Chiu -> Klems (trees on their own grid, Klems
  * files via order 6) gives every incident patch the mean of its directions' hemispherical values.
  * Where a cell straddles patches, a round trip Klems -> tree -> Klems smooths: see
- * bsdfstack-convert(1).  Each component lands in its cheapest structure. */
+ * bsdfstack-convert(1).  Each component lands in its cheapest structure, a dense one in the
+ * precision it was read for (bst_bsdf_read_opts). */
 int bst_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target, bst_layer **out);
-/* The same with dense components stored in precision prec: BST_FLOAT halves their memory, and the
- * double copy is never made (diagonal and sparse components stay double).  Peak while converting
- * one dense component: N^2 doubles of work space plus the component. */
-int bst_bsdf_to_layer_prec(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target,
-                           bst_precision prec, bst_layer **out);
 
 /* ---------------------------------------------------------------- BSDF XML writer (xml_write) */
 

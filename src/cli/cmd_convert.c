@@ -140,7 +140,7 @@ int cmd_convert(int argc, char **argv)
     struct cli_layers set = {0};
     char *command = NULL, *chcopy = channels ? strdup(channels) : NULL;
     const char *chnames[MAX_CHANNELS];
-    bst_bsdf_read_opts ro = {0, 0, chnames};
+    bst_bsdf_read_opts ro = {.channels = chnames};
     int rc = CLI_OK, st;
     for (char *save = NULL, *t = chcopy ? strtok_r(chcopy, ",", &save) : NULL;
          t && ro.nchannels < MAX_CHANNELS; t = strtok_r(NULL, ",", &save))
