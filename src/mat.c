@@ -310,6 +310,16 @@ int bsti_mat_to_sparse(bst_ctx *ctx, const bst_mat *m, bst_mat **out)
     return bsti_mat_from_cholmod(ctx, sp, out);
 }
 
+int bsti_mat_dense_pair(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, bst_mat **da,
+                        bst_mat **db)
+{
+    bst_precision prec = ((a->s == BST_DENSE && a->prec == BST_FLOAT) ||
+                          (b->s == BST_DENSE && b->prec == BST_FLOAT)) ? BST_FLOAT : BST_DOUBLE;
+    *da = *db = NULL;
+    int rc = bsti_mat_to_dense(ctx, a, prec, da);
+    return rc < 0 ? rc : bsti_mat_to_dense(ctx, b, prec, db);
+}
+
 /* Count of non-zeros and whether every non-zero lies on the diagonal. */
 static void census(const bst_mat *m, size_t *nnz, int *diag_only)
 {

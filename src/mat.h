@@ -44,6 +44,10 @@ int bsti_mat_drop(bst_ctx *ctx, cholmod_sparse *sp, double drop);
 int bsti_mat_to_sparse(bst_ctx *ctx, const bst_mat *m, bst_mat **out);
 /* Dense copy of any matrix in precision prec. */
 int bsti_mat_to_dense(bst_ctx *ctx, const bst_mat *m, bst_precision prec, bst_mat **out);
+/* Dense copies of both operands of a generic product or sum, float when either is dense float;
+ * on failure *da and *db are NULL or to be freed by the caller. */
+int bsti_mat_dense_pair(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, bst_mat **da,
+                        bst_mat **db);
 /* C = diag(dr) A diag(dc) (either NULL = identity), in A's structure. */
 int bsti_mat_scale(bst_ctx *ctx, const double *dr, const bst_mat *a, const double *dc,
                    bst_mat **out);

@@ -177,12 +177,8 @@ static const add_kernel add_table[4][4] = {
 int bsti_mat_add_generic(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, const bst_mat *b,
                          bst_mat **out)
 {
-    bst_precision prec = ((a->s == BST_DENSE && a->prec == BST_FLOAT) ||
-                          (b->s == BST_DENSE && b->prec == BST_FLOAT)) ? BST_FLOAT : BST_DOUBLE;
     bst_mat *da = NULL, *db = NULL;
-    int rc = bsti_mat_to_dense(ctx, a, prec, &da);
-    if (rc >= 0)
-        rc = bsti_mat_to_dense(ctx, b, prec, &db);
+    int rc = bsti_mat_dense_pair(ctx, a, b, &da, &db);
     if (rc >= 0)
         rc = add_dense(ctx, alpha, da, beta, db, out);
     bst_mat_free(da);
