@@ -350,8 +350,9 @@ size_t bst_bsdf_nchannels(const bst_bsdf *b);
 const char *bst_bsdf_channel(const bst_bsdf *b, size_t ch);
 /* 1 when the file stores the component (0 when it is derived or zero). */
 int bst_bsdf_stored(const bst_bsdf *b, size_t ch, bst_comp c);
-/* f(in, out) (1/sr) as libBSDF evaluates it; in towards the source, out along the scattered light,
- * unit vectors in the file's frame; the signs of their z pick the component. */
+/* f(in, out) (1/sr) as libBSDF evaluates it (less its 2e-4 perturbation); in towards the source,
+ * out along the scattered light, unit vectors in the file's frame; the signs of their z pick the
+ * component (Tf: in_z < 0 < out_z, Tb: out_z < 0 < in_z, Rf: both < 0, Rb: both > 0). */
 int bst_bsdf_eval(bst_ctx *ctx, const bst_bsdf *b, size_t ch, const double in[3],
                   const double out[3], double *value);
 /* The file's BSDF as a layer over target (NULL: the file's own basis), each component in its
@@ -363,8 +364,8 @@ int bst_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target, 
 /* A layer as LBNL WindowElement BSDF XML (libBSDF, WINDOW, EnergyPlus): Klems matrices on a Klems
  * basis, else a RADIANCE tensor tree of order k, TensorTree3 when isotropic, reduced as genBSDF's
  * rttree_reduce (xml_write.c, ttree_write.c; figures in bsdfstack-convert(1)).  No conversion at
- * the boundary: our front is the XML "Front".  A tree transmission reciprocal to the other
- * side's is left out. */
+ * the boundary: our front is the XML "Front".  A component absent from the layer is left out
+ * (write a zero matrix to state zero), and so is a tree transmission reciprocal to the other's. */
 typedef enum { BST_RANK_AUTO = 0, BST_RANK_3 = 3, BST_RANK_4 = 4 } bst_tree_rank;
 
 /* Culling percentile (genBSDF's rttree_reduce -t 90). */
