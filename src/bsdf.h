@@ -16,6 +16,7 @@ struct bst_bsdf {
     char *path;
     bst_file_kind kind;
     int k;                 /* tensor-tree depth */
+    bst_precision prec;    /* of the dense components of bst_bsdf_to_layer (read option) */
     bst_basis *klems;      /* Klems files */
     size_t nch;
     char *channels[BSTI_BSDF_MAX_CHANNELS];

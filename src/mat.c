@@ -1,8 +1,5 @@
-/* mat.c - the structured-matrix algebra: construction, conversion, scaling, sums and the other
- * operations; products, with their dispatch table, are in mat_mul.c.
- *
- * Sums: ZERO is the identity; DIAG and SPARSE add as sparse (a DIAG pair stays DIAG); anything
- * with DENSE is dense.
+/* mat.c - the structured-matrix algebra: construction, conversion, scaling and the other
+ * operations; products and sums, each with its dispatch table, are in mat_mul.c and mat_add.c.
  *
  * Precision: sparse and diagonal storage are double.  A dense float operand makes a dense result
  * float (single precision is the user's choice for a whole stack); otherwise results are double.
@@ -273,8 +270,7 @@ int bsti_mat_to_dense(bst_ctx *ctx, const bst_mat *m, bst_precision prec, bst_ma
     return BST_OK;
 }
 
-/* Sparse copy: entries whose magnitude exceeds `drop` (drop < 0 keeps explicit zeros out only). */
-static int to_sparse(bst_ctx *ctx, const bst_mat *m, bst_mat **out)
+int bsti_mat_to_sparse(bst_ctx *ctx, const bst_mat *m, bst_mat **out)
 {
     cholmod_common *cc = bsti_cholmod(ctx);
     if (!cc)
@@ -312,6 +308,16 @@ static int to_sparse(bst_ctx *ctx, const bst_mat *m, bst_mat **out)
     }
     p[m->cols] = (SuiteSparse_long)k;
     return bsti_mat_from_cholmod(ctx, sp, out);
+}
+
+int bsti_mat_dense_pair(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, bst_mat **da,
+                        bst_mat **db)
+{
+    bst_precision prec = ((a->s == BST_DENSE && a->prec == BST_FLOAT) ||
+                          (b->s == BST_DENSE && b->prec == BST_FLOAT)) ? BST_FLOAT : BST_DOUBLE;
+    *da = *db = NULL;
+    int rc = bsti_mat_to_dense(ctx, a, prec, da);
+    return rc < 0 ? rc : bsti_mat_to_dense(ctx, b, prec, db);
 }
 
 /* Count of non-zeros and whether every non-zero lies on the diagonal. */
@@ -381,7 +387,7 @@ int bst_mat_convert(bst_ctx *ctx, const bst_mat *m, bst_structure s, bst_precisi
         *out = d;
         return BST_OK;
     }
-    case BST_SPARSE: return to_sparse(ctx, m, out);
+    case BST_SPARSE: return bsti_mat_to_sparse(ctx, m, out);
     case BST_DENSE: return bsti_mat_to_dense(ctx, m, prec, out);
     }
     return bsti_error(ctx, BST_EINVAL, "convert: unknown structure %d", (int)s);
@@ -404,7 +410,7 @@ int bst_mat_compact(bst_ctx *ctx, const bst_mat *m, double sparse_max_fill, bst_
     if (diag_only)
         return bst_mat_convert(ctx, m, BST_DIAG, BST_DOUBLE, out);
     if ((double)nnz <= sparse_max_fill * (double)m->rows * (double)m->cols)
-        return to_sparse(ctx, m, out);
+        return bsti_mat_to_sparse(ctx, m, out);
     return bsti_mat_to_dense(ctx, m, m->s == BST_DENSE ? m->prec : BST_DOUBLE, out);
 }
 
@@ -424,7 +430,7 @@ int bsti_mat_scale(bst_ctx *ctx, const double *dr, const bst_mat *a, const doubl
             c->diag[i] *= (dr ? dr[i] : 1.0) * (dc ? dc[i] : 1.0);
         break;
     case BST_SPARSE: {
-        if ((rc = to_sparse(ctx, a, &c)) < 0)
+        if ((rc = bsti_mat_to_sparse(ctx, a, &c)) < 0)
             return rc;
         const SuiteSparse_long *p = c->sp->p, *ri = c->sp->i;
         double *x = c->sp->x;
@@ -466,111 +472,6 @@ int bst_mat_scale(bst_ctx *ctx, const double *d_rows, const bst_mat *a, const do
     if (!a)
         return bsti_error(ctx, BST_EINVAL, "scale: NULL matrix");
     return bsti_mat_scale(ctx, d_rows, a, d_cols, out);
-}
-
-/* ------------------------------------------------------------------ sums */
-
-int bst_mat_add(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, const bst_mat *b,
-                bst_mat **out)
-{
-    int rc = bsti_mat_check_out(ctx, out);
-    if (rc < 0)
-        return rc;
-    if (!a || !b)
-        return bsti_error(ctx, BST_EINVAL, "sum: NULL matrix");
-    if (a->rows != b->rows || a->cols != b->cols)
-        return bsti_error(ctx, BST_ESIZE, "sum: %zu x %zu plus %zu x %zu", a->rows, a->cols,
-                          b->rows, b->cols);
-    if (!isfinite(alpha) || !isfinite(beta))
-        return bsti_error(ctx, BST_EINVAL, "sum: non-finite coefficient");
-    /* Normalize: a ZERO operand is the identity of the sum; the DENSE operand comes first. */
-    if (b->s == BST_ZERO || (a->s != BST_ZERO && b->s == BST_DENSE && a->s != BST_DENSE)) {
-        const bst_mat *t = a;
-        a = b, b = t;
-        double s = alpha;
-        alpha = beta, beta = s;
-    }
-    if (b->s == BST_ZERO && a->s == BST_ZERO)
-        return bst_mat_new_zero(ctx, a->rows, a->cols, out);
-    if (a->s == BST_ZERO) { /* beta * b */
-        bst_mat *c;
-        if ((rc = bst_mat_convert(ctx, b, b->s, b->prec, &c)) < 0)
-            return rc;
-        if (beta != 1.0) {
-            bst_mat *d;
-            rc = bst_mat_add(ctx, beta, c, 0.0, c, &d); /* same structure, scaled */
-            bst_mat_free(c);
-            if (rc < 0)
-                return rc;
-            c = d;
-        }
-        *out = c;
-        return BST_OK;
-    }
-    if (a->s == BST_DIAG && b->s == BST_DIAG) {
-        bst_mat *c;
-        if ((rc = bst_mat_new_diag(ctx, a->rows, a->diag, &c)) < 0)
-            return rc;
-        for (size_t i = 0; i < a->rows; i++)
-            c->diag[i] = alpha * a->diag[i] + beta * b->diag[i];
-        *out = c;
-        return BST_OK;
-    }
-    if (a->s == BST_DENSE) { /* dense result: copy a, then add b by its structure */
-        bst_precision prec = (a->prec == BST_FLOAT || (b->s == BST_DENSE && b->prec == BST_FLOAT))
-                                 ? BST_FLOAT : BST_DOUBLE;
-        bst_mat *c;
-        if ((rc = bsti_mat_to_dense(ctx, a, prec, &c)) < 0)
-            return rc;
-        size_t r = a->rows, n = r * a->cols;
-        double *cd = prec == BST_DOUBLE ? c->dense : NULL;
-        float *cf = prec == BST_FLOAT ? c->dense : NULL;
-        for (size_t k = 0; k < n; k++) {
-            if (cd)
-                cd[k] *= alpha;
-            else
-                cf[k] = (float)(cf[k] * alpha);
-        }
-#define ADD(i, j, v) (cd ? (void)(cd[(j) * r + (i)] += beta * (v)) : (void)(cf[(j) * r + (i)] += (float)(beta * (v))))
-        if (b->s == BST_DIAG) {
-            for (size_t i = 0; i < r; i++)
-                ADD(i, i, b->diag[i]);
-        } else if (b->s == BST_SPARSE) {
-            const SuiteSparse_long *p = b->sp->p, *ri = b->sp->i;
-            const double *x = b->sp->x;
-            for (size_t j = 0; j < b->cols; j++)
-                for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++)
-                    ADD((size_t)ri[q], j, x[q]);
-        } else {
-            for (size_t j = 0; j < b->cols; j++)
-                for (size_t i = 0; i < r; i++)
-                    ADD(i, j, bsti_dense_get(b, i, j));
-        }
-#undef ADD
-        *out = c;
-        return BST_OK;
-    }
-    /* DIAG/SPARSE pairs: sparse sum.  Workspace: sparse copies of DIAG operands. */
-    bst_mat *sa = NULL, *sb = NULL;
-    cholmod_common *cc = bsti_cholmod(ctx);
-    if (!cc)
-        return BST_ENOMEM;
-    rc = a->s == BST_SPARSE ? BST_OK : to_sparse(ctx, a, &sa);
-    if (rc >= 0 && b->s != BST_SPARSE)
-        rc = to_sparse(ctx, b, &sb);
-    if (rc >= 0) {
-        double al[2] = {alpha, 0}, be[2] = {beta, 0};
-        cholmod_sparse *c = cholmod_l_add(sa ? sa->sp : a->sp, sb ? sb->sp : b->sp, al, be, 1, 1, cc);
-        if (!c)
-            rc = bsti_mat_cholmod_failed(ctx, "add");
-        else if ((rc = bsti_mat_drop(ctx, c, 0.0)) < 0)
-            cholmod_l_free_sparse(&c, cc);
-        else
-            rc = bsti_mat_from_cholmod(ctx, c, out);
-    }
-    bst_mat_free(sa);
-    bst_mat_free(sb);
-    return rc;
 }
 
 /* ------------------------------------------------------------------ other operations */

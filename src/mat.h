@@ -33,15 +33,21 @@ static inline double bsti_dense_get(const bst_mat *m, size_t i, size_t j)
                                  : (double)((const float *)m->dense)[j * m->rows + i];
 }
 
-/* Shared by mat.c and mat_mul.c (unchecked: the public entries validate first). */
+/* Shared by mat.c, mat_mul.c and mat_add.c (unchecked: the public entries validate first). */
 /* *out = NULL, or BST_EINVAL (with a message when ctx is there) for a NULL ctx or out. */
 int bsti_mat_check_out(bst_ctx *ctx, bst_mat **out);
 /* The error of a failed CHOLMOD call `what`: BST_ENOMEM when CHOLMOD ran out of memory. */
 int bsti_mat_cholmod_failed(bst_ctx *ctx, const char *what);
 /* Remove entries |x| <= drop * max|x| from a sparse result (drop = 0: exact zeros only). */
 int bsti_mat_drop(bst_ctx *ctx, cholmod_sparse *sp, double drop);
+/* Sparse copy of any matrix (the zeros of a DIAG or DENSE one left out). */
+int bsti_mat_to_sparse(bst_ctx *ctx, const bst_mat *m, bst_mat **out);
 /* Dense copy of any matrix in precision prec. */
 int bsti_mat_to_dense(bst_ctx *ctx, const bst_mat *m, bst_precision prec, bst_mat **out);
+/* Dense copies of both operands of a generic product or sum, float when either is dense float;
+ * on failure *da and *db are NULL or to be freed by the caller. */
+int bsti_mat_dense_pair(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, bst_mat **da,
+                        bst_mat **db);
 /* C = diag(dr) A diag(dc) (either NULL = identity), in A's structure. */
 int bsti_mat_scale(bst_ctx *ctx, const double *dr, const bst_mat *a, const double *dc,
                    bst_mat **out);
@@ -54,4 +60,7 @@ int bsti_solve_take(bst_ctx *ctx, int right, bst_mat *a, const bst_mat *b, doubl
 
 /* The generic product: both operands converted to dense, then GEMM (the tests' baseline). */
 int bsti_mat_mul_generic(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, bst_mat **out);
+/* The generic sum: both operands converted to dense, then added elementwise (the tests' baseline). */
+int bsti_mat_add_generic(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, const bst_mat *b,
+                         bst_mat **out);
 #endif

@@ -169,12 +169,8 @@ static const mul_kernel mul_table[4][4] = {
 
 int bsti_mat_mul_generic(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, bst_mat **out)
 {
-    bst_precision prec = ((a->s == BST_DENSE && a->prec == BST_FLOAT) ||
-                          (b->s == BST_DENSE && b->prec == BST_FLOAT)) ? BST_FLOAT : BST_DOUBLE;
     bst_mat *da = NULL, *db = NULL;
-    int rc = bsti_mat_to_dense(ctx, a, prec, &da);
-    if (rc >= 0)
-        rc = bsti_mat_to_dense(ctx, b, prec, &db);
+    int rc = bsti_mat_dense_pair(ctx, a, b, &da, &db);
     if (rc >= 0)
         rc = mul_dense_dense(ctx, da, db, 0.0, out);
     bst_mat_free(da);

@@ -1,6 +1,6 @@
 /* metrics.c - comparisons of BSDFs: global and local accordance (Grobe 2017, eq. 6-8) and flux
- * accordance of the light scattered for one incident patch or for each (see bst_accordance in
- * bsdfstack.h).  Hemispherical integrals are in layer.c (bst_layer_hemispherical). */
+ * accordance of the light scattered for one incident patch or for each (see
+ * bst_metrics_accordance in bsdfstack.h).  Hemispherical integrals are in layer.c (bst_layer_hemispherical). */
 #include <config.h>
 
 #include <math.h>
@@ -48,8 +48,8 @@ static int column(bst_ctx *ctx, const bst_mat *ma, const bst_mat *mb, const doub
     return BST_OK;
 }
 
-int bst_accordance(bst_ctx *ctx, const bst_layer *a, const bst_layer *b, size_t ch, bst_comp c,
-                   size_t incident, double *ga, double *fa, double *la)
+int bst_metrics_accordance(bst_ctx *ctx, const bst_layer *a, const bst_layer *b, size_t ch,
+                           bst_comp c, size_t incident, double *ga, double *fa, double *la)
 {
     if (!ctx || !a || !b || (!ga && !fa && !la))
         return ctx ? bsti_error(ctx, BST_EINVAL, "accordance: NULL argument") : BST_EINVAL;
@@ -62,8 +62,8 @@ int bst_accordance(bst_ctx *ctx, const bst_layer *a, const bst_layer *b, size_t 
                   bst_basis_size(a->basis), incident, ga, fa, la);
 }
 
-int bst_accordance_all(bst_ctx *ctx, const bst_layer *a, const bst_layer *b, size_t ch, bst_comp c,
-                       double *ga, double *fa)
+int bst_metrics_accordance_all(bst_ctx *ctx, const bst_layer *a, const bst_layer *b, size_t ch,
+                               bst_comp c, double *ga, double *fa)
 {
     if (!ctx || !a || !b || (!ga && !fa))
         return ctx ? bsti_error(ctx, BST_EINVAL, "accordance: NULL argument") : BST_EINVAL;

@@ -439,11 +439,6 @@ int bsti_resample_component(bst_ctx *ctx, const bst_bsdf *b, size_t ch, int c,
     return rc;
 }
 
-int bst_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target, bst_layer **out)
-{
-    return bst_bsdf_to_layer_prec(ctx, b, target, BST_DOUBLE, out);
-}
-
 /* The component in work (N x N column-major, recip: to be taken as its reciprocal) as a matrix in
  * its cheapest structure; a dense one is filled straight from work in precision prec. */
 static int component_from_work(bst_ctx *ctx, const bst_basis *target, const double *work, int recip,
@@ -494,14 +489,11 @@ static int component_from_work(bst_ctx *ctx, const bst_basis *target, const doub
     return rc;
 }
 
-
-int bst_bsdf_to_layer_prec(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target_in,
-                           bst_precision prec, bst_layer **out)
+/* Dense components come out in the precision the file was read for (bst_bsdf_read_opts). */
+int bst_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target_in, bst_layer **out)
 {
     if (!ctx || !b || !out)
         return ctx ? bsti_error(ctx, BST_EINVAL, "to_layer: NULL argument") : BST_EINVAL;
-    if (prec != BST_DOUBLE && prec != BST_FLOAT)
-        return bsti_error(ctx, BST_EINVAL, "to_layer: unknown precision %d", (int)prec);
     *out = NULL;
     bst_basis *native = NULL;
     int rc = BST_OK;
@@ -533,7 +525,7 @@ int bst_bsdf_to_layer_prec(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *tar
                 continue;
             }
             if ((rc = plan_component(ctx, &p, ch, c, work, &recip)) >= 0 &&
-                (rc = component_from_work(ctx, target, work, recip, prec, &m)) >= 0)
+                (rc = component_from_work(ctx, target, work, recip, b->prec, &m)) >= 0)
                 rc = bst_layer_set(ctx, l, ch, (bst_comp)c, m);
         }
     plan_free(ctx, &p);

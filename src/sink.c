@@ -7,7 +7,7 @@
 
 #include "sink.h"
 
-void bsti_sink_init(bsti_sink *s, bst_write_fn fn, void *opaque)
+void bsti_sink_init(bsti_sink *s, bst_bsdf_write_sink fn, void *opaque)
 {
     s->fn = fn;
     s->opaque = opaque;

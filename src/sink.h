@@ -13,7 +13,7 @@
 #define BSTI_SINK_BUF 65536
 
 typedef struct bsti_sink {
-    bst_write_fn fn;    /* returns 0 on success */
+    bst_bsdf_write_sink fn;    /* returns 0 on success */
     void *opaque;
     char buf[BSTI_SINK_BUF];
     size_t n;           /* bytes waiting in buf */
@@ -22,7 +22,7 @@ typedef struct bsti_sink {
     int err;            /* errno after the failed write (0 if unknown) */
 } bsti_sink;
 
-void bsti_sink_init(bsti_sink *s, bst_write_fn fn, void *opaque);
+void bsti_sink_init(bsti_sink *s, bst_bsdf_write_sink fn, void *opaque);
 void bsti_sink_put(bsti_sink *s, const char *text, size_t len);
 void bsti_sink_puts(bsti_sink *s, const char *text);
 void bsti_sink_printf(bsti_sink *s, const char *fmt, ...)

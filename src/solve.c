@@ -11,7 +11,9 @@
  *
  * Condition: rcond = 1 / (max(1, |I - A|_1) |(I - A)^-1|_1).  |(I - A)^-1|_1 is exact for DIAG, from
  * LAPACK gecon for DENSE, and from Hager's estimator (a few extra solves with the same
- * factorization) for SPARSE.  See bsdfstack.h for why the scale is max(1, |I - A|).
+ * factorization) for SPARSE.  The scale max(1, |I - A|_1) measures I - A against the identity, so
+that rcond also falls when A approaches a multiple of I (two facing mirrors), where forming I - A
+cancels digits although I - A itself is well scaled.
  *
  * Workspace: DENSE: a copy of I - A (N^2) and the result; SPARSE: I - A in CHOLMOD form, UMFPACK's
  * factors, two vectors of N, and the result (accumulated densely, N x ncols, then compacted when B

@@ -5,7 +5,10 @@
  *
  * The average of a system property over a band is linear in the per-wavelength system, so the
  * band's matrices are sum_k w_k M(lambda_k) with bst_glass_channel_weights' w: each wavelength is
- * combined once, added with its weight, and freed.  Wavelengths of zero weight are skipped. */
+ * combined once, added with its weight, and freed.  Wavelengths of zero weight are skipped.
+ * A band channel (Visible, Solar, CIE-X, CIE-Y, CIE-Z) missing from panes[0] is added to it; its
+ * wavelengths are the union of the panes' measured ones, or the band's integration grid when that
+ * is shorter (WCE's rule).  Every matrix is diagonal: O(N) per wavelength. */
 #include <config.h>
 
 #include <math.h>

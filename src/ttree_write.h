@@ -43,7 +43,7 @@ typedef struct {
     uint64_t bytes;
     int negatives;          /* negative values written as 0 (as every tree reader reads them) */
     double threshold;
-    double l1_error, max_error, hemi_error; /* as bst_write_block */
+    double l1_error, max_error, hemi_error; /* as bst_bsdf_write_block */
 } bsti_tree_stats;
 
 /* Write the tree of t to out.  Fails with BST_EINVAL (nothing written) when a value is not finite,
@@ -68,7 +68,7 @@ int bsti_format_double(double v, int digits, char *buf, double *back);
  * of the residual (m minus the expansion of t3), which drive the expansion towards m.  The
  * expansion is the one bst_bsdf_to_layer applies to a rank-3 tree: the average over
  * BSTI_TT3_IN_SAMPLES^2 points of each incident cell and BSTI_TT3_OUT_SAMPLES^2 of each outgoing
- * cell.  On return *fa_min is the least flux accordance (percent, bst_accordance's FA)
+ * cell.  On return *fa_min is the least flux accordance (percent, bst_metrics_accordance's FA)
  * over the incident patches between m and the expansion of t3, *hemi_max the largest change of a
  * directional-hemispherical value.  Sample points on a cell boundary (exit points turned onto the
  * plane of incidence lie on one) take the mean of the cells there, here and in the reader alike,

@@ -38,7 +38,7 @@
 struct reader {
     bst_ctx *ctx;
     const char *path;
-    const bst_read_opts *opts;
+    const bst_bsdf_read_opts *opts;
     xmlParserCtxtPtr pctxt;
     bst_bsdf *b;
     int status;
@@ -467,13 +467,16 @@ void bst_bsdf_free(bst_bsdf *b)
     bsti_free(b->ctx, b);
 }
 
-int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_read_opts *opts, bst_bsdf **out)
+int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_bsdf_read_opts *opts, bst_bsdf **out)
 {
     if (!ctx || !out)
         return ctx ? bsti_error(ctx, BST_EINVAL, "read: NULL argument") : BST_EINVAL;
     *out = NULL;
     if (!path)
         return bsti_error(ctx, BST_EINVAL, "read: no file name");
+    bst_precision prec = opts ? opts->precision : BST_DOUBLE;
+    if (prec != BST_DOUBLE && prec != BST_FLOAT)
+        return bsti_error(ctx, BST_EINVAL, "read: unknown precision %d", (int)prec);
     FILE *fp = fopen(path, "rb");
     if (!fp)
         return bsti_error(ctx, BST_EIO, "%s: cannot open: %s", path, strerror(errno));
@@ -489,6 +492,7 @@ int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_read_opts *opts, bst
         return BST_ENOMEM;
     }
     r.b->ctx = ctx;
+    r.b->prec = prec;
     r.b->path = bsti_strdup(ctx, path);
     xmlSAXHandler sax;
     memset(&sax, 0, sizeof sax);

@@ -33,7 +33,7 @@
 static const char *const block_label[BST_NCOMP] = {
     "Transmission Front", "Reflection Front", "Transmission Back", "Reflection Back"};
 
-void bst_write_opts_init(bst_write_opts *o)
+void bst_bsdf_write_opts_init(bst_bsdf_write_opts *o)
 {
     memset(o, 0, sizeof *o);
     o->rank = BST_RANK_AUTO;
@@ -48,7 +48,7 @@ void bst_write_opts_init(bst_write_opts *o)
 struct xw {
     bst_ctx *ctx;
     const bst_layer *l;
-    const bst_write_opts *o;
+    const bst_bsdf_write_opts *o;
     bsti_sink *out;
     size_t nch, n;          /* channels, patches */
     int k;                  /* Shirley-Chiu order (0: Klems) */
@@ -230,7 +230,7 @@ static void free_t3(struct xw *w)
  * is forced, then all are built). */
 static int build_t3(struct xw *w, int *isotropic)
 {
-    const bst_write_opts *o = w->o;
+    const bst_bsdf_write_opts *o = w->o;
     size_t G = (size_t)1 << w->k, N = G * G, total = w->nch * BST_NCOMP;
     *isotropic = 1;
     if (!(w->t3 = bsti_calloc(w->ctx, total, sizeof *w->t3)) ||
@@ -303,7 +303,7 @@ static const char *spectrum(const char *channel, const char **detector)
 
 static void header(struct xw *w)
 {
-    const bst_write_opts *o = w->o;
+    const bst_bsdf_write_opts *o = w->o;
     bsti_sink *s = w->out;
     const bst_basis *b = bst_layer_basis(w->l);
     char date[64];
@@ -431,7 +431,7 @@ static void block_tail(bsti_sink *s)
 }
 
 /* Klems: text row o = outgoing patch o, its numbers the incident patches. */
-static void klems_data(struct xw *w, const bst_mat *m, bst_write_block *rep)
+static void klems_data(struct xw *w, const bst_mat *m, bst_bsdf_write_block *rep)
 {
     const double *lam = bst_basis_lambda(bst_layer_basis(w->l));
     size_t n = w->n;
@@ -460,11 +460,11 @@ static void klems_data(struct xw *w, const bst_mat *m, bst_write_block *rep)
 
 static int write_blocks(struct xw *w)
 {
-    const bst_write_opts *o = w->o;
+    const bst_bsdf_write_opts *o = w->o;
     for (size_t ch = 0; ch < w->nch; ch++)
         for (int c = 0; c < BST_NCOMP; c++) {
             size_t idx = ch * BST_NCOMP + (size_t)c;
-            bst_write_block rep;
+            bst_bsdf_write_block rep;
             memset(&rep, 0, sizeof rep);
             rep.channel = bst_layer_channel(w->l, ch);
             rep.comp = (bst_comp)c;
@@ -516,15 +516,15 @@ static int write_blocks(struct xw *w)
 
 /* ------------------------------------------------------------------ entry points */
 
-static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst_write_opts *opts)
+static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst_bsdf_write_opts *opts)
 {
     if (!ctx)
         return BST_EINVAL;
     if (!l)
         return bsti_error(ctx, BST_EINVAL, "writing BSDF XML: NULL layer");
-    bst_write_opts def;
+    bst_bsdf_write_opts def;
     if (!opts) {
-        bst_write_opts_init(&def);
+        bst_bsdf_write_opts_init(&def);
         opts = &def;
     }
     if (opts->reduce_pct >= 100.0 || isnan(opts->reduce_pct) || !(opts->reduce_floor > 0.0) ||
@@ -596,8 +596,8 @@ static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst
     return rc;
 }
 
-int bst_xml_write_fn(bst_ctx *ctx, const bst_layer *layer, bst_write_fn fn, void *opaque,
-                     const bst_write_opts *opts)
+int bst_bsdf_write_fn(bst_ctx *ctx, const bst_layer *layer, bst_bsdf_write_sink fn, void *opaque,
+                      const bst_bsdf_write_opts *opts)
 {
     if (!fn)
         return ctx ? bsti_error(ctx, BST_EINVAL, "writing BSDF XML: NULL output function") : BST_EINVAL;
@@ -610,18 +610,18 @@ int bst_xml_write_fn(bst_ctx *ctx, const bst_layer *layer, bst_write_fn fn, void
     return rc;
 }
 
-int bst_xml_write(bst_ctx *ctx, const bst_layer *layer, FILE *fp, const bst_write_opts *opts)
+int bst_bsdf_write(bst_ctx *ctx, const bst_layer *layer, FILE *fp, const bst_bsdf_write_opts *opts)
 {
     if (!fp)
         return ctx ? bsti_error(ctx, BST_EINVAL, "writing BSDF XML: NULL stream") : BST_EINVAL;
-    int rc = bst_xml_write_fn(ctx, layer, bsti_sink_file, fp, opts);
+    int rc = bst_bsdf_write_fn(ctx, layer, bsti_sink_file, fp, opts);
     if (rc >= 0 && (fflush(fp) != 0 || ferror(fp)))
         rc = bsti_error(ctx, BST_EIO, "writing BSDF XML: write failed (%s)", strerror(errno));
     return rc;
 }
 
-int bst_xml_write_path(bst_ctx *ctx, const bst_layer *layer, const char *path,
-                       const bst_write_opts *opts)
+int bst_bsdf_write_path(bst_ctx *ctx, const bst_layer *layer, const char *path,
+                        const bst_bsdf_write_opts *opts)
 {
     if (!ctx || !path)
         return ctx ? bsti_error(ctx, BST_EINVAL, "writing BSDF XML: NULL path") : BST_EINVAL;
@@ -643,7 +643,7 @@ int bst_xml_write_path(bst_ctx *ctx, const bst_layer *layer, const char *path,
         close(fd);
         rc = bsti_error(ctx, BST_EIO, "%s: cannot open the output file: %s", path, strerror(errno));
     } else {
-        rc = bst_xml_write(ctx, layer, fp, opts);
+        rc = bst_bsdf_write(ctx, layer, fp, opts);
         if (fclose(fp) != 0 && rc >= 0)
             rc = bsti_error(ctx, BST_EIO, "writing BSDF XML: write failed (%s)", strerror(errno));
         if (rc >= 0 && rename(tmp, path) != 0)

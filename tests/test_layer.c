@@ -175,10 +175,10 @@ START_TEST(test_hemispherical_and_accordance)
             d[j * n + i] = i < n / 2 ? 1.0 / M_PI : 0.0;
     ck_assert_int_eq(bst_layer_set(ctx, y, 0, BST_TF, m), BST_OK);
     double ga, fa, la[16];
-    ck_assert_int_eq(bst_accordance(ctx, x, x, 0, BST_TF, 5, &ga, &fa, la), BST_OK);
+    ck_assert_int_eq(bst_metrics_accordance(ctx, x, x, 0, BST_TF, 5, &ga, &fa, la), BST_OK);
     ck_assert_double_eq(ga, 100.0);
     ck_assert_double_eq(fa, 100.0);
-    ck_assert_int_eq(bst_accordance(ctx, x, y, 0, BST_TF, 5, &ga, &fa, la), BST_OK);
+    ck_assert_int_eq(bst_metrics_accordance(ctx, x, y, 0, BST_TF, 5, &ga, &fa, la), BST_OK);
     /* FA: sum L|a-b| = n L (0.5/pi) = 0.5, sum L(a+b) = 0.5 + 0.5 -> 50 */
     tu_assert_close(fa, 50.0, 1e-12, 0.0);
     /* GA (eq. 7, equal patches: plain sums), by hand: the first half has a = 0.5/pi, b = 1/pi,
@@ -195,13 +195,13 @@ START_TEST(test_hemispherical_and_accordance)
     for (size_t i = 0; i < n * n; i++)
         d[i] = 1.5 / M_PI;
     ck_assert_int_eq(bst_layer_set(ctx, z, 0, BST_TF, m), BST_OK);
-    ck_assert_int_eq(bst_accordance(ctx, x, z, 0, BST_TF, 2, &ga, &fa, NULL), BST_OK);
+    ck_assert_int_eq(bst_metrics_accordance(ctx, x, z, 0, BST_TF, 2, &ga, &fa, NULL), BST_OK);
     tu_assert_close(ga, 75.0, 1e-12, 0.0);
     tu_assert_close(fa, 50.0, 1e-12, 0.0);
     /* a copy scaled by 1.1: GA 100 (1 - 0.1^2 / 2.1^2) = 99.7732..., FA 100 (1 - 0.1 / 2.1) */
     for (size_t i = 0; i < n * n; i++)
         d[i] = 1.1 * 0.5 / M_PI;
-    ck_assert_int_eq(bst_accordance(ctx, x, z, 0, BST_TF, 2, &ga, &fa, NULL), BST_OK);
+    ck_assert_int_eq(bst_metrics_accordance(ctx, x, z, 0, BST_TF, 2, &ga, &fa, NULL), BST_OK);
     tu_assert_close(ga, 100.0 * (1.0 - 0.01 / 4.41), 1e-12, 0.0);
     tu_assert_close(fa, 100.0 * (1.0 - 0.1 / 2.1), 1e-12, 0.0);
     /* a peak of 3 on a background of 1 moved by one patch (column 7): (a-b)^2 = 4 twice,
@@ -215,7 +215,7 @@ START_TEST(test_hemispherical_and_accordance)
         da[i] = i % n == 4 ? 3.0 : 1.0, db[i] = i % n == 5 ? 3.0 : 1.0;
     ck_assert_int_eq(bst_layer_set(ctx, y, 0, BST_TB, pa), BST_OK);
     ck_assert_int_eq(bst_layer_set(ctx, z, 0, BST_TB, pb), BST_OK);
-    ck_assert_int_eq(bst_accordance(ctx, y, z, 0, BST_TB, 7, &ga, NULL, la), BST_OK);
+    ck_assert_int_eq(bst_metrics_accordance(ctx, y, z, 0, BST_TB, 7, &ga, NULL, la), BST_OK);
     tu_assert_close(ga, 100.0 * (1.0 - 8.0 / (32.0 + 4.0 * (double)(n - 2))), 1e-12, 0.0);
     tu_assert_close(la[4], 50.0, 1e-12, 0.0);
     tu_assert_close(la[5], 50.0, 1e-12, 0.0);
@@ -223,17 +223,17 @@ START_TEST(test_hemispherical_and_accordance)
     /* disjoint supports: 0 */
     for (size_t i = 0; i < n; i++)
         da[7 * n + i] = i == 4 ? 3.0 : 0.0, db[7 * n + i] = i == 5 ? 3.0 : 0.0;
-    ck_assert_int_eq(bst_accordance(ctx, y, z, 0, BST_TB, 7, &ga, &fa, NULL), BST_OK);
+    ck_assert_int_eq(bst_metrics_accordance(ctx, y, z, 0, BST_TB, 7, &ga, &fa, NULL), BST_OK);
     ck_assert_double_eq(ga, 0.0);
     ck_assert_double_eq(fa, 0.0);
     /* one side zero, both zero */
-    ck_assert_int_eq(bst_accordance(ctx, x, z, 0, BST_RF, 5, &ga, &fa, NULL), BST_OK);
+    ck_assert_int_eq(bst_metrics_accordance(ctx, x, z, 0, BST_RF, 5, &ga, &fa, NULL), BST_OK);
     ck_assert_double_eq(ga, 100.0); /* both absent */
     ck_assert_double_eq(fa, 100.0);
     ck_assert_int_eq(bst_mat_new_dense(ctx, n, n, BST_DOUBLE, &m), BST_OK);
     ((double *)bst_mat_dense_data(m))[5 * n + 3] = 1.0;
     ck_assert_int_eq(bst_layer_set(ctx, z, 0, BST_RF, m), BST_OK);
-    ck_assert_int_eq(bst_accordance(ctx, x, z, 0, BST_RF, 5, &ga, &fa, NULL), BST_OK);
+    ck_assert_int_eq(bst_metrics_accordance(ctx, x, z, 0, BST_RF, 5, &ga, &fa, NULL), BST_OK);
     ck_assert_double_eq(ga, 0.0);
     ck_assert_double_eq(fa, 0.0);
     /* Klems patches enter eq. 7 weighted by their projected solid angles L: a = 1 in patches 0
@@ -252,22 +252,22 @@ START_TEST(test_hemispherical_and_accordance)
         p1[0] = p1[144] = 1.0, p2[0] = 1.0;
         ck_assert_int_eq(bst_layer_set(ctx, ka, 0, BST_TF, m1), BST_OK);
         ck_assert_int_eq(bst_layer_set(ctx, kbl, 0, BST_TF, m2), BST_OK);
-        ck_assert_int_eq(bst_accordance(ctx, ka, kbl, 0, BST_TF, 0, &ga, NULL, NULL), BST_OK);
+        ck_assert_int_eq(bst_metrics_accordance(ctx, ka, kbl, 0, BST_TF, 0, &ga, NULL, NULL), BST_OK);
         tu_assert_close(ga, 100.0 * (1.0 - lk[144] / (4.0 * lk[0] + lk[144])), 1e-12, 0.0);
         ck_assert_double_gt(fabs(lk[144] - lk[0]), 1e-3); /* the weights matter here */
         bst_layer_free(ka), bst_layer_free(kbl), bst_basis_free(kb);
     }
     /* every incident patch at once: the same values */
     double gall[16], fall[16];
-    ck_assert_int_eq(bst_accordance_all(ctx, x, y, 0, BST_TF, gall, fall), BST_OK);
+    ck_assert_int_eq(bst_metrics_accordance_all(ctx, x, y, 0, BST_TF, gall, fall), BST_OK);
     for (size_t j = 0; j < n; j++) {
-        ck_assert_int_eq(bst_accordance(ctx, x, y, 0, BST_TF, j, &ga, &fa, NULL), BST_OK);
+        ck_assert_int_eq(bst_metrics_accordance(ctx, x, y, 0, BST_TF, j, &ga, &fa, NULL), BST_OK);
         ck_assert_double_eq(gall[j], ga);
         ck_assert_double_eq(fall[j], fa);
     }
-    ck_assert_int_eq(bst_accordance_all(ctx, x, y, 0, BST_TF, NULL, NULL), BST_EINVAL);
-    ck_assert_int_eq(bst_accordance(ctx, x, y, 0, BST_TF, n, &ga, NULL, NULL), BST_EINVAL);
-    ck_assert_int_eq(bst_accordance(ctx, x, y, 0, BST_TF, 0, NULL, NULL, NULL), BST_EINVAL);
+    ck_assert_int_eq(bst_metrics_accordance_all(ctx, x, y, 0, BST_TF, NULL, NULL), BST_EINVAL);
+    ck_assert_int_eq(bst_metrics_accordance(ctx, x, y, 0, BST_TF, n, &ga, NULL, NULL), BST_EINVAL);
+    ck_assert_int_eq(bst_metrics_accordance(ctx, x, y, 0, BST_TF, 0, NULL, NULL, NULL), BST_EINVAL);
     bst_layer_free(z);
     bst_layer_free(x);
     bst_layer_free(y);

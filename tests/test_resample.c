@@ -141,7 +141,7 @@ static void write_uniform_klems(const char *which, double ft, double fr, char *p
     int fd = mkstemp(path);
     ck_assert_int_ge(fd, 0);
     close(fd);
-    ck_assert_int_eq(bst_xml_write_path(ctx, l, path, NULL), BST_OK);
+    ck_assert_int_eq(bst_bsdf_write_path(ctx, l, path, NULL), BST_OK);
     bst_layer_free(l);
     bst_basis_free(kb);
 }

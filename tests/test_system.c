@@ -1,7 +1,7 @@
 /* test_system.c - the ray-traced ground truth: S1 = pane + specular blind + pane, ray traced as one
  * assembly by RADIANCE (../shared/reference/S1_t4k5.xml), against our combination of its three
  * separately ray-traced layers at k = 5: hemispherical totals, and the accordance of the
- * transmitted distribution at the paper's directions, incidence from both sides (bst_accordance):
+ * transmitted distribution at the paper's directions, incidence from both sides (bst_metrics_accordance):
  *   GA, the global accordance of Grobe 2017 (eq. 7): the issue's bar, GA >= 99 at every direction
  *   and side (the combination scores 99.90-99.98);
  *   FA, the flux accordance (100 (1 - sum L |a - b| / sum L (a + b))), the share of the scattered
@@ -53,7 +53,7 @@ static size_t incident_patch(const bst_basis *b, double th, double ph)
 
 /* Global and flux accordance of layer l's component c for incident patch j with its mirror image
  * (x -> -x and/or y -> -y, both for the incident and the exit directions), with
- * bst_accordance's definitions. */
+ * bst_metrics_accordance's definitions. */
 static void mirror_accordance(const bst_layer *l, const bst_basis *b, bst_comp c, size_t j, int mx,
                               int my, double *ga, double *fa)
 {
@@ -97,7 +97,7 @@ static void accordance_table(const bst_layer *sys, const bst_layer *truth, const
             noise(blind, b, c, j, &ga_bl, &fa_bl);
             double e1 = (100.0 - fa_s1) / sqrt(2.0), e2 = (100.0 - fa_bl) / sqrt(2.0);
             double fa_expect = 100.0 - sqrt(e1 * e1 + e2 * e2);
-            ck_assert_int_eq(bst_accordance(ctx, sys, truth, 0, c, j, &ga, &fa, NULL), BST_OK);
+            ck_assert_int_eq(bst_metrics_accordance(ctx, sys, truth, 0, c, j, &ga, &fa, NULL), BST_OK);
             printf("S1 %s, %s incidence (theta %g, phi %g): GA %.3f, FA %.2f; against their mirror "
                    "images: S1 GA %.3f FA %.2f, blind GA %.3f FA %.2f\n", what, side ? "back" : "front",
                    dirs[k][0], dirs[k][1], ga, fa, ga_s1, fa_s1, ga_bl, fa_bl);

@@ -230,9 +230,9 @@ static bst_layer *layer_of(const bst_bsdf *b, const bst_basis *target)
     return l;
 }
 
-static void write_ok(const bst_layer *l, const char *path, const bst_write_opts *o)
+static void write_ok(const bst_layer *l, const char *path, const bst_bsdf_write_opts *o)
 {
-    int rc = bst_xml_write_path(ctx, l, path, o);
+    int rc = bst_bsdf_write_path(ctx, l, path, o);
     ck_assert_msg(rc == BST_OK, "write %s: %s", path, bst_ctx_message(ctx));
 }
 
@@ -257,10 +257,10 @@ static double max_diff(const bst_layer *a, const bst_layer *b, size_t ch, bst_co
 
 /* Collects on_block reports. */
 struct reports {
-    bst_write_block b[64];
+    bst_bsdf_write_block b[64];
     int n;
 };
-static void collect(const bst_write_block *b, void *opaque)
+static void collect(const bst_bsdf_write_block *b, void *opaque)
 {
     struct reports *r = opaque;
     if (r->n < 64)
@@ -670,8 +670,8 @@ START_TEST(test_reference_round_trip)
     bst_bsdf *b = read_ok(tu_ref(file));
     bst_layer *l = layer_of(b, NULL);
     for (int red = 0; red < 2; red++) {
-        bst_write_opts o;
-        bst_write_opts_init(&o);
+        bst_bsdf_write_opts o;
+        bst_bsdf_write_opts_init(&o);
         struct reports rep = {.n = 0};
         o.on_block = collect, o.opaque = &rep;
         if (!red)
@@ -723,7 +723,7 @@ static void hemi_row(bst_bsdf *b, const bst_basis *g, int front, double th, doub
     }
 }
 
-/* Global (Grobe 2017 eq. 7) and flux accordance (bst_accordance's definitions) of two
+/* Global (Grobe 2017 eq. 7) and flux accordance (bst_metrics_accordance's definitions) of two
  * distributions over the outgoing cells of the k = 6 grid (equal projected solid angles). */
 static void accordance(const double *a, const double *b, size_t n, double *ga, double *fa)
 {
@@ -748,8 +748,8 @@ START_TEST(test_reference_hemi)
     snprintf(tsv, sizeof tsv, "%s.hemi.tsv", names[_i]);
     bst_bsdf *b = read_ok(tu_ref(file));
     bst_layer *l = layer_of(b, NULL);
-    bst_write_opts o;
-    bst_write_opts_init(&o);
+    bst_bsdf_write_opts o;
+    bst_bsdf_write_opts_init(&o);
     o.rank3_source = b;
     const char *path = tmp_path("hemi");
     write_ok(l, path, &o);
@@ -820,7 +820,7 @@ static void patch_average(const bst_layer *sc, const bst_basis *kb, int S, doubl
     free(h);
 }
 
-/* Global (eq. 7) and flux accordance (bst_accordance's definitions) of
+/* Global (eq. 7) and flux accordance (bst_metrics_accordance's definitions) of
  * column i of a and of b, or of b's reciprocal (b(a(i), a(o)), a = antipode) when recip. */
 static void column_accordance(const bst_mat *a, const bst_mat *b, int recip, const bst_basis *kb,
                               size_t i, double *ga, double *fa)
@@ -923,8 +923,8 @@ START_TEST(test_rank3_auto)
 {
     bst_bsdf *b = read_ok(tu_ref("L_diffuser_t3k5.xml"));
     bst_layer *l = layer_of(b, NULL);
-    bst_write_opts o;
-    bst_write_opts_init(&o);
+    bst_bsdf_write_opts o;
+    bst_bsdf_write_opts_init(&o);
     struct reports rep = {.n = 0};
     o.on_block = collect, o.opaque = &rep;
     char p3[256];
@@ -950,7 +950,7 @@ START_TEST(test_rank3_auto)
         bst_layer_hemispherical(ctx, l4, 0, (bst_comp)c, h4);
         for (size_t i = 0; i < 1024; i++) {
             double fa;
-            ck_assert_int_eq(bst_accordance(ctx, l3, l4, 0, (bst_comp)c, i, NULL, &fa, NULL), BST_OK);
+            ck_assert_int_eq(bst_metrics_accordance(ctx, l3, l4, 0, (bst_comp)c, i, NULL, &fa, NULL), BST_OK);
             worst_fa = fmin(worst_fa, fa), worst_h = fmax(worst_h, fabs(h3[i] - h4[i]));
         }
         printf("diffuser %s as rank 3 (%llu bytes): least flux accordance with its rank-4 "
@@ -1015,8 +1015,8 @@ START_TEST(test_channels_metadata)
 {
     for (int klems = 0; klems < 2; klems++) {
         bst_layer *l = small_layer(ctx, 2, klems ? "quarter" : NULL, 4, 9);
-        bst_write_opts o;
-        bst_write_opts_init(&o);
+        bst_bsdf_write_opts o;
+        bst_bsdf_write_opts_init(&o);
         const char *layers[] = {"outer & pane.xml", "blind <45>.xml"};
         o.name = "Test <system> & co";
         o.manufacturer = "Nobody";
@@ -1079,8 +1079,8 @@ END_TEST
 START_TEST(test_reduced_round_trip)
 {
     bst_layer *l = small_layer(ctx, 4, NULL, 1, 21);
-    bst_write_opts o;
-    bst_write_opts_init(&o);
+    bst_bsdf_write_opts o;
+    bst_bsdf_write_opts_init(&o);
     o.rank = BST_RANK_4;
     struct reports rep = {.n = 0};
     o.on_block = collect, o.opaque = &rep;
@@ -1090,7 +1090,7 @@ START_TEST(test_reduced_round_trip)
     ck_assert_int_eq(rep.n, 4);
     size_t n = 256;
     for (int c = 0; c < 4; c++) {
-        const bst_write_block *w = &rep.b[c];
+        const bst_bsdf_write_block *w = &rep.b[c];
         if (!bst_layer_get(l, 0, (bst_comp)c)) { /* Rb is absent: left out, read back as zero */
             ck_assert(!w->written);
             ck_assert(max_diff(l, l2, 0, (bst_comp)c) == 0.0);
@@ -1121,7 +1121,7 @@ START_TEST(test_reduced_round_trip)
 }
 END_TEST
 
-static void no_op(const bst_write_block *b, void *opaque)
+static void no_op(const bst_bsdf_write_block *b, void *opaque)
 {
     (void)b, (void)opaque;
 }
@@ -1131,25 +1131,25 @@ START_TEST(test_write_errors)
     bst_layer *l = small_layer(ctx, 2, NULL, 1, 3);
     struct membuf m = {0};
     /* arguments */
-    ck_assert_int_eq(bst_xml_write(ctx, NULL, stdout, NULL), BST_EINVAL);
-    ck_assert_int_eq(bst_xml_write(ctx, l, NULL, NULL), BST_EINVAL);
-    ck_assert_int_eq(bst_xml_write_fn(ctx, l, NULL, NULL, NULL), BST_EINVAL);
-    ck_assert_int_eq(bst_xml_write_path(ctx, l, NULL, NULL), BST_EINVAL);
-    ck_assert_int_eq(bst_xml_write(NULL, l, stdout, NULL), BST_EINVAL);
-    bst_write_opts o;
-    bst_write_opts_init(&o);
+    ck_assert_int_eq(bst_bsdf_write(ctx, NULL, stdout, NULL), BST_EINVAL);
+    ck_assert_int_eq(bst_bsdf_write(ctx, l, NULL, NULL), BST_EINVAL);
+    ck_assert_int_eq(bst_bsdf_write_fn(ctx, l, NULL, NULL, NULL), BST_EINVAL);
+    ck_assert_int_eq(bst_bsdf_write_path(ctx, l, NULL, NULL), BST_EINVAL);
+    ck_assert_int_eq(bst_bsdf_write(NULL, l, stdout, NULL), BST_EINVAL);
+    bst_bsdf_write_opts o;
+    bst_bsdf_write_opts_init(&o);
     o.reduce_pct = 100;
-    ck_assert_int_eq(bst_xml_write_fn(ctx, l, mem_write, &m, &o), BST_EINVAL);
-    bst_write_opts_init(&o);
+    ck_assert_int_eq(bst_bsdf_write_fn(ctx, l, mem_write, &m, &o), BST_EINVAL);
+    bst_bsdf_write_opts_init(&o);
     o.rank = 5;
-    ck_assert_int_eq(bst_xml_write_fn(ctx, l, mem_write, &m, &o), BST_EINVAL);
+    ck_assert_int_eq(bst_bsdf_write_fn(ctx, l, mem_write, &m, &o), BST_EINVAL);
     ck_assert_int_eq(m.calls, 0);
     /* a value that is not finite: nothing is written */
     bst_mat *d;
     ck_assert_int_eq(bst_mat_new_dense(ctx, 16, 16, BST_DOUBLE, &d), BST_OK);
     ((double *)bst_mat_dense_data(d))[37] = NAN;
     ck_assert_int_eq(bst_layer_set(ctx, l, 0, BST_RB, d), BST_OK);
-    ck_assert_int_eq(bst_xml_write_fn(ctx, l, mem_write, &m, NULL), BST_EINVAL);
+    ck_assert_int_eq(bst_bsdf_write_fn(ctx, l, mem_write, &m, NULL), BST_EINVAL);
     ck_assert_int_eq(m.calls, 0);
     ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "not finite"));
     bst_layer_free(l);
@@ -1160,14 +1160,14 @@ START_TEST(test_write_errors)
     for (size_t li = 0; li < 3; li++) {
         size_t limit = limits[li];
         struct membuf f = {.limit = limit};
-        bst_write_opts_init(&o);
+        bst_bsdf_write_opts_init(&o);
         o.on_block = no_op;
-        ck_assert_int_eq(bst_xml_write_fn(ctx, g, mem_write, &f, &o), BST_EIO);
+        ck_assert_int_eq(bst_bsdf_write_fn(ctx, g, mem_write, &f, &o), BST_EIO);
         ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "write failed"));
         free(f.p);
     }
     /* a directory that does not exist: nothing created */
-    ck_assert_int_eq(bst_xml_write_path(ctx, g, "/nonexistent-bst/dir/out.xml", NULL), BST_EIO);
+    ck_assert_int_eq(bst_bsdf_write_path(ctx, g, "/nonexistent-bst/dir/out.xml", NULL), BST_EIO);
     ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "/nonexistent-bst/dir/out.xml"));
     /* a file-size limit hit part way (this test runs in its own process): the temporary is
      * removed and the target never appears */
@@ -1178,7 +1178,7 @@ START_TEST(test_write_errors)
     signal(SIGXFSZ, SIG_IGN);
     struct rlimit rl = {20000, 20000};
     ck_assert_int_eq(setrlimit(RLIMIT_FSIZE, &rl), 0);
-    ck_assert_int_eq(bst_xml_write_path(ctx, g, target, NULL), BST_EIO);
+    ck_assert_int_eq(bst_bsdf_write_path(ctx, g, target, NULL), BST_EIO);
     ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "out.xml"));
     DIR *dd = opendir(dir);
     struct dirent *de;
@@ -1206,10 +1206,10 @@ START_TEST(test_write_alloc_failures)
             bst_ctx *c2 = bst_ctx_new();
             ck_assert_int_eq(bst_ctx_set_allocator(c2, tu_alloc_malloc, tu_alloc_free, &al), BST_OK);
             struct membuf m = {0};
-            bst_write_opts o;
-            bst_write_opts_init(&o);
+            bst_bsdf_write_opts o;
+            bst_bsdf_write_opts_init(&o);
             o.rank = (bst_tree_rank)cases[cse].rank;
-            int rc = bst_xml_write_fn(c2, l, mem_write, &m, &o);
+            int rc = bst_bsdf_write_fn(c2, l, mem_write, &m, &o);
             bst_ctx_free(c2);
             free(m.p);
             ck_assert_int_eq(al.live, 0);

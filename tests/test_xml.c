@@ -383,12 +383,14 @@ START_TEST(test_to_layer_single)
     ck_assert_int_eq(bst_basis_new_klems(ctx, "half", &bases[1]), BST_OK);
     int dense_seen = 0;
     for (size_t f = 0; f < 3; f++) {
-        bst_bsdf *b;
+        bst_bsdf *b, *bf;
+        bst_bsdf_read_opts single = {.precision = BST_FLOAT};
         ck_assert_int_ge(bst_bsdf_read(ctx, tu_ref(files[f]), NULL, &b), 0);
+        ck_assert_int_ge(bst_bsdf_read(ctx, tu_ref(files[f]), &single, &bf), 0);
         for (int q = 0; q < 2; q++) {
             bst_layer *ld, *ls;
             ck_assert_int_eq(bst_bsdf_to_layer(ctx, b, bases[q], &ld), BST_OK);
-            ck_assert_int_eq(bst_bsdf_to_layer_prec(ctx, b, bases[q], BST_FLOAT, &ls), BST_OK);
+            ck_assert_int_eq(bst_bsdf_to_layer(ctx, bf, bases[q], &ls), BST_OK);
             size_t n = bst_basis_size(bases[q]);
             for (int c = 0; c < BST_NCOMP; c++) {
                 const bst_mat *md = bst_layer_get(ld, 0, (bst_comp)c), *ms = bst_layer_get(ls, 0, (bst_comp)c);
@@ -404,14 +406,12 @@ START_TEST(test_to_layer_single)
             }
             bst_layer_free(ld), bst_layer_free(ls);
         }
-        bst_bsdf_free(b);
+        bst_bsdf_free(b), bst_bsdf_free(bf);
     }
     ck_assert_int_ge(dense_seen, 8);
-    bst_layer *l;
     bst_bsdf *b;
-    ck_assert_int_ge(bst_bsdf_read(ctx, tu_ref(files[0]), NULL, &b), 0);
-    ck_assert_int_eq(bst_bsdf_to_layer_prec(ctx, b, bases[0], (bst_precision)7, &l), BST_EINVAL);
-    bst_bsdf_free(b);
+    bst_bsdf_read_opts bad = {.precision = (bst_precision)7};
+    ck_assert_int_eq(bst_bsdf_read(ctx, tu_ref(files[0]), &bad, &b), BST_EINVAL);
     bst_basis_free(bases[0]), bst_basis_free(bases[1]);
 }
 END_TEST

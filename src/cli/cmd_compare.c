@@ -48,7 +48,7 @@ static int write_map(bst_ctx *ctx, const char *sub, const char *path, int svg, c
                      const bst_layer *b, bst_comp c, size_t j, const double dir[2], char **specs,
                      double *la)
 {
-    if (bst_accordance(ctx, a, b, 0, c, j, NULL, NULL, la) < 0)
+    if (bst_metrics_accordance(ctx, a, b, 0, c, j, NULL, NULL, la) < 0)
         return cli_fail_ctx(sub, NULL, ctx);
     char title[1024];
     const char *na = strrchr(specs[0], '/') ? strrchr(specs[0], '/') + 1 : specs[0];
@@ -183,7 +183,7 @@ int cmd_compare(int argc, char **argv)
         int in_a = bst_layer_get(a, 0, comp) != NULL, in_b = bst_layer_get(b, 0, comp) != NULL;
         if (comps ? !(comps & (1u << cc)) : !(in_a || in_b))
             continue;
-        if (bst_accordance_all(ctx, a, b, 0, comp, ga, fa) < 0 ||
+        if (bst_metrics_accordance_all(ctx, a, b, 0, comp, ga, fa) < 0 ||
             bst_layer_hemispherical(ctx, a, 0, comp, ha) < 0 || bst_layer_hemispherical(ctx, b, 0, comp, hb) < 0) {
             rc = cli_fail_ctx(sub, NULL, ctx);
             break;

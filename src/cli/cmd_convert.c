@@ -1,6 +1,6 @@
 /* cmd_convert.c - `bsdfstack convert IN -o OUT`: read any BSDF XML file the reader supports (or a
  * glass:SPEC pane, or a reversed layer LAYER^), resample it to another basis if asked
- * (bst_bsdf_to_layer), write it (bst_xml_write) through an atomic output file.  A plain file keeps
+ * (bst_bsdf_to_layer), write it (bst_bsdf_write) through an atomic output file.  A plain file keeps
  * its own basis exactly when no other is asked, a rank-3 file its rank-3 trees. */
 #include <config.h>
 
@@ -45,7 +45,7 @@ struct verbose {
     int on;
 };
 
-static void report(const bst_write_block *b, void *opaque)
+static void report(const bst_bsdf_write_block *b, void *opaque)
 {
     const struct verbose *v = opaque;
     if (!v->on)
@@ -140,7 +140,7 @@ int cmd_convert(int argc, char **argv)
     struct cli_layers set = {0};
     char *command = NULL, *chcopy = channels ? strdup(channels) : NULL;
     const char *chnames[MAX_CHANNELS];
-    bst_read_opts ro = {0, 0, chnames};
+    bst_bsdf_read_opts ro = {.channels = chnames};
     int rc = CLI_OK, st;
     for (char *save = NULL, *t = chcopy ? strtok_r(chcopy, ",", &save) : NULL;
          t && ro.nchannels < MAX_CHANNELS; t = strtok_r(NULL, ",", &save))
@@ -195,8 +195,8 @@ write:;
     strcpy(command, "bsdfstack");
     for (int i = 0; i < argc; i++)
         strcat(strcat(command, " "), argv[i]);
-    bst_write_opts o;
-    bst_write_opts_init(&o);
+    bst_bsdf_write_opts o;
+    bst_bsdf_write_opts_init(&o);
     o.rank = (bst_tree_rank)rank;
     o.reduce_pct = no_reduce ? -1.0 : pct;
     o.digits = digits;
@@ -212,7 +212,7 @@ write:;
         rc = CLI_FAIL;
         goto done;
     }
-    st = bst_xml_write(ctx, lw, co.fp, &o);
+    st = bst_bsdf_write(ctx, lw, co.fp, &o);
     if (st < 0) {
         cli_out_abort(&co);
         rc = cli_fail_ctx(sub, strcmp(out, "-") ? out : "standard output", ctx);

@@ -137,7 +137,7 @@ int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_
     /* 1. read the files, remembering the finest tree order and the first Klems basis */
     int kmax = 0;
     const bst_basis *klems_file = NULL;
-    bst_read_opts ro = {.nchannels = nch, .channels = chnames, .comps = comps};
+    bst_bsdf_read_opts ro = {.nchannels = nch, .channels = chnames, .comps = comps, .precision = prec};
     for (size_t i = 0; i < n && rc == CLI_OK; i++) {
         char *path = strdup(specs[i]);
         size_t len = strlen(path);
@@ -186,7 +186,7 @@ int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_
         int flip = len && specs[i][len - 1] == '^';
         bst_layer *l = NULL;
         if (files[i]) {
-            st = bst_bsdf_to_layer_prec(ctx, files[i], set->basis, prec, &l);
+            st = bst_bsdf_to_layer(ctx, files[i], set->basis, &l);
             bst_bsdf_free(files[i]);
             files[i] = NULL;
         } else {
@@ -246,14 +246,14 @@ int cli_write_layer(bst_ctx *ctx, const char *sub, const bst_layer *l, const cha
         strcat(desc, " ");
         strcat(desc, argv[i]);
     }
-    bst_write_opts wo;
-    bst_write_opts_init(&wo);
+    bst_bsdf_write_opts wo;
+    bst_bsdf_write_opts_init(&wo);
     wo.reduce_pct = reduce;
     wo.description = desc;
     struct cli_out out;
     int rc = cli_out_open(&out, sub, path);
     if (rc == CLI_OK) {
-        int st = bst_xml_write(ctx, l, out.fp, &wo);
+        int st = bst_bsdf_write(ctx, l, out.fp, &wo);
         if (st < 0) {
             cli_out_abort(&out);
             rc = cli_fail_ctx(sub, path, ctx);
