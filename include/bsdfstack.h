@@ -299,13 +299,9 @@ int bst_stack_combine_consume(bst_ctx *ctx, size_t n, bst_layer **layers,
 int bst_stack_absorptance(bst_ctx *ctx, size_t n, const bst_layer *const *layers, size_t ch,
                           const bst_stack_opts *opts, double *abs_front, double *abs_back);
 
-/* Only some incident columns of the system's Tf and Rf (front incidence; channel ch), by iterating
- * the light between the layers gap by gap, never forming (I - A)^-1: O(N m) per sweep with
- * glass, O(N^2 m) with dense layers, for m columns (columns.c).  The iteration stops when a sweep
- * changes the inter-reflected flux by less than tol times the incident flux; opts (may be NULL:
- * defaults) receives the sweeps made and that last relative change.  tf and rf get N x m
- * matrices (column q: incident patch cols[q]).  Returns BST_WILLCOND, with the columns as far as
- * they came, when max_iter sweeps did not reach tol (facing reflectances close to 1). */
+/* Columns cols[0..m-1] of the system's Tf and Rf (front incidence, channel ch) as N x m matrices,
+ * iterated between the layers without (I - A)^-1 (columns.c); BST_WILLCOND when max_iter sweeps do
+ * not bring a sweep's change of flux below tol times the incident flux. */
 typedef struct {
     double tol;       /* default BST_COLUMNS_TOL */
     int max_iter;     /* default BST_COLUMNS_MAX_ITER */
