@@ -299,7 +299,8 @@ int bst_stack_combine_consume(bst_ctx *ctx, size_t n, bst_layer **layers,
 int bst_stack_absorptance(bst_ctx *ctx, size_t n, const bst_layer *const *layers, size_t ch,
                           const bst_stack_opts *opts, double *abs_front, double *abs_back);
 
-/* Columns cols[0..m-1] of the system's Tf and Rf (front incidence, channel ch) as N x m matrices,
+/* Columns cols[0..m-1] of the system's Tf and Rf (front incidence; the channel by name, NULL = the
+ * first layer's first) as N x m matrices,
  * iterated between the layers without (I - A)^-1 (columns.c); BST_WILLCOND when max_iter sweeps do
  * not bring a sweep's change of flux below tol times the incident flux. */
 typedef struct {
@@ -311,7 +312,7 @@ typedef struct {
 #define BST_COLUMNS_TOL 1e-12
 #define BST_COLUMNS_MAX_ITER 1000
 void bst_columns_opts_init(bst_columns_opts *opts);
-int bst_stack_columns(bst_ctx *ctx, size_t n, const bst_layer *const *layers, size_t ch,
+int bst_stack_columns(bst_ctx *ctx, size_t n, const bst_layer *const *layers, const char *channel,
                       size_t ncols, const size_t *cols, bst_columns_opts *opts, bst_mat **tf,
                       bst_mat **rf);
 

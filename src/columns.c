@@ -73,7 +73,7 @@ static int flux(bst_ctx *ctx, const bst_mat *m, const double *old, const double 
     return BST_OK;
 }
 
-int bst_stack_columns(bst_ctx *ctx, size_t n, const bst_layer *const *layers, size_t ch,
+int bst_stack_columns(bst_ctx *ctx, size_t n, const bst_layer *const *layers, const char *channel,
                       size_t ncols, const size_t *cols, bst_columns_opts *opts, bst_mat **tf,
                       bst_mat **rf)
 {
@@ -87,19 +87,32 @@ int bst_stack_columns(bst_ctx *ctx, size_t n, const bst_layer *const *layers, si
     }
     if (!(opts->tol > 0) || opts->max_iter < 1)
         return bsti_error(ctx, BST_EINVAL, "columns: tolerance must be > 0 and max_iter >= 1");
+    if (!layers[0])
+        return bsti_error(ctx, BST_EINVAL, "columns: layer 1 is missing");
     const bst_basis *basis = bst_layer_basis(layers[0]);
     size_t N = bst_basis_size(basis);
+    if (!channel)
+        channel = bst_layer_channel(layers[0], 0);
+    int *ch = bsti_alloc_array(ctx, n, sizeof *ch);
+    if (!ch)
+        return BST_ENOMEM;
     for (size_t i = 0; i < n; i++) {
-        if (!layers[i] || !bst_basis_equal(bst_layer_basis(layers[i]), basis))
+        if (!layers[i] || !bst_basis_equal(bst_layer_basis(layers[i]), basis)) {
+            bsti_free(ctx, ch);
             return bsti_error(ctx, BST_EBASIS, "columns: layer %zu is missing or in another basis", i + 1);
-        if (ch >= bst_layer_nchannels(layers[i]))
-            return bsti_error(ctx, BST_EINVAL, "columns: layer %zu has no channel %zu", i + 1, ch);
+        }
+        if ((ch[i] = bst_layer_find_channel(layers[i], channel)) < 0) {
+            bsti_free(ctx, ch);
+            return bsti_error(ctx, BST_ENOTFOUND, "columns: layer %zu has no channel %s", i + 1, channel);
+        }
     }
     for (size_t j = 0; j < ncols; j++)
-        if (cols[j] >= N)
+        if (cols[j] >= N) {
+            bsti_free(ctx, ch);
             return bsti_error(ctx, BST_EINVAL, "columns: incident patch %zu of %zu", cols[j], N);
+        }
     const double *lam = bst_basis_lambda(basis);
-#define COMP(i, c) bst_layer_get(layers[(i) - 1], ch, (c))
+#define COMP(i, c) bst_layer_get(layers[(i) - 1], (size_t)ch[(i) - 1], (c))
     size_t G = n - 1;
     bst_mat **D = bsti_calloc(ctx, 2 * G + 1, sizeof *D), **U = D + G, *src = NULL, *r1 = NULL;
     double *buf = bsti_alloc_array(ctx, N * ncols, sizeof *buf);
@@ -180,7 +193,7 @@ int bst_stack_columns(bst_ctx *ctx, size_t n, const bst_layer *const *layers, si
 #undef COMP
     for (size_t g = 0; D && g < 2 * G; g++)
         bst_mat_free(D[g]);
-    bsti_free(ctx, D), bsti_free(ctx, buf), bsti_free(ctx, old);
+    bsti_free(ctx, D), bsti_free(ctx, buf), bsti_free(ctx, old), bsti_free(ctx, ch);
     bst_mat_free(src), bst_mat_free(r1);
     if (rc < 0) {
         bst_mat_free(*tf), bst_mat_free(*rf);

@@ -64,7 +64,7 @@ START_TEST(test_against_full)
     bst_columns_opts o;
     bst_columns_opts_init(&o);
     bst_mat *tf, *rf;
-    ck_assert_int_eq(bst_stack_columns(ctx, n, (const bst_layer *const *)l, 0, m, cols, &o, &tf, &rf), BST_OK);
+    ck_assert_int_eq(bst_stack_columns(ctx, n, (const bst_layer *const *)l, NULL, m, cols, &o, &tf, &rf), BST_OK);
     ck_assert_uint_eq(bst_mat_rows(tf), N);
     ck_assert_uint_eq(bst_mat_cols(tf), m);
     double worst = 0;
@@ -112,7 +112,7 @@ START_TEST(test_mirrors_and_single)
     bst_columns_opts_init(&o);
     o.max_iter = 50;
     bst_mat *tf, *rf;
-    ck_assert_int_eq(bst_stack_columns(ctx, 2, (const bst_layer *const *)l, 0, 1, &col, &o, &tf, &rf),
+    ck_assert_int_eq(bst_stack_columns(ctx, 2, (const bst_layer *const *)l, "Visible", 1, &col, &o, &tf, &rf),
                      BST_WILLCOND);
     ck_assert_int_eq(o.iterations, 50);
     ck_assert_double_gt(o.residual, 1e-12);
@@ -120,17 +120,17 @@ START_TEST(test_mirrors_and_single)
     ck_assert(isfinite(bst_mat_get(tf, col, 0)));
     bst_mat_free(tf), bst_mat_free(rf);
     /* one layer: its own columns */
-    ck_assert_int_eq(bst_stack_columns(ctx, 1, (const bst_layer *const *)l, 0, 1, &col, NULL, &tf, &rf), BST_OK);
+    ck_assert_int_eq(bst_stack_columns(ctx, 1, (const bst_layer *const *)l, NULL, 1, &col, NULL, &tf, &rf), BST_OK);
     tu_assert_close(bst_mat_get(tf, col, 0), t[col], 1e-15, 0.0);
     tu_assert_close(bst_mat_get(rf, col, 0), r[col], 1e-15, 0.0);
     bst_mat_free(tf), bst_mat_free(rf);
     /* bad arguments */
     size_t bad = N;
-    ck_assert_int_eq(bst_stack_columns(ctx, 2, (const bst_layer *const *)l, 0, 1, &bad, NULL, &tf, &rf), BST_EINVAL);
-    ck_assert_int_eq(bst_stack_columns(ctx, 2, (const bst_layer *const *)l, 1, 1, &col, NULL, &tf, &rf), BST_EINVAL);
-    ck_assert_int_eq(bst_stack_columns(ctx, 2, (const bst_layer *const *)l, 0, 0, &col, NULL, &tf, &rf), BST_EINVAL);
+    ck_assert_int_eq(bst_stack_columns(ctx, 2, (const bst_layer *const *)l, NULL, 1, &bad, NULL, &tf, &rf), BST_EINVAL);
+    ck_assert_int_eq(bst_stack_columns(ctx, 2, (const bst_layer *const *)l, "Solar", 1, &col, NULL, &tf, &rf), BST_ENOTFOUND);
+    ck_assert_int_eq(bst_stack_columns(ctx, 2, (const bst_layer *const *)l, NULL, 0, &col, NULL, &tf, &rf), BST_EINVAL);
     o.tol = 0;
-    ck_assert_int_eq(bst_stack_columns(ctx, 2, (const bst_layer *const *)l, 0, 1, &col, &o, &tf, &rf), BST_EINVAL);
+    ck_assert_int_eq(bst_stack_columns(ctx, 2, (const bst_layer *const *)l, NULL, 1, &col, &o, &tf, &rf), BST_EINVAL);
     bst_layer_free(l[0]), bst_layer_free(l[1]);
     bst_basis_free(b);
 }
