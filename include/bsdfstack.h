@@ -299,13 +299,14 @@ int bst_stack_combine_consume(bst_ctx *ctx, size_t n, bst_layer **layers,
 int bst_stack_absorptance(bst_ctx *ctx, size_t n, const bst_layer *const *layers, size_t ch,
                           const bst_stack_opts *opts, double *abs_front, double *abs_back);
 
-/* Columns cols[0..m-1] of the system's Tf and Rf (front incidence; the channel by name, NULL = the
+/* Columns cols[0..m-1] of the system's Tf and Rf (or Tb and Rb, opts->back; the channel by name, NULL = the
  * first layer's first) as N x m matrices,
  * iterated between the layers without (I - A)^-1 (columns.c); BST_WILLCOND when max_iter sweeps do
  * not bring a sweep's change of flux below tol times the incident flux. */
 typedef struct {
     double tol;       /* default BST_COLUMNS_TOL */
     int max_iter;     /* default BST_COLUMNS_MAX_ITER */
+    int back;         /* 1: back incidence, tf and rf receive Tb and Rb; default 0 */
     int iterations;   /* out: sweeps made */
     double residual;  /* out: the last sweep's change of flux over the incident flux */
 } bst_columns_opts;

@@ -8,6 +8,7 @@
  *   D_1 = Tf_1[:, cols] + Rb_1 L U_1,         D_g = Tf_g L D_{g-1} + Rb_g L U_g   (g >= 2)
  *   U_g = Rf_{g+1} L D_g + Tb_{g+1} L U_{g+1} (g <= n-2),   U_{n-1} = Rf_n L D_{n-1}
  *   Tf[:, cols] = Tf_n L D_{n-1},             Rf[:, cols] = Rf_1[:, cols] + Tb_1 L U_1.
+ * Back incidence (opts->back) runs the same over the stack seen from the back and gives Tb, Rb.
  * For two layers the fixed point is D_1 = (I - Rb_1 L Rf_2 L)^-1 Tf_1, so Tf = Tf_2 L D_1, the
  * stack's formula (stack.c) by the push-through identity.  A sweep costs one product of each
  * component with an N x m block: O(N m) for glass, O(nnz m) sparse, O(N^2 m) dense.  The error
@@ -112,7 +113,14 @@ int bst_stack_columns(bst_ctx *ctx, size_t n, const bst_layer *const *layers, co
             return bsti_error(ctx, BST_EINVAL, "columns: incident patch %zu of %zu", cols[j], N);
         }
     const double *lam = bst_basis_lambda(basis);
-#define COMP(i, c) bst_layer_get(layers[(i) - 1], (size_t)ch[(i) - 1], (c))
+    /* back incidence: the same iteration over the stack seen from the back, layers in reverse
+     * order with front and back components exchanged (patch indices need no change: they follow
+     * the propagation direction's x and y, which the other side's view shares) */
+    static const bst_comp swapped[BST_NCOMP] = {[BST_TF] = BST_TB, [BST_RF] = BST_RB, [BST_TB] = BST_TF,
+                                                [BST_RB] = BST_RF};
+    int back = opts->back != 0;
+#define LAYER(i) (back ? n - (i) : (i) - 1)
+#define COMP(i, c) bst_layer_get(layers[LAYER(i)], (size_t)ch[LAYER(i)], back ? swapped[c] : (c))
     size_t G = n - 1;
     bst_mat **D = bsti_calloc(ctx, 2 * G + 1, sizeof *D), **U = D + G, *src = NULL, *r1 = NULL;
     double *buf = bsti_alloc_array(ctx, N * ncols, sizeof *buf);
@@ -191,6 +199,7 @@ int bst_stack_columns(bst_ctx *ctx, size_t n, const bst_layer *const *layers, co
             rc = bst_mat_new_zero(ctx, N, ncols, m);
     }
 #undef COMP
+#undef LAYER
     for (size_t g = 0; D && g < 2 * G; g++)
         bst_mat_free(D[g]);
     bsti_free(ctx, D), bsti_free(ctx, buf), bsti_free(ctx, old), bsti_free(ctx, ch);

@@ -78,26 +78,27 @@ n_step=$(grep -c 'layers 1-[23] Visible \(Tf\|Rf\|Tb\|Rb\): .* s, rcond .*, peak
 n_write=$(grep -c 'wrote [0-9.]* MB: [0-9.]* s, peak RSS' "$tmpdir/err")
 [ "$n_read" -eq 1 ] && [ "$n_step" -eq 8 ] && [ "$n_write" -eq 1 ] && pass "-v: read, 8 step lines, write" ||
     fail "-v: $n_read read, $n_step step, $n_write write lines: $(cat "$tmpdir/err")"
-# --incident: the iterated Tf column at normal incidence and at (45, 90) sums to the full system's
-# hemispherical T as `info` prints it (4 digits); 1024 rows per component and direction; the
-# combination's usage errors
+# --incident: the iterated Tf and Tb columns at normal incidence and at (45, 90) sum to the full
+# system's hemispherical T of each side as `info` prints it (4 digits); 1024 rows per component
+# and direction; --only; usage errors
 export BSDFSTACK_GLASS_DIR="${BSDFSTACK_GLASS_DIR:-${BST_SRCDIR:-.}/layers/glass}"
 expect_status 0 "combine --incident" -- "$BSDFSTACK" combine -k 5 --incident 0,0 --incident 45,90 \
     glass:clear-6mm "$ref/L_blind0_t4k5.xml" glass:clear-6mm -o "$tmpdir/cols.tsv"
 expect_status 0 "combine the whole system" -- "$BSDFSTACK" combine -k 5 --no-reduce \
     glass:clear-6mm "$ref/L_blind0_t4k5.xml" glass:clear-6mm -o "$tmpdir/full.xml"
-[ "$(wc -l < "$tmpdir/cols.tsv")" -eq 4097 ] && pass "--incident: 4 x 1024 rows" || fail "--incident rows: $(wc -l < "$tmpdir/cols.tsv")"
+[ "$(wc -l < "$tmpdir/cols.tsv")" -eq 8193 ] && pass "--incident: 8 x 1024 rows" || fail "--incident rows: $(wc -l < "$tmpdir/cols.tsv")"
 "$BSDFSTACK" info "$tmpdir/full.xml" > "$tmpdir/info"
-for d in "0 0" "45 90"; do
+for d in "0 0 Tf 3" "45 90 Tf 3" "0 0 Tb 5" "45 90 Tb 5"; do
     set -- $d
-    got=$(awk -F'\t' -v t="$1" '$2 == "Tf" && $3 == t { s += $9 * 3.14159265358979 / 1024 } END { printf "%.4f", s }' "$tmpdir/cols.tsv")
-    want=$(awk -v t="$1" -v p="$2" '$1 == t && $2 == p { print $3; exit }' "$tmpdir/info")
-    [ "$got" = "$want" ] && pass "--incident $1,$2: T $got as the whole system" || fail "--incident $1,$2: T $got vs $want"
+    got=$(awk -F'\t' -v t="$1" -v c="$3" '$2 == c && $3 == t { s += $9 * 3.14159265358979 / 1024 } END { printf "%.4f", s }' "$tmpdir/cols.tsv")
+    want=$(awk -v t="$1" -v p="$2" -v f="$4" '$1 == t && $2 == p { print $f; exit }' "$tmpdir/info")
+    [ "$got" = "$want" ] && pass "--incident $1,$2 $3: $got as the whole system" || fail "--incident $1,$2 $3: $got vs $want"
 done
-expect_error "--incident with --absorptance" "front incidence only" -- "$BSDFSTACK" combine --incident 0,0 \
+expect_status 0 "combine --incident --only Rb" -- "$BSDFSTACK" combine -k 3 --incident 0,0 --only Rb \
+    glass:clear-6mm glass:clear-6mm -o "$tmpdir/rb.tsv"
+[ "$(cut -f2 "$tmpdir/rb.tsv" | sort -u | tr '\n' ' ')" = "Rb comp " ] && pass "--only Rb: only Rb rows" || fail "--only Rb: $(cut -f2 "$tmpdir/rb.tsv" | sort -u)"
+expect_error "--incident with --absorptance" "do not go together" -- "$BSDFSTACK" combine --incident 0,0 \
     --absorptance "$tmpdir/a.tsv" glass:clear-6mm -o "$tmpdir/x.tsv"
-expect_error "--incident with back components" "front incidence only" -- "$BSDFSTACK" combine --incident 0,0 \
-    --only Tb glass:clear-6mm -o "$tmpdir/x.tsv"
 expect_error "--incident out of range" "incident" -- "$BSDFSTACK" combine --incident 95,0 glass:clear-6mm -o "$tmpdir/x.tsv"
 [ ! -e "$tmpdir/x.tsv" ] && pass "no output after a usage error" || fail "output left after a usage error"
 finish

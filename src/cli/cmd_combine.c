@@ -44,8 +44,8 @@ static const char help[] =
     "                     side, patch, theta, phi of the propagation direction, A1..An, T, R)\n"
     "  --per-channel      combine band values even when every layer is spectral\n"
     "  --strict           ill-conditioning and energy imbalance in an input are errors\n"
-    "  --incident T,P     only this incidence direction (front side; repeatable): iterate the\n"
-    "                     light between the layers for its Tf and Rf columns and write them as TSV\n"
+    "  --incident T,P     only this incidence direction (repeatable): iterate the light between\n"
+    "                     the layers for its columns (--only's components) and write them as TSV\n"
     "                     (channel, comp, theta_in, phi_in, patch_in, patch_out, theta_out, phi_out,\n"
     "                     BSDF, DSF = BSDF cos theta_in); O(N^2) per direction instead of O(N^3)\n"
     "  -v                 print the time and peak memory of reading, of each step (with its\n"
@@ -137,10 +137,10 @@ static int write_absorptance(bst_ctx *ctx, const char *sub, const char *path,
 
 #define MAX_INCIDENT 64
 
-/* --incident: the Tf and Rf columns of the asked directions (front incidence, light propagating
- * along (theta, phi)), iterated (bst_stack_columns), as TSV. */
+/* --incident: the columns of the asked directions (light propagating along (theta, phi)) of the
+ * components comps, front and back incidence each iterated once (bst_stack_columns), as TSV. */
 static int write_columns(bst_ctx *ctx, const char *sub, const char *path, const struct cli_layers *set,
-                         size_t ndirs, double (*dirs)[2], int verbose)
+                         unsigned comps, size_t ndirs, double (*dirs)[2], int verbose)
 {
     size_t N = bst_basis_size(set->basis), cols[MAX_INCIDENT];
     for (size_t q = 0; q < ndirs; q++) { /* off cell boundaries onto the +x, +y side, as compare */
@@ -159,32 +159,40 @@ static int write_columns(bst_ctx *ctx, const char *sub, const char *path, const 
             everywhere &= bst_layer_find_channel(set->layers[i], name) >= 0;
         if (!everywhere)
             continue;
-        bst_columns_opts o;
-        bst_columns_opts_init(&o);
-        bst_mat *m[2];
-        int st = bst_stack_columns(ctx, set->n, (const bst_layer *const *)set->layers, name, ndirs, cols, &o,
-                                   &m[0], &m[1]);
-        if (st < 0) {
-            rc = cli_fail_ctx(sub, "iterating", ctx);
-            break;
-        }
-        cli_warn_ctx(sub, NULL, st, ctx);
-        if (verbose)
-            fprintf(stderr, "bsdfstack %s: %s: %d sweeps, last change %.2e of the incident flux\n", sub,
-                    name, o.iterations, o.residual);
-        for (int c = 0; c < 2; c++)
-            for (size_t q = 0; q < ndirs; q++) {
-                double cin = cos(dirs[q][0] * M_PI / 180);
-                for (size_t e = 0; e < N; e++) {
-                    double d[3], v = bst_mat_get(m[c], e, q);
-                    bst_basis_center(set->basis, e, d);
-                    double th = acos(d[2]) * 180 / M_PI, ph = atan2(d[1], d[0]) * 180 / M_PI;
-                    fprintf(out.fp, "%s\t%s\t%g\t%g\t%zu\t%zu\t%.4f\t%.4f\t%.9g\t%.9g\n",
-                            name, c ? "Rf" : "Tf", dirs[q][0], dirs[q][1],
-                            cols[q], e, th, ph < 0 ? ph + 360 : ph, v, v * cin);
+        for (int back = 0; rc == CLI_OK && back < 2; back++) {
+            bst_comp tc = back ? BST_TB : BST_TF, r = back ? BST_RB : BST_RF;
+            if (!(comps & (BST_COMP_BIT(tc) | BST_COMP_BIT(r))))
+                continue;
+            bst_columns_opts o;
+            bst_columns_opts_init(&o);
+            o.back = back;
+            bst_mat *m[2];
+            int st = bst_stack_columns(ctx, set->n, (const bst_layer *const *)set->layers, name, ndirs, cols,
+                                       &o, &m[0], &m[1]);
+            if (st < 0) {
+                rc = cli_fail_ctx(sub, "iterating", ctx);
+                break;
+            }
+            cli_warn_ctx(sub, NULL, st, ctx);
+            if (verbose)
+                fprintf(stderr, "bsdfstack %s: %s, %s incidence: %d sweeps, last change %.2e of the "
+                        "incident flux\n", sub, name, back ? "back" : "front", o.iterations, o.residual);
+            for (int c = 0; c < 2; c++) {
+                bst_comp comp = c ? r : tc;
+                for (size_t q = 0; (comps & BST_COMP_BIT(comp)) && q < ndirs; q++) {
+                    double cin = cos(dirs[q][0] * M_PI / 180);
+                    for (size_t e = 0; e < N; e++) {
+                        double d[3], v = bst_mat_get(m[c], e, q);
+                        bst_basis_center(set->basis, e, d);
+                        double th = acos(d[2]) * 180 / M_PI, ph = atan2(d[1], d[0]) * 180 / M_PI;
+                        fprintf(out.fp, "%s\t%s\t%g\t%g\t%zu\t%zu\t%.4f\t%.4f\t%.9g\t%.9g\n", name,
+                                bst_comp_name(comp), dirs[q][0], dirs[q][1], cols[q], e, th,
+                                ph < 0 ? ph + 360 : ph, v, v * cin);
+                    }
                 }
             }
-        bst_mat_free(m[0]), bst_mat_free(m[1]);
+            bst_mat_free(m[0]), bst_mat_free(m[1]);
+        }
     }
     if (rc == CLI_OK)
         rc = cli_out_commit(&out, sub);
@@ -237,9 +245,8 @@ int cmd_combine(int argc, char **argv)
         return cli_usage(sub, "no output file: give -o OUT");
     if (argc - optind < 1)
         return cli_usage(sub, "no layers given");
-    if (ndirs && (abspath || (args.so.comps != BST_COMP_ALL &&
-                      (args.so.comps & (BST_COMP_BIT(BST_TB) | BST_COMP_BIT(BST_RB))))))
-        return cli_usage(sub, "--incident gives front incidence only (Tf and Rf), without --absorptance");
+    if (ndirs && abspath)
+        return cli_usage(sub, "--incident and --absorptance do not go together");
     if (verbose)
         args.so.on_step = verbose_step;
 
@@ -259,7 +266,7 @@ int cmd_combine(int argc, char **argv)
     bst_layer *sys = NULL;
     double *abs[2] = {NULL, NULL};
     if (rc == CLI_OK && ndirs) {
-        rc = write_columns(ctx, sub, outpath, &set, ndirs, dirs, verbose);
+        rc = write_columns(ctx, sub, outpath, &set, args.so.comps, ndirs, dirs, verbose);
         cli_layers_free(&set);
         bst_ctx_free(ctx);
         return rc;
