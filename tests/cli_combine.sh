@@ -101,4 +101,16 @@ expect_error "--incident with --absorptance" "do not go together" -- "$BSDFSTACK
     --absorptance "$tmpdir/a.tsv" glass:clear-6mm -o "$tmpdir/x.tsv"
 expect_error "--incident out of range" "incident" -- "$BSDFSTACK" combine --incident 95,0 glass:clear-6mm -o "$tmpdir/x.tsv"
 [ ! -e "$tmpdir/x.tsv" ] && pass "no output after a usage error" || fail "output left after a usage error"
+# --incident-file: 70 directions (two batches of columns), the same rows as --incident gives for
+# the first of them; a bad line is named by file and line, and nothing is written
+{ echo "# theta phi"; for i in $(seq 0 69); do echo "$((i % 85)) $((i * 5))"; done; } > "$tmpdir/dirs.txt"
+expect_status 0 "combine --incident-file" -- "$BSDFSTACK" combine -k 2 --only Tf --incident-file "$tmpdir/dirs.txt" \
+    glass:clear-6mm glass:lowiron-6mm -o "$tmpdir/many.tsv"
+[ "$(wc -l < "$tmpdir/many.tsv")" -eq $((2 * 70 * 16 + 1)) ] && pass "--incident-file: 2 channels x 70 x 16 rows" || fail "--incident-file rows: $(wc -l < "$tmpdir/many.tsv")"
+"$BSDFSTACK" combine -k 2 --only Tf --incident 1,5 glass:clear-6mm glass:lowiron-6mm -o "$tmpdir/one.tsv"
+[ "$(sed -n 2,17p "$tmpdir/one.tsv")" = "$(sed -n 18,33p "$tmpdir/many.tsv")" ] && pass "--incident-file row block = --incident" || fail "--incident-file rows differ from --incident"
+printf '10 20\n95 0\n' > "$tmpdir/bad.txt"
+expect_error "--incident-file bad line" "bad.txt:2: give THETA PHI" -- "$BSDFSTACK" combine --incident-file "$tmpdir/bad.txt" \
+    glass:clear-6mm -o "$tmpdir/y.tsv"
+[ ! -e "$tmpdir/y.tsv" ] && pass "no output after a bad direction file" || fail "output left after a bad direction file"
 finish

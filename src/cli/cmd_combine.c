@@ -2,6 +2,7 @@
  * combine them by the matrix formalism (bst_stack_combine) and write the system as BSDF XML. */
 #include <config.h>
 
+#include <errno.h>
 #include <getopt.h>
 #include <math.h>
 #include <stdlib.h>
@@ -17,8 +18,8 @@ static const char help[] =
     "Usage: bsdfstack combine [-k K | --klems[=full|half|quarter]] [--only Tf,Rf,Tb,Rb]\n"
     "                         [--channels NAMES] [--precision double|single] [--drop-tol X]\n"
     "                         [--reduce PCT | --no-reduce] [--dense] [--absorptance FILE]\n"
-    "                         [--per-channel] [--strict] [--incident THETA,PHI]... [-v]\n"
-    "                         -o OUT LAYER LAYER...\n"
+    "                         [--per-channel] [--strict] [--incident THETA,PHI]...\n"
+    "                         [--incident-file FILE] [-v] -o OUT LAYER LAYER...\n"
     "Combines the layers, listed exterior first, with every inter-reflection between them, and\n"
     "writes the system's BSDF as BSDF XML.  When every layer is a pane with spectral data, the\n"
     "stack is combined wavelength by wavelength and averaged per channel afterwards (as WINDOW\n"
@@ -48,6 +49,7 @@ static const char help[] =
     "                     the layers for its columns (--only's components) and write them as TSV\n"
     "                     (channel, comp, theta_in, phi_in, patch_in, patch_out, theta_out, phi_out,\n"
     "                     BSDF, DSF = BSDF cos theta_in); O(N^2) per direction instead of O(N^3)\n"
+    "  --incident-file F  more such directions, one 'THETA PHI' a line (# comments; '-' = stdin)\n"
     "  -v                 print the time and peak memory of reading, of each step (with its\n"
     "                     structures) and of writing\n"
     "  -o OUT             output file ('-' = standard output), written atomically\n";
@@ -135,23 +137,21 @@ static int write_absorptance(bst_ctx *ctx, const char *sub, const char *path,
     return rc;
 }
 
-#define MAX_INCIDENT 64
+#define MAX_INCIDENT 100000 /* directions per run */
+#define COLUMN_BATCH 64      /* iterated together: N x 64 blocks */
 
 /* --incident: the columns of the asked directions (light propagating along (theta, phi)) of the
  * components comps, front and back incidence each iterated once (bst_stack_columns), as TSV. */
-static int write_columns(bst_ctx *ctx, const char *sub, const char *path, const struct cli_layers *set,
-                         unsigned comps, size_t ndirs, double (*dirs)[2], int verbose)
+static int write_columns(bst_ctx *ctx, const char *sub, FILE *fp, const struct cli_layers *set,
+                         unsigned comps, size_t ndirs, const double (*dirs)[2], int verbose)
 {
-    size_t N = bst_basis_size(set->basis), cols[MAX_INCIDENT];
+    size_t N = bst_basis_size(set->basis), cols[COLUMN_BATCH];
     for (size_t q = 0; q < ndirs; q++) { /* off cell boundaries onto the +x, +y side, as compare */
         double t = dirs[q][0] * M_PI / 180, p = dirs[q][1] * M_PI / 180;
         double d[3] = {sin(t) * cos(p) + 1e-9, sin(t) * sin(p) + 1e-9, cos(t)};
         cols[q] = bst_basis_patch(set->basis, d);
     }
-    struct cli_out out = {0};
-    int rc = cli_out_open(&out, sub, path);
-    if (rc == CLI_OK)
-        fprintf(out.fp, "channel\tcomp\ttheta_in\tphi_in\tpatch_in\tpatch_out\ttheta_out\tphi_out\tBSDF\tDSF\n");
+    int rc = CLI_OK;
     for (size_t ch = 0; rc == CLI_OK && ch < bst_layer_nchannels(set->layers[0]); ch++) {
         const char *name = bst_layer_channel(set->layers[0], ch);
         int everywhere = 1; /* the channels all layers have, as the combination's output */
@@ -185,7 +185,7 @@ static int write_columns(bst_ctx *ctx, const char *sub, const char *path, const 
                         double d[3], v = bst_mat_get(m[c], e, q);
                         bst_basis_center(set->basis, e, d);
                         double th = acos(d[2]) * 180 / M_PI, ph = atan2(d[1], d[0]) * 180 / M_PI;
-                        fprintf(out.fp, "%s\t%s\t%g\t%g\t%zu\t%zu\t%.4f\t%.4f\t%.9g\t%.9g\n", name,
+                        fprintf(fp, "%s\t%s\t%g\t%g\t%zu\t%zu\t%.4f\t%.4f\t%.9g\t%.9g\n", name,
                                 bst_comp_name(comp), dirs[q][0], dirs[q][1], cols[q], e, th,
                                 ph < 0 ? ph + 360 : ph, v, v * cin);
                     }
@@ -194,6 +194,20 @@ static int write_columns(bst_ctx *ctx, const char *sub, const char *path, const 
             bst_mat_free(m[0]), bst_mat_free(m[1]);
         }
     }
+    return rc;
+}
+
+/* Every direction, COLUMN_BATCH at a time, into one TSV file. */
+static int write_all_columns(bst_ctx *ctx, const char *sub, const char *path, const struct cli_layers *set,
+                             unsigned comps, size_t ndirs, const double (*dirs)[2], int verbose)
+{
+    struct cli_out out = {0};
+    int rc = cli_out_open(&out, sub, path);
+    if (rc == CLI_OK)
+        fprintf(out.fp, "channel\tcomp\ttheta_in\tphi_in\tpatch_in\tpatch_out\ttheta_out\tphi_out\tBSDF\tDSF\n");
+    for (size_t q = 0; rc == CLI_OK && q < ndirs; q += COLUMN_BATCH)
+        rc = write_columns(ctx, sub, out.fp, set, comps, ndirs - q < COLUMN_BATCH ? ndirs - q : COLUMN_BATCH,
+                           dirs + q, verbose);
     if (rc == CLI_OK)
         rc = cli_out_commit(&out, sub);
     else
@@ -201,18 +215,66 @@ static int write_columns(bst_ctx *ctx, const char *sub, const char *path, const 
     return rc;
 }
 
+/* --incident-file: one direction a line, "THETA PHI" or "THETA,PHI" in --incident's convention;
+ * blank lines and lines starting with # are skipped.  Appends to *dirs. */
+static int read_directions(const char *sub, const char *path, double (**dirs)[2], size_t *n, size_t *cap)
+{
+    FILE *fp = strcmp(path, "-") == 0 ? stdin : fopen(path, "r");
+    if (!fp)
+        return cli_fail(sub, "%s: cannot open: %s", path, strerror(errno));
+    char line[256];
+    int rc = CLI_OK;
+    for (long ln = 1; rc == CLI_OK && fgets(line, sizeof line, fp); ln++) {
+        char *p = line + strspn(line, " \t");
+        if (*p == '#' || *p == '\n' || *p == '\0')
+            continue;
+        double t, f;
+        char extra[2];
+        for (char *c = p; *c; c++)
+            if (*c == ',')
+                *c = ' ';
+        if (sscanf(p, "%lf %lf %1s", &t, &f, extra) != 2 || !isfinite(t) || !isfinite(f) || t < 0 || t >= 90) {
+            rc = cli_fail(sub, "%s:%ld: give THETA PHI in degrees, 0 <= THETA < 90", path, ln);
+            break;
+        }
+        if (*n == MAX_INCIDENT) {
+            rc = cli_fail(sub, "%s:%ld: more than %d directions", path, ln, MAX_INCIDENT);
+            break;
+        }
+        if (*n == *cap) {
+            size_t nc = *cap ? 2 * *cap : 64;
+            double (*d)[2] = realloc(*dirs, nc * sizeof **dirs);
+            if (!d) {
+                rc = cli_fail(sub, "out of memory");
+                break;
+            }
+            *dirs = d, *cap = nc;
+        }
+        (*dirs)[*n][0] = t, (*dirs)[(*n)++][1] = f;
+    }
+    if (rc == CLI_OK && ferror(fp))
+        rc = cli_fail(sub, "%s: read error", path);
+    if (rc == CLI_OK && *n == 0)
+        rc = cli_fail(sub, "%s: no directions", path);
+    if (fp != stdin)
+        fclose(fp);
+    return rc;
+}
+
 int cmd_combine(int argc, char **argv)
 {
-    enum { O_ABS = CLI_O_OWN, O_INCIDENT, O_HELP };
+    enum { O_ABS = CLI_O_OWN, O_INCIDENT, O_INCFILE, O_HELP };
     static const struct option longopts[] = {
         CLI_STACK_LONGOPTS, {"absorptance", required_argument, NULL, O_ABS},
         {"incident", required_argument, NULL, O_INCIDENT},
+        {"incident-file", required_argument, NULL, O_INCFILE},
         {"help", no_argument, NULL, O_HELP}, {NULL, 0, NULL, 0}};
     const char *sub = "combine";
     const char *outpath = NULL, *abspath = NULL;
     int verbose = 0;
-    double dirs[MAX_INCIDENT][2];
-    size_t ndirs = 0;
+    double (*dirs)[2] = NULL, one[2];
+    size_t ndirs = 0, cap = 0;
+    const char *dirfile = NULL;
     struct cli_stack_args args;
     cli_stack_args_init(&args);
     optind = 1;
@@ -228,12 +290,21 @@ int cmd_combine(int argc, char **argv)
         case 'o': outpath = optarg; break;
         case O_ABS: abspath = optarg; break;
         case O_INCIDENT:
-            if (ndirs == MAX_INCIDENT)
-                return cli_usage(sub, "--incident: at most %d directions", MAX_INCIDENT);
-            if (cli_parse_incident(sub, optarg, dirs[ndirs]) != CLI_OK)
+            if (cli_parse_incident(sub, optarg, one) != CLI_OK) {
+                free(dirs);
                 return CLI_USAGE;
-            ndirs++;
+            }
+            if (ndirs == cap) {
+                double (*d)[2] = ndirs < MAX_INCIDENT ? realloc(dirs, (cap = cap ? 2 * cap : 16) * sizeof *dirs) : NULL;
+                if (!d) {
+                    free(dirs);
+                    return cli_fail(sub, "--incident: too many directions");
+                }
+                dirs = d;
+            }
+            dirs[ndirs][0] = one[0], dirs[ndirs++][1] = one[1];
             break;
+        case O_INCFILE: dirfile = optarg; break;
         case 'v': verbose = 1; break;
         case 'h':
         case O_HELP: fputs(help, stdout); return CLI_OK;
@@ -245,17 +316,26 @@ int cmd_combine(int argc, char **argv)
         return cli_usage(sub, "no output file: give -o OUT");
     if (argc - optind < 1)
         return cli_usage(sub, "no layers given");
-    if (ndirs && abspath)
-        return cli_usage(sub, "--incident and --absorptance do not go together");
+    int rc = CLI_OK;
+    if ((ndirs || dirfile) && abspath)
+        rc = cli_usage(sub, "--incident and --absorptance do not go together");
+    if (rc == CLI_OK && dirfile)
+        rc = read_directions(sub, dirfile, &dirs, &ndirs, &cap);
+    if (rc != CLI_OK) {
+        free(dirs);
+        return rc;
+    }
     if (verbose)
         args.so.on_step = verbose_step;
 
     bst_ctx *ctx = cli_ctx_new(sub);
-    if (!ctx)
+    if (!ctx) {
+        free(dirs);
         return CLI_FAIL;
+    }
     struct cli_layers set;
     double t0 = now_s();
-    int rc = cli_layers_load(&set, ctx, sub, (size_t)(argc - optind), argv + optind, &args.basis,
+    rc = cli_layers_load(&set, ctx, sub, (size_t)(argc - optind), argv + optind, &args.basis,
                              args.channels, 0, args.so.precision);
     if (rc == CLI_OK && verbose) {
         char what[96];
@@ -266,7 +346,9 @@ int cmd_combine(int argc, char **argv)
     bst_layer *sys = NULL;
     double *abs[2] = {NULL, NULL};
     if (rc == CLI_OK && ndirs) {
-        rc = write_columns(ctx, sub, outpath, &set, args.so.comps, ndirs, dirs, verbose);
+        rc = write_all_columns(ctx, sub, outpath, &set, args.so.comps, ndirs, (const double (*)[2])dirs,
+                               verbose);
+        free(dirs);
         cli_layers_free(&set);
         bst_ctx_free(ctx);
         return rc;
@@ -315,6 +397,7 @@ int cmd_combine(int argc, char **argv)
         verbose_phase(what, t0);
     }
     free(abs[0]);
+    free(dirs);
     bst_layer_free(sys);
     cli_layers_free(&set);
     bst_ctx_free(ctx);
