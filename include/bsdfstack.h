@@ -311,6 +311,7 @@ typedef struct {
     double residual;  /* out: the last sweep's change of flux over the incident flux */
 } bst_columns_opts;
 #define BST_COLUMNS_TOL 1e-12
+#define BST_COLUMNS_TOL_FLOAT 1e-6 /* the tolerance at least, when a layer holds float values */
 #define BST_COLUMNS_MAX_ITER 1000
 void bst_columns_opts_init(bst_columns_opts *opts);
 int bst_stack_columns(bst_ctx *ctx, size_t n, const bst_layer *const *layers, const char *channel,

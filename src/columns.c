@@ -120,7 +120,7 @@ int bst_stack_columns(bst_ctx *ctx, size_t n, const bst_layer *const *layers, co
                                                 [BST_RB] = BST_RF};
     int back = opts->back != 0;
 #define LAYER(i) (back ? n - (i) : (i) - 1)
-#define COMP(i, c) bst_layer_get(layers[LAYER(i)], (size_t)ch[LAYER(i)], back ? swapped[c] : (c))
+#define COMP(i, c) bst_layer_get(layers[LAYER(i)], (size_t)ch[LAYER(i)], back ? swapped[c] : (bst_comp)(c))
     size_t G = n - 1;
     bst_mat **D = bsti_calloc(ctx, 2 * G + 1, sizeof *D), **U = D + G, *src = NULL, *r1 = NULL;
     double *buf = bsti_alloc_array(ctx, N * ncols, sizeof *buf);
@@ -128,13 +128,19 @@ int bst_stack_columns(bst_ctx *ctx, size_t n, const bst_layer *const *layers, co
     int rc = D && buf && old ? BST_OK : BST_ENOMEM;
     if (rc >= 0 && COMP(1, BST_TF))
         rc = bst_mat_select_cols(ctx, COMP(1, BST_TF), ncols, cols, &src);
+    /* a float layer makes float products, whose rounding a sweep cannot get below: stop there */
+    double tol = opts->tol;
+    for (size_t i = 1; i <= n; i++)
+        for (int c = 0; c < BST_NCOMP; c++)
+            if (COMP(i, c) && bst_mat_precision(COMP(i, c)) == BST_FLOAT)
+                tol = fmax(tol, BST_COLUMNS_TOL_FLOAT);
     double in = 0.0, change = INFINITY;
     if (rc >= 0)
         rc = flux(ctx, src, NULL, lam, N, ncols, buf, &in);
     if (rc >= 0)
         memset(old, 0, 2 * G * N * ncols * sizeof *old);
     int it = 0;
-    while (rc >= 0 && G > 0 && it < opts->max_iter && !(change <= opts->tol * in)) {
+    while (rc >= 0 && G > 0 && it < opts->max_iter && !(change <= tol * in)) {
         change = 0.0;
         for (size_t g = 1; rc >= 0 && g <= G; g++) { /* inwards: D_g */
             bst_mat *a = NULL, *b = NULL;
@@ -209,9 +215,9 @@ int bst_stack_columns(bst_ctx *ctx, size_t n, const bst_layer *const *layers, co
         *tf = *rf = NULL;
         return rc;
     }
-    if (G > 0 && !(change <= opts->tol * in))
+    if (G > 0 && !(change <= tol * in))
         return bsti_error(ctx, BST_WILLCOND, "columns: no convergence in %d sweeps (last change "
                           "%.2e of the incident flux, asked %.2e): the facing reflectances are "
-                          "close to 1; combine the whole stack instead", it, opts->residual, opts->tol);
+                          "close to 1; combine the whole stack instead", it, opts->residual, tol);
     return BST_OK;
 }

@@ -141,6 +141,40 @@ START_TEST(test_mirrors_and_single)
 }
 END_TEST
 
+/* Single precision: a dense float layer stops the iteration at BST_COLUMNS_TOL_FLOAT, which
+ * float products can reach, and the columns agree with the double system to float accuracy. */
+START_TEST(test_single_precision)
+{
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 4, &b), BST_OK);
+    size_t N = bst_basis_size(b);
+    bst_layer *l[3], *sys;
+    l[0] = load("glass:clear-6mm", b), l[2] = load("glass:clear-6mm", b);
+    bst_bsdf *f;
+    bst_bsdf_read_opts ro = {.precision = BST_FLOAT};
+    ck_assert_int_ge(bst_bsdf_read(ctx, tu_ref("L_diffuser_t3k5.xml"), &ro, &f), 0);
+    ck_assert_int_eq(bst_bsdf_to_layer(ctx, f, b, &l[1]), BST_OK);
+    bst_bsdf_free(f);
+    ck_assert_int_eq(bst_mat_precision(bst_layer_get(l[1], 0, BST_TF)), BST_FLOAT);
+    bst_layer *ld = load("L_diffuser_t3k5.xml", b), *ls[3] = {l[0], ld, l[2]};
+    ck_assert_int_ge(bst_stack_combine(ctx, 3, (const bst_layer *const *)ls, NULL, &sys), 0);
+    size_t cols[] = {0, 77, 200};
+    bst_columns_opts o;
+    bst_columns_opts_init(&o);
+    bst_mat *tf, *rf;
+    ck_assert_int_eq(bst_stack_columns(ctx, 3, (const bst_layer *const *)l, NULL, 3, cols, &o, &tf, &rf), BST_OK);
+    ck_assert_double_le(o.residual, BST_COLUMNS_TOL_FLOAT);
+    ck_assert_int_lt(o.iterations, 100);
+    for (size_t q = 0; q < 3; q++)
+        ck_assert_double_le(column_error(tf, bst_layer_get(sys, 0, BST_TF), N, q, cols[q]), 1e-5);
+    bst_mat_free(tf), bst_mat_free(rf);
+    bst_layer_free(sys), bst_layer_free(ld);
+    for (int i = 0; i < 3; i++)
+        bst_layer_free(l[i]);
+    bst_basis_free(b);
+}
+END_TEST
+
 static Suite *suite(void)
 {
     Suite *s = suite_create("columns");
@@ -149,6 +183,7 @@ static Suite *suite(void)
     tcase_set_timeout(tc, 300);
     tcase_add_loop_test(tc, test_against_full, 0, sizeof stacks / sizeof *stacks);
     tcase_add_test(tc, test_mirrors_and_single);
+    tcase_add_test(tc, test_single_precision);
     suite_add_tcase(s, tc);
     return s;
 }
