@@ -61,14 +61,18 @@ static int apply(bst_ctx *ctx, const bst_mat *a, const double *lam, const bst_ma
     return rc;
 }
 
-/* Flux of m's columns (sum_o L_o |m[o, j]|) or of their change against old, into *flux (added). */
+/* Flux of m's columns (sum_o L_o |m[o, j]|), or of their change against old, added to *sum; buf
+ * receives m as a dense array. */
 static int flux(bst_ctx *ctx, const bst_mat *m, const double *old, const double *lam, size_t n,
                 size_t ncols, double *buf, double *sum)
 {
     if (!m)
         memset(buf, 0, n * ncols * sizeof *buf);
-    else if (bst_mat_to_dense_array(ctx, m, buf) < 0)
-        return BST_ENOMEM;
+    else {
+        int rc = bst_mat_to_dense_array(ctx, m, buf);
+        if (rc < 0)
+            return rc;
+    }
     for (size_t q = 0; q < n * ncols; q++)
         *sum += lam[q % n] * fabs(buf[q] - (old ? old[q] : 0.0));
     return BST_OK;
@@ -96,7 +100,7 @@ int bst_stack_columns(bst_ctx *ctx, size_t n, const bst_layer *const *layers, co
         channel = bst_layer_channel(layers[0], 0);
     int *ch = bsti_alloc_array(ctx, n, sizeof *ch);
     if (!ch)
-        return BST_ENOMEM;
+        return BST_ENOMEM; /* the allocator has said so in ctx */
     for (size_t i = 0; i < n; i++) {
         if (!layers[i] || !bst_basis_equal(bst_layer_basis(layers[i]), basis)) {
             bsti_free(ctx, ch);

@@ -175,6 +175,41 @@ START_TEST(test_single_precision)
 }
 END_TEST
 
+/* Allocation failure anywhere in an iteration returns BST_ENOMEM, no columns and no leak. */
+START_TEST(test_allocation_failure)
+{
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 3, &b), BST_OK);
+    bst_layer *l[3] = {load("glass:clear-6mm", b), load("L_blind0_t4k5.xml", b), load("L_diffuser_t3k5.xml", b)};
+    size_t cols[] = {3, 40};
+    int ok = 0;
+    for (long n = 1; n < 5000 && !ok; n++) {
+        tu_alloc a = {n, 0, 0};
+        bst_ctx *c = bst_ctx_new();
+        ck_assert_int_eq(bst_ctx_set_allocator(c, tu_alloc_malloc, tu_alloc_free, &a), BST_OK);
+        bst_mat *tf = (bst_mat *)1, *rf = (bst_mat *)1;
+        bst_columns_opts o;
+        bst_columns_opts_init(&o);
+        o.back = n % 2;
+        int rc = bst_stack_columns(c, 3, (const bst_layer *const *)l, NULL, 2, cols, &o, &tf, &rf);
+        if (rc == BST_OK) {
+            ok = 1;
+            bst_mat_free(tf), bst_mat_free(rf);
+        } else {
+            ck_assert_int_eq(rc, BST_ENOMEM);
+            ck_assert_ptr_null(tf);
+            ck_assert_ptr_null(rf);
+        }
+        ck_assert_msg(a.live == 0, "allocation %ld failing: %ld blocks leaked", n, a.live);
+        bst_ctx_free(c);
+    }
+    ck_assert(ok);
+    for (int i = 0; i < 3; i++)
+        bst_layer_free(l[i]);
+    bst_basis_free(b);
+}
+END_TEST
+
 static Suite *suite(void)
 {
     Suite *s = suite_create("columns");
@@ -184,6 +219,7 @@ static Suite *suite(void)
     tcase_add_loop_test(tc, test_against_full, 0, sizeof stacks / sizeof *stacks);
     tcase_add_test(tc, test_mirrors_and_single);
     tcase_add_test(tc, test_single_precision);
+    tcase_add_test(tc, test_allocation_failure);
     suite_add_tcase(s, tc);
     return s;
 }
