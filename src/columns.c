@@ -78,6 +78,22 @@ static int flux(bst_ctx *ctx, const bst_mat *m, const double *old, const double 
     return BST_OK;
 }
 
+/* *slot = a + b (both consumed, also on failure); the flux of the change from prev (N x ncols
+ * values, then set to the new ones) is added to *change. */
+static int update(bst_ctx *ctx, int rc, bst_mat *a, bst_mat *b, bst_mat **slot, double *prev,
+                  const double *lam, size_t n, size_t ncols, double *buf, double *change)
+{
+    bst_mat_free(*slot);
+    *slot = NULL;
+    if (rc < 0) {
+        bst_mat_free(a), bst_mat_free(b);
+        return rc;
+    }
+    if ((rc = add_into(ctx, a, b, slot)) >= 0 && (rc = flux(ctx, *slot, prev, lam, n, ncols, buf, change)) >= 0)
+        memcpy(prev, buf, n * ncols * sizeof *buf);
+    return rc;
+}
+
 int bst_stack_columns(bst_ctx *ctx, size_t n, const bst_layer *const *layers, const char *channel,
                       size_t ncols, const size_t *cols, bst_columns_opts *opts, bst_mat **tf,
                       bst_mat **rf)
@@ -154,30 +170,14 @@ int bst_stack_columns(bst_ctx *ctx, size_t n, const bst_layer *const *layers, co
                 rc = apply(ctx, COMP(g, BST_TF), lam, D[g - 2], &a);
             if (rc >= 0)
                 rc = apply(ctx, COMP(g, BST_RB), lam, U[g - 1], &b);
-            bst_mat_free(D[g - 1]), D[g - 1] = NULL;
-            if (rc >= 0)
-                rc = add_into(ctx, a, b, &D[g - 1]);
-            else
-                bst_mat_free(a), bst_mat_free(b);
-            if (rc >= 0)
-                rc = flux(ctx, D[g - 1], old + (g - 1) * N * ncols, lam, N, ncols, buf, &change);
-            if (rc >= 0)
-                memcpy(old + (g - 1) * N * ncols, buf, N * ncols * sizeof *buf);
+            rc = update(ctx, rc, a, b, &D[g - 1], old + (g - 1) * N * ncols, lam, N, ncols, buf, &change);
         }
         for (size_t g = G; rc >= 0 && g >= 1; g--) { /* outwards: U_g */
             bst_mat *a = NULL, *b = NULL;
             rc = apply(ctx, COMP(g + 1, BST_RF), lam, D[g - 1], &a);
             if (rc >= 0 && g < G)
                 rc = apply(ctx, COMP(g + 1, BST_TB), lam, U[g], &b);
-            bst_mat_free(U[g - 1]), U[g - 1] = NULL;
-            if (rc >= 0)
-                rc = add_into(ctx, a, b, &U[g - 1]);
-            else
-                bst_mat_free(a), bst_mat_free(b);
-            if (rc >= 0)
-                rc = flux(ctx, U[g - 1], old + (G + g - 1) * N * ncols, lam, N, ncols, buf, &change);
-            if (rc >= 0)
-                memcpy(old + (G + g - 1) * N * ncols, buf, N * ncols * sizeof *buf);
+            rc = update(ctx, rc, a, b, &U[g - 1], old + (G + g - 1) * N * ncols, lam, N, ncols, buf, &change);
         }
         it++;
         if (!isfinite(change))
