@@ -274,8 +274,9 @@ typedef struct {
     unsigned comps;         /* requested output components, BST_COMP_BIT mask; default all */
     double drop_tol;        /* sparse fill-in drop tolerance (relative), default 0 = exact */
     double rcond_warn;      /* warn below this reciprocal condition number, default BST_RCOND_WARN */
-    double energy_tol;      /* warn when an input's T + R exceeds 1 + energy_tol for some
-                               incident patch, default BST_ENERGY_TOL */
+    double energy_tol;      /* warn when an input's or the system's T + R exceeds 1 + energy_tol
+                               for some incident patch (or the system's T or R is below
+                               -energy_tol), default BST_ENERGY_TOL */
     int strict;             /* 1: ill-conditioning and energy imbalance are errors, default 0 */
     int force_dense;        /* 1: convert every matrix to dense first (the baseline), default 0 */
     bst_precision precision;/* precision of dense work, default BST_DOUBLE */

@@ -420,13 +420,83 @@ static int check_energy(struct combiner *cb, const bst_layer *l, size_t li, size
                             li + 1, bst_layer_name(l), l->channels[ch]);
         } else if (wv > 1.0 + cb->opts->energy_tol) {
             bsti_error(cb->ctx, BST_WENERGY,
-                       "layer %zu (%s), channel %s: %s T + R = %.4f > 1 at incident patch %zu "
+                       "layer %zu (%s), channel %s: %s T + R = %.4g > 1 at incident patch %zu "
                        "(theta %.1f deg)", li + 1, bst_layer_name(l), l->channels[ch],
                        side ? "back" : "front", wv, worst, patch_theta_deg(l->basis, worst));
             rc = note_warning(cb, BST_WENERGY);
         }
     }
     bsti_free(cb->ctx, t);
+    return rc;
+}
+
+/* The system's energy, per incident patch and side, over the components formed: warn
+ * (BST_WENERGY) when T + R exceeds 1 + tol or a hemispherical T or R falls below -tol, and refuse a
+ * result with a value that is not finite.  Inputs within tolerance can still give such a result:
+ * layers that reflect nearly everything multiply their excess at every inter-reflection. */
+static int check_result(struct combiner *cb, const bst_layer *res, size_t ch)
+{
+    size_t n = bst_basis_size(res->basis);
+    double *h = bsti_alloc_array(cb->ctx, 2 * n, sizeof *h);
+    if (!h)
+        return BST_ENOMEM;
+    double *sum = h + n;
+    int rc = BST_OK;
+    double tol = cb->opts->energy_tol;
+    /* One warning tells: the first found, or the input's imbalance already reported. */
+    int warned = cb->warning >= BST_WENERGY;
+    static const bst_comp sides[2][2] = {{BST_TF, BST_RF}, {BST_TB, BST_RB}};
+    for (int side = 0; side < 2 && rc == BST_OK; side++) {
+        int formed = 0;
+        for (size_t j = 0; j < n; j++)
+            sum[j] = 0.0;
+        for (int k = 0; k < 2 && rc == BST_OK; k++) {
+            bst_comp c = sides[side][k];
+            const bst_mat *m = bst_layer_get(res, ch, c);
+            if (!m)
+                continue;
+            if (!bst_mat_all_finite(m)) {
+                rc = bsti_error(cb->ctx, BST_ESINGULAR, "stack: the system's %s, channel %s, is not "
+                                "finite (the inter-reflection diverges: check the layers' T + R)",
+                                bst_comp_name(c), cb->channel);
+                break;
+            }
+            if ((rc = bst_layer_hemispherical(cb->ctx, res, ch, c, h)) < 0)
+                break;
+            formed++;
+            size_t worst = 0;
+            for (size_t j = 0; j < n; j++) {
+                sum[j] += h[j];
+                if (h[j] < h[worst])
+                    worst = j;
+            }
+            if (h[worst] < -tol && !warned) {
+                warned = 1;
+                bsti_error(cb->ctx, BST_WENERGY, "stack: the system's hemispherical %s, channel %s, "
+                           "is %.4g < 0 at incident patch %zu (theta %.1f deg): the inter-reflection "
+                           "of layers with T + R > 1", bst_comp_name(c), cb->channel, h[worst],
+                           worst, patch_theta_deg(res->basis, worst));
+                rc = note_warning(cb, BST_WENERGY);
+            }
+        }
+        if (rc != BST_OK || formed == 0)
+            break;
+        size_t worst = 0;
+        for (size_t j = 0; j < n; j++)
+            if (sum[j] > sum[worst])
+                worst = j;
+        if (sum[worst] > 1.0 + tol && !warned) {
+            warned = 1;
+            bsti_error(cb->ctx, BST_WENERGY, "stack: the system's %s, channel %s, is %.4g > 1 at "
+                       "incident patch %zu (theta %.1f deg): the layers' inter-reflection creates "
+                       "energy", formed == 2 ? (side ? "back T + R" : "front T + R")
+                       : bst_comp_name(bst_layer_get(res, ch, sides[side][0]) ? sides[side][0]
+                                                                                : sides[side][1]),
+                       cb->channel, sum[worst], worst, patch_theta_deg(res->basis, worst));
+            rc = note_warning(cb, BST_WENERGY);
+        }
+    }
+    bsti_free(cb->ctx, h);
     return rc;
 }
 
@@ -555,6 +625,8 @@ static int combine(bst_ctx *ctx, size_t n, const bst_layer *const *layers, bst_l
                 rc = bst_layer_set(ctx, res, ch, (bst_comp)c, m);
         }
         part_clear(&acc);
+        if (rc >= 0)
+            rc = check_result(&cb, res, ch);
     }
     if (rc >= 0 && cb.warning > 0) {
         rc = cb.warning; /* the message of the last warning is in ctx */

@@ -113,4 +113,35 @@ printf '10 20\n95 0\n' > "$tmpdir/bad.txt"
 expect_error "--incident-file bad line" "bad.txt:2: give THETA PHI" -- "$BSDFSTACK" combine --incident-file "$tmpdir/bad.txt" \
     glass:clear-6mm -o "$tmpdir/y.tsv"
 [ ! -e "$tmpdir/y.tsv" ] && pass "no output after a bad direction file" || fail "output left after a bad direction file"
+# Two facing Lambertian layers with T = 0.001, R = 1 (T + R = 1.001, inside the input tolerance):
+# the inter-reflection multiplies the excess (T = 12.4 at k = 3).  A warning naming the system's
+# T + R, an error under --strict with no output.
+lambertian() { # T R FILE: a rank-3 tree of order 1 whose four components are Lambertian
+    awk -v t="$1" -v r="$2" 'BEGIN {
+        pi = 3.14159265358979323846
+        print "<?xml version=\"1.0\" encoding=\"UTF-8\"?>"
+        print "<WindowElement xmlns=\"http://windows.lbl.gov\"><Optical><Layer>"
+        print "<DataDefinition><IncidentDataStructure>TensorTree3</IncidentDataStructure></DataDefinition>"
+        split("Transmission Front,Reflection Front,Transmission Back,Reflection Back", dir, ",")
+        for (i = 1; i <= 4; i++) {
+            v = sprintf("%.17g", (i % 2 ? t : r) / pi)
+            printf "<WavelengthData><Wavelength unit=\"Integral\">Visible</Wavelength><WavelengthDataBlock>"
+            printf "<WavelengthDataDirection>%s</WavelengthDataDirection>", dir[i]
+            printf "<AngleBasis>LBNL/Shirley-Chiu</AngleBasis><ScatteringData>{"
+            for (k = 0; k < 8; k++) printf " %s", v
+            print " }</ScatteringData></WavelengthDataBlock></WavelengthData>"
+        }
+        print "</Layer></Optical></WindowElement>"
+    }' > "$3"
+}
+lambertian 0.001 1.0 "$tmpdir/mirror.xml"
+expect_status 0 "facing near-mirrors combine" -- "$BSDFSTACK" combine -k 3 "$tmpdir/mirror.xml" "$tmpdir/mirror.xml" -o "$tmpdir/mm.xml"
+grep -Eq "warning: .*system's front T \+ R, channel Visible, is [0-9.]+ > 1" "$tmpdir/err" && pass "the system's energy excess is a warning" \
+    || fail "no warning on the system's T + R: $(cat "$tmpdir/err")"
+expect_error "facing near-mirrors under --strict" "T \+ R, channel Visible, is [0-9.]+ > 1 .*\(--strict\)" -- \
+    "$BSDFSTACK" combine --strict -k 3 "$tmpdir/mirror.xml" "$tmpdir/mirror.xml" -o "$tmpdir/mm2.xml"
+[ ! -e "$tmpdir/mm2.xml" ] && pass "no output under --strict" || fail "output written under --strict"
+lambertian 0.001 0.99 "$tmpdir/good.xml"
+expect_status 0 "facing 0.99 reflectors" -- "$BSDFSTACK" combine -k 3 "$tmpdir/good.xml" "$tmpdir/good.xml" -o "$tmpdir/gg.xml"
+[ ! -s "$tmpdir/err" ] && pass "no warning when energy is conserved" || fail "spurious warning: $(cat "$tmpdir/err")"
 finish

@@ -387,6 +387,46 @@ START_TEST(test_energy_warning)
 }
 END_TEST
 
+/* Inputs within the energy tolerance whose inter-reflection creates energy: two facing layers
+ * with T + R = 1.0095 (inside BST_ENERGY_TOL) give, by the closed form T = t^2 / (1 - r^2),
+ * R = r + t^2 r / (1 - r^2), a system with T + R = 1.1995; with r = 1.002, t = 0.007 the
+ * closed form's T is negative.  Each is a warning naming the patch, an error under strict. */
+START_TEST(test_result_energy)
+{
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 1, &b), BST_OK);
+    static const double cases[2][2] = {{0.01, 0.9995}, {0.007, 1.002}};
+    static const char *const words[2] = {"front T + R, channel Visible, is 1.2", "Tf, channel Visible, is -0.01"};
+    for (int k = 0; k < 2; k++) {
+        double t[4], r[4];
+        for (size_t j = 0; j < 4; j++)
+            t[j] = cases[k][0], r[j] = cases[k][1];
+        bst_layer *l[2] = {specular_layer(b, t, r, r), specular_layer(b, t, r, r)};
+        bst_layer *s;
+        bst_stack_opts o;
+        bst_stack_opts_init(&o);
+        ck_assert_int_eq(bst_stack_combine(ctx, 2, (const bst_layer *const *)l, &o, &s), BST_WENERGY);
+        ck_assert_msg(strstr(bst_ctx_message(ctx), words[k]), "%s", bst_ctx_message(ctx));
+        double tt = cases[k][0] * cases[k][0] / (1.0 - cases[k][1] * cases[k][1]);
+        tu_assert_close(dir_value(s, BST_TF, 3), tt, 1e-12, 0.0);
+        bst_layer_free(s);
+        o.strict = 1;
+        ck_assert_int_lt(bst_stack_combine(ctx, 2, (const bst_layer *const *)l, &o, &s), 0);
+        ck_assert_ptr_null(s);
+        ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "(--strict)"));
+        /* Only Tf asked: T alone is checked, and is within bounds in the first case. */
+        o.strict = 0;
+        o.comps = BST_COMP_BIT(BST_TF);
+        ck_assert_int_eq(bst_stack_combine(ctx, 2, (const bst_layer *const *)l, &o, &s),
+                         k == 0 ? BST_OK : BST_WENERGY);
+        bst_layer_free(s);
+        for (int i = 0; i < 2; i++)
+            bst_layer_free(l[i]);
+    }
+    bst_basis_free(b);
+}
+END_TEST
+
 /* Every allocation failure in a combination is reported as BST_ENOMEM, leaves no result and leaks
  * nothing, whether it borrows or consumes the layers, for every requested subset of components:
  * the frees at each component's last use hold on every path. */
@@ -475,6 +515,7 @@ static Suite *stack_suite(void)
     tcase_add_loop_test(tc, test_absorptance_balance, 0, 3);
     tcase_add_test(tc, test_mirrors);
     tcase_add_test(tc, test_energy_warning);
+    tcase_add_test(tc, test_result_energy);
     tcase_add_test(tc, test_errors);
     tcase_add_loop_test(tc, test_alloc_failure, 0, 3);
     suite_add_tcase(s, tc);

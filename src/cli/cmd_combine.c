@@ -44,7 +44,7 @@ static const char help[] =
     "  --absorptance FILE also write per-layer absorptance per incident patch (TSV: channel,\n"
     "                     side, patch, theta, phi of the propagation direction, A1..An, T, R)\n"
     "  --per-channel      combine band values even when every layer is spectral\n"
-    "  --strict           ill-conditioning and energy imbalance in an input are errors\n"
+    "  --strict           ill-conditioning and energy imbalance (input or system) are errors\n"
     "  --incident T,P     only this incidence direction (repeatable): iterate the light between\n"
     "                     the layers for its columns (--only's components) and write them as TSV\n"
     "                     (channel, comp, theta_in, phi_in, patch_in, patch_out, theta_out, phi_out,\n"
