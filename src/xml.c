@@ -7,8 +7,8 @@
  * the outgoing one by the exit direction, as our matrices do.  Klems "Columns" data lists, for
  * each outgoing patch (a text row), the values of every incident patch.
  *
- * The parser is libxml2's SAX interface fed in chunks: the ScatteringData text goes straight into
- * the tensor-tree or Klems tokenizer and is never held as a whole. */
+ * The parser is libxml2's SAX interface pulling the file as it goes: the ScatteringData text goes
+ * straight into the tensor-tree or Klems tokenizer and is never held as a whole. */
 #include <config.h>
 
 #include <errno.h>
@@ -28,7 +28,6 @@
 #include "ctx.h"
 #include "ttree.h"
 
-#define XML_CHUNK 65536
 #define TEXT_MAX 256
 #define MAX_CHANNELS BSTI_BSDF_MAX_CHANNELS
 #define MAX_DEPTH 32
@@ -467,6 +466,29 @@ void bst_bsdf_free(bst_bsdf *b)
     bsti_free(b->ctx, b);
 }
 
+/* The file, handed to libxml2's pull parser as it asks: its buffer slides over the text, so
+ * memory stays bounded, and its scans stay linear (the push parser of libxml2 2.9 rescans a
+ * comment, CDATA section or attribute value from its start at every chunk: quadratic). */
+struct source {
+    FILE *fp;
+    bst_ctx *ctx;
+    double size, done;
+    int err;
+};
+
+static int source_read(void *opaque, char *buf, int len)
+{
+    struct source *s = opaque;
+    size_t n = fread(buf, 1, (size_t)len, s->fp);
+    if (n == 0 && ferror(s->fp)) {
+        s->err = errno ? errno : EIO;
+        return -1;
+    }
+    s->done += (double)n;
+    bsti_progress(s->ctx, s->done / s->size, "reading");
+    return (int)n;
+}
+
 int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_bsdf_read_opts *opts, bst_bsdf **out)
 {
     if (!ctx || !out)
@@ -481,14 +503,13 @@ int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_bsdf_read_opts *opts
     if (!fp)
         return bsti_error(ctx, BST_EIO, "%s: cannot open: %s", path, strerror(errno));
     struct stat st;
-    double size = fstat(fileno(fp), &st) == 0 && st.st_size > 0 ? (double)st.st_size : 1.0;
+    int known = fstat(fileno(fp), &st) == 0;
+    double size = known && st.st_size > 0 ? (double)st.st_size : 1.0;
+    int empty = known && S_ISREG(st.st_mode) && st.st_size == 0;
     struct reader r = {.ctx = ctx, .path = path, .opts = opts, .comp = -1};
     r.b = bsti_calloc(ctx, 1, sizeof *r.b);
-    char *buf = bsti_malloc(ctx, XML_CHUNK);
-    if (!r.b || !buf) {
+    if (!r.b) {
         fclose(fp);
-        bsti_free(ctx, r.b);
-        bsti_free(ctx, buf);
         return BST_ENOMEM;
     }
     r.b->ctx = ctx;
@@ -501,33 +522,28 @@ int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_bsdf_read_opts *opts
     sax.endElementNs = on_end;
     sax.characters = on_chars;
     sax.serror = on_error;
-    r.pctxt = xmlCreatePushParserCtxt(&sax, &r, NULL, 0, path);
-    if (!r.pctxt || !r.b->path) {
+    struct source src = {.fp = fp, .ctx = ctx, .size = size};
+    if (empty) {
+        r.status = bsti_error(ctx, BST_EFORMAT, "%s: the file is empty", path);
+    } else if (!(r.pctxt = xmlCreateIOParserCtxt(&sax, &r, source_read, NULL, &src,
+                                                  XML_CHAR_ENCODING_NONE)) || !r.b->path) {
         r.status = bsti_error(ctx, BST_ENOMEM, "%s: out of memory starting the XML parser", path);
     } else {
         xmlCtxtUseOptions(r.pctxt, XML_PARSE_HUGE | XML_PARSE_NONET);
-        double done = 0;
-        size_t n;
-        while (r.status >= 0 && (n = fread(buf, 1, XML_CHUNK, fp)) > 0) {
-            int e = xmlParseChunk(r.pctxt, buf, (int)n, 0);
-            done += (double)n;
-            bsti_progress(ctx, done / size, "reading");
-            if (e && r.status >= 0)
-                r.status = bsti_error(ctx, BST_EFORMAT, "%s: malformed XML (error %d)", path, e);
-        }
-        if (r.status >= 0 && ferror(fp))
-            r.status = bsti_error(ctx, BST_EIO, "%s: read error", path);
-        if (r.status >= 0) {
-            int e = xmlParseChunk(r.pctxt, buf, 0, 1);
-            if (e && r.status >= 0)
-                r.status = bsti_error(ctx, BST_EFORMAT, "%s: malformed or truncated XML (error %d)", path, e);
-        }
+        int e = xmlParseDocument(r.pctxt);
+        if (r.status >= 0 && src.err)
+            r.status = bsti_error(ctx, BST_EIO, "%s: read error: %s", path, strerror(src.err));
+        if (r.status >= 0 && (e || !r.pctxt->wellFormed))
+            r.status = bsti_error(ctx, BST_EFORMAT, "%s: malformed or truncated XML", path);
         bsti_progress(ctx, 1.0, "reading");
     }
-    if (r.pctxt)
+    if (r.pctxt) {
+        /* An internal DTD subset makes libxml2 build a document to hold it, even under SAX. */
+        if (r.pctxt->myDoc)
+            xmlFreeDoc(r.pctxt->myDoc);
         xmlFreeParserCtxt(r.pctxt);
+    }
     fclose(fp);
-    bsti_free(ctx, buf);
     bsti_tparse_free(r.tp);
     bsti_free(ctx, r.km);
     bst_bsdf *b = r.b;
