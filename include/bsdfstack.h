@@ -357,13 +357,19 @@ typedef struct {
                                       BST_DOUBLE, BST_FLOAT halves their memory */
 } bst_bsdf_read_opts;
 
-/* Read a file (opts NULL = defaults); BST_WDATA when a missing component was completed (a
- * transmission by reciprocity, a reflection as zero). */
+/* Read a file (opts NULL = defaults); BST_WDATA when it is read other than it states: a missing
+ * component completed (a transmission by reciprocity, a reflection as zero), a tree of depth
+ * BST_K_MAX + 1 read at BST_K_MAX (deeper ones are refused), negative values read as 0. */
 int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_bsdf_read_opts *opts, bst_bsdf **out);
 void bst_bsdf_free(bst_bsdf *b);
 bst_file_kind bst_bsdf_kind(const bst_bsdf *b);
-/* Tensor-tree resolution k (depth of the finest cells), 0 for Klems files. */
+/* Tensor-tree resolution k at which the file is read (its finest cells' depth, at most
+ * BST_K_MAX), 0 for Klems files. */
 int bst_bsdf_order(const bst_bsdf *b);
+/* Depth of the finest tree cells as stored (above the order when averaged), 0 for Klems files. */
+int bst_bsdf_depth(const bst_bsdf *b);
+/* Negative values in the file, read as 0. */
+size_t bst_bsdf_negatives(const bst_bsdf *b);
 /* The Klems basis of a Klems file (NULL for trees). */
 const bst_basis *bst_bsdf_klems_basis(const bst_bsdf *b);
 size_t bst_bsdf_nchannels(const bst_bsdf *b);

@@ -15,7 +15,9 @@ struct bst_bsdf {
     bst_ctx *ctx;
     char *path;
     bst_file_kind kind;
-    int k;                 /* tensor-tree depth */
+    int k;                 /* tensor-tree order read: the depth, at most BST_K_MAX */
+    int depth;             /* tensor-tree depth stored */
+    size_t negatives;      /* negative values read as 0 */
     bst_precision prec;    /* of the dense components of bst_bsdf_to_layer (read option) */
     bst_basis *klems;      /* Klems files */
     size_t nch;

@@ -7,6 +7,7 @@
 #include <config.h>
 
 #include <errno.h>
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -174,8 +175,11 @@ static int number(bsti_tparse *p)
     double v = strtod(p->tok, &end);
     if (end == p->tok || *end != '\0')
         return bsti_error(p->ctx, BST_EFORMAT, "'%s' is not a number", p->tok);
-    if (!isfinite(v) || fabs(v) > 3.0e38)
-        return bsti_error(p->ctx, BST_EFORMAT, "value '%s' is not finite in single precision", p->tok);
+    if (!isfinite(v))
+        return bsti_error(p->ctx, BST_EFORMAT, "value '%s' is not finite", p->tok);
+    if (fabs(v) > FLT_MAX)
+        return bsti_error(p->ctx, BST_EFORMAT, "value '%s' exceeds the single-precision range "
+                          "(%.4g) in which tensor trees are held", p->tok, (double)FLT_MAX);
     if (p->top == 0)
         return bsti_error(p->ctx, BST_EFORMAT, "number '%s' outside any tree node", p->tok);
     struct open_node *o = &p->stack[p->top - 1];

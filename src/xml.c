@@ -63,6 +63,8 @@ struct reader {
     size_t nkm, kmax;
     char tok[64];
     int ntok;
+    size_t negatives; /* Klems values below 0, read as 0 */
+    int layers;       /* <Layer> elements seen */
 };
 
 static const char *parent(struct reader *r, int up)
@@ -189,14 +191,18 @@ static void klems_number(struct reader *r)
         return;
     }
     if (!isfinite(v)) {
-        fail(r, BST_EFORMAT, "<ScatteringData>: value %zu is not finite", r->nkm + 1);
+        fail(r, BST_EFORMAT, "<ScatteringData>: value no. %zu, '%s', is not finite", r->nkm + 1, r->tok);
         return;
     }
     if (r->nkm >= r->kmax) {
         fail(r, BST_EFORMAT, "<ScatteringData> holds more than the %zu values of its basis", r->kmax);
         return;
     }
-    r->km[r->nkm++] = v < 0 ? 0.0 : v; /* as libBSDF and the tree reader: negatives are 0 */
+    if (v < 0) { /* as libBSDF and the tree reader: negatives are 0 */
+        v = 0;
+        r->negatives++;
+    }
+    r->km[r->nkm++] = v;
 }
 
 static void data_chars(struct reader *r, const char *s, size_t len)
@@ -246,8 +252,11 @@ static void end_data(struct reader *r)
         b->tree[ch][r->comp] = t;
         if (t->depth > b->k)
             b->k = t->depth;
+        r->negatives += (size_t)t->negatives;
         if (t->depth > BST_K_MAX + 1)
-            fail(r, BST_EFORMAT, "<ScatteringData>: tree depth %d exceeds %d", t->depth, BST_K_MAX + 1);
+            fail(r, BST_EFORMAT, "<ScatteringData>: a tensor tree of depth %d; bsdfstack reads trees "
+                 "up to depth %d (at k = %d, averaging the finest cells)", t->depth, BST_K_MAX + 1,
+                 BST_K_MAX);
         return;
     }
     if (r->ntok)
@@ -297,7 +306,11 @@ static void on_start(void *ud, const xmlChar *local, const xmlChar *prefix, cons
         fail(r, BST_EFORMAT, "root element <%s> is not <WindowElement>", name);
         return;
     }
-    if (strcmp(name, "WavelengthData") == 0) {
+    if (strcmp(name, "Layer") == 0) {
+        if (r->layers++ > 0)
+            fail(r, BST_EFORMAT, "a second <Layer>: bsdfstack reads one layer a file (the system's "
+                 "BSDF); give each layer its own file");
+    } else if (strcmp(name, "WavelengthData") == 0) {
         r->channel[0] = '\0';
     } else if (strcmp(name, "WavelengthDataBlock") == 0) {
         r->comp = -1;
@@ -587,13 +600,32 @@ int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_bsdf_read_opts *opts
         return rc;
     }
     *out = b;
+    /* What was read other than stated, in one warning. */
+    char warn[512] = "";
     if (note[0])
-        return bsti_error(ctx, BST_WDATA, "%s: not in the file, completed: %s", path, note);
+        snprintf(warn, sizeof warn, "not in the file, completed: %s", note);
+    b->depth = b->kind == BST_FILE_KLEMS ? 0 : b->k;
+    b->negatives = r.negatives;
+    if (b->kind != BST_FILE_KLEMS && b->k > BST_K_MAX) {
+        size_t len = strlen(warn);
+        snprintf(warn + len, sizeof warn - len, "%sa tensor tree of depth %d, read at k = %d (its "
+                 "finest cells averaged)", len ? "; " : "", b->k, BST_K_MAX);
+        b->k = BST_K_MAX;
+    }
+    if (r.negatives) {
+        size_t len = strlen(warn);
+        snprintf(warn + len, sizeof warn - len, "%s%zu negative value%s read as 0 (as libBSDF does)",
+                 len ? "; " : "", r.negatives, r.negatives > 1 ? "s" : "");
+    }
+    if (warn[0])
+        return bsti_error(ctx, BST_WDATA, "%s: %s", path, warn);
     return BST_OK;
 }
 
 bst_file_kind bst_bsdf_kind(const bst_bsdf *b) { return b->kind; }
 int bst_bsdf_order(const bst_bsdf *b) { return b->kind == BST_FILE_KLEMS ? 0 : b->k; }
+int bst_bsdf_depth(const bst_bsdf *b) { return b->depth; }
+size_t bst_bsdf_negatives(const bst_bsdf *b) { return b->negatives; }
 const bst_basis *bst_bsdf_klems_basis(const bst_bsdf *b) { return b->klems; }
 size_t bst_bsdf_nchannels(const bst_bsdf *b) { return b->nch; }
 const char *bst_bsdf_channel(const bst_bsdf *b, size_t ch) { return ch < b->nch ? b->channels[ch] : NULL; }

@@ -91,4 +91,29 @@ tk=$("$BSDFSTACK" info "$tmpdir/sk.xml" | awk '$1 == 0 && $2 == 0 { print $3; ex
 awk -v a="$t5" -v b="$tk" 'BEGIN { d = a - b; exit !(d < 0.019 && d > -0.019) }' \
     && pass "pane + Klems diffuser + pane: k = 5 $t5, Klems $tk" || fail "pane + Klems diffuser + pane: k = 5 $t5 vs Klems $tk"
 
+# What the reader reads other than the file states is a warning line: a tree of depth 8 read at
+# k = 7, negative values read as 0; a tree of depth 9 is refused.
+deep() { # DEPTH: a rank-4 tree whose first child descends to DEPTH
+    if [ "$1" -eq 1 ]; then printf '{ 1 2 1 2 1 2 1 2 1 2 1 2 1 2 1 2 } '; return; fi
+    printf '{ '; deep $(($1 - 1)); for i in $(seq 15); do printf '{ 1.5 } '; done; printf '} '
+}
+tree_file() { # DATA FILE
+    printf '%s' '<?xml version="1.0"?><WindowElement xmlns="http://windows.lbl.gov"><Optical><Layer>' \
+        '<DataDefinition><IncidentDataStructure>TensorTree4</IncidentDataStructure></DataDefinition>' \
+        '<WavelengthData><Wavelength unit="Integral">Visible</Wavelength><WavelengthDataBlock>' \
+        '<WavelengthDataDirection>Transmission Front</WavelengthDataDirection><AngleBasis>LBNL/Shirley-Chiu</AngleBasis>' \
+        "<ScatteringData>$1</ScatteringData></WavelengthDataBlock></WavelengthData></Layer></Optical></WindowElement>" > "$2"
+}
+tree_file "$(deep 8)" "$tmpdir/deep8.xml"
+expect_status 0 "a tree of depth 8" -- "$BSDFSTACK" convert -k 2 "$tmpdir/deep8.xml" -o "$tmpdir/d8.xml"
+grep -q "warning: $tmpdir/deep8.xml: a tensor tree of depth 8, read at k = 7" "$tmpdir/err" \
+    && pass "depth 8 is read at k = 7, and says so" || fail "no depth warning: $(cat "$tmpdir/err")"
+tree_file "$(deep 9)" "$tmpdir/deep9.xml"
+expect_error "a tree of depth 9" "deep9.xml: line 1: <ScatteringData>: a tensor tree of depth 9" -- \
+    "$BSDFSTACK" convert -k 2 "$tmpdir/deep9.xml" -o "$tmpdir/d9.xml"
+tree_file "{ 1 2 3 -4 5 6 7 8 9 10 11 12 13 14 15 16 }" "$tmpdir/neg.xml"
+expect_status 0 "a tree with a negative value" -- "$BSDFSTACK" convert -k 1 "$tmpdir/neg.xml" -o "$tmpdir/n.xml"
+grep -q "warning: $tmpdir/neg.xml: 1 negative value read as 0" "$tmpdir/err" \
+    && pass "negative values are a warning" || fail "no warning for a negative value: $(cat "$tmpdir/err")"
+
 finish

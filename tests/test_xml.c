@@ -433,7 +433,8 @@ START_TEST(test_bad_files)
         {"TensorTree4", "Transmission Front", "LBNL/Klems Full", "{ 1 }", "AngleBasis"},
         {"TensorTree5", "Transmission Front", "LBNL/Shirley-Chiu", "{ 1 }", "IncidentDataStructure"},
         {"Columns", "Transmission Front", "LBNL/Klems Full", "1 2 3", "without a Klems"},
-        {"TensorTree4", "Transmission Front", "LBNL/Shirley-Chiu", "{ 1e99 1 1 1 1 1 1 1 1 1 1 1 1 1 1 1 }", "not finite"},
+        {"TensorTree4", "Transmission Front", "LBNL/Shirley-Chiu", "{ 1e99 1 1 1 1 1 1 1 1 1 1 1 1 1 1 1 }", "exceeds the single-precision range"},
+        {"TensorTree4", "Transmission Front", "LBNL/Shirley-Chiu", "{ 1 1 1 1 1 1 1 1 1 1 1 1 1 1 1 3.5e38 }", "exceeds the single-precision range"},
     };
     char buf[4096];
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
@@ -490,6 +491,107 @@ START_TEST(test_bad_files)
     const char *p = write_tmp(kl, len);
     ck_assert_int_eq(bst_bsdf_read(ctx, p, NULL, &b), BST_EFORMAT);
     ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "21024 values"));
+    unlink(p);
+}
+END_TEST
+
+/* A tree where every cell of depth d - 1 (d >= 2) averages to v, the finest cells at depth d:
+ * the first child descends, the others are leaves of value v, and the deepest branch holds
+ * leaves alternating 0.5 v and 1.5 v. */
+static void deep_tree(char *s, size_t size, int dim, int d, double v)
+{
+    size_t n = strlen(s);
+    snprintf(s + n, size - n, "{ ");
+    for (int c = 0; c < (1 << dim); c++) {
+        n = strlen(s);
+        if (d == 1)
+            snprintf(s + n, size - n, "%g ", v * (c % 2 ? 1.5 : 0.5));
+        else if (c == 0)
+            deep_tree(s, size, dim, d - 1, v);
+        else
+            snprintf(s + n, size - n, "{ %g } ", v);
+    }
+    n = strlen(s);
+    snprintf(s + n, size - n, "} ");
+}
+
+/* What the reader reads other than the file states is a warning (BST_WDATA) saying so: a tree
+ * of depth 8 read at k = 7, negative values read as 0 (Klems and trees); depth 9 is refused. */
+START_TEST(test_read_notes)
+{
+    static char tree[16384], buf[20000];
+    for (int dim = 3; dim <= 4; dim++) {
+        for (int d = 7; d <= 9; d++) {
+            tree[0] = '\0';
+            deep_tree(tree, sizeof tree, dim, d, 0.25);
+            snprintf(buf, sizeof buf, HEAD, dim == 3 ? "TensorTree3" : "TensorTree4",
+                     "Transmission Front", "LBNL/Shirley-Chiu", tree);
+            const char *p = write_tmp(buf, strlen(buf));
+            bst_bsdf *b = NULL;
+            int rc = bst_bsdf_read(ctx, p, NULL, &b);
+            if (d == 9) {
+                ck_assert_int_eq(rc, BST_EFORMAT);
+                ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "depth 9"));
+            } else {
+                ck_assert_int_eq(rc, BST_WDATA); /* Rf, Rb as zero at least */
+                ck_assert_int_eq(bst_bsdf_order(b), 7);
+                ck_assert_int_eq(bst_bsdf_depth(b), d);
+                ck_assert_msg((d == 8) == (strstr(bst_ctx_message(ctx), "depth 8, read at k = 7") != NULL),
+                              "%s", bst_ctx_message(ctx));
+                /* a lookup at the finest cells is the tree's own */
+                double v, in[3] = {-0.01, -0.02, -0.9997}, out[3] = {0.01, 0.02, 0.9997};
+                ck_assert_int_eq(bst_bsdf_eval(ctx, b, 0, in, out, &v), BST_OK);
+                ck_assert(v == 0.125 || v == 0.375 || v == 0.25);
+                bst_bsdf_free(b);
+            }
+            unlink(p);
+        }
+    }
+    /* negatives */
+    snprintf(buf, sizeof buf, HEAD, "TensorTree4", "Transmission Front", "LBNL/Shirley-Chiu",
+             "{ 1 2 3 -4 5 6 7 -8 9 10 11 12 13 14 15 16 }");
+    const char *p = write_tmp(buf, strlen(buf));
+    bst_bsdf *b;
+    ck_assert_int_eq(bst_bsdf_read(ctx, p, NULL, &b), BST_WDATA);
+    ck_assert_uint_eq(bst_bsdf_negatives(b), 2);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "2 negative values read as 0"));
+    bst_bsdf_free(b);
+    unlink(p);
+    FILE *fp = fopen(tu_ref("L_glass_t4k5_klems.xml"), "rb");
+    static char kl[1000000];
+    size_t len = fread(kl, 1, sizeof kl - 8, fp);
+    fclose(fp);
+    kl[len] = '\0';
+    char *sd = strstr(kl, "<ScatteringData>") + strlen("<ScatteringData>");
+    sd += strspn(sd, " \n\t\r");
+    size_t tok = strcspn(sd, " \n\t\r,");
+    memmove(sd + 4, sd + tok, len + 1 - (size_t)(sd + tok - kl));
+    len = len + 4 - tok;
+    memcpy(sd, "-0.5", 4);
+    p = write_tmp(kl, len);
+    ck_assert_int_eq(bst_bsdf_read(ctx, p, NULL, &b), BST_WDATA);
+    ck_assert_uint_eq(bst_bsdf_negatives(b), 1);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "1 negative value read as 0"));
+    bst_bsdf_free(b);
+    unlink(p);
+    /* a non-finite Klems value is named by its place and text */
+    memcpy(sd, " nan", 4);
+    p = write_tmp(kl, len);
+    ck_assert_int_eq(bst_bsdf_read(ctx, p, NULL, &b), BST_EFORMAT);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "value no. 1, 'nan', is not finite"));
+    unlink(p);
+    /* two layers in one file */
+    char *lay = strstr(kl, "<Layer>"), *end = strstr(kl, "</Layer>") + strlen("</Layer>");
+    size_t ll = (size_t)(end - lay);
+    char *two = malloc(len + ll);
+    memcpy(two, kl, (size_t)(end - kl));
+    memcpy(two + (end - kl), lay, ll);
+    memcpy(two + (end - kl) + ll, end, len - (size_t)(end - kl));
+    memcpy(two + (sd - kl), "0.50", 4);
+    p = write_tmp(two, len + ll);
+    free(two);
+    ck_assert_int_eq(bst_bsdf_read(ctx, p, NULL, &b), BST_EFORMAT);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "a second <Layer>"));
     unlink(p);
 }
 END_TEST
@@ -635,6 +737,7 @@ static Suite *xml_suite(void)
     tcase_add_test(tc, test_to_layer_single);
     tcase_add_test(tc, test_bad_files);
     tcase_add_test(tc, test_internal_dtd);
+    tcase_add_test(tc, test_read_notes);
     suite_add_tcase(s, tc);
     tc = tcase_create("long markup");
     tcase_add_checked_fixture(tc, setup, teardown);

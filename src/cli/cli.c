@@ -51,6 +51,16 @@ int cli_fail_ctx(const char *sub, const char *what, bst_ctx *ctx)
     return cli_fail(sub, "%s", msg);
 }
 
+void cli_warn_bsdf(const char *sub, const char *path, const bst_bsdf *b)
+{
+    if (bst_bsdf_depth(b) > bst_bsdf_order(b))
+        fprintf(stderr, "bsdfstack %s: warning: %s: a tensor tree of depth %d, read at k = %d (its "
+                "finest cells averaged)\n", sub, path, bst_bsdf_depth(b), bst_bsdf_order(b));
+    if (bst_bsdf_negatives(b))
+        fprintf(stderr, "bsdfstack %s: warning: %s: %zu negative value%s read as 0 (as libBSDF does)\n",
+                sub, path, bst_bsdf_negatives(b), bst_bsdf_negatives(b) > 1 ? "s" : "");
+}
+
 void cli_warn_ctx(const char *sub, const char *what, int status, bst_ctx *ctx)
 {
     if (status <= 0)

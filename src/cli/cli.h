@@ -42,6 +42,9 @@ int cli_usage(const char *sub, const char *fmt, ...)
 /* Report a library error from ctx ("bsdfstack SUB: WHAT: message").  Returns CLI_FAIL. */
 int cli_fail_ctx(const char *sub, const char *what, bst_ctx *ctx);
 /* Print library warnings held by ctx after a call that returned status > 0. */
+/* What the reader read other than the file states (a tree averaged to BST_K_MAX, negative
+ * values read as 0), one warning line each. */
+void cli_warn_bsdf(const char *sub, const char *path, const bst_bsdf *b);
 void cli_warn_ctx(const char *sub, const char *what, int status, bst_ctx *ctx);
 
 /* A context with a terminal progress bar on stderr when stderr is a terminal. */

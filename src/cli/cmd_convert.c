@@ -163,6 +163,8 @@ int cmd_convert(int argc, char **argv)
     }
     if (verbose.on)
         cli_warn_ctx(sub, NULL, st, ctx);
+    else
+        cli_warn_bsdf(sub, in, b);
     bst_ctx_clear(ctx);
     /* the file's own basis is read exactly (NULL target) */
     int own = (k && bst_bsdf_kind(b) != BST_FILE_KLEMS && k == bst_bsdf_order(b)) ||

@@ -37,6 +37,7 @@ int cmd_info(int argc, char **argv)
         bst_ctx_free(ctx);
         return rc;
     }
+    cli_warn_bsdf(sub, path, b);
     bst_ctx_clear(ctx);
     static const char *const kinds[] = {"Klems matrix", "", "", "TensorTree3 (isotropic)", "TensorTree4"};
     printf("file      %s\nformat    %s", path, kinds[bst_bsdf_kind(b)]);

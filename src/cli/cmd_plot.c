@@ -172,6 +172,7 @@ int cmd_plot(int argc, char **argv)
         rc = cli_fail_ctx(sub, path, ctx);
         goto done;
     }
+    cli_warn_bsdf(sub, path, b);
     bst_ctx_clear(ctx);
     struct plot p = {ctx, b, 0, (bst_comp)comp, {0, 0, 0}, 0, dsf};
     if (channel) {

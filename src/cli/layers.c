@@ -101,6 +101,7 @@ static void warn_zero_components(const char *sub, const char *path, const bst_bs
         }
     if (note[0])
         fprintf(stderr, "bsdfstack %s: warning: %s: not in the file, taken as zero: %s\n", sub, path, note);
+    cli_warn_bsdf(sub, path, b);
     bst_ctx_clear(ctx);
 }
 
