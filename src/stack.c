@@ -420,7 +420,7 @@ static int check_energy(struct combiner *cb, const bst_layer *l, size_t li, size
                             li + 1, bst_layer_name(l), l->channels[ch]);
         } else if (wv > 1.0 + cb->opts->energy_tol) {
             bsti_error(cb->ctx, BST_WENERGY,
-                       "layer %zu (%s), channel %s: %s T + R = %.4f > 1 at incident patch %zu "
+                       "layer %zu (%s), channel %s: %s T + R = %.4g > 1 at incident patch %zu "
                        "(theta %.1f deg)", li + 1, bst_layer_name(l), l->channels[ch],
                        side ? "back" : "front", wv, worst, patch_theta_deg(l->basis, worst));
             rc = note_warning(cb, BST_WENERGY);
