@@ -23,8 +23,8 @@ static const char help[] =
     "      Tf in_z<0<out_z, Tb out_z<0<in_z, Rf both<0, Rb both>0.\n"
     "      (RADIANCE's bsdfquery reads the same two vectors in the other order: out, then in.)\n"
     "  with --degrees COMP:  theta_in phi_in theta_out phi_out\n"
-    "      angles in degrees of the same two vectors, theta from the normal of the side each\n"
-    "      vector lies on (in: the incidence side of COMP, out: its exit side), phi from +X\n"
+    "      angles in degrees of the same two vectors, theta (0 to 90) from the normal of the side\n"
+    "      each vector lies on (in: the incidence side of COMP, out: its exit side), phi from +X\n"
     "      towards +Y of the vector itself.\n"
     "\n"
     "Options:\n"
@@ -104,6 +104,12 @@ int cmd_query(int argc, char **argv)
             end++;
         if (got != need || *end) {
             rc = cli_fail(sub, "standard input line %ld: expected %d numbers", lineno, need);
+            break;
+        }
+        if (comp >= 0 && (v[0] < 0 || v[0] > 90 || v[2] < 0 || v[2] > 90)) {
+            double bad = v[0] < 0 || v[0] > 90 ? v[0] : v[2];
+            rc = cli_fail(sub, "standard input line %ld: theta %g is out of range: give theta_in "
+                          "and theta_out in [0, 90] degrees", lineno, bad);
             break;
         }
         if (comp >= 0) {
