@@ -1,5 +1,5 @@
 /* cli.h - shared pieces of the bsdfstack program: the subcommand table, error reporting and
- * atomic output files.  Every subcommand is a function in its own file, cmd_<name>.c. */
+ * output files.  Every subcommand is a function in its own file, cmd_<name>.c. */
 #ifndef BST_CLI_H
 #define BST_CLI_H
 
@@ -47,16 +47,28 @@ void cli_warn_ctx(const char *sub, const char *what, int status, bst_ctx *ctx);
 /* A context with a terminal progress bar on stderr when stderr is a terminal. */
 bst_ctx *cli_ctx_new(const char *sub);
 
-/* Atomic output: write to a temporary file in the target's directory, rename on commit.  The path
- * "-" means standard output. */
+/* An output file, as every subcommand writes one (-o, --absorptance, --map, batch lines): a regular
+ * file (or a new one) is written to a temporary beside it and renamed over it on commit, keeping
+ * its mode and, where allowed, its owner; a symbolic link is followed, so that the link survives
+ * and the file it names is replaced the same way; a device, FIFO or socket is written directly;
+ * a directory is an error; "-" is standard output. */
 struct cli_out {
     FILE *fp;
-    char *path;
-    char *tmp;
+    char *path;   /* as given, for messages; NULL for standard output */
+    char *target; /* where the links of path lead (the file renamed over), or NULL */
+    char *tmp;    /* the temporary beside target, or NULL when written directly */
 };
+/* Open path for writing; CLI_OK, or one error line printed and nothing left behind. */
 int cli_out_open(struct cli_out *o, const char *sub, const char *path);
-/* Flush, close and rename into place; on any failure remove the temporary and fail. */
+/* Flush and check for write errors so far; on one, report it and abort (a file that must not be
+ * renamed into place before another is written checks its own content with this first). */
+int cli_out_flush(struct cli_out *o, const char *sub);
+/* Flush, close and rename into place; on any failure (a write error named with its reason) remove
+ * the temporary and fail. */
 int cli_out_commit(struct cli_out *o, const char *sub);
+/* A library writer's failure on o (its message in ctx), named by path or as standard output, then
+ * cli_out_abort.  Returns CLI_FAIL. */
+int cli_out_fail_ctx(struct cli_out *o, const char *sub, bst_ctx *ctx);
 /* Remove the temporary (on an error path). Safe to call after commit or on a zeroed struct. */
 void cli_out_abort(struct cli_out *o);
 
