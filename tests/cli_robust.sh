@@ -131,6 +131,38 @@ expect_error "a write error on --absorptance" "big.tsv: .*File too large" -- \
 [ ! -e "$d/big.tsv" ] && [ ! -e "$d/g.xml" ] && pass "neither file of a failed combine" || fail "partial files: $(ls "$d")"
 no_leftovers "failed commands leave no temporaries"
 
+# --- standard output: a lost write fails the command with one line
+stdout_error() { expect_error "$1 > /dev/full" "^bsdfstack${2:+ $2}: error writing to standard output: No space left on device" -- to_full "${@:3}"; }
+stdout_error "info" info "$B" info "$f"
+stdout_error "glass" glass "$B" glass clear-6mm
+stdout_error "glass --list" glass "$B" glass --list
+stdout_error "compare" compare "$B" compare -k 1 --only Tf --incident 0,0 glass:clear-6mm glass:lowiron-6mm
+stdout_error "plot (its summary)" plot "$B" plot --size 64 --format svg -o "$d/p.svg" "$f"
+[ ! -e "$d/p.svg" ] && pass "plot: no image without its summary" || fail "plot wrote p.svg"
+stdout_error "version" version "$B" version
+stdout_error "--help" "" "$B" --help
+stdout_error "combine --help" combine "$B" combine --help
+stdout_error "combine -o -" combine "$B" combine -k 1 --incident 0,0 -o - glass:clear-6mm
+printf '%s glass:clear-6mm\n' "$d/h.xml" > "$d/one.batch"
+stdout_error "batch (its summary line)" batch "$B" batch -k 1 "$d/one.batch"
+printf '0 0 -1 0 0 1\n' > "$d/dirs"
+stdout_error "query" query from "$d/dirs" "$B" query "$f"
+expect_error "combine -o - > /dev/full" "standard output: .*No space left on device" -- to_full pane -o -
+expect_error "convert -o - > /dev/full" "standard output: .*No space left on device" -- \
+    to_full "$B" convert "$ref/examples/k1_4d_TF.xml" -o -
+# (plot -o - prints its summary on stderr: the error is the one line after it)
+expect_status 1 "plot -o - > /dev/full" -- to_full "$B" plot --size 64 --format svg -o - "$ref/examples/k1_4d_TF.xml"
+[ "$(grep -c 'error' "$tmpdir/err")" -eq 1 ] && grep -q "^bsdfstack plot: error writing to standard output: No space left on device" "$tmpdir/err" \
+    && pass "plot -o - names the lost standard output once" || fail "plot -o -: $(cat "$tmpdir/err")"
+expect_error "info >&-" "error writing to standard output: Bad file descriptor" -- stdout_closed "$B" info "$f"
+
+# --- standard input: a read error is no end of input
+expect_error "query < a directory" "error reading standard input: Is a directory" -- from "$d" "$B" query "$f"
+expect_error "query <&-" "error reading standard input: Bad file descriptor" -- stdin_closed "$B" query "$f"
+expect_error "batch - < a directory" "standard input: read error: Is a directory" -- from "$d" "$B" batch -
+expect_error "combine --incident-file - <&-" "standard input: read error: Bad file descriptor" -- \
+    stdin_closed "$B" combine --incident-file - -o "$d/i.tsv" glass:clear-6mm
+
 # --- query --degrees: theta within [0, 90]
 for bad in "91 0 0 0" "-1 0 0 0" "0 0 90.5 0" "0 0 -0.1 0"; do
     echo "$bad" > "$d/angles"

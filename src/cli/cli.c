@@ -1,5 +1,6 @@
 /* cli.c - helpers shared by the subcommands: one-line errors, progress on a terminal, output
- * files (atomic where PATH is a regular file), strict number parsing. */
+ * files (atomic where PATH is a regular file), standard output's write errors, strict number
+ * parsing. */
 #include <config.h>
 
 #include <errno.h>
@@ -103,6 +104,8 @@ bst_ctx *cli_ctx_new(const char *sub)
  *   a device, FIFO or socket         opened and written directly, no temporary
  *   a directory                      an error
  *   "-"                              standard output */
+
+static int stdout_reported; /* standard output's error is told once, however many writes fail */
 
 #define CLI_MAX_LINKS 40 /* symbolic links followed before giving up (ELOOP), as Linux does */
 
@@ -237,8 +240,7 @@ int cli_out_open(struct cli_out *o, const char *sub, const char *path)
 int cli_out_flush(struct cli_out *o, const char *sub)
 {
     if (o->fp == stdout)
-        return fflush(stdout) != 0 || ferror(stdout) ? cli_fail(sub, "error writing to standard output")
-                                                     : CLI_OK;
+        return cli_stdout_check(sub);
     /* the reason of an error: the failed flush's errno, or EIO for an error an earlier write met */
     errno = 0;
     if (fflush(o->fp) == 0 && !ferror(o->fp))
@@ -271,7 +273,10 @@ int cli_out_commit(struct cli_out *o, const char *sub)
 
 int cli_out_fail_ctx(struct cli_out *o, const char *sub, bst_ctx *ctx)
 {
-    int rc = cli_fail_ctx(sub, o->fp == stdout ? "standard output" : o->path, ctx);
+    int to_stdout = o->fp == stdout;
+    int rc = cli_fail_ctx(sub, to_stdout ? "standard output" : o->path, ctx);
+    if (to_stdout && ferror(stdout))
+        stdout_reported = 1; /* that was standard output's error: main need not say it again */
     cli_out_abort(o);
     return rc;
 }
@@ -287,6 +292,38 @@ void cli_out_abort(struct cli_out *o)
     free(o->target);
     free(o->path);
     o->tmp = o->target = o->path = NULL;
+}
+
+/* ------------------------------------------------------------------ standard streams */
+
+int cli_stdout_failed(const char *sub, int e)
+{
+    if (stdout_reported)
+        return CLI_FAIL;
+    stdout_reported = 1;
+    return cli_fail(sub, "error writing to standard output: %s", strerror(e ? e : EIO));
+}
+
+int cli_stdout_check(const char *sub)
+{
+    errno = 0;
+    if (fflush(stdout) == 0 && !ferror(stdout))
+        return CLI_OK;
+    return cli_stdout_failed(sub, errno);
+}
+
+void cli_hold_std_fds(void)
+{
+    for (int fd = 0; fd <= 2; fd++) {
+        if (fcntl(fd, F_GETFD) >= 0 || errno != EBADF)
+            continue;
+        /* the wrong way round on purpose: reading fd 0 or writing fd 1, 2 fails with EBADF */
+        int got = open("/dev/null", fd == 0 ? O_WRONLY : O_RDONLY);
+        if (got >= 0 && got != fd) {
+            dup2(got, fd);
+            close(got);
+        }
+    }
 }
 
 int cli_parse_double(const char *s, double *out)

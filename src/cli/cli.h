@@ -1,5 +1,6 @@
-/* cli.h - shared pieces of the bsdfstack program: the subcommand table, error reporting and
- * output files.  Every subcommand is a function in its own file, cmd_<name>.c. */
+/* cli.h - shared pieces of the bsdfstack program: the subcommand table, error reporting, output
+ * files and standard output's errors.  Every subcommand is a function in its own file,
+ * cmd_<name>.c. */
 #ifndef BST_CLI_H
 #define BST_CLI_H
 
@@ -71,6 +72,18 @@ int cli_out_commit(struct cli_out *o, const char *sub);
 int cli_out_fail_ctx(struct cli_out *o, const char *sub, bst_ctx *ctx);
 /* Remove the temporary (on an error path). Safe to call after commit or on a zeroed struct. */
 void cli_out_abort(struct cli_out *o);
+
+/* Standard output's write errors: "bsdfstack SUB: error writing to standard output: REASON",
+ * printed once per run however many writes fail.  cli_stdout_failed reports errno e of a write that just
+ * failed; cli_stdout_check flushes and reports an error of this or any earlier write (main calls
+ * it after every command).  Both return CLI_FAIL on an error, cli_stdout_check CLI_OK otherwise. */
+int cli_stdout_failed(const char *sub, int e);
+int cli_stdout_check(const char *sub);
+
+/* Keep a standard stream the caller closed (<&-, >&-, 2>&-) closed in effect: its descriptor is
+ * taken by /dev/null opened the wrong way round, so that using it fails with EBADF as it would
+ * have, and no file the program opens (an output, its temporary) lands on 0, 1 or 2. */
+void cli_hold_std_fds(void);
 
 /* Parse a double / int option value strictly (the whole string, finite). 0 on success. */
 int cli_parse_double(const char *s, double *out);

@@ -119,7 +119,8 @@ static int parse_file(const char *sub, const char *path, struct stack_line **lin
                               (*lines)[i].lineno);
     }
     if (rc == CLI_OK && ferror(fp))
-        rc = cli_fail(sub, "%s: read error", path);
+        rc = cli_fail(sub, "%s: read error: %s", fp == stdin ? "standard input" : path,
+                      strerror(errno ? errno : EIO));
     if (rc == CLI_OK && *nlines == 0)
         rc = cli_fail(sub, "%s: no stacks: give one line OUT LAYER LAYER... per stack", path);
     free(buf);
@@ -188,7 +189,9 @@ static int run_stack(bst_ctx *ctx, const char *sub, const char *path, const stru
         clock_gettime(CLOCK_MONOTONIC, &t1);
         printf("%s\tT %s\tR %s\t%.2f s\n", sl->out, t, r,
                (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec));
-        fflush(stdout);
+        /* the stack itself is written: a lost summary line fails the run (main), not the stack */
+        if (fflush(stdout) != 0)
+            cli_stdout_failed(sub, errno);
     }
     bst_layer_free(sys);
     free(view.layers), free(view.panes), free(view.description);

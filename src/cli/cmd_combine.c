@@ -258,7 +258,8 @@ static int read_directions(const char *sub, const char *path, double (**dirs)[2]
         (*dirs)[*n][0] = t, (*dirs)[(*n)++][1] = f;
     }
     if (rc == CLI_OK && ferror(fp))
-        rc = cli_fail(sub, "%s: read error", path);
+        rc = cli_fail(sub, "%s: read error: %s", fp == stdin ? "standard input" : path,
+                      strerror(errno ? errno : EIO));
     if (rc == CLI_OK && *n == 0)
         rc = cli_fail(sub, "%s: no directions", path);
     if (fp != stdin)

@@ -259,6 +259,8 @@ int cmd_plot(int argc, char **argv)
         rc = cli_fail_ctx(sub, path, ctx);
     else if (st < 0 && (rc = cli_out_flush(&out, sub)) == CLI_OK) /* a write error is told there */
         rc = cli_fail(sub, "%s: out of memory drawing the image", outpath);
+    if (rc == CLI_OK && info == stdout)
+        rc = cli_stdout_check(sub); /* the image appears only when its summary was printed */
     if (rc == CLI_OK)
         rc = cli_out_commit(&out, sub);
     else

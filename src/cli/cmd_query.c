@@ -2,6 +2,7 @@
  * RADIANCE's libBSDF evaluates it (the public, testable face of the reader). */
 #include <config.h>
 
+#include <errno.h>
 #include <getopt.h>
 #include <math.h>
 #include <stdlib.h>
@@ -128,10 +129,14 @@ int cmd_query(int argc, char **argv)
             rc = cli_fail(sub, "standard input line %ld: %s", lineno, bst_ctx_message(ctx));
             break;
         }
-        printf("%.6e\n", f);
+        if (printf("%.6e\n", f) < 0) {
+            rc = cli_stdout_failed(sub, errno);
+            break;
+        }
     }
-    if (rc == CLI_OK && (fflush(stdout) != 0 || ferror(stdout)))
-        rc = cli_fail(sub, "error writing to standard output");
+    /* fgets ends at a read error as at the end: a directory or a closed descriptor is no input */
+    if (rc == CLI_OK && ferror(stdin))
+        rc = cli_fail(sub, "error reading standard input: %s", strerror(errno ? errno : EIO));
     bst_bsdf_free(b);
     bst_ctx_free(ctx);
     return rc;
