@@ -427,6 +427,24 @@ START_TEST(test_result_energy)
 }
 END_TEST
 
+/* An absurd T + R (1e300, from a broken file) is told in a short message: %g, not 300 digits. */
+START_TEST(test_energy_warning_huge)
+{
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 1, &b), BST_OK);
+    double t[4] = {1e300, 0.5, 0.5, 0.5}, r[4] = {0.1, 0.1, 0.1, 0.1};
+    bst_layer *l = specular_layer(b, t, r, r), *s = NULL;
+    int st = bst_stack_combine(ctx, 1, (const bst_layer *const *)&l, NULL, &s);
+    ck_assert_int_eq(st, BST_WENERGY);
+    const char *msg = bst_ctx_message(ctx);
+    ck_assert_ptr_nonnull(strstr(msg, "e+"));
+    ck_assert_uint_lt(strlen(msg), 160);
+    bst_layer_free(s);
+    bst_layer_free(l);
+    bst_basis_free(b);
+}
+END_TEST
+
 /* Every allocation failure in a combination is reported as BST_ENOMEM, leaves no result and leaks
  * nothing, whether it borrows or consumes the layers, for every requested subset of components:
  * the frees at each component's last use hold on every path. */
@@ -516,6 +534,7 @@ static Suite *stack_suite(void)
     tcase_add_test(tc, test_mirrors);
     tcase_add_test(tc, test_energy_warning);
     tcase_add_test(tc, test_result_energy);
+    tcase_add_test(tc, test_energy_warning_huge);
     tcase_add_test(tc, test_errors);
     tcase_add_loop_test(tc, test_alloc_failure, 0, 3);
     suite_add_tcase(s, tc);

@@ -1,5 +1,6 @@
-/* cli.h - shared pieces of the bsdfstack program: the subcommand table, error reporting and
- * atomic output files.  Every subcommand is a function in its own file, cmd_<name>.c. */
+/* cli.h - shared pieces of the bsdfstack program: the subcommand table, error reporting, output
+ * files and standard output's errors.  Every subcommand is a function in its own file,
+ * cmd_<name>.c. */
 #ifndef BST_CLI_H
 #define BST_CLI_H
 
@@ -50,18 +51,42 @@ void cli_warn_ctx(const char *sub, const char *what, int status, bst_ctx *ctx);
 /* A context with a terminal progress bar on stderr when stderr is a terminal. */
 bst_ctx *cli_ctx_new(const char *sub);
 
-/* Atomic output: write to a temporary file in the target's directory, rename on commit.  The path
- * "-" means standard output. */
+/* An output file, as every subcommand writes one (-o, --absorptance, --map, batch lines): a regular
+ * file (or a new one) is written to a temporary beside it and renamed over it on commit, keeping
+ * its mode and, where allowed, its owner; a symbolic link is followed, so that the link survives
+ * and the file it names is replaced the same way; a device, FIFO or socket is written directly;
+ * a directory is an error; "-" is standard output. */
 struct cli_out {
     FILE *fp;
-    char *path;
-    char *tmp;
+    char *path;   /* as given, for messages; NULL for standard output */
+    char *target; /* where the links of path lead (the file renamed over), or NULL */
+    char *tmp;    /* the temporary beside target, or NULL when written directly */
 };
+/* Open path for writing; CLI_OK, or one error line printed and nothing left behind. */
 int cli_out_open(struct cli_out *o, const char *sub, const char *path);
-/* Flush, close and rename into place; on any failure remove the temporary and fail. */
+/* Flush and check for write errors so far; on one, report it and abort (a file that must not be
+ * renamed into place before another is written checks its own content with this first). */
+int cli_out_flush(struct cli_out *o, const char *sub);
+/* Flush, close and rename into place; on any failure (a write error named with its reason) remove
+ * the temporary and fail. */
 int cli_out_commit(struct cli_out *o, const char *sub);
+/* A library writer's failure on o (its message in ctx), named by path or as standard output, then
+ * cli_out_abort.  Returns CLI_FAIL. */
+int cli_out_fail_ctx(struct cli_out *o, const char *sub, bst_ctx *ctx);
 /* Remove the temporary (on an error path). Safe to call after commit or on a zeroed struct. */
 void cli_out_abort(struct cli_out *o);
+
+/* Standard output's write errors: "bsdfstack SUB: error writing to standard output: REASON",
+ * printed once per run however many writes fail.  cli_stdout_failed reports errno e of a write that just
+ * failed; cli_stdout_check flushes and reports an error of this or any earlier write (main calls
+ * it after every command).  Both return CLI_FAIL on an error, cli_stdout_check CLI_OK otherwise. */
+int cli_stdout_failed(const char *sub, int e);
+int cli_stdout_check(const char *sub);
+
+/* Keep a standard stream the caller closed (<&-, >&-, 2>&-) closed in effect: its descriptor is
+ * taken by /dev/null opened the wrong way round, so that using it fails with EBADF as it would
+ * have, and no file the program opens (an output, its temporary) lands on 0, 1 or 2. */
+void cli_hold_std_fds(void);
 
 /* Parse a double / int option value strictly (the whole string, finite). 0 on success. */
 int cli_parse_double(const char *s, double *out);

@@ -23,11 +23,12 @@ static const char help[] =
     "(FILE.xml, glass:SPEC, a trailing ^ for a reversed layer); words are separated by blanks, so\n"
     "paths must not contain any.  Blank lines and lines starting with # are skipped; relative\n"
     "paths are taken from the current directory.  Every distinct layer is loaded once, onto one\n"
-    "basis for the whole batch (-k, --klems, or the finest tensor-tree order among the batch's\n"
-    "files, else 5), and kept until the end.  The whole file and every layer are checked before\n"
-    "the first stack is combined.  A stack that fails is reported with its line number and the\n"
-    "others go on; the exit status is then 1.  Each system is written as `combine -o OUT` writes\n"
-    "it (atomically; its metadata names the layers and the batch line), and one line per stack on\n"
+    "basis for the whole batch (-k, --klems; else the finest tensor-tree order among the batch's\n"
+    "files; with no tree the Klems basis of the first Klems file; with panes only k = 5), and\n"
+    "kept until the end.  The whole file and every layer are checked before the first stack is\n"
+    "combined.  A stack that fails is reported with its line number and the others go on; the\n"
+    "exit status is then 1.  Each system is written as `combine -o OUT` writes it (a regular file\n"
+    "atomically; its metadata names the layers and the batch line), and one line per stack on\n"
     "standard output gives OUT, the front T and R at normal incidence of the first channel\n"
     "(- where not computed) and the seconds taken.\n"
     "\n"
@@ -118,7 +119,8 @@ static int parse_file(const char *sub, const char *path, struct stack_line **lin
                               (*lines)[i].lineno);
     }
     if (rc == CLI_OK && ferror(fp))
-        rc = cli_fail(sub, "%s: read error", path);
+        rc = cli_fail(sub, "%s: read error: %s", fp == stdin ? "standard input" : path,
+                      strerror(errno ? errno : EIO));
     if (rc == CLI_OK && *nlines == 0)
         rc = cli_fail(sub, "%s: no stacks: give one line OUT LAYER LAYER... per stack", path);
     free(buf);
@@ -187,7 +189,9 @@ static int run_stack(bst_ctx *ctx, const char *sub, const char *path, const stru
         clock_gettime(CLOCK_MONOTONIC, &t1);
         printf("%s\tT %s\tR %s\t%.2f s\n", sl->out, t, r,
                (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec));
-        fflush(stdout);
+        /* the stack itself is written: a lost summary line fails the run (main), not the stack */
+        if (fflush(stdout) != 0)
+            cli_stdout_failed(sub, errno);
     }
     bst_layer_free(sys);
     free(view.layers), free(view.panes), free(view.description);

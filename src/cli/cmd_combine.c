@@ -32,9 +32,11 @@ static const char help[] =
     "  LAYER^             the layer installed reversed (back side facing the exterior)\n"
     "\n"
     "Options:\n"
-    "  -k K               Shirley-Chiu tensor-tree basis of order K (1..7); default: the finest\n"
-    "                     order among tensor-tree layers, else 5\n"
+    "  -k K               Shirley-Chiu tensor-tree basis of order K (1..7)\n"
     "  --klems[=WHICH]    Klems basis: full (default, 145 patches), half or quarter\n"
+    "                     Neither given: the finest order among tensor-tree layers; with no tree,\n"
+    "                     the Klems basis of the first Klems file (Klems output); with panes\n"
+    "                     only, k = 5\n"
     "  --only COMPS       only these components (comma-separated Tf, Rf, Tb, Rb)\n"
     "  --channels NAMES   only these channels (e.g. Visible,Solar); default: all in common\n"
     "  --precision P      double (default) or single precision for dense work\n"
@@ -52,7 +54,9 @@ static const char help[] =
     "  --incident-file F  more such directions, one 'THETA PHI' a line (# comments; '-' = stdin)\n"
     "  -v                 print the time and peak memory of reading, of each step (with its\n"
     "                     structures) and of writing\n"
-    "  -o OUT             output file ('-' = standard output), written atomically\n";
+    "  -o OUT             output file ('-' = standard output); a regular file is replaced\n"
+    "                     atomically, a symbolic link's target is written, a device or FIFO\n"
+    "                     directly (also for --absorptance)\n";
 
 static void verbose_step(const bst_stack_step *s, void *opaque)
 {
@@ -97,19 +101,20 @@ static int absorptance(bst_ctx *ctx, const char *sub, const struct cli_layers *s
 }
 
 /* --absorptance: one row per channel, side and incident patch: the patch direction (the light's
- * propagation direction), each layer's absorptance, and the system's T and R for the balance. */
-static int write_absorptance(bst_ctx *ctx, const char *sub, const char *path,
+ * propagation direction), each layer's absorptance, and the system's T and R for the balance.
+ * Written into out, opened and flushed here and left for the caller to commit once the system is
+ * written (both files or neither); on an error out is aborted. */
+static int write_absorptance(bst_ctx *ctx, const char *sub, const char *path, struct cli_out *out,
                              const struct cli_layers *set, const bst_layer *sys, double *const abs[2])
 {
     size_t n = set->n, N = bst_basis_size(set->basis);
     double *t = malloc(2 * N * sizeof *t), *r = t ? t + N : NULL;
-    struct cli_out out = {0};
-    int rc = t ? cli_out_open(&out, sub, path) : cli_fail(sub, "out of memory");
+    int rc = t ? cli_out_open(out, sub, path) : cli_fail(sub, "out of memory");
     if (rc == CLI_OK) {
-        fprintf(out.fp, "channel\tside\tpatch\ttheta_deg\tphi_deg");
+        fprintf(out->fp, "channel\tside\tpatch\ttheta_deg\tphi_deg");
         for (size_t i = 0; i < n; i++)
-            fprintf(out.fp, "\tA%zu", i + 1);
-        fprintf(out.fp, "\tT\tR\n");
+            fprintf(out->fp, "\tA%zu", i + 1);
+        fprintf(out->fp, "\tT\tR\n");
     }
     for (size_t ch = 0; rc == CLI_OK && ch < bst_layer_nchannels(sys); ch++) {
         const char *name = bst_layer_channel(sys, ch);
@@ -121,18 +126,18 @@ static int write_absorptance(bst_ctx *ctx, const char *sub, const char *path,
                 double d[3];
                 bst_basis_center(set->basis, j, d);
                 double th = acos(d[2]) * 180 / M_PI, ph = atan2(d[1], d[0]) * 180 / M_PI;
-                fprintf(out.fp, "%s\t%s\t%zu\t%.4f\t%.4f", name, side ? "back" : "front", j, th,
+                fprintf(out->fp, "%s\t%s\t%zu\t%.4f\t%.4f", name, side ? "back" : "front", j, th,
                         ph < 0 ? ph + 360 : ph);
                 for (size_t i = 0; i < n; i++)
-                    fprintf(out.fp, "\t%.8f", a[i * N + j]);
-                fprintf(out.fp, "\t%.8f\t%.8f\n", t[j], r[j]);
+                    fprintf(out->fp, "\t%.8f", a[i * N + j]);
+                fprintf(out->fp, "\t%.8f\t%.8f\n", t[j], r[j]);
             }
         }
     }
     if (rc == CLI_OK)
-        rc = cli_out_commit(&out, sub);
+        rc = cli_out_flush(out, sub); /* a write error shows before the system is written */
     else
-        cli_out_abort(&out);
+        cli_out_abort(out);
     free(t);
     return rc;
 }
@@ -253,7 +258,8 @@ static int read_directions(const char *sub, const char *path, double (**dirs)[2]
         (*dirs)[*n][0] = t, (*dirs)[(*n)++][1] = f;
     }
     if (rc == CLI_OK && ferror(fp))
-        rc = cli_fail(sub, "%s: read error", path);
+        rc = cli_fail(sub, "%s: read error: %s", fp == stdin ? "standard input" : path,
+                      strerror(errno ? errno : EIO));
     if (rc == CLI_OK && *n == 0)
         rc = cli_fail(sub, "%s: no directions", path);
     if (fp != stdin)
@@ -319,6 +325,8 @@ int cmd_combine(int argc, char **argv)
     int rc = CLI_OK;
     if ((ndirs || dirfile) && abspath)
         rc = cli_usage(sub, "--incident and --absorptance do not go together");
+    else if (abspath && strcmp(abspath, outpath) == 0)
+        rc = cli_usage(sub, "--absorptance and -o name the same file, %s", outpath);
     if (rc == CLI_OK && dirfile)
         rc = read_directions(sub, dirfile, &dirs, &ndirs, &cap);
     if (rc != CLI_OK) {
@@ -378,8 +386,9 @@ int cmd_combine(int argc, char **argv)
         if (rc == CLI_OK && abspath)
             rc = absorptance(ctx, sub, &set, sys, &args.so, abs);
     }
+    struct cli_out abs_out = {0};
     if (rc == CLI_OK && abspath)
-        rc = write_absorptance(ctx, sub, abspath, &set, sys, abs);
+        rc = write_absorptance(ctx, sub, abspath, &abs_out, &set, sys, abs);
     /* the layers are dead once the system exists: free them before writing (at k = 7 a dense
      * layer holds 8 GiB that the writer can use) */
     for (size_t i = 0; rc == CLI_OK && i < set.n; i++) {
@@ -389,6 +398,10 @@ int cmd_combine(int argc, char **argv)
     t0 = now_s();
     if (rc == CLI_OK)
         rc = cli_write_layer(ctx, sub, sys, outpath, args.reduce, argc, argv, &set);
+    if (rc == CLI_OK && abspath)
+        rc = cli_out_commit(&abs_out, sub);
+    else
+        cli_out_abort(&abs_out);
     struct stat st_out;
     if (rc == CLI_OK && verbose) {
         char what[64] = "wrote the result";

@@ -64,8 +64,10 @@ static int write_map(bst_ctx *ctx, const char *sub, const char *path, int svg, c
     if (rc != CLI_OK)
         return rc;
     if (cli_hemimap_write(out.fp, svg, &m) < 0) {
+        if ((rc = cli_out_flush(&out, sub)) == CLI_OK) /* a write error is told there */
+            rc = cli_fail(sub, "%s: out of memory drawing the image", path);
         cli_out_abort(&out);
-        return cli_fail(sub, "%s: error writing the image (or out of memory)", path);
+        return rc;
     }
     return cli_out_commit(&out, sub);
 }

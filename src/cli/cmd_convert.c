@@ -26,7 +26,9 @@ static const char help[] =
     "EnergyPlus and RADIANCE read it.  OUT appears only when everything was written.\n"
     "\n"
     "Options:\n"
-    "  -o, --output OUT     output file (required; '-' = standard output)\n"
+    "  -o, --output OUT     output file (required; '-' = standard output): a regular file is\n"
+    "                       replaced atomically, a symbolic link's target is written, a device\n"
+    "                       or FIFO directly\n"
     "  -k, --order K        Shirley-Chiu tensor tree of order K (1..7, 2^K x 2^K patches)\n"
     "      --klems[=WHICH]  Klems basis: full (default), half or quarter\n"
     "      --reduce PCT     tree reduction: merge regions whose variation is below the PCT-th\n"
@@ -216,8 +218,7 @@ write:;
     }
     st = bst_bsdf_write(ctx, lw, co.fp, &o);
     if (st < 0) {
-        cli_out_abort(&co);
-        rc = cli_fail_ctx(sub, strcmp(out, "-") ? out : "standard output", ctx);
+        rc = cli_out_fail_ctx(&co, sub, ctx);
         goto done;
     }
     rc = cli_out_commit(&co, sub);

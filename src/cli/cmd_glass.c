@@ -173,8 +173,6 @@ int cmd_glass(int argc, char **argv)
                 printf("%s\t%g\t%.6f\t%.6f\t%.6f\t%.6f\t%.6f\t%.6f\n", bst_glass_channel(g, idx[k]), d,
                        t, tb, rf, rb, 1 - t - rf, 1 - tb - rb);
             }
-        if (fflush(stdout) != 0 || ferror(stdout))
-            rc = cli_fail(sub, "error writing the table");
     }
     bst_glass_free(g);
     bst_ctx_free(ctx);

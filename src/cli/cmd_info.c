@@ -16,6 +16,16 @@ static const char help[] =
     "incidence at theta = 0, 15, 30, 45, 60, 75 degrees (propagation azimuth 0 and 90), and the\n"
     "energy balance: the largest T + R over all incident patches of each side.\n";
 
+/* Values of a sane file (|v| < INFO_FIXED_MAX) print with 4 decimals; anything a broken file holds,
+ * 1e300 say, as %.4g: one short line rather than 300 digits. */
+#define INFO_FIXED_MAX 1e6
+
+static const char *value(char buf[32], int width, double v)
+{
+    snprintf(buf, 32, fabs(v) < INFO_FIXED_MAX ? "%*.4f" : "%*.4g", width, v);
+    return buf;
+}
+
 int cmd_info(int argc, char **argv)
 {
     const char *sub = "info";
@@ -79,7 +89,10 @@ int cmd_info(int argc, char **argv)
                 double d[3] = {sin(t * M_PI / 180) * cos(p * M_PI / 180) + 1e-9,
                                sin(t * M_PI / 180) * sin(p * M_PI / 180) + 1e-9, cos(t * M_PI / 180)};
                 size_t j = bst_basis_patch(basis, d);
-                printf("%5d %4d %8.4f %7.4f %7.4f %7.4f\n", t, p, h[j], h[n + j], h[2 * n + j], h[3 * n + j]);
+                char v[4][32];
+                printf("%5d %4d %s %s %s %s\n", t, p, value(v[0], 8, h[j]),
+                       value(v[1], 7, h[n + j]), value(v[2], 7, h[2 * n + j]),
+                       value(v[3], 7, h[3 * n + j]));
             }
         for (int side = 0; side < 2; side++) {
             size_t worst = 0;
@@ -87,9 +100,10 @@ int cmd_info(int argc, char **argv)
                 if (h[2 * side * n + j] + h[(2 * side + 1) * n + j] > h[2 * side * n + worst] + h[(2 * side + 1) * n + worst])
                     worst = j;
             double s = h[2 * side * n + worst] + h[(2 * side + 1) * n + worst], d[3];
+            char v[32];
             bst_basis_center(basis, worst, d);
-            printf("energy    %s: largest T + R = %.4f at patch %zu (theta %.1f deg)%s\n",
-                   side ? "back " : "front", s, worst, acos(d[2]) * 180 / M_PI,
+            printf("energy    %s: largest T + R = %s at patch %zu (theta %.1f deg)%s\n",
+                   side ? "back " : "front", value(v, 0, s), worst, acos(d[2]) * 180 / M_PI,
                    s > 1.0 + BST_ENERGY_TOL ? "  ** exceeds 1 **" : "");
         }
     }

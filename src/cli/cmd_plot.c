@@ -38,7 +38,9 @@ static const char help[] =
     "                     angle (radius theta / 90 degrees)\n"
     "  --size PIXELS      diameter of the disk, 64-4096 (default 480)\n"
     "  --format F         png or svg (default: from OUT's extension; png for -o -)\n"
-    "  -o OUT             the image; - writes it to standard output\n";
+    "  -o OUT             the image; - writes it to standard output (a regular file is replaced\n"
+    "                     atomically, a symbolic link's target is written, a device or FIFO\n"
+    "                     directly)\n";
 
 /* ------------------------------------------------------------------ the BSDF, sampled */
 
@@ -256,8 +258,10 @@ int cmd_plot(int argc, char **argv)
     int st = cli_hemimap_write(out.fp, strcmp(format, "svg") == 0, &map);
     if (st == CLI_HEMIMAP_EVALUE)
         rc = cli_fail_ctx(sub, path, ctx);
-    else if (st < 0)
-        rc = cli_fail(sub, "%s: error writing the image (or out of memory)", outpath);
+    else if (st < 0 && (rc = cli_out_flush(&out, sub)) == CLI_OK) /* a write error is told there */
+        rc = cli_fail(sub, "%s: out of memory drawing the image", outpath);
+    if (rc == CLI_OK && info == stdout)
+        rc = cli_stdout_check(sub); /* the image appears only when its summary was printed */
     if (rc == CLI_OK)
         rc = cli_out_commit(&out, sub);
     else

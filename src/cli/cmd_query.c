@@ -2,6 +2,7 @@
  * RADIANCE's libBSDF evaluates it (the public, testable face of the reader). */
 #include <config.h>
 
+#include <errno.h>
 #include <getopt.h>
 #include <math.h>
 #include <stdlib.h>
@@ -23,8 +24,8 @@ static const char help[] =
     "      Tf in_z<0<out_z, Tb out_z<0<in_z, Rf both<0, Rb both>0.\n"
     "      (RADIANCE's bsdfquery reads the same two vectors in the other order: out, then in.)\n"
     "  with --degrees COMP:  theta_in phi_in theta_out phi_out\n"
-    "      angles in degrees of the same two vectors, theta from the normal of the side each\n"
-    "      vector lies on (in: the incidence side of COMP, out: its exit side), phi from +X\n"
+    "      angles in degrees of the same two vectors, theta (0 to 90) from the normal of the side\n"
+    "      each vector lies on (in: the incidence side of COMP, out: its exit side), phi from +X\n"
     "      towards +Y of the vector itself.\n"
     "\n"
     "Options:\n"
@@ -106,6 +107,12 @@ int cmd_query(int argc, char **argv)
             rc = cli_fail(sub, "standard input line %ld: expected %d numbers", lineno, need);
             break;
         }
+        if (comp >= 0 && (v[0] < 0 || v[0] > 90 || v[2] < 0 || v[2] > 90)) {
+            double bad = v[0] < 0 || v[0] > 90 ? v[0] : v[2];
+            rc = cli_fail(sub, "standard input line %ld: theta %g is out of range: give theta_in "
+                          "and theta_out in [0, 90] degrees", lineno, bad);
+            break;
+        }
         if (comp >= 0) {
             double d = M_PI / 180.0;
             double zin = (comp == BST_TF || comp == BST_RF) ? -1.0 : 1.0;
@@ -122,10 +129,14 @@ int cmd_query(int argc, char **argv)
             rc = cli_fail(sub, "standard input line %ld: %s", lineno, bst_ctx_message(ctx));
             break;
         }
-        printf("%.6e\n", f);
+        if (printf("%.6e\n", f) < 0) {
+            rc = cli_stdout_failed(sub, errno);
+            break;
+        }
     }
-    if (rc == CLI_OK && (fflush(stdout) != 0 || ferror(stdout)))
-        rc = cli_fail(sub, "error writing to standard output");
+    /* fgets ends at a read error as at the end: a directory or a closed descriptor is no input */
+    if (rc == CLI_OK && ferror(stdin))
+        rc = cli_fail(sub, "error reading standard input: %s", strerror(errno ? errno : EIO));
     bst_bsdf_free(b);
     bst_ctx_free(ctx);
     return rc;

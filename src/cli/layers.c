@@ -256,8 +256,7 @@ int cli_write_layer(bst_ctx *ctx, const char *sub, const bst_layer *l, const cha
     if (rc == CLI_OK) {
         int st = bst_bsdf_write(ctx, l, out.fp, &wo);
         if (st < 0) {
-            cli_out_abort(&out);
-            rc = cli_fail_ctx(sub, path, ctx);
+            rc = cli_out_fail_ctx(&out, sub, ctx);
         } else {
             rc = cli_out_commit(&out, sub);
         }

@@ -50,7 +50,8 @@ int cmd_version(int argc, char **argv)
     return CLI_OK;
 }
 
-int main(int argc, char **argv)
+/* Run the command argv[1] names; its exit status. */
+static int dispatch(int argc, char **argv, const char **sub)
 {
     if (argc < 2)
         return cli_usage(NULL, "missing command");
@@ -59,10 +60,25 @@ int main(int argc, char **argv)
         print_main_help(stdout);
         return CLI_OK;
     }
-    if (strcmp(argv[1], "--version") == 0 || strcmp(argv[1], "-V") == 0)
+    if (strcmp(argv[1], "--version") == 0 || strcmp(argv[1], "-V") == 0) {
+        *sub = "version";
         return cmd_version(1, argv + 1);
+    }
     for (const struct cli_command *c = cli_commands; c->name; c++)
-        if (strcmp(argv[1], c->name) == 0)
+        if (strcmp(argv[1], c->name) == 0) {
+            *sub = c->name;
             return c->run(argc - 1, argv + 1);
+        }
     return cli_usage(NULL, "unknown command '%s'", argv[1]);
+}
+
+int main(int argc, char **argv)
+{
+    cli_hold_std_fds();
+    const char *sub = NULL;
+    int rc = dispatch(argc, argv, &sub);
+    /* whatever a command printed must have reached standard output: a full disk or a closed
+     * descriptor is a failure, not a silent success */
+    int out = cli_stdout_check(sub);
+    return rc != CLI_OK ? rc : out;
 }
