@@ -368,6 +368,10 @@ bst_file_kind bst_bsdf_kind(const bst_bsdf *b);
 int bst_bsdf_order(const bst_bsdf *b);
 /* Depth of the finest tree cells as stored (above the order when averaged), 0 for Klems files. */
 int bst_bsdf_depth(const bst_bsdf *b);
+/* Share of component c's incident x outgoing domain (as read: stored or by reciprocity) where
+ * the file's value is not zero: a rank-4 tree's measured share, 1 for rank-3 trees and Klems
+ * matrices (their resampling spreads), 0 for a component taken as zero. */
+double bst_bsdf_fill(const bst_bsdf *b, size_t ch, bst_comp c);
 /* Negative values in the file, read as 0. */
 size_t bst_bsdf_negatives(const bst_bsdf *b);
 /* The Klems basis of a Klems file (NULL for trees). */

@@ -307,3 +307,24 @@ int bsti_ttree_expand4(const bsti_ttree *t, int k, double *m)
     expand4(t, 0, 0, c, k, m);
     return BST_OK;
 }
+
+/* Share of the hypercube under node id (of volume vol) where the tree's value is not zero. */
+static double fill(const bsti_ttree *t, uint32_t id, double vol)
+{
+    const struct bsti_tnode *n = &t->nodes[id];
+    if (!n->leaf) {
+        double f = 0;
+        for (uint32_t c = 0; c < (1u << t->dim); c++)
+            f += fill(t, t->kids[n->first + c], vol / (double)(1u << t->dim));
+        return f;
+    }
+    size_t cells = (size_t)1 << (t->dim * n->level), nz = 0;
+    for (size_t i = 0; i < cells; i++)
+        nz += t->values[n->first + i] != 0.0f;
+    return vol * (double)nz / (double)cells;
+}
+
+double bsti_ttree_fill(const bsti_ttree *t)
+{
+    return fill(t, 0, 1.0);
+}

@@ -42,6 +42,9 @@ int bsti_tparse_finish(bsti_tparse *p, bsti_ttree **out);
 void bsti_tparse_free(bsti_tparse *p);
 
 void bsti_ttree_free(bsti_ttree *t);
+/* Share of [0,1)^dim where the tree's value is not zero (the fill of its expansion at any order
+ * at least its depth). */
+double bsti_ttree_fill(const bsti_ttree *t);
 /* Value at p in [0,1)^dim. */
 double bsti_ttree_eval(const bsti_ttree *t, const double *p);
 /* Rank 4 only: the tree on a grid of 2^k cells per dimension, as the column-major N x N matrix

@@ -625,6 +625,17 @@ int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_bsdf_read_opts *opts
 bst_file_kind bst_bsdf_kind(const bst_bsdf *b) { return b->kind; }
 int bst_bsdf_order(const bst_bsdf *b) { return b->kind == BST_FILE_KLEMS ? 0 : b->k; }
 int bst_bsdf_depth(const bst_bsdf *b) { return b->depth; }
+double bst_bsdf_fill(const bst_bsdf *b, size_t ch, bst_comp c)
+{
+    if (ch >= b->nch || (unsigned)c >= BST_NCOMP)
+        return 0.0;
+    int from = bsti_bsdf_stored(b, ch, c) ? (int)c : bsti_bsdf_reciprocal(c);
+    if (from < 0 || !bsti_bsdf_stored(b, ch, from))
+        return 0.0;
+    if (b->tree[ch][from])
+        return b->tree[ch][from]->dim == 4 ? bsti_ttree_fill(b->tree[ch][from]) : 1.0;
+    return 1.0;
+}
 size_t bst_bsdf_negatives(const bst_bsdf *b) { return b->negatives; }
 const bst_basis *bst_bsdf_klems_basis(const bst_bsdf *b) { return b->klems; }
 size_t bst_bsdf_nchannels(const bst_bsdf *b) { return b->nch; }

@@ -144,4 +144,19 @@ expect_error "facing near-mirrors under --strict" "T \+ R, channel Visible, is [
 lambertian 0.001 0.99 "$tmpdir/good.xml"
 expect_status 0 "facing 0.99 reflectors" -- "$BSDFSTACK" combine -k 3 "$tmpdir/good.xml" "$tmpdir/good.xml" -o "$tmpdir/gg.xml"
 [ ! -s "$tmpdir/err" ] && pass "no warning when energy is conserved" || fail "spurious warning: $(cat "$tmpdir/err")"
+# The memory guard: an estimate beyond --max-memory is refused before any work, in one line
+# naming the need and the limit, with no output; a generous limit changes nothing.
+expect_error "--max-memory below the need" "k = 4 needs about [0-9.]+ GiB \(4 dense components of [0-9.]+ GiB and the combination's work\), more than the 0.00781 GiB --max-memory allows: use a lower -k, --precision single or --only" -- \
+    "$BSDFSTACK" combine -k 4 --max-memory 8M glass:clear-6mm "$ref/L_diffuser_t3k5.xml" -o "$tmpdir/mem.xml"
+[ ! -e "$tmpdir/mem.xml" ] && pass "no output when refused for memory" || fail "output written though refused for memory"
+expect_status 0 "--max-memory above the need" -- \
+    "$BSDFSTACK" combine -k 3 --max-memory 2GiB glass:clear-6mm "$ref/L_diffuser_t3k5.xml" -o "$tmpdir/mem.xml"
+expect_error "--max-memory with a bad size" "--max-memory 12x: give a size such as 16G" -- \
+    "$BSDFSTACK" combine -k 3 --max-memory 12x glass:clear-6mm -o "$tmpdir/mem2.xml"
+# a specular tree is counted sparse: the three reference layers at k = 5 need 4 dense components
+"$BSDFSTACK" combine -k 5 --max-memory 1M "$ref/L_glass_t4k5.xml" "$ref/L_blind0_t4k5.xml" \
+    "$ref/L_glass_t4k5.xml" -o "$tmpdir/mem3.xml" 2>"$tmpdir/err"
+grep -q "k = 5 needs about 0.07[0-9]* GiB (4 dense components of 0.00781 GiB" "$tmpdir/err" \
+    && pass "specular trees are counted sparse" || fail "memory estimate of S1: $(cat "$tmpdir/err")"
+
 finish

@@ -116,4 +116,8 @@ expect_status 0 "a tree with a negative value" -- "$BSDFSTACK" convert -k 1 "$tm
 grep -q "warning: $tmpdir/neg.xml: 1 negative value read as 0" "$tmpdir/err" \
     && pass "negative values are a warning" || fail "no warning for a negative value: $(cat "$tmpdir/err")"
 
+expect_error "convert --max-memory below the need" "k = 6 needs about 0.6[0-9]* GiB \(4 dense components of 0.125 GiB\), more than the 0.0977 GiB --max-memory allows: use a lower -k;" -- \
+    "$BSDFSTACK" convert -k 6 --max-memory 100M "$ref/L_diffuser_t3k5.xml" -o "$tmpdir/mem.xml"
+[ ! -e "$tmpdir/mem.xml" ] && pass "convert: no output when refused for memory" || fail "convert: output though refused"
+
 finish

@@ -16,7 +16,7 @@ static const char help[] =
     "Usage: bsdfstack batch [-k K | --klems[=full|half|quarter]] [--only Tf,Rf,Tb,Rb]\n"
     "                       [--channels NAMES] [--precision double|single] [--drop-tol X]\n"
     "                       [--reduce PCT | --no-reduce] [--dense] [--per-channel] [--strict]\n"
-    "                       FILE\n"
+    "                       [--max-memory SIZE] FILE\n"
     "Combines many stacks, one per line of FILE ('-' = standard input):\n"
     "  OUT LAYER LAYER...\n"
     "the output file, then the layers, exterior first, as `bsdfstack combine` takes them\n"
@@ -234,6 +234,9 @@ int cmd_batch(int argc, char **argv)
         rc = CLI_FAIL;
     struct cli_layers all;
     memset(&all, 0, sizeof all);
+    args.basis.combining = 1;
+    args.basis.work = args.so.precision;
+    args.basis.lower = "a lower -k, --precision single or --only";
     if (rc == CLI_OK)
         rc = cli_layers_load(&all, ctx, sub, nspecs, specs, &args.basis, args.channels, 0,
                              args.so.precision);

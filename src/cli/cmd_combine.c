@@ -18,7 +18,8 @@ static const char help[] =
     "Usage: bsdfstack combine [-k K | --klems[=full|half|quarter]] [--only Tf,Rf,Tb,Rb]\n"
     "                         [--channels NAMES] [--precision double|single] [--drop-tol X]\n"
     "                         [--reduce PCT | --no-reduce] [--dense] [--absorptance FILE]\n"
-    "                         [--per-channel] [--strict] [--incident THETA,PHI]...\n"
+    "                         [--per-channel] [--strict] [--max-memory SIZE]\n"
+    "                         [--incident THETA,PHI]...\n"
     "                         [--incident-file FILE] [-v] -o OUT LAYER LAYER...\n"
     "Combines the layers, listed exterior first, with every inter-reflection between them, and\n"
     "writes the system's BSDF as BSDF XML.  When every layer is a pane with spectral data, the\n"
@@ -47,6 +48,8 @@ static const char help[] =
     "                     side, patch, theta, phi of the propagation direction, A1..An, T, R)\n"
     "  --per-channel      combine band values even when every layer is spectral\n"
     "  --strict           ill-conditioning and energy imbalance (input or system) are errors\n"
+    "  --max-memory SIZE  refuse when the estimated peak exceeds SIZE (16G, 800M; default: the\n"
+    "                     memory available now)\n"
     "  --incident T,P     only this incidence direction (repeatable): iterate the light between\n"
     "                     the layers for its columns (--only's components) and write them as TSV\n"
     "                     (channel, comp, theta_in, phi_in, patch_in, patch_out, theta_out, phi_out,\n"
@@ -343,6 +346,9 @@ int cmd_combine(int argc, char **argv)
     }
     struct cli_layers set;
     double t0 = now_s();
+    args.basis.combining = ndirs == 0; /* columns (--incident) need little beyond the layers */
+    args.basis.work = args.so.precision;
+    args.basis.lower = "a lower -k, --precision single or --only";
     rc = cli_layers_load(&set, ctx, sub, (size_t)(argc - optind), argv + optind, &args.basis,
                              args.channels, 0, args.so.precision);
     if (rc == CLI_OK && verbose) {

@@ -84,7 +84,7 @@ int cmd_compare(int argc, char **argv)
                                              {NULL, 0, NULL, 0}};
     const char *sub = "compare", *channel = NULL, *mappath = NULL;
     int map_svg = 0;
-    struct cli_basis_choice choice = {0, NULL};
+    struct cli_basis_choice choice = {0};
     unsigned comps = 0;
     double dirs[MAX_DIRS][2], fail_below = -INFINITY;
     size_t ndirs = 0;

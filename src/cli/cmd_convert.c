@@ -39,6 +39,8 @@ static const char help[] =
     "      --digits N       significant digits per value (default: as many as read back exactly)\n"
     "      --channels NAMES only these spectral channels (comma-separated)\n"
     "      --name NAME      the Material Name written (default: the input file's name)\n"
+    "      --max-memory SIZE refuse when the estimated need exceeds SIZE (16G, 800M; default:\n"
+    "                       the memory available now)\n"
     "  -v, --verbose        one line per written block on standard error: values, bytes and\n"
     "                       the reduction's error (L1, largest, hemispherical)\n"
     "  -h, --help           this text\n";
@@ -71,13 +73,15 @@ static void report(const bst_bsdf_write_block *b, void *opaque)
 
 int cmd_convert(int argc, char **argv)
 {
-    enum { OPT_KLEMS = 256, OPT_REDUCE, OPT_NO_REDUCE, OPT_RANK, OPT_DIGITS, OPT_NAME, OPT_CHANNELS };
+    enum { OPT_KLEMS = 256, OPT_REDUCE, OPT_NO_REDUCE, OPT_RANK, OPT_DIGITS, OPT_NAME, OPT_CHANNELS,
+           OPT_MAXMEM };
     static const struct option longopts[] = {
         {"output", required_argument, NULL, 'o'}, {"order", required_argument, NULL, 'k'},
         {"klems", optional_argument, NULL, OPT_KLEMS}, {"reduce", required_argument, NULL, OPT_REDUCE},
         {"no-reduce", no_argument, NULL, OPT_NO_REDUCE}, {"rank", required_argument, NULL, OPT_RANK},
         {"digits", required_argument, NULL, OPT_DIGITS}, {"name", required_argument, NULL, OPT_NAME},
         {"channels", required_argument, NULL, OPT_CHANNELS},
+        {"max-memory", required_argument, NULL, OPT_MAXMEM},
         {"verbose", no_argument, NULL, 'v'}, {"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}};
     const char *sub = "convert", *out = NULL, *name = NULL, *channels = NULL;
     struct cli_basis_choice basis = {0};
@@ -111,6 +115,10 @@ int cmd_convert(int argc, char **argv)
                 return cli_usage(sub, "--digits %s: use 1 to 17", optarg);
             break;
         case OPT_NAME: name = optarg; break;
+        case OPT_MAXMEM:
+            if (cli_parse_memory(sub, optarg, &basis.max_memory) != CLI_OK)
+                return CLI_USAGE;
+            break;
         case 'v': verbose.on = 1; break;
         case 'h': fputs(help, stdout); return CLI_OK;
         case ':': return cli_usage(sub, "option %s needs a value", argv[optind - 1]);
@@ -179,6 +187,18 @@ int cmd_convert(int argc, char **argv)
         bst_basis_equal(target, bst_bsdf_klems_basis(b))) {
         bst_basis_free(target);
         target = NULL;
+    }
+    if (st >= 0) {
+        bst_basis *own_basis = NULL;
+        if (!target && bst_bsdf_kind(b) != BST_FILE_KLEMS)
+            st = bst_basis_new_sc(ctx, bst_bsdf_order(b), &own_basis);
+        const bst_basis *at = target ? target : own_basis ? own_basis : bst_bsdf_klems_basis(b);
+        if (st >= 0 && cli_memory_check(sub, at, 1, &b, 0, BST_DOUBLE, &basis) != CLI_OK) {
+            bst_basis_free(own_basis);
+            rc = CLI_FAIL;
+            goto done;
+        }
+        bst_basis_free(own_basis);
     }
     if (st >= 0)
         st = bst_bsdf_to_layer(ctx, b, target, &l);

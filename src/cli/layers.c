@@ -1,6 +1,9 @@
 /* layers.c - see layers.h. */
 #include <config.h>
 
+#include <ctype.h>
+#include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
@@ -63,8 +66,116 @@ int cli_stack_option(const char *sub, int c, const char *arg, struct cli_stack_a
     case CLI_O_DENSE: a->so.force_dense = 1; return CLI_OK;
     case CLI_O_STRICT: a->so.strict = 1; return CLI_OK;
     case CLI_O_PERCH: a->per_channel = 1; return CLI_OK;
+    case CLI_O_MAXMEM: return cli_parse_memory(sub, arg, &a->basis.max_memory);
     default: return -1;
     }
+}
+
+int cli_parse_memory(const char *sub, const char *value, double *bytes)
+{
+    char *end;
+    double v = strtod(value, &end);
+    static const char units[] = "KMGT";
+    const char *u = *end ? strchr(units, toupper((unsigned char)*end)) : NULL;
+    if (u && *u) {
+        v *= pow(1024.0, (double)(u - units + 1));
+        end++;
+        if (toupper((unsigned char)*end) == 'B' || *end == 'i') /* 16G, 16GB, 16GiB */
+            end += *end == 'i' ? 1 + (end[1] == 'B') : 1;
+    }
+    if (end == value || *end || !(v > 0) || !isfinite(v))
+        return cli_usage(sub, "--max-memory %s: give a size such as 16G, 800M or 2000000000", value);
+    *bytes = v;
+    return CLI_OK;
+}
+
+/* The memory this process may still take: MemAvailable, or the cgroup's limit less its use when
+ * lower; 0 when neither can be read. */
+static double memory_available(void)
+{
+    double avail = 0;
+    FILE *fp = fopen("/proc/meminfo", "r");
+    if (fp) {
+        char line[256];
+        unsigned long long kb;
+        while (fgets(line, sizeof line, fp))
+            if (sscanf(line, "MemAvailable: %llu kB", &kb) == 1)
+                avail = 1024.0 * (double)kb;
+        fclose(fp);
+    }
+    double lim = 0, use = 0;
+    fp = fopen("/sys/fs/cgroup/memory.max", "r");
+    if (fp) {
+        if (fscanf(fp, "%lf", &lim) != 1)
+            lim = 0; /* "max": no limit */
+        fclose(fp);
+    }
+    fp = fopen("/sys/fs/cgroup/memory.current", "r");
+    if (fp) {
+        if (fscanf(fp, "%lf", &use) != 1)
+            use = 0;
+        fclose(fp);
+    }
+    if (lim > 0 && (avail == 0 || lim - use < avail))
+        avail = lim - use > 0 ? lim - use : 1;
+    return avail;
+}
+
+/* Bytes the work needs at its peak, by the model measured in bench/README.md: a component a
+ * file's layer holds is dense (N^2 values of the read precision) unless the file's values fill
+ * at most BST_SPARSE_MAX_FILL of its domain (specular trees: sparse, 16 bytes a value); the
+ * conversion adds one double grid; a combination adds 3 N^2 values of the work precision (the
+ * partial system, the step being formed, the solve's factor); 16 MiB for the rest. */
+static double memory_need(const bst_basis *basis, size_t n, bst_bsdf *const *files, unsigned comps,
+                          bst_precision prec, const struct cli_basis_choice *choice, size_t *ndense)
+{
+    double cells = (double)bst_basis_size(basis) * (double)bst_basis_size(basis);
+    size_t held = 0;
+    double sparse = 0; /* bytes of components that come out sparse (value and index each) */
+    for (size_t i = 0; i < n; i++) {
+        if (!files[i])
+            continue;
+        for (size_t ch = 0; ch < bst_bsdf_nchannels(files[i]); ch++)
+            for (int c = 0; c < BST_NCOMP; c++) {
+                double f = !comps || (comps & BST_COMP_BIT(c)) ? bst_bsdf_fill(files[i], ch, (bst_comp)c) : 0;
+                if (f > BST_SPARSE_MAX_FILL)
+                    held++;
+                else
+                    sparse += 16.0 * f * cells;
+            }
+    }
+    *ndense = held;
+    double need = 16.0 * 1048576.0 + sparse;
+    if (held == 0)
+        return need;
+    need += cells * ((double)held * (prec == BST_FLOAT ? 4.0 : 8.0) + 8.0);
+    if (choice->combining)
+        need += 3.0 * cells * (choice->work == BST_FLOAT ? 4.0 : 8.0);
+    return need;
+}
+
+int cli_memory_check(const char *sub, const bst_basis *basis, size_t n, bst_bsdf *const *files,
+                     unsigned comps, bst_precision prec, const struct cli_basis_choice *choice)
+{
+    size_t held;
+    double need = memory_need(basis, n, files, comps, prec, choice, &held);
+    double limit = choice->max_memory > 0 ? choice->max_memory : memory_available();
+    if (limit <= 0 || need <= limit)
+        return CLI_OK;
+    double gib = 1073741824.0;
+    char where[64];
+    if (bst_basis_kind_of(basis) == BST_BASIS_SHIRLEY_CHIU)
+        snprintf(where, sizeof where, "k = %d", bst_basis_order(basis));
+    else
+        snprintf(where, sizeof where, "%s", bst_basis_name(basis));
+    return cli_fail(sub, "%s needs about %.3g GiB (%zu dense component%s of %.3g GiB%s), more than "
+                    "the %.3g GiB %s: use %s; or raise the limit with --max-memory SIZE", where,
+                    need / gib, held, held == 1 ? "" : "s",
+                    (double)bst_basis_size(basis) * (double)bst_basis_size(basis) *
+                        (prec == BST_FLOAT ? 4.0 : 8.0) / gib,
+                    choice->combining ? " and the combination's work" : "", limit / gib,
+                    choice->max_memory > 0 ? "--max-memory allows" : "available",
+                    choice->lower ? choice->lower : "a lower -k");
 }
 
 void cli_layers_free(struct cli_layers *set)
@@ -181,6 +292,8 @@ int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_
         rc = cli_fail_ctx(sub, NULL, ctx);
         goto out;
     }
+    if ((rc = cli_memory_check(sub, set->basis, n, files, comps, prec, choice)) != CLI_OK)
+        goto out;
     /* 3. every layer over that basis, reversed where asked */
     for (size_t i = 0; i < n && rc == CLI_OK; i++) {
         size_t len = strlen(specs[i]);

@@ -5,10 +5,25 @@
 
 #include "bsdfstack.h"
 
+/* How layers are loaded: the basis, and the memory they and what follows may take. */
 struct cli_basis_choice {
     int k;             /* Shirley-Chiu order, 0 = not given */
     const char *klems; /* "full", "half", "quarter" or NULL */
+    double max_memory; /* --max-memory (bytes); 0 = the memory available now */
+    int combining;     /* 1: the layers are combined next, in `work` precision */
+    bst_precision work;
+    const char *lower; /* the options that lower the need, for the message; NULL = "-k" */
 };
+
+/* The memory guard: the peak a command will need (the layers read from files over `basis`, the
+ * conversion's grid, the combination's work when choice->combining), estimated as in
+ * bench/README.md, against choice->max_memory or the memory available (MemAvailable, or a
+ * cgroup's limit when lower).  CLI_OK when it fits; else one error line naming the need, the
+ * limit and the options that lower the need, and CLI_FAIL. */
+int cli_memory_check(const char *sub, const bst_basis *basis, size_t n, bst_bsdf *const *files,
+                     unsigned comps, bst_precision prec, const struct cli_basis_choice *choice);
+/* Parse SIZE: bytes, or a number with K, M, G or T (powers of 1024); CLI_OK or a usage error. */
+int cli_parse_memory(const char *sub, const char *value, double *bytes);
 
 struct cli_layers {
     size_t n;
@@ -28,7 +43,7 @@ int cli_parse_basis_option(const char *sub, int opt, const char *value, struct c
  * long options below, listed in a getopt_long table by CLI_STACK_LONGOPTS; a command's own long
  * options start at CLI_O_OWN. */
 enum { CLI_O_KLEMS = 256, CLI_O_ONLY, CLI_O_CHANNELS, CLI_O_PRECISION, CLI_O_DROP, CLI_O_REDUCE,
-       CLI_O_NOREDUCE, CLI_O_DENSE, CLI_O_STRICT, CLI_O_PERCH, CLI_O_OWN };
+       CLI_O_NOREDUCE, CLI_O_DENSE, CLI_O_STRICT, CLI_O_PERCH, CLI_O_MAXMEM, CLI_O_OWN };
 #define CLI_STACK_LONGOPTS                                                                         \
     {"klems", optional_argument, NULL, CLI_O_KLEMS}, {"only", required_argument, NULL, CLI_O_ONLY},  \
     {"channels", required_argument, NULL, CLI_O_CHANNELS},                                          \
@@ -36,7 +51,8 @@ enum { CLI_O_KLEMS = 256, CLI_O_ONLY, CLI_O_CHANNELS, CLI_O_PRECISION, CLI_O_DRO
     {"drop-tol", required_argument, NULL, CLI_O_DROP},                                              \
     {"reduce", required_argument, NULL, CLI_O_REDUCE},                                              \
     {"no-reduce", no_argument, NULL, CLI_O_NOREDUCE}, {"dense", no_argument, NULL, CLI_O_DENSE},     \
-    {"strict", no_argument, NULL, CLI_O_STRICT}, {"per-channel", no_argument, NULL, CLI_O_PERCH}
+    {"strict", no_argument, NULL, CLI_O_STRICT}, {"per-channel", no_argument, NULL, CLI_O_PERCH},   \
+    {"max-memory", required_argument, NULL, CLI_O_MAXMEM}
 
 struct cli_stack_args {
     struct cli_basis_choice basis;
