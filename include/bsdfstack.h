@@ -402,7 +402,7 @@ typedef enum { BST_RANK_AUTO = 0, BST_RANK_3 = 3, BST_RANK_4 = 4 } bst_tree_rank
 #define BST_REDUCE_FLOOR 0.03
 /* TensorTree3 only when every incident patch keeps this flux accordance FA (%) in rank 3. */
 #define BST_ISO_FA_MIN 99.0
-/* A tree transmission is left out when |Tf(o,i) - Tb(a(i),a(o))| <= recip_tol max|T| everywhere. */
+/* A tree transmission is left out when bst_metrics_reciprocity's error is <= recip_tol. */
 #define BST_RECIP_TOL 1e-6
 /* Corrections of a rank-3 tensor built from a grid matrix (see iso_refine). */
 #define BST_ISO_REFINE 3
