@@ -438,9 +438,9 @@ END_TEST
  *   T_{n+1} = T_n T1 / (1 - R_n R1),  R_{n+1} = R_n + T_n^2 R1 / (1 - R_n R1)
  * (a symmetric pane: Rf = Rb), at normal incidence (patch 0) and at 50 degrees (patch 69), both on
  * the diagonal path and forced dense.  Error growth: the recursion and the library round
- * differently at each of the N - 1 steps; the measured largest relative difference is at most
- * 2.4e-15 at N = 20 (Klems full, both paths), about N eps / 2 for T and less for R (which stays
- * near its limit), i.e. linear growth of a few eps per pane; the bound held is 4 N eps. */
+ * differently at each of the N - 1 steps; the largest relative difference measured (T, Rf, Rb,
+ * both patches, both paths alike) is 2.0, 3.8, 7.7 and 13.8 eps at N = 2, 5, 10 and 20: linear
+ * growth, about 0.7 eps per pane; the bound held is 4 N eps. */
 START_TEST(test_n_panes)
 {
     bst_basis *b = klems("full");
@@ -675,8 +675,10 @@ END_TEST
 
 /* Pane + the reference rank-3 diffuser + pane at k = 5 (1024 patches, dense) in single and in
  * double precision: the directional-hemispherical T and R of every incident patch, both sides,
- * agree to 1e-5 relative (measured: up to 1.2e-6), and every column's global accordance GA is
- * above 100 - 1e-6 %. */
+ * agree to 1e-5 relative (measured: 5.8e-7), and every column's global accordance GA is above
+ * 100 - 1e-6 % (measured: 100 - 2.3e-10).  At k = 6 the same stack differs by 7.2e-7 relative in
+ * hemispherical values and 5.8e-6 of the largest value element by element (Tf, Tb), least GA
+ * 100 - 2.7e-10. */
 START_TEST(test_single_double)
 {
     bst_basis *b = sc(5);
