@@ -342,6 +342,15 @@ int bst_metrics_accordance(bst_ctx *ctx, const bst_layer *a, const bst_layer *b,
 /* GA and FA (either may be NULL) for every incident patch: N values each. */
 int bst_metrics_accordance_all(bst_ctx *ctx, const bst_layer *a, const bst_layer *b, size_t ch,
                                bst_comp c, double *ga, double *fa);
+/* Reciprocity error of the transmissions of channel ch: reciprocity (f(in, out) = f(out, in)) reads
+ * Tf(o, i) = Tb(a(i), a(o)) in this header's index convention, a = bst_basis_antipode, with no
+ * Lambda weights (a patch and its antipode have the same projected solid angle);
+ *   *err = max over (o, i) of |Tf(o, i) - Tb(a(i), a(o))| / max(max|Tf|, max|Tb|)
+ * (0 when both are zero; an absent component counts as zero), and the incident and outgoing
+ * patch of Tf where that maximum is (either may be NULL).  A transmission derived from the other
+ * by reciprocity scores 0; BST_EINVAL for non-finite values. */
+int bst_metrics_reciprocity(bst_ctx *ctx, const bst_layer *l, size_t ch, double *err,
+                            size_t *incident, size_t *outgoing);
 
 /* -------------------------------------------------- BSDF XML reader: xml.c, ttree.c, resample.c */
 
@@ -404,7 +413,7 @@ typedef enum { BST_RANK_AUTO = 0, BST_RANK_3 = 3, BST_RANK_4 = 4 } bst_tree_rank
 #define BST_REDUCE_FLOOR 0.03
 /* TensorTree3 only when every incident patch keeps this flux accordance FA (%) in rank 3. */
 #define BST_ISO_FA_MIN 99.0
-/* A tree transmission is left out when |Tf(o,i) - Tb(a(i),a(o))| <= recip_tol max|T| everywhere. */
+/* A tree transmission is left out when bst_metrics_reciprocity's error is <= recip_tol. */
 #define BST_RECIP_TOL 1e-6
 /* Corrections of a rank-3 tensor built from a grid matrix (see iso_refine). */
 #define BST_ISO_REFINE 3

@@ -208,6 +208,9 @@ int bst_stack_columns(bst_ctx *ctx, size_t n, const bst_layer *const *layers, co
         if (!*m)
             rc = bst_mat_new_zero(ctx, N, ncols, m);
     }
+    if (rc >= 0 && (!bst_mat_all_finite(*tf) || !bst_mat_all_finite(*rf))) /* products overflow */
+        rc = bsti_error(ctx, BST_EINVAL, "columns: the result overflows double: input values too "
+                        "large");
 #undef COMP
 #undef LAYER
     for (size_t g = 0; D && g < 2 * G; g++)

@@ -12,11 +12,13 @@
  *   r_s = ((cos(theta) - n cos(theta')) / (cos(theta) + n cos(theta')))^2,
  *   r_p = ((n cos(theta) - cos(theta')) / (n cos(theta) + cos(theta')))^2,
  *   T_x = tau (1 - r_x)^2 / (1 - tau^2 r_x^2),  R_x = r_x (1 + tau T_x),  T, R = means over s, p.
- * This is the incoherent slab with two identical interfaces and bulk absorption.  Thickness and
- * wavelength enter only through T0 and R0 (an inline pane given by its extinction coefficient K and
- * thickness d has tau0 = exp(-K d)).  Special cases as WCE: theta = 0 gives the measured values,
- * T0 = 0 a bare interface with rho0 = R0 (T = 0), rho0 = 0 or T0 = 1 no angular dependence,
- * theta = 90 deg T = 0 and R = 1; where rounding makes T + R > 1 the larger gives way.
+ * Both steps are evaluated in forms without cancellation (bsti_glass_side_init, _optics), which
+ * stay accurate down to near-mirrors (T0 = 1e-10, R0 = 1 - 1e-10) where the textbook ones keep no
+ * digit.  This is the incoherent slab with two identical interfaces and bulk absorption.
+ * Thickness and wavelength enter only through T0 and R0 (an inline pane given by its extinction
+ * coefficient K and thickness d has tau0 = exp(-K d)).  Special cases as WCE: theta = 0 gives the
+ * measured values, T0 = 0 a bare interface with rho0 = R0 (T = 0), rho0 = 0 or T0 = 1 no angular
+ * dependence, theta = 90 deg T = 0 and R = 1; where rounding makes T + R > 1 the larger gives way.
  *
  * A channel is a weighted sum of the model over nodes (struct bsti_glass_channel in glass.h): one
  * node for a band given by its normal-incidence values, the wavelengths of a band's grid with their
@@ -33,25 +35,42 @@
 
 /* ------------------------------------------------------------------ the slab model */
 
+/* Written in u = 1 - R0 (exact for R0 >= 1/2) and d = T0^2 - u^2 = (T0 - u)(T0 + u), the
+ * quadratic has b = 2 + d and 4 a c = 4 (1 - u^2), so its discriminant is the sum of squares
+ * S^2 = 4 T0^2 + d^2 and nothing is subtracted:
+ *   rho0     = 2 R0 / (2 + d + S)
+ *   1 - rho0 = (T0^2 + u (2 - u) + S) / (2 + d + S)          (n = (1 + sqrt rho0)^2 / (1 - rho0))
+ *   tau0     = (S + d) / (2 T0) = 2 T0 / (S - d)             (R0 - rho0 = R0 (S + d) / (2 + d + S))
+ *   1 - tau0 = -d (1 - d / (S + 2 T0)) / (S - d)             (S - 2 T0 = d^2 / (S + 2 T0))
+ * with d <= 0 for every pane that absorbs (T0 + R0 <= 1); d > 0 only through rounding, tau0 = 1.
+ * A near-mirror's T at an angle hangs on 1 - tau0 and 1 - rho0, both of the order of T0: the
+ * old forms (b^2 - 4 a c, R0 - rho0, 1 - sqrt(rho0)) lost all their digits at T0 = 1e-8. */
 int bsti_glass_side_init(struct bsti_glass_side *s, double t0, double r0)
 {
     if (!(t0 >= 0.0 && r0 >= 0.0 && r0 < 1.0 && t0 <= 1.0))
         return -1;
     s->t0 = t0, s->r0 = r0;
-    /* smaller root of a rho^2 - b rho + c (b > 0), in the form without cancellation */
-    double a = 2.0 - r0, b = t0 * t0 - r0 * r0 + 2.0 * r0 + 1.0, c = r0;
-    double disc = b * b - 4.0 * a * c;
-    if (disc < 0.0)
-        return -1;
-    s->rho0 = c > 0.0 ? 2.0 * c / (b + sqrt(disc)) : 0.0;
-    if (t0 == 0.0) /* opaque: a bare interface of reflectance R0 */
-        s->rho0 = r0;
+    double u = 1.0 - r0, d = (t0 - u) * (t0 + u), S = hypot(2.0 * t0, d), den = 2.0 + d + S;
+    double omr, omt; /* 1 - rho0, 1 - tau0 */
+    if (t0 == 0.0) { /* opaque: a bare interface of reflectance R0 */
+        s->rho0 = r0, omr = u;
+        s->tau0 = 0.0, omt = 1.0;
+    } else {
+        s->rho0 = 2.0 * r0 / den;
+        omr = (t0 * t0 + u * (2.0 - u) + S) / den;
+        if (d >= 0.0) /* a non-absorbing pane, or above 1 through rounding */
+            s->tau0 = 1.0, omt = 0.0;
+        else
+            s->tau0 = 2.0 * t0 / (S - d), omt = -d * (1.0 - d / (S + 2.0 * t0)) / (S - d);
+    }
+    if (s->rho0 == 0.0) /* no interface: no angular dependence (bsti_glass_side_optics) */
+        s->tau0 = 0.0, omt = 1.0;
     double sr = sqrt(s->rho0);
-    s->n = (1.0 + sr) / (1.0 - sr);
-    if (t0 == 0.0 || s->rho0 == 0.0 || r0 == s->rho0)
-        s->tau0 = 0.0;
-    else /* above 1 only through rounding of a non-absorbing pane */
-        s->tau0 = fmin(1.0, (r0 - s->rho0) / (t0 * s->rho0));
+    s->n = (1.0 + sr) * (1.0 + sr) / omr;
+    if (s->tau0 == 0.0)
+        s->ltau0 = -INFINITY;
+    else /* whichever of tau0 and 1 - tau0 is the smaller holds the digits */
+        s->ltau0 = omt < 0.5 ? log1p(-omt) : log(s->tau0);
     return 0;
 }
 
@@ -71,19 +90,22 @@ void bsti_glass_side_optics(const struct bsti_glass_side *s, double theta, doubl
         return;
     }
     double n = s->n, st = sin(theta) / n, ct = sqrt((1.0 - st) * (1.0 + st));
-    double tau = s->tau0 > 0.0 ? pow(s->tau0, 1.0 / ct) : 0.0;
-    /* Fresnel r = ((a - b) / (a + b))^2 with (a, b) = (cos i, n cos t) for s, (n cos i, cos t) for p.
+    /* tau = tau0^(1 / cos t) and 1 - tau from log(tau0): a near-mirror's 1 - tau is ~T0 */
+    double e = s->ltau0 / ct, tau = exp(e), omt = -expm1(e);
+    /* Fresnel r = ((a - b) / (a + b))^2, (a, b) = (cos i, n cos t) for s, (n cos i, cos t) for p.
      * Its complement 1 - r = 4 a b / (a + b)^2 and 1 - tau r = (1 - tau) + tau (1 - r) are formed
      * without cancellation: towards 90 degrees r -> 1 and the textbook form 1 - tau^2 r^2 of a
-     * non-absorbing pane would lose every digit (0 / 0 at the last representable angle). */
+     * non-absorbing pane would lose every digit (0 / 0 at the last representable angle), and so
+     * would a near-mirror's (n up to 1e10 and more) at every angle.  The quotients are taken
+     * before the product so that (a + b)^2 cannot overflow. */
     const double a[2] = {ci, n * ci}, b[2] = {n * ct, ct};
     double tt = 0.0, rr = 0.0;
     for (int x = 0; x < 2; x++) {
         double sum = a[x] + b[x], q = (a[x] - b[x]) / sum;
-        double rx = q * q, cx = 4.0 * a[x] * b[x] / (sum * sum);
+        double rx = q * q, cx = 4.0 * (a[x] / sum) * (b[x] / sum);
         double tx = 0.0, rrx = rx;
         if (tau > 0.0 && cx > 0.0) {
-            tx = tau * cx * cx / (((1.0 - tau) + tau * cx) * (1.0 + tau * rx));
+            tx = tau * cx * cx / ((omt + tau * cx) * (1.0 + tau * rx));
             rrx = rx * (1.0 + tau * tx);
         }
         tt += 0.5 * tx, rr += 0.5 * rrx;

@@ -28,6 +28,8 @@ struct bsti_glass_side {
     double rho0;    /* reflectance of one interface at normal incidence */
     double n;       /* refractive index */
     double tau0;    /* single-pass internal transmittance at normal incidence */
+    double ltau0;   /* log(tau0) from 1 - tau0 (-inf when tau0 = 0): keeps a near-mirror's
+                       1 - tau^(1 / cos t) exact through expm1 */
 };
 
 /* Measured normal-incidence spectrum of a pane (wavelength in um). */

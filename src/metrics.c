@@ -1,6 +1,8 @@
 /* metrics.c - comparisons of BSDFs: global and local accordance (Grobe 2017, eq. 6-8) and flux
  * accordance of the light scattered for one incident patch or for each (see
- * bst_metrics_accordance in bsdfstack.h).  Hemispherical integrals are in layer.c (bst_layer_hemispherical). */
+ * bst_metrics_accordance in bsdfstack.h), and how far a layer's two transmissions are from
+ * reciprocity (bst_metrics_reciprocity).  Hemispherical integrals are in layer.c
+ * (bst_layer_hemispherical). */
 #include <config.h>
 
 #include <math.h>
@@ -9,6 +11,7 @@
 
 #include "ctx.h"
 #include "layer.h"
+#include "mat.h"
 
 /* The arguments both entry points share. */
 static int check_args(bst_ctx *ctx, const bst_layer *a, const bst_layer *b, size_t ch, bst_comp c)
@@ -76,4 +79,60 @@ int bst_metrics_accordance_all(bst_ctx *ctx, const bst_layer *a, const bst_layer
         rc = column(ctx, ma, mb, bst_basis_lambda(a->basis), n, j, ga ? ga + j : NULL,
                     fa ? fa + j : NULL, NULL);
     return rc;
+}
+
+/* ------------------------------------------------------------------ reciprocity */
+
+/* Element (o, i) of m, 0 for an absent or zero matrix. */
+static double element(const bst_mat *m, size_t o, size_t i)
+{
+    if (!m || m->s == BST_ZERO)
+        return 0.0;
+    return m->s == BST_DENSE ? bsti_dense_get(m, o, i) : bst_mat_get(m, o, i);
+}
+
+/* Reciprocity of the BSDF, f(in, out) = f(out, in), in the index convention of bsdfstack.h:
+ * light crossing from the front along propagation direction p and leaving along e has Tf's
+ * incident patch P(p) and outgoing patch P(e); the reverse path enters from the back propagating
+ * along -e and leaves along -p, Tb's incident patch P(-e) = a(P(e)) and outgoing patch a(P(p)).
+ * So Tf(o, i) = Tb(a(i), a(o)).  No Lambda weights enter: both are BSDF values over one basis and
+ * a patch and its antipode have the same projected solid angle (the flux form
+ * Lambda_o Lambda_i Tf(o, i) = Lambda_a(i) Lambda_a(o) Tb(a(i), a(o)) is the same relation). */
+int bst_metrics_reciprocity(bst_ctx *ctx, const bst_layer *l, size_t ch, double *err,
+                            size_t *incident, size_t *outgoing)
+{
+    if (!ctx || !l || !err)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "reciprocity: NULL argument") : BST_EINVAL;
+    *err = NAN;
+    if (ch >= l->nchannels)
+        return bsti_error(ctx, BST_EINVAL, "reciprocity: channel %zu out of range", ch);
+    const bst_mat *tf = bst_layer_get(l, ch, BST_TF), *tb = bst_layer_get(l, ch, BST_TB);
+    if ((tf && !bst_mat_all_finite(tf)) || (tb && !bst_mat_all_finite(tb)))
+        return bsti_error(ctx, BST_EINVAL, "reciprocity: channel %s holds a transmission value "
+                          "that is not finite", l->channels[ch]);
+    const bst_basis *b = l->basis;
+    size_t n = bst_basis_size(b), wi = 0, wo = 0;
+    double worst = 0.0;
+    double scale = fmax(tf ? bst_mat_max_abs(tf) : 0.0, tb ? bst_mat_max_abs(tb) : 0.0);
+    /* Where a is one-to-one (every built-in basis; not a Klems band of odd size > 1), (o, i) off
+     * the diagonal pairs with (a(i), a(o)) off the diagonal: diagonal or zero transmissions on
+     * both sides need only their diagonals. */
+    int diagonal = (!tf || tf->s == BST_ZERO || tf->s == BST_DIAG) &&
+                   (!tb || tb->s == BST_ZERO || tb->s == BST_DIAG);
+    for (size_t p = 0; p < n && diagonal; p++)
+        diagonal = bst_basis_antipode(b, bst_basis_antipode(b, p)) == p;
+    for (size_t i = 0; i < n; i++) {
+        size_t ai = bst_basis_antipode(b, i), lo = diagonal ? i : 0, hi = diagonal ? i + 1 : n;
+        for (size_t o = lo; o < hi; o++) {
+            double d = fabs(element(tf, o, i) - element(tb, ai, bst_basis_antipode(b, o)));
+            if (d > worst)
+                worst = d, wi = i, wo = o;
+        }
+    }
+    *err = scale > 0.0 ? worst / scale : 0.0;
+    if (incident)
+        *incident = wi;
+    if (outgoing)
+        *outgoing = wo;
+    return BST_OK;
 }

@@ -412,8 +412,8 @@ static int check_energy(struct combiner *cb, const bst_layer *l, size_t li, size
             break;
         size_t worst = 0;
         double wv = -1.0;
-        for (size_t j = 0; j < n; j++)
-            if (t[j] + r[j] > wv)
+        for (size_t j = 0; j < n && isfinite(wv); j++) /* a NaN compares false: test it first */
+            if (!isfinite(t[j] + r[j]) || t[j] + r[j] > wv)
                 wv = t[j] + r[j], worst = j;
         if (!isfinite(wv)) {
             rc = bsti_error(cb->ctx, BST_EINVAL, "layer %zu (%s), channel %s: non-finite values",
@@ -621,8 +621,14 @@ static int combine(bst_ctx *ctx, size_t n, const bst_layer *const *layers, bst_l
                                      bst_mat_precision(acc.m[c]), &m);
             else if (!m)
                 rc = bst_mat_new_zero(ctx, bst_basis_size(l0->basis), bst_basis_size(l0->basis), &m);
-            if (rc >= 0)
+            if (rc >= 0 && !bst_mat_all_finite(m)) { /* finite inputs whose products overflow */
+                rc = bsti_error(ctx, BST_EINVAL, "layers 1-%zu, channel %s: %s overflows %s: "
+                                "input values too large", n, names[ch], bst_comp_name((bst_comp)c),
+                                bst_mat_precision(m) == BST_FLOAT ? "float" : "double");
+                bst_mat_free(m);
+            } else if (rc >= 0) {
                 rc = bst_layer_set(ctx, res, ch, (bst_comp)c, m);
+            }
         }
         part_clear(&acc);
         if (rc >= 0)

@@ -156,22 +156,6 @@ static int validate(struct xw *w)
     return BST_OK;
 }
 
-/* Is Tf(o, i) = Tb(a(i), a(o)) within tol * max|T| for every element (a = antipode)? */
-static int reciprocal(const bst_layer *l, size_t ch, double tol)
-{
-    const bst_mat *tf = bst_layer_get(l, ch, BST_TF), *tb = bst_layer_get(l, ch, BST_TB);
-    const bst_basis *b = bst_layer_basis(l);
-    size_t n = bst_basis_size(b);
-    double scale = fmax(tf ? bst_mat_max_abs(tf) : 0.0, tb ? bst_mat_max_abs(tb) : 0.0);
-    for (size_t i = 0; i < n; i++) {
-        size_t ai = bst_basis_antipode(b, i);
-        for (size_t o = 0; o < n; o++)
-            if (fabs(mval(tf, o, i) - mval(tb, ai, bst_basis_antipode(b, o))) > tol * scale)
-                return 0;
-    }
-    return 1;
-}
-
 /* The rank-3 tensor of channel ch, component c, taken from a rank-3 file by evaluating it at the
  * centre of every rank-3 cell: incidence in the x-z plane (no rotation), the exit direction at the
  * cell centre of the outgoing square. */
@@ -562,10 +546,14 @@ static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst
             else
                 free_t3(&w);
         }
-        for (size_t ch = 0; rc >= 0 && w.kind == BST_FILE_TT4 && opts->recip_tol >= 0.0 && ch < w.nch; ch++)
-            if (bst_layer_get(l, ch, BST_TB) && bst_layer_get(l, ch, BST_TF) &&
-                reciprocal(l, ch, opts->recip_tol))
+        int may_omit = w.kind == BST_FILE_TT4 && opts->recip_tol >= 0.0;
+        for (size_t ch = 0; rc >= 0 && may_omit && ch < w.nch; ch++) {
+            double err = INFINITY; /* Tf(o, i) = Tb(a(i), a(o)) within recip_tol max|T|? */
+            if (bst_layer_get(l, ch, BST_TB) && bst_layer_get(l, ch, BST_TF))
+                rc = bst_metrics_reciprocity(ctx, l, ch, &err, NULL, NULL);
+            if (rc >= 0 && err <= opts->recip_tol)
                 w.omit[ch * BST_NCOMP + BST_TF] = 1; /* keep Transmission Back, as genBSDF */
+        }
     }
     /* components absent from the layer are left out (readers take a missing reflection as zero,
      * a missing transmission from the other side's by reciprocity) */

@@ -1,5 +1,5 @@
 /* cmd_info.c - `bsdfstack info FILE`: what a BSDF file holds, its directional-hemispherical T and R
- * by incidence angle and its energy balance. */
+ * by incidence angle, its energy balance and the reciprocity of its transmissions. */
 #include <config.h>
 
 #include <getopt.h>
@@ -14,7 +14,31 @@ static const char help[] =
     "Prints the basis and channels of a BSDF XML file, which components it stores, the\n"
     "directional-hemispherical transmittance T and reflectance R for front (exterior) and back\n"
     "incidence at theta = 0, 15, 30, 45, 60, 75 degrees (propagation azimuth 0 and 90), and the\n"
-    "energy balance: the largest T + R over all incident patches of each side.\n";
+    "energy balance: the largest T + R over all incident patches of each side, and the\n"
+    "reciprocity error of the transmissions: the largest |Tf(o,i) - Tb(a(i),a(o))| (a: the\n"
+    "antipodal patch) relative to the largest T.\n";
+
+/* The reciprocity line of channel ch of layer l, read from b (bst_metrics_reciprocity). */
+static void print_reciprocity(bst_ctx *ctx, const bst_bsdf *b, const bst_layer *l, size_t ch)
+{
+    const bst_basis *basis = bst_layer_basis(l);
+    double err, din[3], dout[3];
+    size_t i, o;
+    if (bst_metrics_reciprocity(ctx, l, ch, &err, &i, &o) < 0) {
+        printf("reciprocity not computed: %s\n", bst_ctx_message(ctx));
+        return;
+    }
+    int derived = 0;
+    for (size_t k = 0; k < bst_bsdf_nchannels(b); k++)
+        if (strcmp(bst_bsdf_channel(b, k), bst_layer_channel(l, ch)) == 0)
+            derived = !bst_bsdf_stored(b, k, BST_TF) || !bst_bsdf_stored(b, k, BST_TB);
+    bst_basis_center(basis, i, din);
+    bst_basis_center(basis, o, dout);
+    printf("reciprocity max |Tf(o,i) - Tb(a(i),a(o))| / max T = %.3g at incident patch %zu "
+           "(theta %.1f deg), outgoing %zu (theta %.1f deg)%s\n", err, i,
+           acos(din[2]) * 180 / M_PI, o, acos(dout[2]) * 180 / M_PI,
+           derived ? "; one transmission is derived from the other" : "");
+}
 
 /* Values of a sane file (|v| < INFO_FIXED_MAX) print with 4 decimals; anything a broken file holds,
  * 1e300 say, as %.4g: one short line rather than 300 digits. */
@@ -106,6 +130,7 @@ int cmd_info(int argc, char **argv)
                    side ? "back " : "front", value(v, 0, s), worst, acos(d[2]) * 180 / M_PI,
                    s > 1.0 + BST_ENERGY_TOL ? "  ** exceeds 1 **" : "");
         }
+        print_reciprocity(ctx, b, l, ch);
     }
     free(h);
     bst_layer_free(l);
