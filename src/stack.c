@@ -431,8 +431,8 @@ static int check_energy(struct combiner *cb, const bst_layer *l, size_t li, size
 }
 
 /* The system's energy, per incident patch and side, over the components formed: warn
- * (BST_WENERGY) when T + R exceeds 1 + tol or a hemispherical T or R falls below -tol, and refuse a
- * result with a value that is not finite.  Inputs within tolerance can still give such a result:
+ * (BST_WENERGY) when T + R exceeds 1 + tol or a hemispherical T or R falls below -tol (a result
+ * that is not finite was refused before).  Inputs within tolerance can still give such a result:
  * layers that reflect nearly everything multiply their excess at every inter-reflection. */
 static int check_result(struct combiner *cb, const bst_layer *res, size_t ch)
 {
@@ -455,12 +455,6 @@ static int check_result(struct combiner *cb, const bst_layer *res, size_t ch)
             const bst_mat *m = bst_layer_get(res, ch, c);
             if (!m)
                 continue;
-            if (!bst_mat_all_finite(m)) {
-                rc = bsti_error(cb->ctx, BST_ESINGULAR, "stack: the system's %s, channel %s, is not "
-                                "finite (the inter-reflection diverges: check the layers' T + R)",
-                                bst_comp_name(c), cb->channel);
-                break;
-            }
             if ((rc = bst_layer_hemispherical(cb->ctx, res, ch, c, h)) < 0)
                 break;
             formed++;

@@ -62,11 +62,10 @@ awk '$1 == 0 && $2 == 0 { d = $3 - 0.8817; if (d < 0) d = -d; ok = d < 2e-3 } EN
     && pass "info: T(0) of the clear pane" || fail "info: $(cat "$tmpdir/out")"
 # info's reciprocity line: 0 where one transmission is derived from the other, the Monte Carlo
 # noise of the Klems blind's two stored transmissions (0.068) otherwise
-grep -q '^reciprocity .* = 0 at .*derived from the other$' "$tmpdir/out" \
+grep -q '^reciprocity 0 (one transmission is derived from the other)$' "$tmpdir/out" \
     && pass "info: reciprocity of a derived transmission" || fail "info: $(grep reciprocity "$tmpdir/out")"
 expect_status 0 "info of a Klems file" -- "$B" info "$ref/L_blind0_t4k5_klems.xml"
-awk '$1 == "reciprocity" { for (i = 1; i < NF; i++) if ($i == "=") v = $(i + 1) }
-    END { exit !(v > 0.01 && v < 0.1) }' "$tmpdir/out" \
+awk '$1 == "reciprocity" { v = $2 + 0 } END { exit !(v > 0.01 && v < 0.1) }' "$tmpdir/out" \
     && pass "info: reciprocity of stored transmissions" || fail "info: $(grep reciprocity "$tmpdir/out")"
 expect_error "info of a missing file" "cannot open" -- "$B" info "$tmpdir/none.xml"
 

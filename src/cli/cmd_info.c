@@ -16,7 +16,8 @@ static const char help[] =
     "incidence at theta = 0, 15, 30, 45, 60, 75 degrees (propagation azimuth 0 and 90), and the\n"
     "energy balance: the largest T + R over all incident patches of each side, and the\n"
     "reciprocity error of the transmissions: the largest |Tf(o,i) - Tb(a(i),a(o))| (a: the\n"
-    "antipodal patch) relative to the largest T.\n";
+    "antipodal patch) relative to the largest T, and the patches (incident -> outgoing) where\n"
+    "it is largest.\n";
 
 /* The reciprocity line of channel ch of layer l, read from b (bst_metrics_reciprocity). */
 static void print_reciprocity(bst_ctx *ctx, const bst_bsdf *b, const bst_layer *l, size_t ch)
@@ -34,10 +35,12 @@ static void print_reciprocity(bst_ctx *ctx, const bst_bsdf *b, const bst_layer *
             derived = !bst_bsdf_stored(b, k, BST_TF) || !bst_bsdf_stored(b, k, BST_TB);
     bst_basis_center(basis, i, din);
     bst_basis_center(basis, o, dout);
-    printf("reciprocity max |Tf(o,i) - Tb(a(i),a(o))| / max T = %.3g at incident patch %zu "
-           "(theta %.1f deg), outgoing %zu (theta %.1f deg)%s\n", err, i,
-           acos(din[2]) * 180 / M_PI, o, acos(dout[2]) * 180 / M_PI,
-           derived ? "; one transmission is derived from the other" : "");
+    if (derived) {
+        printf("reciprocity %.3g (one transmission is derived from the other)\n", err);
+        return;
+    }
+    printf("reciprocity %.3g, largest at patch %zu (theta %.1f deg) -> %zu (theta %.1f deg)\n",
+           err, i, acos(din[2]) * 180 / M_PI, o, acos(dout[2]) * 180 / M_PI);
 }
 
 /* Values of a sane file (|v| < INFO_FIXED_MAX) print with 4 decimals; anything a broken file holds,
