@@ -473,13 +473,30 @@ typedef struct {
 
 void bst_bsdf_write_opts_init(bst_bsdf_write_opts *opts);
 
-/* Write layer (opts NULL = defaults) to a stream, a callback or a file; _path renames a temporary
- * file into place only on success.  Memory: bsdfstack-convert(1). */
+/* Write layer (opts NULL = defaults) to a stream, a callback or a file; _path writes through
+ * bst_output (below): the file appears only on success.  Memory: bsdfstack-convert(1). */
 int bst_bsdf_write(bst_ctx *ctx, const bst_layer *layer, FILE *fp, const bst_bsdf_write_opts *opts);
 int bst_bsdf_write_fn(bst_ctx *ctx, const bst_layer *layer, bst_bsdf_write_sink fn, void *opaque,
                       const bst_bsdf_write_opts *opts);
 int bst_bsdf_write_path(bst_ctx *ctx, const bst_layer *layer, const char *path,
                         const bst_bsdf_write_opts *opts);
+
+/* ------------------------------------------------------------------ output files: output.c */
+
+/* A file that appears whole or not at all, written as what its path names demands: a regular
+ * file (or none yet) through a temporary beside it, renamed over it by commit, keeping an existing
+ * file's mode (and owner, where allowed); a symbolic link's final target the same way, the links
+ * kept; a device, FIFO or socket directly; a directory is an error.  Write to bst_output_file;
+ * commit flushes, closes and renames (an error names the path and the reason), abort removes the
+ * temporary; both free the object (NULL-safe). */
+typedef struct bst_output bst_output;
+int bst_output_open(bst_ctx *ctx, const char *path, bst_output **out);
+FILE *bst_output_file(const bst_output *o);
+const char *bst_output_path(const bst_output *o);
+/* Flush and check for a write error so far (the object stays open). */
+int bst_output_flush(bst_output *o);
+int bst_output_commit(bst_output *o);
+void bst_output_abort(bst_output *o);
 
 /* ------------------- analytic glass: glass.c, glass_spec.c (specs), glass_band.c, glass_layer.c */
 

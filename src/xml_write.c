@@ -611,37 +611,16 @@ int bst_bsdf_write(bst_ctx *ctx, const bst_layer *layer, FILE *fp, const bst_bsd
 int bst_bsdf_write_path(bst_ctx *ctx, const bst_layer *layer, const char *path,
                         const bst_bsdf_write_opts *opts)
 {
-    if (!ctx || !path)
-        return ctx ? bsti_error(ctx, BST_EINVAL, "writing BSDF XML: NULL path") : BST_EINVAL;
-    size_t n = strlen(path);
-    char *tmp = bsti_malloc(ctx, n + 16);
-    if (!tmp)
-        return BST_ENOMEM;
-    /* the temporary sits next to the target so that rename() is atomic */
-    snprintf(tmp, n + 16, "%s.tmpXXXXXX", path);
-    int fd = mkstemp(tmp);
-    if (fd < 0) {
-        int e = errno;
-        bsti_free(ctx, tmp);
-        return bsti_error(ctx, BST_EIO, "%s: cannot create the output file: %s", path, strerror(e));
-    }
-    FILE *fp = fdopen(fd, "w");
-    int rc;
-    if (!fp) {
-        close(fd);
-        rc = bsti_error(ctx, BST_EIO, "%s: cannot open the output file: %s", path, strerror(errno));
-    } else {
-        rc = bst_bsdf_write(ctx, layer, fp, opts);
-        if (fclose(fp) != 0 && rc >= 0)
-            rc = bsti_error(ctx, BST_EIO, "writing BSDF XML: write failed (%s)", strerror(errno));
-        if (rc >= 0 && rename(tmp, path) != 0)
-            rc = bsti_error(ctx, BST_EIO, "%s: cannot rename the output into place: %s", path,
-                            strerror(errno));
-        else if (rc < 0)
-            bsti_error_prefix(ctx, "%s", path);
-    }
+    bst_output *o;
+    int rc = bst_output_open(ctx, path, &o);
     if (rc < 0)
-        unlink(tmp);
-    bsti_free(ctx, tmp);
-    return rc;
+        return rc;
+    rc = bst_bsdf_write(ctx, layer, bst_output_file(o), opts);
+    if (rc < 0) {
+        bsti_error_prefix(ctx, "%s", path);
+        bst_output_abort(o);
+        return rc;
+    }
+    int wc = bst_output_commit(o);
+    return wc < 0 ? wc : rc;
 }

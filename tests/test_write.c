@@ -13,6 +13,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <libxml/parser.h>
@@ -1193,6 +1194,65 @@ START_TEST(test_write_errors)
 }
 END_TEST
 
+/* bst_bsdf_write_path writes what the path names as it demands (bst_output): a 0600 file keeps
+ * its mode, a symbolic link stays a link and its target receives the file, a FIFO is written
+ * directly (read by a child process) and stays a FIFO, a directory is an error. */
+START_TEST(test_write_path_kinds)
+{
+    bst_layer *g;
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 1, &b), BST_OK);
+    ck_assert_int_eq(bst_glass_layer_from_spec(ctx, "d=6mm,n=1.52,tn=0.89", NULL, b, 0, NULL, &g), BST_OK);
+    char dir[] = "/tmp/bst_kinds_XXXXXX", file[300], link[300], fifo[300];
+    ck_assert_ptr_nonnull(mkdtemp(dir));
+    snprintf(file, sizeof file, "%s/a.xml", dir);
+    snprintf(link, sizeof link, "%s/link.xml", dir);
+    snprintf(fifo, sizeof fifo, "%s/fifo", dir);
+    FILE *fp = fopen(file, "w");
+    fclose(fp);
+    ck_assert_int_eq(chmod(file, 0600), 0);
+    ck_assert_int_eq(bst_bsdf_write_path(ctx, g, file, NULL), BST_OK);
+    struct stat st;
+    ck_assert_int_eq(stat(file, &st), 0);
+    ck_assert_int_eq(st.st_mode & 07777, 0600);
+    ck_assert_int_gt(st.st_size, 1000);
+    ck_assert_int_eq(unlink(file), 0);
+    ck_assert_int_eq(symlink("a.xml", link), 0); /* relative, dangling until written */
+    ck_assert_int_eq(bst_bsdf_write_path(ctx, g, link, NULL), BST_OK);
+    ck_assert_int_eq(lstat(link, &st), 0);
+    ck_assert(S_ISLNK(st.st_mode));
+    ck_assert_int_eq(stat(file, &st), 0);
+    ck_assert_int_gt(st.st_size, 1000);
+    ck_assert_int_eq(mkfifo(fifo, 0600), 0);
+    pid_t pid = fork();
+    if (pid == 0) { /* the reader: count the bytes, exit 0 when some came */
+        FILE *in = fopen(fifo, "r");
+        size_t n = 0;
+        while (in && fgetc(in) != EOF)
+            n++;
+        _exit(n > 1000 ? 0 : 1);
+    }
+    ck_assert_int_eq(bst_bsdf_write_path(ctx, g, fifo, NULL), BST_OK);
+    int status;
+    ck_assert_int_eq(waitpid(pid, &status, 0), pid);
+    ck_assert(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+    ck_assert_int_eq(lstat(fifo, &st), 0);
+    ck_assert(S_ISFIFO(st.st_mode));
+    ck_assert_int_eq(bst_bsdf_write_path(ctx, g, dir, NULL), BST_EIO);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "is a directory"));
+    DIR *dd = opendir(dir);
+    struct dirent *de;
+    int entries = 0;
+    while ((de = readdir(dd)))
+        entries += strcmp(de->d_name, ".") && strcmp(de->d_name, "..");
+    closedir(dd);
+    ck_assert_int_eq(entries, 3); /* no temporary left */
+    unlink(file), unlink(link), unlink(fifo), rmdir(dir);
+    bst_layer_free(g);
+    bst_basis_free(b);
+}
+END_TEST
+
 /* Every allocation of the writer failing in turn: BST_ENOMEM each time, nothing leaked. */
 START_TEST(test_write_alloc_failures)
 {
@@ -1234,6 +1294,7 @@ static Suite *suite(void)
     TCase *tc = tcase_create("tree");
     tcase_add_checked_fixture(tc, setup, teardown);
     tcase_add_test(tc, test_format);
+    tcase_add_test(tc, test_write_path_kinds);
     tcase_add_test(tc, test_examples_rank4);
     tcase_add_test(tc, test_examples_rank3);
     tcase_add_test(tc, test_examples_read_back);

@@ -106,117 +106,16 @@ bst_ctx *cli_ctx_new(const char *sub)
 
 /* ------------------------------------------------------------------ output files
  *
- * What PATH names decides how it is written:
- *   a regular file, or nothing yet   a temporary beside it, renamed over it on commit (atomic);
- *                                    an existing file keeps its mode and, where we may, its owner,
- *                                    a new one gets 0666 & ~umask as fopen would give it
- *   a symbolic link (chain)          the same beside the file the links lead to: the links stay
- *   a device, FIFO or socket         opened and written directly, no temporary
- *   a directory                      an error
- *   "-"                              standard output */
+ * bst_output writes what PATH names as it demands (output.c); "-" is standard output. */
 
 static int stdout_reported; /* standard output's error is told once, however many writes fail */
 
-#define CLI_MAX_LINKS 40 /* symbolic links followed before giving up (ELOOP), as Linux does */
-
-/* The target of the symbolic link at path, malloc'd; NULL with errno set. */
-static char *read_link(const char *path)
+/* The message of o's failure, then abort. */
+static int out_fail(struct cli_out *o, const char *sub)
 {
-    for (size_t size = 256;; size *= 2) {
-        char *buf = malloc(size);
-        if (!buf)
-            return NULL;
-        ssize_t n = readlink(path, buf, size);
-        if (n < 0) {
-            int e = errno;
-            free(buf);
-            errno = e;
-            return NULL;
-        }
-        if ((size_t)n < size) {
-            buf[n] = '\0';
-            return buf;
-        }
-        free(buf);
-    }
-}
-
-/* The path that path's chain of symbolic links finally names (which need not exist yet), each
- * relative link taken from the directory holding the link; malloc'd, NULL with errno set. */
-static char *follow_links(const char *path)
-{
-    char *cur = strdup(path);
-    for (int hops = 0; cur; hops++) {
-        struct stat st;
-        if (lstat(cur, &st) != 0 || !S_ISLNK(st.st_mode))
-            return cur; /* not there (yet), or not a link: later steps report what is wrong */
-        char *link = hops < CLI_MAX_LINKS ? read_link(cur) : NULL;
-        if (!link) {
-            int e = hops < CLI_MAX_LINKS ? errno : ELOOP;
-            free(cur);
-            errno = e;
-            return NULL;
-        }
-        const char *slash = strrchr(cur, '/');
-        size_t dirlen = link[0] == '/' || !slash ? 0 : (size_t)(slash - cur) + 1;
-        char *next = malloc(dirlen + strlen(link) + 1);
-        if (next) {
-            memcpy(next, cur, dirlen);
-            strcpy(next + dirlen, link);
-        }
-        free(link);
-        free(cur);
-        cur = next;
-    }
-    return NULL;
-}
-
-/* Open o->path directly (a device, FIFO or socket): the kernel follows any links. */
-static int open_direct(struct cli_out *o, const char *sub)
-{
-    int fd = open(o->path, O_WRONLY | O_NOCTTY);
-    if (fd < 0)
-        return cli_fail(sub, "%s: cannot open for writing: %s", o->path, strerror(errno));
-    if (!(o->fp = fdopen(fd, "w"))) {
-        int e = errno;
-        close(fd);
-        return cli_fail(sub, "%s: cannot open for writing: %s", o->path, strerror(e));
-    }
-    return CLI_OK;
-}
-
-/* A temporary beside o->target, with the permissions (and owner) of old, the regular file it will
- * replace, or those of a new file when old is NULL. */
-static int open_temporary(struct cli_out *o, const char *sub, const struct stat *old)
-{
-    size_t n = strlen(o->target);
-    if (!(o->tmp = malloc(n + 16)))
-        return cli_fail(sub, "%s: out of memory", o->path);
-    snprintf(o->tmp, n + 16, "%s.tmpXXXXXX", o->target); /* same directory: rename() is atomic */
-    int fd = mkstemp(o->tmp);
-    if (fd < 0) {
-        int e = errno;
-        free(o->tmp);
-        o->tmp = NULL;
-        return cli_fail(sub, "%s: cannot create output file: %s", o->path, strerror(e));
-    }
-    if (old) {
-        /* best effort: only root may give the file away; chown before chmod, which it may clear */
-        if (fchown(fd, old->st_uid, old->st_gid) != 0) {
-            /* the replacement is then ours, with the old permissions */
-        }
-        fchmod(fd, old->st_mode & 07777);
-    } else {
-        mode_t mask = umask(0); /* mkstemp creates 0600: give what a plain fopen would */
-        umask(mask);
-        fchmod(fd, 0666 & ~mask);
-    }
-    if (!(o->fp = fdopen(fd, "w"))) {
-        int e = errno;
-        close(fd);
-        return cli_fail(sub, "%s: cannot open output file: %s", o->path, strerror(e));
-    }
-    return CLI_OK;
+    int rc = cli_fail(sub, "%s", o->ctx ? bst_ctx_message(o->ctx) : "out of memory");
+    cli_out_abort(o);
+    return rc;
 }
 
 int cli_out_open(struct cli_out *o, const char *sub, const char *path)
@@ -226,59 +125,33 @@ int cli_out_open(struct cli_out *o, const char *sub, const char *path)
         o->fp = stdout;
         return CLI_OK;
     }
-    if (!*path)
-        return cli_fail(sub, "an empty output file name");
-    if (!(o->path = strdup(path)))
-        return cli_fail(sub, "%s: out of memory", path);
-    struct stat st; /* through any links */
-    int exists = stat(path, &st) == 0, rc;
-    if (exists && S_ISDIR(st.st_mode)) {
-        rc = cli_fail(sub, "%s: is a directory; name an output file", path);
-    } else if (exists && !S_ISREG(st.st_mode)) {
-        rc = open_direct(o, sub);
-    } else {
-        if (!(o->target = follow_links(path)))
-            rc = cli_fail(sub, "%s: %s", path, strerror(errno));
-        else
-            rc = open_temporary(o, sub, exists ? &st : NULL);
-    }
-    if (rc != CLI_OK)
-        cli_out_abort(o);
-    return rc;
+    if (!(o->ctx = bst_ctx_new()) || !(o->path = strdup(path)) ||
+        bst_output_open(o->ctx, path, &o->out) < 0)
+        return out_fail(o, sub);
+    o->fp = bst_output_file(o->out);
+    return CLI_OK;
 }
 
 int cli_out_flush(struct cli_out *o, const char *sub)
 {
     if (o->fp == stdout)
         return cli_stdout_check(sub);
-    /* the reason of an error: the failed flush's errno, or EIO for an error an earlier write met */
-    errno = 0;
-    if (fflush(o->fp) == 0 && !ferror(o->fp))
-        return CLI_OK;
-    int rc = cli_fail(sub, "%s: error writing: %s", o->path, strerror(errno ? errno : EIO));
-    cli_out_abort(o);
-    return rc;
+    return bst_output_flush(o->out) < 0 ? out_fail(o, sub) : CLI_OK;
 }
 
 int cli_out_commit(struct cli_out *o, const char *sub)
 {
-    int rc = cli_out_flush(o, sub);
-    if (o->fp == stdout || rc != CLI_OK) {
+    if (o->fp == stdout) {
         o->fp = NULL;
-        return rc;
+        return cli_stdout_check(sub);
     }
-    int closed = fclose(o->fp) == 0;
+    int st = bst_output_commit(o->out);
+    o->out = NULL;
     o->fp = NULL;
-    if (!closed)
-        rc = cli_fail(sub, "%s: error writing: %s", o->path, strerror(errno));
-    else if (o->tmp && rename(o->tmp, o->target) != 0)
-        rc = cli_fail(sub, "%s: cannot rename output into place: %s", o->path, strerror(errno));
-    else {
-        free(o->tmp); /* in place: nothing to remove */
-        o->tmp = NULL;
-    }
+    if (st < 0)
+        return out_fail(o, sub);
     cli_out_abort(o);
-    return rc;
+    return CLI_OK;
 }
 
 int cli_out_fail_ctx(struct cli_out *o, const char *sub, bst_ctx *ctx)
@@ -293,15 +166,10 @@ int cli_out_fail_ctx(struct cli_out *o, const char *sub, bst_ctx *ctx)
 
 void cli_out_abort(struct cli_out *o)
 {
-    if (o->fp && o->fp != stdout)
-        fclose(o->fp);
-    o->fp = NULL;
-    if (o->tmp)
-        unlink(o->tmp);
-    free(o->tmp);
-    free(o->target);
+    bst_output_abort(o->out);
+    bst_ctx_free(o->ctx);
     free(o->path);
-    o->tmp = o->target = o->path = NULL;
+    memset(o, 0, sizeof *o);
 }
 
 /* ------------------------------------------------------------------ standard streams */

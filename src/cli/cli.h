@@ -57,10 +57,10 @@ bst_ctx *cli_ctx_new(const char *sub);
  * and the file it names is replaced the same way; a device, FIFO or socket is written directly;
  * a directory is an error; "-" is standard output. */
 struct cli_out {
-    FILE *fp;
-    char *path;   /* as given, for messages; NULL for standard output */
-    char *target; /* where the links of path lead (the file renamed over), or NULL */
-    char *tmp;    /* the temporary beside target, or NULL when written directly */
+    FILE *fp;        /* bst_output_file(out), or stdout */
+    bst_output *out; /* NULL for standard output */
+    bst_ctx *ctx;    /* out's messages */
+    char *path;      /* as given, for messages; NULL for standard output */
 };
 /* Open path for writing; CLI_OK, or one error line printed and nothing left behind. */
 int cli_out_open(struct cli_out *o, const char *sub, const char *path);

@@ -1,0 +1,221 @@
+/* output.c - output files that appear whole or not at all, written as what their path names
+ * demands (bst_output_*; the CLI and bst_bsdf_write_path use them).
+ *
+ * What PATH names decides how it is written:
+ *   a regular file, or nothing yet   a temporary beside it, renamed over it on commit (atomic);
+ *                                    an existing file keeps its mode and, where we may, its owner,
+ *                                    a new one gets 0666 & ~umask as fopen would give it
+ *   a symbolic link (chain)          the same beside the file the links lead to: the links stay
+ *   a device, FIFO or socket         opened and written directly, no temporary
+ *   a directory                      an error */
+#include <config.h>
+
+#include <errno.h>
+#include <fcntl.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "ctx.h"
+
+#define OUTPUT_MAX_LINKS 40 /* symbolic links followed before giving up (ELOOP), as Linux does */
+
+struct bst_output {
+    bst_ctx *ctx;
+    FILE *fp;
+    char *path;   /* as given, for messages */
+    char *target; /* where the links of path lead (the file renamed over), or NULL */
+    char *tmp;    /* the temporary beside target, or NULL when written directly */
+};
+
+/* The target of the symbolic link at path; NULL with errno set. */
+static char *read_link(bst_ctx *ctx, const char *path)
+{
+    for (size_t size = 256;; size *= 2) {
+        char *buf = bsti_malloc(ctx, size);
+        if (!buf) {
+            errno = ENOMEM;
+            return NULL;
+        }
+        ssize_t n = readlink(path, buf, size);
+        if (n < 0) {
+            int e = errno;
+            bsti_free(ctx, buf);
+            errno = e;
+            return NULL;
+        }
+        if ((size_t)n < size) {
+            buf[n] = '\0';
+            return buf;
+        }
+        bsti_free(ctx, buf);
+    }
+}
+
+/* The path that path's chain of symbolic links finally names (which need not exist yet), each
+ * relative link taken from the directory holding the link; NULL with errno set. */
+static char *follow_links(bst_ctx *ctx, const char *path)
+{
+    char *cur = bsti_strdup(ctx, path);
+    if (!cur)
+        errno = ENOMEM;
+    for (int hops = 0; cur; hops++) {
+        struct stat st;
+        if (lstat(cur, &st) != 0 || !S_ISLNK(st.st_mode))
+            return cur; /* not there (yet), or not a link: later steps report what is wrong */
+        char *link = hops < OUTPUT_MAX_LINKS ? read_link(ctx, cur) : NULL;
+        if (!link) {
+            int e = hops < OUTPUT_MAX_LINKS ? errno : ELOOP;
+            bsti_free(ctx, cur);
+            errno = e;
+            return NULL;
+        }
+        const char *slash = strrchr(cur, '/');
+        size_t dirlen = link[0] == '/' || !slash ? 0 : (size_t)(slash - cur) + 1;
+        char *next = bsti_malloc(ctx, dirlen + strlen(link) + 1);
+        if (next) {
+            memcpy(next, cur, dirlen);
+            strcpy(next + dirlen, link);
+        } else {
+            errno = ENOMEM;
+        }
+        bsti_free(ctx, link);
+        bsti_free(ctx, cur);
+        cur = next;
+    }
+    return NULL;
+}
+
+/* Open o->path directly (a device, FIFO or socket): the kernel follows any links. */
+static int open_direct(bst_output *o)
+{
+    int fd = open(o->path, O_WRONLY | O_NOCTTY);
+    if (fd < 0)
+        return bsti_error(o->ctx, BST_EIO, "%s: cannot open for writing: %s", o->path, strerror(errno));
+    if (!(o->fp = fdopen(fd, "w"))) {
+        int e = errno;
+        close(fd);
+        return bsti_error(o->ctx, BST_EIO, "%s: cannot open for writing: %s", o->path, strerror(e));
+    }
+    return BST_OK;
+}
+
+/* A temporary beside o->target, with the permissions (and owner) of old, the regular file it will
+ * replace, or those of a new file when old is NULL. */
+static int open_temporary(bst_output *o, const struct stat *old)
+{
+    size_t n = strlen(o->target);
+    if (!(o->tmp = bsti_malloc(o->ctx, n + 16)))
+        return BST_ENOMEM;
+    snprintf(o->tmp, n + 16, "%s.tmpXXXXXX", o->target); /* same directory: rename() is atomic */
+    int fd = mkstemp(o->tmp);
+    if (fd < 0) {
+        int e = errno;
+        bsti_free(o->ctx, o->tmp);
+        o->tmp = NULL;
+        return bsti_error(o->ctx, BST_EIO, "%s: cannot create output file: %s", o->path, strerror(e));
+    }
+    if (old) {
+        /* best effort: only root may give the file away; chown before chmod, which it may clear */
+        if (fchown(fd, old->st_uid, old->st_gid) != 0) {
+            /* the replacement is then ours, with the old permissions */
+        }
+        fchmod(fd, old->st_mode & 07777);
+    } else {
+        mode_t mask = umask(0); /* mkstemp creates 0600: give what a plain fopen would */
+        umask(mask);
+        fchmod(fd, 0666 & ~mask);
+    }
+    if (!(o->fp = fdopen(fd, "w"))) {
+        int e = errno;
+        close(fd);
+        return bsti_error(o->ctx, BST_EIO, "%s: cannot open output file: %s", o->path, strerror(e));
+    }
+    return BST_OK;
+}
+
+int bst_output_open(bst_ctx *ctx, const char *path, bst_output **out)
+{
+    if (!ctx || !out)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "output: NULL argument") : BST_EINVAL;
+    *out = NULL;
+    if (!path || !*path)
+        return bsti_error(ctx, BST_EINVAL, "an empty output file name");
+    bst_output *o = bsti_calloc(ctx, 1, sizeof *o);
+    if (!o)
+        return BST_ENOMEM;
+    o->ctx = ctx;
+    int rc = (o->path = bsti_strdup(ctx, path)) ? BST_OK : BST_ENOMEM;
+    struct stat st; /* through any links */
+    int exists = stat(path, &st) == 0;
+    if (rc < 0) {
+        /* reported */
+    } else if (exists && S_ISDIR(st.st_mode)) {
+        rc = bsti_error(ctx, BST_EIO, "%s: is a directory; name an output file", path);
+    } else if (exists && !S_ISREG(st.st_mode)) {
+        rc = open_direct(o);
+    } else if (!(o->target = follow_links(ctx, path))) {
+        rc = errno == ENOMEM ? BST_ENOMEM : bsti_error(ctx, BST_EIO, "%s: %s", path, strerror(errno));
+    } else {
+        rc = open_temporary(o, exists ? &st : NULL);
+    }
+    if (rc < 0) {
+        bst_output_abort(o);
+        return rc;
+    }
+    *out = o;
+    return BST_OK;
+}
+
+FILE *bst_output_file(const bst_output *o) { return o ? o->fp : NULL; }
+const char *bst_output_path(const bst_output *o) { return o ? o->path : NULL; }
+
+int bst_output_flush(bst_output *o)
+{
+    if (!o || !o->fp)
+        return BST_EINVAL;
+    /* the reason of an error: the failed flush's errno, or EIO for an error an earlier write met */
+    errno = 0;
+    if (fflush(o->fp) == 0 && !ferror(o->fp))
+        return BST_OK;
+    return bsti_error(o->ctx, BST_EIO, "%s: error writing: %s", o->path, strerror(errno ? errno : EIO));
+}
+
+int bst_output_commit(bst_output *o)
+{
+    if (!o)
+        return BST_EINVAL;
+    int rc = o->fp ? bst_output_flush(o) : BST_EINVAL;
+    if (o->fp) {
+        int closed = fclose(o->fp) == 0;
+        o->fp = NULL;
+        if (rc >= 0 && !closed)
+            rc = bsti_error(o->ctx, BST_EIO, "%s: error writing: %s", o->path, strerror(errno));
+    }
+    if (rc >= 0 && o->tmp && rename(o->tmp, o->target) != 0)
+        rc = bsti_error(o->ctx, BST_EIO, "%s: cannot rename output into place: %s", o->path,
+                        strerror(errno));
+    if (rc >= 0) {
+        bsti_free(o->ctx, o->tmp); /* in place: nothing to remove */
+        o->tmp = NULL;
+    }
+    bst_output_abort(o);
+    return rc;
+}
+
+void bst_output_abort(bst_output *o)
+{
+    if (!o)
+        return;
+    if (o->fp)
+        fclose(o->fp);
+    if (o->tmp)
+        unlink(o->tmp);
+    bst_ctx *ctx = o->ctx;
+    bsti_free(ctx, o->tmp);
+    bsti_free(ctx, o->target);
+    bsti_free(ctx, o->path);
+    bsti_free(ctx, o);
+}
