@@ -120,4 +120,8 @@ expect_error "convert --max-memory below the need" "k = 6 needs about 0.6[0-9]* 
     "$BSDFSTACK" convert -k 6 --max-memory 100M "$ref/L_diffuser_t3k5.xml" -o "$tmpdir/mem.xml"
 [ ! -e "$tmpdir/mem.xml" ] && pass "convert: no output when refused for memory" || fail "convert: output though refused"
 
+expect_error "info --max-memory below the need" "info: k = 5 needs about 0.05[0-9]* GiB \(4 dense components of 0.00781 GiB\), more than the 0.00977 GiB --max-memory allows: use 'bsdfstack convert -k K'" -- \
+    "$BSDFSTACK" info --max-memory 10M "$ref/L_diffuser_t3k5.xml"
+[ ! -s "$tmpdir/out" ] && pass "info prints nothing when refused" || fail "info printed though refused"
+
 finish

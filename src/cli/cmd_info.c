@@ -8,16 +8,18 @@
 #include <string.h>
 
 #include "cli.h"
+#include "layers.h"
 
 static const char help[] =
-    "Usage: bsdfstack info FILE\n"
+    "Usage: bsdfstack info [--max-memory SIZE] FILE\n"
     "Prints the basis and channels of a BSDF XML file, which components it stores, the\n"
     "directional-hemispherical transmittance T and reflectance R for front (exterior) and back\n"
     "incidence at theta = 0, 15, 30, 45, 60, 75 degrees (propagation azimuth 0 and 90), and the\n"
     "energy balance: the largest T + R over all incident patches of each side, and the\n"
     "reciprocity error of the transmissions: the largest |Tf(o,i) - Tb(a(i),a(o))| (a: the\n"
     "antipodal patch) relative to the largest T, and the patches (incident -> outgoing) where\n"
-    "it is largest.\n";
+    "it is largest.  The file is taken whole at its own basis; --max-memory SIZE (16G, 800M;\n"
+    "default: the memory available now) refuses it first when the estimate exceeds SIZE.\n";
 
 /* The reciprocity line of channel ch of layer l, read from b (bst_metrics_reciprocity). */
 static void print_reciprocity(bst_ctx *ctx, const bst_bsdf *b, const bst_layer *l, size_t ch)
@@ -60,6 +62,12 @@ int cmd_info(int argc, char **argv)
         fputs(help, stdout);
         return CLI_OK;
     }
+    struct cli_basis_choice limit = {.lower = "'bsdfstack convert -k K' to a coarser file first"};
+    if (argc == 4 && strcmp(argv[1], "--max-memory") == 0) {
+        if (cli_parse_memory(sub, argv[2], &limit.max_memory) != CLI_OK)
+            return CLI_USAGE;
+        argv += 2, argc -= 2;
+    }
     if (argc != 2 || argv[1][0] == '-')
         return cli_usage(sub, argc < 2 ? "no file given" : "one file expected");
     const char *path = argv[1];
@@ -76,6 +84,18 @@ int cmd_info(int argc, char **argv)
     }
     cli_warn_bsdf(sub, path, b);
     bst_ctx_clear(ctx);
+    /* the file is taken whole at its own basis: refuse before printing when that cannot fit */
+    bst_basis *own = NULL;
+    if (bst_bsdf_kind(b) != BST_FILE_KLEMS && bst_basis_new_sc(ctx, bst_bsdf_order(b), &own) < 0) {
+        bst_bsdf_free(b), bst_ctx_free(ctx);
+        return cli_fail(sub, "out of memory");
+    }
+    int fits = cli_memory_check(sub, own ? own : bst_bsdf_klems_basis(b), 1, &b, 0, BST_DOUBLE, &limit);
+    bst_basis_free(own);
+    if (fits != CLI_OK) {
+        bst_bsdf_free(b), bst_ctx_free(ctx);
+        return fits;
+    }
     static const char *const kinds[] = {"Klems matrix", "", "", "TensorTree3 (isotropic)", "TensorTree4"};
     printf("file      %s\nformat    %s", path, kinds[bst_bsdf_kind(b)]);
     if (bst_bsdf_kind(b) != BST_FILE_KLEMS)
