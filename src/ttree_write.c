@@ -48,61 +48,6 @@ struct tw {
     size_t done, total, next_report;
 };
 
-/* ------------------------------------------------------------------ number text */
-
-int bsti_format_float(double v, int digits, char *buf, float *back)
-{
-    if (v == 0.0) {
-        buf[0] = '0', buf[1] = '\0';
-        *back = 0.0f;
-        return 1;
-    }
-    if (digits > 0) {
-        int n = snprintf(buf, 32, "%.*g", digits > 9 ? 9 : digits, v);
-        *back = strtof(buf, NULL);
-        return n;
-    }
-    float f = (float)v;
-    int lo = 1, hi = 9; /* 9 significant digits always read back as the same float */
-    while (lo < hi) {
-        int mid = (lo + hi) / 2;
-        snprintf(buf, 32, "%.*g", mid, (double)f);
-        if (strtof(buf, NULL) == f)
-            hi = mid;
-        else
-            lo = mid + 1;
-    }
-    int n = snprintf(buf, 32, "%.*g", lo, (double)f);
-    *back = f;
-    return n;
-}
-
-int bsti_format_double(double v, int digits, char *buf, double *back)
-{
-    if (v == 0.0) {
-        buf[0] = '0', buf[1] = '\0';
-        *back = 0.0;
-        return 1;
-    }
-    if (digits > 0) {
-        int n = snprintf(buf, 32, "%.*g", digits > 17 ? 17 : digits, v);
-        *back = strtod(buf, NULL);
-        return n;
-    }
-    int lo = 1, hi = 17; /* 17 significant digits always read back as the same double */
-    while (lo < hi) {
-        int mid = (lo + hi) / 2;
-        snprintf(buf, 32, "%.*g", mid, v);
-        if (strtod(buf, NULL) == v)
-            hi = mid;
-        else
-            lo = mid + 1;
-    }
-    int n = snprintf(buf, 32, "%.*g", lo, v);
-    *back = v;
-    return n;
-}
-
 /* ------------------------------------------------------------------ tensor access */
 
 /* Raw value of cell c (rank 3: 0 in the unused upper half of dimension 0). */

@@ -1,0 +1,184 @@
+/* numtext.c - numbers as the writer prints them: the shortest text that reads back as the same
+ * float (or double), in printf's %g style.
+ *
+ * The reference is a search over printf's correctly rounded "%.*g" for the fewest significant
+ * digits that strtof reads back unchanged (format_float_search).  The writer's hot path for floats
+ * finds the same digits with double arithmetic instead: for d = 1, 2, ... significant digits it
+ * takes the d-digit decimal nearest the float and accepts it when it lies inside the float's
+ * rounding interval (half-way to each neighbour).  A float and its neighbours are exact in double,
+ * and the scaled values carry at most a few double roundings (relative 1e-15), far below the
+ * interval's half-width (2^-25 relative); a candidate within 1e-14 of a boundary, or a scaled value
+ * within 1e-6 of a rounding tie (printf rounds ties to even), is left to the reference.  So the
+ * text is byte for byte the reference's (tests/test_write.c checks millions of floats), at a
+ * fraction of its cost: 4 printf and 3 strtof calls per value were a third of a tree's writing. */
+#include <config.h>
+
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ttree_write.h"
+
+/* Powers of ten as doubles (exact to 1e22, correctly rounded above), enough for floats' range. */
+static const double pow10_pos[] = {
+    1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14,
+    1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22, 1e23, 1e24, 1e25, 1e26, 1e27, 1e28, 1e29,
+    1e30, 1e31, 1e32, 1e33, 1e34, 1e35, 1e36, 1e37, 1e38, 1e39, 1e40, 1e41, 1e42, 1e43, 1e44,
+    1e45, 1e46, 1e47, 1e48, 1e49, 1e50, 1e51, 1e52, 1e53, 1e54, 1e55, 1e56, 1e57, 1e58, 1e59,
+    1e60};
+#define POW10_MAX 60
+
+/* x * 10^p for |p| <= POW10_MAX. */
+static double scale10(double x, int p)
+{
+    return p >= 0 ? x * pow10_pos[p] : x / pow10_pos[-p];
+}
+
+/* The text printf's "%.*g" with precision prec gives for r * 10^lead / 10^(ndigits(r) - 1), r's
+ * leading digit at decimal exponent lead, trailing zeros dropped as %g drops them. */
+static int g_text(uint64_t r, int lead, int prec, int negative, char *buf)
+{
+    char dig[24];
+    int m = 0;
+    while (r) {
+        dig[m++] = (char)('0' + r % 10);
+        r /= 10;
+    }
+    int lo = 0; /* dig[] is least significant first: skip trailing zeros */
+    while (lo < m - 1 && dig[lo] == '0')
+        lo++;
+    char *s = buf;
+    if (negative)
+        *s++ = '-';
+    if (lead < -4 || lead >= prec) { /* scientific: d.ddde+XX */
+        *s++ = dig[m - 1];
+        if (m - 1 > lo) {
+            *s++ = '.';
+            for (int i = m - 2; i >= lo; i--)
+                *s++ = dig[i];
+        }
+        int x = lead < 0 ? -lead : lead;
+        *s++ = 'e';
+        *s++ = lead < 0 ? '-' : '+';
+        if (x >= 100)
+            *s++ = (char)('0' + x / 100);
+        *s++ = (char)('0' + x / 10 % 10);
+        *s++ = (char)('0' + x % 10);
+    } else if (lead >= 0) { /* ddd.ddd */
+        for (int i = m - 1, k = 0; k <= lead; i--, k++)
+            *s++ = i >= lo ? dig[i] : '0';
+        if (m - 1 - lead > lo) {
+            *s++ = '.';
+            for (int i = m - 2 - lead; i >= lo; i--)
+                *s++ = dig[i];
+        }
+    } else { /* 0.000ddd */
+        *s++ = '0';
+        *s++ = '.';
+        for (int k = -1; k > lead; k--)
+            *s++ = '0';
+        for (int i = m - 1; i >= lo; i--)
+            *s++ = dig[i];
+    }
+    *s = '\0';
+    return (int)(s - buf);
+}
+
+/* The fast path for a finite float f != 0: the length written, or 0 where the answer is not
+ * certain in double arithmetic (the caller then asks the reference). */
+static int format_float_fast(float f, char *buf)
+{
+    int negative = f < 0;
+    float a = negative ? -f : f;
+    double x = a;
+    float below = nextafterf(a, 0.0f), above = nextafterf(a, INFINITY);
+    double lo = 0.5 * (x + (double)below); /* exact: two floats' sum fits in a double */
+    double hi = isinf(above) ? x + (x - lo) : 0.5 * (x + (double)above);
+    int e = (int)floor(log10(x)); /* the leading digit's exponent, corrected below */
+    if (e + 1 > POW10_MAX || 9 - e > POW10_MAX)
+        return 0;
+    if (scale10(1.0, e) > x)
+        e--;
+    else if (scale10(1.0, e + 1) <= x)
+        e++;
+    double margin = 1e-14 * x;
+    for (int d = 1; d <= 9; d++) {
+        int p = e - d + 1; /* candidates are r * 10^p with r of d digits */
+        if (p > POW10_MAX || -p > POW10_MAX)
+            return 0;
+        double q = scale10(x, -p), fl = floor(q), frac = q - fl;
+        if (fabs(frac - 0.5) < 1e-6)
+            return 0; /* near a tie, which printf breaks to even */
+        uint64_t r = (uint64_t)fl + (frac > 0.5);
+        double c = scale10((double)r, p);
+        if (c > lo + margin && c < hi - margin) {
+            int lead = e;
+            if (r >= (uint64_t)scale10(1.0, d)) /* 9.96 -> 10: one digit up */
+                lead++;
+            return g_text(r, lead, d, negative, buf);
+        }
+        if (c > lo - margin && c < hi + margin)
+            return 0; /* too near a boundary to tell */
+    }
+    return 0;
+}
+
+int bsti_format_float_search(float f, char *buf)
+{
+    int lo = 1, hi = 9; /* 9 significant digits always read back as the same float */
+    while (lo < hi) {
+        int mid = (lo + hi) / 2;
+        snprintf(buf, 32, "%.*g", mid, (double)f);
+        if (strtof(buf, NULL) == f)
+            hi = mid;
+        else
+            lo = mid + 1;
+    }
+    return snprintf(buf, 32, "%.*g", lo, (double)f);
+}
+
+int bsti_format_float(double v, int digits, char *buf, float *back)
+{
+    if (v == 0.0) {
+        buf[0] = '0', buf[1] = '\0';
+        *back = 0.0f;
+        return 1;
+    }
+    if (digits > 0) {
+        int n = snprintf(buf, 32, "%.*g", digits > 9 ? 9 : digits, v);
+        *back = strtof(buf, NULL);
+        return n;
+    }
+    float f = (float)v;
+    *back = f;
+    int n = isfinite(f) && f != 0.0f ? format_float_fast(f, buf) : 0;
+    return n ? n : bsti_format_float_search(f, buf);
+}
+
+int bsti_format_double(double v, int digits, char *buf, double *back)
+{
+    if (v == 0.0) {
+        buf[0] = '0', buf[1] = '\0';
+        *back = 0.0;
+        return 1;
+    }
+    if (digits > 0) {
+        int n = snprintf(buf, 32, "%.*g", digits > 17 ? 17 : digits, v);
+        *back = strtod(buf, NULL);
+        return n;
+    }
+    int lo = 1, hi = 17; /* 17 significant digits always read back as the same double */
+    while (lo < hi) {
+        int mid = (lo + hi) / 2;
+        snprintf(buf, 32, "%.*g", mid, v);
+        if (strtod(buf, NULL) == v)
+            hi = mid;
+        else
+            lo = mid + 1;
+    }
+    int n = snprintf(buf, 32, "%.*g", lo, v);
+    *back = v;
+    return n;
+}
