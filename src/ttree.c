@@ -6,13 +6,13 @@
  * 4 bytes per stored value plus 8 per node. */
 #include <config.h>
 
-#include <errno.h>
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "ctx.h"
+#include "numtext.h"
 #include "ttree.h"
 
 /* Deepest nesting accepted (k <= 16 with one-value leaves). */
@@ -169,11 +169,10 @@ static int number(bsti_tparse *p)
 {
     bsti_ttree *t = p->t;
     p->tok[p->ntok] = '\0';
+    size_t len = (size_t)p->ntok;
     p->ntok = 0;
-    char *end;
-    errno = 0;
-    double v = strtod(p->tok, &end);
-    if (end == p->tok || *end != '\0')
+    double v;
+    if (!bsti_parse_double(p->tok, len, &v))
         return bsti_error(p->ctx, BST_EFORMAT, "'%s' is not a number", p->tok);
     if (!isfinite(v))
         return bsti_error(p->ctx, BST_EFORMAT, "value '%s' is not finite", p->tok);

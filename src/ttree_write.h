@@ -17,6 +17,7 @@
 
 #include <stddef.h>
 #include "bsdfstack.h"
+#include "numtext.h"
 #include "sink.h"
 
 /* A full component tensor: one of d, f (arrays in the order above) or get (value at a flat index
@@ -52,15 +53,6 @@ typedef struct {
 int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, bsti_sink *out,
                      bsti_tree_stats *stats);
 
-/* Number text (numtext.c).  The shortest text of v that reads back (strtof) as the float nearest
- * v, in %g style: at most 15 characters plus the terminator.  digits > 0 prints that many
- * significant digits instead.  Returns the length; *back receives the value a reader stores. */
-int bsti_format_float(double v, int digits, char *buf, float *back);
-/* The same for doubles (strtod, at most 24 characters plus the terminator). */
-int bsti_format_double(double v, int digits, char *buf, double *back);
-/* The reference the float's text must equal (numtext.c): the fewest "%.*g" digits strtof reads
- * back as f. */
-int bsti_format_float_search(float f, char *buf);
 
 /* Rank 3 (CONVENTIONS.md 5.2).  The rank-3 incident cell ix is the square ring j = G/2 - 1 - ix
  * of the Shirley-Chiu incident grid (sin(theta) in [2j/G, 2(j+1)/G)); the outgoing coordinates

@@ -26,6 +26,7 @@
 #include "basis.h"
 #include "bsdf.h"
 #include "ctx.h"
+#include "numtext.h"
 #include "ttree.h"
 
 #define TEXT_MAX 256
@@ -183,10 +184,10 @@ static void start_data(struct reader *r)
 static void klems_number(struct reader *r)
 {
     r->tok[r->ntok] = '\0';
+    size_t len = (size_t)r->ntok;
     r->ntok = 0;
-    char *end;
-    double v = strtod(r->tok, &end);
-    if (end == r->tok || *end != '\0') {
+    double v;
+    if (!bsti_parse_double(r->tok, len, &v)) {
         fail(r, BST_EFORMAT, "<ScatteringData>: '%s' is not a number", r->tok);
         return;
     }

@@ -365,6 +365,54 @@ START_TEST(test_format_fast)
 }
 END_TEST
 
+/* The readers' decimal parser gives strtod's double bit for bit, and accepts exactly the texts
+ * strtod reads whole: random doubles printed in %g, %e and %f styles with 1..19 digits, the
+ * writer's own float texts, and hand-picked edges (exact halfway cases beyond 2^53, powers of
+ * ten at and beyond 1e22, subnormals, overflow, signed zero, malformed texts). */
+START_TEST(test_parse_fast)
+{
+    static const char *const fmts[] = {"%.*g", "%.*e", "%.*f"};
+    char buf[400];
+    uint64_t x = 0x9E3779B97F4A7C15ull;
+    for (long i = 0; i < 1000000; i++) {
+        x ^= x << 13, x ^= x >> 7, x ^= x << 17;
+        double v = ldexp((double)(x >> 11) * 0x1p-53, (int)(x % 120) - 60) * ((x >> 7) & 1 ? -1 : 1);
+        int prec = (int)((x >> 20) % 19) + 1, f = (int)((x >> 30) % 3);
+        int n = snprintf(buf, sizeof buf, fmts[f], f == 2 ? prec % 12 : prec, v);
+        if (n >= 60) /* %f of large values: longer than the slow path's buffer, never in files */
+            continue;
+        double got = NAN, want = strtod(buf, NULL);
+        ck_assert_msg(bsti_parse_double(buf, (size_t)n, &got) == 1, "%s rejected", buf);
+        ck_assert_msg(memcmp(&got, &want, sizeof got) == 0, "%s: %a, strtod %a", buf, got, want);
+        float back;
+        n = bsti_format_float(v, 0, buf, &back);
+        ck_assert(bsti_parse_double(buf, (size_t)n, &got) == 1 && (float)got == back);
+    }
+    static const char *const good[] = {
+        "0", "-0", "+0.0", "00012", "0.000", ".5", "5.", "1e22", "1e23", "9007199254740993",
+        "9007199254740992e3", "1234567890123456789", "12345678901234567890", "0.1", "3.4028235e38",
+        "3.5e38", "1e-45", "1.4e-45", "2.2250738585072014e-308", "4.9e-324", "1e-400", "1e400",
+        "1.684e+02", "1E5", "-7.5e-3", "123456789012345678901234567890", "0.30000000000000004",
+        "inf", "nan", "0x1p3", "1e0022", "1.0000000000000000000000001"};
+    for (size_t i = 0; i < sizeof good / sizeof good[0]; i++) {
+        char *end;
+        double want = strtod(good[i], &end), got = 1.0;
+        ck_assert_msg(bsti_parse_double(good[i], strlen(good[i]), &got) == (*end == '\0'), "%s", good[i]);
+        ck_assert_msg(memcmp(&got, &want, sizeof got) == 0 || isnan(want), "%s: %a vs %a", good[i], got, want);
+    }
+    static const char *const bad[] = {"", "-", "+", ".", "e5", "1e", "1e+", "1.2.3", "1-2", "x", "1x",
+                                      "--1", "1e5.5", "1 "};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        double got = 42.0;
+        ck_assert_msg(bsti_parse_double(bad[i], strlen(bad[i]), &got) == 0, "'%s' accepted", bad[i]);
+        ck_assert(got == 42.0);
+    }
+    /* the text need not be terminated: only len characters are read */
+    double got;
+    ck_assert(bsti_parse_double("12.5}", 4, &got) == 1 && got == 12.5);
+}
+END_TEST
+
 /* ------------------------------------------------------------------ emitter: worked examples */
 
 /* CONVENTIONS.md 12.1 and 12.2: the hand-made rank-4 trees, rebuilt from their description as full
@@ -1357,6 +1405,7 @@ static Suite *suite(void)
     tc = tcase_create("number text");
     tcase_set_timeout(tc, 120);
     tcase_add_test(tc, test_format_fast);
+    tcase_add_test(tc, test_parse_fast);
     suite_add_tcase(s, tc);
     tc = tcase_create("xml");
     tcase_add_checked_fixture(tc, setup, teardown);

@@ -1,0 +1,25 @@
+/* numtext.h - numbers as text, both ways: the writer's shortest round-trip floats and the readers'
+ * fast decimal parsing (numtext.c). */
+#ifndef BST_NUMTEXT_H
+#define BST_NUMTEXT_H
+
+#include <stddef.h>
+
+/* The shortest text of v that reads back (strtof) as the float nearest
+ * v, in %g style: at most 15 characters plus the terminator.  digits > 0 prints that many
+ * significant digits instead.  Returns the length; *back receives the value a reader stores. */
+int bsti_format_float(double v, int digits, char *buf, float *back);
+/* The same for doubles (strtod, at most 24 characters plus the terminator). */
+int bsti_format_double(double v, int digits, char *buf, double *back);
+/* The reference the float's text must equal (numtext.c): the fewest "%.*g" digits strtof reads
+ * back as f. */
+int bsti_format_float_search(float f, char *buf);
+
+/* The double strtod reads from the len characters at s (no terminator needed): *v and 1 when the
+ * whole text is a decimal number, 0 when it is not (nothing else written to *v).  Plain decimals
+ * of up to 19 significant digits and a power of ten within 1e22 are converted by one correctly
+ * rounded operation (Clinger's fast path: the same double as strtod's); anything else goes to
+ * strtod itself. */
+int bsti_parse_double(const char *s, size_t len, double *v);
+
+#endif
