@@ -322,8 +322,39 @@ int bst_stack_columns(bst_ctx *ctx, size_t n, const bst_layer *const *layers, co
 /* A clear pane (analytic glass, below). */
 typedef struct bst_glass bst_glass;
 
-/* Spectral panes combined wavelength by wavelength, then averaged per band channel as WINDOW and
- * WCE do (see spectral.c); abs_front / abs_back (may be NULL): [(c * n + i) * N + j]. */
+/* One position of a stack combined wavelength by wavelength: a spectral pane, or a layer known only
+ * by band values that carries both a "Solar" and a "Visible" channel (a shade from a BSDF file, any
+ * basis).  The second enters as WINDOW's dual-band material does: at wavelengths inside
+ * [BST_DUAL_BAND_LO, BST_DUAL_BAND_HI] um (inclusive) its Visible matrices, outside them
+ * max(0, (Solar - f Visible) / (1 - f)) element by element, f = bst_spectral_opts.dual_f.  Exactly
+ * one of the two fields is set. */
+typedef struct {
+    bst_glass *pane;          /* a pane with spectral data; the first one also gives the bands'
+                                 weights, and a requested band it lacks is added to it */
+    const bst_layer *bands;   /* a layer with Solar and Visible channels over the stack's basis */
+} bst_spectral_layer;
+
+#define BST_DUAL_BAND_F 0.499 /* WCE's share of the solar band taken as visible */
+#define BST_DUAL_BAND_LO 0.38 /* um, the visible range of a dual-band material */
+#define BST_DUAL_BAND_HI 0.78
+
+typedef struct {
+    int at_centre;            /* 1: panes at patch centres (WINDOW's), 0: patch averages; default 0 */
+    double dual_f;            /* f of dual-band layers, default BST_DUAL_BAND_F; 0 <= f < 1 */
+} bst_spectral_opts;
+void bst_spectral_opts_init(bst_spectral_opts *opts);
+
+/* Layers (exterior first, at least one a spectral pane) combined wavelength by wavelength, then
+ * averaged per band channel (Visible, Solar, CIE-X, CIE-Y, CIE-Z) as WINDOW and WCE do (see
+ * spectral.c): out has the requested channels; abs_front / abs_back (may be NULL), each
+ * nchannels * n * N values, [(c * n + i) * N + j], the share of unit flux from patch j absorbed by
+ * layer i, averaged over the band like the matrices.  sopts NULL = defaults. */
+int bst_stack_combine_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers,
+                                      const bst_basis *basis, size_t nchannels,
+                                      const char *const *channels, const bst_spectral_opts *sopts,
+                                      const bst_stack_opts *opts, bst_layer **out,
+                                      double *abs_front, double *abs_back);
+/* The same for a stack of spectral panes only (at_centre as in bst_spectral_opts). */
 int bst_stack_combine_spectral(bst_ctx *ctx, size_t n, bst_glass *const *panes,
                                const bst_basis *basis, size_t nchannels,
                                const char *const *channels, int at_centre,

@@ -1,4 +1,4 @@
-/* spectral.c - stacks of spectral panes combined wavelength by wavelength and averaged afterwards,
+/* spectral.c - stacks with spectral panes combined wavelength by wavelength and averaged afterwards,
  * as Windows-CalcEngine and WINDOW do for multi-layer systems.  Combining band-averaged panes is
  * not the same: the system's T is not linear in the panes' T and R (NFRC 102 / 103 at normal
  * incidence, solar: 0.652314 per wavelength vs 0.645986 from band averages).
@@ -6,9 +6,15 @@
  * The average of a system property over a band is linear in the per-wavelength system, so the
  * band's matrices are sum_k w_k M(lambda_k) with bst_glass_channel_weights' w: each wavelength is
  * combined once, added with its weight, and freed.  Wavelengths of zero weight are skipped.
- * A band channel (Visible, Solar, CIE-X, CIE-Y, CIE-Z) missing from panes[0] is added to it; its
- * wavelengths are the union of the panes' measured ones, or the band's integration grid when that
- * is shorter (WCE's rule).  Every matrix is diagonal: O(N) per wavelength. */
+ * A band channel (Visible, Solar, CIE-X, CIE-Y, CIE-Z) missing from the first pane is added to it;
+ * its wavelengths are the union of the layers' own ones, or the band's integration grid when that
+ * is shorter (WCE's rule).
+ *
+ * A layer known only by band values (Solar and Visible channels) is WINDOW's dual-band material:
+ * its own wavelengths are {0.3, 0.38 -+ 1e-6, 0.78 -+ 1e-6, 2.5} um (WCE's), it is its Visible
+ * matrices inside [0.38, 0.78] um and max(0, (Solar - f Visible) / (1 - f)) outside.  Both are
+ * built once, before the loop: only the panes depend on the wavelength.  A stack of panes only
+ * keeps every matrix diagonal: O(N) per wavelength. */
 #include <config.h>
 
 #include <math.h>
@@ -25,23 +31,43 @@ static int cmp_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-/* The union of the panes' measured wavelengths, sorted, duplicates (within 1e-9 um) removed. */
-static int union_grid(bst_ctx *ctx, size_t n, bst_glass *const *panes, double **wl, size_t *nwl)
+/* A dual-band layer's own wavelengths (um): WCE's, the band limits -+ 1e-6 and the solar range. */
+#define DUAL_EDGE 1e-6
+static const double dual_grid[6] = {0.3, BST_DUAL_BAND_LO - DUAL_EDGE, BST_DUAL_BAND_LO + DUAL_EDGE,
+                                    BST_DUAL_BAND_HI - DUAL_EDGE, BST_DUAL_BAND_HI + DUAL_EDGE, 2.5};
+/* Wavelengths closer than this (um) are one. */
+#define GRID_MERGE 1e-9
+
+void bst_spectral_opts_init(bst_spectral_opts *opts)
+{
+    if (!opts)
+        return;
+    opts->at_centre = 0;
+    opts->dual_f = BST_DUAL_BAND_F;
+}
+
+/* The union of the layers' own wavelengths, sorted, duplicates (within GRID_MERGE) removed. */
+static int union_grid(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers, double **wl,
+                      size_t *nwl)
 {
     size_t total = 0;
     for (size_t i = 0; i < n; i++)
-        total += bst_glass_nwavelengths(panes[i]);
+        total += layers[i].pane ? bst_glass_nwavelengths(layers[i].pane) : 6;
     double *w = bsti_alloc_array(ctx, total, sizeof *w);
     if (!w)
         return BST_ENOMEM;
     size_t m = 0;
     for (size_t i = 0; i < n; i++)
-        for (size_t k = 0; k < bst_glass_nwavelengths(panes[i]); k++)
-            w[m++] = bst_glass_wavelength(panes[i], k);
+        if (layers[i].pane)
+            for (size_t k = 0; k < bst_glass_nwavelengths(layers[i].pane); k++)
+                w[m++] = bst_glass_wavelength(layers[i].pane, k);
+        else
+            for (size_t k = 0; k < 6; k++)
+                w[m++] = dual_grid[k];
     qsort(w, m, sizeof *w, cmp_double);
     size_t u = 0;
     for (size_t k = 0; k < m; k++)
-        if (u == 0 || w[k] - w[u - 1] > 1e-9)
+        if (u == 0 || w[k] - w[u - 1] > GRID_MERGE)
             w[u++] = w[k];
     *wl = w;
     *nwl = u;
@@ -60,6 +86,79 @@ static const double *wavelengths(const bst_glass *g, const char *name, const dou
     return !grid ? NULL : ng < nall ? grid : all;
 }
 
+/* ------------------------------------------------------------------ dual-band layers */
+
+/* A dual-band layer as two one-channel ("Spectral") layers: inside the visible range and outside. */
+struct dual {
+    bst_layer *vis, *out;
+};
+
+/* Component c of the layer outside the visible range from the Solar (s) and Visible (v) matrices
+ * (either may be NULL = zero): max(0, (s - f v) / (1 - f)), in the cheapest exact structure. */
+static int dual_outside(bst_ctx *ctx, const bst_mat *s, const bst_mat *v, size_t N, double f,
+                        bst_mat **out)
+{
+    bst_mat *d;
+    int rc = bst_mat_new_dense(ctx, N, N, BST_DOUBLE, &d);
+    if (rc < 0)
+        return rc;
+    double *x = bst_mat_dense_data(d), *y = NULL;
+    if (s)
+        rc = bst_mat_to_dense_array(ctx, s, x);
+    if (rc >= 0 && v && !(y = bsti_alloc_array(ctx, N * N, sizeof *y)))
+        rc = BST_ENOMEM;
+    if (rc >= 0 && v)
+        rc = bst_mat_to_dense_array(ctx, v, y);
+    for (size_t k = 0; rc >= 0 && k < N * N; k++)
+        x[k] = fmax(0.0, (x[k] - f * (y ? y[k] : 0.0)) / (1.0 - f));
+    bsti_free(ctx, y);
+    if (rc >= 0)
+        rc = bst_mat_compact(ctx, d, BST_SPARSE_MAX_FILL, out);
+    bst_mat_free(d);
+    return rc;
+}
+
+static void dual_free(struct dual *d)
+{
+    bst_layer_free(d->vis);
+    bst_layer_free(d->out);
+    d->vis = d->out = NULL;
+}
+
+static int dual_new(bst_ctx *ctx, const bst_layer *l, size_t pos, const bst_basis *basis,
+                    double f, struct dual *d)
+{
+    static const char *const name[] = {"Spectral"};
+    int cs = bst_layer_find_channel(l, "Solar"), cv = bst_layer_find_channel(l, "Visible");
+    d->vis = d->out = NULL;
+    if (cs < 0 || cv < 0)
+        return bsti_error(ctx, BST_EINVAL, "spectral stack: layer %zu (%s) has no spectral data "
+                          "and lacks a %s channel: a dual-band layer needs Solar and Visible",
+                          pos + 1, bst_layer_name(l) ? bst_layer_name(l) : "unnamed",
+                          cs < 0 ? "Solar" : "Visible");
+    if (!bst_basis_equal(bst_layer_basis(l), basis))
+        return bsti_error(ctx, BST_EINVAL, "spectral stack: layer %zu is over another basis",
+                          pos + 1);
+    size_t N = bst_basis_size(basis);
+    int rc = bst_layer_new(ctx, basis, 1, name, &d->vis);
+    if (rc >= 0)
+        rc = bst_layer_new(ctx, basis, 1, name, &d->out);
+    for (int c = 0; c < BST_NCOMP && rc >= 0; c++) {
+        const bst_mat *s = bst_layer_get(l, (size_t)cs, (bst_comp)c);
+        const bst_mat *v = bst_layer_get(l, (size_t)cv, (bst_comp)c);
+        bst_mat *m = NULL;
+        if (v && (rc = bst_mat_compact(ctx, v, BST_SPARSE_MAX_FILL, &m)) >= 0)
+            rc = bst_layer_set(ctx, d->vis, 0, (bst_comp)c, m);
+        if (rc >= 0 && (s || v) && (rc = dual_outside(ctx, s, v, N, f, &m)) >= 0)
+            rc = bst_layer_set(ctx, d->out, 0, (bst_comp)c, m);
+    }
+    if (rc < 0)
+        dual_free(d);
+    return rc;
+}
+
+/* ------------------------------------------------------------------ the combination */
+
 /* acc[c] += w * m[c] for the requested components (acc[c] == NULL: acc[c] = w * m[c]). */
 static int accumulate(bst_ctx *ctx, bst_mat **acc, const bst_layer *sys, unsigned want, double w)
 {
@@ -77,25 +176,50 @@ static int accumulate(bst_ctx *ctx, bst_mat **acc, const bst_layer *sys, unsigne
     return BST_OK;
 }
 
-int bst_stack_combine_spectral(bst_ctx *ctx, size_t n, bst_glass *const *panes,
-                               const bst_basis *basis, size_t nchannels,
-                               const char *const *channels, int at_centre,
-                               const bst_stack_opts *opts_in, bst_layer **out, double *abs_front,
-                               double *abs_back)
+/* Validates the layers; *first = the first pane (it gives the bands' weights). */
+static int check_layers(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers,
+                        const bst_spectral_opts *so, bst_glass **first)
+{
+    *first = NULL;
+    if (!(so->dual_f >= 0.0 && so->dual_f < 1.0))
+        return bsti_error(ctx, BST_EINVAL, "spectral stack: dual-band f = %g is not in [0, 1)",
+                          so->dual_f);
+    for (size_t i = 0; i < n; i++) {
+        const bst_spectral_layer *l = &layers[i];
+        if (!l->pane == !l->bands)
+            return bsti_error(ctx, BST_EINVAL, "spectral stack: layer %zu needs exactly one of a "
+                              "pane and a dual-band layer", i + 1);
+        if (l->pane && !bst_glass_nwavelengths(l->pane))
+            return bsti_error(ctx, BST_EINVAL, "spectral stack: layer %zu (%s) has no spectral "
+                              "data: combine per channel with bst_stack_combine", i + 1,
+                              bst_glass_description(l->pane));
+        if (l->pane && !*first)
+            *first = l->pane;
+    }
+    if (!*first)
+        return bsti_error(ctx, BST_EINVAL, "spectral stack: no layer is a spectral pane: combine "
+                          "per channel with bst_stack_combine");
+    return BST_OK;
+}
+
+int bst_stack_combine_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers,
+                                      const bst_basis *basis, size_t nchannels,
+                                      const char *const *channels, const bst_spectral_opts *sopts,
+                                      const bst_stack_opts *opts_in, bst_layer **out,
+                                      double *abs_front, double *abs_back)
 {
     if (!ctx || !out)
         return BST_EINVAL;
     *out = NULL;
-    if (n == 0 || !panes || !basis || nchannels == 0 || !channels)
-        return bsti_error(ctx, BST_EINVAL, "spectral stack: no panes, basis or channels");
-    for (size_t i = 0; i < n; i++) {
-        if (!panes[i])
-            return bsti_error(ctx, BST_EINVAL, "spectral stack: pane %zu is NULL", i + 1);
-        if (!bst_glass_nwavelengths(panes[i]))
-            return bsti_error(ctx, BST_EINVAL, "spectral stack: layer %zu (%s) has no spectral "
-                              "data: combine per channel with bst_stack_combine", i + 1,
-                              bst_glass_description(panes[i]));
-    }
+    if (n == 0 || !layers || !basis || nchannels == 0 || !channels)
+        return bsti_error(ctx, BST_EINVAL, "spectral stack: no layers, basis or channels");
+    bst_spectral_opts sdefaults;
+    bst_spectral_opts_init(&sdefaults);
+    const bst_spectral_opts *so = sopts ? sopts : &sdefaults;
+    bst_glass *ref;
+    int rc = check_layers(ctx, n, layers, so, &ref);
+    if (rc < 0)
+        return rc;
     bst_stack_opts defaults;
     bst_stack_opts_init(&defaults);
     const bst_stack_opts *opts = opts_in ? opts_in : &defaults;
@@ -104,13 +228,18 @@ int bst_stack_combine_spectral(bst_ctx *ctx, size_t n, bst_glass *const *panes,
 
     size_t N = bst_basis_size(basis), nwl = 0, nall = 0;
     double *all = NULL, *w = NULL, *af = NULL, *ab = NULL;
-    bst_layer **lay = bsti_calloc(ctx, n, sizeof *lay), *res = NULL, *sys = NULL;
+    bst_layer **own = bsti_calloc(ctx, n, sizeof *own), *res = NULL, *sys = NULL;
+    const bst_layer **lay = bsti_calloc(ctx, n, sizeof *lay);
+    struct dual *dual = bsti_calloc(ctx, n, sizeof *dual);
     bst_mat *acc[BST_NCOMP] = {NULL};
     bst_progress_fn progress = ctx->progress_fn;
     bsti_glass_rule *rule = NULL;
-    int rc = lay ? union_grid(ctx, n, panes, &all, &nall) : BST_ENOMEM;
+    rc = own && lay && dual ? union_grid(ctx, n, layers, &all, &nall) : BST_ENOMEM;
+    for (size_t i = 0; i < n && rc >= 0; i++)
+        if (layers[i].bands)
+            rc = dual_new(ctx, layers[i].bands, i, basis, so->dual_f, &dual[i]);
     if (rc >= 0)
-        rc = bsti_glass_rule_new(ctx, basis, at_centre, BST_GLASS_SAMPLES, &rule);
+        rc = bsti_glass_rule_new(ctx, basis, so->at_centre, BST_GLASS_SAMPLES, &rule);
     if (rc >= 0)
         rc = bst_layer_new(ctx, basis, nchannels, channels, &res);
     if (rc >= 0 && want_abs && (!(af = bsti_alloc_array(ctx, 2 * n * N, sizeof *af))))
@@ -119,22 +248,22 @@ int bst_stack_combine_spectral(bst_ctx *ctx, size_t n, bst_glass *const *panes,
     size_t total = 0, done = 0;
     int warn = 0;
     for (size_t c = 0; c < nchannels && rc >= 0; c++) {
-        if (bst_glass_find_channel(panes[0], channels[c]) < 0)
-            rc = bst_glass_add_channel(ctx, panes[0], channels[c]);
-        if (rc >= 0 && !wavelengths(panes[0], channels[c], all, nall, &nwl))
+        if (bst_glass_find_channel(ref, channels[c]) < 0)
+            rc = bst_glass_add_channel(ctx, ref, channels[c]);
+        if (rc >= 0 && !wavelengths(ref, channels[c], all, nall, &nwl))
             rc = bsti_error(ctx, BST_EINVAL, "spectral stack: channel %s is not a spectral band "
                             "(Visible, Solar, CIE-X, CIE-Y, CIE-Z)", channels[c]);
         total += nwl;
     }
     for (size_t c = 0; c < nchannels && rc >= 0; c++) {
-        size_t ch = (size_t)bst_glass_find_channel(panes[0], channels[c]);
-        const double *wl = wavelengths(panes[0], channels[c], all, nall, &nwl);
+        size_t ch = (size_t)bst_glass_find_channel(ref, channels[c]);
+        const double *wl = wavelengths(ref, channels[c], all, nall, &nwl);
         bsti_free(ctx, w);
         if (!(w = bsti_alloc_array(ctx, nwl, sizeof *w))) {
             rc = BST_ENOMEM;
             break;
         }
-        rc = bst_glass_channel_weights(ctx, panes[0], ch, nwl, wl, w);
+        rc = bst_glass_channel_weights(ctx, ref, ch, nwl, wl, w);
         double *abs_f = abs_front ? abs_front + c * n * N : NULL;
         double *abs_b = abs_back ? abs_back + c * n * N : NULL;
         for (size_t i = 0; i < n * N; i++) {
@@ -146,18 +275,21 @@ int bst_stack_combine_spectral(bst_ctx *ctx, size_t n, bst_glass *const *panes,
         for (size_t k = 0; k < nwl && rc >= 0; k++, done++) {
             if (w[k] == 0.0)
                 continue;
+            int inside = wl[k] >= BST_DUAL_BAND_LO && wl[k] <= BST_DUAL_BAND_HI;
             for (size_t i = 0; i < n && rc >= 0; i++) {
-                bst_layer_free(lay[i]);
-                lay[i] = NULL;
-                rc = bsti_glass_layer_at(ctx, panes[i], basis, rule, wl[k], &lay[i]);
+                bst_layer_free(own[i]);
+                own[i] = NULL;
+                if (layers[i].pane)
+                    rc = bsti_glass_layer_at(ctx, layers[i].pane, basis, rule, wl[k], &own[i]);
+                lay[i] = layers[i].pane ? own[i] : inside ? dual[i].vis : dual[i].out;
             }
             ctx->progress_fn = NULL; /* one report per wavelength, below */
             if (rc >= 0)
-                rc = bst_stack_combine(ctx, n, (const bst_layer *const *)lay, opts, &sys);
+                rc = bst_stack_combine(ctx, n, lay, opts, &sys);
             if (rc > 0) /* a warning (ill-conditioned, energy): kept, its message is in ctx */
                 warn = rc, rc = BST_OK;
             if (rc >= 0 && want_abs)
-                rc = bst_stack_absorptance(ctx, n, (const bst_layer *const *)lay, 0, opts, af, ab);
+                rc = bst_stack_absorptance(ctx, n, lay, 0, opts, af, ab);
             if (rc > 0)
                 warn = rc, rc = BST_OK;
             ctx->progress_fn = progress;
@@ -182,11 +314,16 @@ int bst_stack_combine_spectral(bst_ctx *ctx, size_t n, bst_glass *const *panes,
         }
     }
     ctx->progress_fn = progress;
-    for (size_t i = 0; lay && i < n; i++)
-        bst_layer_free(lay[i]);
+    for (size_t i = 0; i < n; i++) {
+        if (own)
+            bst_layer_free(own[i]);
+        if (dual)
+            dual_free(&dual[i]);
+    }
     for (int m = 0; m < BST_NCOMP; m++)
         bst_mat_free(acc[m]);
-    bsti_free(ctx, lay), bsti_free(ctx, all), bsti_free(ctx, w), bsti_free(ctx, af);
+    bsti_free(ctx, own), bsti_free(ctx, lay), bsti_free(ctx, dual);
+    bsti_free(ctx, all), bsti_free(ctx, w), bsti_free(ctx, af);
     bsti_glass_rule_free(ctx, rule);
     if (rc < 0) {
         bst_layer_free(res);
@@ -194,4 +331,29 @@ int bst_stack_combine_spectral(bst_ctx *ctx, size_t n, bst_glass *const *panes,
     }
     *out = res;
     return warn;
+}
+
+int bst_stack_combine_spectral(bst_ctx *ctx, size_t n, bst_glass *const *panes,
+                               const bst_basis *basis, size_t nchannels,
+                               const char *const *channels, int at_centre,
+                               const bst_stack_opts *opts, bst_layer **out, double *abs_front,
+                               double *abs_back)
+{
+    if (!ctx || !out)
+        return BST_EINVAL;
+    *out = NULL;
+    if (n == 0 || !panes)
+        return bsti_error(ctx, BST_EINVAL, "spectral stack: no panes");
+    bst_spectral_layer *l = bsti_calloc(ctx, n, sizeof *l);
+    if (!l)
+        return BST_ENOMEM;
+    for (size_t i = 0; i < n; i++)
+        l[i].pane = panes[i];
+    bst_spectral_opts so;
+    bst_spectral_opts_init(&so);
+    so.at_centre = at_centre;
+    int rc = bst_stack_combine_spectral_layers(ctx, n, l, basis, nchannels, channels, &so, opts,
+                                               out, abs_front, abs_back);
+    bsti_free(ctx, l);
+    return rc;
 }

@@ -274,7 +274,8 @@ static const char *spectrum(const char *channel, const char **detector)
         {"CIE-Z", "CIE Illuminant D65 1nm.ssp", "ASTM E308 1931 Z.dsp"},
         {"CIE-u", "CIE Illuminant D65 1nm.ssp", NULL},
         {"CIE-v", "CIE Illuminant D65 1nm.ssp", NULL},
-        {"Solar", "CIE Illuminant D65 1nm.ssp", "None"}, /* as wrapBSDF -s Solar writes */
+        /* the solar spectrum bsdfstack averages over (glass_band.c); wrapBSDF -s Solar writes D65 */
+        {"Solar", "ASTM E891-87 Table 1.ssp", "None"},
     };
     for (size_t i = 0; i < sizeof known / sizeof known[0]; i++)
         if (strcasecmp(channel, known[i].name) == 0) {

@@ -33,6 +33,20 @@ awk -v a="$tsp" -v b="$tpc" 'BEGIN { l = 0.0768802444241; x = a * l - 0.652314; 
 expect_status 0 "a pane without spectral data" -- "$B" combine -k 2 -o "$tmpdir/mx.xml" glass:nfrc-102 glass:clear-6mm
 grep -q "layer 2, glass:clear-6mm, has no spectral data" "$tmpdir/mx.xml" && pass "metadata names the band-only layer" || fail "metadata of a mixed stack"
 
+# a layer known by band values (a file with Solar and Visible channels: here a pane written as Klems
+# XML) between spectral panes enters per wavelength as WINDOW's dual-band material; -v says why,
+# --per-channel keeps band values; the balance T + R + sum A = 1 holds per patch (to the TSV's 8 digits)
+expect_status 0 "a band-value layer as Klems XML" -- "$B" combine --klems=quarter --no-reduce -o "$tmpdir/band.xml" glass:clear-6mm
+expect_status 0 "pane + dual-band layer + pane" -- "$B" combine -v --klems=quarter --absorptance "$tmpdir/dab.tsv" \
+    -o "$tmpdir/db.xml" glass:nfrc-102 "$tmpdir/band.xml" glass:nfrc-103
+grep -q "spectral: combined wavelength by wavelength" "$tmpdir/db.xml" && grep -q "as WINDOW's dual-band material" "$tmpdir/db.xml" \
+    && pass "metadata: dual-band layer per wavelength" || fail "metadata of a stack with a dual-band layer"
+grep -q "^bsdfstack combine: spectral: combined wavelength by wavelength" "$tmpdir/err" && pass "-v says why" || fail "-v reason"
+awk -F'\t' 'NR > 1 { n++; d = $6 + $7 + $8 + $9 + $10 - 1; if (d < 0) d = -d; if (d > m) m = d }
+    END { exit !(n == 164 && m < 5e-8) }' "$tmpdir/dab.tsv" && pass "dual-band stack: T + R + sum A = 1" || fail "dual-band balance"
+expect_status 0 "the same per channel" -- "$B" combine -v --per-channel --klems=quarter -o "$tmpdir/dpc.xml" glass:nfrc-102 "$tmpdir/band.xml" glass:nfrc-103
+grep -q "spectral: band values combined per channel (as asked" "$tmpdir/dpc.xml" && pass "metadata: --per-channel" || fail "metadata of --per-channel with a dual-band layer"
+
 # a reference blind between panes, reduced output, reads back
 expect_status 0 "combine glass + blind + glass (k = 4)" -- "$B" combine -k 4 -o "$tmpdir/s.xml" glass:clear-6mm "$ref/L_blind0_t4k5.xml" glass:clear-6mm
 expect_status 0 "result reads back" -- sh -c "echo '0 0 -1 0 0 1' | '$B' query '$tmpdir/s.xml'"

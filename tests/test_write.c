@@ -1156,6 +1156,24 @@ START_TEST(test_channels_metadata)
         ck_assert(found_comment && found_name);
         ck_assert_int_eq(nwd, 12); /* 4 channels x Tf, Rf, Tb (Tf is not Tb's reciprocal; Rb is
                                       absent from the layer and left out) */
+        /* each block names its source: the solar spectrum bsdfstack averages over for Solar, D65
+         * for the colour channels */
+        FILE *fp = fopen(path, "r");
+        static char text[1 << 20];
+        size_t len = fread(text, 1, sizeof text - 1, fp);
+        fclose(fp);
+        text[len] = '\0';
+        int nsolar = 0, nd65 = 0;
+        for (const char *p = strstr(text, "<Wavelength "); p; p = strstr(p + 1, "<Wavelength ")) {
+            const char *src = strstr(p, "<SourceSpectrum>"), *next = strstr(p + 1, "<Wavelength ");
+            int here = src && (!next || src < next);
+            if (strncmp(strchr(p, '>') + 1, "Solar<", 6) == 0)
+                nsolar += here && strncmp(src, "<SourceSpectrum>ASTM E891-87 Table 1.ssp<", 41) == 0;
+            else if (here)
+                nd65 += strncmp(src, "<SourceSpectrum>CIE Illuminant D65 1nm.ssp<", 43) == 0;
+        }
+        ck_assert_int_eq(nsolar, 3);
+        ck_assert_int_eq(nd65, 6);
         bst_bsdf *b = read_ok(path);
         ck_assert_uint_eq(bst_bsdf_nchannels(b), 4);
         bst_layer *l2 = layer_of(b, NULL);

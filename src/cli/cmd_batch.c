@@ -157,9 +157,10 @@ static int run_stack(bst_ctx *ctx, const char *sub, const char *path, const stru
         snprintf(view.description + strlen(view.description), len - strlen(view.description),
                  "\nbatch: %s line %zu", path, sl->lineno);
     }
-    int spectral = !per_channel && view.npanes == view.n;
+    char why[2048];
+    int spectral = rc == CLI_OK && cli_spectral_plan(&view, per_channel, why, sizeof why);
     if (rc == CLI_OK)
-        rc = cli_note_spectral(sub, &view, spectral, per_channel);
+        rc = cli_note_spectral(sub, &view, why, 0);
     struct timespec t0, t1;
     clock_gettime(CLOCK_MONOTONIC, &t0);
     if (rc == CLI_OK && spectral) {

@@ -22,9 +22,12 @@ static const char help[] =
     "                         [--incident THETA,PHI]...\n"
     "                         [--incident-file FILE] [-v] -o OUT LAYER LAYER...\n"
     "Combines the layers, listed exterior first, with every inter-reflection between them, and\n"
-    "writes the system's BSDF as BSDF XML.  When every layer is a pane with spectral data, the\n"
-    "stack is combined wavelength by wavelength and averaged per channel afterwards (as WINDOW\n"
-    "does); otherwise each channel's band values are combined.  The output's metadata says which.\n"
+    "writes the system's BSDF as BSDF XML.  When at least one layer is a pane with spectral data\n"
+    "and every other layer is a file with Solar and Visible channels (WINDOW's dual-band\n"
+    "material: Visible inside 0.38..0.78 um, (Solar - 0.499 Visible) / 0.501 outside), the stack\n"
+    "is combined wavelength by wavelength and averaged per channel afterwards (as WINDOW does);\n"
+    "otherwise each channel's band values are combined.  The output's metadata says which and\n"
+    "why; -v prints it.\n"
     "\n"
     "Layers:\n"
     "  FILE.xml           a BSDF XML file (Klems, TensorTree3/4, any resolution)\n"
@@ -46,7 +49,7 @@ static const char help[] =
     "  --dense            force every matrix dense (the baseline for comparisons)\n"
     "  --absorptance FILE also write per-layer absorptance per incident patch (TSV: channel,\n"
     "                     side, patch, theta, phi of the propagation direction, A1..An, T, R)\n"
-    "  --per-channel      combine band values even when every layer is spectral\n"
+    "  --per-channel      combine band values even when the stack could go per wavelength\n"
     "  --strict           ill-conditioning and energy imbalance (input or system) are errors\n"
     "  --max-memory SIZE  refuse when the estimated peak exceeds SIZE (16G, 800M; default: the\n"
     "                     memory available now)\n"
@@ -367,7 +370,8 @@ int cmd_combine(int argc, char **argv)
         bst_ctx_free(ctx);
         return rc;
     }
-    int spectral = rc == CLI_OK && !args.per_channel && set.npanes == set.n;
+    char why[2048];
+    int spectral = rc == CLI_OK && cli_spectral_plan(&set, args.per_channel, why, sizeof why);
     if (rc == CLI_OK && abspath) {
         size_t sz = bst_layer_nchannels(set.layers[0]) * set.n * bst_basis_size(set.basis);
         abs[0] = malloc(2 * sz * sizeof(double));
@@ -376,7 +380,7 @@ int cmd_combine(int argc, char **argv)
             rc = cli_fail(sub, "out of memory");
     }
     if (rc == CLI_OK)
-        rc = cli_note_spectral(sub, &set, spectral, args.per_channel);
+        rc = cli_note_spectral(sub, &set, why, verbose);
     if (rc == CLI_OK && spectral) {
         rc = cli_combine_spectral(ctx, sub, &set, &args.so, abs, &sys);
     } else if (rc == CLI_OK) {

@@ -378,47 +378,124 @@ int cli_write_layer(bst_ctx *ctx, const char *sub, const bst_layer *l, const cha
     return rc;
 }
 
+/* Channels the per-wavelength path can average over (bst_stack_combine_spectral_layers). */
+static int is_band(const char *name)
+{
+    static const char *const bands[] = {"Visible", "Solar", "CIE-X", "CIE-Y", "CIE-Z"};
+    for (size_t i = 0; i < sizeof bands / sizeof bands[0]; i++)
+        if (strcasecmp(name, bands[i]) == 0)
+            return 1;
+    return 0;
+}
+
+/* Layer 0's channels that every layer has, into names (set->n >= 1); how many. */
+static size_t common_channels(const struct cli_layers *set, const char **names)
+{
+    const bst_layer *l0 = set->layers[0];
+    size_t m = 0;
+    for (size_t c = 0; c < bst_layer_nchannels(l0); c++) {
+        size_t i = 1;
+        while (i < set->n && bst_layer_find_channel(set->layers[i], bst_layer_channel(l0, c)) >= 0)
+            i++;
+        if (i == set->n)
+            names[m++] = bst_layer_channel(l0, c);
+    }
+    return m;
+}
+
+/* A layer that enters a spectral stack as WINDOW's dual-band material: read from a file (not a
+ * pane: its name is not glass:...) with Solar and Visible channels. */
+static int is_dual_band(const bst_layer *l)
+{
+    const char *name = bst_layer_name(l);
+    return (!name || strncmp(name, "glass:", 6) != 0) && bst_layer_find_channel(l, "Solar") >= 0 &&
+           bst_layer_find_channel(l, "Visible") >= 0;
+}
+
+int cli_spectral_plan(const struct cli_layers *set, int per_channel, char *why, size_t size)
+{
+    size_t first_plain = set->n, ndual = 0;
+    for (size_t i = 0; i < set->n; i++) {
+        if (set->panes[i])
+            continue;
+        if (is_dual_band(set->layers[i]))
+            ndual++;
+        else if (first_plain == set->n)
+            first_plain = i;
+    }
+    const char **names = malloc((bst_layer_nchannels(set->layers[0]) + 1) * sizeof *names);
+    size_t nch = names ? common_channels(set, names) : 0, bad = 0;
+    while (bad < nch && is_band(names[bad]))
+        bad++;
+    int spectral = 0;
+    if (per_channel)
+        snprintf(why, size, "band values combined per channel (as asked, --per-channel)");
+    else if (first_plain < set->n && set->npanes)
+        snprintf(why, size, "band values combined per channel (layer %zu, %s, has no spectral data "
+                 "and no Solar and Visible channels)", first_plain + 1,
+                 bst_layer_name(set->layers[first_plain]));
+    else if (first_plain < set->n)
+        snprintf(why, size, "band values combined per channel (layer %zu, %s, has no spectral "
+                 "data)", first_plain + 1, bst_layer_name(set->layers[first_plain]));
+    else if (!set->npanes)
+        snprintf(why, size, "band values combined per channel (no layer is a pane with spectral "
+                 "data)");
+    else if (nch == 0 || bad < nch)
+        snprintf(why, size, "band values combined per channel (channel %s is not a spectral band)",
+                 nch ? names[bad] : "(none in common)");
+    else
+        spectral = 1;
+    if (spectral) {
+        int len = snprintf(why, size, "combined wavelength by wavelength (union of the panes' "
+                           "measured wavelengths%s, or a band's integration grid where shorter), "
+                           "then averaged per channel", ndual ? " and the dual-band points 0.3, "
+                           "0.38 -+ 1e-6, 0.78 -+ 1e-6, 2.5 um" : "");
+        for (size_t i = 0; i < set->n && len > 0 && (size_t)len < size; i++)
+            if (!set->panes[i])
+                len += snprintf(why + len, size - (size_t)len, "; layer %zu, %s, as WINDOW's "
+                                "dual-band material (Visible inside 0.38..0.78 um, (Solar - %g "
+                                "Visible) / %g outside, clamped at 0)", i + 1,
+                                bst_layer_name(set->layers[i]), BST_DUAL_BAND_F,
+                                1.0 - BST_DUAL_BAND_F);
+    }
+    free(names);
+    return spectral;
+}
+
 int cli_combine_spectral(bst_ctx *ctx, const char *sub, const struct cli_layers *set,
                          const bst_stack_opts *so, double *abs[2], bst_layer **sys)
 {
-    const bst_layer *l0 = set->layers[0];
-    size_t nch = bst_layer_nchannels(l0);
-    const char **names = malloc(nch * sizeof *names);
-    if (!names)
+    const char **names = malloc((bst_layer_nchannels(set->layers[0]) + 1) * sizeof *names);
+    bst_spectral_layer *l = calloc(set->n, sizeof *l);
+    if (!names || !l) {
+        free(names), free(l);
         return cli_fail(sub, "out of memory");
-    for (size_t c = 0; c < nch; c++)
-        names[c] = bst_layer_channel(l0, c);
-    int st = bst_stack_combine_spectral(ctx, set->n, set->panes, set->basis, nch, names, 0, so,
-                                        sys, abs[0], abs[1]);
-    free(names);
+    }
+    size_t nch = common_channels(set, names);
+    for (size_t i = 0; i < set->n; i++) {
+        l[i].pane = set->panes[i];
+        l[i].bands = set->panes[i] ? NULL : set->layers[i];
+    }
+    bst_spectral_opts sp;
+    bst_spectral_opts_init(&sp);
+    int st = bst_stack_combine_spectral_layers(ctx, set->n, l, set->basis, nch, names, &sp, so,
+                                               sys, abs[0], abs[1]);
+    free(names), free(l);
     if (st < 0)
         return cli_fail_ctx(sub, "combining per wavelength", ctx);
     cli_warn_ctx(sub, NULL, st, ctx);
     return CLI_OK;
 }
 
-int cli_note_spectral(const char *sub, struct cli_layers *set, int per_wavelength, int per_channel)
+int cli_note_spectral(const char *sub, struct cli_layers *set, const char *why, int verbose)
 {
-    char note[512];
-    if (per_wavelength) {
-        snprintf(note, sizeof note, "\nspectral: combined wavelength by wavelength (union of the "
-                 "panes' measured wavelengths, or a band's integration grid where shorter), then "
-                 "averaged per channel");
-    } else {
-        size_t i = 0;
-        while (i < set->n && set->panes[i])
-            i++;
-        if (per_channel || i == set->n)
-            snprintf(note, sizeof note, "\nspectral: band values combined per channel "
-                     "(as asked)");
-        else
-            snprintf(note, sizeof note, "\nspectral: band values combined per channel (layer %zu, "
-                     "%s, has no spectral data)", i + 1, bst_layer_name(set->layers[i]));
-    }
-    char *d = realloc(set->description, strlen(set->description) + strlen(note) + 1);
+    if (verbose)
+        fprintf(stderr, "bsdfstack %s: spectral: %s\n", sub, why);
+    char *d = realloc(set->description, strlen(set->description) + strlen(why) + 12);
     if (!d)
         return cli_fail(sub, "out of memory");
-    strcat(d, note);
+    strcat(d, "\nspectral: ");
+    strcat(d, why);
     set->description = d;
     return CLI_OK;
 }

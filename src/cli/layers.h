@@ -80,12 +80,16 @@ void cli_layers_free(struct cli_layers *set);
 int cli_write_layer(bst_ctx *ctx, const char *sub, const bst_layer *l, const char *path,
                     double reduce, int argc, char **argv, const struct cli_layers *set);
 
-/* The stack per wavelength (every layer a spectral pane; channels: those of layer 1), with
- * per-layer absorptance into abs[0], abs[1] when they are not NULL. */
+/* Whether the stack is combined wavelength by wavelength (1) or by band values per channel (0),
+ * and why, into why[0..size-1]: per wavelength when per_channel is 0, at least one layer is a
+ * spectral pane, every other layer is a file with Solar and Visible channels (WINDOW's dual-band
+ * material) and every channel in common is a spectral band. */
+int cli_spectral_plan(const struct cli_layers *set, int per_channel, char *why, size_t size);
+/* The stack per wavelength (as cli_spectral_plan allows; channels: layer 1's that every layer
+ * has), with per-layer absorptance into abs[0], abs[1] when they are not NULL. */
 int cli_combine_spectral(bst_ctx *ctx, const char *sub, const struct cli_layers *set,
                          const bst_stack_opts *so, double *abs[2], bst_layer **sys);
-/* Append to set->description how the spectrum was treated: per wavelength, or band values per
- * channel (as asked, or naming the first layer without spectral data). */
-int cli_note_spectral(const char *sub, struct cli_layers *set, int per_wavelength, int per_channel);
+/* Append "spectral: WHY" to set->description (the output's metadata); -v also prints it. */
+int cli_note_spectral(const char *sub, struct cli_layers *set, const char *why, int verbose);
 
 #endif
