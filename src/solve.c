@@ -23,11 +23,15 @@ cancels digits although I - A itself is well scaled.
 #include <math.h>
 #include <string.h>
 
+#include <cblas.h>
 #include <lapacke.h>
 #include <umfpack.h>
 
 #include "ctx.h"
 #include "mat.h"
+
+/* Factorizations up to this many rows run on one OpenBLAS thread (see dense_factor). */
+#define BSTI_LU_SERIAL_MAX 512
 
 /* Lowest warning threshold of a single-precision solve: sqrt(FLT_EPSILON). */
 #define BSTI_RCOND_WARN_FLOAT 3.5e-4
@@ -256,6 +260,12 @@ static int factor_new(bst_ctx *ctx, const bst_mat *a, bst_precision prec, struct
             return BST_OK;
         lapack_int N = (lapack_int)n, info;
         double scale = fmax(1.0, f->anorm);
+        /* OpenBLAS's threaded getrf spends small factorizations in thread hand-offs (N = 145: 60%
+         * of a Klems spectral stack's run in dgetrf_parallel): below BSTI_LU_SERIAL_MAX rows, one
+         * thread.  (OpenBLAS's thread count is process-wide: set back at once.) */
+        int threads = openblas_get_num_threads();
+        if (n <= BSTI_LU_SERIAL_MAX && threads > 1)
+            openblas_set_num_threads(1);
         if (prec == BST_DOUBLE) {
             info = LAPACKE_dgetrf(LAPACK_COL_MAJOR, N, N, f->lu, N, f->ipiv);
             if (info == 0)
@@ -267,6 +277,8 @@ static int factor_new(bst_ctx *ctx, const bst_mat *a, bst_precision prec, struct
                 info = LAPACKE_sgecon(LAPACK_COL_MAJOR, '1', N, f->lu, N, (float)scale, &rc32);
             *rcond = rc32;
         }
+        if (n <= BSTI_LU_SERIAL_MAX && threads > 1)
+            openblas_set_num_threads(threads);
         if (info > 0 || *rcond == 0.0) {
             *rcond = 0.0;
             return bsti_error(ctx, BST_ESINGULAR, "I - A is singular (zero pivot %d)", (int)info);
