@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # plots.sh CSV OUTDIR - the report's two plots with gnuplot: time and peak memory against
-# N = 4^k (log-log, each series' exponent fitted to its points at k >= 4), and S1's least GA
+# N = 4^k (log-log, each series' exponent fitted to its points at k >= 5), and S1's least GA
 # against the k = 6 truth against CPU seconds.
 set -euo pipefail
 csv=$1 out=$2
@@ -16,8 +16,8 @@ while IFS= read -r key; do
 done < <(awk -F, 'NR > 1 && ($1 == "S1" || $1 == "dense") { print $2 " " $4 }' "$csv" | sort -u)
 awk -F, 'NR > 1 && $1 == "S1" && $15 != "-" { print $7, $15, $3, $4 }' "$csv" > "$tmp/ga.dat"
 
-fit_exponent() { # FILE COLUMN: slope of log(column) against log(N) over N >= 256
-    awk -v c="$2" '$1 >= 256 && $c > 0 { x = log($1); y = log($c); n++; sx += x; sy += y; sxx += x * x; sxy += x * y }
+fit_exponent() { # FILE COLUMN: slope of log(column) against log(N) over N >= 1024 (k >= 5, past fixed costs)
+    awk -v c="$2" '$1 >= 1024 && $c > 0 { x = log($1); y = log($c); n++; sx += x; sy += y; sxx += x * x; sxy += x * y }
         END { if (n >= 2 && n * sxx - sx * sx > 0) printf "%.2f", (n * sxy - sx * sy) / (n * sxx - sx * sx); else printf "-" }' "$1"
 }
 

@@ -78,7 +78,7 @@ END {
     print "![GA against CPU seconds](ga_cpu.png)"
     print ""
     print "The first plots wall time and peak memory of every combination against N = 4^k on log-log"
-    print "axes; the legend gives each series' exponent, fitted to its points at k >= 4 (N^3 is the"
+    print "axes; the legend gives each series' exponent, fitted to its points at k >= 5 (N^3 is the"
     print "dense algebra's bound). The second plots, for S1, the least GA against the k = 6 truth"
     print "against CPU seconds: the trade itself."
 }
