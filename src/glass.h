@@ -142,5 +142,9 @@ void bsti_glass_rule_free(bst_ctx *ctx, bsti_glass_rule *r);
 /* bst_glass_layer_at with a precomputed rule for basis. */
 int bsti_glass_layer_at(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis,
                         const bsti_glass_rule *rule, double lambda_um, bst_layer **out);
+/* The same from normal-incidence data d = {Tf, Tb, Rf, Rb} instead of a wavelength (spectral.c
+ * evaluates a group of wavelengths at its weighted mean data); g names the layer and messages. */
+int bsti_glass_layer_data(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis,
+                          const bsti_glass_rule *rule, const double d[4], bst_layer **out);
 
 #endif
