@@ -138,6 +138,7 @@ static int patch_rule(bst_ctx *ctx, int m, double **u, double **v, double **w)
 
 struct bsti_glass_rule {
     size_t n, np;  /* patches, points per patch */
+    size_t ndistinct; /* points of the representative patches: the evaluations a layer needs */
     double *theta; /* theta[j * np + q]: incidence angle of point q of patch j */
     double *w;     /* its weight (sum 1 per patch) */
     size_t *rep;   /* rep[j] <= j: a patch with the same incidence angles and Lambda as j */
@@ -198,6 +199,8 @@ int bsti_glass_rule_new(bst_ctx *ctx, const bst_basis *basis, int at_centre, int
     r->n = n, r->np = np;
     patch_representatives(basis, r->rep);
     for (size_t j = 0; j < n; j++)
+        r->ndistinct += r->rep[j] == j ? np : 0;
+    for (size_t j = 0; j < n; j++)
         for (size_t q = 0; q < np; q++) {
             double d[3];
             if (at_centre)
@@ -213,9 +216,10 @@ int bsti_glass_rule_new(bst_ctx *ctx, const bst_basis *basis, int at_centre, int
 }
 
 /* The layer over basis of the source's channels idx[0..nc-1] (names[]), or of its one wavelength
- * (one channel, names[0]), averaged with rule r over each patch.  A patch
- * average evaluates hundreds of directions per patch: through the angular table unless exact
- * (a rule of patch centres is always exact). */
+ * (one channel, names[0]), averaged with rule r over each patch.  A patch average evaluates
+ * hundreds of directions per patch: through the angular table when that is cheaper (more distinct
+ * directions than table angles: Shirley-Chiu k >= 4, 36 orbits x 256 = 9216 at k = 4) unless exact;
+ * else, and for every rule of patch centres, exactly (Klems full: 9 rings x 256 = 2304). */
 static int build_layer(bst_ctx *ctx, const struct source *src, const bst_basis *basis,
                        const bsti_glass_rule *r, size_t nc, const size_t *idx,
                        const char *const *names, int exact, bst_layer **out)
@@ -233,7 +237,8 @@ static int build_layer(bst_ctx *ctx, const struct source *src, const bst_basis *
     }
     for (size_t c = 0; c < nc && rc >= 0; c++) {
         double *tab = NULL;
-        if (r->np > 1 && !exact && !(tab = table_at(ctx, src, idx[c]))) {
+        if (r->np > 1 && !exact && r->ndistinct > BST_GLASS_TABLE_STEPS + 1 &&
+            !(tab = table_at(ctx, src, idx[c]))) {
             rc = BST_ENOMEM;
             break;
         }
