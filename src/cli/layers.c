@@ -44,6 +44,7 @@ void cli_stack_args_init(struct cli_stack_args *a)
     memset(a, 0, sizeof *a);
     a->reduce = 90.0;
     bst_stack_opts_init(&a->so);
+    bst_spectral_opts_init(&a->sp);
 }
 
 int cli_stack_option(const char *sub, int c, const char *arg, struct cli_stack_args *a)
@@ -67,6 +68,10 @@ int cli_stack_option(const char *sub, int c, const char *arg, struct cli_stack_a
     case CLI_O_STRICT: a->so.strict = 1; return CLI_OK;
     case CLI_O_PERCH: a->per_channel = 1; return CLI_OK;
     case CLI_O_MAXMEM: return cli_parse_memory(sub, arg, &a->basis.max_memory);
+    case CLI_O_SPTOL:
+        if (cli_parse_double(arg, &a->sp.tol) || !(a->sp.tol >= 0 && a->sp.tol <= 1))
+            return cli_usage(sub, "--spectral-tol %s: a number in [0, 1] is required", arg);
+        return CLI_OK;
     default: return -1;
     }
 }
@@ -463,7 +468,8 @@ int cli_spectral_plan(const struct cli_layers *set, int per_channel, char *why, 
 }
 
 int cli_combine_spectral(bst_ctx *ctx, const char *sub, const struct cli_layers *set,
-                         const bst_stack_opts *so, double *abs[2], bst_layer **sys)
+                         const bst_spectral_opts *sp, const bst_stack_opts *so, double *abs[2],
+                         bst_layer **sys)
 {
     const char **names = malloc((bst_layer_nchannels(set->layers[0]) + 1) * sizeof *names);
     bst_spectral_layer *l = calloc(set->n, sizeof *l);
@@ -476,9 +482,7 @@ int cli_combine_spectral(bst_ctx *ctx, const char *sub, const struct cli_layers 
         l[i].pane = set->panes[i];
         l[i].bands = set->panes[i] ? NULL : set->layers[i];
     }
-    bst_spectral_opts sp;
-    bst_spectral_opts_init(&sp);
-    int st = bst_stack_combine_spectral_layers(ctx, set->n, l, set->basis, nch, names, &sp, so,
+    int st = bst_stack_combine_spectral_layers(ctx, set->n, l, set->basis, nch, names, sp, so,
                                                sys, abs[0], abs[1]);
     free(names), free(l);
     if (st < 0)
