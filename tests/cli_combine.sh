@@ -52,6 +52,22 @@ paste "$tmpdir/dab.tsv" "$tmpdir/dab0.tsv" | awk -F'\t' 'NR > 1 { for (i = 6; i 
     if (d < 0) d = -d; if (d > m) m = d } } END { exit !(NR == 165 && m > 0 && m < 6.3e-5) }' \
     && pass "--spectral-tol 0 vs the default: within 6.3e-5, not equal" || fail "--spectral-tol 0 vs the default"
 expect_error "--spectral-tol out of range" "--spectral-tol -1: a number in \\[0, 1\\]" -- "$B" combine --spectral-tol -1 -o "$tmpdir/x.xml" glass:nfrc-102
+# --glass-rule centre (WINDOW's) vs the default patch average, per wavelength and per channel:
+# they differ in the Klems 75-90 degree ring (by up to 0.063 in T for NFRC 102 + 103; columns 8
+# and 17: T in each file) and agree to
+# 1.5e-4 within 10 degrees of the normal
+for how in "" --per-channel; do
+    for rule in average centre; do
+        expect_status 0 "--glass-rule $rule $how" -- "$B" combine --klems --glass-rule $rule $how \
+            --absorptance "$tmpdir/gr_$rule.tsv" -o "$tmpdir/gr.xml" glass:nfrc-102 glass:nfrc-103
+    done
+    paste "$tmpdir/gr_average.tsv" "$tmpdir/gr_centre.tsv" | awk -F'\t' 'NR > 1 { d = $8 - $17; if (d < 0) d = -d;
+        if ($4 > 75 && d > ring) ring = d; if ($4 < 10 && d > near) near = d }
+        END { exit !(ring > 0.05 && near < 1.5e-4) }' \
+        && pass "--glass-rule $how: centre and average differ in the outer ring, agree near normal" \
+        || fail "--glass-rule $how: centre vs average"
+done
+expect_error "--glass-rule unknown" "--glass-rule middle: use average or centre" -- "$B" combine --glass-rule middle -o "$tmpdir/x.xml" glass:nfrc-102
 expect_status 0 "the same per channel" -- "$B" combine -v --per-channel --klems=quarter -o "$tmpdir/dpc.xml" glass:nfrc-102 "$tmpdir/band.xml" glass:nfrc-103
 grep -q "spectral: band values combined per channel (as asked" "$tmpdir/dpc.xml" && pass "metadata: --per-channel" || fail "metadata of --per-channel with a dual-band layer"
 

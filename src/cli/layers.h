@@ -13,6 +13,7 @@ struct cli_basis_choice {
     int combining;     /* 1: the layers are combined next, in `work` precision */
     bst_precision work;
     const char *lower; /* the options that lower the need, for the message; NULL = "-k" */
+    int at_centre;     /* --glass-rule centre: panes at patch centres (WINDOW's), 0: averages */
 };
 
 /* The memory guard: the peak a command will need (the layers read from files over `basis`, the
@@ -44,7 +45,7 @@ int cli_parse_basis_option(const char *sub, int opt, const char *value, struct c
  * options start at CLI_O_OWN. */
 enum { CLI_O_KLEMS = 256, CLI_O_ONLY, CLI_O_CHANNELS, CLI_O_PRECISION, CLI_O_DROP, CLI_O_REDUCE,
        CLI_O_NOREDUCE, CLI_O_DENSE, CLI_O_STRICT, CLI_O_PERCH, CLI_O_MAXMEM, CLI_O_SPTOL,
-       CLI_O_OWN };
+       CLI_O_GLASSRULE, CLI_O_OWN };
 #define CLI_STACK_LONGOPTS                                                                         \
     {"klems", optional_argument, NULL, CLI_O_KLEMS}, {"only", required_argument, NULL, CLI_O_ONLY},  \
     {"channels", required_argument, NULL, CLI_O_CHANNELS},                                          \
@@ -54,7 +55,8 @@ enum { CLI_O_KLEMS = 256, CLI_O_ONLY, CLI_O_CHANNELS, CLI_O_PRECISION, CLI_O_DRO
     {"no-reduce", no_argument, NULL, CLI_O_NOREDUCE}, {"dense", no_argument, NULL, CLI_O_DENSE},     \
     {"strict", no_argument, NULL, CLI_O_STRICT}, {"per-channel", no_argument, NULL, CLI_O_PERCH},   \
     {"max-memory", required_argument, NULL, CLI_O_MAXMEM},                                          \
-    {"spectral-tol", required_argument, NULL, CLI_O_SPTOL}
+    {"spectral-tol", required_argument, NULL, CLI_O_SPTOL},                                         \
+    {"glass-rule", required_argument, NULL, CLI_O_GLASSRULE}
 
 struct cli_stack_args {
     struct cli_basis_choice basis;
@@ -62,7 +64,7 @@ struct cli_stack_args {
     double reduce;        /* --reduce percentile, -1 for --no-reduce (default 90) */
     int per_channel;      /* --per-channel */
     bst_stack_opts so;    /* --only, --precision, --drop-tol, --dense, --strict */
-    bst_spectral_opts sp; /* --spectral-tol */
+    bst_spectral_opts sp; /* --spectral-tol, --glass-rule (also in basis.at_centre) */
 };
 void cli_stack_args_init(struct cli_stack_args *a);
 /* Option c with value arg: CLI_OK when it is one of the shared options and parsed, a usage error
