@@ -341,7 +341,12 @@ typedef struct {
 typedef struct {
     int at_centre;            /* 1: panes at patch centres (WINDOW's), 0: patch averages; default 0 */
     double dual_f;            /* f of dual-band layers, default BST_DUAL_BAND_F; 0 <= f < 1 */
+    double tol;               /* wavelengths are combined once per group over which every pane's
+                                 normal-incidence T and R move by at most tol (spectral.c); 0:
+                                 only equal data share a combination, < 0: none does; default
+                                 BST_SPECTRAL_TOL */
 } bst_spectral_opts;
+#define BST_SPECTRAL_TOL 0.01 /* T, R, A within 6.3e-5 of tol 0, see bsdfstack-combine(1) */
 void bst_spectral_opts_init(bst_spectral_opts *opts);
 
 /* Layers (exterior first, at least one a spectral pane) combined wavelength by wavelength, then
@@ -354,7 +359,8 @@ int bst_stack_combine_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral
                                       const char *const *channels, const bst_spectral_opts *sopts,
                                       const bst_stack_opts *opts, bst_layer **out,
                                       double *abs_front, double *abs_back);
-/* The same for a stack of spectral panes only (at_centre as in bst_spectral_opts). */
+/* The same for a stack of spectral panes only (at_centre as in bst_spectral_opts; tol 0: panes
+ * alone stay diagonal, O(N) a wavelength, and are not grouped). */
 int bst_stack_combine_spectral(bst_ctx *ctx, size_t n, bst_glass *const *panes,
                                const bst_basis *basis, size_t nchannels,
                                const char *const *channels, int at_centre,

@@ -110,12 +110,13 @@ int bsti_glass_add_band(bst_ctx *ctx, bst_glass *g, const char *where,
  * checks the k = 3 and 7 sums). */
 #define BST_GLASS_SAMPLES 8
 
-/* Angular table used by patch averages (256 directions per patch, and a spectral channel sums the
- * model over about a hundred wavelengths per direction): Tf, Tb, Rf, Rb at BST_GLASS_TABLE_STEPS + 1
+/* Angular table used by patch averages when they need more distinct directions than it has angles
+ * (256 directions per patch, and a spectral channel sums the model over about a hundred
+ * wavelengths per direction; Shirley-Chiu k >= 4, not Klems full's 2304): Tf, Tb, Rf, Rb at BST_GLASS_TABLE_STEPS + 1
  * equidistant angles 0..90 degrees, linear in between.  Pointwise it deviates from exact evaluation
  * by < 2e-6 up to 89.9 degrees and < 2e-5 in the last 0.01 degree; in a layer's patch values
  * (Lambda x value) by at most BST_GLASS_TABLE_ERR (catalogue panes, Klems full and Shirley-Chiu k = 3
- * and 5: 2.3e-8; checked by tests/test_glass.c). */
+ * and 5 when it was used everywhere: 2.3e-8; k = 5 checked by tests/test_glass.c). */
 #define BST_GLASS_TABLE_STEPS 9000
 #define BST_GLASS_TABLE_ERR 5e-8
 
@@ -142,5 +143,9 @@ void bsti_glass_rule_free(bst_ctx *ctx, bsti_glass_rule *r);
 /* bst_glass_layer_at with a precomputed rule for basis. */
 int bsti_glass_layer_at(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis,
                         const bsti_glass_rule *rule, double lambda_um, bst_layer **out);
+/* The same from normal-incidence data d = {Tf, Tb, Rf, Rb} instead of a wavelength (spectral.c
+ * evaluates a group of wavelengths at its weighted mean data); g names the layer and messages. */
+int bsti_glass_layer_data(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis,
+                          const bsti_glass_rule *rule, const double d[4], bst_layer **out);
 
 #endif

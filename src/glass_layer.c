@@ -16,26 +16,37 @@
 #include "ctx.h"
 #include "glass.h"
 
-/* Tf, Tb, Rf, Rb of channel ch, or at wavelength lambda (um) when lambda > 0, at theta. */
-static void optics_at(const bst_glass *g, size_t ch, double lambda, double theta, double p[4])
+/* What a layer is evaluated from: channel ch of pane g, or (sides != NULL) the two slab sides of
+ * one wavelength, front and back, set up once from its normal-incidence T and R rather than at
+ * every one of the directions a patch average visits. */
+struct source {
+    const bst_glass *g;
+    const struct bsti_glass_side *sides;
+};
+
+/* Tf, Tb, Rf, Rb of the source (channel ch unless it is one wavelength's sides) at theta. */
+static void optics_at(const struct source *s, size_t ch, double theta, double p[4])
 {
-    if (lambda > 0)
-        bst_glass_optics_spectral(g, lambda, theta, &p[0], &p[1], &p[2], &p[3]);
-    else
-        bst_glass_optics(g, ch, theta, &p[0], &p[1], &p[2], &p[3]);
+    if (s->sides) {
+        bsti_glass_side_optics(&s->sides[0], theta, &p[0], &p[2]);
+        bsti_glass_side_optics(&s->sides[1], theta, &p[1], &p[3]);
+    } else {
+        bst_glass_optics(s->g, ch, theta, &p[0], &p[1], &p[2], &p[3]);
+    }
 }
 
-static double *table_at(bst_ctx *ctx, const bst_glass *g, size_t ch, double lambda)
+static double *table_at(bst_ctx *ctx, const struct source *s, size_t ch)
 {
     double *t = bsti_alloc_array(ctx, 4 * (size_t)(BST_GLASS_TABLE_STEPS + 1), sizeof *t);
     for (size_t a = 0; t && a <= BST_GLASS_TABLE_STEPS; a++)
-        optics_at(g, ch, lambda, (double)a / BST_GLASS_TABLE_STEPS * (M_PI / 2), &t[4 * a]);
+        optics_at(s, ch, (double)a / BST_GLASS_TABLE_STEPS * (M_PI / 2), &t[4 * a]);
     return t;
 }
 
 double *bsti_glass_table(bst_ctx *ctx, const bst_glass *g, size_t ch)
 {
-    return table_at(ctx, g, ch, 0.0);
+    const struct source s = {g, NULL};
+    return table_at(ctx, &s, ch);
 }
 
 void bsti_glass_table_optics(const double *tab, double theta, double v[4])
@@ -127,6 +138,7 @@ static int patch_rule(bst_ctx *ctx, int m, double **u, double **v, double **w)
 
 struct bsti_glass_rule {
     size_t n, np;  /* patches, points per patch */
+    size_t ndistinct; /* points of the representative patches: the evaluations a layer needs */
     double *theta; /* theta[j * np + q]: incidence angle of point q of patch j */
     double *w;     /* its weight (sum 1 per patch) */
     size_t *rep;   /* rep[j] <= j: a patch with the same incidence angles and Lambda as j */
@@ -187,6 +199,8 @@ int bsti_glass_rule_new(bst_ctx *ctx, const bst_basis *basis, int at_centre, int
     r->n = n, r->np = np;
     patch_representatives(basis, r->rep);
     for (size_t j = 0; j < n; j++)
+        r->ndistinct += r->rep[j] == j ? np : 0;
+    for (size_t j = 0; j < n; j++)
         for (size_t q = 0; q < np; q++) {
             double d[3];
             if (at_centre)
@@ -201,13 +215,14 @@ int bsti_glass_rule_new(bst_ctx *ctx, const bst_basis *basis, int at_centre, int
     return BST_OK;
 }
 
-/* The layer over basis of the channels idx[0..nc-1] (names[]), or of the one wavelength lambda
- * (um) when lambda > 0 (one channel, names[0]), averaged with rule r over each patch.  A patch
- * average evaluates hundreds of directions per patch: through the angular table unless exact
- * (a rule of patch centres is always exact). */
-static int build_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis,
+/* The layer over basis of the source's channels idx[0..nc-1] (names[]), or of its one wavelength
+ * (one channel, names[0]), averaged with rule r over each patch.  A patch average evaluates
+ * hundreds of directions per patch: through the angular table when that is cheaper (more distinct
+ * directions than table angles: Shirley-Chiu k >= 4, 36 orbits x 256 = 9216 at k = 4) unless exact;
+ * else, and for every rule of patch centres, exactly (Klems full: 9 rings x 256 = 2304). */
+static int build_layer(bst_ctx *ctx, const struct source *src, const bst_basis *basis,
                        const bsti_glass_rule *r, size_t nc, const size_t *idx,
-                       const char *const *names, double lambda, int exact, bst_layer **out)
+                       const char *const *names, int exact, bst_layer **out)
 {
     bst_layer *l;
     int rc = bst_layer_new(ctx, basis, nc, names, &l);
@@ -222,7 +237,8 @@ static int build_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis,
     }
     for (size_t c = 0; c < nc && rc >= 0; c++) {
         double *tab = NULL;
-        if (r->np > 1 && !exact && !(tab = table_at(ctx, g, idx[c], lambda))) {
+        if (r->np > 1 && !exact && r->ndistinct > BST_GLASS_TABLE_STEPS + 1 &&
+            !(tab = table_at(ctx, src, idx[c]))) {
             rc = BST_ENOMEM;
             break;
         }
@@ -237,7 +253,7 @@ static int build_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis,
                 if (tab)
                     bsti_glass_table_optics(tab, r->theta[q], p);
                 else
-                    optics_at(g, idx[c], lambda, r->theta[q], p);
+                    optics_at(src, idx[c], r->theta[q], p);
                 for (int i = 0; i < 4; i++)
                     sum[i] += r->w[q] * p[i];
             }
@@ -256,8 +272,8 @@ static int build_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis,
         bsti_progress(ctx, (double)(c + 1) / (double)nc, "glass layer");
     }
     bsti_free(ctx, v);
-    if (rc >= 0 && g->description)
-        rc = bst_layer_set_name(ctx, l, g->description);
+    if (rc >= 0 && src->g->description)
+        rc = bst_layer_set_name(ctx, l, src->g->description);
     if (rc < 0) {
         bst_layer_free(l);
         return rc;
@@ -290,9 +306,28 @@ int bsti_glass_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, s
     int rc = bsti_glass_rule_new(ctx, basis, at_centre, samples, &r);
     if (rc < 0)
         return rc;
-    rc = build_layer(ctx, g, basis, r, nc, idx, names, 0.0, exact, out);
+    const struct source src = {g, NULL};
+    rc = build_layer(ctx, &src, basis, r, nc, idx, names, exact, out);
     bsti_glass_rule_free(ctx, r);
     return rc;
+}
+
+int bsti_glass_layer_data(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis,
+                          const bsti_glass_rule *rule, const double d[4], bst_layer **out)
+{
+    if (!ctx || !g || !basis || !rule || !d || !out)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "glass layer: NULL argument") : BST_EINVAL;
+    *out = NULL;
+    if (rule->n != bst_basis_size(basis))
+        return bsti_error(ctx, BST_EINVAL, "glass layer: the patch rule is for another basis");
+    struct bsti_glass_side sides[2];
+    if (bsti_glass_side_init(&sides[0], d[0], d[2]) || bsti_glass_side_init(&sides[1], d[1], d[3]))
+        return bsti_error(ctx, BST_EINVAL, "%s: no slab has Tf %g, Tb %g, Rf %g, Rb %g at normal "
+                          "incidence", g->where, d[0], d[1], d[2], d[3]);
+    static const size_t zero = 0;
+    static const char *const name[] = {"Spectral"};
+    const struct source src = {g, sides};
+    return build_layer(ctx, &src, basis, rule, 1, &zero, name, 0, out);
 }
 
 int bsti_glass_layer_at(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis,
@@ -305,11 +340,9 @@ int bsti_glass_layer_at(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis
         return bsti_error(ctx, BST_EINVAL, "%s: no spectral data, so no layer per wavelength", g->where);
     if (!(lambda_um > 0) || !isfinite(lambda_um))
         return bsti_error(ctx, BST_EINVAL, "%s: wavelength %g um is not positive", g->where, lambda_um);
-    if (rule->n != bst_basis_size(basis))
-        return bsti_error(ctx, BST_EINVAL, "glass layer: the patch rule is for another basis");
-    static const size_t zero = 0;
-    static const char *const name[] = {"Spectral"};
-    return build_layer(ctx, g, basis, rule, 1, &zero, name, lambda_um, 0, out);
+    double d[4];
+    bsti_glass_data_at(&g->data, lambda_um, &d[0], &d[1], &d[2], &d[3]);
+    return bsti_glass_layer_data(ctx, g, basis, rule, d, out);
 }
 
 int bst_glass_layer_at(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, double lambda_um,

@@ -4,19 +4,36 @@
  * incidence, solar: 0.652314 per wavelength vs 0.645986 from band averages).
  *
  * The average of a system property over a band is linear in the per-wavelength system, so the
- * band's matrices are sum_k w_k M(lambda_k) with bst_glass_channel_weights' w: each wavelength is
- * combined once, added with its weight, and freed.  Wavelengths of zero weight are skipped.
+ * band's matrices are sum_k w_k M(lambda_k) with bst_glass_channel_weights' w.  Wavelengths of zero
+ * weight are skipped.  The rest are combined once per group (cost control): walking the grid in
+ * order, a group extends while every pane's normal-incidence Tf, Tb, Rf, Rb stay within tol
+ * (absolute) of those at its first wavelength and, with a dual-band layer, the wavelength stays on
+ * the same side of the visible range's limits (the layer is constant on each side).  A group is
+ * combined once, each pane built from its data averaged with the weights over the group, and added
+ * with the group's summed weight (absorptance likewise).  The system is smooth in the panes' data
+ * and the mean cancels the first-order term, so the error is second order in the data's spread:
+ * on NFRC 102 + 2011-SA1 and NFRC 102 + 103 (Klems full, Solar and Visible) tol = 0.01 moves T, R
+ * and A by at most 6.3e-5, and NFRC 102 / a dual-band diffuser / NFRC 103 needs 57 combinations
+ * (41 Solar, 16 Visible) instead of about 160 at tol = 0; evaluating the panes at
+ * the group's weight-centroid wavelength instead errs by up to 2.5e-3 (the solar weights are
+ * uneven within a group), so the mean data it is.  tol = 0 groups only wavelengths with equal
+ * data (the result equals the ungrouped one to rounding), tol < 0 none (test_wce.c).
+ * What does not depend on the wavelength is built once, before the loop: the patch rule of the
+ * panes (bsti_glass_rule: directions and weights), the dual-band layers; and per group each pane's
+ * two slab sides are set up once, not at each direction (glass_layer.c).
+ *
  * A band channel (Visible, Solar, CIE-X, CIE-Y, CIE-Z) missing from the first pane is added to it;
  * its wavelengths are the union of the layers' own ones, or the band's integration grid when that
  * is shorter (WCE's rule).
  *
  * A layer known only by band values (Solar and Visible channels) is WINDOW's dual-band material:
  * its own wavelengths are {0.3, 0.38 -+ 1e-6, 0.78 -+ 1e-6, 2.5} um (WCE's), it is its Visible
- * matrices inside [0.38, 0.78] um and max(0, (Solar - f Visible) / (1 - f)) outside.  Both are
- * built once, before the loop: only the panes depend on the wavelength.  A stack of panes only
- * keeps every matrix diagonal: O(N) per wavelength. */
+ * matrices inside [0.38, 0.78] um and max(0, (Solar - f Visible) / (1 - f)) outside.  Only the
+ * panes depend on the wavelength.  A stack of panes only keeps every matrix diagonal: O(N) per
+ * wavelength. */
 #include <config.h>
 
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -44,6 +61,7 @@ void bst_spectral_opts_init(bst_spectral_opts *opts)
         return;
     opts->at_centre = 0;
     opts->dual_f = BST_DUAL_BAND_F;
+    opts->tol = BST_SPECTRAL_TOL;
 }
 
 /* The union of the layers' own wavelengths, sorted, duplicates (within GRID_MERGE) removed. */
@@ -176,6 +194,61 @@ static int accumulate(bst_ctx *ctx, bst_mat **acc, const bst_layer *sys, unsigne
     return BST_OK;
 }
 
+/* ------------------------------------------------------------------ groups of wavelengths */
+
+/* Normal-incidence Tf, Tb, Rf, Rb of every pane at um into d[4 * i ..] (other layers: zeros). */
+static void panes_at(size_t n, const bst_spectral_layer *layers, double um, double *d)
+{
+    for (size_t i = 0; i < n; i++)
+        if (layers[i].pane)
+            bsti_glass_data_at(&layers[i].pane->data, um, &d[4 * i], &d[4 * i + 1],
+                               &d[4 * i + 2], &d[4 * i + 3]);
+        else
+            d[4 * i] = d[4 * i + 1] = d[4 * i + 2] = d[4 * i + 3] = 0.0;
+}
+
+static int inside_visible(double um)
+{
+    return um >= BST_DUAL_BAND_LO && um <= BST_DUAL_BAND_HI;
+}
+
+/* The group that starts at wavelength k0 (w[k0] > 0): the end (one past its last wavelength) and
+ * in mean[4 n] the panes' normal-incidence data averaged with the weights, in *wsum their sum.
+ * The group extends while every pane's data differ from those at wl[k0] by at most tol and, when
+ * the stack has a dual-band layer (split), the wavelength is on wl[k0]'s side of the visible
+ * range's limits; wavelengths of zero weight neither join nor end it; tol < 0: one wavelength.
+ * first and here are 4 n values of work space. */
+static size_t group(size_t n, const bst_spectral_layer *layers, int split, const double *wl,
+                    const double *w, size_t nwl, size_t k0, double tol, double *first,
+                    double *here, double *mean, double *wsum)
+{
+    /* decimal data (0.848 - 0.847) differ by tol only to an ulp or two of 1 */
+    double slack = tol > 0 ? 4 * DBL_EPSILON : 0.0;
+    panes_at(n, layers, wl[k0], first);
+    for (size_t q = 0; q < 4 * n; q++)
+        mean[q] = w[k0] * first[q];
+    *wsum = w[k0];
+    size_t k = k0 + 1;
+    for (; tol >= 0 && k < nwl; k++) {
+        if (w[k] == 0.0)
+            continue;
+        if (split && inside_visible(wl[k]) != inside_visible(wl[k0]))
+            break;
+        panes_at(n, layers, wl[k], here);
+        size_t q = 0;
+        while (q < 4 * n && fabs(here[q] - first[q]) <= tol + slack)
+            q++;
+        if (q < 4 * n)
+            break;
+        for (q = 0; q < 4 * n; q++)
+            mean[q] += w[k] * here[q];
+        *wsum += w[k];
+    }
+    for (size_t q = 0; q < 4 * n; q++)
+        mean[q] /= *wsum;
+    return k;
+}
+
 /* Validates the layers; *first = the first pane (it gives the bands' weights). */
 static int check_layers(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers,
                         const bst_spectral_opts *so, bst_glass **first)
@@ -184,6 +257,8 @@ static int check_layers(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers
     if (!(so->dual_f >= 0.0 && so->dual_f < 1.0))
         return bsti_error(ctx, BST_EINVAL, "spectral stack: dual-band f = %g is not in [0, 1)",
                           so->dual_f);
+    if (isnan(so->tol))
+        return bsti_error(ctx, BST_EINVAL, "spectral stack: the grouping tolerance is NaN");
     for (size_t i = 0; i < n; i++) {
         const bst_spectral_layer *l = &layers[i];
         if (!l->pane == !l->bands)
@@ -227,17 +302,20 @@ int bst_stack_combine_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral
     int want_abs = abs_front || abs_back;
 
     size_t N = bst_basis_size(basis), nwl = 0, nall = 0;
-    double *all = NULL, *w = NULL, *af = NULL, *ab = NULL;
+    double *all = NULL, *w = NULL, *af = NULL, *ab = NULL, *data = NULL;
     bst_layer **own = bsti_calloc(ctx, n, sizeof *own), *res = NULL, *sys = NULL;
     const bst_layer **lay = bsti_calloc(ctx, n, sizeof *lay);
     struct dual *dual = bsti_calloc(ctx, n, sizeof *dual);
     bst_mat *acc[BST_NCOMP] = {NULL};
     bst_progress_fn progress = ctx->progress_fn;
     bsti_glass_rule *rule = NULL;
+    int split = 0; /* a dual-band layer changes at the visible range's limits */
     rc = own && lay && dual ? union_grid(ctx, n, layers, &all, &nall) : BST_ENOMEM;
+    if (rc >= 0 && !(data = bsti_alloc_array(ctx, 12 * n, sizeof *data)))
+        rc = BST_ENOMEM;
     for (size_t i = 0; i < n && rc >= 0; i++)
         if (layers[i].bands)
-            rc = dual_new(ctx, layers[i].bands, i, basis, so->dual_f, &dual[i]);
+            rc = dual_new(ctx, layers[i].bands, i, basis, so->dual_f, &dual[i]), split = 1;
     if (rc >= 0)
         rc = bsti_glass_rule_new(ctx, basis, so->at_centre, BST_GLASS_SAMPLES, &rule);
     if (rc >= 0)
@@ -272,18 +350,23 @@ int bst_stack_combine_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral
             if (abs_b)
                 abs_b[i] = 0.0;
         }
-        for (size_t k = 0; k < nwl && rc >= 0; k++, done++) {
-            if (w[k] == 0.0)
+        for (size_t k = 0, end; k < nwl && rc >= 0; done += end - k, k = end) {
+            if (w[k] == 0.0) {
+                end = k + 1;
                 continue;
-            int inside = wl[k] >= BST_DUAL_BAND_LO && wl[k] <= BST_DUAL_BAND_HI;
+            }
+            double wsum, *mean = data + 8 * n;
+            end = group(n, layers, split, wl, w, nwl, k, so->tol, data, data + 4 * n, mean, &wsum);
+            int inside = inside_visible(wl[k]);
             for (size_t i = 0; i < n && rc >= 0; i++) {
                 bst_layer_free(own[i]);
                 own[i] = NULL;
                 if (layers[i].pane)
-                    rc = bsti_glass_layer_at(ctx, layers[i].pane, basis, rule, wl[k], &own[i]);
+                    rc = bsti_glass_layer_data(ctx, layers[i].pane, basis, rule, &mean[4 * i],
+                                               &own[i]);
                 lay[i] = layers[i].pane ? own[i] : inside ? dual[i].vis : dual[i].out;
             }
-            ctx->progress_fn = NULL; /* one report per wavelength, below */
+            ctx->progress_fn = NULL; /* one report per group, below */
             if (rc >= 0)
                 rc = bst_stack_combine(ctx, n, lay, opts, &sys);
             if (rc > 0) /* a warning (ill-conditioned, energy): kept, its message is in ctx */
@@ -294,16 +377,17 @@ int bst_stack_combine_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral
                 warn = rc, rc = BST_OK;
             ctx->progress_fn = progress;
             if (rc >= 0)
-                rc = accumulate(ctx, acc, sys, want, w[k]);
+                rc = accumulate(ctx, acc, sys, want, wsum);
             for (size_t i = 0; rc >= 0 && want_abs && i < n * N; i++) {
                 if (abs_f)
-                    abs_f[i] += w[k] * af[i];
+                    abs_f[i] += wsum * af[i];
                 if (abs_b)
-                    abs_b[i] += w[k] * ab[i];
+                    abs_b[i] += wsum * ab[i];
             }
             bst_layer_free(sys);
             sys = NULL;
-            bsti_progress(ctx, (double)(done + 1) / (double)total, "combining per wavelength");
+            bsti_progress(ctx, (double)(done + end - k) / (double)total,
+                          "combining per group of wavelengths");
         }
         for (int m = 0; m < BST_NCOMP; m++) {
             if (rc >= 0 && acc[m])
@@ -323,7 +407,7 @@ int bst_stack_combine_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral
     for (int m = 0; m < BST_NCOMP; m++)
         bst_mat_free(acc[m]);
     bsti_free(ctx, own), bsti_free(ctx, lay), bsti_free(ctx, dual);
-    bsti_free(ctx, all), bsti_free(ctx, w), bsti_free(ctx, af);
+    bsti_free(ctx, all), bsti_free(ctx, w), bsti_free(ctx, af), bsti_free(ctx, data);
     bsti_glass_rule_free(ctx, rule);
     if (rc < 0) {
         bst_layer_free(res);
@@ -352,6 +436,7 @@ int bst_stack_combine_spectral(bst_ctx *ctx, size_t n, bst_glass *const *panes,
     bst_spectral_opts so;
     bst_spectral_opts_init(&so);
     so.at_centre = at_centre;
+    so.tol = 0; /* panes alone stay diagonal, O(N) a wavelength: no need to group */
     int rc = bst_stack_combine_spectral_layers(ctx, n, l, basis, nchannels, channels, &so, opts,
                                                out, abs_front, abs_back);
     bsti_free(ctx, l);

@@ -21,6 +21,14 @@
 
 /* WCE's own tests compare to 1e-6 absolute. */
 #define WCE_TOL 1e-6
+/* Grouping wavelengths at BST_SPECTRAL_TOL (test_spectral_groups): the largest change of T, R
+ * and a layer's A, measured and rounded up. */
+#define SHADE_T 2e-6 /* 1.40e-6 */
+#define SHADE_R 3e-5 /* 2.77e-5 */
+#define SHADE_A 4e-5 /* 3.47e-5 */
+#define PANES_T 4e-5 /* 3.72e-5 */
+#define PANES_R 6e-5 /* 5.10e-5 */
+#define PANES_A 7e-5 /* 6.33e-5 */
 /* Single-band algebra: rounding only. */
 #define SB_RTOL 1e-9
 
@@ -749,6 +757,7 @@ START_TEST(test_dg_full_2011SA1_library)
     bst_spectral_opts so;
     bst_spectral_opts_init(&so);
     so.at_centre = 1;
+    so.tol = 0; /* WCE combines every wavelength */
     static const char *const bands[2] = {"Solar", "Visible"};
     double *af = malloc(2 * 2 * N * sizeof *af), *ab = malloc(2 * 2 * N * sizeof *ab);
     bst_layer *r;
@@ -809,6 +818,7 @@ START_TEST(test_dg_small_lambertian_library)
     bst_spectral_opts so;
     bst_spectral_opts_init(&so);
     so.at_centre = 1;
+    so.tol = 0; /* WCE combines every wavelength */
     double *af = malloc(2 * N * sizeof *af), *ab = malloc(2 * N * sizeof *ab);
     bst_layer *r;
     int rc = bst_stack_combine_spectral_layers(ctx, 2, l, b, 1, (const char *const[]){"Solar"}, &so,
@@ -875,6 +885,105 @@ START_TEST(test_sl_xmlsingle)
 }
 END_TEST
 
+/* ------------------------------------------------------------------ groups of wavelengths */
+
+/* The largest differences between two spectral results (channels Solar and Visible, n layers) in
+ * hemispherical T and R per incident patch and side, and in a layer's absorptance: err[0..2]. */
+static void spectral_diff(const bst_layer *a, const bst_layer *b, size_t n, const double *afa,
+                          const double *aba, const double *afb, const double *abb, double err[3])
+{
+    size_t N = bst_basis_size(bst_layer_basis(a));
+    double *x = malloc(N * sizeof *x), *y = malloc(N * sizeof *y);
+    err[0] = err[1] = err[2] = 0;
+    for (size_t c = 0; c < 2; c++)
+        for (int m = 0; m < BST_NCOMP; m++) {
+            ck_assert_int_eq(bst_layer_hemispherical(ctx, a, c, (bst_comp)m, x), BST_OK);
+            ck_assert_int_eq(bst_layer_hemispherical(ctx, b, c, (bst_comp)m, y), BST_OK);
+            int refl = m == BST_RF || m == BST_RB;
+            for (size_t j = 0; j < N; j++)
+                err[refl] = fmax(err[refl], fabs(x[j] - y[j]));
+        }
+    for (size_t i = 0; i < 2 * n * N; i++)
+        err[2] = fmax(err[2], fmax(fabs(afa[i] - afb[i]), fabs(aba[i] - abb[i])));
+    free(x), free(y);
+}
+
+/* Layers l combined at tol and at tol < 0 (every wavelength on its own), Solar and Visible;
+ * the largest differences in T, R and A into err (spectral_diff). */
+static void spectral_tol_error(size_t n, const bst_spectral_layer *l, const bst_basis *b,
+                               int at_centre, double tol, double err[3])
+{
+    static const char *const bands[2] = {"Solar", "Visible"};
+    size_t N = bst_basis_size(b);
+    double *a[4];
+    for (int q = 0; q < 4; q++)
+        a[q] = malloc(2 * n * N * sizeof *a[q]);
+    bst_spectral_opts so;
+    bst_spectral_opts_init(&so);
+    so.at_centre = at_centre;
+    bst_layer *r[2];
+    for (int q = 0; q < 2; q++) {
+        so.tol = q ? -1 : tol;
+        int rc = bst_stack_combine_spectral_layers(ctx, n, l, b, 2, bands, &so, NULL, &r[q],
+                                                   a[2 * q], a[2 * q + 1]);
+        ck_assert_msg(rc >= 0, "%s", bst_ctx_message(ctx));
+    }
+    spectral_diff(r[0], r[1], n, a[0], a[1], a[2], a[3], err);
+    bst_layer_free(r[0]), bst_layer_free(r[1]);
+    for (int q = 0; q < 4; q++)
+        free(a[q]);
+}
+
+/* Grouping (bst_spectral_opts.tol): tol = 0 gives the ungrouped result to rounding, and the default
+ * BST_SPECTRAL_TOL stays within the figures of bsdfstack-combine(1) in T, R and A, Solar and
+ * Visible: NFRC 102 + the dual-band 2011-SA1 (patch centres, as WCE) and NFRC 102 + NFRC 103
+ * (patch averages), Klems full.  BST_SPECTRAL_SWEEP=1 prints the man page's table. */
+START_TEST(test_spectral_groups)
+{
+    bst_basis *b = wce_basis("basis_klems_full.tsv");
+    size_t N = bst_basis_size(b);
+    bst_glass *g[2];
+    ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-102", getenv("BSDFSTACK_GLASS_DIR"), &g[0]), BST_OK);
+    ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-103", getenv("BSDFSTACK_GLASS_DIR"), &g[1]), BST_OK);
+    double *vis[BST_NCOMP], *sol[BST_NCOMP];
+    for (int c = 0; c < BST_NCOMP; c++) {
+        char name[64];
+        snprintf(name, sizeof name, "bsdf_2011SA1_full_visible_%s", bst_comp_name((bst_comp)c));
+        vis[c] = read_full(name, N);
+        snprintf(name, sizeof name, "bsdf_2011SA1_full_solar_%s", bst_comp_name((bst_comp)c));
+        sol[c] = read_full(name, N);
+    }
+    bst_layer *shade = dual_band_layer(b, sol, vis);
+    const bst_spectral_layer cases[2][2] = {{{.pane = g[0]}, {.bands = shade}},
+                                            {{.pane = g[0]}, {.pane = g[1]}}};
+    static const char *const names[2] = {"NFRC 102 + 2011-SA1", "NFRC 102 + NFRC 103"};
+    /* the largest error at the default tolerance: T, R, A per case (measured, rounded up) */
+    static const double bound[2][3] = {{SHADE_T, SHADE_R, SHADE_A}, {PANES_T, PANES_R, PANES_A}};
+    static const double sweep[] = {0.001, 0.002, 0.005, 0.01, 0.02, 0.05};
+    double err[3];
+    for (int k = 0; k < 2; k++) {
+        spectral_tol_error(2, cases[k], b, k == 0, 0.0, err);
+        for (int q = 0; q < 3; q++)
+            ck_assert_msg(err[q] <= 1e-12, "%s, tol 0: error %g", names[k], err[q]);
+        spectral_tol_error(2, cases[k], b, k == 0, BST_SPECTRAL_TOL, err);
+        printf("%s, tol %g: T %.2e, R %.2e, A %.2e\n", names[k], BST_SPECTRAL_TOL, err[0], err[1],
+               err[2]);
+        for (int q = 0; q < 3; q++)
+            ck_assert_msg(err[q] <= bound[k][q], "%s: error %g above %g", names[k], err[q],
+                          bound[k][q]);
+        for (size_t t = 0; getenv("BST_SPECTRAL_SWEEP") && t < sizeof sweep / sizeof *sweep; t++) {
+            spectral_tol_error(2, cases[k], b, k == 0, sweep[t], err);
+            printf("  tol %g: T %.2e, R %.2e, A %.2e\n", sweep[t], err[0], err[1], err[2]);
+        }
+    }
+    bst_layer_free(shade);
+    for (int c = 0; c < BST_NCOMP; c++)
+        free(vis[c]), free(sol[c]);
+    bst_glass_free(g[0]), bst_glass_free(g[1]);
+    bst_basis_free(b);
+}
+END_TEST
+
 static Suite *wce_suite(void)
 {
     Suite *s = suite_create("wce");
@@ -897,6 +1006,7 @@ static Suite *wce_suite(void)
     tcase_add_test(tc, test_dg_quarter_lambertian_visible_from_data);
     tcase_add_test(tc, test_dg_full_2011SA1_library);
     tcase_add_test(tc, test_dg_small_lambertian_library);
+    tcase_add_test(tc, test_spectral_groups);
     suite_add_tcase(s, tc);
     return s;
 }

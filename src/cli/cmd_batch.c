@@ -15,7 +15,8 @@
 static const char help[] =
     "Usage: bsdfstack batch [-k K | --klems[=full|half|quarter]] [--only Tf,Rf,Tb,Rb]\n"
     "                       [--channels NAMES] [--precision double|single] [--drop-tol X]\n"
-    "                       [--reduce PCT | --no-reduce] [--dense] [--per-channel] [--strict]\n"
+    "                       [--reduce PCT | --no-reduce] [--dense] [--per-channel]\n"
+    "                       [--spectral-tol X] [--glass-rule average|centre] [--strict]\n"
     "                       [--max-memory SIZE] FILE\n"
     "Combines many stacks, one per line of FILE ('-' = standard input):\n"
     "  OUT LAYER LAYER...\n"
@@ -131,8 +132,8 @@ static int parse_file(const char *sub, const char *path, struct stack_line **lin
 
 /* Combine and write one stack; CLI_OK or one error line naming FILE:LINE. */
 static int run_stack(bst_ctx *ctx, const char *sub, const char *path, const struct stack_line *sl,
-                     const struct cli_layers *all, char *const *specs, const bst_stack_opts *so,
-                     int per_channel, double reduce, int argc, char **argv)
+                     const struct cli_layers *all, char *const *specs, const bst_spectral_opts *sp,
+                     const bst_stack_opts *so, int per_channel, double reduce, int argc, char **argv)
 {
     char where[512];
     snprintf(where, sizeof where, "%s:%zu", path, sl->lineno);
@@ -165,7 +166,7 @@ static int run_stack(bst_ctx *ctx, const char *sub, const char *path, const stru
     clock_gettime(CLOCK_MONOTONIC, &t0);
     if (rc == CLI_OK && spectral) {
         double *abs[2] = {NULL, NULL};
-        if (cli_combine_spectral(ctx, sub, &view, so, abs, &sys) != CLI_OK)
+        if (cli_combine_spectral(ctx, sub, &view, sp, so, abs, &sys) != CLI_OK)
             rc = CLI_FAIL;
     } else if (rc == CLI_OK) {
         int st = bst_stack_combine(ctx, view.n, (const bst_layer *const *)view.layers, so, &sys);
@@ -243,7 +244,7 @@ int cmd_batch(int argc, char **argv)
                              args.so.precision);
     size_t failed = 0;
     for (size_t i = 0; rc == CLI_OK && i < nlines; i++)
-        if (run_stack(ctx, sub, path, &lines[i], &all, specs, &args.so, args.per_channel, args.reduce,
+        if (run_stack(ctx, sub, path, &lines[i], &all, specs, &args.sp, &args.so, args.per_channel, args.reduce,
                       argc, argv) != CLI_OK) {
             failed++;
             bst_ctx_clear(ctx);

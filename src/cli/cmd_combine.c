@@ -18,7 +18,8 @@ static const char help[] =
     "Usage: bsdfstack combine [-k K | --klems[=full|half|quarter]] [--only Tf,Rf,Tb,Rb]\n"
     "                         [--channels NAMES] [--precision double|single] [--drop-tol X]\n"
     "                         [--reduce PCT | --no-reduce] [--dense] [--absorptance FILE]\n"
-    "                         [--per-channel] [--strict] [--max-memory SIZE]\n"
+    "                         [--per-channel] [--spectral-tol X] [--glass-rule average|centre]\n"
+    "                         [--strict] [--max-memory SIZE]\n"
     "                         [--incident THETA,PHI]...\n"
     "                         [--incident-file FILE] [-v] -o OUT LAYER LAYER...\n"
     "Combines the layers, listed exterior first, with every inter-reflection between them, and\n"
@@ -50,6 +51,12 @@ static const char help[] =
     "  --absorptance FILE also write per-layer absorptance per incident patch (TSV: channel,\n"
     "                     side, patch, theta, phi of the propagation direction, A1..An, T, R)\n"
     "  --per-channel      combine band values even when the stack could go per wavelength\n"
+    "  --spectral-tol X   per wavelength: combine once per run of wavelengths over which every\n"
+    "                     pane's normal-incidence T and R move by at most X (default 0.01: T, R\n"
+    "                     and A within 6.3e-5 of X = 0; 0: every distinct wavelength)\n"
+    "  --glass-rule R     panes' patch values: average (default) over the patch, or at its\n"
+    "                     centre (centre, WINDOW's and WCE's); they differ by up to 0.08 in T\n"
+    "                     in the Klems 75-90 degree ring\n"
     "  --strict           ill-conditioning and energy imbalance (input or system) are errors\n"
     "  --max-memory SIZE  refuse when the estimated peak exceeds SIZE (16G, 800M; default: the\n"
     "                     memory available now)\n"
@@ -382,7 +389,7 @@ int cmd_combine(int argc, char **argv)
     if (rc == CLI_OK)
         rc = cli_note_spectral(sub, &set, why, verbose);
     if (rc == CLI_OK && spectral) {
-        rc = cli_combine_spectral(ctx, sub, &set, &args.so, abs, &sys);
+        rc = cli_combine_spectral(ctx, sub, &set, &args.sp, &args.so, abs, &sys);
     } else if (rc == CLI_OK) {
         /* without --absorptance the layers die with the combination: let it free each component
          * at its last use (a pane and a dense layer at k = 7: 12 instead of 20 GiB in double) */

@@ -44,6 +44,7 @@ void cli_stack_args_init(struct cli_stack_args *a)
     memset(a, 0, sizeof *a);
     a->reduce = 90.0;
     bst_stack_opts_init(&a->so);
+    bst_spectral_opts_init(&a->sp);
 }
 
 int cli_stack_option(const char *sub, int c, const char *arg, struct cli_stack_args *a)
@@ -67,6 +68,15 @@ int cli_stack_option(const char *sub, int c, const char *arg, struct cli_stack_a
     case CLI_O_STRICT: a->so.strict = 1; return CLI_OK;
     case CLI_O_PERCH: a->per_channel = 1; return CLI_OK;
     case CLI_O_MAXMEM: return cli_parse_memory(sub, arg, &a->basis.max_memory);
+    case CLI_O_SPTOL:
+        if (cli_parse_double(arg, &a->sp.tol) || !(a->sp.tol >= 0 && a->sp.tol <= 1))
+            return cli_usage(sub, "--spectral-tol %s: a number in [0, 1] is required", arg);
+        return CLI_OK;
+    case CLI_O_GLASSRULE:
+        if (strcmp(arg, "centre") && strcmp(arg, "average"))
+            return cli_usage(sub, "--glass-rule %s: use average or centre", arg);
+        a->basis.at_centre = a->sp.at_centre = strcmp(arg, "centre") == 0;
+        return CLI_OK;
     default: return -1;
     }
 }
@@ -216,6 +226,8 @@ static void warn_zero_components(const char *sub, const char *path, const bst_bs
     bst_ctx_clear(ctx);
 }
 
+static int is_band(const char *name);
+
 static int is_glass(const char *spec)
 {
     return strncmp(spec, "glass:", 6) == 0;
@@ -305,13 +317,18 @@ int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_
             files[i] = NULL;
         } else {
             char *spec = strndup(specs[i] + 6, len - 6 - (size_t)flip);
-            st = spec ? bst_glass_layer_from_spec(ctx, spec, getenv("BSDFSTACK_GLASS_DIR"),
-                                                  set->basis, nch, nch ? chnames : NULL, &l)
-                      : BST_ENOMEM;
-            /* a pane with spectral data can also be evaluated per wavelength */
             bst_glass *g = NULL;
-            if (st >= 0 && !flip && bst_glass_parse(ctx, spec, getenv("BSDFSTACK_GLASS_DIR"), &g) >= 0 &&
-                bst_glass_nwavelengths(g) > 0) {
+            st = spec ? bst_glass_parse(ctx, spec, getenv("BSDFSTACK_GLASS_DIR"), &g) : BST_ENOMEM;
+            /* a spectral pane is averaged over any further band asked for (CIE-X, ...) */
+            for (size_t c = 0; st >= 0 && c < nch; c++)
+                if (bst_glass_find_channel(g, chnames[c]) < 0 && bst_glass_nwavelengths(g) &&
+                    is_band(chnames[c]))
+                    st = bst_glass_add_channel(ctx, g, chnames[c]);
+            if (st >= 0)
+                st = bst_glass_layer(ctx, g, set->basis, nch, nch ? chnames : NULL,
+                                     choice->at_centre, &l);
+            /* a pane with spectral data can also be evaluated per wavelength */
+            if (st >= 0 && !flip && bst_glass_nwavelengths(g) > 0) {
                 set->panes[i] = g;
                 set->npanes++;
             } else {
@@ -463,7 +480,8 @@ int cli_spectral_plan(const struct cli_layers *set, int per_channel, char *why, 
 }
 
 int cli_combine_spectral(bst_ctx *ctx, const char *sub, const struct cli_layers *set,
-                         const bst_stack_opts *so, double *abs[2], bst_layer **sys)
+                         const bst_spectral_opts *sp, const bst_stack_opts *so, double *abs[2],
+                         bst_layer **sys)
 {
     const char **names = malloc((bst_layer_nchannels(set->layers[0]) + 1) * sizeof *names);
     bst_spectral_layer *l = calloc(set->n, sizeof *l);
@@ -476,9 +494,7 @@ int cli_combine_spectral(bst_ctx *ctx, const char *sub, const struct cli_layers 
         l[i].pane = set->panes[i];
         l[i].bands = set->panes[i] ? NULL : set->layers[i];
     }
-    bst_spectral_opts sp;
-    bst_spectral_opts_init(&sp);
-    int st = bst_stack_combine_spectral_layers(ctx, set->n, l, set->basis, nch, names, &sp, so,
+    int st = bst_stack_combine_spectral_layers(ctx, set->n, l, set->basis, nch, names, sp, so,
                                                sys, abs[0], abs[1]);
     free(names), free(l);
     if (st < 0)

@@ -13,6 +13,7 @@ struct cli_basis_choice {
     int combining;     /* 1: the layers are combined next, in `work` precision */
     bst_precision work;
     const char *lower; /* the options that lower the need, for the message; NULL = "-k" */
+    int at_centre;     /* --glass-rule centre: panes at patch centres (WINDOW's), 0: averages */
 };
 
 /* The memory guard: the peak a command will need (the layers read from files over `basis`, the
@@ -43,7 +44,8 @@ int cli_parse_basis_option(const char *sub, int opt, const char *value, struct c
  * long options below, listed in a getopt_long table by CLI_STACK_LONGOPTS; a command's own long
  * options start at CLI_O_OWN. */
 enum { CLI_O_KLEMS = 256, CLI_O_ONLY, CLI_O_CHANNELS, CLI_O_PRECISION, CLI_O_DROP, CLI_O_REDUCE,
-       CLI_O_NOREDUCE, CLI_O_DENSE, CLI_O_STRICT, CLI_O_PERCH, CLI_O_MAXMEM, CLI_O_OWN };
+       CLI_O_NOREDUCE, CLI_O_DENSE, CLI_O_STRICT, CLI_O_PERCH, CLI_O_MAXMEM, CLI_O_SPTOL,
+       CLI_O_GLASSRULE, CLI_O_OWN };
 #define CLI_STACK_LONGOPTS                                                                         \
     {"klems", optional_argument, NULL, CLI_O_KLEMS}, {"only", required_argument, NULL, CLI_O_ONLY},  \
     {"channels", required_argument, NULL, CLI_O_CHANNELS},                                          \
@@ -52,7 +54,9 @@ enum { CLI_O_KLEMS = 256, CLI_O_ONLY, CLI_O_CHANNELS, CLI_O_PRECISION, CLI_O_DRO
     {"reduce", required_argument, NULL, CLI_O_REDUCE},                                              \
     {"no-reduce", no_argument, NULL, CLI_O_NOREDUCE}, {"dense", no_argument, NULL, CLI_O_DENSE},     \
     {"strict", no_argument, NULL, CLI_O_STRICT}, {"per-channel", no_argument, NULL, CLI_O_PERCH},   \
-    {"max-memory", required_argument, NULL, CLI_O_MAXMEM}
+    {"max-memory", required_argument, NULL, CLI_O_MAXMEM},                                          \
+    {"spectral-tol", required_argument, NULL, CLI_O_SPTOL},                                         \
+    {"glass-rule", required_argument, NULL, CLI_O_GLASSRULE}
 
 struct cli_stack_args {
     struct cli_basis_choice basis;
@@ -60,6 +64,7 @@ struct cli_stack_args {
     double reduce;        /* --reduce percentile, -1 for --no-reduce (default 90) */
     int per_channel;      /* --per-channel */
     bst_stack_opts so;    /* --only, --precision, --drop-tol, --dense, --strict */
+    bst_spectral_opts sp; /* --spectral-tol, --glass-rule (also in basis.at_centre) */
 };
 void cli_stack_args_init(struct cli_stack_args *a);
 /* Option c with value arg: CLI_OK when it is one of the shared options and parsed, a usage error
@@ -88,7 +93,8 @@ int cli_spectral_plan(const struct cli_layers *set, int per_channel, char *why, 
 /* The stack per wavelength (as cli_spectral_plan allows; channels: layer 1's that every layer
  * has), with per-layer absorptance into abs[0], abs[1] when they are not NULL. */
 int cli_combine_spectral(bst_ctx *ctx, const char *sub, const struct cli_layers *set,
-                         const bst_stack_opts *so, double *abs[2], bst_layer **sys);
+                         const bst_spectral_opts *sp, const bst_stack_opts *so, double *abs[2],
+                         bst_layer **sys);
 /* Append "spectral: WHY" to set->description (the output's metadata); -v also prints it. */
 int cli_note_spectral(const char *sub, struct cli_layers *set, const char *why, int verbose);
 
