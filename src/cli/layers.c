@@ -2,11 +2,13 @@
 #include <config.h>
 
 #include <ctype.h>
+#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <time.h>
 
 #include "cli.h"
 #include "layers.h"
@@ -381,6 +383,20 @@ int cli_write_layer(bst_ctx *ctx, const char *sub, const bst_layer *l, const cha
     bst_bsdf_write_opts_init(&wo);
     wo.reduce_pct = reduce;
     wo.description = desc;
+    /* SOURCE_DATE_EPOCH (reproducible-builds.org): the header's date, so that two runs can give
+     * byte-identical files; ignored unless a whole non-negative number of seconds */
+    char date[64];
+    const char *epoch = getenv("SOURCE_DATE_EPOCH");
+    if (epoch && *epoch) {
+        char *end;
+        errno = 0;
+        long long secs = strtoll(epoch, &end, 10);
+        time_t t = (time_t)secs;
+        struct tm tm;
+        if (*end == '\0' && errno == 0 && secs >= 0 && gmtime_r(&t, &tm) &&
+            strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", &tm))
+            wo.date = date;
+    }
     struct cli_out out;
     int rc = cli_out_open(&out, sub, path);
     if (rc == CLI_OK) {
