@@ -1,23 +1,57 @@
 /* cmd_batch.c - `bsdfstack batch FILE`: many stacks, one per line, every distinct layer loaded once
- * onto one basis; each system written as `combine` writes it. */
+ * onto one basis; each system written as `combine` writes it.
+ *
+ * -j N combines N stacks at once in N worker processes, forked after every layer is loaded: the
+ * layers are read-only from then on, so fork's copy-on-write shares them without a copy, each
+ * worker has its own bst_ctx and stdio for free, and a worker that crashes or is killed for memory
+ * takes down only the stack it held (the parent reports that line; the others go on).  Threads
+ * would share the same memory but need a context, an output buffer and a crash boundary each
+ * made by hand.  Each worker sets OpenBLAS to max(1, cores / N) threads (cores: the CPUs this
+ * process may run on, sched_getaffinity), so that N workers keep the cores busy without
+ * oversubscribing them; -j 1 runs in the process through the same code and leaves OpenBLAS as
+ * configured.  Workers claim lines in file order from a counter in shared memory
+ * (MAP_SHARED | MAP_ANONYMOUS) and leave each stack's result there (state, seconds, peak memory,
+ * T and R at normal incidence per channel, warnings); the parent draws the progress line on a
+ * terminal and writes --summary from them once every worker has ended.
+ *
+ * --resume: every output's metadata holds "batch-key: fnv1a64 HEX", a hash of the line's words,
+ * of the size and modification time of each layer that names a file, and of the command as
+ * recorded in the metadata (less -j, --summary and --resume, which do not change a result).  A
+ * stack is skipped when its output holds the key it would be written with and ends with the XML
+ * writer's last line (a file cut short does not).  Outputs are written atomically, so a killed
+ * batch leaves each of them whole or absent. */
 #include <config.h>
 
 #include <errno.h>
 #include <getopt.h>
+#include <inttypes.h>
 #include <math.h>
+#include <sched.h>
+#include <signal.h>
+#include <stdatomic.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "cli.h"
 #include "layers.h"
+
+#ifdef HAVE_OPENBLAS_SET_NUM_THREADS
+void openblas_set_num_threads(int num_threads); /* OpenBLAS's cblas.h */
+#endif
 
 static const char help[] =
     "Usage: bsdfstack batch [-k K | --klems[=full|half|quarter]] [--only Tf,Rf,Tb,Rb]\n"
     "                       [--channels NAMES] [--precision double|single] [--drop-tol X]\n"
     "                       [--reduce PCT | --no-reduce] [--dense] [--per-channel]\n"
     "                       [--spectral-tol X] [--glass-rule average|centre] [--strict]\n"
-    "                       [--max-memory SIZE] FILE\n"
+    "                       [--max-memory SIZE] [-j N] [--summary FILE] [--resume] FILE\n"
     "Combines many stacks, one per line of FILE ('-' = standard input):\n"
     "  OUT LAYER LAYER...\n"
     "the output file, then the layers, exterior first, as `bsdfstack combine` takes them\n"
@@ -29,11 +63,22 @@ static const char help[] =
     "kept until the end.  The whole file and every layer are checked before the first stack is\n"
     "combined.  A stack that fails is reported with its line number and the others go on; the\n"
     "exit status is then 1.  Each system is written as `combine -o OUT` writes it (a regular file\n"
-    "atomically; its metadata names the layers and the batch line), and one line per stack on\n"
-    "standard output gives OUT, the front T and R at normal incidence of the first channel\n"
-    "(- where not computed) and the seconds taken.\n"
+    "atomically; its metadata names the layers, the batch line and its batch-key), and one line\n"
+    "per stack on standard output gives OUT, the front T and R at normal incidence of the first\n"
+    "channel (- where not computed) and the seconds taken, or OUT and 'skipped' (--resume).\n"
+    "On a terminal, standard error shows stacks done, failed, time elapsed and left.\n"
     "\n"
-    "Options: as for `bsdfstack combine`.\n";
+    "  -j, --jobs N      combine N stacks at once, in N processes sharing the loaded layers,\n"
+    "                    each with max(1, cores / N) OpenBLAS threads (default 1); standard\n"
+    "                    output's lines then come in the order the stacks end\n"
+    "      --summary FILE  one tab-separated row per stack: line, output, status (ok, failed,\n"
+    "                    skipped), seconds, peak_rss_kib (the peak resident memory of the process\n"
+    "                    that combined it, so far), T_normal and R_normal (front, at normal\n"
+    "                    incidence, CHANNEL=VALUE per channel), warnings\n"
+    "      --resume      skip a stack whose OUT exists, is complete and holds the batch-key of\n"
+    "                    the same line, layer files (size, time) and options\n"
+    "\n"
+    "Other options: as for `bsdfstack combine`.\n";
 
 struct stack_line {
     size_t lineno;
@@ -130,19 +175,154 @@ static int parse_file(const char *sub, const char *path, struct stack_line **lin
     return rc;
 }
 
-/* Combine and write one stack; CLI_OK or one error line naming FILE:LINE. */
-static int run_stack(bst_ctx *ctx, const char *sub, const char *path, const struct stack_line *sl,
-                     const struct cli_layers *all, char *const *specs, const bst_spectral_opts *sp,
-                     const bst_stack_opts *so, int per_channel, double reduce, int argc, char **argv)
+/* A stack's result, left in memory the workers share with the parent. */
+enum { ST_PENDING, ST_RUNNING, ST_OK, ST_FAILED, ST_SKIPPED };
+#define SUMMARY_CHANNELS 16 /* channels given in the summary; more are cut, with a note */
+struct stack_result {
+    atomic_int state;
+    pid_t worker;   /* the process that combined it (RUNNING: holds it) */
+    double seconds; /* wall clock */
+    long peak_kib;  /* getrusage(RUSAGE_SELF).ru_maxrss of that process at the stack's end */
+    int nch, more;  /* channels given, and whether there were more */
+    char channel[SUMMARY_CHANNELS][32];
+    double t[SUMMARY_CHANNELS], r[SUMMARY_CHANNELS]; /* NAN where not computed */
+    char warnings[512];
+};
+struct shared {
+    atomic_size_t next;                       /* the next line to claim */
+    atomic_size_t done, failed, skipped;      /* counts, for the progress line */
+    struct stack_result res[];
+};
+
+/* What every stack needs, the same for all. */
+struct batch {
+    const char *sub, *path;
+    struct stack_line *lines;
+    size_t nlines;
+    char **specs;
+    size_t nspecs;
+    struct cli_layers all;
+    struct cli_stack_args args;
+    int argc;    /* the command as the metadata records it: without -j, --summary, --resume */
+    char **argv;
+    int resume;
+    int progress; /* draw the progress line after each stack (-j 1 on a terminal) */
+    struct timespec start;
+};
+
+static double since(const struct timespec *t0)
 {
-    char where[512];
-    snprintf(where, sizeof where, "%s:%zu", path, sl->lineno);
-    struct cli_layers view = {.n = sl->n, .basis = all->basis};
+    struct timespec t1;
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    return (double)(t1.tv_sec - t0->tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0->tv_nsec);
+}
+
+/* FNV-1a, 64 bits: a stable hash (not a secure one; resume guards against mistakes, not forgery). */
+static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
+{
+    const unsigned char *p = data;
+    for (size_t i = 0; i < n; i++)
+        h = (h ^ p[i]) * 1099511628211u;
+    return h;
+}
+
+/* The batch-key of line sl: its words, each layer file's size and modification time (a spec less
+ * its glass: prefix and trailing ^ that names a file), and the recorded command. */
+static uint64_t line_key(const struct batch *b, const struct stack_line *sl)
+{
+    uint64_t h = 14695981039346656037u;
+    h = fnv1a(h, sl->out, strlen(sl->out) + 1);
+    for (size_t i = 0; i < sl->n; i++) {
+        const char *spec = b->specs[sl->layer[i]];
+        h = fnv1a(h, spec, strlen(spec) + 1);
+        if (strncmp(spec, "glass:", 6) == 0)
+            spec += 6;
+        char file[4096];
+        size_t len = strlen(spec);
+        if (len && spec[len - 1] == '^')
+            len--;
+        struct stat st;
+        if (len < sizeof file) {
+            memcpy(file, spec, len);
+            file[len] = '\0';
+            if (stat(file, &st) == 0) {
+                int64_t v[3] = {(int64_t)st.st_size, (int64_t)st.st_mtim.tv_sec, (int64_t)st.st_mtim.tv_nsec};
+                h = fnv1a(h, v, sizeof v);
+            }
+        }
+    }
+    for (int i = 0; i < b->argc; i++)
+        h = fnv1a(h, b->argv[i], strlen(b->argv[i]) + 1);
+    return h;
+}
+
+/* Whether path is complete and holds key_text in its header (where the writer puts the
+ * metadata: the first 64 KiB). */
+static int up_to_date(const char *path, const char *key_text)
+{
+    static const char last[] = "</WindowElement>\n";
+    FILE *fp = fopen(path, "rb");
+    if (!fp)
+        return 0;
+    char *head = malloc(65536), tail[sizeof last];
+    size_t n = head ? fread(head, 1, 65535, fp) : 0;
+    int ok = 0;
+    if (head) {
+        head[n] = '\0';
+        ok = strstr(head, key_text) != NULL && fseek(fp, -(long)(sizeof last - 1), SEEK_END) == 0 &&
+             fread(tail, 1, sizeof last - 1, fp) == sizeof last - 1 &&
+             memcmp(tail, last, sizeof last - 1) == 0;
+    }
+    free(head);
+    fclose(fp);
+    return ok;
+}
+
+/* Front T and R at normal incidence, per channel of sys, into r. */
+static void normal_tr(bst_ctx *ctx, const bst_basis *basis, const bst_layer *sys, struct stack_result *r)
+{
+    size_t n = bst_basis_size(basis), nch = bst_layer_nchannels(sys);
+    double normal[3] = {1e-9, 1e-9, 1.0}, *h = malloc(n * sizeof *h);
+    size_t j = bst_basis_patch(basis, normal);
+    r->more = nch > SUMMARY_CHANNELS;
+    r->nch = (int)(r->more ? SUMMARY_CHANNELS : nch);
+    for (int c = 0; c < r->nch; c++) {
+        snprintf(r->channel[c], sizeof r->channel[c], "%s", bst_layer_channel(sys, (size_t)c));
+        r->t[c] = r->r[c] = NAN;
+        if (h && bst_layer_get(sys, (size_t)c, BST_TF) &&
+            bst_layer_hemispherical(ctx, sys, (size_t)c, BST_TF, h) >= 0)
+            r->t[c] = h[j];
+        if (h && bst_layer_get(sys, (size_t)c, BST_RF) &&
+            bst_layer_hemispherical(ctx, sys, (size_t)c, BST_RF, h) >= 0)
+            r->r[c] = h[j];
+    }
+    bst_ctx_clear(ctx);
+    free(h);
+}
+
+/* Combine and write one stack, or skip it (--resume); ST_OK, ST_SKIPPED, or ST_FAILED after one
+ * error line naming FILE:LINE.  The result goes to r. */
+static int run_stack(bst_ctx *ctx, const struct batch *b, const struct stack_line *sl,
+                     struct stack_result *r)
+{
+    const char *sub = b->sub;
+    char where[512], key[64];
+    struct timespec t0;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    snprintf(where, sizeof where, "%s:%zu", b->path, sl->lineno);
+    snprintf(key, sizeof key, "batch-key: fnv1a64 %016" PRIx64, line_key(b, sl));
+    if (b->resume && up_to_date(sl->out, key)) {
+        printf("%s\tskipped\n", sl->out);
+        if (fflush(stdout) != 0)
+            cli_stdout_failed(sub, errno);
+        return ST_SKIPPED;
+    }
+    struct cli_layers view = {.n = sl->n, .basis = b->all.basis};
     view.layers = malloc(sl->n * sizeof *view.layers);
     view.panes = malloc(sl->n * sizeof *view.panes);
-    size_t len = 128 + strlen(path);
+    size_t len = 128 + strlen(b->path) + strlen(key);
     for (size_t i = 0; i < sl->n; i++)
-        len += strlen(specs[sl->layer[i]]) + 2;
+        len += strlen(b->specs[sl->layer[i]]) + 2;
     view.description = malloc(len);
     bst_layer *sys = NULL;
     int rc = view.layers && view.panes && view.description ? CLI_OK : cli_fail(sub, "out of memory");
@@ -150,115 +330,340 @@ static int run_stack(bst_ctx *ctx, const char *sub, const char *path, const stru
         snprintf(view.description, len, "layers (exterior first):");
         for (size_t i = 0; i < sl->n; i++) {
             strcat(view.description, i ? ", " : " ");
-            strcat(view.description, specs[sl->layer[i]]);
-            view.layers[i] = all->layers[sl->layer[i]];
-            view.panes[i] = all->panes[sl->layer[i]];
+            strcat(view.description, b->specs[sl->layer[i]]);
+            view.layers[i] = b->all.layers[sl->layer[i]];
+            view.panes[i] = b->all.panes[sl->layer[i]];
             view.npanes += view.panes[i] != NULL;
         }
         snprintf(view.description + strlen(view.description), len - strlen(view.description),
-                 "\nbatch: %s line %zu", path, sl->lineno);
+                 "\nbatch: %s line %zu\n%s", b->path, sl->lineno, key);
     }
     char why[2048];
-    int spectral = rc == CLI_OK && cli_spectral_plan(&view, per_channel, why, sizeof why);
+    int spectral = rc == CLI_OK && cli_spectral_plan(&view, b->args.per_channel, why, sizeof why);
     if (rc == CLI_OK)
         rc = cli_note_spectral(sub, &view, why, 0);
-    struct timespec t0, t1;
-    clock_gettime(CLOCK_MONOTONIC, &t0);
     if (rc == CLI_OK && spectral) {
         double *abs[2] = {NULL, NULL};
-        if (cli_combine_spectral(ctx, sub, &view, sp, so, abs, &sys) != CLI_OK)
+        if (cli_combine_spectral(ctx, sub, &view, &b->args.sp, &b->args.so, abs, &sys) != CLI_OK)
             rc = CLI_FAIL;
     } else if (rc == CLI_OK) {
-        int st = bst_stack_combine(ctx, view.n, (const bst_layer *const *)view.layers, so, &sys);
-        if (st < 0)
+        int st = bst_stack_combine(ctx, view.n, (const bst_layer *const *)view.layers, &b->args.so, &sys);
+        if (st < 0) {
             rc = cli_fail_ctx(sub, where, ctx);
-        else
+        } else if (st > 0) {
+            const char *msg = bst_ctx_message(ctx);
+            snprintf(r->warnings, sizeof r->warnings, "%s", msg && *msg ? msg : bst_strerror(st));
             cli_warn_ctx(sub, where, st, ctx);
+        }
     }
     if (rc == CLI_OK)
-        rc = cli_write_layer(ctx, sub, sys, sl->out, reduce, argc, argv, &view);
+        rc = cli_write_layer(ctx, sub, sys, sl->out, b->args.reduce, b->argc, b->argv, &view);
     if (rc == CLI_OK) {
-        const bst_basis *b = all->basis;
-        size_t n = bst_basis_size(b);
-        double normal[3] = {1e-9, 1e-9, 1.0}, *h = malloc(n * sizeof *h);
-        size_t j = bst_basis_patch(b, normal);
-        char t[32] = "-", r[32] = "-";
-        if (h && bst_layer_get(sys, 0, BST_TF) && bst_layer_hemispherical(ctx, sys, 0, BST_TF, h) >= 0)
-            snprintf(t, sizeof t, "%.4f", h[j]);
-        if (h && bst_layer_get(sys, 0, BST_RF) && bst_layer_hemispherical(ctx, sys, 0, BST_RF, h) >= 0)
-            snprintf(r, sizeof r, "%.4f", h[j]);
-        free(h);
-        clock_gettime(CLOCK_MONOTONIC, &t1);
-        printf("%s\tT %s\tR %s\t%.2f s\n", sl->out, t, r,
-               (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec));
+        normal_tr(ctx, b->all.basis, sys, r);
+        char t[32] = "-", rr[32] = "-";
+        if (r->nch > 0 && !isnan(r->t[0]))
+            snprintf(t, sizeof t, "%.4f", r->t[0]);
+        if (r->nch > 0 && !isnan(r->r[0]))
+            snprintf(rr, sizeof rr, "%.4f", r->r[0]);
+        printf("%s\tT %s\tR %s\t%.2f s\n", sl->out, t, rr, since(&t0));
         /* the stack itself is written: a lost summary line fails the run (main), not the stack */
         if (fflush(stdout) != 0)
             cli_stdout_failed(sub, errno);
     }
+    r->seconds = since(&t0);
+    struct rusage ru;
+    if (getrusage(RUSAGE_SELF, &ru) == 0)
+        r->peak_kib = ru.ru_maxrss; /* KiB on Linux */
     bst_layer_free(sys);
     free(view.layers), free(view.panes), free(view.description);
-    return rc;
+    return rc == CLI_OK ? ST_OK : ST_FAILED;
+}
+
+/* "1h02m", "3m05s", "12s". */
+static void duration(char *buf, size_t size, double s)
+{
+    long t = (long)(s + 0.5);
+    if (t >= 3600)
+        snprintf(buf, size, "%ldh%02ldm", t / 3600, t / 60 % 60);
+    else if (t >= 60)
+        snprintf(buf, size, "%ldm%02lds", t / 60, t % 60);
+    else
+        snprintf(buf, size, "%lds", t);
+}
+
+/* The progress line on stderr (a terminal): done, failed, elapsed, and the time left at the rate
+ * of the stacks combined so far (skipped ones take none). */
+static void progress(const struct batch *b, const struct shared *sh, int last)
+{
+    size_t done = atomic_load(&sh->done), failed = atomic_load(&sh->failed);
+    size_t computed = done - atomic_load(&sh->skipped);
+    double elapsed = since(&b->start);
+    char e[32], left[32] = "?";
+    duration(e, sizeof e, elapsed);
+    if (computed > 0)
+        duration(left, sizeof left, elapsed / (double)computed * (double)(b->nlines - done));
+    if (last)
+        fputs("\r\033[K", stderr);
+    else
+        fprintf(stderr, "\r\033[Kbatch: %zu of %zu stacks done, %zu failed, %s elapsed, ~%s left", done,
+                b->nlines, failed, e, left);
+    fflush(stderr);
+}
+
+/* Claim lines from sh->next and combine them until none is left. */
+static void work(bst_ctx *ctx, const struct batch *b, struct shared *sh)
+{
+    for (;;) {
+        size_t i = atomic_fetch_add(&sh->next, 1);
+        if (i >= b->nlines)
+            break;
+        struct stack_result *r = &sh->res[i];
+        r->worker = getpid();
+        atomic_store(&r->state, ST_RUNNING);
+        int st = run_stack(ctx, b, &b->lines[i], r);
+        if (st == ST_FAILED)
+            bst_ctx_clear(ctx), atomic_fetch_add(&sh->failed, 1);
+        if (st == ST_SKIPPED)
+            atomic_fetch_add(&sh->skipped, 1);
+        atomic_store(&r->state, st);
+        atomic_fetch_add(&sh->done, 1);
+        if (b->progress)
+            progress(b, sh, 0);
+    }
+}
+
+/* The CPUs this process may run on. */
+static int cores(void)
+{
+    cpu_set_t set;
+    if (sched_getaffinity(0, sizeof set, &set) == 0 && CPU_COUNT(&set) > 0)
+        return CPU_COUNT(&set);
+    long n = sysconf(_SC_NPROCESSORS_ONLN);
+    return n > 0 ? (int)n : 1;
+}
+
+/* Run the batch in `jobs` workers (the process itself for 1); stacks whose worker ended before
+ * finishing them are reported and marked failed. */
+static void run_all(bst_ctx *ctx, struct batch *b, struct shared *sh, int jobs)
+{
+    if (jobs <= 1) {
+        work(ctx, b, sh);
+        return;
+    }
+    pid_t *pid = calloc((size_t)jobs, sizeof *pid);
+    int started = 0;
+    fflush(NULL); /* nothing buffered is written twice */
+    while (pid && started < jobs) {
+        pid_t p = fork();
+        if (p < 0) {
+            fprintf(stderr, "bsdfstack %s: warning: fork: %s; going on with %d worker%s\n", b->sub,
+                    strerror(errno), started, started == 1 ? "" : "s");
+            break;
+        }
+        if (p == 0) {
+#ifdef HAVE_OPENBLAS_SET_NUM_THREADS
+            int per = cores() / jobs;
+            openblas_set_num_threads(per > 1 ? per : 1);
+#endif
+            work(ctx, b, sh);
+            fflush(stdout);
+            _exit(0);
+        }
+        pid[started++] = p;
+    }
+    if (started == 0) {
+        b->progress = isatty(STDERR_FILENO);
+        work(ctx, b, sh);
+        free(pid);
+        return;
+    }
+    int tty = isatty(STDERR_FILENO);
+    for (int left = started; left > 0;) {
+        int status;
+        pid_t p = waitpid(-1, &status, tty ? WNOHANG : 0);
+        if (p < 0 && errno == EINTR)
+            continue;
+        if (p < 0)
+            break;
+        if (p == 0) {
+            progress(b, sh, 0);
+            struct timespec pause = {0, 200000000};
+            nanosleep(&pause, NULL);
+            continue;
+        }
+        left--;
+        for (size_t i = 0; i < b->nlines; i++) {
+            struct stack_result *r = &sh->res[i];
+            if (r->worker != p || atomic_load(&r->state) != ST_RUNNING)
+                continue;
+            char how[64];
+            if (WIFSIGNALED(status))
+                snprintf(how, sizeof how, "signal %d (%s)", WTERMSIG(status), strsignal(WTERMSIG(status)));
+            else
+                snprintf(how, sizeof how, "exit status %d", WEXITSTATUS(status));
+            cli_fail(b->sub, "%s:%zu: the worker combining this stack ended by %s", b->path,
+                     b->lines[i].lineno, how);
+            atomic_store(&r->state, ST_FAILED);
+            atomic_fetch_add(&sh->failed, 1);
+            atomic_fetch_add(&sh->done, 1);
+        }
+    }
+    if (tty)
+        progress(b, sh, 1);
+    free(pid);
+}
+
+/* The --summary table (a header row, then one row per stack in file order). */
+static int write_summary(struct cli_out *o, const struct batch *b, const struct shared *sh)
+{
+    static const char *const names[] = {"pending", "running", "ok", "failed", "skipped"};
+    FILE *fp = o->fp;
+    fputs("line\toutput\tstatus\tseconds\tpeak_rss_kib\tT_normal\tR_normal\twarnings\n", fp);
+    for (size_t i = 0; i < b->nlines; i++) {
+        const struct stack_result *r = &sh->res[i];
+        int st = atomic_load(&r->state);
+        fprintf(fp, "%zu\t%s\t%s\t", b->lines[i].lineno, b->lines[i].out, names[st]);
+        if (st == ST_OK || st == ST_FAILED)
+            fprintf(fp, "%.3f\t%ld\t", r->seconds, r->peak_kib);
+        else
+            fputs("-\t-\t", fp);
+        for (int side = 0; side < 2; side++) {
+            const double *v = side ? r->r : r->t;
+            for (int c = 0; c < r->nch; c++) {
+                fprintf(fp, "%s%s=", c ? "," : "", r->channel[c]);
+                fprintf(fp, isnan(v[c]) ? "-" : "%.6f", v[c]);
+            }
+            fputs(r->nch == 0 ? "-\t" : r->more ? ",...\t" : "\t", fp);
+        }
+        /* one field: the warning's tabs and newlines become blanks */
+        char w[sizeof r->warnings];
+        snprintf(w, sizeof w, "%s", r->warnings[0] ? r->warnings : "-");
+        for (char *p = w; *p; p++)
+            if (*p == '\t' || *p == '\n' || *p == '\r')
+                *p = ' ';
+        fprintf(fp, "%s\n", w);
+    }
+    return cli_out_commit(o, b->sub);
+}
+
+/* argv less the options that do not change any output (-j, --jobs, --summary, --resume), for the
+ * metadata and the batch-key; pointers into argv, in a new array. */
+static char **recorded_argv(int argc, char **argv, int *n)
+{
+    char **v = malloc(((size_t)argc + 1) * sizeof *v);
+    if (!v)
+        return NULL;
+    *n = 0;
+    for (int i = 0; i < argc; i++) {
+        const char *a = argv[i];
+        if (strcmp(a, "--") == 0) {
+            while (i < argc)
+                v[(*n)++] = argv[i++];
+            break;
+        }
+        if (strcmp(a, "-j") == 0 || strcmp(a, "--jobs") == 0 || strcmp(a, "--summary") == 0) {
+            i++; /* and its value */
+            continue;
+        }
+        if ((strncmp(a, "-j", 2) == 0) || strncmp(a, "--jobs=", 7) == 0 ||
+            strncmp(a, "--summary=", 10) == 0 || strcmp(a, "--resume") == 0)
+            continue;
+        v[(*n)++] = argv[i];
+    }
+    v[*n] = NULL;
+    return v;
 }
 
 int cmd_batch(int argc, char **argv)
 {
-    enum { O_HELP = CLI_O_OWN };
-    static const struct option longopts[] = {CLI_STACK_LONGOPTS, {"help", no_argument, NULL, O_HELP},
+    enum { O_HELP = CLI_O_OWN, O_SUMMARY, O_RESUME };
+    static const struct option longopts[] = {CLI_STACK_LONGOPTS,
+                                             {"jobs", required_argument, NULL, 'j'},
+                                             {"summary", required_argument, NULL, O_SUMMARY},
+                                             {"resume", no_argument, NULL, O_RESUME},
+                                             {"help", no_argument, NULL, O_HELP},
                                              {NULL, 0, NULL, 0}};
     const char *sub = "batch";
-    struct cli_stack_args args;
-    cli_stack_args_init(&args);
-    int c;
+    struct batch b;
+    memset(&b, 0, sizeof b);
+    b.sub = sub;
+    cli_stack_args_init(&b.args);
+    /* before getopt permutes argv */
+    if (!(b.argv = recorded_argv(argc, argv, &b.argc)))
+        return cli_fail(sub, "out of memory");
+    const char *summary = NULL;
+    int jobs = 1, c;
     optind = 1;
     opterr = 0;
-    while ((c = getopt_long(argc, argv, ":k:h", longopts, NULL)) != -1) {
-        int shared = cli_stack_option(sub, c, optarg, &args);
+    while ((c = getopt_long(argc, argv, ":k:hj:", longopts, NULL)) != -1) {
+        int shared = cli_stack_option(sub, c, optarg, &b.args);
         if (shared == CLI_USAGE)
-            return CLI_USAGE;
+            return free(b.argv), CLI_USAGE;
         if (shared == CLI_OK)
             continue;
         switch (c) {
+        case 'j':
+            if (cli_parse_int(optarg, &jobs) != 0 || jobs < 1)
+                return free(b.argv), cli_usage(sub, "-j %s: give a whole number of stacks at once, 1 or more", optarg);
+            break;
+        case O_SUMMARY: summary = optarg; break;
+        case O_RESUME: b.resume = 1; break;
         case 'h':
-        case O_HELP: fputs(help, stdout); return CLI_OK;
-        case ':': return cli_usage(sub, "option %s needs a value", argv[optind - 1]);
-        default: return cli_usage(sub, "unknown option '%s'", argv[optind - 1]);
+        case O_HELP: fputs(help, stdout); return free(b.argv), CLI_OK;
+        case ':': return free(b.argv), cli_usage(sub, "option %s needs a value", argv[optind - 1]);
+        default: return free(b.argv), cli_usage(sub, "unknown option '%s'", argv[optind - 1]);
         }
     }
     if (argc - optind != 1)
-        return cli_usage(sub, argc - optind < 1 ? "no batch file given" : "one batch file expected");
-    const char *path = argv[optind];
-    struct stack_line *lines = NULL;
-    size_t nlines = 0, nspecs = 0;
-    char **specs = NULL;
-    int rc = parse_file(sub, path, &lines, &nlines, &specs, &nspecs);
+        return free(b.argv), cli_usage(sub, argc - optind < 1 ? "no batch file given" : "one batch file expected");
+    b.path = argv[optind];
+    int rc = parse_file(sub, b.path, &b.lines, &b.nlines, &b.specs, &b.nspecs);
     bst_ctx *ctx = rc == CLI_OK ? cli_ctx_new(sub) : NULL;
     if (rc == CLI_OK && !ctx)
         rc = CLI_FAIL;
-    struct cli_layers all;
-    memset(&all, 0, sizeof all);
-    args.basis.combining = 1;
-    args.basis.work = args.so.precision;
-    args.basis.lower = "a lower -k, --precision single or --only";
+    b.args.basis.combining = 1;
+    b.args.basis.work = b.args.so.precision;
+    b.args.basis.lower = "a lower -k, --precision single or --only";
     if (rc == CLI_OK)
-        rc = cli_layers_load(&all, ctx, sub, nspecs, specs, &args.basis, args.channels, 0,
-                             args.so.precision);
-    size_t failed = 0;
-    for (size_t i = 0; rc == CLI_OK && i < nlines; i++)
-        if (run_stack(ctx, sub, path, &lines[i], &all, specs, &args.sp, &args.so, args.per_channel, args.reduce,
-                      argc, argv) != CLI_OK) {
-            failed++;
-            bst_ctx_clear(ctx);
-        }
-    if (rc == CLI_OK && failed)
-        rc = cli_fail(sub, "%s: %zu of %zu stacks failed (reported above)", path, failed, nlines);
-    if (all.layers)
-        cli_layers_free(&all);
-    for (size_t i = 0; i < nlines; i++)
-        free(lines[i].out), free(lines[i].layer);
-    free(lines);
-    for (size_t i = 0; i < nspecs; i++)
-        free(specs[i]);
-    free(specs);
+        rc = cli_layers_load(&b.all, ctx, sub, b.nspecs, b.specs, &b.args.basis, b.args.channels, 0,
+                             b.args.so.precision);
+    struct cli_out sum;
+    memset(&sum, 0, sizeof sum);
+    if (rc == CLI_OK && summary)
+        rc = cli_out_open(&sum, sub, summary);
+    size_t shsize = sizeof(struct shared) + b.nlines * sizeof(struct stack_result);
+    struct shared *sh = MAP_FAILED;
+    if (rc == CLI_OK) {
+        sh = mmap(NULL, shsize, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
+        if (sh == MAP_FAILED)
+            rc = cli_fail(sub, "shared memory for %zu results: %s", b.nlines, strerror(errno));
+    }
+    if (rc == CLI_OK) {
+        /* the batch's own progress line replaces the per-stack bar, which workers would mix */
+        bst_ctx_set_progress(ctx, NULL, NULL);
+        b.progress = jobs == 1 && isatty(STDERR_FILENO);
+        clock_gettime(CLOCK_MONOTONIC, &b.start);
+        run_all(ctx, &b, sh, jobs < (int)b.nlines ? jobs : (int)b.nlines);
+        if (b.progress)
+            progress(&b, sh, 1);
+        size_t failed = atomic_load(&sh->failed);
+        if (summary && write_summary(&sum, &b, sh) != CLI_OK)
+            rc = CLI_FAIL;
+        if (failed)
+            rc = cli_fail(sub, "%s: %zu of %zu stacks failed (reported above)", b.path, failed, b.nlines);
+    }
+    cli_out_abort(&sum);
+    if (sh != MAP_FAILED)
+        munmap(sh, shsize);
+    if (b.all.layers)
+        cli_layers_free(&b.all);
+    for (size_t i = 0; i < b.nlines; i++)
+        free(b.lines[i].out), free(b.lines[i].layer);
+    free(b.lines);
+    for (size_t i = 0; i < b.nspecs; i++)
+        free(b.specs[i]);
+    free(b.specs);
+    free(b.argv);
     bst_ctx_free(ctx);
     return rc;
 }
