@@ -9,6 +9,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "batch_file.h"
 #include "cli.h"
 #include "layers.h"
 
@@ -33,102 +34,26 @@ static const char help[] =
     "\n"
     "Options: as for `bsdfstack combine`.\n";
 
-struct stack_line {
-    size_t lineno;
-    char *out;
-    size_t n;
-    size_t *layer; /* indices into the distinct layer specs */
-};
-
-/* Index of spec among the distinct ones, adding it when new; (size_t)-1 when out of memory. */
-static size_t spec_index(char ***specs, size_t *nspecs, size_t *cap, const char *spec)
+/* Read FILE ('-' = standard input) into stack lines and distinct layer specs.  CLI_OK or one
+ * error line. */
+static int parse_file(const char *sub, const char *path, struct batch_file *bf)
 {
-    for (size_t i = 0; i < *nspecs; i++)
-        if (strcmp((*specs)[i], spec) == 0)
-            return i;
-    if (*nspecs == *cap) {
-        size_t nc = *cap ? 2 * *cap : 16;
-        char **s = realloc(*specs, nc * sizeof *s);
-        if (!s)
-            return (size_t)-1;
-        *specs = s, *cap = nc;
-    }
-    if (!((*specs)[*nspecs] = strdup(spec)))
-        return (size_t)-1;
-    return (*nspecs)++;
-}
-
-/* Read FILE into stack lines and distinct layer specs.  CLI_OK or one error line. */
-static int parse_file(const char *sub, const char *path, struct stack_line **lines, size_t *nlines,
-                      char ***specs, size_t *nspecs)
-{
+    memset(bf, 0, sizeof *bf);
     FILE *fp = strcmp(path, "-") == 0 ? stdin : fopen(path, "r");
     if (!fp)
         return cli_fail(sub, "%s: cannot open: %s", path, strerror(errno));
-    size_t cap_lines = 0, cap_specs = 0, lineno = 0;
-    char *buf = NULL;
-    size_t bufsize = 0;
+    char *err = NULL;
     int rc = CLI_OK;
-    *lines = NULL, *nlines = 0, *specs = NULL, *nspecs = 0;
-    while (rc == CLI_OK && getline(&buf, &bufsize, fp) >= 0) {
-        lineno++;
-        char *save = NULL, *w = strtok_r(buf, " \t\r\n", &save);
-        if (!w || w[0] == '#')
-            continue;
-        if (*nlines == cap_lines) {
-            size_t nc = cap_lines ? 2 * cap_lines : 16;
-            struct stack_line *l = realloc(*lines, nc * sizeof *l);
-            if (!l) {
-                rc = cli_fail(sub, "out of memory");
-                break;
-            }
-            *lines = l, cap_lines = nc;
-        }
-        struct stack_line *sl = &(*lines)[*nlines];
-        memset(sl, 0, sizeof *sl);
-        sl->lineno = lineno;
-        (*nlines)++;
-        if (!(sl->out = strdup(w))) {
-            rc = cli_fail(sub, "out of memory");
-            break;
-        }
-        size_t cap = 0;
-        while ((w = strtok_r(NULL, " \t\r\n", &save))) {
-            if (sl->n == cap) {
-                size_t nc = cap ? 2 * cap : 4, *l = realloc(sl->layer, nc * sizeof *l);
-                if (!l) {
-                    rc = cli_fail(sub, "out of memory");
-                    break;
-                }
-                sl->layer = l, cap = nc;
-            }
-            size_t k = spec_index(specs, nspecs, &cap_specs, w);
-            if (k == (size_t)-1) {
-                rc = cli_fail(sub, "out of memory");
-                break;
-            }
-            sl->layer[sl->n++] = k;
-        }
-        if (rc == CLI_OK && sl->n == 0)
-            rc = cli_fail(sub, "%s:%zu: no layers after the output file '%s': give OUT LAYER LAYER...",
-                          path, lineno, sl->out);
-        for (size_t i = 0; rc == CLI_OK && i + 1 < *nlines; i++)
-            if (strcmp((*lines)[i].out, sl->out) == 0)
-                rc = cli_fail(sub, "%s:%zu: '%s' is written by line %zu already", path, lineno, sl->out,
-                              (*lines)[i].lineno);
-    }
-    if (rc == CLI_OK && ferror(fp))
-        rc = cli_fail(sub, "%s: read error", path);
-    if (rc == CLI_OK && *nlines == 0)
-        rc = cli_fail(sub, "%s: no stacks: give one line OUT LAYER LAYER... per stack", path);
-    free(buf);
+    if (batch_file_parse(fp, path, bf, &err) < 0)
+        rc = cli_fail(sub, "%s", err ? err : "out of memory");
+    free(err);
     if (fp != stdin)
         fclose(fp);
     return rc;
 }
 
 /* Combine and write one stack; CLI_OK or one error line naming FILE:LINE. */
-static int run_stack(bst_ctx *ctx, const char *sub, const char *path, const struct stack_line *sl,
+static int run_stack(bst_ctx *ctx, const char *sub, const char *path, const struct batch_line *sl,
                      const struct cli_layers *all, char *const *specs, const bst_stack_opts *so,
                      int per_channel, double reduce, int argc, char **argv)
 {
@@ -221,35 +146,28 @@ int cmd_batch(int argc, char **argv)
     if (argc - optind != 1)
         return cli_usage(sub, argc - optind < 1 ? "no batch file given" : "one batch file expected");
     const char *path = argv[optind];
-    struct stack_line *lines = NULL;
-    size_t nlines = 0, nspecs = 0;
-    char **specs = NULL;
-    int rc = parse_file(sub, path, &lines, &nlines, &specs, &nspecs);
+    struct batch_file bf;
+    int rc = parse_file(sub, path, &bf);
     bst_ctx *ctx = rc == CLI_OK ? cli_ctx_new(sub) : NULL;
     if (rc == CLI_OK && !ctx)
         rc = CLI_FAIL;
     struct cli_layers all;
     memset(&all, 0, sizeof all);
     if (rc == CLI_OK)
-        rc = cli_layers_load(&all, ctx, sub, nspecs, specs, &args.basis, args.channels, 0,
+        rc = cli_layers_load(&all, ctx, sub, bf.nspecs, bf.specs, &args.basis, args.channels, 0,
                              args.so.precision);
     size_t failed = 0;
-    for (size_t i = 0; rc == CLI_OK && i < nlines; i++)
-        if (run_stack(ctx, sub, path, &lines[i], &all, specs, &args.so, args.per_channel, args.reduce,
-                      argc, argv) != CLI_OK) {
+    for (size_t i = 0; rc == CLI_OK && i < bf.nlines; i++)
+        if (run_stack(ctx, sub, path, &bf.lines[i], &all, bf.specs, &args.so, args.per_channel,
+                      args.reduce, argc, argv) != CLI_OK) {
             failed++;
             bst_ctx_clear(ctx);
         }
     if (rc == CLI_OK && failed)
-        rc = cli_fail(sub, "%s: %zu of %zu stacks failed (reported above)", path, failed, nlines);
+        rc = cli_fail(sub, "%s: %zu of %zu stacks failed (reported above)", path, failed, bf.nlines);
     if (all.layers)
         cli_layers_free(&all);
-    for (size_t i = 0; i < nlines; i++)
-        free(lines[i].out), free(lines[i].layer);
-    free(lines);
-    for (size_t i = 0; i < nspecs; i++)
-        free(specs[i]);
-    free(specs);
+    batch_file_free(&bf);
     bst_ctx_free(ctx);
     return rc;
 }
