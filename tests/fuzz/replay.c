@@ -132,7 +132,8 @@ static int replay_dir(const char *srcdir, const char *kind, size_t *count)
         n++;
     }
     closedir(d);
-    qsort(names, n, sizeof *names, by_name);
+    if (n)
+        qsort(names, n, sizeof *names, by_name);
     int failed = 0;
     for (size_t i = 0; i < n; i++) {
         char path[4600];
