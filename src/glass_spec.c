@@ -211,9 +211,14 @@ static int read_catalogue(bst_ctx *ctx, bst_glass *g, const char *path, const ch
                           "not a key=value description; list the catalogue with "
                           "'bsdfstack glass --list'", name, dir);
     char line[1024];
-    int lineno = 0, rc = BST_OK;
-    while (rc >= 0 && fgets(line, sizeof line, fp)) {
+    int lineno = 0, rc = BST_OK, got;
+    while (rc >= 0 && (got = bsti_glass_read_line(fp, line, sizeof line)) != 0) {
         lineno++;
+        if (got < 0) {
+            rc = bsti_error(ctx, BST_EFORMAT, "%s: line %d is longer than %zu characters", path,
+                            lineno, sizeof line - 2);
+            break;
+        }
         char *s = line;
         while (isspace((unsigned char)*s))
             s++;
