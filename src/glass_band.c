@@ -140,7 +140,9 @@ static int read_spectrum(bst_ctx *ctx, const char *dir, const char *file, int nc
                          struct bsti_glass_spectrum *t)
 {
     char path[1200];
-    snprintf(path, sizeof path, "%s/%s", dir, file);
+    if ((size_t)snprintf(path, sizeof path, "%s/%s", dir, file) >= sizeof path)
+        return bsti_error(ctx, BST_EINVAL, "%s/%s: path longer than %zu characters", dir, file,
+                          sizeof path - 1);
     double *cols[2];
     int rc = read_table(ctx, path, ncol, 0, cols, &t->n);
     if (rc >= 0)

@@ -807,6 +807,11 @@ START_TEST(test_bad_specs)
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++)
         expect_bad(bad[i].spec, dir(), bad[i].expect);
+    /* a name too long for a path is said so, not cut to another file's name */
+    char name[1300];
+    memset(name, 'a', sizeof name - 1);
+    name[sizeof name - 1] = '\0';
+    expect_bad(name, dir(), "path is longer than");
     bst_glass *g;
     ck_assert_int_eq(bst_glass_parse(ctx, NULL, dir(), &g), BST_EINVAL);
     ck_assert_int_eq(bst_glass_parse(NULL, "clear-6mm", dir(), NULL), BST_EINVAL);
