@@ -87,6 +87,11 @@ int bsti_glass_channel_commit(bst_ctx *ctx, bst_glass *g, int rc);
 
 /* ------------------------------------------------------------------ spectral bands (glass_band.c) */
 
+/* fgets for the line-based glass files (catalogues, data tables): 1 with the next line in buf, 0 at
+ * the end of the file, -1 when the line does not fit (len - 1 characters and its newline), which
+ * callers report rather than read its tail as a line of its own. */
+int bsti_glass_read_line(FILE *fp, char *buf, size_t len);
+
 #define BSTI_GLASS_BAND_LIST "Visible, Solar, CIE-X, CIE-Y, CIE-Z"
 struct bsti_glass_band;
 /* The band of that name (case-insensitive), NULL if none. */

@@ -38,6 +38,20 @@
 
 /* ------------------------------------------------------------------ tables */
 
+int bsti_glass_read_line(FILE *fp, char *buf, size_t len)
+{
+    if (!fgets(buf, (int)len, fp))
+        return 0;
+    size_t n = strlen(buf);
+    if (n + 1 < len || buf[n - 1] == '\n')
+        return 1;
+    int c = getc(fp); /* a full buffer: the line goes on unless the file ends here */
+    if (c == EOF)
+        return 1;
+    ungetc(c, fp);
+    return -1;
+}
+
 /* Numeric rows of a whitespace-separated table with at least ncol columns (more are ignored).
  * Blank lines and '#' lines are skipped, and so is the first other line when it does not start
  * with a number (column names).  Column 0 is a wavelength in um and must increase; unit = 1
@@ -52,9 +66,14 @@ static int read_table(bst_ctx *ctx, const char *path, int ncol, int unit, double
         return bsti_error(ctx, BST_EIO, "%s: cannot open: %s", path, strerror(errno));
     size_t cap = 0;
     char line[4096];
-    int lineno = 0, rc = BST_OK, header = 0;
-    while (rc >= 0 && fgets(line, sizeof line, fp)) {
+    int lineno = 0, rc = BST_OK, header = 0, got;
+    while (rc >= 0 && (got = bsti_glass_read_line(fp, line, sizeof line)) != 0) {
         lineno++;
+        if (got < 0) {
+            rc = bsti_error(ctx, BST_EFORMAT, "%s: line %d is longer than %zu characters", path,
+                            lineno, sizeof line - 2);
+            break;
+        }
         char *p = line, *end;
         while (isspace((unsigned char)*p))
             p++;
@@ -121,7 +140,9 @@ static int read_spectrum(bst_ctx *ctx, const char *dir, const char *file, int nc
                          struct bsti_glass_spectrum *t)
 {
     char path[1200];
-    snprintf(path, sizeof path, "%s/%s", dir, file);
+    if ((size_t)snprintf(path, sizeof path, "%s/%s", dir, file) >= sizeof path)
+        return bsti_error(ctx, BST_EINVAL, "%s/%s: path longer than %zu characters", dir, file,
+                          sizeof path - 1);
     double *cols[2];
     int rc = read_table(ctx, path, ncol, 0, cols, &t->n);
     if (rc >= 0)

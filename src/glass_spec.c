@@ -211,9 +211,14 @@ static int read_catalogue(bst_ctx *ctx, bst_glass *g, const char *path, const ch
                           "not a key=value description; list the catalogue with "
                           "'bsdfstack glass --list'", name, dir);
     char line[1024];
-    int lineno = 0, rc = BST_OK;
-    while (rc >= 0 && fgets(line, sizeof line, fp)) {
+    int lineno = 0, rc = BST_OK, got;
+    while (rc >= 0 && (got = bsti_glass_read_line(fp, line, sizeof line)) != 0) {
         lineno++;
+        if (got < 0) {
+            rc = bsti_error(ctx, BST_EFORMAT, "%s: line %d is longer than %zu characters", path,
+                            lineno, sizeof line - 2);
+            break;
+        }
         char *s = line;
         while (isspace((unsigned char)*s))
             s++;
@@ -244,9 +249,12 @@ static int read_catalogue(bst_ctx *ctx, bst_glass *g, const char *path, const ch
             if (*names)
                 *names++ = '\0';
             char data[1200];
-            snprintf(data, sizeof data, "%s%s%s", rest[0] == '/' ? "" : dir,
-                     rest[0] == '/' ? "" : "/", rest);
-            rc = add_spectral(ctx, g, where, data, dir, names);
+            if ((size_t)snprintf(data, sizeof data, "%s%s%s", rest[0] == '/' ? "" : dir,
+                                 rest[0] == '/' ? "" : "/", rest) >= sizeof data)
+                rc = bsti_error(ctx, BST_EINVAL, "%s: the data file's path is longer than %zu "
+                                "characters", where, sizeof data - 1);
+            else
+                rc = add_spectral(ctx, g, where, data, dir, names);
         } else {
             rc = add_inline(ctx, g, where, s, rest);
         }
@@ -302,8 +310,11 @@ int bst_glass_parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, b
                                 "'_' and '.' only", where);
         if (rc >= 0) {
             char path[1200];
-            snprintf(path, sizeof path, "%s/%s.glass", dir, spec);
-            rc = read_catalogue(ctx, g, path, spec, dir);
+            if ((size_t)snprintf(path, sizeof path, "%s/%s.glass", dir, spec) >= sizeof path)
+                rc = bsti_error(ctx, BST_EINVAL, "%s: the catalogue file's path is longer than %zu "
+                                "characters", where, sizeof path - 1);
+            else
+                rc = read_catalogue(ctx, g, path, spec, dir);
         }
         if (rc >= 0 && !g->description && !(g->description = bsti_strdup(ctx, spec)))
             rc = BST_ENOMEM;

@@ -819,6 +819,11 @@ START_TEST(test_bad_specs)
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++)
         expect_bad(bad[i].spec, dir(), bad[i].expect);
+    /* a name too long for a path is said so, not cut to another file's name */
+    char name[1300];
+    memset(name, 'a', sizeof name - 1);
+    name[sizeof name - 1] = '\0';
+    expect_bad(name, dir(), "path is longer than");
     bst_glass *g;
     ck_assert_int_eq(bst_glass_parse(ctx, NULL, dir(), &g), BST_EINVAL);
     ck_assert_int_eq(bst_glass_parse(NULL, "clear-6mm", dir(), NULL), BST_EINVAL);
@@ -875,6 +880,32 @@ START_TEST(test_bad_files)
         expect_bad(spec, tmp, files[i].expect);
         if (strstr(files[i].expect, "line"))
             ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), files[i].name));
+    }
+    /* a line too long for the reader's buffer is an error, not two lines with its tail read as a
+     * line of its own; a last line that just fits, without its newline, is read */
+    static char text[6000];
+    const char *const long_names[] = {"long.glass", "long.tsv", "fits.glass"};
+    for (int i = 0; i < 3; i++) {
+        if (i == 0)
+            snprintf(text, sizeof text, "description %01500d\nVisible t0=0.8,r0=0.08\n", 0);
+        else if (i == 1)
+            snprintf(text, sizeof text, "# %05000d\n0.4 0.8 0.8 0.08 0.08\n0.5 0.8 0.8 0.08 0.08\n", 0);
+        else /* 1023 characters and no newline: the catalogue's whole buffer */
+            snprintf(text, sizeof text, "Visible t0=0.8,r0=0.08\ndescription %01011d", 0);
+        snprintf(path, sizeof path, "%s/%s", tmp, long_names[i]);
+        fp = fopen(path, "w");
+        fputs(text, fp);
+        fclose(fp);
+        if (i == 2) {
+            bst_glass *g;
+            ck_assert_int_eq(bst_glass_parse(ctx, "fits", tmp, &g), BST_OK);
+            ck_assert_uint_eq(strlen(bst_glass_description(g)), 1011);
+            bst_glass_free(g);
+        } else {
+            expect_bad(i == 0 ? "long" : path, tmp,
+                       i == 0 ? "line 1 is longer than 1022 characters"
+                              : "line 1 is longer than 4094 characters");
+        }
     }
     /* a directory is not a readable data file; band spectra missing from the catalogue */
     snprintf(path, sizeof path, "%s/", tmp);

@@ -1203,7 +1203,8 @@ START_TEST(test_reduced_round_trip)
     o.on_block = collect, o.opaque = &rep;
     const char *path = tmp_path("red");
     write_ok(l, path, &o);
-    bst_layer *l2 = layer_of(read_ok(path), NULL);
+    bst_bsdf *b = read_ok(path);
+    bst_layer *l2 = layer_of(b, NULL);
     ck_assert_int_eq(rep.n, 4);
     size_t n = 256;
     for (int c = 0; c < 4; c++) {
@@ -1233,7 +1234,7 @@ START_TEST(test_reduced_round_trip)
         printf("reduced random %s: %zu values, L1 %.2e, max %.2e, hemispherical %.2e\n",
                bst_comp_name((bst_comp)c), w->values, w->l1_error, w->max_error, w->hemi_error);
     }
-    bst_layer_free(l2), bst_layer_free(l);
+    bst_layer_free(l2), bst_bsdf_free(b), bst_layer_free(l);
     unlink(path);
 }
 END_TEST

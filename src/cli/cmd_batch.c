@@ -39,6 +39,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "batch_file.h"
 #include "cli.h"
 #include "layers.h"
 
@@ -80,96 +81,19 @@ static const char help[] =
     "\n"
     "Other options: as for `bsdfstack combine`.\n";
 
-struct stack_line {
-    size_t lineno;
-    char *out;
-    size_t n;
-    size_t *layer; /* indices into the distinct layer specs */
-};
-
-/* Index of spec among the distinct ones, adding it when new; (size_t)-1 when out of memory. */
-static size_t spec_index(char ***specs, size_t *nspecs, size_t *cap, const char *spec)
+/* Read FILE ('-' = standard input) into stack lines and distinct layer specs.  CLI_OK or one
+ * error line. */
+static int parse_file(const char *sub, const char *path, struct batch_file *bf)
 {
-    for (size_t i = 0; i < *nspecs; i++)
-        if (strcmp((*specs)[i], spec) == 0)
-            return i;
-    if (*nspecs == *cap) {
-        size_t nc = *cap ? 2 * *cap : 16;
-        char **s = realloc(*specs, nc * sizeof *s);
-        if (!s)
-            return (size_t)-1;
-        *specs = s, *cap = nc;
-    }
-    if (!((*specs)[*nspecs] = strdup(spec)))
-        return (size_t)-1;
-    return (*nspecs)++;
-}
-
-/* Read FILE into stack lines and distinct layer specs.  CLI_OK or one error line. */
-static int parse_file(const char *sub, const char *path, struct stack_line **lines, size_t *nlines,
-                      char ***specs, size_t *nspecs)
-{
+    memset(bf, 0, sizeof *bf);
     FILE *fp = strcmp(path, "-") == 0 ? stdin : fopen(path, "r");
     if (!fp)
         return cli_fail(sub, "%s: cannot open: %s", path, strerror(errno));
-    size_t cap_lines = 0, cap_specs = 0, lineno = 0;
-    char *buf = NULL;
-    size_t bufsize = 0;
+    char *err = NULL;
     int rc = CLI_OK;
-    *lines = NULL, *nlines = 0, *specs = NULL, *nspecs = 0;
-    while (rc == CLI_OK && getline(&buf, &bufsize, fp) >= 0) {
-        lineno++;
-        char *save = NULL, *w = strtok_r(buf, " \t\r\n", &save);
-        if (!w || w[0] == '#')
-            continue;
-        if (*nlines == cap_lines) {
-            size_t nc = cap_lines ? 2 * cap_lines : 16;
-            struct stack_line *l = realloc(*lines, nc * sizeof *l);
-            if (!l) {
-                rc = cli_fail(sub, "out of memory");
-                break;
-            }
-            *lines = l, cap_lines = nc;
-        }
-        struct stack_line *sl = &(*lines)[*nlines];
-        memset(sl, 0, sizeof *sl);
-        sl->lineno = lineno;
-        (*nlines)++;
-        if (!(sl->out = strdup(w))) {
-            rc = cli_fail(sub, "out of memory");
-            break;
-        }
-        size_t cap = 0;
-        while ((w = strtok_r(NULL, " \t\r\n", &save))) {
-            if (sl->n == cap) {
-                size_t nc = cap ? 2 * cap : 4, *l = realloc(sl->layer, nc * sizeof *l);
-                if (!l) {
-                    rc = cli_fail(sub, "out of memory");
-                    break;
-                }
-                sl->layer = l, cap = nc;
-            }
-            size_t k = spec_index(specs, nspecs, &cap_specs, w);
-            if (k == (size_t)-1) {
-                rc = cli_fail(sub, "out of memory");
-                break;
-            }
-            sl->layer[sl->n++] = k;
-        }
-        if (rc == CLI_OK && sl->n == 0)
-            rc = cli_fail(sub, "%s:%zu: no layers after the output file '%s': give OUT LAYER LAYER...",
-                          path, lineno, sl->out);
-        for (size_t i = 0; rc == CLI_OK && i + 1 < *nlines; i++)
-            if (strcmp((*lines)[i].out, sl->out) == 0)
-                rc = cli_fail(sub, "%s:%zu: '%s' is written by line %zu already", path, lineno, sl->out,
-                              (*lines)[i].lineno);
-    }
-    if (rc == CLI_OK && ferror(fp))
-        rc = cli_fail(sub, "%s: read error: %s", fp == stdin ? "standard input" : path,
-                      strerror(errno ? errno : EIO));
-    if (rc == CLI_OK && *nlines == 0)
-        rc = cli_fail(sub, "%s: no stacks: give one line OUT LAYER LAYER... per stack", path);
-    free(buf);
+    if (batch_file_parse(fp, path, bf, &err) < 0)
+        rc = cli_fail(sub, "%s", err ? err : "out of memory");
+    free(err);
     if (fp != stdin)
         fclose(fp);
     return rc;
@@ -197,7 +121,7 @@ struct shared {
 /* What every stack needs, the same for all. */
 struct batch {
     const char *sub, *path;
-    struct stack_line *lines;
+    struct batch_line *lines;
     size_t nlines;
     char **specs;
     size_t nspecs;
@@ -228,7 +152,7 @@ static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
 
 /* The batch-key of line sl: its words, each layer file's size and modification time (a spec less
  * its glass: prefix and trailing ^ that names a file), and the recorded command. */
-static uint64_t line_key(const struct batch *b, const struct stack_line *sl)
+static uint64_t line_key(const struct batch *b, const struct batch_line *sl)
 {
     uint64_t h = 14695981039346656037u;
     h = fnv1a(h, sl->out, strlen(sl->out) + 1);
@@ -302,7 +226,7 @@ static void normal_tr(bst_ctx *ctx, const bst_basis *basis, const bst_layer *sys
 
 /* Combine and write one stack, or skip it (--resume); ST_OK, ST_SKIPPED, or ST_FAILED after one
  * error line naming FILE:LINE.  The result goes to r. */
-static int run_stack(bst_ctx *ctx, const struct batch *b, const struct stack_line *sl,
+static int run_stack(bst_ctx *ctx, const struct batch *b, const struct batch_line *sl,
                      struct stack_result *r)
 {
     const char *sub = b->sub;
@@ -617,7 +541,9 @@ int cmd_batch(int argc, char **argv)
     if (argc - optind != 1)
         return free(b.argv), cli_usage(sub, argc - optind < 1 ? "no batch file given" : "one batch file expected");
     b.path = argv[optind];
-    int rc = parse_file(sub, b.path, &b.lines, &b.nlines, &b.specs, &b.nspecs);
+    struct batch_file bf;
+    int rc = parse_file(sub, b.path, &bf);
+    b.lines = bf.lines, b.nlines = bf.nlines, b.specs = bf.specs, b.nspecs = bf.nspecs;
     bst_ctx *ctx = rc == CLI_OK ? cli_ctx_new(sub) : NULL;
     if (rc == CLI_OK && !ctx)
         rc = CLI_FAIL;
@@ -657,12 +583,7 @@ int cmd_batch(int argc, char **argv)
         munmap(sh, shsize);
     if (b.all.layers)
         cli_layers_free(&b.all);
-    for (size_t i = 0; i < b.nlines; i++)
-        free(b.lines[i].out), free(b.lines[i].layer);
-    free(b.lines);
-    for (size_t i = 0; i < b.nspecs; i++)
-        free(b.specs[i]);
-    free(b.specs);
+    batch_file_free(&bf);
     free(b.argv);
     bst_ctx_free(ctx);
     return rc;
