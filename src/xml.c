@@ -73,6 +73,18 @@ static const char *parent(struct reader *r, int up)
     return r->depth - 1 - up >= 0 ? r->elems[r->depth - 1 - up] : "";
 }
 
+/* A message is one line: line breaks and other control characters the file put in it (a number
+ * spanning lines, libxml2's "Bytes: ..." second line) become blanks. */
+static void one_line(char *msg)
+{
+    size_t n = strlen(msg);
+    while (n && (msg[n - 1] == '\n' || msg[n - 1] == '\r' || msg[n - 1] == ' '))
+        msg[--n] = '\0';
+    for (char *c = msg; *c; c++)
+        if ((unsigned char)*c < 0x20 || *c == 0x7f)
+            *c = ' ';
+}
+
 static int fail(struct reader *r, int status, const char *fmt, ...)
 #if defined(__GNUC__)
     __attribute__((format(printf, 3, 4)))
@@ -87,6 +99,7 @@ static int fail(struct reader *r, int status, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
+    one_line(msg);
     r->status = bsti_error(r->ctx, status, "%s: line %d: %s", r->path,
                            r->pctxt ? xmlSAX2GetLineNumber(r->pctxt) : 0, msg);
     if (r->pctxt)
@@ -456,9 +469,7 @@ static void on_error(void *ud, xmlErrorPtr e)
         return;
     char msg[300];
     snprintf(msg, sizeof msg, "%s", e->message ? e->message : "malformed XML");
-    size_t n = strlen(msg);
-    while (n && msg[n - 1] == '\n')
-        msg[--n] = '\0';
+    one_line(msg);
     r->status = bsti_error(r->ctx, BST_EFORMAT, "%s: line %d: malformed XML: %s", r->path, e->line, msg);
 }
 
@@ -478,6 +489,11 @@ void bst_bsdf_free(bst_bsdf *b)
     bst_basis_free(b->klems);
     bsti_free(b->ctx, b->path);
     bsti_free(b->ctx, b);
+}
+
+static void silent(void *ctx, const char *msg, ...)
+{
+    (void)ctx, (void)msg;
 }
 
 /* The file, handed to libxml2's pull parser as it asks: its buffer slides over the text, so
@@ -537,6 +553,12 @@ int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_bsdf_read_opts *opts
     sax.characters = on_chars;
     sax.serror = on_error;
     struct source src = {.fp = fp, .ctx = ctx, .size = size};
+    /* libxml2 reports some errors (encoding conversion, I/O) through its per-thread generic
+     * handler, which prints on stderr; a library does not print: silenced while reading (the
+     * parse fails with its own message) and given back after. */
+    xmlGenericErrorFunc saved_fn = xmlGenericError;
+    void *saved_ctx = xmlGenericErrorContext;
+    xmlSetGenericErrorFunc(NULL, silent);
     if (empty) {
         r.status = bsti_error(ctx, BST_EFORMAT, "%s: the file is empty", path);
     } else if (!(r.pctxt = xmlCreateIOParserCtxt(&sax, &r, source_read, NULL, &src,
@@ -551,6 +573,7 @@ int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_bsdf_read_opts *opts
             r.status = bsti_error(ctx, BST_EFORMAT, "%s: malformed or truncated XML", path);
         bsti_progress(ctx, 1.0, "reading");
     }
+    xmlSetGenericErrorFunc(saved_ctx, saved_fn);
     if (r.pctxt) {
         /* An internal DTD subset makes libxml2 build a document to hold it, even under SAX. */
         if (r.pctxt->myDoc)
