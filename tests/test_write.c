@@ -1191,6 +1191,19 @@ START_TEST(test_channels_metadata)
 }
 END_TEST
 
+/* Entries of a directory other than . and .. */
+static int count_entries(const char *dir)
+{
+    DIR *dd = opendir(dir);
+    ck_assert_ptr_nonnull(dd);
+    struct dirent *de;
+    int entries = 0;
+    while ((de = readdir(dd)))
+        entries += strcmp(de->d_name, ".") && strcmp(de->d_name, "..");
+    closedir(dd);
+    return entries;
+}
+
 /* A reduced write reads back within the errors the writer reports (largest element, L1,
  * hemispherical), which it measures against what a reader stores. */
 START_TEST(test_reduced_round_trip)
@@ -1298,13 +1311,7 @@ START_TEST(test_write_errors)
     ck_assert_int_eq(setrlimit(RLIMIT_FSIZE, &rl), 0);
     ck_assert_int_eq(bst_bsdf_write_path(ctx, g, target, NULL), BST_EIO);
     ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "out.xml"));
-    DIR *dd = opendir(dir);
-    struct dirent *de;
-    int entries = 0;
-    while ((de = readdir(dd)))
-        entries += strcmp(de->d_name, ".") && strcmp(de->d_name, "..");
-    closedir(dd);
-    ck_assert_int_eq(entries, 0);
+    ck_assert_int_eq(count_entries(dir), 0);
     rmdir(dir);
     bst_layer_free(g), bst_bsdf_free(b);
     free(m.p);
@@ -1357,13 +1364,7 @@ START_TEST(test_write_path_kinds)
     ck_assert(S_ISFIFO(st.st_mode));
     ck_assert_int_eq(bst_bsdf_write_path(ctx, g, dir, NULL), BST_EIO);
     ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "is a directory"));
-    DIR *dd = opendir(dir);
-    struct dirent *de;
-    int entries = 0;
-    while ((de = readdir(dd)))
-        entries += strcmp(de->d_name, ".") && strcmp(de->d_name, "..");
-    closedir(dd);
-    ck_assert_int_eq(entries, 3); /* no temporary left */
+    ck_assert_int_eq(count_entries(dir), 3); /* no temporary left */
     unlink(file), unlink(link), unlink(fifo), rmdir(dir);
     bst_layer_free(g);
     bst_basis_free(b);
