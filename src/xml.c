@@ -32,6 +32,8 @@
 #define TEXT_MAX 256
 #define MAX_CHANNELS BSTI_BSDF_MAX_CHANNELS
 #define MAX_DEPTH 32
+/* Values a Klems matrix's first buffer holds; it doubles as the values come. */
+#define BSTI_KLEMS_FIRST_ROOM 65536
 
 /* ------------------------------------------------------------------ SAX state */
 
@@ -61,7 +63,7 @@ struct reader {
     int skip;
     bsti_tparse *tp;
     double *km;
-    size_t nkm, kmax;
+    size_t nkm, kmax, kcap; /* values read, the basis's n * n, room in km */
     char tok[64];
     int ntok;
     size_t negatives; /* Klems values below 0, read as 0 */
@@ -184,7 +186,10 @@ static void start_data(struct reader *r)
         r->kmax = n * n;
         r->nkm = 0;
         r->ntok = 0;
-        if (!(r->km = bsti_alloc_array(r->ctx, r->kmax, sizeof *r->km)))
+        /* room grows with the values read (klems_number), so that a short file declaring a huge
+           basis costs what its text holds, not n * n doubles up front */
+        r->kcap = r->kmax < BSTI_KLEMS_FIRST_ROOM ? r->kmax : BSTI_KLEMS_FIRST_ROOM;
+        if (!(r->km = bsti_alloc_array(r->ctx, r->kcap, sizeof *r->km)))
             fail(r, BST_ENOMEM, "out of memory for a %zu x %zu matrix", n, n);
     } else if (!r->structure[0]) {
         fail(r, BST_EFORMAT, "<ScatteringData> without an <IncidentDataStructure>");
@@ -211,6 +216,18 @@ static void klems_number(struct reader *r)
     if (r->nkm >= r->kmax) {
         fail(r, BST_EFORMAT, "<ScatteringData> holds more than the %zu values of its basis", r->kmax);
         return;
+    }
+    if (r->nkm == r->kcap) {
+        size_t cap = r->kcap > r->kmax / 2 ? r->kmax : 2 * r->kcap;
+        double *km = bsti_alloc_array(r->ctx, cap, sizeof *km);
+        if (!km) {
+            fail(r, BST_ENOMEM, "out of memory for %zu values of a Klems matrix", cap);
+            return;
+        }
+        memcpy(km, r->km, r->nkm * sizeof *km);
+        bsti_free(r->ctx, r->km);
+        r->km = km;
+        r->kcap = cap;
     }
     if (v < 0) { /* as libBSDF and the tree reader: negatives are 0 */
         v = 0;

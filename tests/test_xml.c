@@ -495,6 +495,53 @@ START_TEST(test_bad_files)
 }
 END_TEST
 
+/* A largest-allocation guard: refuses any block over `limit` bytes and records the largest asked. */
+typedef struct { size_t limit, largest; } cap_alloc;
+static void *cap_malloc(size_t n, void *opaque)
+{
+    cap_alloc *a = opaque;
+    if (n > a->largest)
+        a->largest = n;
+    return n > a->limit ? NULL : malloc(n);
+}
+static void cap_free(void *p, void *opaque)
+{
+    (void)opaque;
+    free(p);
+}
+
+/* A short Klems file that declares a huge basis (one band of 100000 patches: 10^10 values) but
+ * holds three values costs what its text holds: it is refused for its value count, and no block
+ * near the basis's n * n doubles (80 GB) is ever asked for (#18). */
+START_TEST(test_klems_huge_basis)
+{
+    static const char text[] =
+        "<?xml version=\"1.0\"?>\n<WindowElement xmlns=\"http://windows.lbl.gov\"><Optical><Layer>"
+        "<DataDefinition><IncidentDataStructure>Columns</IncidentDataStructure><AngleBasis>"
+        "<AngleBasisName>Huge</AngleBasisName><AngleBasisBlock><Theta>45</Theta><nPhis>100000</nPhis>"
+        "<ThetaBounds><LowerTheta>0</LowerTheta><UpperTheta>90</UpperTheta></ThetaBounds>"
+        "</AngleBasisBlock></AngleBasis></DataDefinition>"
+        "<WavelengthData><Wavelength unit=\"Integral\">Visible</Wavelength><WavelengthDataBlock>"
+        "<WavelengthDataDirection>Transmission Front</WavelengthDataDirection>"
+        "<ColumnAngleBasis>Huge</ColumnAngleBasis><RowAngleBasis>Huge</RowAngleBasis>"
+        "<ScatteringData>0.1 0.2 0.3</ScatteringData></WavelengthDataBlock></WavelengthData>"
+        "</Layer></Optical></WindowElement>\n";
+    const char *p = write_tmp(text, sizeof text - 1);
+    bst_ctx *c = bst_ctx_new();
+    cap_alloc a = {64u << 20, 0};
+    ck_assert_int_eq(bst_ctx_set_allocator(c, cap_malloc, cap_free, &a), BST_OK);
+    bst_bsdf *b = (bst_bsdf *)1;
+    ck_assert_int_eq(bst_bsdf_read(c, p, NULL, &b), BST_EFORMAT);
+    ck_assert_ptr_null(b);
+    const char *msg = bst_ctx_message(c);
+    ck_assert_msg(strstr(msg, p) && strstr(msg, "holds 3 values") && strstr(msg, "10000000000"),
+                  "message: %s", msg);
+    ck_assert_msg(a.largest <= 1u << 20, "a block of %zu bytes was asked for", a.largest);
+    bst_ctx_free(c);
+    unlink(p);
+}
+END_TEST
+
 /* A tree where every cell of depth d - 1 (d >= 2) averages to v, the finest cells at depth d:
  * the first child descends, the others are leaves of value v, and the deepest branch holds
  * leaves alternating 0.5 v and 1.5 v. */
@@ -736,6 +783,7 @@ static Suite *xml_suite(void)
     tcase_add_test(tc, test_klems_resampling_energy);
     tcase_add_test(tc, test_to_layer_single);
     tcase_add_test(tc, test_bad_files);
+    tcase_add_test(tc, test_klems_huge_basis);
     tcase_add_test(tc, test_internal_dtd);
     tcase_add_test(tc, test_read_notes);
     suite_add_tcase(s, tc);
