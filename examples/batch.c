@@ -22,7 +22,7 @@ int main(int argc, char **argv)
     int k = argc > 2 ? atoi(argv[2]) : 4;
     static const char *const panes[] = {"clear-4mm", "clear-6mm", "lowiron-6mm", "nfrc-103"};
     const size_t npanes = sizeof panes / sizeof panes[0];
-    const char *glass_dir = getenv("BSDFSTACK_GLASS_DIR"); /* NULL: the installed catalogue */
+    const char *glass_dir = getenv("BSDFSTACK_GLASS_DIR"); /* NULL: bst_glass_catalogue_dir() */
     const char *channels[] = {"Visible"};
     bst_ctx *ctx = bst_ctx_new();
     if (!ctx) {

@@ -540,7 +540,10 @@ void bst_output_abort(bst_output *o);
 /* A clear (uncoated) pane fixed per side and channel by its normal-incidence T0 and R0, as
  * Windows-CalcEngine treats uncoated glass; specs ("glass:SPEC") and the model: bsdfstack-glass(5).
  * (bst_glass is declared with the stacks, for bst_stack_combine_spectral.) */
-/* Parse a spec; catalogue_dir NULL = the installed catalogue (BST_GLASS_DIR). */
+/* The catalogue directory used when none is given: the installed one, or the source tree's
+ * layers/glass when this library runs from its build tree (not installed). */
+const char *bst_glass_catalogue_dir(void);
+/* Parse a spec; catalogue_dir NULL = bst_glass_catalogue_dir(). */
 int bst_glass_parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, bst_glass **out);
 void bst_glass_free(bst_glass *g);
 size_t bst_glass_nchannels(const bst_glass *g);

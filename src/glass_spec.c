@@ -12,17 +12,50 @@
 #include <config.h>
 
 #include <ctype.h>
+#ifdef HAVE_DLADDR
+#include <dlfcn.h>
+#endif
 #include <errno.h>
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "ctx.h"
 #include "glass.h"
 
 /* Refractive index assumed by inline specs that give none (soda-lime float glass). */
 #define GLASS_DEFAULT_N 1.52
+
+/* ------------------------------------------------------------------ the catalogue */
+
+/* The installed catalogue (BST_GLASS_DIR, under the configured prefix), or the source tree's
+ * layers/glass when the code running is the build tree's own, not installed: this library (or a
+ * program linking it statically) lies in the build directory or its .libs.  So the programs and the
+ * Python package find the catalogue from a fresh build without an environment variable, and an
+ * installed copy never looks into a build tree. */
+const char *bst_glass_catalogue_dir(void)
+{
+#if defined(HAVE_DLADDR) && defined(BST_BUILD_DIR) && defined(BST_SOURCE_GLASS_DIR)
+    Dl_info info;
+    char self[PATH_MAX], build[PATH_MAX];
+    if (dladdr((void *)bst_glass_catalogue_dir, &info) && info.dli_fname &&
+        realpath(info.dli_fname, self) && realpath(BST_BUILD_DIR, build)) {
+        char *slash = strrchr(self, '/');
+        if (slash) {
+            *slash = '\0';
+            size_t n = strlen(build), m = strlen(self);
+            int in_build = strcmp(self, build) == 0 ||
+                           (m == n + 6 && strncmp(self, build, n) == 0 && strcmp(self + n, "/.libs") == 0);
+            if (in_build && access(BST_SOURCE_GLASS_DIR, R_OK | X_OK) == 0)
+                return BST_SOURCE_GLASS_DIR;
+        }
+    }
+#endif
+    return BST_GLASS_DIR;
+}
 
 /* ------------------------------------------------------------------ inline specs */
 
@@ -285,7 +318,7 @@ int bst_glass_parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, b
         return BST_ENOMEM;
     }
     size_t sl = strlen(spec);
-    const char *dir = catalogue_dir ? catalogue_dir : BST_GLASS_DIR;
+    const char *dir = catalogue_dir ? catalogue_dir : bst_glass_catalogue_dir();
     /* key=value,... starts with a key; PATH (a '/' or a .tsv ending); else a catalogue NAME */
     size_t kl = 0;
     while (isalnum((unsigned char)spec[kl]))

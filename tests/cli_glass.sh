@@ -89,6 +89,11 @@ printf '300 0.8 0.8 0.08 0.08\n400 0.8 0.8 0.08 0.08\n' > "$tmpdir/nm.tsv"
 expect_exit 1 "nanometres" "micrometres" -- "$BSDFSTACK" glass "$tmpdir/nm.tsv"
 expect_exit 1 "unknown channel" "no channel NIR" -- "$BSDFSTACK" glass --channels NIR clear-6mm
 expect_exit 1 "missing catalogue" "cannot open the glass catalogue" -- env BSDFSTACK_GLASS_DIR="$tmpdir/none" "$BSDFSTACK" glass --list
+# From the build tree, with no BSDFSTACK_GLASS_DIR, the program finds the source tree's catalogue
+# (bst_glass_catalogue_dir): the README's commands work right after ./quickstart (#16).
+expect_status 0 "catalogue found without BSDFSTACK_GLASS_DIR" -- env -u BSDFSTACK_GLASS_DIR "$BSDFSTACK" glass clear-6mm
+grep -q "clear float glass, 6 mm" "$tmpdir/out" && pass "its clear-6mm" || fail "clear-6mm without the variable: $(head -c 200 "$tmpdir/out")"
+expect_status 0 "combine with a catalogue pane without BSDFSTACK_GLASS_DIR" -- env -u BSDFSTACK_GLASS_DIR "$BSDFSTACK" combine -k 2 -o "$tmpdir/g.xml" glass:clear-6mm glass:nfrc-102
 expect_exit 2 "no pane" "no pane given" -- "$BSDFSTACK" glass
 expect_exit 2 "two panes" "one pane expected" -- "$BSDFSTACK" glass clear-6mm clear-4mm
 expect_exit 2 "unknown option" "unknown option" -- "$BSDFSTACK" glass --frobnicate clear-6mm

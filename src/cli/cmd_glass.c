@@ -1,6 +1,6 @@
 /* cmd_glass.c - `bsdfstack glass SPEC`: a clear pane's Tf, Tb, Rf, Rb and absorptances against the
  * incidence angle, per channel; `--list` lists the catalogue.  The catalogue directory is
- * $BSDFSTACK_GLASS_DIR, else the installed one (BST_GLASS_DIR). */
+ * $BSDFSTACK_GLASS_DIR, else bst_glass_catalogue_dir(). */
 #include <config.h>
 
 #include <dirent.h>
@@ -31,7 +31,8 @@ static const char help[] =
     "  --list             list the catalogue's panes\n"
     "  --help             this text\n"
     "\n"
-    "The catalogue directory is $BSDFSTACK_GLASS_DIR, else the installed one.\n";
+    "The catalogue directory is $BSDFSTACK_GLASS_DIR, else the installed one (the source tree's\n"
+    "layers/glass when run from the build tree).\n";
 
 static int by_name(const void *a, const void *b)
 {
@@ -126,7 +127,7 @@ int cmd_glass(int argc, char **argv)
     if (!ctx)
         return cli_fail(sub, "out of memory");
     if (list) {
-        int rc = list_catalogue(sub, ctx, dir ? dir : BST_GLASS_DIR);
+        int rc = list_catalogue(sub, ctx, dir ? dir : bst_glass_catalogue_dir());
         bst_ctx_free(ctx);
         return rc;
     }
