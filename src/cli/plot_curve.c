@@ -263,7 +263,7 @@ static int draw_chart(FILE *fp, size_t nfiles, char **files, const struct cli_cu
     lw = fmin(lw, 0.45 * o->size);
     ch.width = o->size;
     ch.left = 4.2 * ch.fs;
-    ch.right = ch.width - (lw + 4.5 * ch.fs);
+    ch.right = ch.width - (lw + 5.4 * ch.fs);
     if (ch.right - ch.left < 0.4 * ch.width)
         ch.right = ch.left + 0.4 * ch.width;
     ch.pw = ch.right - ch.left;
@@ -272,7 +272,7 @@ static int draw_chart(FILE *fp, size_t nfiles, char **files, const struct cli_cu
     ch.top = 2.2 * ch.fs;                    /* a panel's title band */
     ch.panel_h = ch.top + ch.ph + 3.4 * ch.fs; /* and its axis labels */
     ch.height = ceil(npanels * ch.panel_h + 0.5 * ch.fs);
-    ch.width = fmax(ch.width, ceil(ch.legend_x + lw + 3.3 * ch.fs));
+    ch.width = fmax(ch.width, ceil(ch.legend_x + 3 * ch.fs + lw + ch.fs));
     /* the vertical axis: --range, or 0 to a round value above the largest */
     double vmax = 0;
     for (size_t i = 0; i < all->n; i++)
