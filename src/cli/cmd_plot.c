@@ -221,6 +221,9 @@ static int plot_map(const char *sub, const char *path, const struct map_opts *o)
     else
         map.lo = o->linear ? 0 : peak * pow(10.0, -o->decades), map.hi = peak;
 
+    /* the output first: a path that cannot be written is the one line said */
+    if ((rc = cli_out_open(&out, sub, o->outpath)) != CLI_OK)
+        goto done;
     const char *quantity = o->dsf ? "DSF" : "BSDF";
     char title[1024];
     const char *base = strrchr(path, '/') ? strrchr(path, '/') + 1 : path;
@@ -246,8 +249,6 @@ static int plot_map(const char *sub, const char *path, const struct map_opts *o)
     cli_hemimap_geometry(&map, &cx, &cy, &r, &w, &h);
     fprintf(info, "image %g x %g %s, disk centre (%g, %g) radius %g\n", w, h,
             o->format == CLI_DRAW_PNG ? "pixels" : "points", cx, cy, r);
-    if ((rc = cli_out_open(&out, sub, o->outpath)) != CLI_OK)
-        goto done;
     int st = cli_hemimap_write(out.fp, o->format, &map);
     if (st == CLI_HEMIMAP_EVALUE)
         rc = cli_fail_ctx(sub, path, ctx);
@@ -260,6 +261,7 @@ static int plot_map(const char *sub, const char *path, const struct map_opts *o)
     else
         cli_out_abort(&out);
 done:
+    cli_out_abort(&out);
     free(md.cell);
     cli_incident_column_free(&col);
     bst_basis_free(sc_basis);

@@ -32,6 +32,7 @@ struct curve {
     size_t file;
     char channel[64];
     int comp;          /* index into the options' comps */
+    char basis[48];    /* for the summary */
     struct step *s;
     size_t n;
 };
@@ -96,7 +97,7 @@ static const char *base_name(const char *path)
 
 /* One file's curves: every channel (or the asked one) and component. */
 static int file_curves(const char *sub, const char *path, size_t fi, const struct cli_curve_opts *o,
-                       struct curves *all, FILE *info)
+                       struct curves *all)
 {
     bst_ctx *ctx = cli_ctx_new(sub);
     if (!ctx)
@@ -167,11 +168,8 @@ static int file_curves(const char *sub, const char *path, size_t fi, const struc
                 if (!isfinite(c->s[i].v))
                     rc = cli_fail(sub, "%s: %s %s at incident patch %zu is %g: not a hemispherical value",
                                   path, c->channel, bst_comp_name(o->comps[k]), c->s[i].patch, c->s[i].v);
-            if (rc == CLI_OK && info)
-                fprintf(info, "%s: %s %s, %s: %zu steps in the plane phi = %g deg, %.4f at normal "
-                              "incidence\n", path, c->channel, bst_comp_name(o->comps[k]),
-                        bst_basis_kind_of(basis) == BST_BASIS_KLEMS ? bst_basis_name(basis) : "Shirley-Chiu",
-                        c->n, o->phi, c->s[0].v);
+            snprintf(c->basis, sizeof c->basis, "%s", bst_basis_kind_of(basis) == BST_BASIS_KLEMS ?
+                     bst_basis_name(basis) : "Shirley-Chiu");
         }
     }
 done:
@@ -390,9 +388,12 @@ int cli_plot_curves(const char *sub, size_t nfiles, char **files, const struct c
     char (*panels)[64] = NULL;
     size_t npanels = 0;
     struct cli_out img = {0}, tsv = {0};
-    int rc = CLI_OK;
+    /* the outputs first: a path that cannot be written is the one line said */
+    int rc = o->tsvpath ? cli_out_open(&tsv, sub, o->tsvpath) : CLI_OK;
+    if (rc == CLI_OK)
+        rc = cli_out_open(&img, sub, o->outpath);
     for (size_t f = 0; f < nfiles && rc == CLI_OK; f++)
-        rc = file_curves(sub, files[f], f, o, &all, info);
+        rc = file_curves(sub, files[f], f, o, &all);
     /* one panel per channel, in the order the files name them */
     if (rc == CLI_OK && !(panels = malloc((all.n + 1) * sizeof *panels)))
         rc = cli_fail(sub, "out of memory");
@@ -403,16 +404,21 @@ int cli_plot_curves(const char *sub, size_t nfiles, char **files, const struct c
         if (p == npanels)
             memcpy(panels[npanels++], all.c[i].channel, sizeof *panels);
     }
-    if (rc == CLI_OK && info == stdout)
-        rc = cli_stdout_check(sub);
-    if (rc == CLI_OK && o->tsvpath && (rc = cli_out_open(&tsv, sub, o->tsvpath)) == CLI_OK) {
+    if (rc == CLI_OK && o->tsvpath) {
         write_tsv(tsv.fp, files, o, &all);
         rc = cli_out_flush(&tsv, sub); /* a write error shows before the figure is written */
     }
-    if (rc == CLI_OK && (rc = cli_out_open(&img, sub, o->outpath)) == CLI_OK &&
-        draw_chart(img.fp, nfiles, files, o, &all, panels, npanels) < 0 &&
+    if (rc == CLI_OK && draw_chart(img.fp, nfiles, files, o, &all, panels, npanels) < 0 &&
         (rc = cli_out_flush(&img, sub)) == CLI_OK) /* a write error is told there */
         rc = cli_fail(sub, "%s: out of memory drawing the chart", o->outpath);
+    for (size_t i = 0; rc == CLI_OK && i < all.n; i++) {
+        const struct curve *c = &all.c[i];
+        fprintf(info, "%s: %s %s, %s: %zu steps in the plane phi = %g deg, %.4f at normal incidence\n",
+                files[c->file], c->channel, bst_comp_name(o->comps[c->comp]), c->basis, c->n, o->phi,
+                c->s[0].v);
+    }
+    if (rc == CLI_OK && info == stdout)
+        rc = cli_stdout_check(sub); /* the figure appears only when its summary was printed */
     if (rc == CLI_OK && o->tsvpath)
         rc = cli_out_commit(&tsv, sub);
     if (rc == CLI_OK)
