@@ -36,14 +36,16 @@ const char *cli_draw_format_name(int format)
     return format >= 0 && format < 3 ? format_names[format] : "?";
 }
 
-/* cairo's stream callback: the whole buffer or a write error; nothing once the figure is
- * abandoned (a vector surface still writes its trailer when it is destroyed) */
+/* cairo's stream callback.  A failed write is left to the stream's error flag, and cairo goes
+ * on: the caller's flush of the stream then meets the error again and says why (ENOSPC, EPIPE),
+ * as for any other output file.  Nothing once the figure is abandoned (a vector surface still
+ * writes its trailer when it is destroyed). */
 static cairo_status_t write_stream(void *closure, const unsigned char *data, unsigned int length)
 {
     struct cli_draw *d = closure;
-    if (d->discard)
-        return CAIRO_STATUS_SUCCESS;
-    return fwrite(data, 1, length, d->fp) == length ? CAIRO_STATUS_SUCCESS : CAIRO_STATUS_WRITE_ERROR;
+    if (!d->discard)
+        fwrite(data, 1, length, d->fp);
+    return CAIRO_STATUS_SUCCESS;
 }
 
 cairo_status_t cli_draw_begin(struct cli_draw *d, FILE *fp, int format, double width, double height,

@@ -32,8 +32,8 @@ struct cli_draw {
 cairo_status_t cli_draw_begin(struct cli_draw *d, FILE *fp, int format, double width, double height,
                               const char *title);
 /* Finish the figure: a PNG is encoded and written now, a vector format completed.  The first
- * cairo error of the drawing or the writing (CAIRO_STATUS_WRITE_ERROR for a failed fwrite), or
- * CAIRO_STATUS_SUCCESS.  Frees everything either way. */
+ * cairo error of the drawing (out of memory), or CAIRO_STATUS_SUCCESS; write errors are the
+ * stream's (ferror, and the caller's flush says why).  Frees everything either way. */
 cairo_status_t cli_draw_end(struct cli_draw *d);
 
 /* Abandon the figure (an error while drawing): nothing more is written, everything is freed.

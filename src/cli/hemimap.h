@@ -26,9 +26,9 @@ struct cli_hemimap {
 /* Formats: 0 PNG, 1 SVG, 2 PDF (CLI_DRAW_PNG.. in draw.h; `svg` of old callers is 0 or 1). */
 enum { CLI_HEMIMAP_EWRITE = -1, CLI_HEMIMAP_EVALUE = -2 };
 
-/* Write the map to fp in the given format.  0, CLI_HEMIMAP_EWRITE (a write error, or cairo
- * failed: out of memory) or CLI_HEMIMAP_EVALUE (the value callback failed; nothing written to
- * a PNG, a vector format's stream is incomplete). */
+/* Write the map to fp in the given format.  0, CLI_HEMIMAP_EWRITE (cairo failed: out of memory)
+ * or CLI_HEMIMAP_EVALUE (the value callback failed; nothing written to a PNG, a vector format's
+ * stream is incomplete).  A write error is left in fp's error flag: flush fp to see it. */
 int cli_hemimap_write(FILE *fp, int format, const struct cli_hemimap *m);
 
 /* Where the disk lies in the image of m: centre (cx, cy) from the top left corner, radius r, and
