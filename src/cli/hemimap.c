@@ -1,39 +1,25 @@
-/* hemimap.c - a function over the exit hemisphere drawn as a disk with a colour scale, as PNG or
- * SVG: `bsdfstack plot` (a BSDF) and `bsdfstack compare --map` (local accordance).
+/* hemimap.c - a function over the exit hemisphere drawn with cairo as a disk with a colour scale,
+ * as PNG, SVG or PDF: `bsdfstack plot` (a BSDF) and `bsdfstack compare --map` (local accordance).
  *
  * The disk shows each exit direction at its x, y components in the layer's frame (+X to the
  * right, +Y up: the window seen from its interior side, +Z), so every Shirley-Chiu cell has the
  * same area ("disk" projection, area = projected solid angle), or at radius theta / 90 degrees
- * ("angle" projection, which spreads the grazing directions).  A PNG is coloured pixel by pixel
- * (by a callback, or by the value of the basis cell the pixel's direction falls in); an SVG draws
- * the basis cells as polygons in the colour of their values. */
+ * ("angle" projection, which spreads the grazing directions).  A PNG is coloured pixel by pixel,
+ * each at its pixel's centre (by a callback, or by the value of the basis cell the direction
+ * falls in), and clipped to the disk with an anti-aliased edge; SVG and PDF draw the basis cells
+ * as vector polygons in the colour of their values.  Grid, labels and colour bar are vector
+ * drawing in every format. */
 #include <config.h>
 
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "draw.h"
 #include "hemimap.h"
-#include "png.h"
 
 /* ------------------------------------------------------------------ colour scale */
-
-enum { RAMP = 200, BG = RAMP, INK, GRID, MARK, NPAL };
-
-/* A ramp from dark blue through teal and green to pale yellow; lightness grows monotonically, so
- * it reads in grey too.  Control points (t, r, g, b). */
-static void ramp_rgb(double t, unsigned char rgb[3])
-{
-    static const double cp[][4] = {{0.0, 8, 8, 32},       {0.2, 40, 40, 140},  {0.4, 30, 120, 170},
-                                   {0.6, 40, 175, 120},   {0.8, 200, 210, 60}, {1.0, 255, 250, 200}};
-    t = t < 0 ? 0 : t > 1 ? 1 : t;
-    int i = 0;
-    while (i < 4 && t > cp[i + 1][0])
-        i++;
-    double f = (t - cp[i][0]) / (cp[i + 1][0] - cp[i][0]);
-    for (int c = 0; c < 3; c++)
-        rgb[c] = (unsigned char)lround(cp[i][c + 1] + f * (cp[i + 1][c + 1] - cp[i][c + 1]));
-}
 
 struct scale {
     int log;
@@ -43,16 +29,12 @@ struct scale {
 /* position of a value on the scale, 0..1 (a zero or a value below a log scale's end is 0) */
 static double scale_t(const struct scale *s, double v)
 {
+    double t;
     if (s->log)
-        return v <= s->lo ? 0 : (log10(v) - log10(s->lo)) / (log10(s->hi) - log10(s->lo));
-    return (v - s->lo) / (s->hi - s->lo);
-}
-
-static int scale_index(const struct scale *s, double v)
-{
-    double t = scale_t(s, v);
-    t = t < 0 ? 0 : t > 1 ? 1 : t;
-    return (int)lround(t * (RAMP - 1));
+        t = v <= s->lo ? 0 : (log10(v) - log10(s->lo)) / (log10(s->hi) - log10(s->lo));
+    else
+        t = (v - s->lo) / (s->hi - s->lo);
+    return t < 0 ? 0 : t > 1 ? 1 : t;
 }
 
 /* Tick values: decades on a log scale (or both ends when none falls inside), "nice" steps on a
@@ -76,320 +58,290 @@ static int scale_ticks(const struct scale *s, double *ticks)
 
 /* ------------------------------------------------------------------ geometry */
 
-struct view {
-    int angle;              /* projection: 0 disk, 1 angle */
-    double cx, cy, radius;  /* the disk in image pixels (y down) */
+#define RIM (1 - 1e-6) /* the largest radius (of 1) a pixel's direction is taken at */
+
+struct layout {
+    double fs;               /* font size */
+    double margin, top;      /* around the disk; the caption's band above */
+    double cx, cy, radius;   /* the disk (y down) */
+    double bar_x, bar_w;     /* the colour bar, as high as the disk */
+    double width, height;
+    int angle;               /* projection: 0 disk, 1 angle */
 };
 
-/* An exit direction (z >= 0 side, any sign of z is taken as its hemisphere) to image pixels. */
-static void to_image(const struct view *v, const double d[3], double *px, double *py)
+static struct layout layout_for(const struct cli_hemimap *m)
+{
+    struct layout L;
+    L.fs = fmax(9, m->size / 36.0);
+    L.margin = 2.6 * L.fs + 6; /* room for the phi labels ("180°") */
+    L.top = 2 * L.fs;
+    L.radius = m->size / 2.0;
+    L.cx = L.margin + L.radius;
+    L.cy = L.top + L.margin + L.radius;
+    L.bar_x = 2 * L.margin + m->size;
+    L.bar_w = 1.2 * L.fs;
+    L.width = ceil(L.bar_x + L.bar_w + 5.5 * L.fs);
+    L.height = ceil(L.top + 2 * L.margin + m->size);
+    L.angle = m->angle;
+    return L;
+}
+
+void cli_hemimap_geometry(const struct cli_hemimap *m, double *cx, double *cy, double *r,
+                          double *width, double *height)
+{
+    struct layout L = layout_for(m);
+    *cx = L.cx, *cy = L.cy, *r = L.radius, *width = L.width, *height = L.height;
+}
+
+/* An exit direction (either hemisphere: only x, y and |z| count) to image coordinates. */
+static void to_image(const struct layout *L, const double d[3], double *px, double *py)
 {
     double x = d[0], y = d[1], r = hypot(x, y);
-    if (v->angle && r > 0) {
+    if (L->angle && r > 0) {
         double s = atan2(r, fabs(d[2])) / (M_PI / 2) / r;
         x *= s, y *= s;
     }
-    *px = v->cx + v->radius * x;
-    *py = v->cy - v->radius * y;
+    *px = L->cx + L->radius * x;
+    *py = L->cy - L->radius * y;
 }
 
-/* Image pixels to an exit direction with |z| from the projection; 0 outside the disk. */
-static int from_image(const struct view *v, double px, double py, double d[3])
+/* Image coordinates to an exit direction (z > 0); a point on or beyond the rim takes the
+ * direction just inside it (the anti-aliased edge needs its colour, and the plane z = 0 holds no
+ * exit direction). */
+static void from_image(const struct layout *L, double px, double py, double d[3])
 {
-    double x = (px - v->cx) / v->radius, y = (v->cy - py) / v->radius, r = hypot(x, y);
-    if (r > 1)
-        return 0;
-    if (v->angle && r > 0) {
+    double x = (px - L->cx) / L->radius, y = (L->cy - py) / L->radius, r = hypot(x, y);
+    if (r > RIM)
+        x *= RIM / r, y *= RIM / r, r = RIM;
+    if (L->angle && r > 0) {
         double th = r * M_PI / 2;
         x *= sin(th) / r, y *= sin(th) / r;
     }
     double rr = x * x + y * y;
     d[0] = x, d[1] = y, d[2] = rr < 1 ? sqrt(1 - rr) : 0;
-    return 1;
 }
 
-/* ------------------------------------------------------------------ PNG */
-
-/* A 5 x 7 font for the scale's numbers; rows top down, bit 4 the leftmost pixel. */
-static const char glyph_chars[] = "0123456789.-+e/sr%";
-static const unsigned char glyphs[][7] = {
-    {14, 17, 19, 21, 25, 17, 14}, {4, 12, 4, 4, 4, 4, 14},   {14, 17, 1, 2, 4, 8, 31},
-    {31, 2, 4, 2, 1, 17, 14},     {2, 6, 10, 18, 31, 2, 2},  {31, 16, 30, 1, 1, 17, 14},
-    {6, 8, 16, 30, 17, 17, 14},   {31, 1, 2, 4, 8, 8, 8},    {14, 17, 17, 14, 17, 17, 14},
-    {14, 17, 17, 15, 1, 2, 12},   {0, 0, 0, 0, 0, 12, 12},   {0, 0, 0, 31, 0, 0, 0},
-    {0, 4, 4, 31, 4, 4, 0},       {0, 0, 14, 17, 31, 16, 14}, {0, 1, 2, 4, 8, 16, 0},
-    {0, 0, 14, 16, 14, 1, 30},    {0, 0, 22, 25, 16, 16, 16}, {24, 25, 2, 4, 8, 19, 3}};
-
-struct canvas {
-    size_t w, h;
-    unsigned char *pix;
-};
-
-static void put(struct canvas *c, long x, long y, unsigned char idx)
-{
-    if (x >= 0 && y >= 0 && (size_t)x < c->w && (size_t)y < c->h)
-        c->pix[(size_t)y * c->w + (size_t)x] = idx;
-}
-
-/* text with its left edge at x and its vertical middle at y, in pixels of size s */
-static void text(struct canvas *c, long x, long y, int s, const char *str)
-{
-    y -= 7 * s / 2;
-    for (; *str; str++, x += 6 * s) {
-        const char *g = strchr(glyph_chars, *str);
-        if (!g)
-            continue; /* a space, or a character the font lacks */
-        const unsigned char *rows = glyphs[g - glyph_chars];
-        for (int r = 0; r < 7; r++)
-            for (int col = 0; col < 5; col++)
-                if (rows[r] >> (4 - col) & 1)
-                    for (int i = 0; i < s; i++)
-                        for (int j = 0; j < s; j++)
-                            put(c, x + col * s + j, y + r * s + i, INK);
-    }
-}
-
-static void circle(struct canvas *c, double cx, double cy, double r, unsigned char idx)
-{
-    int n = (int)(2 * M_PI * r) + 8;
-    for (int i = 0; i < n; i++) {
-        double a = 2 * M_PI * i / n;
-        put(c, lround(cx + r * cos(a)), lround(cy + r * sin(a)), idx);
-    }
-}
-
-static void segment(struct canvas *c, double x0, double y0, double x1, double y1, unsigned char idx)
-{
-    int n = (int)hypot(x1 - x0, y1 - y0) + 1;
-    for (int i = 0; i <= n; i++)
-        put(c, lround(x0 + (x1 - x0) * i / n), lround(y0 + (y1 - y0) * i / n), idx);
-}
-
-static void fmt_tick(char *buf, size_t n, double v)
-{
-    snprintf(buf, n, "%g", v);
-}
-
-struct layout {
-    int size, s, margin, bar_x, bar_w, width, height;
-};
-
-static struct layout layout_for(int size)
-{
-    struct layout L;
-    L.size = size;
-    L.s = size >= 360 ? 2 : 1;              /* font pixel size */
-    L.margin = 8 + 3 * 6 * L.s;             /* room for the phi labels ("180") */
-    L.bar_x = 2 * L.margin + size;
-    L.bar_w = 8 * L.s;
-    L.width = L.bar_x + L.bar_w + 6 * L.s + 6 * 6 * L.s + L.margin;
-    L.height = 2 * L.margin + size;
-    return L;
-}
-
-static void grid_points(const struct view *v, double theta_deg, double phi_deg, double *px, double *py)
+static void direction(double theta_deg, double phi_deg, double d[3])
 {
     double t = theta_deg * M_PI / 180, p = phi_deg * M_PI / 180;
-    double d[3] = {sin(t) * cos(p), sin(t) * sin(p), cos(t)};
-    to_image(v, d, px, py);
+    d[0] = sin(t) * cos(p), d[1] = sin(t) * sin(p), d[2] = cos(t);
 }
 
-static int write_png(FILE *fp, const struct cli_hemimap *m, const struct view *v,
-                     const struct layout *L, const struct scale *sc)
+static void set_ramp(cairo_t *cr, double t)
 {
-    struct canvas c = {(size_t)L->width, (size_t)L->height, NULL};
-    c.pix = malloc(c.w * c.h);
-    if (!c.pix)
+    double rgb[3];
+    cli_draw_ramp(t, rgb);
+    cairo_set_source_rgb(cr, rgb[0], rgb[1], rgb[2]);
+}
+
+/* ------------------------------------------------------------------ the hemisphere */
+
+/* PNG: every pixel of the disk's bounding square at its centre, into an image painted through a
+ * circular clip. */
+static int paint_pixels(cairo_t *cr, const struct cli_hemimap *m, const struct layout *L,
+                        const struct scale *sc)
+{
+    int x0 = (int)floor(L->cx - L->radius) - 1, y0 = (int)floor(L->cy - L->radius) - 1;
+    int n = (int)ceil(2 * L->radius) + 3;
+    cairo_surface_t *img = cairo_image_surface_create(CAIRO_FORMAT_RGB24, n, n);
+    if (cairo_surface_status(img) != CAIRO_STATUS_SUCCESS) {
+        cairo_surface_destroy(img);
         return CLI_HEMIMAP_EWRITE;
-    memset(c.pix, BG, c.w * c.h);
-    /* the hemisphere, pixel by pixel, at pixel centres */
-    for (size_t y = 0; y < c.h; y++)
-        for (size_t x = 0; x < c.w; x++) {
-            double d[3], val;
-            if (!from_image(v, x + 0.5, y + 0.5, d))
+    }
+    cairo_surface_flush(img);
+    unsigned char *data = cairo_image_surface_get_data(img);
+    int stride = cairo_image_surface_get_stride(img);
+    double reach = 1 + 2 / L->radius; /* pixels this far out still show at the clipped edge */
+    for (int j = 0; j < n; j++)
+        for (int i = 0; i < n; i++) {
+            double px = x0 + i + 0.5, py = y0 + j + 0.5, d[3], val, rgb[3];
+            if (hypot(px - L->cx, py - L->cy) > reach * L->radius)
                 continue;
+            from_image(L, px, py, d);
             if (m->value) {
                 if (m->value(m->opaque, d, &val) < 0) {
-                    free(c.pix);
+                    cairo_surface_destroy(img);
                     return CLI_HEMIMAP_EVALUE;
                 }
             } else {
                 val = m->cell[bst_basis_patch(m->basis, d)];
             }
-            c.pix[y * c.w + x] = (unsigned char)scale_index(sc, val);
+            cli_draw_ramp(scale_t(sc, val), rgb);
+            uint32_t pix = (uint32_t)lround(rgb[0] * 255) << 16 | (uint32_t)lround(rgb[1] * 255) << 8 |
+                           (uint32_t)lround(rgb[2] * 255);
+            memcpy(data + (size_t)j * (size_t)stride + 4 * (size_t)i, &pix, 4);
         }
-    /* grid: theta = 30, 60, 90 degrees, phi every 90 degrees, and the phi labels */
-    double px, py, qx, qy;
-    for (int t = 30; t <= 90; t += 30) {
-        int n = 720;
-        for (int i = 0; i < n; i++) {
-            grid_points(v, t, 360.0 * i / n, &px, &py);
-            put(&c, lround(px - 0.5), lround(py - 0.5), t == 90 ? INK : GRID);
-        }
-    }
-    for (int ph = 0; ph < 360; ph += 90) {
-        grid_points(v, 0, ph, &px, &py);
-        grid_points(v, 90, ph, &qx, &qy);
-        segment(&c, px - 0.5, py - 0.5, qx - 0.5, qy - 0.5, GRID);
-        char lab[8];
-        snprintf(lab, sizeof lab, "%d", ph);
-        long tw = (long)strlen(lab) * 6 * L->s;
-        double ox = ph == 0 ? 4 : ph == 180 ? -4 - tw : -tw / 2.0, oy = ph == 90 ? -6 * L->s : ph == 270 ? 6 * L->s : 0;
-        text(&c, lround(qx + ox), lround(qy + oy), L->s, lab);
-    }
-    /* the incident light continued or mirrored */
-    to_image(v, m->mark, &px, &py);
-    circle(&c, px - 0.5, py - 0.5, 3 * L->s + 2, INK);
-    circle(&c, px - 0.5, py - 0.5, 3 * L->s + 1, MARK);
-    circle(&c, px - 0.5, py - 0.5, 3 * L->s, INK);
-    /* colour bar with ticks and labels, bottom = low end */
-    long top = L->margin, bot = L->margin + L->size - 1;
-    for (long y = top; y <= bot; y++) {
-        unsigned char idx = (unsigned char)lround((double)(bot - y) / (bot - top) * (RAMP - 1));
-        for (long x = L->bar_x; x < L->bar_x + L->bar_w; x++)
-            put(&c, x, y, idx);
-    }
-    double ticks[16];
-    int nt = scale_ticks(sc, ticks);
-    for (int i = 0; i < nt; i++) {
-        long y = lround(bot - scale_t(sc, ticks[i]) * (bot - top));
-        segment(&c, L->bar_x + L->bar_w, y, L->bar_x + L->bar_w + 3 * L->s, y, INK);
-        char lab[24];
-        fmt_tick(lab, sizeof lab, ticks[i]);
-        text(&c, L->bar_x + L->bar_w + 5 * L->s, y, L->s, lab);
-    }
-    text(&c, L->bar_x, top - 7 * L->s, L->s, m->unit);
-    unsigned char pal[NPAL][3];
-    for (int i = 0; i < RAMP; i++)
-        ramp_rgb((double)i / (RAMP - 1), pal[i]);
-    memcpy(pal[BG], (unsigned char[3]){255, 255, 255}, 3);
-    memcpy(pal[INK], (unsigned char[3]){0, 0, 0}, 3);
-    memcpy(pal[GRID], (unsigned char[3]){150, 150, 150}, 3);
-    memcpy(pal[MARK], (unsigned char[3]){255, 60, 60}, 3);
-    const char *meta[] = {"Title", m->title, "Software", "bsdfstack " PACKAGE_VERSION, NULL};
-    struct cli_png img = {c.w, c.h, c.pix, (const unsigned char(*)[3])pal, NPAL, meta};
-    int rc = cli_png_write(fp, &img) == 0 ? 0 : CLI_HEMIMAP_EWRITE;
-    free(c.pix);
-    return rc;
+    cairo_surface_mark_dirty(img);
+    cairo_save(cr);
+    cairo_arc(cr, L->cx, L->cy, L->radius, 0, 2 * M_PI);
+    cairo_clip(cr);
+    cairo_set_source_surface(cr, img, x0, y0);
+    cairo_pattern_set_filter(cairo_get_source(cr), CAIRO_FILTER_NEAREST);
+    cairo_paint(cr);
+    cairo_restore(cr);
+    cairo_surface_destroy(img);
+    return 0;
 }
 
-/* ------------------------------------------------------------------ SVG */
-
-static void svg_escaped(FILE *fp, const char *s)
-{
-    for (; *s; s++)
-        switch (*s) {
-        case '&': fputs("&amp;", fp); break;
-        case '<': fputs("&lt;", fp); break;
-        case '>': fputs("&gt;", fp); break;
-        case '"': fputs("&quot;", fp); break;
-        default: fputc(*s, fp);
-        }
-}
-
-static void svg_colour(char buf[8], double t)
-{
-    unsigned char rgb[3];
-    ramp_rgb(t, rgb);
-    snprintf(buf, 8, "#%02x%02x%02x", rgb[0], rgb[1], rgb[2]);
-}
-
-static int write_svg(FILE *fp, const struct cli_hemimap *m, const struct view *v,
-                     const struct layout *L, const struct scale *sc)
+/* SVG, PDF: each cell as a polygon through points along its edges; a hairline stroke in the
+ * fill colour hides the seams renderers leave between neighbouring polygons. */
+static void paint_cells(cairo_t *cr, const struct cli_hemimap *m, const struct layout *L,
+                        const struct scale *sc)
 {
     const bst_basis *basis = m->basis;
-    const double *cell = m->cell;
-    const char *title = m->title;
-    fprintf(fp, "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
-                "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%d\" height=\"%d\" "
-                "viewBox=\"0 0 %d %d\" font-family=\"sans-serif\" font-size=\"%d\">\n<title>",
-            L->width, L->height + 24, L->width, L->height + 24, 6 + 4 * L->s);
-    svg_escaped(fp, title);
-    fprintf(fp, "</title>\n<rect width=\"100%%\" height=\"100%%\" fill=\"#ffffff\"/>\n<text x=\"%d\" "
-                "y=\"%d\">", L->margin, L->height + 16);
-    svg_escaped(fp, title);
-    fputs("</text>\n<g stroke-width=\"0.6\">\n", fp);
-    /* each cell as a polygon through points along its edges; the stroke in the fill colour hides
-     * the seams renderers leave between neighbouring polygons */
     size_t n = bst_basis_size(basis);
     int per_edge = bst_basis_kind_of(basis) == BST_BASIS_KLEMS ? 8 : bst_basis_order(basis) >= 6 ? 2 : 4;
+    cairo_save(cr);
+    cairo_set_line_width(cr, 0.6);
+    cairo_set_line_join(cr, CAIRO_LINE_JOIN_ROUND);
     for (size_t j = 0; j < n; j++) {
-        char col[8];
-        svg_colour(col, scale_t(sc, cell[j]));
-        fprintf(fp, "<path fill=\"%s\" stroke=\"%s\" d=\"", col, col);
         for (int e = 0; e < 4; e++)
             for (int i = 0; i < per_edge; i++) {
                 double t = (double)i / per_edge, uv[4][2] = {{t, 0}, {1, t}, {1 - t, 1}, {0, 1 - t}};
                 double d[3], px, py;
                 bst_basis_sample(basis, j, uv[e][0], uv[e][1], d);
-                to_image(v, d, &px, &py);
-                fprintf(fp, "%s%.2f %.2f", e + i ? " L" : "M", px, py);
+                to_image(L, d, &px, &py);
+                cairo_line_to(cr, px, py);
             }
-        fputs("Z\"/>\n", fp);
+        cairo_close_path(cr);
+        set_ramp(cr, scale_t(sc, m->cell[j]));
+        cairo_fill_preserve(cr);
+        cairo_stroke(cr);
     }
-    fputs("</g>\n<g fill=\"none\" stroke=\"#969696\" stroke-width=\"0.8\">\n", fp);
-    for (int t = 30; t <= 60; t += 30) {
-        double px, py;
-        fputs("<path d=\"", fp);
-        for (int i = 0; i <= 180; i++) {
-            grid_points(v, t, 2.0 * i, &px, &py);
-            fprintf(fp, "%s%.2f %.2f", i ? " L" : "M", px, py);
-        }
-        fputs("\"/>\n", fp);
+    cairo_restore(cr);
+}
+
+/* ------------------------------------------------------------------ grid, mark, scale, caption */
+
+static void draw_grid(cairo_t *cr, const struct layout *L)
+{
+    double px, py, qx, qy, d[3];
+    cairo_set_source_rgb(cr, 150 / 255.0, 150 / 255.0, 150 / 255.0);
+    cairo_set_line_width(cr, 0.8);
+    for (int t = 30; t <= 60; t += 30) { /* theta = const is a circle in both projections */
+        direction(t, 0, d);
+        to_image(L, d, &px, &py);
+        cairo_new_sub_path(cr);
+        cairo_arc(cr, L->cx, L->cy, px - L->cx, 0, 2 * M_PI);
     }
     for (int ph = 0; ph < 360; ph += 90) {
-        double px, py, qx, qy;
-        grid_points(v, 0, ph, &px, &py);
-        grid_points(v, 90, ph, &qx, &qy);
-        fprintf(fp, "<line x1=\"%.2f\" y1=\"%.2f\" x2=\"%.2f\" y2=\"%.2f\"/>\n", px, py, qx, qy);
+        direction(90, ph, d);
+        to_image(L, d, &qx, &qy);
+        cairo_move_to(cr, L->cx, L->cy);
+        cairo_line_to(cr, qx, qy);
     }
-    fprintf(fp, "</g>\n<circle cx=\"%.2f\" cy=\"%.2f\" r=\"%.2f\" fill=\"none\" stroke=\"#000000\"/>\n",
-            v->cx, v->cy, v->radius);
+    cairo_stroke(cr);
+    cairo_set_source_rgb(cr, 0, 0, 0);
+    cairo_set_line_width(cr, 1);
+    cairo_arc(cr, L->cx, L->cy, L->radius, 0, 2 * M_PI);
+    cairo_stroke(cr);
+    cli_draw_font(cr, L->fs);
     for (int ph = 0; ph < 360; ph += 90) {
-        double qx, qy;
-        grid_points(v, 90, ph, &qx, &qy);
-        const char *anchor = ph == 0 ? "start" : ph == 180 ? "end" : "middle";
-        double dx = ph == 0 ? 4 : ph == 180 ? -4 : 0, dy = ph == 90 ? -6 : ph == 270 ? 6 + 4 * L->s : 4;
-        fprintf(fp, "<text x=\"%.2f\" y=\"%.2f\" text-anchor=\"%s\">%d&#176;</text>\n", qx + dx, qy + dy,
-                anchor, ph);
+        char lab[16];
+        snprintf(lab, sizeof lab, "%d\xc2\xb0", ph);
+        direction(90, ph, d);
+        to_image(L, d, &qx, &qy);
+        double g = 0.4 * L->fs;
+        if (ph == 0)
+            cli_draw_text(cr, qx + g, qy, 0, 0.5, lab);
+        else if (ph == 180)
+            cli_draw_text(cr, qx - g, qy, 1, 0.5, lab);
+        else
+            cli_draw_text(cr, qx, ph == 90 ? qy - g : qy + g, 0.5, ph == 90 ? 0 : 1, lab);
     }
+    cairo_set_source_rgb(cr, 150 / 255.0, 150 / 255.0, 150 / 255.0);
+    cli_draw_font(cr, 0.85 * L->fs);
     for (int t = 30; t <= 60; t += 30) {
-        double px, py;
-        grid_points(v, t, 45, &px, &py);
-        fprintf(fp, "<text x=\"%.2f\" y=\"%.2f\" fill=\"#969696\">%d&#176;</text>\n", px + 2, py - 2, t);
+        char lab[16];
+        snprintf(lab, sizeof lab, "%d\xc2\xb0", t);
+        direction(t, 45, d);
+        to_image(L, d, &px, &py);
+        cli_draw_text(cr, px + 2, py - 2, 0, 0, lab);
     }
-    double mx, my;
-    to_image(v, m->mark, &mx, &my);
-    fprintf(fp, "<circle cx=\"%.2f\" cy=\"%.2f\" r=\"%d\" fill=\"none\" stroke=\"#ff3c3c\" "
-                "stroke-width=\"2\"/>\n", mx, my, 3 * L->s + 1);
-    /* colour bar: 100 steps, bottom = low end */
-    double top = L->margin, h = L->size;
-    for (int i = 0; i < 100; i++) {
-        char col[8];
-        svg_colour(col, (i + 0.5) / 100);
-        fprintf(fp, "<rect x=\"%d\" y=\"%.2f\" width=\"%d\" height=\"%.2f\" fill=\"%s\"/>\n", L->bar_x,
-                top + h * (99 - i) / 100, L->bar_w, h / 100 + 0.3, col);
+}
+
+/* a red ring with a black outline, readable on every colour of the ramp */
+static void draw_mark(cairo_t *cr, const struct layout *L, const double mark[3])
+{
+    double mx, my, r = 0.45 * L->fs + 1;
+    to_image(L, mark, &mx, &my);
+    cairo_new_sub_path(cr);
+    cairo_arc(cr, mx, my, r, 0, 2 * M_PI);
+    cairo_set_source_rgb(cr, 0, 0, 0);
+    cairo_set_line_width(cr, 3.2);
+    cairo_stroke_preserve(cr);
+    cairo_set_source_rgb(cr, 1, 60 / 255.0, 60 / 255.0);
+    cairo_set_line_width(cr, 1.6);
+    cairo_stroke(cr);
+}
+
+static void draw_bar(cairo_t *cr, const struct cli_hemimap *m, const struct layout *L,
+                     const struct scale *sc)
+{
+    double top = L->cy - L->radius, bot = L->cy + L->radius;
+    cairo_pattern_t *g = cairo_pattern_create_linear(0, bot, 0, top); /* bottom = low end */
+    for (int i = 0; i <= 32; i++) {
+        double rgb[3];
+        cli_draw_ramp(i / 32.0, rgb);
+        cairo_pattern_add_color_stop_rgb(g, i / 32.0, rgb[0], rgb[1], rgb[2]);
     }
+    cairo_rectangle(cr, L->bar_x, top, L->bar_w, bot - top);
+    cairo_set_source(cr, g);
+    cairo_fill(cr);
+    cairo_pattern_destroy(g);
+    cairo_set_source_rgb(cr, 0, 0, 0);
+    cairo_set_line_width(cr, 1);
+    cli_draw_font(cr, L->fs);
     double ticks[16];
     int nt = scale_ticks(sc, ticks);
     for (int i = 0; i < nt; i++) {
-        double y = top + h - scale_t(sc, ticks[i]) * h;
-        char lab[24];
-        fmt_tick(lab, sizeof lab, ticks[i]);
-        fprintf(fp, "<line x1=\"%d\" y1=\"%.2f\" x2=\"%d\" y2=\"%.2f\" stroke=\"#000000\"/>"
-                    "<text x=\"%d\" y=\"%.2f\">%s</text>\n", L->bar_x + L->bar_w, y,
-                L->bar_x + L->bar_w + 3 * L->s, y, L->bar_x + L->bar_w + 5 * L->s, y + 2 + 2 * L->s, lab);
+        double y = bot - scale_t(sc, ticks[i]) * (bot - top);
+        char lab[32];
+        snprintf(lab, sizeof lab, "%g", ticks[i]);
+        cairo_move_to(cr, L->bar_x + L->bar_w, y);
+        cairo_line_to(cr, L->bar_x + L->bar_w + 0.3 * L->fs, y);
+        cairo_stroke(cr);
+        cli_draw_text(cr, L->bar_x + L->bar_w + 0.45 * L->fs, y, 0, 0.5, lab);
     }
-    fprintf(fp, "<text x=\"%d\" y=\"%d\">", L->bar_x, L->margin - 6);
-    svg_escaped(fp, m->unit);
-    fputs("</text>\n</svg>\n", fp);
-    return ferror(fp) ? CLI_HEMIMAP_EWRITE : 0;
+    if (m->unit)
+        cli_draw_text(cr, L->bar_x, top - 0.6 * L->fs, 0, 0, m->unit);
 }
 
-int cli_hemimap_write(FILE *fp, int svg, const struct cli_hemimap *m)
+/* the caption across the top, in a smaller face when it would not fit */
+static void draw_caption(cairo_t *cr, const struct layout *L, const char *title)
 {
-    struct layout L = layout_for(m->size);
-    struct view v = {m->angle, L.margin + m->size / 2.0, L.margin + m->size / 2.0, m->size / 2.0};
+    if (!title)
+        return;
+    double fs = L->fs;
+    cli_draw_font(cr, fs);
+    double w = cli_draw_text_width(cr, title), room = L->width - 2 * 0.5 * L->fs;
+    if (w > room) {
+        fs = fmax(5, fs * room / w);
+        cli_draw_font(cr, fs);
+    }
+    cairo_set_source_rgb(cr, 0, 0, 0);
+    cli_draw_text(cr, 0.5 * L->fs, 1.35 * L->fs, 0, 0, title);
+}
+
+int cli_hemimap_write(FILE *fp, int format, const struct cli_hemimap *m)
+{
+    struct layout L = layout_for(m);
     struct scale sc = {m->log, m->lo, m->hi};
-    return svg ? write_svg(fp, m, &v, &L, &sc) : write_png(fp, m, &v, &L, &sc);
+    struct cli_draw d;
+    if (cli_draw_begin(&d, fp, format, L.width, L.height, m->title) != CAIRO_STATUS_SUCCESS)
+        return CLI_HEMIMAP_EWRITE;
+    if (format == CLI_DRAW_PNG) {
+        int rc = paint_pixels(d.cr, m, &L, &sc);
+        if (rc < 0) {
+            cli_draw_abort(&d);
+            return rc;
+        }
+    } else {
+        paint_cells(d.cr, m, &L, &sc);
+    }
+    draw_grid(d.cr, &L);
+    draw_mark(d.cr, &L, m->mark);
+    draw_bar(d.cr, m, &L, &sc);
+    draw_caption(d.cr, &L, m->title);
+    return cli_draw_end(&d) == CAIRO_STATUS_SUCCESS ? 0 : CLI_HEMIMAP_EWRITE;
 }
