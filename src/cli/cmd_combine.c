@@ -563,7 +563,8 @@ int cmd_combine(int argc, char **argv)
             break;
         case 'v': verbose = 1; break;
         case 'h':
-        case O_HELP: fputs(help, stdout); return CLI_OK;
+        case O_HELP: /* longer than a stdout buffer: a failed write is told with its own errno */
+            return fputs(help, stdout) == EOF ? cli_stdout_failed(sub, errno) : CLI_OK;
         case ':': return cli_usage(sub, "option %s needs a value", argv[optind - 1]);
         default: return cli_usage(sub, "unknown option '%s'", argv[optind - 1]);
         }
