@@ -518,6 +518,38 @@ int bst_bsdf_write_fn(bst_ctx *ctx, const bst_layer *layer, bst_bsdf_write_sink 
 int bst_bsdf_write_path(bst_ctx *ctx, const bst_layer *layer, const char *path,
                         const bst_bsdf_write_opts *opts);
 
+/* Variable resolution (issue 19): a system known at a coarse order kc for every incident patch
+ * (the layer `coarse`) and at a finer order k for a few front-incidence patches (their Tf and Rf
+ * columns, e.g. bst_stack_columns' at the sun positions of a year), written as ONE rank-4 tensor
+ * tree per block whose depth varies (ttree_write.c): inside an incident cell of order k that is
+ * one of `cols`, the tree goes down to order k in every dimension; everywhere else it stops at kc
+ * (and reduction may merge further).  Read at order k, the file gives the fine columns exactly
+ * (to single precision) and every other incident patch the value of the coarse cell holding it.
+ * Tb and Rb stay at order kc.  Consistency of the two parts: both come from the same layers by the
+ * same formula, the fine ones at order k; bst_varres_hemi_diff measures, per fine patch, the
+ * directional-hemispherical T or R of its column minus that of the coarse cell holding it (the
+ * coarse cell averages a region of incidences, so they differ by the variation of T and R over
+ * it plus the resolution error; a stack of panes and a blind at k = 6 over kc = 4: see
+ * bsdfstack-combine(1)).  opts as bst_bsdf_write (rank AUTO or 4; the culling percentile is taken
+ * over the finest blocks inside the fine incident cells); reciprocity never omits a block. */
+#define BST_VARRES_HEMI_TOL 0.02 /* |difference| a consistency check (the CLI's) accepts */
+typedef struct {
+    int k;                     /* fine order, kc < k <= BST_K_MAX */
+    size_t ncols;              /* fine incident patches (Shirley-Chiu order k), increasing */
+    const size_t *cols;
+    const bst_mat *const *tf;  /* per channel of coarse: 4^k x ncols, the system's Tf columns at
+                                  cols; tf NULL or tf[ch] NULL: the coarse values there too */
+    const bst_mat *const *rf;  /* the same for Rf */
+} bst_varres;
+int bst_bsdf_write_varres(bst_ctx *ctx, const bst_layer *coarse, const bst_varres *v, FILE *fp,
+                          const bst_bsdf_write_opts *opts);
+int bst_bsdf_write_varres_path(bst_ctx *ctx, const bst_layer *coarse, const bst_varres *v,
+                               const char *path, const bst_bsdf_write_opts *opts);
+/* diff[q] = hemispherical value of fine column q of component c (BST_TF or BST_RF) minus that of
+ * coarse's incident patch holding it (ncols values); *worst (may be NULL) the largest |diff|. */
+int bst_varres_hemi_diff(bst_ctx *ctx, const bst_layer *coarse, const bst_varres *v, size_t ch,
+                         bst_comp c, double *diff, double *worst);
+
 /* ------------------------------------------------------------------ output files: output.c */
 
 /* A file that appears whole or not at all, written as what its path names demands: a regular
@@ -585,6 +617,40 @@ int bst_glass_layer_from_spec(bst_ctx *ctx, const char *spec, const char *catalo
 /* A spectral pane at one wavelength (um) as a one-channel layer ("Spectral"). */
 int bst_glass_layer_at(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, double lambda_um,
                        int at_centre, bst_layer **out);
+
+/* ---------------------------------------------------------------------- sun positions: sun.c */
+
+/* The sun's position by RADIANCE's gensky/gendaylit formulas (src/gen/sun.c there: declination and
+ * equation of time by short sine series of the day of the year, no leap years), and its direction
+ * as light reaching a vertical window.  Angles in degrees; site as gensky's -a, -o, -m: latitude
+ * north positive, longitude and the time zone's standard meridian WEST positive.  Azimuths as
+ * gensky prints them: from south, positive towards west (-90 east, 90 west). */
+typedef struct {
+    double latitude, longitude, meridian;
+} bst_sun_site;
+/* Day of the year (1..365) of a month (1..12) and day, as gensky (no leap years). */
+int bst_sun_day(int month, int day);
+/* Solar time (hours) at standard time `hour` of day `jd` (gensky without +). */
+double bst_sun_solar_time(const bst_sun_site *site, int jd, double hour);
+/* Declination (degrees) of day jd. */
+double bst_sun_declination(int jd);
+/* Altitude and azimuth (degrees) at solar time st (hours) on day jd. */
+void bst_sun_position(const bst_sun_site *site, int jd, double st, double *altitude,
+                      double *azimuth);
+/* The light of a sun at (altitude, azimuth) on a vertical window whose outward normal faces
+ * window_azimuth (as the sun's: 0 = the window faces south, 90 = west): its propagation direction
+ * (theta, phi) in this header's frame (+Z into the room, Y up, X to the right seen from the room),
+ * as combine's --incident takes it.  Returns 1 when the sun is in front of the window and above
+ * the horizon (theta < 90), else 0 (theta, phi still set). */
+int bst_sun_incident(double altitude, double azimuth, double window_azimuth, double *theta,
+                     double *phi);
+/* The sun positions of a year in front of the window: every `step_min` minutes of standard time
+ * (0:00, step, ...) on days 1..365, those with the sun above the horizon and in front; up to max
+ * directions (theta, phi) into dirs (may be NULL to count).  Returns how many there are (even
+ * beyond max), or BST_EINVAL for a site outside latitude [-90, 90], longitude and meridian
+ * [-360, 360] or a step outside [1, 1440]. */
+long bst_sun_path(const bst_sun_site *site, double window_azimuth, double step_min, size_t max,
+                  double (*dirs)[2]);
 
 /* ------------------------------------------------------------------------------- version: ctx.c */
 

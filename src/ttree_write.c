@@ -22,6 +22,7 @@
 #include <string.h>
 
 #include "ctx.h"
+#include "mat.h"
 #include "ttree_write.h"
 
 /* Progress is reported about this many times per tree. */
@@ -364,17 +365,27 @@ int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, b
                         w.badval);
     /* threshold: the pct-th percentile of the finest blocks' measures (lossless: 0) */
     if (rc == BST_OK && r->pct >= 0.0) {
-        size_t rank = (size_t)floor(r->pct / 100.0 * (double)nblocks);
-        if (rank > 0) {
-            float *tmp = bsti_alloc_array(ctx, nblocks, sizeof *tmp);
-            if (!tmp) {
-                rc = BST_ENOMEM;
-            } else {
-                memcpy(tmp, w.m + w.off[1], nblocks * sizeof *tmp);
-                w.thresh = select_kth(tmp, nblocks, rank - 1);
-                bsti_free(ctx, tmp);
+        float *tmp = bsti_alloc_array(ctx, nblocks, sizeof *tmp);
+        size_t nsel = 0;
+        if (!tmp) {
+            rc = BST_ENOMEM;
+        } else if (w.D == 4 && t->fine_in) { /* only the blocks touching fine incident cells */
+            size_t S = w.G / 2;
+            for (size_t b = 0; b < nblocks; b++) {
+                size_t bx = b / (S * S * S), by = (b / (S * S)) % S;
+                const unsigned char *f = t->fine_in;
+                if (f[2 * bx * w.G + 2 * by] | f[2 * bx * w.G + 2 * by + 1] |
+                    f[(2 * bx + 1) * w.G + 2 * by] | f[(2 * bx + 1) * w.G + 2 * by + 1])
+                    tmp[nsel++] = w.m[w.off[1] + b];
             }
+        } else {
+            memcpy(tmp, w.m + w.off[1], nblocks * sizeof *tmp);
+            nsel = nblocks;
         }
+        size_t rank = (size_t)floor(r->pct / 100.0 * (double)nsel);
+        if (tmp && rank > 0)
+            w.thresh = select_kth(tmp, nsel, rank - 1);
+        bsti_free(ctx, tmp);
     }
     if (rc == BST_OK) {
         st->threshold = w.thresh;
@@ -400,4 +411,68 @@ int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, b
     bsti_free(ctx, w.m);
     bsti_free(ctx, w.hemi);
     return rc;
+}
+
+/* ------------------------------------------------------------------ variable resolution */
+
+int bsti_varres_init(bst_ctx *ctx, bsti_varres *v)
+{
+    v->slot = NULL;
+    v->in = NULL;
+    if (v->kc < 1 || v->k <= v->kc || v->k > BST_K_MAX)
+        return bsti_error(ctx, BST_EINVAL, "variable resolution: orders k = %d over kc = %d (need "
+                          "1 <= kc < k <= %d)", v->k, v->kc, BST_K_MAX);
+    size_t N = (size_t)1 << (2 * v->k), Nc = (size_t)1 << (2 * v->kc);
+    if (v->coarse && (v->coarse->rows != Nc || v->coarse->cols != Nc))
+        return bsti_error(ctx, BST_ESIZE, "variable resolution: coarse matrix %zu x %zu, not %zu x %zu",
+                          v->coarse->rows, v->coarse->cols, Nc, Nc);
+    if (v->fine && (v->fine->rows != N || v->fine->cols != v->ncols))
+        return bsti_error(ctx, BST_ESIZE, "variable resolution: fine columns %zu x %zu, not %zu x %zu",
+                          v->fine->rows, v->fine->cols, N, v->ncols);
+    for (size_t q = 0; q < v->ncols; q++)
+        if (v->cols[q] >= N || (q && v->cols[q] <= v->cols[q - 1]))
+            return bsti_error(ctx, BST_EINVAL, "variable resolution: fine patch %zu (of %zu) is out "
+                              "of order or beyond %zu", v->cols[q], q, N);
+    v->slot = bsti_alloc_array(ctx, N, sizeof *v->slot);
+    v->in = bsti_calloc(ctx, N, 1);
+    if (!v->slot || !v->in) {
+        bsti_varres_done(ctx, v);
+        return BST_ENOMEM;
+    }
+    for (size_t i = 0; i < N; i++)
+        v->slot[i] = -1;
+    for (size_t q = 0; v->fine && q < v->ncols; q++) {
+        v->slot[v->cols[q]] = (long)q;
+        v->in[v->cols[q]] = 1;
+    }
+    return BST_OK;
+}
+
+void bsti_varres_done(bst_ctx *ctx, bsti_varres *v)
+{
+    bsti_free(ctx, v->slot);
+    bsti_free(ctx, v->in);
+    v->slot = NULL;
+    v->in = NULL;
+}
+
+static inline double mat_at(const bst_mat *m, size_t o, size_t i)
+{
+    if (!m || m->s == BST_ZERO)
+        return 0.0;
+    if (m->s == BST_DENSE)
+        return bsti_dense_get(m, o, i);
+    return bst_mat_get(m, o, i);
+}
+
+double bsti_varres_get(const void *opaque, size_t index)
+{
+    const bsti_varres *v = opaque;
+    size_t G = (size_t)1 << v->k, N = G * G, i = index / N, o = index % N;
+    if (v->slot[i] >= 0)
+        return mat_at(v->fine, o, (size_t)v->slot[i]);
+    int s = v->k - v->kc;
+    size_t Gc = G >> s;
+    size_t ci = ((i / G) >> s) * Gc + ((i % G) >> s), co = ((o / G) >> s) * Gc + ((o % G) >> s);
+    return mat_at(v->coarse, co, ci);
 }

@@ -31,6 +31,9 @@ typedef struct {
     const void *opaque;
     int diagonal;           /* rank 4: only cells with (ix, iy) = (ox, oy) may be non-zero (clear
                                glass); the other blocks are not scanned */
+    const unsigned char *fine_in; /* rank 4, may be NULL: G^2 flags, the incident cells (ix G + iy)
+                               that hold data of order k (variable resolution); the culling
+                               percentile is then taken over the finest blocks touching them */
 } bsti_tensor;
 
 typedef struct {
@@ -52,6 +55,26 @@ typedef struct {
  * (G^D / (2^D - 1) floats) and, when reducing, a copy of the finest level for the percentile. */
 int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, bsti_sink *out,
                      bsti_tree_stats *stats);
+
+/* Variable resolution (bst_bsdf_write_varres): the order-k tensor of a component whose incident
+ * cells `cols` (order k, increasing) hold the columns of `fine` (N x ncols, N = 4^k) and every
+ * other cell the value of the cell of order kc holding it in `coarse` (4^kc x 4^kc; NULL = 0).
+ * Written by bsti_ttree_write with get = bsti_varres_get, opaque = the struct, fine_in = in:
+ * regions of coarse cells are constant, so the lossless tree stops there (one-value leaves at depth
+ * kc or above) and goes down to k only where an incident cell of `cols` lies. */
+typedef struct {
+    int k, kc;
+    const bst_mat *coarse, *fine;
+    size_t ncols;
+    const size_t *cols;
+    long *slot;             /* N: column of fine incident cell i, or -1 */
+    unsigned char *in;      /* N: slot[i] >= 0 */
+} bsti_varres;
+/* Set up v->slot and v->in (freed by bsti_varres_done); BST_EINVAL when cols are not increasing
+ * patches of order k or the matrices' sizes differ. */
+int bsti_varres_init(bst_ctx *ctx, bsti_varres *v);
+void bsti_varres_done(bst_ctx *ctx, bsti_varres *v);
+double bsti_varres_get(const void *opaque, size_t index);
 
 
 /* Rank 3 (CONVENTIONS.md 5.2).  The rank-3 incident cell ix is the square ring j = G/2 - 1 - ix

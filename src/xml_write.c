@@ -57,6 +57,9 @@ struct xw {
     double *iso;            /* rank 3: the FA of each */
     int *omit;              /* nch * BST_NCOMP: 1 = left out (reciprocal) */
     double *hemi;           /* Klems: n values, the hemispherical error per incident patch */
+    const bst_varres *v;    /* variable resolution: fine columns over the coarse layer l, w->k
+                               the fine order and kc the layer's (bst_bsdf_write_varres) */
+    int kc;
 };
 
 /* ------------------------------------------------------------------ matrix access */
@@ -334,6 +337,9 @@ static void header(struct xw *w)
         size_t G = (size_t)1 << w->k;
         bsti_sink_printf(s, "  Basis: LBNL/Shirley-Chiu, k = %d (%zu x %zu patches per hemisphere), "
                          "TensorTree%d\n", w->k, G, G, w->kind == BST_FILE_TT3 ? 3 : 4);
+        if (w->v)
+            bsti_sink_printf(s, "  Variable resolution: Tf and Rf at k = %d for %zu front incident "
+                             "patches, k = %d elsewhere and for Tb and Rb\n", w->k, w->v->ncols, w->kc);
         if (o->reduce_pct >= 0.0)
             bsti_sink_printf(s, "  Tree reduction: cells below the %g-th percentile of variation "
                              "merged (floor %g)\n", o->reduce_pct, o->reduce_floor);
@@ -463,10 +469,21 @@ static int write_blocks(struct xw *w)
                 if (w->kind == BST_FILE_KLEMS) {
                     klems_data(w, m, &rep);
                 } else {
-                    bsti_tensor t = {w->kind == BST_FILE_TT3 ? 3 : 4, w->k, NULL, NULL, NULL, NULL, 0};
-                    if (w->kind == BST_FILE_TT3)
+                    bsti_tensor t = {w->kind == BST_FILE_TT3 ? 3 : 4, w->k, NULL, NULL, NULL, NULL, 0, NULL};
+                    bsti_varres vr = {0};
+                    const bst_mat *const *fine = !w->v ? NULL : c == BST_TF ? w->v->tf
+                                                 : c == BST_RF ? w->v->rf : NULL;
+                    if (w->v && fine && fine[ch]) { /* order k, fine columns over coarse cells */
+                        vr = (bsti_varres){w->k, w->kc, m, fine[ch], w->v->ncols, w->v->cols, NULL, NULL};
+                        int rc = bsti_varres_init(w->ctx, &vr);
+                        if (rc < 0) {
+                            bsti_error_prefix(w->ctx, "%s %s", rep.channel, block_label[c]);
+                            return rc;
+                        }
+                        t.get = bsti_varres_get, t.opaque = &vr, t.fine_in = vr.in;
+                    } else if (w->kind == BST_FILE_TT3) {
                         t.d = w->t3[idx];
-                    else if (m && m->s == BST_DENSE && m->prec == BST_DOUBLE)
+                    } else if (m && m->s == BST_DENSE && m->prec == BST_DOUBLE)
                         t.d = m->dense;
                     else if (m && m->s == BST_DENSE)
                         t.f = m->dense;
@@ -474,9 +491,12 @@ static int write_blocks(struct xw *w)
                         t.get = tensor_get, t.opaque = m, t.diagonal = m->s == BST_DIAG;
                     else
                         t.get = zero_get;
+                    if (w->v && !t.fine_in)
+                        t.k = w->kc; /* coarse only (Tb, Rb): a tree of depth kc */
                     bsti_reduce r = {o->reduce_pct, o->reduce_floor, o->digits};
                     bsti_tree_stats st;
                     int rc = bsti_ttree_write(w->ctx, &t, &r, w->out, &st);
+                    bsti_varres_done(w->ctx, &vr);
                     if (rc < 0 && rc != BST_EIO) {
                         bsti_error_prefix(w->ctx, "%s %s", rep.channel, block_label[c]);
                         return rc;
@@ -501,7 +521,8 @@ static int write_blocks(struct xw *w)
 
 /* ------------------------------------------------------------------ entry points */
 
-static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst_bsdf_write_opts *opts)
+static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst_bsdf_write_opts *opts,
+                       const bst_varres *v)
 {
     if (!ctx)
         return BST_EINVAL;
@@ -528,7 +549,17 @@ static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst
     const bst_basis *b = bst_layer_basis(l);
     w.n = bst_basis_size(b);
     w.k = bst_basis_order(b);
+    w.v = v;
     int rc = validate(&w);
+    if (rc >= 0 && v) {
+        w.kc = w.k;
+        if (bst_basis_kind_of(b) != BST_BASIS_SHIRLEY_CHIU || opts->rank == BST_RANK_3 ||
+            v->k <= w.kc || v->k > BST_K_MAX || (v->ncols && !v->cols))
+            return bsti_error(ctx, BST_EINVAL, "writing variable resolution: the coarse layer must "
+                              "be Shirley-Chiu of an order below the fine k = %d (<= %d), rank 4",
+                              v->k, BST_K_MAX);
+        w.k = v->k;
+    }
     if (rc < 0)
         return rc;
     if (!(w.omit = bsti_calloc(ctx, w.nch * BST_NCOMP + 1, sizeof *w.omit)))
@@ -539,7 +570,7 @@ static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst
             rc = BST_ENOMEM;
     } else {
         w.kind = BST_FILE_TT4;
-        if (opts->rank != BST_RANK_4) {
+        if (opts->rank != BST_RANK_4 && !v) {
             int iso;
             rc = build_t3(&w, &iso);
             if (rc >= 0 && (iso || opts->rank == BST_RANK_3))
@@ -547,7 +578,7 @@ static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst
             else
                 free_t3(&w);
         }
-        int may_omit = w.kind == BST_FILE_TT4 && opts->recip_tol >= 0.0;
+        int may_omit = w.kind == BST_FILE_TT4 && opts->recip_tol >= 0.0 && !v;
         for (size_t ch = 0; rc >= 0 && may_omit && ch < w.nch; ch++) {
             double err = INFINITY; /* Tf(o, i) = Tb(a(i), a(o)) within recip_tol max|T|? */
             if (bst_layer_get(l, ch, BST_TB) && bst_layer_get(l, ch, BST_TF))
@@ -594,7 +625,7 @@ int bst_bsdf_write_fn(bst_ctx *ctx, const bst_layer *layer, bst_bsdf_write_sink 
     if (!s)
         return ctx ? BST_ENOMEM : BST_EINVAL;
     bsti_sink_init(s, fn, opaque);
-    int rc = write_layer(ctx, layer, s, opts);
+    int rc = write_layer(ctx, layer, s, opts, NULL);
     bsti_free(ctx, s);
     return rc;
 }
@@ -624,4 +655,89 @@ int bst_bsdf_write_path(bst_ctx *ctx, const bst_layer *layer, const char *path,
     }
     int wc = bst_output_commit(o);
     return wc < 0 ? wc : rc;
+}
+
+/* ------------------------------------------------------------------ variable resolution */
+
+int bst_bsdf_write_varres(bst_ctx *ctx, const bst_layer *coarse, const bst_varres *v, FILE *fp,
+                          const bst_bsdf_write_opts *opts)
+{
+    if (!ctx)
+        return BST_EINVAL;
+    if (!fp || !v)
+        return bsti_error(ctx, BST_EINVAL, "writing variable resolution: NULL stream or columns");
+    bsti_sink *s = bsti_malloc(ctx, sizeof *s);
+    if (!s)
+        return BST_ENOMEM;
+    bsti_sink_init(s, bsti_sink_file, fp);
+    int rc = write_layer(ctx, coarse, s, opts, v);
+    bsti_free(ctx, s);
+    if (rc >= 0 && (fflush(fp) != 0 || ferror(fp)))
+        rc = bsti_error(ctx, BST_EIO, "writing BSDF XML: write failed (%s)", strerror(errno));
+    return rc;
+}
+
+int bst_bsdf_write_varres_path(bst_ctx *ctx, const bst_layer *coarse, const bst_varres *v,
+                               const char *path, const bst_bsdf_write_opts *opts)
+{
+    bst_output *o;
+    int rc = bst_output_open(ctx, path, &o);
+    if (rc < 0)
+        return rc;
+    rc = bst_bsdf_write_varres(ctx, coarse, v, bst_output_file(o), opts);
+    if (rc < 0) {
+        bsti_error_prefix(ctx, "%s", path);
+        bst_output_abort(o);
+        return rc;
+    }
+    int wc = bst_output_commit(o);
+    return wc < 0 ? wc : rc;
+}
+
+int bst_varres_hemi_diff(bst_ctx *ctx, const bst_layer *coarse, const bst_varres *v, size_t ch,
+                         bst_comp c, double *diff, double *worst)
+{
+    if (!ctx)
+        return BST_EINVAL;
+    if (!coarse || !v || !diff || (c != BST_TF && c != BST_RF) || ch >= bst_layer_nchannels(coarse))
+        return bsti_error(ctx, BST_EINVAL, "variable resolution: NULL argument, channel %zu or "
+                          "component %s", ch, bst_comp_name(c));
+    const bst_basis *b = bst_layer_basis(coarse);
+    int kc = bst_basis_order(b);
+    if (bst_basis_kind_of(b) != BST_BASIS_SHIRLEY_CHIU || v->k <= kc || v->k > BST_K_MAX)
+        return bsti_error(ctx, BST_EINVAL, "variable resolution: fine order %d over a coarse "
+                          "basis of order %d", v->k, kc);
+    size_t Nc = bst_basis_size(b), G = (size_t)1 << v->k, N = G * G;
+    int sh = v->k - kc;
+    const bst_mat *const *fine = c == BST_TF ? v->tf : v->rf;
+    const bst_mat *f = fine ? fine[ch] : NULL;
+    double *hc = bsti_alloc_array(ctx, Nc, sizeof *hc), *hf = bsti_alloc_array(ctx, v->ncols + 1, sizeof *hf);
+    int rc = hc && hf ? BST_OK : BST_ENOMEM;
+    if (rc >= 0)
+        rc = bst_layer_hemispherical(ctx, coarse, ch, c, hc);
+    if (rc >= 0 && f) {
+        if (f->rows != N || f->cols != v->ncols)
+            rc = bsti_error(ctx, BST_ESIZE, "variable resolution: fine columns %zu x %zu, not %zu x %zu",
+                            f->rows, f->cols, N, v->ncols);
+        double lam = M_PI / (double)N;
+        double *w = rc >= 0 ? bsti_alloc_array(ctx, N, sizeof *w) : NULL;
+        if (rc >= 0 && !w)
+            rc = BST_ENOMEM;
+        for (size_t o = 0; w && o < N; o++)
+            w[o] = lam;
+        if (rc >= 0)
+            rc = bst_mat_col_weighted_sum(ctx, f, w, hf);
+        bsti_free(ctx, w);
+    }
+    double big = 0.0;
+    for (size_t q = 0; rc >= 0 && q < v->ncols; q++) {
+        size_t i = v->cols[q], Gc = G >> sh;
+        size_t ci = ((i / G) >> sh) * Gc + ((i % G) >> sh);
+        diff[q] = f ? hf[q] - hc[ci] : 0.0;
+        big = fmax(big, fabs(diff[q]));
+    }
+    if (rc >= 0 && worst)
+        *worst = big;
+    bsti_free(ctx, hc), bsti_free(ctx, hf);
+    return rc;
 }

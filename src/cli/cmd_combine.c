@@ -21,7 +21,10 @@ static const char help[] =
     "                         [--per-channel] [--spectral-tol X] [--glass-rule average|centre]\n"
     "                         [--strict] [--max-memory SIZE]\n"
     "                         [--incident THETA,PHI]...\n"
-    "                         [--incident-file FILE] [-v] -o OUT LAYER LAYER...\n"
+    "                         [--incident-file FILE]\n"
+    "                         [--fine-incident THETA,PHI]... [--fine-incident-file FILE]\n"
+    "                         [--sun-path LAT,LON,MERIDIAN [--azimuth DEG] [--sun-step MIN]]\n"
+    "                         [--coarse-k KC] [-v] -o OUT LAYER LAYER...\n"
     "Combines the layers, listed exterior first, with every inter-reflection between them, and\n"
     "writes the system's BSDF as BSDF XML.  When at least one layer is a pane with spectral data\n"
     "and every other layer is a file with Solar and Visible channels (WINDOW's dual-band\n"
@@ -65,6 +68,20 @@ static const char help[] =
     "                     (channel, comp, theta_in, phi_in, patch_in, patch_out, theta_out, phi_out,\n"
     "                     BSDF, DSF = BSDF cos theta_in); O(N^2) per direction instead of O(N^3)\n"
     "  --incident-file F  more such directions, one 'THETA PHI' a line (# comments; '-' = stdin)\n"
+    "Variable resolution (one tensor tree whose depth varies; needs -k K, the fine order):\n"
+    "  --fine-incident T,P  a front incidence direction (as --incident, repeatable) whose Tf and\n"
+    "                     Rf columns are computed and written at order K; every other incident\n"
+    "                     patch, and Tb and Rb, at order KC (the whole system at KC)\n"
+    "  --fine-incident-file F  more such directions, one 'THETA PHI' a line\n"
+    "  --coarse-k KC      the coarse order, 1 <= KC < K (default 4)\n"
+    "  --sun-path LAT,LON,MER  the fine directions are the sun positions of a year in front of a\n"
+    "                     vertical window, by gensky's formulas: latitude (north +), longitude and\n"
+    "                     time zone meridian (degrees WEST of Greenwich positive, as gensky -a -o -m)\n"
+    "  --azimuth DEG      the window's outward normal, from south, positive towards west (as\n"
+    "                     gensky's sun azimuth): 0 faces south (default), 90 west, -90 east\n"
+    "  --sun-step MIN     minutes of standard time between sun positions (default 60: every hour)\n"
+    "  The file's fine columns are checked against the coarse system: a fine patch whose\n"
+    "  hemispherical Tf or Rf differs from its coarse patch's by more than 0.02 is warned of\n"
     "  -v                 print the time and peak memory of reading, of each step (with its\n"
     "                     structures) and of writing\n"
     "  -o OUT             output file ('-' = standard output); a regular file is replaced\n"
@@ -156,6 +173,7 @@ static int write_absorptance(bst_ctx *ctx, const char *sub, const char *path, st
 }
 
 #define MAX_INCIDENT 100000 /* directions per run */
+#define DEFAULT_COARSE_K 4
 #define COLUMN_BATCH 64      /* iterated together: N x 64 blocks */
 
 /* --incident: the columns of the asked directions (light propagating along (theta, phi)) of the
@@ -280,20 +298,186 @@ static int read_directions(const char *sub, const char *path, double (**dirs)[2]
     return rc;
 }
 
+static int cmp_size(const void *a, const void *b)
+{
+    size_t x = *(const size_t *)a, y = *(const size_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* The fine directions' patches at order k, increasing, without repeats. */
+static int fine_patches(const char *sub, bst_ctx *ctx, int k, size_t ndirs, const double (*dirs)[2],
+                        size_t **cols, size_t *ncols)
+{
+    bst_basis *b;
+    *cols = NULL;
+    if (bst_basis_new_sc(ctx, k, &b) < 0)
+        return cli_fail_ctx(sub, NULL, ctx);
+    size_t *c = malloc((ndirs + 1) * sizeof *c), m = 0;
+    if (!c) {
+        bst_basis_free(b);
+        return cli_fail(sub, "out of memory");
+    }
+    for (size_t q = 0; q < ndirs; q++) { /* off cell boundaries onto the +x, +y side, as --incident */
+        double t = dirs[q][0] * M_PI / 180, p = dirs[q][1] * M_PI / 180;
+        double d[3] = {sin(t) * cos(p) + 1e-9, sin(t) * sin(p) + 1e-9, cos(t)};
+        c[q] = bst_basis_patch(b, d);
+    }
+    qsort(c, ndirs, sizeof *c, cmp_size);
+    for (size_t q = 0; q < ndirs; q++)
+        if (m == 0 || c[q] != c[m - 1])
+            c[m++] = c[q];
+    bst_basis_free(b);
+    *cols = c, *ncols = m;
+    return CLI_OK;
+}
+
+/* Variable resolution: the whole system at order kc, the Tf and Rf columns of the fine patches at
+ * order k (bst_stack_columns), their consistency checked, one file (bst_bsdf_write_varres).  Both
+ * parts combine band values per channel. */
+static int combine_varres(bst_ctx *ctx, const char *sub, struct cli_stack_args *args, int kc,
+                          size_t nspecs, char **specs, size_t ndirs, const double (*dirs)[2],
+                          const char *outpath, int verbose, int argc, char **argv)
+{
+    int k = args->basis.k;
+    size_t *cols = NULL, ncols = 0;
+    int rc = fine_patches(sub, ctx, k, ndirs, dirs, &cols, &ncols);
+    if (rc != CLI_OK)
+        return rc;
+    if (verbose)
+        fprintf(stderr, "bsdfstack %s: %zu fine directions in %zu patches of order %d over order %d\n",
+                sub, ndirs, ncols, k, kc);
+    /* the coarse system at kc */
+    struct cli_layers set = {0}, fset = {0};
+    struct cli_basis_choice choice = args->basis;
+    choice.k = kc;
+    choice.combining = 1;
+    bst_layer *sys = NULL;
+    double t0 = now_s();
+    rc = cli_layers_load(&set, ctx, sub, nspecs, specs, &choice, args->channels, 0, args->so.precision);
+    if (rc == CLI_OK) {
+        int st = bst_stack_combine_consume(ctx, set.n, set.layers, &args->so, &sys);
+        if (st < 0)
+            rc = cli_fail_ctx(sub, "combining", ctx);
+        else
+            cli_warn_ctx(sub, NULL, st, ctx);
+    }
+    if (rc == CLI_OK && verbose)
+        verbose_phase("the coarse system", t0);
+    /* the fine columns at k, front incidence, per channel of the coarse system */
+    size_t nch = sys ? bst_layer_nchannels(sys) : 0;
+    bst_mat **tf = calloc(2 * nch + 1, sizeof *tf), **rf = tf ? tf + nch : NULL;
+    if (rc == CLI_OK && !tf)
+        rc = cli_fail(sub, "out of memory");
+    unsigned want = args->so.comps ? args->so.comps : BST_COMP_ALL;
+    t0 = now_s();
+    if (rc == CLI_OK && (want & (BST_COMP_BIT(BST_TF) | BST_COMP_BIT(BST_RF)))) {
+        choice.k = k;
+        choice.combining = 0;
+        rc = cli_layers_load(&fset, ctx, sub, nspecs, specs, &choice, args->channels, 0,
+                             args->so.precision);
+        for (size_t ch = 0; rc == CLI_OK && ch < nch; ch++) {
+            bst_columns_opts o;
+            bst_columns_opts_init(&o);
+            const char *name = bst_layer_channel(sys, ch);
+            int st = bst_stack_columns(ctx, fset.n, (const bst_layer *const *)fset.layers, name,
+                                       ncols, cols, &o, &tf[ch], &rf[ch]);
+            if (st < 0) {
+                rc = cli_fail_ctx(sub, "fine columns", ctx);
+                break;
+            }
+            cli_warn_ctx(sub, NULL, st, ctx);
+            if (!(want & BST_COMP_BIT(BST_TF)))
+                bst_mat_free(tf[ch]), tf[ch] = NULL;
+            if (!(want & BST_COMP_BIT(BST_RF)))
+                bst_mat_free(rf[ch]), rf[ch] = NULL;
+            if (verbose)
+                fprintf(stderr, "bsdfstack %s: %s fine columns: %d sweeps, last change %.2e of the "
+                        "incident flux\n", sub, name, o.iterations, o.residual);
+        }
+        if (rc == CLI_OK && verbose)
+            verbose_phase("the fine columns", t0);
+    }
+    bst_varres v = {k, ncols, cols, (const bst_mat *const *)tf, (const bst_mat *const *)rf};
+    /* consistency: each fine column's hemispherical value against its coarse patch's */
+    double *diff = malloc((ncols + 1) * sizeof *diff);
+    if (rc == CLI_OK && !diff)
+        rc = cli_fail(sub, "out of memory");
+    for (size_t ch = 0; rc == CLI_OK && ch < nch; ch++)
+        for (int c = 0; rc == CLI_OK && c < 2; c++) {
+            bst_comp comp = c ? BST_RF : BST_TF;
+            double worst;
+            if (!(c ? rf : tf)[ch] || !bst_layer_get(sys, ch, comp))
+                continue;
+            if (bst_varres_hemi_diff(ctx, sys, &v, ch, comp, diff, &worst) < 0) {
+                rc = cli_fail_ctx(sub, "consistency", ctx);
+                break;
+            }
+            size_t beyond = 0, qw = 0;
+            for (size_t q = 0; q < ncols; q++) {
+                beyond += fabs(diff[q]) > BST_VARRES_HEMI_TOL;
+                qw = fabs(diff[q]) > fabs(diff[qw]) ? q : qw;
+            }
+            size_t G = (size_t)1 << k;
+            double cx = ((double)(cols[qw] / G) + 0.5) / (double)G, cy = ((double)(cols[qw] % G) + 0.5) / (double)G;
+            if (beyond || verbose)
+                fprintf(stderr, "bsdfstack %s: %s%s %s: fine columns' hemispherical value minus "
+                        "their coarse patch's: largest %+.4f (fine patch %zu, square (%.3f, %.3f)); "
+                        "%zu of %zu beyond %g\n", sub, beyond ? "warning: " : "",
+                        bst_layer_channel(sys, ch), bst_comp_name(comp), diff[qw], cols[qw], cx, cy,
+                        beyond, ncols, BST_VARRES_HEMI_TOL);
+        }
+    cli_layers_free(&fset);
+    t0 = now_s();
+    if (rc == CLI_OK)
+        rc = cli_write_varres(ctx, sub, sys, &v, outpath, args->reduce, argc, argv, &set);
+    if (rc == CLI_OK && verbose)
+        verbose_phase("wrote the file", t0);
+    for (size_t i = 0; tf && i < 2 * nch; i++)
+        bst_mat_free(tf[i]);
+    free(tf), free(diff), free(cols);
+    bst_layer_free(sys);
+    cli_layers_free(&set);
+    return rc;
+}
+
+/* --sun-path LAT,LON,MER into site; CLI_OK or a usage error. */
+static int parse_site(const char *sub, const char *s, bst_sun_site *site)
+{
+    char extra;
+    if (sscanf(s, "%lf,%lf,%lf%c", &site->latitude, &site->longitude, &site->meridian, &extra) != 3 ||
+        !isfinite(site->latitude) || !isfinite(site->longitude) || !isfinite(site->meridian))
+        return cli_usage(sub, "--sun-path %s: give LAT,LON,MERIDIAN in degrees", s);
+    if (fabs(site->latitude) > 90)
+        return cli_usage(sub, "--sun-path %s: latitude %g outside -90..90", s, site->latitude);
+    if (fabs(site->longitude) > 180 || fabs(site->meridian) > 180)
+        return cli_usage(sub, "--sun-path %s: longitude and meridian must lie in -180..180 (degrees "
+                         "west positive)", s);
+    return CLI_OK;
+}
+
 int cmd_combine(int argc, char **argv)
 {
-    enum { O_ABS = CLI_O_OWN, O_INCIDENT, O_INCFILE, O_HELP };
+    enum { O_ABS = CLI_O_OWN, O_INCIDENT, O_INCFILE, O_FINE, O_FINEFILE, O_COARSEK, O_SUN, O_AZI,
+           O_SUNSTEP, O_HELP };
     static const struct option longopts[] = {
         CLI_STACK_LONGOPTS, {"absorptance", required_argument, NULL, O_ABS},
         {"incident", required_argument, NULL, O_INCIDENT},
         {"incident-file", required_argument, NULL, O_INCFILE},
+        {"fine-incident", required_argument, NULL, O_FINE},
+        {"fine-incident-file", required_argument, NULL, O_FINEFILE},
+        {"coarse-k", required_argument, NULL, O_COARSEK}, {"sun-path", required_argument, NULL, O_SUN},
+        {"azimuth", required_argument, NULL, O_AZI}, {"sun-step", required_argument, NULL, O_SUNSTEP},
         {"help", no_argument, NULL, O_HELP}, {NULL, 0, NULL, 0}};
     const char *sub = "combine";
     const char *outpath = NULL, *abspath = NULL;
     int verbose = 0;
     double (*dirs)[2] = NULL, one[2];
     size_t ndirs = 0, cap = 0;
-    const char *dirfile = NULL;
+    const char *dirfile = NULL, *finefile = NULL;
+    double (*fine)[2] = NULL, azimuth = 0.0, sun_step = 60.0;
+    size_t nfine = 0, fcap = 0;
+    int kc = 0, sun = 0, azimuth_set = 0, step_set = 0;
+    bst_sun_site site = {0, 0, 0};
     struct cli_stack_args args;
     cli_stack_args_init(&args);
     optind = 1;
@@ -324,9 +508,63 @@ int cmd_combine(int argc, char **argv)
             dirs[ndirs][0] = one[0], dirs[ndirs++][1] = one[1];
             break;
         case O_INCFILE: dirfile = optarg; break;
+        case O_FINE: {
+            double t, p;
+            char extra;
+            if (sscanf(optarg, "%lf,%lf%c", &t, &p, &extra) == 2 && isfinite(t) && t >= 90 && t <= 180) {
+                free(dirs), free(fine);
+                return cli_usage(sub, "--fine-incident %s: the direction is behind the window "
+                                 "(theta >= 90); give front incidence, 0 <= THETA < 90", optarg);
+            }
+            if (cli_parse_incident(sub, optarg, one) != CLI_OK) {
+                free(dirs), free(fine);
+                return CLI_USAGE;
+            }
+            if (nfine == fcap) {
+                double (*d)[2] = nfine < MAX_INCIDENT ? realloc(fine, (fcap = fcap ? 2 * fcap : 16) * sizeof *fine) : NULL;
+                if (!d) {
+                    free(dirs), free(fine);
+                    return cli_fail(sub, "--fine-incident: too many directions");
+                }
+                fine = d;
+            }
+            fine[nfine][0] = one[0], fine[nfine++][1] = one[1];
+            break;
+        }
+        case O_FINEFILE: finefile = optarg; break;
+        case O_COARSEK:
+            if (cli_parse_int(optarg, &kc) != 0 || kc < BST_K_MIN || kc >= BST_K_MAX) {
+                free(dirs), free(fine);
+                return cli_usage(sub, "--coarse-k %s: give an order from %d to %d", optarg, BST_K_MIN,
+                                 BST_K_MAX - 1);
+            }
+            break;
+        case O_SUN:
+            if (parse_site(sub, optarg, &site) != CLI_OK) {
+                free(dirs), free(fine);
+                return CLI_USAGE;
+            }
+            sun = 1;
+            break;
+        case O_AZI:
+            if (cli_parse_double(optarg, &azimuth) != 0 || fabs(azimuth) > 360) {
+                free(dirs), free(fine);
+                return cli_usage(sub, "--azimuth %s: give the window's azimuth in degrees from south, "
+                                 "positive towards west (-360..360)", optarg);
+            }
+            azimuth_set = 1;
+            break;
+        case O_SUNSTEP:
+            if (cli_parse_double(optarg, &sun_step) != 0 || sun_step < 1 || sun_step > 1440) {
+                free(dirs), free(fine);
+                return cli_usage(sub, "--sun-step %s: give minutes from 1 to 1440", optarg);
+            }
+            step_set = 1;
+            break;
         case 'v': verbose = 1; break;
         case 'h':
-        case O_HELP: fputs(help, stdout); return CLI_OK;
+        case O_HELP: /* longer than a stdout buffer: a failed write is told with its own errno */
+            return fputs(help, stdout) == EOF ? cli_stdout_failed(sub, errno) : CLI_OK;
         case ':': return cli_usage(sub, "option %s needs a value", argv[optind - 1]);
         default: return cli_usage(sub, "unknown option '%s'", argv[optind - 1]);
         }
@@ -336,6 +574,56 @@ int cmd_combine(int argc, char **argv)
     if (argc - optind < 1)
         return cli_usage(sub, "no layers given");
     int rc = CLI_OK;
+    int varres = nfine || finefile || sun;
+    if (!sun && (azimuth_set || step_set))
+        rc = cli_usage(sub, "--azimuth and --sun-step go with --sun-path");
+    else if (!varres && kc)
+        rc = cli_usage(sub, "--coarse-k goes with --fine-incident, --fine-incident-file or --sun-path");
+    else if (varres && (ndirs || dirfile || abspath))
+        rc = cli_usage(sub, "--fine-incident and --sun-path do not go with %s",
+                       abspath ? "--absorptance" : "--incident");
+    else if (varres && args.basis.klems)
+        rc = cli_usage(sub, "variable resolution is for tensor trees: give -k K, not --klems");
+    else if (varres && !args.basis.k)
+        rc = cli_usage(sub, "--fine-incident and --sun-path need -k K, the fine order");
+    else if (varres && (kc ? kc : DEFAULT_COARSE_K) >= args.basis.k)
+        rc = cli_usage(sub, "--coarse-k %d must be below -k %d", kc ? kc : DEFAULT_COARSE_K,
+                       args.basis.k);
+    if (rc != CLI_OK) {
+        free(dirs), free(fine);
+        return rc;
+    }
+    if (varres) {
+        if (finefile)
+            rc = read_directions(sub, finefile, &fine, &nfine, &fcap);
+        if (rc == CLI_OK && sun) {
+            long m = bst_sun_path(&site, azimuth, sun_step, 0, NULL);
+            double (*d)[2] = m > 0 ? realloc(fine, (nfine + (size_t)m) * sizeof *fine) : NULL;
+            if (m <= 0)
+                rc = cli_fail(sub, "--sun-path: the sun never stands in front of a window facing "
+                              "azimuth %g at latitude %g", azimuth, site.latitude);
+            else if (!d)
+                rc = cli_fail(sub, "out of memory");
+            else {
+                fine = d;
+                bst_sun_path(&site, azimuth, sun_step, (size_t)m, fine + nfine);
+                nfine += (size_t)m;
+                if (verbose)
+                    fprintf(stderr, "bsdfstack %s: %ld sun positions of a year in front of the "
+                            "window\n", sub, m);
+            }
+        }
+        bst_ctx *vctx = rc == CLI_OK ? cli_ctx_new(sub) : NULL;
+        if (rc == CLI_OK && !vctx)
+            rc = CLI_FAIL;
+        if (rc == CLI_OK)
+            rc = combine_varres(vctx, sub, &args, kc ? kc : DEFAULT_COARSE_K, (size_t)(argc - optind),
+                                argv + optind, nfine, (const double (*)[2])fine, outpath, verbose,
+                                argc, argv);
+        bst_ctx_free(vctx);
+        free(dirs), free(fine);
+        return rc;
+    }
     if ((ndirs || dirfile) && abspath)
         rc = cli_usage(sub, "--incident and --absorptance do not go together");
     else if (abspath && strcmp(abspath, outpath) == 0)

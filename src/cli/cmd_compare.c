@@ -10,6 +10,7 @@
 
 #include "cli.h"
 #include "hemimap.h"
+#include "incident_tsv.h"
 #include "layers.h"
 
 static const char help[] =
@@ -39,7 +40,12 @@ static const char help[] =
     "  --fail-below GA    exit status 1 when any printed GA falls below GA\n"
     "  --map OUT          draw the local accordance LA = 100 (1 - |a - b| / (a + b)) of every exit\n"
     "                     cell for the first component and the first direction (PNG or SVG, by\n"
-    "                     the extension; as `plot` draws, +X right, +Y up, seen from +Z)\n";
+    "                     the extension; as `plot` draws, +X right, +Y up, seen from +Z)\n"
+    "Either of A and B may be the TSV that `combine --incident` writes: its columns are compared,\n"
+    "in the basis they were made in (told by their exit patches), against the other TSV's columns\n"
+    "of the same incident patches or the BSDF file's, with the same GA, FA and hemispherical\n"
+    "values; the directions default to the TSV's (A's when both are TSVs), --incident picks some\n"
+    "of them, and there is no summary over every incident patch.\n";
 
 #define MAX_DIRS 64
 
@@ -70,6 +76,142 @@ static int write_map(bst_ctx *ctx, const char *sub, const char *path, int svg, c
         return rc;
     }
     return cli_out_commit(&out, sub);
+}
+
+/* The BSDF file or glass spec loaded over the TSV's basis (its channel only). */
+static int file_side(const char *sub, bst_ctx *ctx, char *spec, const struct cli_tsv *t,
+                     const char *channel, unsigned comps, struct cli_layers *set, bst_layer **l)
+{
+    *l = NULL;
+    struct cli_basis_choice choice = {0};
+    static const char *const klems[] = {"LBNL/Klems Full", "full", "LBNL/Klems Half", "half",
+                                        "LBNL/Klems Quarter", "quarter"};
+    if (bst_basis_kind_of(t->basis) == BST_BASIS_SHIRLEY_CHIU)
+        choice.k = bst_basis_order(t->basis);
+    for (size_t i = 0; i < 6; i += 2)
+        if (bst_basis_kind_of(t->basis) == BST_BASIS_KLEMS && strcmp(bst_basis_name(t->basis), klems[i]) == 0)
+            choice.klems = klems[i + 1];
+    int rc = cli_layers_load(set, ctx, sub, 1, &spec, &choice, channel, comps, BST_DOUBLE);
+    if (rc == CLI_OK)
+        *l = set->layers[0];
+    return rc;
+}
+
+/* 1 when t holds a column of (channel, comp) at incident patch j. */
+static int has_column(const struct cli_tsv *t, const char *channel, bst_comp comp, size_t j)
+{
+    for (size_t r = 0; r < t->ncols; r++)
+        if (t->cols[r].comp == comp && t->cols[r].patch_in == j && strcmp(t->cols[r].channel, channel) == 0)
+            return 1;
+    return 0;
+}
+
+/* compare with a TSV of combine --incident on either side (help text above). */
+static int compare_tsv(const char *sub, bst_ctx *ctx, char **specs, const int is_tsv[2],
+                       const char *channel, unsigned comps, size_t ndirs, double (*dirs)[2],
+                       double fail_below, const char *mappath, int map_svg)
+{
+    struct cli_tsv tt[2];
+    memset(tt, 0, sizeof tt);
+    int first = is_tsv[0] ? 0 : 1, rc = CLI_OK;
+    for (int i = 0; rc == CLI_OK && i < 2; i++)
+        if (is_tsv[i])
+            rc = cli_tsv_read(sub, ctx, specs[i], &tt[i]);
+    if (rc != CLI_OK) {
+        cli_tsv_free(&tt[0]), cli_tsv_free(&tt[1]);
+        return rc;
+    }
+    const struct cli_tsv t = tt[first];
+    if (is_tsv[0] && is_tsv[1] && !bst_basis_equal(tt[0].basis, tt[1].basis))
+        rc = cli_fail(sub, "%s: columns over %zu patches, %s's over %zu: not one basis", specs[1],
+                      tt[1].n, specs[0], tt[0].n);
+    if (!channel)
+        channel = t.cols[0].channel;
+    struct cli_layers set[2] = {{0}, {0}};
+    bst_layer *side[2] = {NULL, NULL};
+    for (int i = 0; rc == CLI_OK && i < 2; i++)
+        rc = is_tsv[i] ? cli_tsv_layer(sub, ctx, &tt[i], channel, &side[i])
+                       : file_side(sub, ctx, specs[i], &t, channel, comps, &set[i], &side[i]);
+    /* the directions: those asked, else the TSV's own (first column of each incident patch) */
+    size_t n = t.n, m = 0;
+    double (*d)[2] = malloc((t.ncols + ndirs + 1) * sizeof *d);
+    double *ha = malloc(n * sizeof *ha), *hb = malloc(n * sizeof *hb), *la = malloc(n * sizeof *la);
+    if (rc == CLI_OK && (!d || !ha || !hb || !la))
+        rc = cli_fail(sub, "out of memory");
+    for (size_t q = 0; rc == CLI_OK && q < (ndirs ? ndirs : t.ncols); q++) {
+        double th = ndirs ? dirs[q][0] : t.cols[q].theta, ph = ndirs ? dirs[q][1] : t.cols[q].phi;
+        int dup = 0;
+        for (size_t r = 0; r < m; r++)
+            dup |= d[r][0] == th && d[r][1] == ph;
+        if (!dup && (ndirs || strcmp(t.cols[q].channel, channel) == 0))
+            d[m][0] = th, d[m++][1] = ph;
+    }
+    if (rc == CLI_OK && m == 0)
+        rc = cli_fail(sub, "%s: no column of channel '%s'", specs[first], channel);
+    if (rc == CLI_OK) {
+        if (bst_basis_kind_of(t.basis) == BST_BASIS_KLEMS)
+            printf("basis     %s, %zu patches per hemisphere (from the TSV)\n", bst_basis_name(t.basis), n);
+        else
+            printf("basis     Shirley-Chiu k = %d, %zu patches per hemisphere (from the TSV)\n",
+                   bst_basis_order(t.basis), n);
+        printf("A         %s\nB         %s\nchannel   %s\n", specs[0], specs[1], channel);
+        printf("GA: global accordance (Grobe 2017 eq. 7, %%); FA: flux accordance (share of the\n"
+               "scattered flux that A and B place alike, %%); hem:\n"
+               "directional-hemispherical value.  Directions: light propagation, degrees.\n");
+    }
+    int below = 0, shown = 0;
+    for (int cc = 0; cc < BST_NCOMP && rc == CLI_OK; cc++) {
+        bst_comp comp = (bst_comp)cc;
+        const bst_layer *a = side[0], *b = side[1];
+        /* the components the TSV(s) hold (and --only keeps) */
+        int in_t = 0;
+        for (size_t q = 0; q < t.ncols; q++)
+            in_t |= t.cols[q].comp == comp && strcmp(t.cols[q].channel, channel) == 0;
+        if (!in_t || (comps && !(comps & (1u << cc))))
+            continue;
+        if (bst_layer_hemispherical(ctx, a, 0, comp, ha) < 0 || bst_layer_hemispherical(ctx, b, 0, comp, hb) < 0) {
+            rc = cli_fail_ctx(sub, NULL, ctx);
+            break;
+        }
+        const char *sd = comp == BST_TF || comp == BST_RF ? "front" : "back";
+        printf("\n%s (%s incidence)%s%s\n", bst_comp_name(comp), sd, bst_layer_get(a, 0, comp) ? "" : ": absent from A",
+               bst_layer_get(b, 0, comp) ? "" : ": absent from B");
+        printf("  theta    phi  patch       GA      FA    hem A    hem B\n");
+        for (size_t q = 0; q < m && rc == CLI_OK; q++) {
+            double th = d[q][0] * M_PI / 180, ph = d[q][1] * M_PI / 180;
+            double v[3] = {sin(th) * cos(ph) + 1e-9, sin(th) * sin(ph) + 1e-9, cos(th)};
+            size_t j = bst_basis_patch(t.basis, v);
+            /* every TSV side must hold this column */
+            for (int i = 0; i < 2 && rc == CLI_OK; i++)
+                if (is_tsv[i] && !has_column(&tt[i], channel, comp, j))
+                    rc = cli_fail(sub, "%s: no %s %s column at (%g, %g) (patch %zu)", specs[i], channel,
+                                  bst_comp_name(comp), d[q][0], d[q][1], j);
+            double ga, fa;
+            if (rc == CLI_OK && bst_metrics_accordance(ctx, a, b, 0, comp, j, &ga, &fa, la) < 0)
+                rc = cli_fail_ctx(sub, NULL, ctx);
+            if (rc != CLI_OK)
+                break;
+            printf("%7.2f %6.2f %6zu %8.3f %7.2f %8.4f %8.4f\n", d[q][0], d[q][1], j, ga, fa, ha[j], hb[j]);
+            below |= ga < fail_below;
+            if (mappath && q == 0 && (rc = write_map(ctx, sub, mappath, map_svg, a, b, comp, j, d[0],
+                                                     specs, la)) == CLI_OK)
+                printf("  local accordance at (%g, %g) drawn in %s\n", d[0][0], d[0][1], mappath);
+        }
+        mappath = NULL;
+        shown++;
+    }
+    if (rc == CLI_OK && !shown)
+        rc = cli_fail(sub, "%s holds none of the components asked for", specs[first]);
+    if (rc == CLI_OK && below)
+        rc = cli_fail(sub, "GA below %g at a direction shown", fail_below);
+    free(d), free(ha), free(hb), free(la);
+    for (int i = 0; i < 2; i++) {
+        if (is_tsv[i])
+            bst_layer_free(side[i]);
+        cli_layers_free(&set[i]);
+    }
+    cli_tsv_free(&tt[0]), cli_tsv_free(&tt[1]);
+    return rc;
 }
 
 int cmd_compare(int argc, char **argv)
@@ -130,6 +272,19 @@ int cmd_compare(int argc, char **argv)
     }
     if (argc - optind != 2)
         return cli_usage(sub, argc - optind < 2 ? "two BSDFs expected, A and B" : "only two BSDFs, A and B");
+    char **tspecs = argv + optind;
+    int is_tsv[2] = {cli_tsv_detect(tspecs[0]), cli_tsv_detect(tspecs[1])};
+    if (is_tsv[0] || is_tsv[1]) {
+        if (choice.k || choice.klems)
+            return cli_usage(sub, "a TSV of combine --incident keeps its basis: no -k or --klems");
+        bst_ctx *tctx = cli_ctx_new(sub);
+        if (!tctx)
+            return CLI_FAIL;
+        int rc = compare_tsv(sub, tctx, tspecs, is_tsv, channel, comps, ndirs, dirs, fail_below,
+                             mappath, map_svg);
+        bst_ctx_free(tctx);
+        return rc;
+    }
     if (!ndirs) {
         static const double paper[][2] = {{0, 0}, {25, 90}, {45, 90}, {50, 90}, {45, 45}, {65, 90}};
         ndirs = sizeof paper / sizeof paper[0];

@@ -365,8 +365,10 @@ out:
     return rc;
 }
 
-int cli_write_layer(bst_ctx *ctx, const char *sub, const bst_layer *l, const char *path,
-                    double reduce, int argc, char **argv, const struct cli_layers *set)
+/* cli_write_layer, and cli_write_varres when v is set (l the coarse system). */
+static int write_any(bst_ctx *ctx, const char *sub, const bst_layer *l, const bst_varres *v,
+                     const char *path, double reduce, int argc, char **argv,
+                     const struct cli_layers *set)
 {
     size_t len = 64 + (set && set->description ? strlen(set->description) : 0);
     for (int i = 0; i < argc; i++)
@@ -400,7 +402,7 @@ int cli_write_layer(bst_ctx *ctx, const char *sub, const bst_layer *l, const cha
     struct cli_out out;
     int rc = cli_out_open(&out, sub, path);
     if (rc == CLI_OK) {
-        int st = bst_bsdf_write(ctx, l, out.fp, &wo);
+        int st = v ? bst_bsdf_write_varres(ctx, l, v, out.fp, &wo) : bst_bsdf_write(ctx, l, out.fp, &wo);
         if (st < 0) {
             rc = cli_out_fail_ctx(&out, sub, ctx);
         } else {
@@ -409,6 +411,19 @@ int cli_write_layer(bst_ctx *ctx, const char *sub, const bst_layer *l, const cha
     }
     free(desc);
     return rc;
+}
+
+int cli_write_layer(bst_ctx *ctx, const char *sub, const bst_layer *l, const char *path,
+                    double reduce, int argc, char **argv, const struct cli_layers *set)
+{
+    return write_any(ctx, sub, l, NULL, path, reduce, argc, argv, set);
+}
+
+int cli_write_varres(bst_ctx *ctx, const char *sub, const bst_layer *coarse, const bst_varres *v,
+                     const char *path, double reduce, int argc, char **argv,
+                     const struct cli_layers *set)
+{
+    return write_any(ctx, sub, coarse, v, path, reduce, argc, argv, set);
 }
 
 /* Channels the per-wavelength path can average over (bst_stack_combine_spectral_layers). */

@@ -84,6 +84,10 @@ void cli_layers_free(struct cli_layers *set);
 /* Write a layer as BSDF XML to path ("-" = stdout), atomically; reduce < 0: no reduction. */
 int cli_write_layer(bst_ctx *ctx, const char *sub, const bst_layer *l, const char *path,
                     double reduce, int argc, char **argv, const struct cli_layers *set);
+/* The same for a variable-resolution system (bst_bsdf_write_varres): coarse and fine columns v. */
+int cli_write_varres(bst_ctx *ctx, const char *sub, const bst_layer *coarse, const bst_varres *v,
+                     const char *path, double reduce, int argc, char **argv,
+                     const struct cli_layers *set);
 
 /* Whether the stack is combined wavelength by wavelength (1) or by band values per channel (0),
  * and why, into why[0..size-1]: per wavelength when per_channel is 0, at least one layer is a
