@@ -18,7 +18,10 @@
  *
  * OpenBLAS threads per rank: max(1, cores / W), cores being the CPUs the rank may run on and W
  * the ranks that combine stacks on its node (MPI_Comm_split_type SHARED; rank 0 does not count
- * when other ranks work).
+ * when other ranks work); OPENBLAS_NUM_THREADS, when set, wins.  Byte-identical outputs need the
+ * same thread count as the run compared with: OpenBLAS splits a product by its threads, and the
+ * last bit of some sums follows the split (measured: Klems full, 1 against 2 threads; not at
+ * k <= 3, whose matrices stay on one thread).
  *
  * Results travel as bytes of struct stack_result: every rank runs this program on one kind of
  * machine.  A rank that dies ends the whole job (MPI's default); --resume then finishes it. */
@@ -341,10 +344,12 @@ static int run(int argc, char **argv, int rank, int size)
     MPI_Allreduce(MPI_IN_PLACE, &has_zero, 1, MPI_INT, MPI_MAX, node);
     MPI_Comm_free(&node);
     int working = node_size - (has_zero && size > 1), per = batch_cores() / (working > 0 ? working : 1);
+    const char *env = getenv("OPENBLAS_NUM_THREADS");
 #ifdef HAVE_OPENBLAS_SET_NUM_THREADS
-    openblas_set_num_threads(per > 1 ? per : 1);
+    if (!env || !*env)
+        openblas_set_num_threads(per > 1 ? per : 1);
 #else
-    (void)per;
+    (void)per, (void)env;
 #endif
     /* a rank that could not set up cannot take part; the run cannot go on without it */
     int all_ok = rc == CLI_OK;
