@@ -77,7 +77,9 @@ static const char help[] =
     "      --resume      skip a stack whose OUT exists, is complete and holds the batch-key of\n"
     "                    the same line, layer files (size, time) and options\n"
     "\n"
-    "Other options: as for `bsdfstack combine`.\n";
+    "Other options: as for `bsdfstack combine`.\n"
+    "Over the ranks of an MPI job (bsdfstack-mpi, built when configure finds MPI):\n"
+    "  mpirun -n N bsdfstack-mpi [these options but -j] FILE   (bsdfstack-mpi --help)\n";
 
 /* Read FILE ('-' = standard input) into stack lines and distinct layer specs.  CLI_OK or one
  * error line. */
