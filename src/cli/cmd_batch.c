@@ -39,9 +39,7 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "batch_file.h"
-#include "cli.h"
-#include "layers.h"
+#include "batch.h"
 
 #ifdef HAVE_OPENBLAS_SET_NUM_THREADS
 void openblas_set_num_threads(int num_threads); /* OpenBLAS's cblas.h */
@@ -79,7 +77,9 @@ static const char help[] =
     "      --resume      skip a stack whose OUT exists, is complete and holds the batch-key of\n"
     "                    the same line, layer files (size, time) and options\n"
     "\n"
-    "Other options: as for `bsdfstack combine`.\n";
+    "Other options: as for `bsdfstack combine`.\n"
+    "Over the ranks of an MPI job (bsdfstack-mpi, built when configure finds MPI):\n"
+    "  mpirun -n N bsdfstack-mpi [these options but -j] FILE   (bsdfstack-mpi --help)\n";
 
 /* Read FILE ('-' = standard input) into stack lines and distinct layer specs.  CLI_OK or one
  * error line. */
@@ -99,42 +99,14 @@ static int parse_file(const char *sub, const char *path, struct batch_file *bf)
     return rc;
 }
 
-/* A stack's result, left in memory the workers share with the parent. */
-enum { ST_PENDING, ST_RUNNING, ST_OK, ST_FAILED, ST_SKIPPED };
-#define SUMMARY_CHANNELS 16 /* channels given in the summary; more are cut, with a note */
-struct stack_result {
-    atomic_int state;
-    pid_t worker;   /* the process that combined it (RUNNING: holds it) */
-    double seconds; /* wall clock */
-    long peak_kib;  /* getrusage(RUSAGE_SELF).ru_maxrss of that process at the stack's end */
-    int nch, more;  /* channels given, and whether there were more */
-    char channel[SUMMARY_CHANNELS][32];
-    double t[SUMMARY_CHANNELS], r[SUMMARY_CHANNELS]; /* NAN where not computed */
-    char warnings[512];
-};
+/* The results, in memory the workers share with the parent. */
 struct shared {
     atomic_size_t next;                       /* the next line to claim */
     atomic_size_t done, failed, skipped;      /* counts, for the progress line */
     struct stack_result res[];
 };
 
-/* What every stack needs, the same for all. */
-struct batch {
-    const char *sub, *path;
-    struct batch_line *lines;
-    size_t nlines;
-    char **specs;
-    size_t nspecs;
-    struct cli_layers all;
-    struct cli_stack_args args;
-    int argc;    /* the command as the metadata records it: without -j, --summary, --resume */
-    char **argv;
-    int resume;
-    int progress; /* draw the progress line after each stack (-j 1 on a terminal) */
-    struct timespec start;
-};
-
-static double since(const struct timespec *t0)
+double batch_since(const struct timespec *t0)
 {
     struct timespec t1;
     clock_gettime(CLOCK_MONOTONIC, &t1);
@@ -180,9 +152,14 @@ static uint64_t line_key(const struct batch *b, const struct batch_line *sl)
     return h;
 }
 
+void batch_key(const struct batch *b, const struct batch_line *sl, char *key, size_t size)
+{
+    snprintf(key, size, "batch-key: fnv1a64 %016" PRIx64, line_key(b, sl));
+}
+
 /* Whether path is complete and holds key_text in its header (where the writer puts the
  * metadata: the first 64 KiB). */
-static int up_to_date(const char *path, const char *key_text)
+int batch_up_to_date(const char *path, const char *key_text)
 {
     static const char last[] = "</WindowElement>\n";
     FILE *fp = fopen(path, "rb");
@@ -224,9 +201,25 @@ static void normal_tr(bst_ctx *ctx, const bst_basis *basis, const bst_layer *sys
     free(h);
 }
 
-/* Combine and write one stack, or skip it (--resume); ST_OK, ST_SKIPPED, or ST_FAILED after one
- * error line naming FILE:LINE.  The result goes to r. */
-static int run_stack(bst_ctx *ctx, const struct batch *b, const struct batch_line *sl,
+void batch_print_result(const struct batch *b, const struct batch_line *sl,
+                        const struct stack_result *r, int state)
+{
+    if (state == ST_SKIPPED) {
+        printf("%s\tskipped\n", sl->out);
+    } else {
+        char t[32] = "-", rr[32] = "-";
+        if (r->nch > 0 && !isnan(r->t[0]))
+            snprintf(t, sizeof t, "%.4f", r->t[0]);
+        if (r->nch > 0 && !isnan(r->r[0]))
+            snprintf(rr, sizeof rr, "%.4f", r->r[0]);
+        printf("%s\tT %s\tR %s\t%.2f s\n", sl->out, t, rr, r->seconds);
+    }
+    /* the stack itself is written: a lost summary line fails the run (main), not the stack */
+    if (fflush(stdout) != 0)
+        cli_stdout_failed(b->sub, errno);
+}
+
+int batch_run_stack(bst_ctx *ctx, const struct batch *b, const struct batch_line *sl,
                      struct stack_result *r)
 {
     const char *sub = b->sub;
@@ -234,11 +227,10 @@ static int run_stack(bst_ctx *ctx, const struct batch *b, const struct batch_lin
     struct timespec t0;
     clock_gettime(CLOCK_MONOTONIC, &t0);
     snprintf(where, sizeof where, "%s:%zu", b->path, sl->lineno);
-    snprintf(key, sizeof key, "batch-key: fnv1a64 %016" PRIx64, line_key(b, sl));
-    if (b->resume && up_to_date(sl->out, key)) {
-        printf("%s\tskipped\n", sl->out);
-        if (fflush(stdout) != 0)
-            cli_stdout_failed(sub, errno);
+    batch_key(b, sl, key, sizeof key);
+    if (b->resume && batch_up_to_date(sl->out, key)) {
+        if (!b->quiet)
+            batch_print_result(b, sl, r, ST_SKIPPED);
         return ST_SKIPPED;
     }
     struct cli_layers view = {.n = sl->n, .basis = b->all.basis};
@@ -282,19 +274,11 @@ static int run_stack(bst_ctx *ctx, const struct batch *b, const struct batch_lin
     }
     if (rc == CLI_OK)
         rc = cli_write_layer(ctx, sub, sys, sl->out, b->args.reduce, b->argc, b->argv, &view);
-    if (rc == CLI_OK) {
+    if (rc == CLI_OK)
         normal_tr(ctx, b->all.basis, sys, r);
-        char t[32] = "-", rr[32] = "-";
-        if (r->nch > 0 && !isnan(r->t[0]))
-            snprintf(t, sizeof t, "%.4f", r->t[0]);
-        if (r->nch > 0 && !isnan(r->r[0]))
-            snprintf(rr, sizeof rr, "%.4f", r->r[0]);
-        printf("%s\tT %s\tR %s\t%.2f s\n", sl->out, t, rr, since(&t0));
-        /* the stack itself is written: a lost summary line fails the run (main), not the stack */
-        if (fflush(stdout) != 0)
-            cli_stdout_failed(sub, errno);
-    }
-    r->seconds = since(&t0);
+    r->seconds = batch_since(&t0);
+    if (rc == CLI_OK && !b->quiet)
+        batch_print_result(b, sl, r, ST_OK);
     struct rusage ru;
     if (getrusage(RUSAGE_SELF, &ru) == 0)
         r->peak_kib = ru.ru_maxrss; /* KiB on Linux */
@@ -317,11 +301,10 @@ static void duration(char *buf, size_t size, double s)
 
 /* The progress line on stderr (a terminal): done, failed, elapsed, and the time left at the rate
  * of the stacks combined so far (skipped ones take none). */
-static void progress(const struct batch *b, const struct shared *sh, int last)
+void batch_progress(const struct batch *b, size_t done, size_t failed, size_t skipped, int last)
 {
-    size_t done = atomic_load(&sh->done), failed = atomic_load(&sh->failed);
-    size_t computed = done - atomic_load(&sh->skipped);
-    double elapsed = since(&b->start);
+    size_t computed = done - skipped;
+    double elapsed = batch_since(&b->start);
     char e[32], left[32] = "?";
     duration(e, sizeof e, elapsed);
     if (computed > 0)
@@ -334,6 +317,11 @@ static void progress(const struct batch *b, const struct shared *sh, int last)
     fflush(stderr);
 }
 
+static void progress(const struct batch *b, const struct shared *sh, int last)
+{
+    batch_progress(b, atomic_load(&sh->done), atomic_load(&sh->failed), atomic_load(&sh->skipped), last);
+}
+
 /* Claim lines from sh->next and combine them until none is left. */
 static void work(bst_ctx *ctx, const struct batch *b, struct shared *sh)
 {
@@ -344,7 +332,7 @@ static void work(bst_ctx *ctx, const struct batch *b, struct shared *sh)
         struct stack_result *r = &sh->res[i];
         r->worker = getpid();
         atomic_store(&r->state, ST_RUNNING);
-        int st = run_stack(ctx, b, &b->lines[i], r);
+        int st = batch_run_stack(ctx, b, &b->lines[i], r);
         if (st == ST_FAILED)
             bst_ctx_clear(ctx), atomic_fetch_add(&sh->failed, 1);
         if (st == ST_SKIPPED)
@@ -357,7 +345,7 @@ static void work(bst_ctx *ctx, const struct batch *b, struct shared *sh)
 }
 
 /* The CPUs this process may run on. */
-static int cores(void)
+int batch_cores(void)
 {
     cpu_set_t set;
     if (sched_getaffinity(0, sizeof set, &set) == 0 && CPU_COUNT(&set) > 0)
@@ -386,7 +374,7 @@ static void run_all(bst_ctx *ctx, struct batch *b, struct shared *sh, int jobs)
         }
         if (p == 0) {
 #ifdef HAVE_OPENBLAS_SET_NUM_THREADS
-            int per = cores() / jobs;
+            int per = batch_cores() / jobs;
             openblas_set_num_threads(per > 1 ? per : 1);
 #endif
             work(ctx, b, sh);
@@ -438,13 +426,13 @@ static void run_all(bst_ctx *ctx, struct batch *b, struct shared *sh, int jobs)
 }
 
 /* The --summary table (a header row, then one row per stack in file order). */
-static int write_summary(struct cli_out *o, const struct batch *b, const struct shared *sh)
+int batch_write_summary(struct cli_out *o, const struct batch *b, const struct stack_result *res)
 {
     static const char *const names[] = {"pending", "running", "ok", "failed", "skipped"};
     FILE *fp = o->fp;
     fputs("line\toutput\tstatus\tseconds\tpeak_rss_kib\tT_normal\tR_normal\twarnings\n", fp);
     for (size_t i = 0; i < b->nlines; i++) {
-        const struct stack_result *r = &sh->res[i];
+        const struct stack_result *r = &res[i];
         int st = atomic_load(&r->state);
         fprintf(fp, "%zu\t%s\t%s\t", b->lines[i].lineno, b->lines[i].out, names[st]);
         if (st == ST_OK || st == ST_FAILED)
@@ -498,7 +486,27 @@ static char **recorded_argv(int argc, char **argv, int *n)
     return v;
 }
 
-int cmd_batch(int argc, char **argv)
+int batch_report_failures(const struct batch *b, const struct stack_result *res, size_t failed)
+{
+    char lines[160] = "";
+    size_t len = 0, shown = 0;
+    for (size_t i = 0; i < b->nlines && len < sizeof lines; i++) {
+        if (atomic_load(&res[i].state) != ST_FAILED)
+            continue;
+        if (shown == 8 || len + 24 >= sizeof lines) {
+            len += (size_t)snprintf(lines + len, sizeof lines - len, ", ...");
+            break;
+        }
+        len += (size_t)snprintf(lines + len, sizeof lines - len, "%s %zu", shown ? "," : failed == 1 ? "line" : "lines",
+                                b->lines[i].lineno);
+        shown++;
+    }
+    return cli_fail(b->sub, "%s: %zu of %zu stacks failed (%s; reported above)", b->path, failed,
+                    b->nlines, lines);
+}
+
+int batch_options(int argc, char **argv, struct batch *b, int *jobs, const char **summary,
+                  const char *mpi_help)
 {
     enum { O_HELP = CLI_O_OWN, O_SUMMARY, O_RESUME };
     static const struct option longopts[] = {CLI_STACK_LONGOPTS,
@@ -507,42 +515,56 @@ int cmd_batch(int argc, char **argv)
                                              {"resume", no_argument, NULL, O_RESUME},
                                              {"help", no_argument, NULL, O_HELP},
                                              {NULL, 0, NULL, 0}};
-    const char *sub = "batch";
-    struct batch b;
-    memset(&b, 0, sizeof b);
-    b.sub = sub;
-    cli_stack_args_init(&b.args);
+    const char *sub = b->sub;
+    cli_stack_args_init(&b->args);
     /* before getopt permutes argv */
-    if (!(b.argv = recorded_argv(argc, argv, &b.argc)))
+    if (!(b->argv = recorded_argv(argc, argv, &b->argc)))
         return cli_fail(sub, "out of memory");
-    const char *summary = NULL;
-    int jobs = 1, c;
+    *summary = NULL;
+    *jobs = 1;
+    int c;
     optind = 1;
     opterr = 0;
     while ((c = getopt_long(argc, argv, ":k:hj:", longopts, NULL)) != -1) {
-        int shared = cli_stack_option(sub, c, optarg, &b.args);
+        int shared = cli_stack_option(sub, c, optarg, &b->args);
         if (shared == CLI_USAGE)
-            return free(b.argv), CLI_USAGE;
+            return CLI_USAGE;
         if (shared == CLI_OK)
             continue;
         switch (c) {
         case 'j':
-            if (cli_parse_int(optarg, &jobs) != 0 || jobs < 1)
-                return free(b.argv), cli_usage(sub, "-j %s: give a whole number of stacks at once, 1 or more", optarg);
+            if (mpi_help)
+                return cli_usage(sub, "-j %s: under MPI the ranks (mpirun -n N) combine the stacks at once", optarg);
+            if (cli_parse_int(optarg, jobs) != 0 || *jobs < 1)
+                return cli_usage(sub, "-j %s: give a whole number of stacks at once, 1 or more", optarg);
             break;
-        case O_SUMMARY: summary = optarg; break;
-        case O_RESUME: b.resume = 1; break;
+        case O_SUMMARY: *summary = optarg; break;
+        case O_RESUME: b->resume = 1; break;
         case 'h':
-        case O_HELP: fputs(help, stdout); return free(b.argv), CLI_OK;
-        case ':': return free(b.argv), cli_usage(sub, "option %s needs a value", argv[optind - 1]);
-        default: return free(b.argv), cli_usage(sub, "unknown option '%s'", argv[optind - 1]);
+        case O_HELP: fputs(mpi_help ? mpi_help : help, stdout); return -1;
+        case ':': return cli_usage(sub, "option %s needs a value", argv[optind - 1]);
+        default: return cli_usage(sub, "unknown option '%s'", argv[optind - 1]);
         }
     }
     if (argc - optind != 1)
-        return free(b.argv), cli_usage(sub, argc - optind < 1 ? "no batch file given" : "one batch file expected");
-    b.path = argv[optind];
+        return cli_usage(sub, argc - optind < 1 ? "no batch file given" : "one batch file expected");
+    b->path = argv[optind];
+    return CLI_OK;
+}
+
+int cmd_batch(int argc, char **argv)
+{
+    const char *sub = "batch";
+    struct batch b;
+    memset(&b, 0, sizeof b);
+    b.sub = sub;
+    const char *summary = NULL;
+    int jobs = 1;
+    int rc = batch_options(argc, argv, &b, &jobs, &summary, NULL);
+    if (rc != CLI_OK)
+        return free(b.argv), rc < 0 ? CLI_OK : rc;
     struct batch_file bf;
-    int rc = parse_file(sub, b.path, &bf);
+    rc = parse_file(sub, b.path, &bf);
     b.lines = bf.lines, b.nlines = bf.nlines, b.specs = bf.specs, b.nspecs = bf.nspecs;
     bst_ctx *ctx = rc == CLI_OK ? cli_ctx_new(sub) : NULL;
     if (rc == CLI_OK && !ctx)
@@ -573,10 +595,10 @@ int cmd_batch(int argc, char **argv)
         if (b.progress)
             progress(&b, sh, 1);
         size_t failed = atomic_load(&sh->failed);
-        if (summary && write_summary(&sum, &b, sh) != CLI_OK)
+        if (summary && batch_write_summary(&sum, &b, sh->res) != CLI_OK)
             rc = CLI_FAIL;
         if (failed)
-            rc = cli_fail(sub, "%s: %zu of %zu stacks failed (reported above)", b.path, failed, b.nlines);
+            rc = batch_report_failures(&b, sh->res, failed);
     }
     cli_out_abort(&sum);
     if (sh != MAP_FAILED)

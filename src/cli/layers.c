@@ -235,6 +235,127 @@ static int is_glass(const char *spec)
     return strncmp(spec, "glass:", 6) == 0;
 }
 
+/* Read the file a spec names (a trailing ^ dropped) into *file, printing the reader's warnings
+ * unless quiet.  Messages name `what`, or the file when what is NULL. */
+static int read_one(bst_ctx *ctx, const char *sub, const char *what, const char *spec,
+                    const bst_bsdf_read_opts *ro, int quiet, bst_bsdf **file)
+{
+    char *path = strdup(spec);
+    if (!path)
+        return cli_fail(sub, "out of memory");
+    size_t len = strlen(path);
+    if (len && path[len - 1] == '^')
+        path[len - 1] = '\0';
+    int rc = CLI_OK, st = bst_bsdf_read(ctx, path, ro, file);
+    if (st < 0)
+        rc = cli_fail_ctx(sub, what, ctx);
+    else if (quiet)
+        bst_ctx_clear(ctx);
+    else if (st == BST_WDATA)
+        warn_zero_components(sub, path, *file, ro->comps, ctx);
+    else
+        cli_warn_ctx(sub, what, st, ctx);
+    free(path);
+    return rc;
+}
+
+/* Steps 1 and 2 of loading: every file among specs read into files[i] (NULL for glass:), and the
+ * basis chosen (the finest tree order, else the first Klems file's basis, else k = 5, unless the
+ * choice names one), told in *pick; then the memory guard over all of them. */
+static int read_all(bst_ctx *ctx, const char *sub, size_t n, char **specs,
+                    const struct cli_basis_choice *choice, const bst_bsdf_read_opts *ro,
+                    bst_precision prec, bst_bsdf **files, bst_basis **basis, struct cli_basis_pick *pick)
+{
+    int kmax = 0, rc = CLI_OK;
+    long klems_file = -1;
+    for (size_t i = 0; i < n && rc == CLI_OK; i++) {
+        if (is_glass(specs[i]))
+            continue;
+        rc = read_one(ctx, sub, NULL, specs[i], ro, 0, &files[i]);
+        if (rc == CLI_OK) {
+            if (bst_bsdf_order(files[i]) > kmax)
+                kmax = bst_bsdf_order(files[i]);
+            if (klems_file < 0 && bst_bsdf_kind(files[i]) == BST_FILE_KLEMS)
+                klems_file = (long)i;
+        }
+    }
+    if (rc != CLI_OK)
+        return rc;
+    memset(pick, 0, sizeof *pick);
+    pick->file = -1;
+    if (choice->klems)
+        snprintf(pick->klems, sizeof pick->klems, "%s", choice->klems);
+    else if (choice->k)
+        pick->k = choice->k;
+    else if (kmax)
+        pick->k = kmax > BST_K_MAX ? BST_K_MAX : kmax;
+    else if (klems_file >= 0)
+        pick->file = klems_file;
+    else
+        pick->k = 5;
+    int st;
+    if (pick->klems[0])
+        st = bst_basis_new_klems(ctx, pick->klems, basis);
+    else if (pick->k)
+        st = bst_basis_new_sc(ctx, pick->k, basis);
+    else
+        st = bst_basis_copy(ctx, bst_bsdf_klems_basis(files[klems_file]), basis);
+    if (st < 0)
+        return cli_fail_ctx(sub, NULL, ctx);
+    return cli_memory_check(sub, *basis, n, files, ro->comps, prec, choice);
+}
+
+/* Step 3 for one spec: its layer over basis from the file read (file, freed here) or from the
+ * glass: spec, reversed where it ends in ^, named by the spec; a spectral pane not reversed also
+ * goes to *pane (else NULL).  Errors name `what`. */
+static int make_layer(bst_ctx *ctx, const char *sub, const char *what, const char *spec,
+                      bst_bsdf *file, const bst_basis *basis, size_t nch, const char **chnames,
+                      int at_centre, bst_layer **out, bst_glass **pane)
+{
+    size_t len = strlen(spec);
+    int flip = len && spec[len - 1] == '^', st;
+    bst_layer *l = NULL;
+    *out = NULL;
+    *pane = NULL;
+    if (file) {
+        st = bst_bsdf_to_layer(ctx, file, basis, &l);
+        bst_bsdf_free(file);
+    } else {
+        char *gspec = strndup(spec + 6, len - 6 - (size_t)flip);
+        bst_glass *g = NULL;
+        st = gspec ? bst_glass_parse(ctx, gspec, getenv("BSDFSTACK_GLASS_DIR"), &g) : BST_ENOMEM;
+        /* a spectral pane is averaged over any further band asked for (CIE-X, ...) */
+        for (size_t c = 0; st >= 0 && c < nch; c++)
+            if (bst_glass_find_channel(g, chnames[c]) < 0 && bst_glass_nwavelengths(g) &&
+                is_band(chnames[c]))
+                st = bst_glass_add_channel(ctx, g, chnames[c]);
+        if (st >= 0)
+            st = bst_glass_layer(ctx, g, basis, nch, nch ? chnames : NULL, at_centre, &l);
+        /* a pane with spectral data can also be evaluated per wavelength */
+        if (st >= 0 && !flip && bst_glass_nwavelengths(g) > 0)
+            *pane = g;
+        else
+            bst_glass_free(g);
+        free(gspec);
+    }
+    if (st < 0)
+        return cli_fail_ctx(sub, what, ctx);
+    if (flip) {
+        bst_layer *f;
+        st = bst_layer_flip(ctx, l, &f);
+        bst_layer_free(l);
+        if (st < 0) {
+            bst_glass_free(*pane);
+            *pane = NULL;
+            return cli_fail_ctx(sub, what, ctx);
+        }
+        l = f;
+    }
+    bst_layer_set_name(ctx, l, spec);
+    *out = l;
+    return CLI_OK;
+}
+
 int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_t n, char **specs,
                     const struct cli_basis_choice *choice, const char *channels,
                     unsigned comps, bst_precision prec)
@@ -260,100 +381,20 @@ int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_
         strcat(set->description, i ? ", " : " ");
         strcat(set->description, specs[i]);
     }
-    /* 1. read the files, remembering the finest tree order and the first Klems basis */
-    int kmax = 0;
-    const bst_basis *klems_file = NULL;
+    /* 1. read the files, 2. the target basis */
     bst_bsdf_read_opts ro = {.nchannels = nch, .channels = chnames, .comps = comps, .precision = prec};
-    for (size_t i = 0; i < n && rc == CLI_OK; i++) {
-        char *path = strdup(specs[i]);
-        size_t len = strlen(path);
-        if (len && path[len - 1] == '^')
-            path[len - 1] = '\0';
-        if (is_glass(path)) {
-            free(path);
-            continue;
-        }
-        int st = bst_bsdf_read(ctx, path, &ro, &files[i]);
-        if (st < 0)
-            rc = cli_fail_ctx(sub, NULL, ctx);
-        else if (st == BST_WDATA)
-            warn_zero_components(sub, path, files[i], comps, ctx);
-        else
-            cli_warn_ctx(sub, NULL, st, ctx);
-        free(path);
-        if (rc == CLI_OK) {
-            if (bst_bsdf_order(files[i]) > kmax)
-                kmax = bst_bsdf_order(files[i]);
-            if (!klems_file && bst_bsdf_kind(files[i]) == BST_FILE_KLEMS)
-                klems_file = bst_bsdf_klems_basis(files[i]);
-        }
-    }
-    if (rc != CLI_OK)
-        goto out;
-    /* 2. the target basis */
-    int st;
-    if (choice->klems)
-        st = bst_basis_new_klems(ctx, choice->klems, &set->basis);
-    else if (choice->k)
-        st = bst_basis_new_sc(ctx, choice->k, &set->basis);
-    else if (kmax)
-        st = bst_basis_new_sc(ctx, kmax > BST_K_MAX ? BST_K_MAX : kmax, &set->basis);
-    else if (klems_file)
-        st = bst_basis_copy(ctx, klems_file, &set->basis);
-    else
-        st = bst_basis_new_sc(ctx, 5, &set->basis);
-    if (st < 0) {
-        rc = cli_fail_ctx(sub, NULL, ctx);
-        goto out;
-    }
-    if ((rc = cli_memory_check(sub, set->basis, n, files, comps, prec, choice)) != CLI_OK)
+    struct cli_basis_pick pick;
+    if ((rc = read_all(ctx, sub, n, specs, choice, &ro, prec, files, &set->basis, &pick)) != CLI_OK)
         goto out;
     /* 3. every layer over that basis, reversed where asked */
     for (size_t i = 0; i < n && rc == CLI_OK; i++) {
-        size_t len = strlen(specs[i]);
-        int flip = len && specs[i][len - 1] == '^';
-        bst_layer *l = NULL;
-        if (files[i]) {
-            st = bst_bsdf_to_layer(ctx, files[i], set->basis, &l);
-            bst_bsdf_free(files[i]);
-            files[i] = NULL;
-        } else {
-            char *spec = strndup(specs[i] + 6, len - 6 - (size_t)flip);
-            bst_glass *g = NULL;
-            st = spec ? bst_glass_parse(ctx, spec, getenv("BSDFSTACK_GLASS_DIR"), &g) : BST_ENOMEM;
-            /* a spectral pane is averaged over any further band asked for (CIE-X, ...) */
-            for (size_t c = 0; st >= 0 && c < nch; c++)
-                if (bst_glass_find_channel(g, chnames[c]) < 0 && bst_glass_nwavelengths(g) &&
-                    is_band(chnames[c]))
-                    st = bst_glass_add_channel(ctx, g, chnames[c]);
-            if (st >= 0)
-                st = bst_glass_layer(ctx, g, set->basis, nch, nch ? chnames : NULL,
-                                     choice->at_centre, &l);
-            /* a pane with spectral data can also be evaluated per wavelength */
-            if (st >= 0 && !flip && bst_glass_nwavelengths(g) > 0) {
-                set->panes[i] = g;
-                set->npanes++;
-            } else {
-                bst_glass_free(g);
-            }
-            free(spec);
+        rc = make_layer(ctx, sub, specs[i], specs[i], files[i], set->basis, nch, chnames,
+                        choice->at_centre, &set->layers[i], &set->panes[i]);
+        files[i] = NULL;
+        if (rc == CLI_OK) {
+            set->npanes += set->panes[i] != NULL;
+            set->n++;
         }
-        if (st < 0) {
-            rc = cli_fail_ctx(sub, specs[i], ctx);
-            break;
-        }
-        if (flip) {
-            bst_layer *f;
-            if (bst_layer_flip(ctx, l, &f) < 0) {
-                bst_layer_free(l);
-                rc = cli_fail_ctx(sub, specs[i], ctx);
-                break;
-            }
-            bst_layer_free(l);
-            l = f;
-        }
-        bst_layer_set_name(ctx, l, specs[i]);
-        set->layers[set->n++] = l;
     }
 out:
     for (size_t i = 0; files && i < n; i++)
@@ -362,6 +403,95 @@ out:
     free(chcopy);
     if (rc != CLI_OK)
         cli_layers_free(set);
+    return rc;
+}
+
+int cli_layers_check(bst_ctx *ctx, const char *sub, size_t n, char **specs,
+                     const struct cli_basis_choice *choice, const char *channels,
+                     bst_precision prec, struct cli_basis_pick *pick, int *structure)
+{
+    bst_bsdf **files = calloc(n, sizeof *files);
+    char *chcopy = channels ? strdup(channels) : NULL;
+    const char *chnames[MAX_CH];
+    size_t nch = chcopy ? split(chcopy, chnames, MAX_CH) : 0;
+    if (!files || (channels && !chcopy)) {
+        free(files), free(chcopy);
+        return cli_fail(sub, "out of memory");
+    }
+    bst_bsdf_read_opts ro = {.nchannels = nch, .channels = chnames, .precision = prec};
+    bst_basis *basis = NULL;
+    int rc = read_all(ctx, sub, n, specs, choice, &ro, prec, files, &basis, pick);
+    for (size_t i = 0; i < n && rc == CLI_OK; i++) {
+        if (files[i]) {
+            /* the structure bst_bsdf_to_layer will give: dense above BST_SPARSE_MAX_FILL */
+            double fill = 0;
+            for (size_t ch = 0; ch < bst_bsdf_nchannels(files[i]); ch++)
+                for (int c = 0; c < BST_NCOMP; c++)
+                    if (bst_bsdf_fill(files[i], ch, (bst_comp)c) > fill)
+                        fill = bst_bsdf_fill(files[i], ch, (bst_comp)c);
+            structure[i] = fill > BST_SPARSE_MAX_FILL ? CLI_DENSE : fill > 0 ? CLI_SPARSE : CLI_DIAGONAL;
+            continue;
+        }
+        /* a pane: made once here (cheap: one diagonal per component) so that its errors show now */
+        bst_layer *l = NULL;
+        bst_glass *pane = NULL;
+        rc = make_layer(ctx, sub, specs[i], specs[i], NULL, basis, nch, chnames, choice->at_centre,
+                        &l, &pane);
+        bst_layer_free(l);
+        bst_glass_free(pane);
+        structure[i] = CLI_DIAGONAL;
+    }
+    for (size_t i = 0; i < n; i++)
+        bst_bsdf_free(files[i]);
+    free(files);
+    free(chcopy);
+    bst_basis_free(basis);
+    return rc;
+}
+
+int cli_basis_make(bst_ctx *ctx, const char *sub, const struct cli_basis_pick *pick, char **specs,
+                   const char *channels, bst_precision prec, bst_basis **basis)
+{
+    int st;
+    *basis = NULL;
+    if (pick->klems[0])
+        st = bst_basis_new_klems(ctx, pick->klems, basis);
+    else if (pick->k)
+        st = bst_basis_new_sc(ctx, pick->k, basis);
+    else {
+        char *chcopy = channels ? strdup(channels) : NULL;
+        const char *chnames[MAX_CH];
+        size_t nch = chcopy ? split(chcopy, chnames, MAX_CH) : 0;
+        bst_bsdf_read_opts ro = {.nchannels = nch, .channels = chnames, .precision = prec};
+        bst_bsdf *file = NULL;
+        int rc = channels && !chcopy ? cli_fail(sub, "out of memory")
+                                     : read_one(ctx, sub, NULL, specs[pick->file], &ro, 1, &file);
+        free(chcopy);
+        if (rc != CLI_OK)
+            return rc;
+        st = bst_basis_copy(ctx, bst_bsdf_klems_basis(file), basis);
+        bst_bsdf_free(file);
+    }
+    return st < 0 ? cli_fail_ctx(sub, NULL, ctx) : CLI_OK;
+}
+
+int cli_layer_load(bst_ctx *ctx, const char *sub, const char *what, const char *spec,
+                   const bst_basis *basis, const struct cli_basis_choice *choice,
+                   const char *channels, bst_precision prec, bst_layer **layer, bst_glass **pane)
+{
+    char *chcopy = channels ? strdup(channels) : NULL;
+    const char *chnames[MAX_CH];
+    size_t nch = chcopy ? split(chcopy, chnames, MAX_CH) : 0;
+    bst_bsdf_read_opts ro = {.nchannels = nch, .channels = chnames, .precision = prec};
+    bst_bsdf *file = NULL;
+    int rc = channels && !chcopy ? cli_fail(sub, "out of memory") : CLI_OK;
+    *layer = NULL;
+    *pane = NULL;
+    if (rc == CLI_OK && !is_glass(spec))
+        rc = read_one(ctx, sub, what, spec, &ro, 1, &file);
+    if (rc == CLI_OK)
+        rc = make_layer(ctx, sub, what, spec, file, basis, nch, chnames, choice->at_centre, layer, pane);
+    free(chcopy);
     return rc;
 }
 

@@ -81,6 +81,32 @@ int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_
                     unsigned comps, bst_precision prec);
 void cli_layers_free(struct cli_layers *set);
 
+/* How the batch's basis was chosen, so that another process (an MPI rank) makes the same one:
+ * a Shirley-Chiu order, a named Klems basis, or the Klems basis of the file specs[file]. */
+struct cli_basis_pick {
+    int k;         /* 0 when not this */
+    char klems[8]; /* "full", "half", "quarter", or "" */
+    long file;     /* -1 when not this */
+};
+/* The structure a layer will have once loaded (glass: diagonal; a file: dense when a component
+ * fills more than BST_SPARSE_MAX_FILL of its domain, as bst_bsdf_to_layer decides). */
+enum { CLI_DIAGONAL, CLI_SPARSE, CLI_DENSE };
+/* Check every spec as cli_layers_load would load it (all components), without resampling the
+ * files: read each file, choose the basis (told in *pick), run the memory guard over all, make
+ * each pane once; structure[i] gets the structure of layer i.  CLI_OK, or one error line
+ * printed.  The reader's warnings are printed here. */
+int cli_layers_check(bst_ctx *ctx, const char *sub, size_t n, char **specs,
+                     const struct cli_basis_choice *choice, const char *channels,
+                     bst_precision prec, struct cli_basis_pick *pick, int *structure);
+/* The basis *pick names (specs: those it was picked from). */
+int cli_basis_make(bst_ctx *ctx, const char *sub, const struct cli_basis_pick *pick, char **specs,
+                   const char *channels, bst_precision prec, bst_basis **basis);
+/* One spec's layer over basis, as cli_layers_load makes it (all components; the reader's
+ * warnings are not printed again), and its spectral pane or NULL.  Errors name `what`. */
+int cli_layer_load(bst_ctx *ctx, const char *sub, const char *what, const char *spec,
+                   const bst_basis *basis, const struct cli_basis_choice *choice,
+                   const char *channels, bst_precision prec, bst_layer **layer, bst_glass **pane);
+
 /* Write a layer as BSDF XML to path ("-" = stdout), atomically; reduce < 0: no reduction. */
 int cli_write_layer(bst_ctx *ctx, const char *sub, const bst_layer *l, const char *path,
                     double reduce, int argc, char **argv, const struct cli_layers *set);
