@@ -417,7 +417,7 @@ class BSDF:
         opts.name, opts.description, opts.date = keep
         with self._ctx as c, _Progress(self._ctx, progress):
             self._ctx.check(lib.bst_bsdf_write_path(c, self._layer(), cstr(os.fspath(path)),
-                                                    ctypes.byref(opts)), os.fspath(path))
+                                                    ctypes.byref(opts)))
 
     def _description(self):
         return None
