@@ -510,7 +510,25 @@ class File(_Source, BSDF):
         with self._ctx as c, _Progress(self._ctx, progress):
             st = lib.bst_bsdf_read(c, cstr(self.path), ctypes.byref(opts), ctypes.byref(out))
             self._bsdf = out.value
+            if st == _lib.BST_WDATA and self._only_reciprocity(opts.comps):
+                lib.bst_ctx_clear(c)  # what every TensorTree4 file expects: no warning
+                st = 0
             self._ctx.check(st)
+
+    def _only_reciprocity(self, mask):
+        """Whether the reader completed nothing but a transmission from the other side's (the
+        program is silent about that; a component taken as zero, negative values read as 0 or
+        a tree averaged to k = 7 stay warnings)."""
+        b = self._bsdf
+        if lib.bst_bsdf_negatives(b) or lib.bst_bsdf_depth(b) != lib.bst_bsdf_order(b):
+            return False
+        for ch in range(lib.bst_bsdf_nchannels(b)):
+            for c in range(4):
+                if mask and not mask & (1 << c) or lib.bst_bsdf_stored(b, ch, c):
+                    continue
+                if c not in (0, 2) or not lib.bst_bsdf_stored(b, ch, 2 - c):
+                    return False
+        return True
 
     def __del__(self):
         self._cache = {}

@@ -138,6 +138,8 @@ _PROTOTYPES = {
     "bst_bsdf_free": (None, [c_void_p]),
     "bst_bsdf_kind": (c_int, [c_void_p]),
     "bst_bsdf_order": (c_int, [c_void_p]),
+    "bst_bsdf_depth": (c_int, [c_void_p]),
+    "bst_bsdf_negatives": (c_size_t, [c_void_p]),
     "bst_bsdf_klems_basis": (c_void_p, [c_void_p]),
     "bst_bsdf_nchannels": (c_size_t, [c_void_p]),
     "bst_bsdf_channel": (c_char_p, [c_void_p, c_size_t]),
@@ -167,6 +169,7 @@ BST_ZERO, BST_DIAG, BST_SPARSE, BST_DENSE = 0, 1, 2, 3
 BST_DOUBLE, BST_FLOAT = 0, 1
 BST_BASIS_SHIRLEY_CHIU, BST_BASIS_KLEMS = 0, 1
 BST_FILE_KLEMS = 0
+BST_WDATA = 3
 BST_K_MIN, BST_K_MAX = 1, 7
 COMPS = ("Tf", "Rf", "Tb", "Rb")
 

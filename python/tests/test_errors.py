@@ -124,3 +124,16 @@ def test_strict_energy_error(pane):
         bsdfstack.combine([pane, blind], klems="quarter")
     with pytest.raises(bsdfstack.Error, match="T \\+ R"):
         bsdfstack.combine([pane, blind], klems="quarter", strict=True)
+
+
+def test_reader_warnings(tmp_path):
+    # a TensorTree4 file's missing Tf comes from reciprocity silently (as the program); a
+    # reflection taken as zero is a warning
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        bsdfstack.load(ref("L_blind0_t4k5.xml"), only="Tf")
+    path = tmp_path / "tf.xml"
+    bsdfstack.combine(["glass:clear-6mm"], klems="quarter", only="Tf").write(path)
+    with pytest.warns(bsdfstack.LibraryWarning, match="Rf as zero"):
+        bsdfstack.load(path)
