@@ -753,7 +753,7 @@ class Stack(BSDF):
 
     def __init__(self, ptr, ctx, entries, held, spectral, panes, plan, opts, sopts, basis):
         BSDF.__init__(self, ptr, ctx)
-        self.layers = tuple(e.name for e in entries)
+        self.layers = tuple(e.name or "BSDF" for e in entries)
         self.spectral = spectral
         self.plan = plan
         self._held, self._panes = held, panes
@@ -820,8 +820,8 @@ def _default_basis(ctx, sources):
         if f.file_kind == "Klems":
             return _Basis.copy(ctx, lib.bst_bsdf_klems_basis(f._bsdf))
     for s in sources:
-        if isinstance(s, BSDF):
-            return _Basis.copy(ctx, lib.bst_layer_basis(s._layer()))
+        if isinstance(s, BSDF) and not isinstance(s, _Source):
+            return _Basis.copy(ctx, lib.bst_layer_basis(s._ptr))
     return _Basis.make(ctx, 5)
 
 
