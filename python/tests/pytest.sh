@@ -1,0 +1,18 @@
+#!/bin/sh
+# pytest.sh - make check's entry to the Python package's tests (python/tests/test_*.py): runs
+# pytest with the python3 configure found ($BST_PYTHON) and the build tree's package first on
+# PYTHONPATH ($BST_PYTHONPATH); exit 77 (skipped) when python3, numpy or pytest is missing.
+py=${BST_PYTHON:-}
+if [ -z "$py" ] || [ "$py" = : ] || ! "$py" -c 'import numpy, pytest' 2>/dev/null; then
+    echo "skipped: no python3 with numpy and pytest (configure --disable-python, or install"
+    echo "python3-numpy and python3-pytest)"
+    exit 77
+fi
+here=$(cd "$(dirname "$0")" && pwd)
+PYTHONPATH=$BST_PYTHONPATH${PYTHONPATH:+:$PYTHONPATH}
+PYTHONDONTWRITEBYTECODE=1
+# small matrices gain nothing from OpenBLAS threads, which on a loaded 2-core machine made the
+# 1,000-combination test 3x slower; the program the tests compare with inherits the same
+OPENBLAS_NUM_THREADS=${OPENBLAS_NUM_THREADS:-1}
+export PYTHONPATH PYTHONDONTWRITEBYTECODE OPENBLAS_NUM_THREADS
+exec "$py" -m pytest -q -p no:cacheprovider "$here"

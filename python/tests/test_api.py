@@ -1,0 +1,149 @@
+"""The package's own promises: numpy views on the library's buffers and their lifetime, the index
+convention (column = incident patch), closed forms (two clear panes), energy balance, write and
+read back, layers reused across stacks, progress, and GA / LA against eq. 7 and 8 computed here
+from the matrices."""
+import gc
+
+import numpy as np
+import pytest
+
+import bsdfstack
+from conftest import ref, rel_max
+
+
+def test_dense_matrix_is_a_view_that_keeps_its_owner(pane, diffuser):
+    s = bsdfstack.combine([pane, diffuser, pane], k=3)
+    assert s.structure("Tf") == "dense"
+    a, b = s.matrix("Tf"), s.matrix("Tf")
+    assert np.shares_memory(a, b)          # no copy: both are the library's buffer
+    assert a.shape == (64, 64) and a.dtype == np.float64 and a.flags.f_contiguous
+    assert not a.flags.writeable
+    copy = np.array(a)
+    base = a.base
+    while not isinstance(base, bsdfstack.BSDF) and hasattr(base, "owner"):
+        base = base.owner
+    assert base is s
+    del s, b, base
+    gc.collect()
+    junk = [bsdfstack.combine([pane, diffuser], k=3).matrix("Rb") for _ in range(3)]  # reuse heap
+    assert np.array_equal(a, copy)         # still the same buffer, still alive
+    del junk
+
+
+def test_single_precision_view_is_float32(pane, diffuser):
+    s = bsdfstack.combine([pane, diffuser], k=2, precision="single")
+    m = s.matrix("Tf")
+    assert m.dtype == np.float32 and m.shape == (16, 16)
+    d = bsdfstack.combine([pane, diffuser], k=2)
+    assert rel_max(m, d.matrix("Tf")) < 1e-5
+
+
+def test_column_is_the_incident_patch():
+    # an asymmetric blind: hemispherical T of incident patch j is sum_i Lambda_i M(i, j) (the
+    # column), not the row
+    b = bsdfstack.load(ref("L_blind45_t4k5_klems.xml"))
+    m, lam = np.array(b.matrix("Tf")), b.lambda_()
+    h = b.hemispherical("Tf")
+    assert np.allclose(lam @ m, h, rtol=1e-12, atol=1e-14)
+    assert np.abs(m @ lam - h).max() > 1e-2
+    # and hemispherical(theta, phi) is that of the patch of the propagation direction
+    j = b.patch(45, 90)
+    assert b.hemispherical("Tf", 45, 90) == h[j]
+    th, ph = b.directions()
+    assert abs(th[j] - 45) < 8 and abs(ph[j] - 90) < 13
+
+
+def test_two_panes_closed_form():
+    # diagonal panes: per patch T = T1 T2 / (1 - Rb1 Rf2), R = Rf1 + T1 Tb1 Rf2 / (1 - Rb1 Rf2)
+    g1, g2 = bsdfstack.glass("clear-6mm"), bsdfstack.glass("d=4mm,n=1.6,tn=0.8")
+    s = bsdfstack.combine([g1, g2], k=4, per_channel=True)
+    a, b = g1.layer(k=4), g2.layer(k=4)
+    assert s.structure("Tf") == "diagonal" and a.structure("Tf") == "diagonal"
+    m = s.matrix("Tf")
+    assert np.count_nonzero(m - np.diag(np.diag(m))) == 0
+    for ch in s.channels:
+        h = {c: (a.hemispherical(c, channel=ch), b.hemispherical(c, channel=ch))
+             for c in ("Tf", "Rf", "Tb", "Rb")}
+        den = 1 - h["Rb"][0] * h["Rf"][1]
+        assert np.allclose(s.hemispherical("Tf", channel=ch), h["Tf"][0] * h["Tf"][1] / den,
+                           rtol=1e-12, atol=0)
+        assert np.allclose(s.hemispherical("Rf", channel=ch),
+                           h["Rf"][0] + h["Tf"][0] * h["Tb"][0] * h["Rf"][1] / den,
+                           rtol=1e-12, atol=0)
+
+
+def test_diagonal_copy_and_energy_balance(pane, diffuser):
+    g = pane.layer(k=3)
+    d = g.matrix("Tf")
+    assert np.allclose(np.diag(d) * g.lambda_(), g.hemispherical("Tf"), rtol=1e-14)
+    s = bsdfstack.combine([pane, diffuser, pane], k=3, absorptance=True)
+    front, back = s.absorptance()
+    assert front.shape == (3, 64) and (front >= 0).all()
+    assert np.abs(s.hemispherical("Tf") + s.hemispherical("Rf") + front.sum(0) - 1).max() < 1e-9
+    assert np.abs(s.hemispherical("Tb") + s.hemispherical("Rb") + back.sum(0) - 1).max() < 1e-9
+
+
+def test_spectral_absorptance_balance():
+    s = bsdfstack.combine(["glass:nfrc-102", "glass:nfrc-103"], k=2)
+    assert s.spectral
+    for ch in s.channels:
+        f, b = s.absorptance(ch)
+        assert np.abs(s.hemispherical("Tf", channel=ch) + s.hemispherical("Rf", channel=ch)
+                      + f.sum(0) - 1).max() < 1e-9
+
+
+def test_write_and_read_back(tmp_path, pane, diffuser):
+    s = bsdfstack.combine([pane, diffuser, pane], k=3)
+    s.write(tmp_path / "s.xml", reduce=None)
+    back = bsdfstack.load(tmp_path / "s.xml")
+    for c in ("Tf", "Rf", "Tb", "Rb"):
+        assert rel_max(back.matrix(c), s.matrix(c)) < 2e-7
+    k = bsdfstack.combine([pane, diffuser], klems="half")
+    k.write(tmp_path / "k.xml")
+    assert rel_max(bsdfstack.load(tmp_path / "k.xml").matrix("Rb"), k.matrix("Rb")) < 1e-15
+
+
+def test_layers_load_once_and_serve_many_stacks(pane, diffuser):
+    a = bsdfstack.combine([pane, diffuser, pane], k=3)
+    b = bsdfstack.combine([pane, diffuser], k=2)
+    c = bsdfstack.combine([pane, diffuser, pane], k=3)
+    assert np.array_equal(a.matrix("Tf"), c.matrix("Tf"))
+    assert b.size == 16
+    # the layer over k = 3 was made once: the same object serves both stacks
+    assert a._held[1] is c._held[1] and a._held[0] is a._held[2]
+
+
+def test_combined_stack_enters_a_stack_over_its_basis(pane, diffuser):
+    inner = bsdfstack.combine([pane, diffuser], k=2)
+    whole = bsdfstack.combine([inner, pane], k=2)
+    direct = bsdfstack.combine([pane, diffuser, pane], k=2)
+    assert rel_max(whole.matrix("Tf"), direct.matrix("Tf")) < 1e-12
+
+
+def test_progress_callback(pane, diffuser):
+    seen = []
+    bsdfstack.combine([pane, diffuser, pane], k=3, progress=lambda f, l: seen.append((f, l)))
+    assert seen and all(0 <= f <= 1 and isinstance(l, str) for f, l in seen)
+
+    def boom(f, l):
+        raise KeyError("stop")
+    with pytest.raises(KeyError):
+        bsdfstack.combine([pane, diffuser, pane], k=3, progress=boom)
+
+
+def test_accordance_is_eq_7_and_8(diffuser):
+    klems = bsdfstack.load(ref("L_diffuser_t3k5_klems.xml"))
+    r = bsdfstack.compare(diffuser, klems, k=3, incident=[(45, 90), (0, 0), (60, 0)], only="Tf,Rb")
+    a, b = diffuser.resample(k=3), klems.resample(k=3)
+    lam = a.lambda_()
+    assert r.components == ("Tf", "Rb")
+    for c in r.components:
+        for q, j in enumerate(r.patches):
+            x, y = np.array(a.matrix(c))[:, j], np.array(b.matrix(c))[:, j]
+            ga = 100 * (1 - (lam * (x - y) ** 2).sum() / (lam * (x + y) ** 2).sum())
+            s = x + y
+            la = np.where(s > 0, 100 * (1 - np.abs(x - y) / np.where(s > 0, s, 1)), 100)
+            assert abs(r.ga[c][q] - ga) < 1e-9
+            assert np.allclose(r.la[c][q], la, rtol=0, atol=1e-9)
+            assert r.ga_all[c][j] == r.ga[c][q]
+        assert 90 < r.ga[c].min() < 100   # two genuinely different files
