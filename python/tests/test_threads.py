@@ -11,7 +11,7 @@ import bsdfstack
 
 def test_thread_runs_during_a_combination(pane, diffuser):
     layer = diffuser.resample(k=5)
-    bsdfstack.combine([pane, layer, pane], k=5, only="Tf")     # warm up (glass layer made)
+    bsdfstack.combine([pane, layer, pane], k=5)     # warm up (glass layer made)
     stamps, stop = [], threading.Event()
 
     def ticker():
@@ -24,22 +24,26 @@ def test_thread_runs_during_a_combination(pane, diffuser):
         calls = []
         for _ in range(2):    # the library's own time, measured from inside the progress hook
             marks = []
-            bsdfstack.combine([pane, layer, pane], k=5, only="Tf",
+            bsdfstack.combine([pane, layer, pane], k=5,
                               progress=lambda f, l: marks.append(time.monotonic()))
-            calls.append((marks[0], marks[-1]))
+            calls.append(marks)
     finally:
         stop.set()
         t.join()
-    # between the first and last progress report the combining thread is inside the library
-    # (a k = 5 solve, most of a second); had it held the GIL there, the ticker would have
-    # stamped nothing for about that long (it may run a switch interval, 5 ms, inside a
-    # callback).  Released, the ticker's longest pause is scheduling noise.
-    for start, end in calls:
-        assert end - start > 0.1, "combination too short to tell"
-        inside = [start] + [s for s in stamps if start < s < end] + [end]
-        pause = max(np.diff(inside))
-        assert pause < 0.5 * (end - start), \
-            "the ticker paused %.3f s of the library's %.3f s" % (pause, end - start)
+    # Between two progress reports the combining thread is inside the library and runs no Python
+    # (all four components at k = 5: about half a second between the two reports).  Had it held
+    # the GIL there, the ticker could stamp nothing in that stretch past the first switch
+    # interval (5 ms) after the report.  Released, the ticker stamps in it; on a loaded machine
+    # it may wait for a core, but not for the whole stretch, so the test asks for one stamp in
+    # the longest stretch of either call, not for an even rhythm.
+    stamped = []
+    for marks in calls:
+        gaps = np.diff(marks)
+        i = int(np.argmax(gaps))
+        a, b = marks[i] + 0.02, marks[i + 1]
+        assert b - a > 0.1, "no stretch inside the library long enough to tell (%.3f s)" % (b - a)
+        stamped.append(sum(1 for s in stamps if a < s < b))
+    assert max(stamped) > 0, "the ticker stamped nothing while the library ran (%s)" % stamped
 
 
 def test_parallel_combinations_equal_serial(pane, diffuser):
