@@ -12,6 +12,7 @@
 #include <time.h>
 
 #include "cli.h"
+#include "incident_tsv.h"
 #include "layers.h"
 
 static const char help[] =
@@ -240,7 +241,7 @@ static int write_all_columns(bst_ctx *ctx, const char *sub, const char *path, co
     struct cli_out out = {0};
     int rc = cli_out_open(&out, sub, path);
     if (rc == CLI_OK)
-        fprintf(out.fp, "channel\tcomp\ttheta_in\tphi_in\tpatch_in\tpatch_out\ttheta_out\tphi_out\tBSDF\tDSF\n");
+        fprintf(out.fp, "%s\n", CLI_TSV_HEADER);
     for (size_t q = 0; rc == CLI_OK && q < ndirs; q += COLUMN_BATCH)
         rc = write_columns(ctx, sub, out.fp, set, comps, ndirs - q < COLUMN_BATCH ? ndirs - q : COLUMN_BATCH,
                            dirs + q, verbose);

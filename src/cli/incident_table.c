@@ -59,37 +59,15 @@ struct row {
     double theta, phi, bsdf;
 };
 
-/* The basis whose size is n: Shirley-Chiu 4^k or a built-in Klems basis (allocated in ctx). */
-static int basis_of_size(bst_ctx *ctx, size_t n, bst_basis **out)
-{
-    int st = BST_EBASIS;
-    for (int k = BST_K_MIN; k <= BST_K_MAX && st == BST_EBASIS; k++)
-        if (n == (size_t)1 << (2 * k))
-            st = bst_basis_new_sc(ctx, k, out);
-    static const char *const klems[] = {"full", "half", "quarter"};
-    for (int i = 0; i < 3 && st == BST_EBASIS; i++) {
-        bst_basis *b = NULL;
-        if ((st = bst_basis_new_klems(ctx, klems[i], &b)) < 0)
-            break;
-        st = BST_EBASIS;
-        if (bst_basis_size(b) == n)
-            *out = b, st = BST_OK;
-        else
-            bst_basis_free(b);
-    }
-    return st;
-}
-
 /* The rows cover every patch of a basis once, each at its patch's centre (as printed: 4 decimals). */
 static int check_rows(const char *sub, const char *path, struct row *rows, size_t n,
                       struct cli_incident_column *col)
 {
-    int st = (col->ctx = bst_ctx_new()) ? basis_of_size(col->ctx, n, &col->basis) : BST_ENOMEM;
-    if (st == BST_ENOMEM)
+    if (!(col->ctx = bst_ctx_new()))
         return cli_fail(sub, "out of memory");
-    if (st < 0)
+    if (!(col->basis = cli_tsv_basis_of(col->ctx, n)))
         return cli_fail(sub, "%s: %zu exit patches in the %s column at (%g, %g): no Shirley-Chiu "
-                        "(4^k) or Klems (145, 73, 41) basis has that many", path, n,
+                        "(4^k) or Klems (145, 77, 41) basis has that many", path, n,
                         bst_comp_name(col->comp), col->theta_in, col->phi_in);
     if (!(col->bsdf = malloc(n * sizeof *col->bsdf)))
         return cli_fail(sub, "out of memory");
@@ -148,7 +126,7 @@ int cli_incident_column_read(const char *sub, const char *path, const char *chan
         if (len > 0 && line[len - 1] == '\r')
             line[--len] = '\0';
         if (ln == 1) {
-            if (strcmp(line, CLI_INCIDENT_TABLE_HEADER) != 0)
+            if (strcmp(line, CLI_TSV_HEADER) != 0)
                 rc = cli_fail(sub, "%s:1: not a 'combine --incident' table: the first line must name the "
                               "columns channel, comp, theta_in, phi_in, patch_in, patch_out, theta_out, "
                               "phi_out, BSDF, DSF (tab-separated)", path);

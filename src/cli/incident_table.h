@@ -6,10 +6,7 @@
 #define BST_CLI_INCIDENT_TABLE_H
 
 #include "bsdfstack.h"
-
-/* The header line combine writes (without its newline). */
-#define CLI_INCIDENT_TABLE_HEADER \
-    "channel\tcomp\ttheta_in\tphi_in\tpatch_in\tpatch_out\ttheta_out\tphi_out\tBSDF\tDSF"
+#include "incident_tsv.h" /* CLI_TSV_HEADER, the header line; the whole-file reader compare uses */
 
 /* 1 when path names such a table: its name ends in .tsv, or its first line starts like the
  * header; 0 otherwise (a BSDF XML file, or one that cannot be read: the XML reader says why). */

@@ -85,8 +85,7 @@ static void direction(double theta, double phi, double d[3])
     d[0] = sin(t) * cos(p), d[1] = sin(t) * sin(p), d[2] = cos(t);
 }
 
-/* The basis with n patches per hemisphere, or NULL. */
-static bst_basis *basis_of(bst_ctx *ctx, size_t n)
+bst_basis *cli_tsv_basis_of(bst_ctx *ctx, size_t n)
 {
     bst_basis *b = NULL;
     for (int k = BST_K_MIN; k <= BST_K_MAX; k++)
@@ -187,7 +186,7 @@ int cli_tsv_read(const char *sub, bst_ctx *ctx, const char *path, struct cli_tsv
         if (fill != t->n)
             rc = cli_fail(sub, "%s: the last column ends after %zu exit patches, not %zu", path, fill, t->n);
     }
-    if (rc == CLI_OK && !(t->basis = basis_of(ctx, t->n)))
+    if (rc == CLI_OK && !(t->basis = cli_tsv_basis_of(ctx, t->n)))
         rc = cli_fail(sub, "%s: %zu exit patches per column: no basis has that many (4^k for "
                       "Shirley-Chiu, 145, 77 or 41 for Klems)", path, t->n);
     fclose(fp);

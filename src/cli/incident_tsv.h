@@ -28,6 +28,9 @@ struct cli_tsv {
     struct cli_tsv_col *cols;
 };
 
+/* The basis with n patches per hemisphere (4^k: Shirley-Chiu of order k; 145, 77, 41: Klems full,
+ * half, quarter), made in ctx; NULL when none has n (or out of memory). */
+bst_basis *cli_tsv_basis_of(bst_ctx *ctx, size_t n);
 /* 1 when the file at path (not "-") begins with CLI_TSV_HEADER, 0 otherwise (also when it cannot be
  * read: the BSDF reader then says why). */
 int cli_tsv_detect(const char *path);
