@@ -640,14 +640,17 @@ int bst_bsdf_write(bst_ctx *ctx, const bst_layer *layer, FILE *fp, const bst_bsd
     return rc;
 }
 
-int bst_bsdf_write_path(bst_ctx *ctx, const bst_layer *layer, const char *path,
-                        const bst_bsdf_write_opts *opts)
+/* Write to path through bst_output (a temporary renamed over a regular file; a device, FIFO or
+ * link target written directly): the layer, or with v the variable-resolution file over it. */
+static int write_to_path(bst_ctx *ctx, const bst_layer *layer, const bst_varres *v, const char *path,
+                         const bst_bsdf_write_opts *opts)
 {
     bst_output *o;
     int rc = bst_output_open(ctx, path, &o);
     if (rc < 0)
         return rc;
-    rc = bst_bsdf_write(ctx, layer, bst_output_file(o), opts);
+    rc = v ? bst_bsdf_write_varres(ctx, layer, v, bst_output_file(o), opts)
+           : bst_bsdf_write(ctx, layer, bst_output_file(o), opts);
     if (rc < 0) {
         bsti_error_prefix(ctx, "%s", path);
         bst_output_abort(o);
@@ -655,6 +658,12 @@ int bst_bsdf_write_path(bst_ctx *ctx, const bst_layer *layer, const char *path,
     }
     int wc = bst_output_commit(o);
     return wc < 0 ? wc : rc;
+}
+
+int bst_bsdf_write_path(bst_ctx *ctx, const bst_layer *layer, const char *path,
+                        const bst_bsdf_write_opts *opts)
+{
+    return write_to_path(ctx, layer, NULL, path, opts);
 }
 
 /* ------------------------------------------------------------------ variable resolution */
@@ -680,18 +689,9 @@ int bst_bsdf_write_varres(bst_ctx *ctx, const bst_layer *coarse, const bst_varre
 int bst_bsdf_write_varres_path(bst_ctx *ctx, const bst_layer *coarse, const bst_varres *v,
                                const char *path, const bst_bsdf_write_opts *opts)
 {
-    bst_output *o;
-    int rc = bst_output_open(ctx, path, &o);
-    if (rc < 0)
-        return rc;
-    rc = bst_bsdf_write_varres(ctx, coarse, v, bst_output_file(o), opts);
-    if (rc < 0) {
-        bsti_error_prefix(ctx, "%s", path);
-        bst_output_abort(o);
-        return rc;
-    }
-    int wc = bst_output_commit(o);
-    return wc < 0 ? wc : rc;
+    if (!v)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "writing variable resolution: NULL columns") : BST_EINVAL;
+    return write_to_path(ctx, coarse, v, path, opts);
 }
 
 int bst_varres_hemi_diff(bst_ctx *ctx, const bst_layer *coarse, const bst_varres *v, size_t ch,

@@ -107,6 +107,22 @@ static int has_column(const struct cli_tsv *t, const char *channel, bst_comp com
 }
 
 /* compare with a TSV of combine --incident on either side (help text above). */
+
+/* The lines above the table: the basis (with where it came from), A, B, the channel, the legend. */
+static void print_header(const bst_basis *basis, char **specs, const char *channel, const char *from)
+{
+    size_t n = bst_basis_size(basis);
+    if (bst_basis_kind_of(basis) == BST_BASIS_KLEMS)
+        printf("basis     %s, %zu patches per hemisphere%s\n", bst_basis_name(basis), n, from);
+    else
+        printf("basis     Shirley-Chiu k = %d, %zu patches per hemisphere%s\n", bst_basis_order(basis),
+               n, from);
+    printf("A         %s\nB         %s\nchannel   %s\n", specs[0], specs[1], channel);
+    printf("GA: global accordance (Grobe 2017 eq. 7, %%); FA: flux accordance (share of the\n"
+           "scattered flux that A and B place alike, %%); hem:\n"
+           "directional-hemispherical value.  Directions: light propagation, degrees.\n");
+}
+
 static int compare_tsv(const char *sub, bst_ctx *ctx, char **specs, const int is_tsv[2],
                        const char *channel, unsigned comps, size_t ndirs, double (*dirs)[2],
                        double fail_below, const char *mappath, int map_svg)
@@ -149,15 +165,7 @@ static int compare_tsv(const char *sub, bst_ctx *ctx, char **specs, const int is
     if (rc == CLI_OK && m == 0)
         rc = cli_fail(sub, "%s: no column of channel '%s'", specs[first], channel);
     if (rc == CLI_OK) {
-        if (bst_basis_kind_of(t.basis) == BST_BASIS_KLEMS)
-            printf("basis     %s, %zu patches per hemisphere (from the TSV)\n", bst_basis_name(t.basis), n);
-        else
-            printf("basis     Shirley-Chiu k = %d, %zu patches per hemisphere (from the TSV)\n",
-                   bst_basis_order(t.basis), n);
-        printf("A         %s\nB         %s\nchannel   %s\n", specs[0], specs[1], channel);
-        printf("GA: global accordance (Grobe 2017 eq. 7, %%); FA: flux accordance (share of the\n"
-               "scattered flux that A and B place alike, %%); hem:\n"
-               "directional-hemispherical value.  Directions: light propagation, degrees.\n");
+        print_header(t.basis, specs, channel, " (from the TSV)");
     }
     int below = 0, shown = 0;
     for (int cc = 0; cc < BST_NCOMP && rc == CLI_OK; cc++) {
@@ -326,14 +334,7 @@ int cmd_compare(int argc, char **argv)
         rc = cli_fail(sub, "out of memory");
         goto out;
     }
-    if (bst_basis_kind_of(basis) == BST_BASIS_KLEMS)
-        printf("basis     %s, %zu patches per hemisphere\n", bst_basis_name(basis), n);
-    else
-        printf("basis     Shirley-Chiu k = %d, %zu patches per hemisphere\n", bst_basis_order(basis), n);
-    printf("A         %s\nB         %s\nchannel   %s\n", specs[0], specs[1], bst_layer_channel(a, 0));
-    printf("GA: global accordance (Grobe 2017 eq. 7, %%); FA: flux accordance (share of the\n"
-           "scattered flux that A and B place alike, %%); hem:\n"
-           "directional-hemispherical value.  Directions: light propagation, degrees.\n");
+    print_header(basis, specs, bst_layer_channel(a, 0), "");
     int below = 0, shown = 0;
     for (int cc = 0; cc < BST_NCOMP && rc == CLI_OK; cc++) {
         bst_comp comp = (bst_comp)cc;
