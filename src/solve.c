@@ -267,12 +267,12 @@ static int factor_new(bst_ctx *ctx, const bst_mat *a, bst_precision prec, struct
         if (n <= BSTI_LU_SERIAL_MAX && threads > 1)
             openblas_set_num_threads(1);
         if (prec == BST_DOUBLE) {
-            info = LAPACKE_dgetrf(LAPACK_COL_MAJOR, N, N, f->lu, N, f->ipiv);
+            info = LAPACKE_dgetrf_work(LAPACK_COL_MAJOR, N, N, f->lu, N, f->ipiv);
             if (info == 0)
                 info = LAPACKE_dgecon(LAPACK_COL_MAJOR, '1', N, f->lu, N, scale, rcond);
         } else {
             float rc32 = 0.0f;
-            info = LAPACKE_sgetrf(LAPACK_COL_MAJOR, N, N, f->lu, N, f->ipiv);
+            info = LAPACKE_sgetrf_work(LAPACK_COL_MAJOR, N, N, f->lu, N, f->ipiv);
             if (info == 0)
                 info = LAPACKE_sgecon(LAPACK_COL_MAJOR, '1', N, f->lu, N, (float)scale, &rc32);
             *rcond = rc32;
@@ -298,9 +298,9 @@ static int dense_solve_in_place(struct factor *f, int trans, bst_mat *x)
     if (f->n && x->cols) {
         char t = trans ? 'T' : 'N';
         if (f->prec == BST_DOUBLE)
-            info = LAPACKE_dgetrs(LAPACK_COL_MAJOR, t, N, nrhs, f->lu, N, f->ipiv, x->dense, N);
+            info = LAPACKE_dgetrs_work(LAPACK_COL_MAJOR, t, N, nrhs, f->lu, N, f->ipiv, x->dense, N);
         else
-            info = LAPACKE_sgetrs(LAPACK_COL_MAJOR, t, N, nrhs, f->lu, N, f->ipiv, x->dense, N);
+            info = LAPACKE_sgetrs_work(LAPACK_COL_MAJOR, t, N, nrhs, f->lu, N, f->ipiv, x->dense, N);
     }
     if (info != 0)
         return bsti_error(f->ctx, BST_EINTERNAL, "LAPACK getrs: argument %d", (int)-info);
