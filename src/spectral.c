@@ -18,9 +18,16 @@
  * the group's weight-centroid wavelength instead errs by up to 2.5e-3 (the solar weights are
  * uneven within a group), so the mean data it is.  tol = 0 groups only wavelengths with equal
  * data (the result equals the ungrouped one to rounding), tol < 0 none (test_wce.c).
- * What does not depend on the wavelength is built once, before the loop: the patch rule of the
- * panes (bsti_glass_rule: directions and weights), the dual-band layers; and per group each pane's
- * two slab sides are set up once, not at each direction (glass_layer.c).
+ * What does not depend on the wavelength is built once, before the groups: the patch rule of the
+ * panes (bsti_glass_rule: directions and weights), the dual-band layers (two one-channel layers in
+ * their cheapest structures), the groups themselves; per group each pane's two slab sides are set
+ * up once, not at each direction (glass_layer.c).  A group costs one combination: the absorptance
+ * reads its partial stacks (bsti_stack_combine_absorptance, stack.c) instead of forming them again
+ * and the flipped stack's, and a pair of components whose outer factor is a pane takes two left
+ * solves with one factorization (stack.c, inward/outward); the groups run side by side, one worker
+ * a core (below).  Klems full NFRC 102 / 2011-SA1 / NFRC 103 with --absorptance, Solar and
+ * Visible (57 groups): 1.4x less CPU than one combination and two absorptance passes a group, and
+ * about 1.7x less at k = 5 (bench/README.md).
  *
  * A band channel (Visible, Solar, CIE-X, CIE-Y, CIE-Z) missing from the first pane is added to it;
  * its wavelengths are the union of the layers' own ones, or the band's integration grid when that
@@ -292,9 +299,10 @@ static int check_layers(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers
  * runs its combinations on one OpenBLAS thread (set for the process while the workers run, and
  * set back): at these sizes groups side by side keep the cores busier than one product split
  * between them (Klems full: the split product spent most of its time handing over work).  Worker
- * 0 is the calling thread with the caller's context; the others have their own contexts (the
- * caller's allocator), since a context is not shared between threads.  With a custom allocator
- * (which need not be thread-safe), a single group or a single core, one worker does it all. */
+ * 0 is the calling thread with the caller's context and reports the progress; the others have
+ * their own contexts, since a context is not shared between threads, and the caller's on_step is
+ * called under a lock, from whichever worker formed the step.  With a custom allocator (which
+ * need not be thread-safe), a single group or a single core, one worker does it all. */
 
 /* Groups run side by side when the basis has at most this many patches (k = 5): each worker
  * holds its own combination's workspace and sums (about 20 N x N doubles: 160 MB at N = 1024);
@@ -325,7 +333,19 @@ struct shared {
     int want_abs;
     const struct job *jobs;
     atomic_int stop;
+    /* the caller's opts->on_step, called under `lock`: never from two workers at once */
+    void (*on_step)(const bst_stack_step *step, void *opaque);
+    void *opaque;
+    pthread_mutex_t lock;
 };
+
+static void locked_step(const bst_stack_step *step, void *opaque)
+{
+    struct shared *sh = opaque;
+    pthread_mutex_lock(&sh->lock);
+    sh->on_step(step, sh->opaque);
+    pthread_mutex_unlock(&sh->lock);
+}
 
 /* A worker's sums (acc: nchannels x BST_NCOMP matrices of its context; abs: per channel, front
  * then back, n N each) and outcome. */
@@ -520,8 +540,13 @@ int bst_stack_combine_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral
     /* the workers and their sums */
     struct shared sh = {.n = n, .N = N, .njobs = njobs, .total = total ? total : 1,
                         .layers = layers, .dual = dual, .basis = basis, .rule = rule,
-                        .opts = opts, .want = want, .want_abs = want_abs, .jobs = jobs};
+                        .opts = opts, .want = want, .want_abs = want_abs, .jobs = jobs,
+                        .on_step = opts->on_step, .opaque = opts->opaque};
+    bst_stack_opts wopts = *opts;
+    if (opts->on_step)
+        wopts.on_step = locked_step, wopts.opaque = &sh, sh.opts = &wopts;
     atomic_init(&sh.stop, 0);
+    pthread_mutex_init(&sh.lock, NULL);
     if (rc >= 0) {
         sh.nworkers = nw = worker_count(ctx, N, njobs);
         if (!(wk = bsti_calloc(ctx, nw, sizeof *wk)))
@@ -580,6 +605,7 @@ int bst_stack_combine_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral
     bsti_free(ctx, dual), bsti_free(ctx, jobs), bsti_free(ctx, means), bsti_free(ctx, wk);
     bsti_free(ctx, all), bsti_free(ctx, w), bsti_free(ctx, data);
     bsti_glass_rule_free(ctx, rule);
+    pthread_mutex_destroy(&sh.lock);
     if (rc < 0) {
         bst_layer_free(res);
         return rc;

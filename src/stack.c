@@ -18,7 +18,9 @@
  * from need() how often each component of the two parts will be read, and every matrix the
  * combination owns is freed at its last read (struct term, use()).  When both members of a pair
  * (Tf, Rb) or (Rf, Tb) are needed, one factorization serves both through W = T2 (I - A)^-1 (a right
- * solve); when one is needed, a left solve with its own right-hand side is cheaper. */
+ * solve), or, when T2 is diagonal (a pane), through two left solves scaled by T2 (W's products
+ * would be dense); when one is needed, a left solve with its own right-hand side is cheaper.  The
+ * absorptance can ride on the combination (bsti_stack_combine_absorptance, at the end). */
 #include <config.h>
 
 #include <math.h>
