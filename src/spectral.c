@@ -25,9 +25,9 @@
  * reads its partial stacks (bsti_stack_combine_absorptance, stack.c) instead of forming them again
  * and the flipped stack's, and a pair of components whose outer factor is a pane takes two left
  * solves with one factorization (stack.c, inward/outward); the groups run side by side, one worker
- * a core (below).  Klems full NFRC 102 / 2011-SA1 / NFRC 103 with --absorptance, Solar and
- * Visible (57 groups): 1.4x less CPU than one combination and two absorptance passes a group, and
- * about 1.7x less at k = 5 (bench/README.md).
+ * a core (below).  NFRC 102 / 2011-SA1 / NFRC 103 with --absorptance, Solar and Visible (57
+ * groups), the whole command: Klems full 1.3x less CPU than one combination and two absorptance
+ * passes a group, k = 5 1.9x less (bench/README.md, "Spectral stacks with a shade").
  *
  * A band channel (Visible, Solar, CIE-X, CIE-Y, CIE-Z) missing from the first pane is added to it;
  * its wavelengths are the union of the layers' own ones, or the band's integration grid when that
@@ -557,7 +557,9 @@ int bst_stack_combine_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral
         wk[t].ctx = t ? bst_ctx_new() : ctx;
         wk[t].acc = bsti_calloc(ctx, nchannels * BST_NCOMP, sizeof *wk[t].acc);
         wk[t].abs = want_abs ? bsti_calloc(ctx, nchannels * 2 * n * N, sizeof *wk[t].abs) : NULL;
-        if (!wk[t].ctx || !wk[t].acc || (want_abs && !wk[t].abs))
+        if (!wk[t].ctx)
+            rc = bsti_error(ctx, BST_ENOMEM, "out of memory (a worker's context)");
+        else if (!wk[t].acc || (want_abs && !wk[t].abs))
             rc = BST_ENOMEM;
     }
     int warn = rc >= 0 ? run_workers(ctx, wk, nw) : BST_OK;

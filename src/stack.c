@@ -927,14 +927,21 @@ int bst_stack_absorptance(bst_ctx *ctx, size_t n, const bst_layer *const *layers
  * and the incident beam: layer 0's front, layer n-1's back.  Each gap costs a factorization and a
  * right solve with two rows instead of two partial stacks and a flip. */
 
-/* a0 += r0^T (I - L x L y)^-1 L z and a1 += (w^T L y) (I - L x L y)^-1 L z (all N). */
+/* a0 += r0^T (I - L x L y)^-1 L z and a1 += (w^T L y) (I - L x L y)^-1 L z (all N; a NULL
+ * matrix is zero). */
 static int gap_rows(bst_ctx *ctx, const double *lam, size_t N, const bst_mat *x, const bst_mat *y,
                     const bst_mat *z, const double *r0, const double *w, double rcond_warn,
                     double *a0, double *a1)
 {
+    if (!z) /* no light enters the gap */
+        return BST_OK;
     bst_mat *lx = NULL, *ly = NULL, *a = NULL, *bm = NULL, *sol = NULL, *lz = NULL, *res = NULL;
+    bst_mat *zero = NULL;
     double *r1 = bsti_calloc(ctx, N, sizeof *r1), rcond;
     int rc = r1 ? BST_OK : BST_ENOMEM;
+    if (rc >= 0 && (!x || !y))
+        rc = bst_mat_new_zero(ctx, N, N, &zero);
+    x = x ? x : zero, y = y ? y : zero;
     if (rc >= 0)
         rc = bst_mat_scale(ctx, lam, x, NULL, &lx);
     if (rc >= 0)
@@ -961,6 +968,7 @@ static int gap_rows(bst_ctx *ctx, const double *lam, size_t N, const bst_mat *x,
         a1[j] += bst_mat_get(res, 1, j);
     }
     bsti_free(ctx, r1);
+    bst_mat_free(zero);
     bst_mat_free(lx), bst_mat_free(ly), bst_mat_free(a), bst_mat_free(bm);
     bst_mat_free(sol), bst_mat_free(lz), bst_mat_free(res);
     return rc;
