@@ -353,7 +353,9 @@ void bst_spectral_opts_init(bst_spectral_opts *opts);
  * averaged per band channel (Visible, Solar, CIE-X, CIE-Y, CIE-Z) as WINDOW and WCE do (see
  * spectral.c): out has the requested channels; abs_front / abs_back (may be NULL), each
  * nchannels * n * N values, [(c * n + i) * N + j], the share of unit flux from patch j absorbed by
- * layer i, averaged over the band like the matrices.  sopts NULL = defaults. */
+ * layer i, averaged over the band like the matrices.  sopts NULL = defaults.  The groups run on
+ * up to one thread a core (spectral.c, up to 1024 patches, not with a custom allocator), OpenBLAS
+ * set to one thread meanwhile; opts->on_step may then be called from those threads, one at a time. */
 int bst_stack_combine_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers,
                                       const bst_basis *basis, size_t nchannels,
                                       const char *const *channels, const bst_spectral_opts *sopts,

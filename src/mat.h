@@ -57,6 +57,9 @@ int bsti_mat_scale(bst_ctx *ctx, const double *dr, const bst_mat *a, const doubl
  * held at once; a dense right-hand side of a right solve is solved in place in its transpose. */
 int bsti_solve_take(bst_ctx *ctx, int right, bst_mat *a, const bst_mat *b, double rcond_warn,
                     bst_mat **out, double *rcond);
+/* The same as two left solves with one factorization: x1 = (I - A)^-1 b1, x2 = (I - A)^-1 b2. */
+int bsti_solve_take_left2(bst_ctx *ctx, bst_mat *a, const bst_mat *b1, const bst_mat *b2,
+                          double rcond_warn, bst_mat **x1, bst_mat **x2, double *rcond);
 
 /* The generic product: both operands converted to dense, then GEMM (the tests' baseline). */
 int bsti_mat_mul_generic(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, bst_mat **out);

@@ -267,12 +267,12 @@ static int factor_new(bst_ctx *ctx, const bst_mat *a, bst_precision prec, struct
         if (n <= BSTI_LU_SERIAL_MAX && threads > 1)
             openblas_set_num_threads(1);
         if (prec == BST_DOUBLE) {
-            info = LAPACKE_dgetrf(LAPACK_COL_MAJOR, N, N, f->lu, N, f->ipiv);
+            info = LAPACKE_dgetrf_work(LAPACK_COL_MAJOR, N, N, f->lu, N, f->ipiv);
             if (info == 0)
                 info = LAPACKE_dgecon(LAPACK_COL_MAJOR, '1', N, f->lu, N, scale, rcond);
         } else {
             float rc32 = 0.0f;
-            info = LAPACKE_sgetrf(LAPACK_COL_MAJOR, N, N, f->lu, N, f->ipiv);
+            info = LAPACKE_sgetrf_work(LAPACK_COL_MAJOR, N, N, f->lu, N, f->ipiv);
             if (info == 0)
                 info = LAPACKE_sgecon(LAPACK_COL_MAJOR, '1', N, f->lu, N, (float)scale, &rc32);
             *rcond = rc32;
@@ -298,9 +298,9 @@ static int dense_solve_in_place(struct factor *f, int trans, bst_mat *x)
     if (f->n && x->cols) {
         char t = trans ? 'T' : 'N';
         if (f->prec == BST_DOUBLE)
-            info = LAPACKE_dgetrs(LAPACK_COL_MAJOR, t, N, nrhs, f->lu, N, f->ipiv, x->dense, N);
+            info = LAPACKE_dgetrs_work(LAPACK_COL_MAJOR, t, N, nrhs, f->lu, N, f->ipiv, x->dense, N);
         else
-            info = LAPACKE_sgetrs(LAPACK_COL_MAJOR, t, N, nrhs, f->lu, N, f->ipiv, x->dense, N);
+            info = LAPACKE_sgetrs_work(LAPACK_COL_MAJOR, t, N, nrhs, f->lu, N, f->ipiv, x->dense, N);
     }
     if (info != 0)
         return bsti_error(f->ctx, BST_EINTERNAL, "LAPACK getrs: argument %d", (int)-info);
@@ -383,29 +383,37 @@ static int factor_solve(struct factor *f, int trans, const bst_mat *b, bst_mat *
     return BST_OK;
 }
 
-/* The solve; *own_a (NULL or a itself) is freed, and set to NULL, as soon as I - A is factored,
- * so that A and its factorization are never both held beside the result. */
-static int solve_owning(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a, const bst_mat *b,
-                        double rcond_warn, bst_mat **out, double *rcond_out)
+/* The solve with nb right-hand sides b[0..nb-1] (one factorization for all: out[q] = (I - A)^-1
+ * b[q], or b[q] (I - A)^-1); *own_a (NULL or a itself) is freed, and set to NULL, as soon as I - A
+ * is factored, so that A and its factorization are never both held beside the results. */
+static int solve_owning(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a, size_t nb,
+                        const bst_mat *const *b, double rcond_warn, bst_mat **out,
+                        double *rcond_out)
 {
     if (!ctx)
         return BST_EINVAL;
-    if (!out)
-        return bsti_error(ctx, BST_EINVAL, "solve: NULL result pointer");
-    *out = NULL;
+    for (size_t q = 0; q < nb; q++)
+        out[q] = NULL;
     if (rcond_out)
         *rcond_out = 0.0;
-    if (!a || !b)
+    if (!a)
         return bsti_error(ctx, BST_EINVAL, "solve: NULL matrix");
+    for (size_t q = 0; q < nb; q++)
+        if (!b[q])
+            return bsti_error(ctx, BST_EINVAL, "solve: NULL matrix");
     if (a->rows != a->cols)
         return bsti_error(ctx, BST_ESIZE, "solve: A is %zu x %zu, not square", a->rows, a->cols);
-    if ((right ? b->cols : b->rows) != a->rows)
-        return bsti_error(ctx, BST_ESIZE, "solve: A is %zu x %zu, B is %zu x %zu", a->rows,
-                          a->cols, b->rows, b->cols);
+    for (size_t q = 0; q < nb; q++)
+        if ((right ? b[q]->cols : b[q]->rows) != a->rows)
+            return bsti_error(ctx, BST_ESIZE, "solve: A is %zu x %zu, B is %zu x %zu", a->rows,
+                              a->cols, b[q]->rows, b[q]->cols);
     if (!(rcond_warn >= 0.0))
         return bsti_error(ctx, BST_EINVAL, "solve: warning threshold %g is not >= 0", rcond_warn);
-    bst_precision prec = ((a->s == BST_DENSE && a->prec == BST_FLOAT) ||
-                          (b->s == BST_DENSE && b->prec == BST_FLOAT)) ? BST_FLOAT : BST_DOUBLE;
+    int b_float = 0;
+    for (size_t q = 0; q < nb; q++)
+        b_float |= b[q]->s == BST_DENSE && b[q]->prec == BST_FLOAT;
+    bst_precision prec = (a->s == BST_DENSE && a->prec == BST_FLOAT) || b_float ? BST_FLOAT
+                                                                                : BST_DOUBLE;
     struct factor f;
     double rcond;
     bst_mat *adense = NULL;
@@ -425,11 +433,11 @@ static int solve_owning(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own
     }
     if (rcond_out)
         *rcond_out = rcond;
-    bst_mat *bt = NULL, *xt = NULL, *x = NULL;
-    if (rc >= 0) {
+    for (size_t q = 0; q < nb && rc >= 0; q++) {
+        bst_mat *bt = NULL, *xt = NULL;
         if (right) { /* Y^T = (I - A)^-T B^T; each workspace freed as soon as it is dead, B^T
                       * solved in place when it is dense in the factor's precision */
-            rc = bst_mat_transpose(ctx, b, &bt);
+            rc = bst_mat_transpose(ctx, b[q], &bt);
             if (rc >= 0 && f.s == BST_DENSE && bt->s == BST_DENSE && bt->prec == f.prec) {
                 rc = dense_solve_in_place(&f, 1, bt);
                 xt = bt;
@@ -438,26 +446,30 @@ static int solve_owning(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own
                 rc = factor_solve(&f, 1, bt, &xt);
             }
             bst_mat_free(bt);
-            factor_free(&f);
+            if (q + 1 == nb)
+                factor_free(&f);
             if (rc >= 0)
-                rc = bst_mat_transpose(ctx, xt, &x);
+                rc = bst_mat_transpose(ctx, xt, &out[q]);
             bst_mat_free(xt);
         } else {
-            rc = factor_solve(&f, 0, b, &x);
+            rc = factor_solve(&f, 0, b[q], &out[q]);
         }
     }
     factor_free(&f);
     rcond = fmin(rcond, 1.0); /* rounding in the estimate may exceed the bound 1 */
     if (rcond_out)
         *rcond_out = rcond;
-    if (rc >= 0 && !bst_mat_all_finite(x))
-        rc = bsti_error(ctx, BST_ESINGULAR, "solve: the result is not finite (I - A is singular "
-                        "to working precision, rcond %.3g)", rcond);
+    for (size_t q = 0; q < nb && rc >= 0; q++)
+        if (!bst_mat_all_finite(out[q]))
+            rc = bsti_error(ctx, BST_ESINGULAR, "solve: the result is not finite (I - A is "
+                            "singular to working precision, rcond %.3g)", rcond);
     if (rc < 0) {
-        bst_mat_free(x);
+        for (size_t q = 0; q < nb; q++) {
+            bst_mat_free(out[q]);
+            out[q] = NULL;
+        }
         return rc;
     }
-    *out = x;
     /* Single precision keeps about 7 digits: warn from sqrt(eps_float) on, whatever was asked. */
     if (prec == BST_FLOAT && a_dense)
         rcond_warn = fmax(rcond_warn, BSTI_RCOND_WARN_FLOAT);
@@ -471,21 +483,45 @@ int bst_solve_left(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double rcon
                    bst_mat **x, double *rcond)
 {
     bst_mat *none = NULL;
-    return solve_owning(ctx, 0, a, &none, b, rcond_warn, x, rcond);
+    if (!ctx)
+        return BST_EINVAL;
+    if (!x)
+        return bsti_error(ctx, BST_EINVAL, "solve: NULL result pointer");
+    return solve_owning(ctx, 0, a, &none, 1, &b, rcond_warn, x, rcond);
 }
 
 int bst_solve_right(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double rcond_warn,
                     bst_mat **y, double *rcond)
 {
     bst_mat *none = NULL;
-    return solve_owning(ctx, 1, a, &none, b, rcond_warn, y, rcond);
+    if (!ctx)
+        return BST_EINVAL;
+    if (!y)
+        return bsti_error(ctx, BST_EINVAL, "solve: NULL result pointer");
+    return solve_owning(ctx, 1, a, &none, 1, &b, rcond_warn, y, rcond);
 }
 
 int bsti_solve_take(bst_ctx *ctx, int right, bst_mat *a, const bst_mat *b, double rcond_warn,
                     bst_mat **out, double *rcond)
 {
     bst_mat *own = a;
-    int rc = solve_owning(ctx, right, a, &own, b, rcond_warn, out, rcond);
+    int rc = out ? solve_owning(ctx, right, a, &own, 1, &b, rcond_warn, out, rcond)
+                 : ctx ? bsti_error(ctx, BST_EINVAL, "solve: NULL result pointer") : BST_EINVAL;
     bst_mat_free(own); /* when an error came before the factorization */
+    return rc;
+}
+
+int bsti_solve_take_left2(bst_ctx *ctx, bst_mat *a, const bst_mat *b1, const bst_mat *b2,
+                          double rcond_warn, bst_mat **x1, bst_mat **x2, double *rcond)
+{
+    bst_mat *own = a, *x[2] = {NULL, NULL};
+    const bst_mat *b[2] = {b1, b2};
+    int rc = x1 && x2 ? solve_owning(ctx, 0, a, &own, 2, b, rcond_warn, x, rcond)
+                      : ctx ? bsti_error(ctx, BST_EINVAL, "solve: NULL result pointer") : BST_EINVAL;
+    bst_mat_free(own);
+    if (x1)
+        *x1 = x[0];
+    if (x2)
+        *x2 = x[1];
     return rc;
 }

@@ -18,9 +18,16 @@
  * the group's weight-centroid wavelength instead errs by up to 2.5e-3 (the solar weights are
  * uneven within a group), so the mean data it is.  tol = 0 groups only wavelengths with equal
  * data (the result equals the ungrouped one to rounding), tol < 0 none (test_wce.c).
- * What does not depend on the wavelength is built once, before the loop: the patch rule of the
- * panes (bsti_glass_rule: directions and weights), the dual-band layers; and per group each pane's
- * two slab sides are set up once, not at each direction (glass_layer.c).
+ * What does not depend on the wavelength is built once, before the groups: the patch rule of the
+ * panes (bsti_glass_rule: directions and weights), the dual-band layers (two one-channel layers in
+ * their cheapest structures), the groups themselves; per group each pane's two slab sides are set
+ * up once, not at each direction (glass_layer.c).  A group costs one combination: the absorptance
+ * reads its partial stacks (bsti_stack_combine_absorptance, stack.c) instead of forming them again
+ * and the flipped stack's, and a pair of components whose outer factor is a pane takes two left
+ * solves with one factorization (stack.c, inward/outward); the groups run side by side, one worker
+ * a core (below).  NFRC 102 / 2011-SA1 / NFRC 103 with --absorptance, Solar and Visible (57
+ * groups), the whole command: Klems full 1.3x less CPU than one combination and two absorptance
+ * passes a group, k = 5 1.9x less (bench/README.md, "Spectral stacks with a shade").
  *
  * A band channel (Visible, Solar, CIE-X, CIE-Y, CIE-Z) missing from the first pane is added to it;
  * its wavelengths are the union of the layers' own ones, or the band's integration grid when that
@@ -35,12 +42,18 @@
 
 #include <float.h>
 #include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
+
+#include <cblas.h>
 
 #include "ctx.h"
 #include "glass.h"
 #include "layer.h"
+#include "stack.h"
 
 static int cmp_double(const void *a, const void *b)
 {
@@ -277,6 +290,177 @@ static int check_layers(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers
     return BST_OK;
 }
 
+/* ------------------------------------------------------------------ workers
+ *
+ * The groups are independent combinations summed with their weights, so they are shared out
+ * among workers, one a core: worker t takes groups t, t + T, t + 2T, ... (T workers; a fixed
+ * share, so that a run's sums do not depend on timing), sums its own, and the sums are added in
+ * worker order at the end (the result differs from one worker's by rounding only).  Each worker
+ * runs its combinations on one OpenBLAS thread (set for the process while the workers run, and
+ * set back): at these sizes groups side by side keep the cores busier than one product split
+ * between them (Klems full: the split product spent most of its time handing over work).  Worker
+ * 0 is the calling thread with the caller's context and reports the progress; the others have
+ * their own contexts, since a context is not shared between threads, and the caller's on_step is
+ * called under a lock, from whichever worker formed the step.  With a custom allocator (which
+ * need not be thread-safe), a single group or a single core, one worker does it all. */
+
+/* Groups run side by side when the basis has at most this many patches (k = 5): each worker
+ * holds its own combination's workspace and sums (about 20 N x N doubles: 160 MB at N = 1024);
+ * above it one worker runs them in turn and OpenBLAS threads each product. */
+#define BSTI_SPECTRAL_PAR_MAX_N 1024
+/* At most this many workers (and no more than online processors). */
+#define BSTI_SPECTRAL_MAX_WORKERS 16
+
+/* One group of one channel: the wavelengths [first, end) of its grid (first after the previous
+ * group, for progress), the side of the visible range, the summed weight, the panes' mean data
+ * (4 n). */
+struct job {
+    size_t ch, first, end;
+    int inside;
+    double wsum;
+    const double *mean;
+};
+
+/* What every worker reads; stop is set by a worker that fails, so that the others end early. */
+struct shared {
+    size_t n, N, njobs, nworkers, total;
+    const bst_spectral_layer *layers;
+    const struct dual *dual;
+    const bst_basis *basis;
+    const bsti_glass_rule *rule;
+    const bst_stack_opts *opts;
+    unsigned want;
+    int want_abs;
+    const struct job *jobs;
+    atomic_int stop;
+    /* the caller's opts->on_step, called under `lock`: never from two workers at once */
+    void (*on_step)(const bst_stack_step *step, void *opaque);
+    void *opaque;
+    pthread_mutex_t lock;
+};
+
+static void locked_step(const bst_stack_step *step, void *opaque)
+{
+    struct shared *sh = opaque;
+    pthread_mutex_lock(&sh->lock);
+    sh->on_step(step, sh->opaque);
+    pthread_mutex_unlock(&sh->lock);
+}
+
+/* A worker's sums (acc: nchannels x BST_NCOMP matrices of its context; abs: per channel, front
+ * then back, n N each) and outcome. */
+struct worker {
+    struct shared *sh;
+    size_t index;
+    bst_ctx *ctx;
+    bst_mat **acc;
+    double *abs;
+    int rc, warn, started;
+    pthread_t thread;
+};
+
+static void *work(void *arg)
+{
+    struct worker *wk = arg;
+    const struct shared *sh = wk->sh;
+    bst_ctx *ctx = wk->ctx;
+    size_t n = sh->n, N = sh->N, done = 0;
+    bst_layer **own = bsti_calloc(ctx, n, sizeof *own), *sys = NULL;
+    const bst_layer **lay = bsti_calloc(ctx, n, sizeof *lay);
+    double *af = sh->want_abs ? bsti_alloc_array(ctx, 2 * n * N, sizeof *af) : NULL;
+    int rc = own && lay && (af || !sh->want_abs) ? BST_OK : BST_ENOMEM;
+    bst_progress_fn progress = ctx->progress_fn;
+    ctx->progress_fn = NULL; /* one report per group, below */
+    for (size_t g = wk->index; rc >= 0 && g < sh->njobs; g += sh->nworkers) {
+        if (atomic_load(&((struct shared *)sh)->stop))
+            break;
+        const struct job *j = &sh->jobs[g];
+        for (size_t i = 0; i < n && rc >= 0; i++) {
+            bst_layer_free(own[i]);
+            own[i] = NULL;
+            if (sh->layers[i].pane)
+                rc = bsti_glass_layer_data(ctx, sh->layers[i].pane, sh->basis, sh->rule,
+                                           &j->mean[4 * i], &own[i]);
+            lay[i] = sh->layers[i].pane ? own[i] : j->inside ? sh->dual[i].vis : sh->dual[i].out;
+        }
+        if (rc >= 0)
+            rc = bsti_stack_combine_absorptance(ctx, n, lay, 0, sh->opts, &sys, af,
+                                                af ? af + n * N : NULL);
+        if (rc > 0) /* a warning (ill-conditioned, energy): kept, its message is in ctx */
+            wk->warn = rc > wk->warn ? rc : wk->warn, rc = BST_OK;
+        if (rc >= 0)
+            rc = accumulate(ctx, wk->acc + j->ch * BST_NCOMP, sys, sh->want, j->wsum);
+        double *a = wk->abs + j->ch * 2 * n * N;
+        for (size_t i = 0; rc >= 0 && af && i < 2 * n * N; i++)
+            a[i] += j->wsum * af[i];
+        bst_layer_free(sys);
+        sys = NULL;
+        done += j->end - j->first;
+        if (wk->index == 0 && progress) {
+            double f = (double)(done * sh->nworkers) / (double)sh->total;
+            ctx->progress_fn = progress;
+            bsti_progress(ctx, f < 1.0 ? f : 1.0, "combining per group of wavelengths");
+            ctx->progress_fn = NULL;
+        }
+    }
+    ctx->progress_fn = progress;
+    if (rc < 0)
+        atomic_store(&((struct shared *)sh)->stop, 1);
+    for (size_t i = 0; own && i < n; i++)
+        bst_layer_free(own[i]);
+    bsti_free(ctx, own), bsti_free(ctx, lay), bsti_free(ctx, af);
+    wk->rc = rc;
+    return NULL;
+}
+
+/* How many workers: see above. */
+static size_t worker_count(const bst_ctx *ctx, size_t N, size_t njobs)
+{
+    long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+    bst_ctx *probe = bst_ctx_new(); /* it holds the default allocator */
+    int custom = !probe || probe->malloc_fn != ctx->malloc_fn || probe->free_fn != ctx->free_fn;
+    bst_ctx_free(probe);
+    if (custom || N > BSTI_SPECTRAL_PAR_MAX_N || cpus < 2 || njobs < 2)
+        return 1;
+    size_t t = (size_t)cpus < njobs ? (size_t)cpus : njobs;
+    return t < BSTI_SPECTRAL_MAX_WORKERS ? t : BSTI_SPECTRAL_MAX_WORKERS;
+}
+
+/* Run the workers; the first error (in worker order) or the highest warning, its message in ctx. */
+static int run_workers(bst_ctx *ctx, struct worker *wk, size_t nw)
+{
+    int threads = openblas_get_num_threads();
+    if (nw > 1 && threads > 1)
+        openblas_set_num_threads(1);
+    for (size_t t = 1; t < nw; t++) /* a thread that cannot start: its share runs here, below */
+        wk[t].started = pthread_create(&wk[t].thread, NULL, work, &wk[t]) == 0;
+    work(&wk[0]);
+    for (size_t t = 1; t < nw; t++) {
+        if (wk[t].started)
+            pthread_join(wk[t].thread, NULL);
+        else
+            work(&wk[t]);
+    }
+    if (nw > 1 && threads > 1)
+        openblas_set_num_threads(threads);
+    int warn = BST_OK;
+    for (size_t t = 0; t < nw; t++) {
+        if (wk[t].rc < 0) {
+            if (t > 0)
+                bsti_error(ctx, wk[t].rc, "%s", wk[t].ctx->msg);
+            return wk[t].rc;
+        }
+        if (wk[t].warn > warn) {
+            warn = wk[t].warn;
+            if (t > 0)
+                bsti_error(ctx, warn, "%s", wk[t].ctx->msg);
+        }
+    }
+    return warn;
+}
+
+/* ------------------------------------------------------------------ the combination */
+
 int bst_stack_combine_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers,
                                       const bst_basis *basis, size_t nchannels,
                                       const char *const *channels, const bst_spectral_opts *sopts,
@@ -301,17 +485,16 @@ int bst_stack_combine_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral
     unsigned want = opts->comps ? opts->comps & BST_COMP_ALL : BST_COMP_ALL;
     int want_abs = abs_front || abs_back;
 
-    size_t N = bst_basis_size(basis), nwl = 0, nall = 0;
-    double *all = NULL, *w = NULL, *af = NULL, *ab = NULL, *data = NULL;
-    bst_layer **own = bsti_calloc(ctx, n, sizeof *own), *res = NULL, *sys = NULL;
-    const bst_layer **lay = bsti_calloc(ctx, n, sizeof *lay);
+    size_t N = bst_basis_size(basis), nwl = 0, nall = 0, total = 0, njobs = 0, nw = 0;
+    double *all = NULL, *w = NULL, *data = NULL, *means = NULL;
     struct dual *dual = bsti_calloc(ctx, n, sizeof *dual);
-    bst_mat *acc[BST_NCOMP] = {NULL};
-    bst_progress_fn progress = ctx->progress_fn;
+    struct job *jobs = NULL;
+    struct worker *wk = NULL;
+    bst_layer *res = NULL;
     bsti_glass_rule *rule = NULL;
     int split = 0; /* a dual-band layer changes at the visible range's limits */
-    rc = own && lay && dual ? union_grid(ctx, n, layers, &all, &nall) : BST_ENOMEM;
-    if (rc >= 0 && !(data = bsti_alloc_array(ctx, 12 * n, sizeof *data)))
+    rc = dual ? union_grid(ctx, n, layers, &all, &nall) : BST_ENOMEM;
+    if (rc >= 0 && !(data = bsti_alloc_array(ctx, 8 * n, sizeof *data)))
         rc = BST_ENOMEM;
     for (size_t i = 0; i < n && rc >= 0; i++)
         if (layers[i].bands)
@@ -320,11 +503,6 @@ int bst_stack_combine_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral
         rc = bsti_glass_rule_new(ctx, basis, so->at_centre, BST_GLASS_SAMPLES, &rule);
     if (rc >= 0)
         rc = bst_layer_new(ctx, basis, nchannels, channels, &res);
-    if (rc >= 0 && want_abs && (!(af = bsti_alloc_array(ctx, 2 * n * N, sizeof *af))))
-        rc = BST_ENOMEM;
-    ab = af ? af + n * N : NULL;
-    size_t total = 0, done = 0;
-    int warn = 0;
     for (size_t c = 0; c < nchannels && rc >= 0; c++) {
         if (bst_glass_find_channel(ref, channels[c]) < 0)
             rc = bst_glass_add_channel(ctx, ref, channels[c]);
@@ -333,6 +511,10 @@ int bst_stack_combine_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral
                             "(Visible, Solar, CIE-X, CIE-Y, CIE-Z)", channels[c]);
         total += nwl;
     }
+    /* the groups of every channel, each pane's mean data with it */
+    if (rc >= 0 && (!(jobs = bsti_calloc(ctx, total ? total : 1, sizeof *jobs)) ||
+                    !(means = bsti_alloc_array(ctx, (total ? total : 1) * 4 * n, sizeof *means))))
+        rc = BST_ENOMEM;
     for (size_t c = 0; c < nchannels && rc >= 0; c++) {
         size_t ch = (size_t)bst_glass_find_channel(ref, channels[c]);
         const double *wl = wavelengths(ref, channels[c], all, nall, &nwl);
@@ -342,73 +524,90 @@ int bst_stack_combine_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral
             break;
         }
         rc = bst_glass_channel_weights(ctx, ref, ch, nwl, wl, w);
-        double *abs_f = abs_front ? abs_front + c * n * N : NULL;
-        double *abs_b = abs_back ? abs_back + c * n * N : NULL;
-        for (size_t i = 0; i < n * N; i++) {
-            if (abs_f)
-                abs_f[i] = 0.0;
-            if (abs_b)
-                abs_b[i] = 0.0;
-        }
-        for (size_t k = 0, end; k < nwl && rc >= 0; done += end - k, k = end) {
-            if (w[k] == 0.0) {
-                end = k + 1;
+        for (size_t k = 0, prev = 0; k < nwl && rc >= 0; k++) {
+            if (w[k] == 0.0)
                 continue;
-            }
-            double wsum, *mean = data + 8 * n;
-            end = group(n, layers, split, wl, w, nwl, k, so->tol, data, data + 4 * n, mean, &wsum);
-            int inside = inside_visible(wl[k]);
-            for (size_t i = 0; i < n && rc >= 0; i++) {
-                bst_layer_free(own[i]);
-                own[i] = NULL;
-                if (layers[i].pane)
-                    rc = bsti_glass_layer_data(ctx, layers[i].pane, basis, rule, &mean[4 * i],
-                                               &own[i]);
-                lay[i] = layers[i].pane ? own[i] : inside ? dual[i].vis : dual[i].out;
-            }
-            ctx->progress_fn = NULL; /* one report per group, below */
-            if (rc >= 0)
-                rc = bst_stack_combine(ctx, n, lay, opts, &sys);
-            if (rc > 0) /* a warning (ill-conditioned, energy): kept, its message is in ctx */
-                warn = rc, rc = BST_OK;
-            if (rc >= 0 && want_abs)
-                rc = bst_stack_absorptance(ctx, n, lay, 0, opts, af, ab);
-            if (rc > 0)
-                warn = rc, rc = BST_OK;
-            ctx->progress_fn = progress;
-            if (rc >= 0)
-                rc = accumulate(ctx, acc, sys, want, wsum);
-            for (size_t i = 0; rc >= 0 && want_abs && i < n * N; i++) {
-                if (abs_f)
-                    abs_f[i] += wsum * af[i];
-                if (abs_b)
-                    abs_b[i] += wsum * ab[i];
-            }
-            bst_layer_free(sys);
-            sys = NULL;
-            bsti_progress(ctx, (double)(done + end - k) / (double)total,
-                          "combining per group of wavelengths");
+            struct job *j = &jobs[njobs];
+            double *mean = means + njobs * 4 * n;
+            j->ch = c, j->first = prev, j->inside = inside_visible(wl[k]), j->mean = mean;
+            j->end = group(n, layers, split, wl, w, nwl, k, so->tol, data, data + 4 * n, mean,
+                           &j->wsum);
+            prev = j->end;
+            k = j->end - 1;
+            njobs++;
         }
-        for (int m = 0; m < BST_NCOMP; m++) {
-            if (rc >= 0 && acc[m])
-                rc = bst_layer_set(ctx, res, c, (bst_comp)m, acc[m]);
+    }
+    /* the workers and their sums */
+    struct shared sh = {.n = n, .N = N, .njobs = njobs, .total = total ? total : 1,
+                        .layers = layers, .dual = dual, .basis = basis, .rule = rule,
+                        .opts = opts, .want = want, .want_abs = want_abs, .jobs = jobs,
+                        .on_step = opts->on_step, .opaque = opts->opaque};
+    bst_stack_opts wopts = *opts;
+    if (opts->on_step)
+        wopts.on_step = locked_step, wopts.opaque = &sh, sh.opts = &wopts;
+    atomic_init(&sh.stop, 0);
+    pthread_mutex_init(&sh.lock, NULL);
+    if (rc >= 0) {
+        sh.nworkers = nw = worker_count(ctx, N, njobs);
+        if (!(wk = bsti_calloc(ctx, nw, sizeof *wk)))
+            rc = BST_ENOMEM;
+    }
+    for (size_t t = 0; t < nw && rc >= 0; t++) {
+        wk[t].sh = &sh, wk[t].index = t;
+        wk[t].ctx = t ? bst_ctx_new() : ctx;
+        wk[t].acc = bsti_calloc(ctx, nchannels * BST_NCOMP, sizeof *wk[t].acc);
+        wk[t].abs = want_abs ? bsti_calloc(ctx, nchannels * 2 * n * N, sizeof *wk[t].abs) : NULL;
+        if (!wk[t].ctx)
+            rc = bsti_error(ctx, BST_ENOMEM, "out of memory (a worker's context)");
+        else if (!wk[t].acc || (want_abs && !wk[t].abs))
+            rc = BST_ENOMEM;
+    }
+    int warn = rc >= 0 ? run_workers(ctx, wk, nw) : BST_OK;
+    if (warn < 0)
+        rc = warn, warn = BST_OK;
+    /* the sums of the workers, in worker order, into the caller's context */
+    for (size_t c = 0; c < nchannels && rc >= 0; c++) {
+        for (int m = 0; m < BST_NCOMP && rc >= 0; m++) {
+            bst_mat *sum = NULL;
+            for (size_t t = 0; t < nw && rc >= 0; t++) {
+                bst_mat *x = wk[t].acc[c * BST_NCOMP + m], *s2;
+                if (!x)
+                    continue;
+                rc = sum ? bst_mat_add(ctx, 1.0, sum, 1.0, x, &s2)
+                     : t ? bst_mat_add(ctx, 1.0, x, 0.0, x, &s2) : BST_OK;
+                if (!sum && !t)
+                    s2 = x, wk[t].acc[c * BST_NCOMP + m] = NULL; /* worker 0's is the caller's */
+                if (rc >= 0 && sum != s2)
+                    bst_mat_free(sum), sum = s2;
+            }
+            if (rc >= 0 && sum)
+                rc = bst_layer_set(ctx, res, c, (bst_comp)m, sum);
             else
-                bst_mat_free(acc[m]);
-            acc[m] = NULL;
+                bst_mat_free(sum);
+        }
+        for (size_t i = 0; rc >= 0 && want_abs && i < n * N; i++) {
+            double f = 0.0, b = 0.0;
+            for (size_t t = 0; t < nw; t++)
+                f += wk[t].abs[c * 2 * n * N + i], b += wk[t].abs[c * 2 * n * N + n * N + i];
+            if (abs_front)
+                abs_front[c * n * N + i] = f;
+            if (abs_back)
+                abs_back[c * n * N + i] = b;
         }
     }
-    ctx->progress_fn = progress;
-    for (size_t i = 0; i < n; i++) {
-        if (own)
-            bst_layer_free(own[i]);
-        if (dual)
-            dual_free(&dual[i]);
+    for (size_t t = 0; wk && t < nw; t++) {
+        for (size_t q = 0; wk[t].acc && q < nchannels * BST_NCOMP; q++)
+            bst_mat_free(wk[t].acc[q]);
+        bsti_free(ctx, wk[t].acc), bsti_free(ctx, wk[t].abs);
+        if (t)
+            bst_ctx_free(wk[t].ctx);
     }
-    for (int m = 0; m < BST_NCOMP; m++)
-        bst_mat_free(acc[m]);
-    bsti_free(ctx, own), bsti_free(ctx, lay), bsti_free(ctx, dual);
-    bsti_free(ctx, all), bsti_free(ctx, w), bsti_free(ctx, af), bsti_free(ctx, data);
+    for (size_t i = 0; dual && i < n; i++)
+        dual_free(&dual[i]);
+    bsti_free(ctx, dual), bsti_free(ctx, jobs), bsti_free(ctx, means), bsti_free(ctx, wk);
+    bsti_free(ctx, all), bsti_free(ctx, w), bsti_free(ctx, data);
     bsti_glass_rule_free(ctx, rule);
+    pthread_mutex_destroy(&sh.lock);
     if (rc < 0) {
         bst_layer_free(res);
         return rc;

@@ -18,7 +18,9 @@
  * from need() how often each component of the two parts will be read, and every matrix the
  * combination owns is freed at its last read (struct term, use()).  When both members of a pair
  * (Tf, Rb) or (Rf, Tb) are needed, one factorization serves both through W = T2 (I - A)^-1 (a right
- * solve); when one is needed, a left solve with its own right-hand side is cheaper. */
+ * solve), or, when T2 is diagonal (a pane), through two left solves scaled by T2 (W's products
+ * would be dense); when one is needed, a left solve with its own right-hand side is cheaper.  The
+ * absorptance can ride on the combination (bsti_stack_combine_absorptance, at the end). */
 #include <config.h>
 
 #include <math.h>
@@ -30,6 +32,7 @@
 #include "ctx.h"
 #include "layer.h"
 #include "mat.h"
+#include "stack.h"
 
 #define BIT(c) BST_COMP_BIT(c)
 
@@ -280,6 +283,43 @@ static struct term solve(struct combiner *cb, int side, struct term a, struct te
     return result(cb, rc, out);
 }
 
+/* (I - A)^-1 B1 and (I - A)^-1 B2 with one factorization: the first returned, the second in *x2
+ * (as solve() for the rest). */
+static struct term solve2(struct combiner *cb, struct term a, struct term b1, struct term b2,
+                          const char *what, struct term *x2)
+{
+    bst_mat *out1 = NULL, *out2 = NULL;
+    int rc = BST_OK;
+    cb->rcond = 1.0;
+    if (cb->status < 0 || !a.m || !b1.m || !b2.m) { /* a zero operand: solve() each, the one
+                                                      * that needs no factorization first */
+        struct term r1;
+        if (!b1.m) {
+            r1 = solve(cb, LEFT, keep(a), b1, what);
+            *x2 = solve(cb, LEFT, a, b2, what);
+        } else {
+            *x2 = solve(cb, LEFT, keep(a), b2, what);
+            r1 = solve(cb, LEFT, a, b1, what);
+        }
+        return r1;
+    }
+    rc = bsti_solve_take_left2(cb->ctx, a.dies, b1.m, b2.m, cb->opts->rcond_warn, &out1, &out2,
+                               &cb->rcond);
+    release(b1, b2);
+    if (rc == BST_ESINGULAR)
+        bsti_error_prefix(cb->ctx, "layers 1-%zu, channel %s: inter-reflection %s", cb->step + 1,
+                          cb->channel, what);
+    if (rc == BST_WILLCOND) {
+        bsti_error(cb->ctx, BST_WILLCOND,
+                   "layers 1-%zu, channel %s: inter-reflection %s is ill-conditioned "
+                   "(reciprocal condition %.3g): near-perfect mirrors facing each other",
+                   cb->step + 1, cb->channel, what, cb->rcond);
+        rc = note_warning(cb, rc);
+    }
+    *x2 = result(cb, rc, out2);
+    return result(cb, rc, out1);
+}
+
 /* Component c of S is t: kept, and reported (time since t0, the step's rcond). */
 static void form(struct combiner *cb, struct part *s, bst_comp c, double t0, struct term t)
 {
@@ -315,7 +355,9 @@ static struct term reflected_outwards(struct combiner *cb, struct part *v, struc
 /* Light travelling inwards in the gap, A1 = L Rb1 L Rf2 = (L Rb1 L) Rf2:
  *   Tf = Tf2 (I - A1)^-1 L Tf1,   Rb = Rb2 + Tf2 (I - A1)^-1 (L Rb1 L) Tb2.
  * One of them: a left solve with its own right-hand side.  Both: W = Tf2 (I - A1)^-1 serves the
- * two, and Rb goes first, so that its temporaries beside W are gone before Tf exists. */
+ * two, and Rb goes first, so that its temporaries beside W are gone before Tf exists; but when Tf2
+ * is diagonal (a pane), two left solves with one factorization, each then scaled by Tf2, save W's
+ * dense products (2 N^3 flops each): X1 = (I - A1)^-1 L Tf1, X2 = (I - A1)^-1 (L Rb1 L) Tb2. */
 static void inward(struct combiner *cb, struct part *u, struct part *v, unsigned want,
                    struct part *s)
 {
@@ -329,6 +371,13 @@ static void inward(struct combiner *cb, struct part *u, struct part *v, unsigned
     } else if (want == BIT(BST_RB)) {
         struct term x = solve(cb, LEFT, a1, mul(cb, llrb1, use(v, BST_TB)), what);
         form(cb, s, BST_RB, t0, add(cb, use(v, BST_RB), mul(cb, use(v, BST_TF), x)));
+    } else if (v->m[BST_TF] && bst_mat_structure(v->m[BST_TF]) == BST_DIAG) {
+        struct term x2, x1 = solve2(cb, a1, lam_times(cb, use(u, BST_TF)),
+                                    mul(cb, llrb1, use(v, BST_TB)), what, &x2);
+        struct term tf2 = use(v, BST_TF);
+        form(cb, s, BST_RB, t0, add(cb, use(v, BST_RB), mul(cb, keep(tf2), x2)));
+        t0 = now_seconds();
+        form(cb, s, BST_TF, t0, mul(cb, tf2, x1));
     } else {
         struct term w = solve(cb, RIGHT, a1, use(v, BST_TF), what);
         form(cb, s, BST_RB, t0,
@@ -340,15 +389,22 @@ static void inward(struct combiner *cb, struct part *u, struct part *v, unsigned
 
 /* Light travelling outwards in the gap, A2 = L Rf2 L Rb1 = L (Rf2 (L Rb1)):
  *   Tb = Tb1 (I - A2)^-1 L Tb2,   Rf = Rf1 + Tb1 (I - A2)^-1 L Rf2 L Tf1.
- * Both: W = Tb1 (I - A2)^-1 serves the two.  One of them: a left solve with its own right-hand
- * side. */
+ * Both: W = Tb1 (I - A2)^-1 serves the two, or, when Tb1 is diagonal, two left solves with one
+ * factorization (as inward).  One of them: a left solve with its own right-hand side. */
 static void outward(struct combiner *cb, struct part *u, struct part *v, unsigned want,
                     struct part *s)
 {
     static const char what[] = "towards the exterior";
     double t0 = now_seconds();
     struct term a2 = reflected_outwards(cb, v, u, BST_RB);
-    if (want == OUTWARD) {
+    if (want == OUTWARD && u->m[BST_TB] && bst_mat_structure(u->m[BST_TB]) == BST_DIAG) {
+        struct term x2, x1 = solve2(cb, a2, lam_times(cb, use(v, BST_TB)),
+                                    reflected_outwards(cb, v, u, BST_TF), what, &x2);
+        struct term tb1 = use(u, BST_TB);
+        form(cb, s, BST_TB, t0, mul(cb, keep(tb1), x1));
+        t0 = now_seconds();
+        form(cb, s, BST_RF, t0, add(cb, use(u, BST_RF), mul(cb, tb1, x2)));
+    } else if (want == OUTWARD) {
         struct term w = solve(cb, RIGHT, a2, use(u, BST_TB), what);
         form(cb, s, BST_TB, t0, mul(cb, keep(w), lam_times(cb, use(v, BST_TB))));
         t0 = now_seconds();
@@ -520,10 +576,26 @@ static int prepare(struct combiner *cb, const bst_layer *l, bst_layer *take, siz
     return rc;
 }
 
+/* What combine() keeps of its partial stacks for the absorptance (bsti_stack_combine_absorptance):
+ * of channel `name`, copies of the Tf and Rb of layers 0..k-1 in tf[k] and rb[k], k = 2..n-1 (a
+ * zero component as a zero matrix). */
+struct prefix {
+    const char *name;
+    bst_mat **tf, **rb;
+};
+
+/* A copy of m, or a zero N x N matrix for m == NULL (zero). */
+static int copy_or_zero(bst_ctx *ctx, const bst_mat *m, size_t N, bst_mat **out)
+{
+    return m ? bst_mat_convert(ctx, m, bst_mat_structure(m), bst_mat_precision(m), out)
+             : bst_mat_new_zero(ctx, N, N, out);
+}
+
 /* The combination; with `take` (the same layers, writable) each input component is taken from
- * its layer when the combination reaches it and freed at its last use. */
+ * its layer when the combination reaches it and freed at its last use; with `keep`, the partial
+ * stacks' Tf and Rb that it names are copied there as they are formed. */
 static int combine(bst_ctx *ctx, size_t n, const bst_layer *const *layers, bst_layer **take,
-                   const bst_stack_opts *opts_in, bst_layer **out)
+                   const bst_stack_opts *opts_in, bst_layer **out, struct prefix *keep)
 {
     if (!ctx || !out)
         return BST_EINVAL;
@@ -596,6 +668,12 @@ static int combine(bst_ctx *ctx, size_t n, const bst_layer *const *layers, bst_l
                 if (need_l[k] & BIT(c))
                     rc = prepare(&cb, layers[k], take ? take[k] : NULL, chk, &lay, (bst_comp)c);
             cb.step = k;
+            if (rc >= 0 && keep && k >= 2 && strcmp(names[ch], keep->name) == 0) {
+                size_t N = bst_basis_size(l0->basis);
+                rc = copy_or_zero(ctx, acc.m[BST_TF], N, &keep->tf[k]);
+                if (rc >= 0)
+                    rc = copy_or_zero(ctx, acc.m[BST_RB], N, &keep->rb[k]);
+            }
             if (rc >= 0)
                 rc = combine_pair(&cb, &acc, &lay, need_s[k], &next);
             part_clear(&lay);
@@ -645,14 +723,14 @@ out:
 int bst_stack_combine(bst_ctx *ctx, size_t n, const bst_layer *const *layers,
                       const bst_stack_opts *opts, bst_layer **out)
 {
-    return combine(ctx, n, layers, NULL, opts, out);
+    return combine(ctx, n, layers, NULL, opts, out, NULL);
 }
 
 int bst_stack_combine_consume(bst_ctx *ctx, size_t n, bst_layer **layers,
                               const bst_stack_opts *opts, bst_layer **out)
 {
     if (!ctx || !out || !layers)
-        return combine(ctx, n, (const bst_layer *const *)layers, NULL, opts, out);
+        return combine(ctx, n, (const bst_layer *const *)layers, NULL, opts, out, NULL);
     *out = NULL; /* also when the list below cannot be allocated */
     /* A layer listed twice (one pane object for both panes) is borrowed where it occurs first and
      * taken only at its last occurrence, and freed once. */
@@ -665,7 +743,7 @@ int bst_stack_combine_consume(bst_ctx *ctx, size_t n, bst_layer **layers,
                 j++;
             take[i] = j == n ? layers[i] : NULL;
         }
-        rc = combine(ctx, n, (const bst_layer *const *)layers, take, opts, out);
+        rc = combine(ctx, n, (const bst_layer *const *)layers, take, opts, out, NULL);
     }
     for (size_t i = 0; i < n; i++) {
         int last = 1;
@@ -833,4 +911,160 @@ int bst_stack_absorptance(bst_ctx *ctx, size_t n, const bst_layer *const *layers
     bsti_free(ctx, rev);
     bsti_free(ctx, tmp);
     return rc;
+}
+
+/* ------------------------------------------------------------------ the system and its absorptance
+ *
+ * bst_stack_combine and bst_stack_absorptance each form partial stacks: the combination those of
+ * layers 0..k-1 (U_k), the absorptance U_k again and those of layers k..n-1 (V_k), and the back
+ * incidence all of it once more on the flipped stack.  Here the combination keeps its U_k's Tf and
+ * Rb (struct prefix), one backward sweep forms V_k's Rf and Tb, and each gap k reads both, for
+ * either side of incidence (L = Lambda, alpha_f / alpha_b the layers' side absorptances):
+ *   front: h = (I - L Rb_U L Rf_V)^-1 L Tf_U (the light arriving at V), g = L Rf_V h (at U's back):
+ *          layer k absorbs alpha_f(k)^T h, layer k-1 alpha_b(k-1)^T L Rf_V h;
+ *   back:  h = (I - L Rf_V L Rb_U)^-1 L Tb_V (arriving at U's back), g = L Rb_U h (at V's front):
+ *          layer k-1 absorbs alpha_b(k-1)^T h, layer k alpha_f(k)^T L Rb_U h;
+ * and the incident beam: layer 0's front, layer n-1's back.  Each gap costs a factorization and a
+ * right solve with two rows instead of two partial stacks and a flip. */
+
+/* a0 += r0^T (I - L x L y)^-1 L z and a1 += (w^T L y) (I - L x L y)^-1 L z (all N; a NULL
+ * matrix is zero). */
+static int gap_rows(bst_ctx *ctx, const double *lam, size_t N, const bst_mat *x, const bst_mat *y,
+                    const bst_mat *z, const double *r0, const double *w, double rcond_warn,
+                    double *a0, double *a1)
+{
+    if (!z) /* no light enters the gap */
+        return BST_OK;
+    bst_mat *lx = NULL, *ly = NULL, *a = NULL, *bm = NULL, *sol = NULL, *lz = NULL, *res = NULL;
+    bst_mat *zero = NULL;
+    double *r1 = bsti_calloc(ctx, N, sizeof *r1), rcond;
+    int rc = r1 ? BST_OK : BST_ENOMEM;
+    if (rc >= 0 && (!x || !y))
+        rc = bst_mat_new_zero(ctx, N, N, &zero);
+    x = x ? x : zero, y = y ? y : zero;
+    if (rc >= 0)
+        rc = bst_mat_scale(ctx, lam, x, NULL, &lx);
+    if (rc >= 0)
+        rc = bst_mat_scale(ctx, lam, y, NULL, &ly);
+    if (rc >= 0)
+        rc = bst_mat_mul(ctx, lx, ly, 0.0, &a);
+    if (rc >= 0)
+        rc = bst_mat_col_weighted_sum(ctx, ly, w, r1);
+    if (rc >= 0) {
+        const double *rows[2] = {r0, r1};
+        rc = rows_matrix(ctx, 2, rows, N, &bm);
+    }
+    if (rc >= 0) {
+        rc = bst_solve_right(ctx, a, bm, rcond_warn, &sol, &rcond);
+        if (rc == BST_WILLCOND)
+            rc = BST_OK; /* already reported by the combination */
+    }
+    if (rc >= 0)
+        rc = bst_mat_scale(ctx, lam, z, NULL, &lz);
+    if (rc >= 0)
+        rc = bst_mat_mul(ctx, sol, lz, 0.0, &res); /* 2 x N */
+    for (size_t j = 0; rc >= 0 && j < N; j++) {
+        a0[j] += bst_mat_get(res, 0, j);
+        a1[j] += bst_mat_get(res, 1, j);
+    }
+    bsti_free(ctx, r1);
+    bst_mat_free(zero);
+    bst_mat_free(lx), bst_mat_free(ly), bst_mat_free(a), bst_mat_free(bm);
+    bst_mat_free(sol), bst_mat_free(lz), bst_mat_free(res);
+    return rc;
+}
+
+int bsti_stack_combine_absorptance(bst_ctx *ctx, size_t n, const bst_layer *const *layers,
+                                   size_t ch, const bst_stack_opts *opts_in, bst_layer **out,
+                                   double *abs_front, double *abs_back)
+{
+    if (!ctx || !out)
+        return BST_EINVAL;
+    *out = NULL;
+    bst_stack_opts defaults;
+    bst_stack_opts_init(&defaults);
+    const bst_stack_opts *opts = opts_in ? opts_in : &defaults;
+    unsigned want = opts->comps ? opts->comps & BST_COMP_ALL : BST_COMP_ALL;
+    if (!abs_front && !abs_back)
+        return bst_stack_combine(ctx, n, layers, opts, out);
+    if (n == 0 || !layers || !layers[0] || ch >= layers[0]->nchannels || want != BST_COMP_ALL) {
+        /* the checks and messages of the two, or partial stacks the combination does not form */
+        int rc = bst_stack_combine(ctx, n, layers, opts, out), ra = BST_OK;
+        if (rc >= 0)
+            ra = bst_stack_absorptance(ctx, n, layers, ch, opts, abs_front, abs_back);
+        if (ra < 0) {
+            bst_layer_free(*out);
+            *out = NULL;
+            return ra;
+        }
+        return rc > ra ? rc : ra;
+    }
+    const char *chname = layers[0]->channels[ch];
+    for (size_t i = 1; i < n; i++)
+        if (layers[i] && bst_layer_find_channel(layers[i], chname) < 0)
+            return bsti_error(ctx, BST_ENOTFOUND, "absorptance: layer %zu has no channel %s",
+                              i + 1, chname);
+    size_t N = bst_basis_size(layers[0]->basis);
+    struct prefix keep = {.name = chname};
+    keep.tf = bsti_calloc(ctx, 2 * n, sizeof *keep.tf);
+    keep.rb = keep.tf ? keep.tf + n : NULL;
+    double *alpha = bsti_alloc_array(ctx, 2 * n * N, sizeof *alpha); /* [side][layer][patch] */
+    bst_layer *sys = NULL, *v = NULL, *vnext = NULL; /* V_k, V_{k+1} when formed here */
+    int rc = keep.tf && alpha ? combine(ctx, n, layers, NULL, opts, &sys, &keep) : BST_ENOMEM;
+    int warn = rc > 0 ? rc : BST_OK;
+    for (size_t i = 0; rc >= 0 && i < n; i++) {
+        size_t c = (size_t)bst_layer_find_channel(layers[i], chname);
+        rc = side_absorptance(ctx, layers[i], c, 0, alpha + i * N);
+        if (rc >= 0)
+            rc = side_absorptance(ctx, layers[i], c, 1, alpha + (n + i) * N);
+    }
+    const double *af = alpha, *ab = alpha ? alpha + n * N : NULL;
+    for (size_t i = 0; rc >= 0 && i < n * N; i++) {
+        if (abs_front)
+            abs_front[i] = i < N ? af[i] : 0.0;
+        if (abs_back)
+            abs_back[i] = i >= (n - 1) * N ? ab[i] : 0.0;
+    }
+    /* gap k, from the interior outwards: V_k = layer k + V_{k+1} (Rf and Tb) */
+    bst_stack_opts o = *opts;
+    o.on_step = NULL;
+    o.comps = BST_COMP_BIT(BST_RF) | BST_COMP_BIT(BST_TB);
+    const bst_layer *vk = layers[n - 1];
+    for (size_t k = n - 1; rc >= 0 && k >= 1; k--) {
+        if (k < n - 1) {
+            const bst_layer *pair[2] = {layers[k], vk};
+            rc = bst_stack_combine(ctx, 2, pair, &o, &v);
+            vk = v;
+        }
+        if (rc >= 0) {
+            size_t cu = (size_t)bst_layer_find_channel(layers[0], chname);
+            size_t cv = (size_t)bst_layer_find_channel(vk, chname);
+            const bst_mat *tf_u = k == 1 ? bst_layer_get(layers[0], cu, BST_TF) : keep.tf[k];
+            const bst_mat *rb_u = k == 1 ? bst_layer_get(layers[0], cu, BST_RB) : keep.rb[k];
+            const bst_mat *rf_v = bst_layer_get(vk, cv, BST_RF);
+            const bst_mat *tb_v = bst_layer_get(vk, cv, BST_TB);
+            if (abs_front)
+                rc = gap_rows(ctx, bst_basis_lambda(layers[0]->basis), N, rb_u, rf_v, tf_u,
+                              af + k * N, ab + (k - 1) * N, opts->rcond_warn,
+                              abs_front + k * N, abs_front + (k - 1) * N);
+            if (rc >= 0 && abs_back)
+                rc = gap_rows(ctx, bst_basis_lambda(layers[0]->basis), N, rf_v, rb_u, tb_v,
+                              ab + (k - 1) * N, af + k * N, opts->rcond_warn,
+                              abs_back + (k - 1) * N, abs_back + k * N);
+        }
+        bst_layer_free(vnext);
+        vnext = v;
+        v = NULL;
+    }
+    bst_layer_free(vnext);
+    for (size_t k = 0; keep.tf && k < n; k++)
+        bst_mat_free(keep.tf[k]), bst_mat_free(keep.rb[k]);
+    bsti_free(ctx, keep.tf);
+    bsti_free(ctx, alpha);
+    if (rc < 0) {
+        bst_layer_free(sys);
+        return rc;
+    }
+    *out = sys;
+    return warn;
 }

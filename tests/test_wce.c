@@ -9,6 +9,8 @@
  *    a two-band material, applied here in the test).
  *  - the same case and dg_small_102_lambertian through bst_stack_combine_spectral_layers (a pane
  *    and a dual-band layer with Solar and Visible channels), with T + R + sum A = 1 to 1e-9.
+ *  - the one-pass absorptance (bsti_stack_combine_absorptance) against bst_stack_combine and
+ *    bst_stack_absorptance, and the spectral combination's workers against one worker.
  * WCE numbers layers from the exterior for both sides, as bsdfstack does. */
 #include <config.h>
 
@@ -17,6 +19,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "stack.h"
 #include "testutil.h"
 
 /* WCE's own tests compare to 1e-6 absolute. */
@@ -984,6 +987,164 @@ START_TEST(test_spectral_groups)
 }
 END_TEST
 
+/* ------------------------------------------------------------------ one pass and workers */
+
+/* |x - y| <= tol max(1, |y|) over every element of two matrices. */
+static void assert_mats_close(const bst_mat *x, const bst_mat *y, size_t N, double tol,
+                              const char *what)
+{
+    for (size_t i = 0; i < N; i++)
+        for (size_t j = 0; j < N; j++) {
+            double a = bst_mat_get(x, i, j), b = bst_mat_get(y, i, j);
+            ck_assert_msg(fabs(a - b) <= tol * fmax(1.0, fabs(b)), "%s (%zu, %zu): %.17g vs %.17g",
+                          what, i, j, a, b);
+        }
+}
+
+/* The 2011-SA1 shade's Solar matrices as a one-channel layer named like a pane's ("Spectral"). */
+static bst_layer *shade_solar_layer(const bst_basis *b)
+{
+    size_t N = bst_basis_size(b);
+    bst_layer *l;
+    ck_assert_int_eq(bst_layer_new(ctx, b, 1, (const char *const[]){"Spectral"}, &l), BST_OK);
+    for (int c = 0; c < BST_NCOMP; c++) {
+        char name[64];
+        snprintf(name, sizeof name, "bsdf_2011SA1_full_solar_%s", bst_comp_name((bst_comp)c));
+        double *m = read_full(name, N);
+        bst_mat *d;
+        ck_assert_int_eq(bst_mat_new_dense(ctx, N, N, BST_DOUBLE, &d), BST_OK);
+        for (size_t i = 0; i < N; i++)
+            for (size_t j = 0; j < N; j++)
+                ((double *)bst_mat_dense_data(d))[j * N + i] = m[i * N + j];
+        free(m);
+        ck_assert_int_eq(bst_layer_set(ctx, l, 0, (bst_comp)c, d), BST_OK);
+    }
+    return l;
+}
+
+/* bsti_stack_combine_absorptance (the absorptance from the combination's partial stacks, one
+ * backward sweep, no flipped stack) against bst_stack_combine and bst_stack_absorptance (partial
+ * stacks formed anew, back incidence on the flipped stack): NFRC 102 / 2011-SA1 / NFRC 103 and
+ * NFRC 102 / 2011-SA1 / NFRC 103 / 2011-SA1 (two backward steps), Klems full at 0.55 um, both
+ * sides, to 1e-12; a subset of components takes the two calls' own path (equal); a layer without
+ * the channel is refused. */
+START_TEST(test_combine_absorptance_one_pass)
+{
+    bst_basis *b = wce_basis("basis_klems_full.tsv");
+    size_t N = bst_basis_size(b);
+    bst_glass *g[2];
+    bst_layer *pane[2];
+    static const char *const names[2] = {"nfrc-102", "nfrc-103"};
+    for (int q = 0; q < 2; q++) {
+        ck_assert_int_eq(bst_glass_parse(ctx, names[q], getenv("BSDFSTACK_GLASS_DIR"), &g[q]), BST_OK);
+        ck_assert_int_eq(bst_glass_layer_at(ctx, g[q], b, 0.55, 0, &pane[q]), BST_OK);
+    }
+    bst_layer *shade = shade_solar_layer(b);
+    const bst_layer *stack[4] = {pane[0], shade, pane[1], shade};
+    for (size_t n = 3; n <= 4; n++) {
+        double *a[4];
+        for (int q = 0; q < 4; q++)
+            a[q] = malloc(n * N * sizeof *a[q]);
+        bst_layer *one, *two;
+        int rc = bsti_stack_combine_absorptance(ctx, n, stack, 0, NULL, &one, a[0], a[1]);
+        ck_assert_msg(rc >= 0, "%s", bst_ctx_message(ctx));
+        ck_assert_int_ge(bst_stack_combine(ctx, n, stack, NULL, &two), 0);
+        ck_assert_int_ge(bst_stack_absorptance(ctx, n, stack, 0, NULL, a[2], a[3]), 0);
+        for (int c = 0; c < BST_NCOMP; c++)
+            assert_mats_close(bst_layer_get(one, 0, (bst_comp)c), bst_layer_get(two, 0, (bst_comp)c),
+                              N, 1e-12, bst_comp_name((bst_comp)c));
+        double amax = 0;
+        for (size_t i = 0; i < n * N; i++) {
+            ck_assert_msg(fabs(a[0][i] - a[2][i]) <= 1e-12 && fabs(a[1][i] - a[3][i]) <= 1e-12,
+                          "%zu layers, layer %zu patch %zu: front %.17g vs %.17g, back %.17g vs %.17g",
+                          n, i / N + 1, i % N, a[0][i], a[2][i], a[1][i], a[3][i]);
+            amax = fmax(amax, fmax(a[0][i], a[1][i]));
+        }
+        ck_assert_double_gt(amax, 0.1); /* the shade absorbs: the comparison compares something */
+        bst_layer_free(one), bst_layer_free(two);
+        /* Tf alone: the partial stacks lack Rb, so the two calls run as they are */
+        bst_stack_opts o;
+        bst_stack_opts_init(&o);
+        o.comps = BST_COMP_BIT(BST_TF);
+        ck_assert_int_ge(bsti_stack_combine_absorptance(ctx, n, stack, 0, &o, &one, a[0], NULL), 0);
+        ck_assert_ptr_null(bst_layer_get(one, 0, BST_RF));
+        for (size_t i = 0; i < n * N; i++)
+            ck_assert_double_eq(a[0][i], a[2][i]);
+        bst_layer_free(one);
+        for (int q = 0; q < 4; q++)
+            free(a[q]);
+    }
+    bst_layer *other;
+    ck_assert_int_eq(bst_layer_new(ctx, b, 1, (const char *const[]){"Solar"}, &other), BST_OK);
+    const bst_layer *bad[2] = {pane[0], other};
+    double *x = malloc(2 * N * sizeof *x);
+    bst_layer *r = (bst_layer *)1;
+    ck_assert_int_eq(bsti_stack_combine_absorptance(ctx, 2, bad, 0, NULL, &r, x, NULL), BST_ENOTFOUND);
+    ck_assert_ptr_null(r);
+    free(x);
+    bst_layer_free(other), bst_layer_free(shade);
+    for (int q = 0; q < 2; q++)
+        bst_layer_free(pane[q]), bst_glass_free(g[q]);
+    bst_basis_free(b);
+}
+END_TEST
+
+/* The spectral combination shares its groups among workers, one a core; with a custom allocator
+ * (tu_alloc here) one worker does them all.  NFRC 102 / 2011-SA1 / NFRC 103, Klems full, Solar and
+ * Visible, default tolerance: both agree to 1e-12 (the sums' order differs), and the one-worker
+ * run frees every block it allocated. */
+START_TEST(test_spectral_workers)
+{
+    bst_basis *b = wce_basis("basis_klems_full.tsv");
+    size_t N = bst_basis_size(b);
+    bst_glass *g[2];
+    ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-102", getenv("BSDFSTACK_GLASS_DIR"), &g[0]), BST_OK);
+    ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-103", getenv("BSDFSTACK_GLASS_DIR"), &g[1]), BST_OK);
+    double *vis[BST_NCOMP], *sol[BST_NCOMP];
+    for (int c = 0; c < BST_NCOMP; c++) {
+        char name[64];
+        snprintf(name, sizeof name, "bsdf_2011SA1_full_visible_%s", bst_comp_name((bst_comp)c));
+        vis[c] = read_full(name, N);
+        snprintf(name, sizeof name, "bsdf_2011SA1_full_solar_%s", bst_comp_name((bst_comp)c));
+        sol[c] = read_full(name, N);
+    }
+    bst_layer *shade = dual_band_layer(b, sol, vis);
+    const bst_spectral_layer l[3] = {{.pane = g[0]}, {.bands = shade}, {.pane = g[1]}};
+    static const char *const bands[2] = {"Solar", "Visible"};
+    double *a[4];
+    for (int q = 0; q < 4; q++)
+        a[q] = malloc(2 * 3 * N * sizeof *a[q]);
+    bst_layer *r[2];
+    tu_alloc counter = {0};
+    bst_ctx *one = bst_ctx_new();
+    ck_assert_int_eq(bst_ctx_set_allocator(one, tu_alloc_malloc, tu_alloc_free, &counter), BST_OK);
+    int rc = bst_stack_combine_spectral_layers(ctx, 3, l, b, 2, bands, NULL, NULL, &r[0], a[0], a[1]);
+    ck_assert_msg(rc >= 0, "%s", bst_ctx_message(ctx));
+    rc = bst_stack_combine_spectral_layers(one, 3, l, b, 2, bands, NULL, NULL, &r[1], a[2], a[3]);
+    ck_assert_msg(rc >= 0, "%s", bst_ctx_message(one));
+    for (size_t c = 0; c < 2; c++)
+        for (int m = 0; m < BST_NCOMP; m++)
+            assert_mats_close(bst_layer_get(r[0], c, (bst_comp)m), bst_layer_get(r[1], c, (bst_comp)m),
+                              N, 1e-12, bst_comp_name((bst_comp)m));
+    for (size_t i = 0; i < 2 * 3 * N; i++)
+        ck_assert_msg(fabs(a[0][i] - a[2][i]) <= 1e-12 && fabs(a[1][i] - a[3][i]) <= 1e-12,
+                      "absorptance %zu: %.17g vs %.17g, %.17g vs %.17g", i, a[0][i], a[2][i], a[1][i],
+                      a[3][i]);
+    bst_layer_free(r[1]);
+    ck_assert_int_eq(counter.live, 0);
+    ck_assert_int_gt(counter.count, 0);
+    bst_ctx_free(one);
+    bst_layer_free(r[0]);
+    for (int q = 0; q < 4; q++)
+        free(a[q]);
+    bst_layer_free(shade);
+    for (int c = 0; c < BST_NCOMP; c++)
+        free(vis[c]), free(sol[c]);
+    bst_glass_free(g[0]), bst_glass_free(g[1]);
+    bst_basis_free(b);
+}
+END_TEST
+
 static Suite *wce_suite(void)
 {
     Suite *s = suite_create("wce");
@@ -1007,6 +1168,8 @@ static Suite *wce_suite(void)
     tcase_add_test(tc, test_dg_full_2011SA1_library);
     tcase_add_test(tc, test_dg_small_lambertian_library);
     tcase_add_test(tc, test_spectral_groups);
+    tcase_add_test(tc, test_combine_absorptance_one_pass);
+    tcase_add_test(tc, test_spectral_workers);
     suite_add_tcase(s, tc);
     return s;
 }
