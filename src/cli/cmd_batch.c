@@ -374,8 +374,12 @@ static void run_all(bst_ctx *ctx, struct batch *b, struct shared *sh, int jobs)
         }
         if (p == 0) {
 #ifdef HAVE_OPENBLAS_SET_NUM_THREADS
+            /* OPENBLAS_NUM_THREADS, when set, wins (as under bsdfstack-mpi): the last bit of some
+               products follows the thread count, so equal counts give byte-identical files */
             int per = batch_cores() / jobs;
-            openblas_set_num_threads(per > 1 ? per : 1);
+            const char *env = getenv("OPENBLAS_NUM_THREADS");
+            if (!env || !*env)
+                openblas_set_num_threads(per > 1 ? per : 1);
 #endif
             work(ctx, b, sh);
             fflush(stdout);
