@@ -44,6 +44,7 @@ Errors
 import ctypes
 import math
 import os
+import sys
 import threading
 import warnings
 
@@ -93,6 +94,11 @@ class _Ctx:
         if not self.ptr:
             raise MemoryError("bsdfstack: cannot allocate a library context")
         self.lock = threading.RLock()
+        # What the library made in this context is freed through it, so the context is freed
+        # after the last of them: users counts them (_hold, _let_go), closed says this wrapper
+        # is gone.  Refcounting frees holders first anyway; this keeps the order when the
+        # cycle collector finalizes a context and its holders together, in any order.
+        self.users, self.closed = 0, False
 
     def __enter__(self):
         self.lock.acquire()
@@ -115,10 +121,37 @@ class _Ctx:
         warnings.warn(msg, LibraryWarning, stacklevel=3)
         return status
 
-    def __del__(self):
+    def release(self):
+        with self.lock:
+            self.users -= 1
+            last = self.closed and self.users == 0
+        if last:
+            self._free()
+
+    def _free(self):
+        # Nothing is freed while the interpreter shuts down (module globals, lib among them, go
+        # in any order then), and the process's memory goes back anyway.
         ptr, self.ptr = getattr(self, "ptr", None), None
-        if ptr and lib is not None:
+        if ptr and lib is not None and not sys.is_finalizing():
             lib.bst_ctx_free(ptr)
+
+    def __del__(self):
+        self.closed = True
+        if getattr(self, "users", 0) == 0:
+            self._free()
+
+
+def _hold(obj, ctx):
+    """obj now owns something made in ctx: ctx stays until _let_go(obj)."""
+    with ctx.lock:
+        ctx.users += 1
+    obj._held_ctx = ctx
+
+
+def _let_go(obj):
+    ctx = obj.__dict__.pop("_held_ctx", None)
+    if ctx is not None:
+        ctx.release()
 
 
 class _Progress:
@@ -188,10 +221,12 @@ def _direction(theta, phi):
 # -------------------------------------------------------------------------------------- bases
 
 class _Basis:
-    """A bst_basis owned here (freed with this object)."""
+    """A bst_basis owned here (freed with this object); it holds the context whose allocator made
+    it, which the library frees it through."""
 
-    def __init__(self, ptr):
-        self.ptr = ptr
+    def __init__(self, ptr, ctx):
+        self.ptr, self.ctx = ptr, ctx
+        _hold(self, ctx)
 
     @classmethod
     def make(cls, ctx, k=None, klems=None):
@@ -201,19 +236,20 @@ class _Basis:
                 ctx.check(lib.bst_basis_new_klems(c, cstr(klems), ctypes.byref(out)))
             else:
                 ctx.check(lib.bst_basis_new_sc(c, int(k), ctypes.byref(out)))
-        return cls(out.value)
+        return cls(out.value, ctx)
 
     @classmethod
     def copy(cls, ctx, ptr):
         out = ctypes.c_void_p()
         with ctx as c:
             ctx.check(lib.bst_basis_copy(c, ptr, ctypes.byref(out)))
-        return cls(out.value)
+        return cls(out.value, ctx)
 
     def __del__(self):
         ptr, self.ptr = getattr(self, "ptr", None), None
-        if ptr and lib is not None:
+        if ptr and lib is not None and not sys.is_finalizing():
             lib.bst_basis_free(ptr)
+        _let_go(self)
 
 
 def _basis_key(ptr):
@@ -250,15 +286,17 @@ class BSDF:
 
     def __init__(self, ptr, ctx, name=None):
         self._ptr, self._ctx = ptr, ctx
+        _hold(self, ctx)
         if name is not None:
             with ctx as c:
                 lib.bst_layer_set_name(c, ptr, cstr(name))
 
     def __del__(self):
         ptr, self._ptr = getattr(self, "_ptr", None), None
-        if ptr and lib is not None:
+        if ptr and lib is not None and not sys.is_finalizing():
             with self._ctx:
                 lib.bst_layer_free(ptr)
+        _let_go(self)
 
     # what it is
     def _layer(self):
@@ -510,6 +548,8 @@ class File(_Source, BSDF):
         with self._ctx as c, _Progress(self._ctx, progress):
             st = lib.bst_bsdf_read(c, cstr(self.path), ctypes.byref(opts), ctypes.byref(out))
             self._bsdf = out.value
+            if out.value:
+                _hold(self, self._ctx)
             if st == _lib.BST_WDATA and self._only_reciprocity(opts.comps):
                 lib.bst_ctx_clear(c)  # what every TensorTree4 file expects: no warning
                 st = 0
@@ -534,8 +574,9 @@ class File(_Source, BSDF):
         self._cache = {}
         self._own = None
         ptr, self._bsdf = getattr(self, "_bsdf", None), None
-        if ptr and lib is not None:
+        if ptr and lib is not None and not sys.is_finalizing():
             lib.bst_bsdf_free(ptr)
+        _let_go(self)
 
     @property
     def name(self):
@@ -636,7 +677,7 @@ class Glass(_Source):
             if st < 0 and out.value:
                 lib.bst_glass_free(out.value)
             self._ctx.check(st)
-        return _GlassPtr(out.value)
+        return _GlassPtr(out.value, self._ctx)
 
     @property
     def name(self):
@@ -691,13 +732,17 @@ class Glass(_Source):
 
 
 class _GlassPtr:
-    def __init__(self, ptr):
-        self.ptr = ptr
+    """A parsed pane owned here, with the context whose allocator made it."""
+
+    def __init__(self, ptr, ctx):
+        self.ptr, self.ctx = ptr, ctx
+        _hold(self, ctx)
 
     def __del__(self):
         ptr, self.ptr = getattr(self, "ptr", None), None
-        if ptr and lib is not None:
+        if ptr and lib is not None and not sys.is_finalizing():
             lib.bst_glass_free(ptr)
+        _let_go(self)
 
 
 def load(path, channels=None, only=None, progress=None):
