@@ -255,6 +255,24 @@ static struct term add(struct combiner *cb, struct term r, struct term s)
 
 enum { LEFT = 0, RIGHT = 1 };
 
+
+/* A solve's status told with the step, channel and which inter-reflection: a singular one is an
+ * error so named, an ill-conditioned one a warning (noted for --strict). */
+static int solve_status(struct combiner *cb, int rc, const char *what)
+{
+    if (rc == BST_ESINGULAR)
+        bsti_error_prefix(cb->ctx, "layers 1-%zu, channel %s: inter-reflection %s", cb->step + 1,
+                          cb->channel, what);
+    if (rc == BST_WILLCOND) {
+        bsti_error(cb->ctx, BST_WILLCOND,
+                   "layers 1-%zu, channel %s: inter-reflection %s is ill-conditioned "
+                   "(reciprocal condition %.3g): near-perfect mirrors facing each other",
+                   cb->step + 1, cb->channel, what, cb->rcond);
+        rc = note_warning(cb, rc);
+    }
+    return rc;
+}
+
 /* (I - A)^-1 B (LEFT) or B (I - A)^-1 (RIGHT).  A is a result of the step, freed as soon as it is
  * factored.  cb->rcond receives the condition estimate (1 without a solve). */
 static struct term solve(struct combiner *cb, int side, struct term a, struct term b,
@@ -270,16 +288,7 @@ static struct term solve(struct combiner *cb, int side, struct term a, struct te
     else
         rc = bsti_solve_take(cb->ctx, side, a.dies, b.m, cb->opts->rcond_warn, &out, &cb->rcond);
     bst_mat_free(b.dies);
-    if (rc == BST_ESINGULAR)
-        bsti_error_prefix(cb->ctx, "layers 1-%zu, channel %s: inter-reflection %s", cb->step + 1,
-                          cb->channel, what);
-    if (rc == BST_WILLCOND) {
-        bsti_error(cb->ctx, BST_WILLCOND,
-                   "layers 1-%zu, channel %s: inter-reflection %s is ill-conditioned "
-                   "(reciprocal condition %.3g): near-perfect mirrors facing each other",
-                   cb->step + 1, cb->channel, what, cb->rcond);
-        rc = note_warning(cb, rc);
-    }
+    rc = solve_status(cb, rc, what);
     return result(cb, rc, out);
 }
 
@@ -306,16 +315,7 @@ static struct term solve2(struct combiner *cb, struct term a, struct term b1, st
     rc = bsti_solve_take_left2(cb->ctx, a.dies, b1.m, b2.m, cb->opts->rcond_warn, &out1, &out2,
                                &cb->rcond);
     release(b1, b2);
-    if (rc == BST_ESINGULAR)
-        bsti_error_prefix(cb->ctx, "layers 1-%zu, channel %s: inter-reflection %s", cb->step + 1,
-                          cb->channel, what);
-    if (rc == BST_WILLCOND) {
-        bsti_error(cb->ctx, BST_WILLCOND,
-                   "layers 1-%zu, channel %s: inter-reflection %s is ill-conditioned "
-                   "(reciprocal condition %.3g): near-perfect mirrors facing each other",
-                   cb->step + 1, cb->channel, what, cb->rcond);
-        rc = note_warning(cb, rc);
-    }
+    rc = solve_status(cb, rc, what);
     *x2 = result(cb, rc, out2);
     return result(cb, rc, out1);
 }
