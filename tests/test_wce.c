@@ -509,6 +509,18 @@ static double *read_full(const char *name, size_t N)
     return m;
 }
 
+/* WCE's 2011-SA1 shade in Klems full: its Visible and Solar matrices, every component (N x N). */
+static void read_sa1(size_t N, double *vis[BST_NCOMP], double *sol[BST_NCOMP])
+{
+    for (int c = 0; c < BST_NCOMP; c++) {
+        char name[64];
+        snprintf(name, sizeof name, "bsdf_2011SA1_full_visible_%s", bst_comp_name((bst_comp)c));
+        vis[c] = read_full(name, N);
+        snprintf(name, sizeof name, "bsdf_2011SA1_full_solar_%s", bst_comp_name((bst_comp)c));
+        sol[c] = read_full(name, N);
+    }
+}
+
 /* s += the pane g (patch centres, at each wavelength) + a two-band shade given by its visible and
  * solar matrices (vis[c], sol[c]: N x N, row = outgoing patch), on wavelengths wl[0..n-1] with
  * weights w.  The shade follows WCE's rule for two-band materials: inside 0.38..0.78 um the visible
@@ -550,13 +562,7 @@ START_TEST(test_dg_full_2011SA1_from_data)
     bst_glass *g;
     ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-102", getenv("BSDFSTACK_GLASS_DIR"), &g), BST_OK);
     double *vis[BST_NCOMP], *sol[BST_NCOMP];
-    for (int c = 0; c < BST_NCOMP; c++) {
-        char name[64];
-        snprintf(name, sizeof name, "bsdf_2011SA1_full_visible_%s", bst_comp_name((bst_comp)c));
-        vis[c] = read_full(name, N);
-        snprintf(name, sizeof name, "bsdf_2011SA1_full_solar_%s", bst_comp_name((bst_comp)c));
-        sol[c] = read_full(name, N);
-    }
+    read_sa1(N, vis, sol);
     size_t n = bst_glass_nwavelengths(g), nwl = 0;
     double *wl = malloc((n + 6) * sizeof *wl);
     static const double extra[6] = {0.3, 0.379999, 0.380001, 0.779999, 0.780001, 2.5};
@@ -748,13 +754,7 @@ START_TEST(test_dg_full_2011SA1_library)
     bst_glass *g;
     ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-102", getenv("BSDFSTACK_GLASS_DIR"), &g), BST_OK);
     double *vis[BST_NCOMP], *sol[BST_NCOMP];
-    for (int c = 0; c < BST_NCOMP; c++) {
-        char name[64];
-        snprintf(name, sizeof name, "bsdf_2011SA1_full_visible_%s", bst_comp_name((bst_comp)c));
-        vis[c] = read_full(name, N);
-        snprintf(name, sizeof name, "bsdf_2011SA1_full_solar_%s", bst_comp_name((bst_comp)c));
-        sol[c] = read_full(name, N);
-    }
+    read_sa1(N, vis, sol);
     bst_layer *shade = dual_band_layer(b, sol, vis);
     bst_spectral_layer l[2] = {{.pane = g}, {.bands = shade}};
     bst_spectral_opts so;
@@ -949,13 +949,7 @@ START_TEST(test_spectral_groups)
     ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-102", getenv("BSDFSTACK_GLASS_DIR"), &g[0]), BST_OK);
     ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-103", getenv("BSDFSTACK_GLASS_DIR"), &g[1]), BST_OK);
     double *vis[BST_NCOMP], *sol[BST_NCOMP];
-    for (int c = 0; c < BST_NCOMP; c++) {
-        char name[64];
-        snprintf(name, sizeof name, "bsdf_2011SA1_full_visible_%s", bst_comp_name((bst_comp)c));
-        vis[c] = read_full(name, N);
-        snprintf(name, sizeof name, "bsdf_2011SA1_full_solar_%s", bst_comp_name((bst_comp)c));
-        sol[c] = read_full(name, N);
-    }
+    read_sa1(N, vis, sol);
     bst_layer *shade = dual_band_layer(b, sol, vis);
     const bst_spectral_layer cases[2][2] = {{{.pane = g[0]}, {.bands = shade}},
                                             {{.pane = g[0]}, {.pane = g[1]}}};
@@ -1101,13 +1095,7 @@ START_TEST(test_spectral_workers)
     ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-102", getenv("BSDFSTACK_GLASS_DIR"), &g[0]), BST_OK);
     ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-103", getenv("BSDFSTACK_GLASS_DIR"), &g[1]), BST_OK);
     double *vis[BST_NCOMP], *sol[BST_NCOMP];
-    for (int c = 0; c < BST_NCOMP; c++) {
-        char name[64];
-        snprintf(name, sizeof name, "bsdf_2011SA1_full_visible_%s", bst_comp_name((bst_comp)c));
-        vis[c] = read_full(name, N);
-        snprintf(name, sizeof name, "bsdf_2011SA1_full_solar_%s", bst_comp_name((bst_comp)c));
-        sol[c] = read_full(name, N);
-    }
+    read_sa1(N, vis, sol);
     bst_layer *shade = dual_band_layer(b, sol, vis);
     const bst_spectral_layer l[3] = {{.pane = g[0]}, {.bands = shade}, {.pane = g[1]}};
     static const char *const bands[2] = {"Solar", "Visible"};
