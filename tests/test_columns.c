@@ -15,22 +15,7 @@ static bst_ctx *ctx;
 static void setup(void) { ctx = bst_ctx_new(); }
 static void teardown(void) { bst_ctx_free(ctx); }
 
-static bst_layer *load(const char *what, const bst_basis *b)
-{
-    bst_layer *l;
-    const char *ch = "Visible";
-    if (what[0] == 'g') { /* an analytic pane */
-        ck_assert_int_eq(bst_glass_layer_from_spec(ctx, what + 6, getenv("BSDFSTACK_GLASS_DIR"), b, 1, &ch,
-                                                   &l), BST_OK);
-        return l;
-    }
-    bst_bsdf *f;
-    int rc = bst_bsdf_read(ctx, tu_ref(what), NULL, &f);
-    ck_assert_msg(rc >= 0, "%s", bst_ctx_message(ctx));
-    ck_assert_int_eq(bst_bsdf_to_layer(ctx, f, b, &l), BST_OK);
-    bst_bsdf_free(f);
-    return l;
-}
+static bst_layer *load(const char *what, const bst_basis *b) { return tu_layer(ctx, what, b); }
 
 /* Column q of x against column cols[q] of the full matrix, relative to the column's largest value. */
 static double column_error(const bst_mat *x, const bst_mat *full, size_t n, size_t q, size_t col)

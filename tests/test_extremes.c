@@ -75,6 +75,19 @@ static bst_mat *dense(const bst_basis *b, const double *a)
     return m;
 }
 
+/* A component of hemispherical value v at every incident patch: Lambertian (dense, v / pi
+ * everywhere) when diffuse, else specular. */
+static bst_mat *uniform(const bst_basis *b, double v, int diffuse)
+{
+    size_t n = bst_basis_size(b), len = diffuse ? n * n : n;
+    double *a = malloc(len * sizeof *a);
+    for (size_t k = 0; k < len; k++)
+        a[k] = diffuse ? v / M_PI : v;
+    bst_mat *m = diffuse ? dense(b, a) : specular(b, a);
+    free(a);
+    return m;
+}
+
 /* A one-channel layer of the four given components (NULL: absent). */
 static bst_layer *layer4(const bst_basis *b, bst_mat *tf, bst_mat *rf, bst_mat *tb, bst_mat *rb)
 {
@@ -319,19 +332,7 @@ START_TEST(test_opaque)
             ck_assert_int_eq(bst_mat_new_zero(ctx, n, n, &t[s]), BST_OK);
         else if (trans == 2)
             t[s] = dense(b, NULL);
-        if (diffuse) {
-            double *a = malloc(n * n * sizeof *a);
-            for (size_t k = 0; k < n * n; k++)
-                a[k] = rho / M_PI;
-            r[s] = dense(b, a);
-            free(a);
-        } else {
-            double *v = malloc(n * sizeof *v);
-            for (size_t j = 0; j < n; j++)
-                v[j] = rho;
-            r[s] = specular(b, v);
-            free(v);
-        }
+        r[s] = uniform(b, rho, diffuse);
     }
     bst_layer *op = layer4(b, t[0], r[0], t[1], r[1]);
     bst_layer *gl = glass_layer("clear-6mm", b, 0);
@@ -605,20 +606,7 @@ static void facing(const bst_basis *b, double r, double t, int diffuse, const bs
     size_t n = bst_basis_size(b);
     bst_mat *m[BST_NCOMP];
     for (int c = 0; c < BST_NCOMP; c++) {
-        double v = (c == BST_TF || c == BST_TB) ? t : r;
-        if (diffuse) {
-            double *a = malloc(n * n * sizeof *a);
-            for (size_t k = 0; k < n * n; k++)
-                a[k] = v / M_PI;
-            m[c] = dense(b, a);
-            free(a);
-        } else {
-            double *d = malloc(n * sizeof *d);
-            for (size_t j = 0; j < n; j++)
-                d[j] = v;
-            m[c] = specular(b, d);
-            free(d);
-        }
+        m[c] = uniform(b, (c == BST_TF || c == BST_TB) ? t : r, diffuse);
     }
     bst_layer *l = layer4(b, m[0], m[1], m[2], m[3]), *pair[2] = {l, l}, *sys = (bst_layer *)1;
     bst_ctx_clear(ctx);

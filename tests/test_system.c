@@ -29,16 +29,7 @@ static bst_ctx *ctx;
 static void setup(void) { ctx = bst_ctx_new(); }
 static void teardown(void) { bst_ctx_free(ctx); }
 
-static bst_layer *load(const char *name, const bst_basis *b)
-{
-    bst_bsdf *f;
-    bst_layer *l;
-    int rc = bst_bsdf_read(ctx, tu_ref(name), NULL, &f);
-    ck_assert_msg(rc >= 0, "%s", bst_ctx_message(ctx));
-    ck_assert_int_eq(bst_bsdf_to_layer(ctx, f, b, &l), BST_OK);
-    bst_bsdf_free(f);
-    return l;
-}
+static bst_layer *load(const char *what, const bst_basis *b) { return tu_layer(ctx, what, b); }
 
 static const double dirs[][2] = {{25, 90}, {45, 90}, {50, 90}, {45, 45}, {65, 90}};
 

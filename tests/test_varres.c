@@ -126,22 +126,7 @@ END_TEST
 
 /* ------------------------------------------------------------------ variable resolution */
 
-static bst_layer *load(const char *what, const bst_basis *b)
-{
-    bst_layer *l;
-    const char *ch = "Visible";
-    if (strncmp(what, "glass:", 6) == 0) {
-        ck_assert_int_eq(bst_glass_layer_from_spec(ctx, what + 6, getenv("BSDFSTACK_GLASS_DIR"), b, 1,
-                                                   &ch, &l), BST_OK);
-        return l;
-    }
-    bst_bsdf *f;
-    int rc = bst_bsdf_read(ctx, tu_ref(what), NULL, &f);
-    ck_assert_msg(rc >= 0, "%s", bst_ctx_message(ctx));
-    ck_assert_int_eq(bst_bsdf_to_layer(ctx, f, b, &l), BST_OK);
-    bst_bsdf_free(f);
-    return l;
-}
+static bst_layer *load(const char *what, const bst_basis *b) { return tu_layer(ctx, what, b); }
 
 /* The stack (names) combined at order k. */
 static bst_layer *system_at(const char *const *names, size_t n, int k, bst_basis **basis)

@@ -423,7 +423,7 @@ START_TEST(test_examples_rank4)
     double t1[16], t2[256];
     for (int i = 0; i < 16; i++)
         t1[i] = i + 1; /* value number 8 b0 + 4 b1 + 2 b2 + b3 (+1) = full tensor order at k = 1 */
-    bsti_tensor a = {4, 1, t1, NULL, NULL, NULL, 0};
+    bsti_tensor a = {4, 1, t1, NULL, NULL, NULL, 0, NULL};
     char *got = tree_text(&a, -1, NULL);
     char *x = tokens(got), *y = tokens(scattering_data(tu_ref("examples/k1_4d_TF.xml")));
     ck_assert_str_eq(x, y);
@@ -437,7 +437,7 @@ START_TEST(test_examples_rank4)
                     int leaf = (int)((c0 & 1) << 3 | (c1 & 1) << 2 | (c2 & 1) << 1 | (c3 & 1));
                     t2[((c0 * 4 + c1) * 4 + c2) * 4 + c3] = 100 * (child + 1) + leaf + 1;
                 }
-    bsti_tensor b = {4, 2, t2, NULL, NULL, NULL, 0};
+    bsti_tensor b = {4, 2, t2, NULL, NULL, NULL, 0, NULL};
     got = tree_text(&b, -1, NULL);
     x = tokens(got), y = tokens(scattering_data(tu_ref("examples/k2_4d_TF.xml")));
     ck_assert_str_eq(x, y);
@@ -457,7 +457,7 @@ START_TEST(test_examples_rank3)
                 int leaf = (int)((c0 & 1) << 2 | (c1 & 1) << 1 | (c2 & 1));
                 t[(c0 * 4 + c1) * 4 + c2] = 100 * (child + 1) + leaf + 1;
             }
-    bsti_tensor a = {3, 2, t, NULL, NULL, NULL, 0};
+    bsti_tensor a = {3, 2, t, NULL, NULL, NULL, 0, NULL};
     char *got = tree_text(&a, -1, NULL);
     char *x = tokens(got);
     ck_assert_str_eq(x, "{ { 101 102 103 104 105 106 107 108 } { 0 } "
@@ -504,7 +504,7 @@ START_TEST(test_examples_read_back)
         {3, {0.1632, 0.0594, -0.9848}, {0.8138, 0.4698, 0.3420}, 106},
     };
     for (int rank = 3; rank <= 4; rank++) {
-        bsti_tensor t = {rank, 2, rank == 4 ? t4 : t3, NULL, NULL, NULL, 0};
+        bsti_tensor t = {rank, 2, rank == 4 ? t4 : t3, NULL, NULL, NULL, 0, NULL};
         char *text = tree_text(&t, -1, NULL);
         const char *path = tmp_path("ex");
         FILE *fp = fopen(path, "w");
@@ -565,7 +565,7 @@ START_TEST(test_lossless_random)
             random_tensor(&r, rank, k, t, n);
             for (size_t q = 0; q < n; q++)
                 f[q] = (float)t[q];
-            bsti_tensor a = {rank, k, t, NULL, NULL, NULL, 0}, b = {rank, k, NULL, f, NULL, NULL, 0};
+            bsti_tensor a = {rank, k, t, NULL, NULL, NULL, 0, NULL}, b = {rank, k, NULL, f, NULL, NULL, 0, NULL};
             bsti_tree_stats st;
             char *text = tree_text(&a, -1, &st), *text_f = tree_text(&b, -1, NULL);
             ck_assert_str_eq(text, text_f);
@@ -605,7 +605,7 @@ START_TEST(test_diagonal_shortcut)
             t[i * N + i] = u < 0.2 ? 0.0 : u < 0.4 ? 3.5 : 100 * u; /* M[o + N i], o = i */
         }
         for (int reduce = 0; reduce < 2; reduce++) {
-            bsti_tensor a = {4, k, t, NULL, NULL, NULL, 0}, b = {4, k, t, NULL, NULL, NULL, 1};
+            bsti_tensor a = {4, k, t, NULL, NULL, NULL, 0, NULL}, b = {4, k, t, NULL, NULL, NULL, 1, NULL};
             bsti_tree_stats sa, sb;
             char *ta = tree_text(&a, reduce ? 90 : -1, &sa), *tb = tree_text(&b, reduce ? 90 : -1, &sb);
             ck_assert_str_eq(ta, tb);
@@ -636,7 +636,7 @@ START_TEST(test_reduce)
         double u = tu_rng_uniform(&r);
         t[q] = u < 0.1 ? 0.0 : mean * (1 + 0.3 * sqrt(1 / (mean + 1)) * (tu_rng_uniform(&r) - 0.5));
     }
-    bsti_tensor a = {4, k, t, NULL, NULL, NULL, 0};
+    bsti_tensor a = {4, k, t, NULL, NULL, NULL, 0, NULL};
     size_t last_values = SIZE_MAX;
     static const double pcts[] = {0, 50, 90, 99};
     for (size_t p = 0; p < 4; p++) {
@@ -683,7 +683,7 @@ START_TEST(test_constant_depth)
             size_t G = (size_t)1 << k, n = rank == 4 ? G * G * G * G : G * G * G / 2;
             for (size_t q = 0; q < n; q++)
                 t[q] = 2.5 * (rank - 3);
-            bsti_tensor a = {rank, k, t, NULL, NULL, NULL, 0};
+            bsti_tensor a = {rank, k, t, NULL, NULL, NULL, 0, NULL};
             double grid[4096];
             for (int red = 0; red < 2; red++) {
                 char *text = tree_text(&a, red ? 90 : -1, NULL);
@@ -710,7 +710,7 @@ START_TEST(test_tree_errors)
 {
     double t[256] = {0};
     t[17] = NAN;
-    bsti_tensor a = {4, 2, t, NULL, NULL, NULL, 0};
+    bsti_tensor a = {4, 2, t, NULL, NULL, NULL, 0, NULL};
     struct membuf m = {0};
     bsti_sink *s = malloc(sizeof *s);
     bsti_sink_init(s, mem_write, &m);
@@ -720,7 +720,7 @@ START_TEST(test_tree_errors)
     t[17] = 1e39;                   /* beyond single precision */
     ck_assert_int_eq(bsti_ttree_write(ctx, &a, &r, s, NULL), BST_EINVAL);
     t[17] = 1.0;
-    bsti_tensor bad = {5, 2, t, NULL, NULL, NULL, 0};
+    bsti_tensor bad = {5, 2, t, NULL, NULL, NULL, 0, NULL};
     ck_assert_int_eq(bsti_ttree_write(ctx, &bad, &r, s, NULL), BST_EINVAL);
     bsti_reduce badr = {100, BST_REDUCE_FLOOR, 0};
     ck_assert_int_eq(bsti_ttree_write(ctx, &a, &badr, s, NULL), BST_EINVAL);
@@ -730,7 +730,7 @@ START_TEST(test_tree_errors)
     tu_rng_seed(&rng, 3);
     for (int i = 0; i < 65536; i++)
         big[i] = tu_rng_uniform(&rng);
-    bsti_tensor b = {4, 4, big, NULL, NULL, NULL, 0};
+    bsti_tensor b = {4, 4, big, NULL, NULL, NULL, 0, NULL};
     size_t left = 70000; /* the exact tree is about 10 times longer */
     bsti_sink_init(s, failing_after, &left);
     bsti_reduce exact = {-1, BST_REDUCE_FLOOR, 0};

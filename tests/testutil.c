@@ -4,6 +4,7 @@
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <unistd.h>
 
 #include "testutil.h"
@@ -40,6 +41,23 @@ const char *tu_ref(const char *name)
         dir = "../shared/reference";
     snprintf(buf, sizeof buf, "%s/%s", dir, name);
     return buf;
+}
+
+bst_layer *tu_layer(bst_ctx *ctx, const char *what, const bst_basis *b)
+{
+    bst_layer *l;
+    const char *ch = "Visible";
+    if (strncmp(what, "glass:", 6) == 0) {
+        ck_assert_int_eq(bst_glass_layer_from_spec(ctx, what + 6, getenv("BSDFSTACK_GLASS_DIR"), b, 1,
+                                                   &ch, &l), BST_OK);
+        return l;
+    }
+    bst_bsdf *f;
+    int rc = bst_bsdf_read(ctx, tu_ref(what), NULL, &f);
+    ck_assert_msg(rc >= 0, "%s", bst_ctx_message(ctx));
+    ck_assert_int_eq(bst_bsdf_to_layer(ctx, f, b, &l), BST_OK);
+    bst_bsdf_free(f);
+    return l;
 }
 
 void tu_unxz_ref(const char *name, char *path, size_t size)

@@ -31,6 +31,9 @@ const char *tu_ref(const char *name);
 void tu_unxz_ref(const char *name, char *path, size_t size);
 /* Path of a file in the source tree ($BST_SRCDIR, default "."); static buffer. */
 const char *tu_src(const char *name);
+/* A layer over basis b (channel Visible for panes): "glass:SPEC" from the catalogue
+ * ($BSDFSTACK_GLASS_DIR), else a reference file (tu_ref) resampled to b.  Fails the test on error. */
+bst_layer *tu_layer(bst_ctx *ctx, const char *what, const bst_basis *b);
 
 /* An allocator for bst_ctx_set_allocator that fails the n-th allocation (n >= 1; 0 = never),
  * and counts live blocks so that leaks show. */
