@@ -14,11 +14,13 @@ NR == 1 { next }
     for (i = 1; i <= NF; i++) v[n, i] = $i
 }
 function N(k) { return 4 ^ k }
-# the combination's time as dense N x N double GEMMs at this run's rate
-function gemms(k, s, prec,   rate) {
-    rate = (prec == "single" ? g[2] : g[1]) * 1e9
-    if (rate <= 0 || s <= 0 || k < 5) return "-"
-    return sprintf("%.1f", s * rate / (2 * N(k) ^ 3))
+# the dense kernels' counted work (combine -v, bsdfstack-combine(1) says how it counts), and the
+# time it would take at this run's GEMM rate as a share of the combining time measured
+function gflop(f) { return f == "" || f == "-" ? "-" : sprintf("%.4g", f) }
+function bound(k, s, prec, f,   rate) {
+    rate = (prec == "single" ? g[2] : g[1])
+    if (rate <= 0 || s <= 0 || k < 5 || f == "" || f == "-") return "-"
+    return sprintf("%.0f %%", 100 * f / rate / s)
 }
 END {
     print "# bsdfstack: the speed-accuracy trade, measured"
@@ -36,21 +38,45 @@ END {
     print "45/45, 65/90), Tf and Tb, least and mean, against the ray-traced S1 at k = 5 (`S1_t4k5.xml`)"
     print "and at k = 6 (`S1_t4k6.xml.xz`), both on the k = 6 grid (a coarser result is replicated"
     print "onto it, which shows what it loses). k <= 5 starts from the k = 5 layers, k >= 6 from the"
-    print "k = 6 layers. \"GEMMs\": the combining time as that many dense N x N GEMMs at the rate above."
+    print "k = 6 layers. \"GFLOP\": floating-point operations of the dense kernels the combination ran"
+    print "(GEMM 2mnk, LU 2/3 n^3 - 1/2 n^2 + 5/6 n, triangular solves (2 n^2 - n) per column, sparse by"
+    print "dense 2 per stored value and column: LAPACK Working Note 41's counts, as `combine -v` prints"
+    print "them; O(N^2) element-wise work not counted). \"bound\": the time those take at this run's GEMM"
+    print "rate as a share of the combining time measured (100 % = every second spent at the GEMM rate)."
     print ""
-    print "| k | N | precision | wall s | CPU s | read s | combine s | write s | GEMMs | peak MiB | file MB | GA vs k5 least / mean | GA vs k6 least / mean | genBSDF CPU s / ours | paper Table 6 / ours |"
-    print "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    print "| k | N | precision | wall s | CPU s | read s | combine s | write s | GFLOP | bound | peak MiB | file MB | GA vs k5 least / mean | GA vs k6 least / mean | genBSDF CPU s / ours | paper Table 6 / ours |"
+    print "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
     for (r = 1; r <= n; r++) {
         if (v[r, 1] != "S1") continue
         k = v[r, 3]
         gb = (k in genbsdf) ? sprintf("%.0fx", genbsdf[k] / v[r, 7]) : "-"
         pp = (k in paper) ? sprintf("%.0fx", paper[k] / v[r, 7]) : "-"
-        printf "| %s | %d | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s / %s | %s / %s | %s | %s |\n", k, N(k), v[r, 4], v[r, 6], v[r, 7], v[r, 9], v[r, 10], v[r, 11], gemms(k, v[r, 10], v[r, 4]), v[r, 8], v[r, 12], v[r, 13], v[r, 14], v[r, 15], v[r, 16], gb, pp
+        printf "| %s | %d | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s / %s | %s / %s | %s | %s |\n", k, N(k), v[r, 4], v[r, 6], v[r, 7], v[r, 9], v[r, 10], v[r, 11], gflop(v[r, 17]), bound(k, v[r, 10], v[r, 4], v[r, 17]), v[r, 8], v[r, 12], v[r, 13], v[r, 14], v[r, 15], v[r, 16], gb, pp
     }
     print ""
     print "genBSDF: ../shared/reference/timings.tsv (S1, 632 CPU-s at k = 5, 3673 at k = 6). Paper Table 6:"
     print "0.26 h at k = 5, 0.39 h at k = 6, 7.09 h at k = 7, one thread. Both ratios divide by our CPU"
     print "seconds (both cores used where OpenBLAS threads)."
+    print ""
+    print "Windows-CalcEngine: its README (../shared/reference/wce/README.md) gives no timing of a Klems"
+    print "combination, and it is not run here; issue #14 cites 0.08 s in-process for the Klems three-layer"
+    print "case of the next section, issue #15 19.4 s for the same stack per wavelength (115 wavelengths)."
+    print ""
+    print "## Text I/O"
+    print ""
+    print "Reading and writing BSDF XML (issue #14's targets in the last column). MB/s: the file's size"
+    print "over CPU seconds (info: the file read, 109 MB; convert: the file written, over the CPU seconds"
+    print "beyond info's). S1's end-to-end CPU seconds and its read and write times are in the first table."
+    print ""
+    print "| work | wall s | CPU s | peak MiB | file MB | MB/s | target |"
+    print "|---|---|---|---|---|---|---|"
+    for (r = 1; r <= n; r++) {
+        if (v[r, 1] != "io") continue
+        rate = "-"
+        if (v[r, 2] ~ /^info/) { info_cpu = v[r, 7]; rate = sprintf("%.0f (read)", v[r, 12] / v[r, 7]) }
+        else if (v[r, 2] ~ /^convert/ && info_cpu > 0 && v[r, 7] > info_cpu) rate = sprintf("%.0f (written)", v[r, 12] / (v[r, 7] - info_cpu))
+        printf "| `%s` | %s | %s | %s | %s | %s | %s |\n", v[r, 2], v[r, 6], v[r, 7], v[r, 8], v[r, 12], rate, v[r, 5]
+    }
     print ""
     print "## Tree reduction and the sparse drop tolerance (S1, double)"
     print ""
@@ -65,11 +91,11 @@ END {
     print ""
     print "## Dense worst cases"
     print ""
-    print "| stack | k | precision | wall s | CPU s | read s | combine s | write s | GEMMs | peak MiB | file MB |"
+    print "| stack | k | precision | wall s | CPU s | read s | combine s | write s | GFLOP | bound | peak MiB | file MB |"
     print "|---|---|---|---|---|---|---|---|---|---|---|"
     for (r = 1; r <= n; r++)
         if (v[r, 1] == "dense")
-            printf "| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", v[r, 2], v[r, 3], v[r, 4], v[r, 6], v[r, 7], v[r, 9], v[r, 10], v[r, 11], gemms(v[r, 3], v[r, 10], v[r, 4]), v[r, 8], v[r, 12]
+            printf "| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", v[r, 2], v[r, 3], v[r, 4], v[r, 6], v[r, 7], v[r, 9], v[r, 10], v[r, 11], gflop(v[r, 17]), bound(v[r, 3], v[r, 10], v[r, 4], v[r, 17]), v[r, 8], v[r, 12]
     print ""
     print "## Plots"
     print ""

@@ -268,6 +268,9 @@ typedef struct {
     size_t nnz;
     double seconds;         /* wall time of the step for this component */
     double rcond;           /* of the inter-reflection solve (1 when none) */
+    double flops;           /* floating-point operations of its dense kernels (GEMM, LU, triangular
+                               solves, sparse by dense products; LAPACK Working Note 41's counts),
+                               O(N^2) element-wise work not counted; see bsdfstack-combine(1) */
 } bst_stack_step;
 
 typedef struct {

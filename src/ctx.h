@@ -54,4 +54,14 @@ void bsti_progress(bst_ctx *ctx, double fraction, const char *label);
  * BST_ENOMEM recorded if it cannot be started. */
 struct cholmod_common_struct *bsti_cholmod(bst_ctx *ctx);
 
+/* Floating-point operations this thread has asked of the dense kernels so far (bst_stack_step's
+ * flops): GEMM 2 m n k; LU (getrf) 2/3 n^3 - 1/2 n^2 + 5/6 n and the triangular solves (getrs)
+ * (2 n^2 - n) per right-hand side, LAPACK Working Note 41's counts; a sparse by dense product
+ * 2 nnz per column of the dense factor.  Not counted: O(n^2) element-wise work (scalings by Lambda
+ * or a pane, sums, copies), the condition estimate (gecon, O(n^2)), sparse factorizations and
+ * sparse by sparse products.  Per thread, so that concurrent stacks (spectral workers, batch)
+ * count only their own. */
+extern _Thread_local double bsti_flops_done;
+static inline void bsti_flops_add(double flops) { bsti_flops_done += flops; }
+
 #endif

@@ -105,6 +105,7 @@ struct combiner {
     double rcond; /* of the step's last inter-reflection solve (1 when none) */
     size_t step;
     const char *channel;
+    double flops_mark; /* bsti_flops_done when the component being formed began */
 };
 
 /* Record a warning (or, in strict mode, turn it into an error). */
@@ -324,6 +325,8 @@ static struct term solve2(struct combiner *cb, struct term a, struct term b1, st
 static void form(struct combiner *cb, struct part *s, bst_comp c, double t0, struct term t)
 {
     s->own[c] = t.dies;
+    double flops = bsti_flops_done - cb->flops_mark;
+    cb->flops_mark = bsti_flops_done;
     if (!cb->opts->on_step || cb->status < 0)
         return;
     bst_stack_step st = {
@@ -334,6 +337,7 @@ static void form(struct combiner *cb, struct part *s, bst_comp c, double t0, str
         .nnz = t.m ? bst_mat_nnz(t.m) : 0,
         .seconds = now_seconds() - t0,
         .rcond = cb->rcond,
+        .flops = flops,
     };
     cb->opts->on_step(&st, cb->opts->opaque);
 }
@@ -363,6 +367,7 @@ static void inward(struct combiner *cb, struct part *u, struct part *v, unsigned
 {
     static const char what[] = "towards the interior";
     double t0 = now_seconds();
+    cb->flops_mark = bsti_flops_done;
     struct term llrb1 = lam_both(cb, use(u, BST_RB));
     struct term a1 = mul(cb, want & BIT(BST_RB) ? keep(llrb1) : llrb1, use(v, BST_RF));
     if (want == BIT(BST_TF)) {
@@ -396,6 +401,7 @@ static void outward(struct combiner *cb, struct part *u, struct part *v, unsigne
 {
     static const char what[] = "towards the exterior";
     double t0 = now_seconds();
+    cb->flops_mark = bsti_flops_done;
     struct term a2 = reflected_outwards(cb, v, u, BST_RB);
     if (want == OUTWARD && u->m[BST_TB] && bst_mat_structure(u->m[BST_TB]) == BST_DIAG) {
         struct term x2, x1 = solve2(cb, a2, lam_times(cb, use(v, BST_TB)),

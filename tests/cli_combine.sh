@@ -119,10 +119,15 @@ grep -q "LBNL/Klems Full" "$tmpdir/k.xml" && pass "Klems output names its basis"
 # -v: reading, each step and component, writing; each with a time and the peak memory
 expect_status 0 "combine -v" -- "$B" combine -v -k 3 -o "$tmpdir/v.xml" glass:clear-6mm "$ref/L_diffuser_t3k5.xml" glass:clear-6mm
 n_read=$(grep -c 'read 3 layers onto 64 patches: [0-9.]* s, peak RSS' "$tmpdir/err")
-n_step=$(grep -c 'layers 1-[23] Visible \(Tf\|Rf\|Tb\|Rb\): .* s, rcond .*, peak RSS' "$tmpdir/err")
+n_step=$(grep -c 'layers 1-[23] Visible \(Tf\|Rf\|Tb\|Rb\): .* s, [0-9.e+-]* GFLOP, rcond .*, peak RSS' "$tmpdir/err")
 n_write=$(grep -c 'wrote [0-9.]* MB: [0-9.]* s, peak RSS' "$tmpdir/err")
 [ "$n_read" -eq 1 ] && [ "$n_step" -eq 8 ] && [ "$n_write" -eq 1 ] && pass "-v: read, 8 step lines, write" ||
     fail "-v: $n_read read, $n_step step, $n_write write lines: $(cat "$tmpdir/err")"
+# the combination's GFLOP is the sum of its steps' (each printed to 3 digits)
+awk '/GFLOP, rcond/ { for (i = 1; i < NF; i++) if ($(i + 1) == "GFLOP,") s += $i }
+     /combined, [0-9.e+-]* GFLOP in dense kernels/ { t = $4; n++ }
+     END { d = s - t; if (d < 0) d = -d; exit !(n == 1 && t > 0 && d <= 2e-3 * t) }' "$tmpdir/err" &&
+    pass "-v: the combination's GFLOP sums its steps'" || fail "-v: GFLOP lines: $(grep GFLOP "$tmpdir/err")"
 # --incident: the iterated Tf and Tb columns at normal incidence and at (45, 90) sum to the full
 # system's hemispherical T of each side as `info` prints it (4 digits); 1024 rows per component
 # and direction; --only; usage errors

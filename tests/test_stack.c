@@ -275,6 +275,38 @@ START_TEST(test_only_requested)
 }
 END_TEST
 
+/* bst_stack_step's flops: two dense layers cost, per the formulas in stack.c, two GEMMs and one
+ * factorization with an N-column solve before each of the four components' last products:
+ * 8 GEMMs (2 N^3) + 2 LU (2/3 N^3 - 1/2 N^2 + 5/6 N, LAWN 41) + 2 getrs of N columns
+ * ((2 N^2 - N) N); two diagonal layers (panes) none at all. */
+static void add_flops(const bst_stack_step *s, void *opaque) { *(double *)opaque += s->flops; }
+
+START_TEST(test_flops)
+{
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 2, &b), BST_OK);
+    double n = (double)bst_basis_size(b);
+    tu_rng rng;
+    tu_rng_seed(&rng, 4242);
+    for (int structure = 0; structure <= 2; structure += 2) {
+        bst_layer *l[2] = {random_layer(b, structure, 0.1, &rng), random_layer(b, structure, 0.2, &rng)}, *s;
+        double flops = 0.0;
+        bst_stack_opts o;
+        bst_stack_opts_init(&o);
+        o.on_step = add_flops;
+        o.opaque = &flops;
+        ck_assert_int_eq(bst_stack_combine(ctx, 2, (const bst_layer *const *)l, &o, &s), BST_OK);
+        double lu = 2.0 / 3.0 * n * n * n - 0.5 * n * n + 5.0 / 6.0 * n;
+        double want = structure ? 8 * 2 * n * n * n + 2 * lu + 2 * (2 * n * n - n) * n : 0.0;
+        ck_assert_double_le(fabs(flops - want), 1e-9 * want);
+        bst_layer_free(l[0]);
+        bst_layer_free(l[1]);
+        bst_layer_free(s);
+    }
+    bst_basis_free(b);
+}
+END_TEST
+
 /* Components freed at their last use give the same numbers: for every structure triple and every
  * subset of requested components, the consuming combination (which takes the inputs and frees
  * each at its last use), the forced-dense one (whose own copies are freed likewise) and the
@@ -529,6 +561,7 @@ static Suite *stack_suite(void)
     tcase_add_test(tc, test_panes_closed_form);
     tcase_add_loop_test(tc, test_energy_and_dense, 0, 27);
     tcase_add_test(tc, test_only_requested);
+    tcase_add_test(tc, test_flops);
     tcase_add_loop_test(tc, test_consume, 0, 27);
     tcase_add_loop_test(tc, test_absorptance_balance, 0, 3);
     tcase_add_test(tc, test_mirrors);

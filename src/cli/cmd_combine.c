@@ -89,15 +89,20 @@ static const char help[] =
     "                     atomically, a symbolic link's target is written, a device or FIFO\n"
     "                     directly (also for --absorptance)\n";
 
+/* the dense kernels' floating-point operations of every step so far (-v; steps are reported one at
+ * a time, also by the spectral workers) */
+static double steps_flops;
+
 static void verbose_step(const bst_stack_step *s, void *opaque)
 {
     (void)opaque;
+    steps_flops += s->flops;
     static const char *const names[] = {"zero", "diagonal", "sparse", "dense"};
     struct rusage ru;
     getrusage(RUSAGE_SELF, &ru);
-    fprintf(stderr, "bsdfstack combine: layers 1-%zu %s %s: %s, %zu stored, %.3f s, rcond %.3g, "
-            "peak RSS %.1f MiB\n", s->step + 1, s->channel, bst_comp_name(s->comp),
-            names[s->structure], s->nnz, s->seconds, s->rcond, ru.ru_maxrss / 1024.0);
+    fprintf(stderr, "bsdfstack combine: layers 1-%zu %s %s: %s, %zu stored, %.3f s, %.3g GFLOP, "
+            "rcond %.3g, peak RSS %.1f MiB\n", s->step + 1, s->channel, bst_comp_name(s->comp),
+            names[s->structure], s->nnz, s->seconds, s->flops * 1e-9, s->rcond, ru.ru_maxrss / 1024.0);
 }
 
 static double now_s(void)
@@ -656,6 +661,7 @@ int cmd_combine(int argc, char **argv)
                  bst_basis_size(set.basis));
         verbose_phase(what, t0);
     }
+    t0 = now_s();
     bst_layer *sys = NULL;
     double *abs[2] = {NULL, NULL};
     if (rc == CLI_OK && ndirs) {
@@ -691,6 +697,11 @@ int cmd_combine(int argc, char **argv)
             cli_warn_ctx(sub, NULL, st, ctx);
         if (rc == CLI_OK && abspath)
             rc = absorptance(ctx, sub, &set, sys, &args.so, abs);
+    }
+    if (rc == CLI_OK && verbose) {
+        char what[96];
+        snprintf(what, sizeof what, "combined, %.4g GFLOP in dense kernels", steps_flops * 1e-9);
+        verbose_phase(what, t0);
     }
     struct cli_out abs_out = {0};
     if (rc == CLI_OK && abspath)
