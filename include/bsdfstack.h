@@ -364,6 +364,17 @@ int bst_stack_combine_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral
                                       const char *const *channels, const bst_spectral_opts *sopts,
                                       const bst_stack_opts *opts, bst_layer **out,
                                       double *abs_front, double *abs_back);
+/* Columns cols[0..m-1] of such a stack's Tf and Rf (Tb and Rb with copts->back) in one band channel
+ * (Visible, Solar, CIE-X, CIE-Y, CIE-Z): each group of wavelengths iterated as bst_stack_columns
+ * does (never forming (I - A)^-1), summed with the band's weights as
+ * bst_stack_combine_spectral_layers sums the whole system, so that the columns equal that
+ * system's to the iteration's tolerance.  copts (may be NULL) out: the most sweeps of any group and
+ * the largest last change; BST_WILLCOND when a group did not converge. */
+int bst_stack_columns_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers,
+                                      const bst_basis *basis, const char *channel,
+                                      const bst_spectral_opts *sopts, size_t ncols,
+                                      const size_t *cols, bst_columns_opts *copts, bst_mat **tf,
+                                      bst_mat **rf);
 /* The same for a stack of spectral panes only (at_centre as in bst_spectral_opts; tol 0: panes
  * alone stay diagonal, O(N) a wavelength, and are not grouped). */
 int bst_stack_combine_spectral(bst_ctx *ctx, size_t n, bst_glass *const *panes,

@@ -332,6 +332,11 @@ struct shared {
     unsigned want;
     int want_abs;
     const struct job *jobs;
+    /* columns (bst_stack_columns_spectral_layers): ncols > 0, the system's Tf and Rf (or Tb and
+     * Rb) columns cols of each group summed into acc's BST_TF and BST_RF slots */
+    size_t ncols;
+    const size_t *cols;
+    const bst_columns_opts *copts;
     atomic_int stop;
     /* the caller's opts->on_step, called under `lock`: never from two workers at once */
     void (*on_step)(const bst_stack_step *step, void *opaque);
@@ -356,8 +361,38 @@ struct worker {
     bst_mat **acc;
     double *abs;
     int rc, warn, started;
+    int iterations;     /* columns: the most sweeps of a group, and the largest last change */
+    double residual;
     pthread_t thread;
 };
+
+/* Columns of one group's stack lay: iterated (bst_stack_columns) and summed with the group's
+ * weight into the worker's BST_TF and BST_RF slots of the group's channel. */
+static int group_columns(bst_ctx *ctx, const struct shared *sh, const bst_layer **lay,
+                         struct worker *wk, const struct job *j)
+{
+    bst_columns_opts o = *sh->copts;
+    bst_mat *m[2] = {NULL, NULL};
+    int rc = bst_stack_columns(ctx, sh->n, lay, NULL, sh->ncols, sh->cols, &o, &m[0], &m[1]);
+    if (rc < 0)
+        return rc;
+    wk->iterations = o.iterations > wk->iterations ? o.iterations : wk->iterations;
+    wk->residual = fmax(wk->residual, o.residual);
+    static const bst_comp slot[2] = {BST_TF, BST_RF};
+    for (int c = 0; c < 2; c++) {
+        bst_mat **acc = &wk->acc[j->ch * BST_NCOMP + slot[c]], *sum;
+        int st = *acc ? bst_mat_add(ctx, 1.0, *acc, j->wsum, m[c], &sum)
+                      : bst_mat_add(ctx, j->wsum, m[c], 0.0, m[c], &sum);
+        if (st < 0) {
+            rc = st;
+            break;
+        }
+        bst_mat_free(*acc);
+        *acc = sum;
+    }
+    bst_mat_free(m[0]), bst_mat_free(m[1]);
+    return rc;
+}
 
 static void *work(void *arg)
 {
@@ -383,12 +418,14 @@ static void *work(void *arg)
                                            &j->mean[4 * i], &own[i]);
             lay[i] = sh->layers[i].pane ? own[i] : j->inside ? sh->dual[i].vis : sh->dual[i].out;
         }
-        if (rc >= 0)
+        if (rc >= 0 && sh->ncols)
+            rc = group_columns(ctx, sh, lay, wk, j);
+        else if (rc >= 0)
             rc = bsti_stack_combine_absorptance(ctx, n, lay, 0, sh->opts, &sys, af,
                                                 af ? af + n * N : NULL);
         if (rc > 0) /* a warning (ill-conditioned, energy): kept, its message is in ctx */
             wk->warn = rc > wk->warn ? rc : wk->warn, rc = BST_OK;
-        if (rc >= 0)
+        if (rc >= 0 && !sh->ncols)
             rc = accumulate(ctx, wk->acc + j->ch * BST_NCOMP, sys, sh->want, j->wsum);
         double *a = wk->abs + j->ch * 2 * n * N;
         for (size_t i = 0; rc >= 0 && af && i < 2 * n * N; i++)
@@ -461,20 +498,16 @@ static int run_workers(bst_ctx *ctx, struct worker *wk, size_t nw)
 
 /* ------------------------------------------------------------------ the combination */
 
-int bst_stack_combine_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers,
-                                      const bst_basis *basis, size_t nchannels,
-                                      const char *const *channels, const bst_spectral_opts *sopts,
-                                      const bst_stack_opts *opts_in, bst_layer **out,
-                                      double *abs_front, double *abs_back)
+/* The groups' sums: sums[c * BST_NCOMP + m] (nchannels x BST_NCOMP, NULL where nothing was
+ * asked) of the whole system's components (ncols == 0) or of its columns cols (copts: Tf and Rf
+ * slots, or Tb and Rb with copts->back), and the absorptance; the highest warning or an error
+ * (then nothing is left in sums). */
+static int spectral_run(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers,
+                        const bst_basis *basis, size_t nchannels, const char *const *channels,
+                        const bst_spectral_opts *so, const bst_stack_opts *opts_in, size_t ncols,
+                        const size_t *cols, bst_columns_opts *copts, bst_mat **sums,
+                        double *abs_front, double *abs_back)
 {
-    if (!ctx || !out)
-        return BST_EINVAL;
-    *out = NULL;
-    if (n == 0 || !layers || !basis || nchannels == 0 || !channels)
-        return bsti_error(ctx, BST_EINVAL, "spectral stack: no layers, basis or channels");
-    bst_spectral_opts sdefaults;
-    bst_spectral_opts_init(&sdefaults);
-    const bst_spectral_opts *so = sopts ? sopts : &sdefaults;
     bst_glass *ref;
     int rc = check_layers(ctx, n, layers, so, &ref);
     if (rc < 0)
@@ -490,7 +523,6 @@ int bst_stack_combine_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral
     struct dual *dual = bsti_calloc(ctx, n, sizeof *dual);
     struct job *jobs = NULL;
     struct worker *wk = NULL;
-    bst_layer *res = NULL;
     bsti_glass_rule *rule = NULL;
     int split = 0; /* a dual-band layer changes at the visible range's limits */
     rc = dual ? union_grid(ctx, n, layers, &all, &nall) : BST_ENOMEM;
@@ -501,8 +533,6 @@ int bst_stack_combine_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral
             rc = dual_new(ctx, layers[i].bands, i, basis, so->dual_f, &dual[i]), split = 1;
     if (rc >= 0)
         rc = bsti_glass_rule_new(ctx, basis, so->at_centre, BST_GLASS_SAMPLES, &rule);
-    if (rc >= 0)
-        rc = bst_layer_new(ctx, basis, nchannels, channels, &res);
     for (size_t c = 0; c < nchannels && rc >= 0; c++) {
         if (bst_glass_find_channel(ref, channels[c]) < 0)
             rc = bst_glass_add_channel(ctx, ref, channels[c]);
@@ -541,6 +571,7 @@ int bst_stack_combine_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral
     struct shared sh = {.n = n, .N = N, .njobs = njobs, .total = total ? total : 1,
                         .layers = layers, .dual = dual, .basis = basis, .rule = rule,
                         .opts = opts, .want = want, .want_abs = want_abs, .jobs = jobs,
+                        .ncols = ncols, .cols = cols, .copts = copts,
                         .on_step = opts->on_step, .opaque = opts->opaque};
     bst_stack_opts wopts = *opts;
     if (opts->on_step)
@@ -580,8 +611,8 @@ int bst_stack_combine_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral
                 if (rc >= 0 && sum != s2)
                     bst_mat_free(sum), sum = s2;
             }
-            if (rc >= 0 && sum)
-                rc = bst_layer_set(ctx, res, c, (bst_comp)m, sum);
+            if (rc >= 0)
+                sums[c * BST_NCOMP + m] = sum;
             else
                 bst_mat_free(sum);
         }
@@ -594,6 +625,10 @@ int bst_stack_combine_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral
             if (abs_back)
                 abs_back[c * n * N + i] = b;
         }
+    }
+    for (size_t t = 0; copts && wk && t < nw; t++) {
+        copts->iterations = wk[t].iterations > copts->iterations ? wk[t].iterations : copts->iterations;
+        copts->residual = fmax(copts->residual, wk[t].residual);
     }
     for (size_t t = 0; wk && t < nw; t++) {
         for (size_t q = 0; wk[t].acc && q < nchannels * BST_NCOMP; q++)
@@ -609,11 +644,83 @@ int bst_stack_combine_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral
     bsti_glass_rule_free(ctx, rule);
     pthread_mutex_destroy(&sh.lock);
     if (rc < 0) {
+        for (size_t q = 0; q < nchannels * BST_NCOMP; q++)
+            bst_mat_free(sums[q]), sums[q] = NULL;
+        return rc;
+    }
+    return warn;
+}
+
+int bst_stack_combine_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers,
+                                      const bst_basis *basis, size_t nchannels,
+                                      const char *const *channels, const bst_spectral_opts *sopts,
+                                      const bst_stack_opts *opts, bst_layer **out,
+                                      double *abs_front, double *abs_back)
+{
+    if (!ctx || !out)
+        return BST_EINVAL;
+    *out = NULL;
+    if (n == 0 || !layers || !basis || nchannels == 0 || !channels)
+        return bsti_error(ctx, BST_EINVAL, "spectral stack: no layers, basis or channels");
+    bst_spectral_opts sdefaults;
+    bst_spectral_opts_init(&sdefaults);
+    bst_layer *res = NULL;
+    bst_mat **sums = bsti_calloc(ctx, nchannels * BST_NCOMP, sizeof *sums);
+    if (!sums)
+        return BST_ENOMEM;
+    int rc = bst_layer_new(ctx, basis, nchannels, channels, &res);
+    if (rc >= 0)
+        rc = spectral_run(ctx, n, layers, basis, nchannels, channels, sopts ? sopts : &sdefaults,
+                          opts, 0, NULL, NULL, sums, abs_front, abs_back);
+    int warn = rc > 0 ? rc : BST_OK;
+    for (size_t q = 0; q < nchannels * BST_NCOMP; q++) {
+        int st = rc >= 0 && sums[q] ? bst_layer_set(ctx, res, q / BST_NCOMP, (bst_comp)(q % BST_NCOMP), sums[q])
+                                    : BST_OK;
+        if (st < 0 || rc < 0)
+            bst_mat_free(sums[q]);
+        if (st < 0)
+            rc = st;
+    }
+    bsti_free(ctx, sums);
+    if (rc < 0) {
         bst_layer_free(res);
         return rc;
     }
     *out = res;
     return warn;
+}
+
+int bst_stack_columns_spectral_layers(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers,
+                                      const bst_basis *basis, const char *channel,
+                                      const bst_spectral_opts *sopts, size_t ncols,
+                                      const size_t *cols, bst_columns_opts *copts, bst_mat **tf,
+                                      bst_mat **rf)
+{
+    if (!ctx || !tf || !rf)
+        return BST_EINVAL;
+    *tf = *rf = NULL;
+    if (n == 0 || !layers || !basis || !channel || ncols == 0 || !cols)
+        return bsti_error(ctx, BST_EINVAL, "spectral columns: no layers, basis, channel or columns");
+    size_t N = bst_basis_size(basis);
+    for (size_t q = 0; q < ncols; q++)
+        if (cols[q] >= N)
+            return bsti_error(ctx, BST_EINVAL, "spectral columns: patch %zu is beyond the basis's %zu",
+                              cols[q], N);
+    bst_spectral_opts sdefaults;
+    bst_spectral_opts_init(&sdefaults);
+    bst_columns_opts cdefaults;
+    bst_columns_opts_init(&cdefaults);
+    bst_columns_opts *co = copts ? copts : &cdefaults;
+    co->iterations = 0;
+    co->residual = 0.0;
+    bst_mat *sums[BST_NCOMP] = {NULL};
+    int rc = spectral_run(ctx, n, layers, basis, 1, &channel, sopts ? sopts : &sdefaults, NULL,
+                          ncols, cols, co, sums, NULL, NULL);
+    if (rc < 0)
+        return rc;
+    *tf = sums[BST_TF];
+    *rf = sums[BST_RF];
+    return rc;
 }
 
 int bst_stack_combine_spectral(bst_ctx *ctx, size_t n, bst_glass *const *panes,

@@ -85,4 +85,28 @@ awk 'BEGIN { FS = OFS = "\t" } NR == 3 { $7 = "12.0000" } { print }' "$tmpdir/c.
 expect_error "an exit direction off its patch" "bad.tsv:3: exit direction" -- "$B" compare "$tmpdir/bad.tsv" "$tmpdir/full2.xml"
 expect_error "a TSV with -k" "keeps its basis" -- "$B" compare -k 3 "$tmpdir/c.tsv" "$tmpdir/full2.xml"
 expect_error "a direction the TSV lacks" "no Visible Tf column at \\(10, 10\\)" -- "$B" compare --only Tf --incident 10,10 "$tmpdir/c.tsv" "$tmpdir/full2.xml"
+
+# a spectral stack (spectral panes around a band-value layer: a pane written with Solar and Visible
+# channels) is combined per wavelength in both parts of a variable-resolution file and in the TSV of
+# --incident, as the full combination is: its fine columns equal the full spectral system's, not the
+# band-value one's (solar T(0) 0.530 against 0.513)
+expect_status 0 "a band-value layer" -- "$B" combine -k 3 --no-reduce -o "$tmpdir/band.xml" glass:clear-6mm
+sstack="glass:nfrc-102 $tmpdir/band.xml glass:nfrc-103"
+expect_status 0 "spectral variable resolution" -- "$B" combine -v -k 3 --coarse-k 2 --no-reduce \
+    --fine-incident 0,0 --fine-incident 30,270 -o "$tmpdir/svr.xml" $sstack
+grep -q "spectral: combined wavelength by wavelength" "$tmpdir/svr.xml" && pass "varres metadata: per wavelength" \
+    || fail "varres metadata: $(grep -i spectral "$tmpdir/svr.xml")"
+expect_status 0 "full spectral k = 3" -- "$B" combine -k 3 --no-reduce -o "$tmpdir/sfull.xml" $sstack
+expect_status 0 "full per channel k = 3" -- "$B" combine -k 3 --no-reduce --per-channel -o "$tmpdir/pfull.xml" $sstack
+expect_status 0 "spectral columns TSV" -- "$B" combine -k 3 --incident 0,0 --incident 30,270 -o "$tmpdir/s.tsv" $sstack
+for a in svr.xml s.tsv; do
+    expect_status 0 "$a against the full spectral system" -- "$B" compare --channel Solar --only Tf,Rf \
+        --incident 0,0 --incident 30,270 "$tmpdir/$a" "$tmpdir/sfull.xml"
+    n=$( (rows Tf; rows Rf) | awk '$4 == "100.000" && $6 == $7' | wc -l)
+    [ "$n" -eq 4 ] && pass "$a: GA 100, hemispherical values equal the spectral system's" || fail "$a: $(cat "$tmpdir/out")"
+    expect_status 0 "$a against the band-value system" -- "$B" compare --channel Solar --only Tf \
+        --incident 0,0 "$tmpdir/$a" "$tmpdir/pfull.xml"
+    rows Tf | awk '{ d = $6 - $7; exit !(d > 0.005 || d < -0.005) }' && pass "$a: solar T(0) differs from the band-value one" \
+        || fail "$a vs band values: $(rows Tf)"
+done
 finish

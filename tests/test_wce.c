@@ -798,6 +798,68 @@ START_TEST(test_dg_full_2011SA1_library)
 }
 END_TEST
 
+/* Columns of a spectral stack with a shade (bst_stack_columns_spectral_layers): NFRC 102 + the
+ * dual-band 2011-SA1 + NFRC 103 in Klems full at the default grouping, Solar and Visible, front and
+ * back: each iterated column equals that of the whole system combined wavelength by wavelength
+ * (bst_stack_combine_spectral_layers) to 1e-8 of its largest value; a patch beyond the basis and a
+ * stack with no spectral pane are refused. */
+START_TEST(test_spectral_columns)
+{
+    bst_basis *b = wce_basis("basis_klems_full.tsv");
+    size_t N = bst_basis_size(b);
+    bst_glass *g[2];
+    ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-102", getenv("BSDFSTACK_GLASS_DIR"), &g[0]), BST_OK);
+    ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-103", getenv("BSDFSTACK_GLASS_DIR"), &g[1]), BST_OK);
+    double *vis[BST_NCOMP], *sol[BST_NCOMP];
+    read_sa1(N, vis, sol);
+    bst_layer *shade = dual_band_layer(b, sol, vis), *sys;
+    bst_spectral_layer l[3] = {{.pane = g[0]}, {.bands = shade}, {.pane = g[1]}};
+    static const char *const bands[2] = {"Solar", "Visible"};
+    int rc = bst_stack_combine_spectral_layers(ctx, 3, l, b, 2, bands, NULL, NULL, &sys, NULL, NULL);
+    ck_assert_msg(rc >= 0, "%s", bst_ctx_message(ctx));
+    size_t cols[] = {0, 7, 60, 100, 144};
+    size_t m = sizeof cols / sizeof *cols;
+    for (size_t c = 0; c < 2; c++)
+        for (int back = 0; back < 2; back++) {
+            bst_columns_opts o;
+            bst_columns_opts_init(&o);
+            o.back = back;
+            bst_mat *t, *r;
+            rc = bst_stack_columns_spectral_layers(ctx, 3, l, b, bands[c], NULL, m, cols, &o, &t, &r);
+            ck_assert_msg(rc == BST_OK, "%s", bst_ctx_message(ctx));
+            ck_assert_int_ge(o.iterations, 2);
+            ck_assert_double_le(o.residual, BST_COLUMNS_TOL);
+            for (size_t q = 0; q < m; q++)
+                for (int k = 0; k < 2; k++) {
+                    const bst_mat *full = bst_layer_get(sys, c, k ? (back ? BST_RB : BST_RF) : (back ? BST_TB : BST_TF));
+                    const bst_mat *x = k ? r : t;
+                    double big = 0, err = 0;
+                    for (size_t e = 0; e < N; e++) {
+                        big = fmax(big, fabs(bst_mat_get(full, e, cols[q])));
+                        err = fmax(err, fabs(bst_mat_get(x, e, q) - bst_mat_get(full, e, cols[q])));
+                    }
+                    ck_assert_msg(big > 0 && err <= 1e-8 * big, "%s %s column %zu: %g of %g", bands[c],
+                                  k ? "R" : "T", cols[q], err, big);
+                }
+            bst_mat_free(t), bst_mat_free(r);
+        }
+    bst_mat *t, *r;
+    size_t beyond = N;
+    ck_assert_int_eq(bst_stack_columns_spectral_layers(ctx, 3, l, b, "Solar", NULL, 1, &beyond, NULL, &t, &r),
+                     BST_EINVAL);
+    ck_assert_ptr_null(t);
+    bst_spectral_layer none[2] = {{.bands = shade}, {.bands = shade}};
+    ck_assert_int_eq(bst_stack_columns_spectral_layers(ctx, 2, none, b, "Solar", NULL, 1, cols, NULL, &t, &r),
+                     BST_EINVAL);
+    bst_layer_free(sys);
+    bst_layer_free(shade);
+    for (int c = 0; c < BST_NCOMP; c++)
+        free(vis[c]), free(sol[c]);
+    bst_glass_free(g[0]), bst_glass_free(g[1]);
+    bst_basis_free(b);
+}
+END_TEST
+
 /* The same for NFRC 102 + a Lambertian dual-band diffuser (every element T / pi or R / pi; solar
  * T = 0.5, R = 0.3; visible T = 0.4, R = 0.2) in WCE's Small basis, solar.  WCE's perfect-diffuser
  * material does not add the dual-band wavelengths 0.38 -+ 1e-6, 0.78 -+ 1e-6 to its grid (its 121
@@ -1155,6 +1217,7 @@ static Suite *wce_suite(void)
     tcase_add_test(tc, test_dg_quarter_lambertian_visible_from_data);
     tcase_add_test(tc, test_dg_full_2011SA1_library);
     tcase_add_test(tc, test_dg_small_lambertian_library);
+    tcase_add_test(tc, test_spectral_columns);
     tcase_add_test(tc, test_spectral_groups);
     tcase_add_test(tc, test_combine_absorptance_one_pass);
     tcase_add_test(tc, test_spectral_workers);

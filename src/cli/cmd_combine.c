@@ -185,7 +185,8 @@ static int write_absorptance(bst_ctx *ctx, const char *sub, const char *path, st
 /* --incident: the columns of the asked directions (light propagating along (theta, phi)) of the
  * components comps, front and back incidence each iterated once (bst_stack_columns), as TSV. */
 static int write_columns(bst_ctx *ctx, const char *sub, FILE *fp, const struct cli_layers *set,
-                         unsigned comps, size_t ndirs, const double (*dirs)[2], int verbose)
+                         const bst_spectral_opts *sp, unsigned comps, size_t ndirs,
+                         const double (*dirs)[2], int verbose)
 {
     size_t N = bst_basis_size(set->basis), cols[COLUMN_BATCH];
     for (size_t q = 0; q < ndirs; q++) { /* off cell boundaries onto the +x, +y side, as compare */
@@ -208,14 +209,20 @@ static int write_columns(bst_ctx *ctx, const char *sub, FILE *fp, const struct c
             bst_columns_opts o;
             bst_columns_opts_init(&o);
             o.back = back;
-            bst_mat *m[2];
-            int st = bst_stack_columns(ctx, set->n, (const bst_layer *const *)set->layers, name, ndirs, cols,
-                                       &o, &m[0], &m[1]);
-            if (st < 0) {
-                rc = cli_fail_ctx(sub, "iterating", ctx);
-                break;
+            bst_mat *m[2] = {NULL, NULL};
+            if (sp) { /* per wavelength (cli_spectral_plan) */
+                rc = cli_columns_spectral(ctx, sub, set, sp, name, ndirs, cols, &o, &m[0], &m[1]);
+                if (rc != CLI_OK)
+                    break;
+            } else {
+                int st = bst_stack_columns(ctx, set->n, (const bst_layer *const *)set->layers, name,
+                                           ndirs, cols, &o, &m[0], &m[1]);
+                if (st < 0) {
+                    rc = cli_fail_ctx(sub, "iterating", ctx);
+                    break;
+                }
+                cli_warn_ctx(sub, NULL, st, ctx);
             }
-            cli_warn_ctx(sub, NULL, st, ctx);
             if (verbose)
                 fprintf(stderr, "bsdfstack %s: %s, %s incidence: %d sweeps, last change %.2e of the "
                         "incident flux\n", sub, name, back ? "back" : "front", o.iterations, o.residual);
@@ -239,17 +246,18 @@ static int write_columns(bst_ctx *ctx, const char *sub, FILE *fp, const struct c
     return rc;
 }
 
-/* Every direction, COLUMN_BATCH at a time, into one TSV file. */
+/* Every direction, COLUMN_BATCH at a time, into one TSV file (sp: per wavelength, else NULL). */
 static int write_all_columns(bst_ctx *ctx, const char *sub, const char *path, const struct cli_layers *set,
-                             unsigned comps, size_t ndirs, const double (*dirs)[2], int verbose)
+                             const bst_spectral_opts *sp, unsigned comps, size_t ndirs,
+                             const double (*dirs)[2], int verbose)
 {
     struct cli_out out = {0};
     int rc = cli_out_open(&out, sub, path);
     if (rc == CLI_OK)
         fprintf(out.fp, "%s\n", CLI_TSV_HEADER);
     for (size_t q = 0; rc == CLI_OK && q < ndirs; q += COLUMN_BATCH)
-        rc = write_columns(ctx, sub, out.fp, set, comps, ndirs - q < COLUMN_BATCH ? ndirs - q : COLUMN_BATCH,
-                           dirs + q, verbose);
+        rc = write_columns(ctx, sub, out.fp, set, sp, comps,
+                           ndirs - q < COLUMN_BATCH ? ndirs - q : COLUMN_BATCH, dirs + q, verbose);
     if (rc == CLI_OK)
         rc = cli_out_commit(&out, sub);
     else
@@ -339,7 +347,8 @@ static int fine_patches(const char *sub, bst_ctx *ctx, int k, size_t ndirs, cons
 
 /* Variable resolution: the whole system at order kc, the Tf and Rf columns of the fine patches at
  * order k (bst_stack_columns), their consistency checked, one file (bst_bsdf_write_varres).  Both
- * parts combine band values per channel. */
+ * parts are combined alike: per wavelength where cli_spectral_plan says so (the same groups of
+ * wavelengths), else by band values per channel. */
 static int combine_varres(bst_ctx *ctx, const char *sub, struct cli_stack_args *args, int kc,
                           size_t nspecs, char **specs, size_t ndirs, const double (*dirs)[2],
                           const char *outpath, int verbose, int argc, char **argv)
@@ -360,7 +369,14 @@ static int combine_varres(bst_ctx *ctx, const char *sub, struct cli_stack_args *
     bst_layer *sys = NULL;
     double t0 = now_s();
     rc = cli_layers_load(&set, ctx, sub, nspecs, specs, &choice, args->channels, 0, args->so.precision);
-    if (rc == CLI_OK) {
+    char why[2048];
+    int spectral = rc == CLI_OK && cli_spectral_plan(&set, args->per_channel, why, sizeof why);
+    if (rc == CLI_OK)
+        rc = cli_note_spectral(sub, &set, why, verbose);
+    if (rc == CLI_OK && spectral) { /* both parts per wavelength, grouped alike */
+        double *none[2] = {NULL, NULL};
+        rc = cli_combine_spectral(ctx, sub, &set, &args->sp, &args->so, none, &sys);
+    } else if (rc == CLI_OK) {
         int st = bst_stack_combine_consume(ctx, set.n, set.layers, &args->so, &sys);
         if (st < 0)
             rc = cli_fail_ctx(sub, "combining", ctx);
@@ -385,13 +401,20 @@ static int combine_varres(bst_ctx *ctx, const char *sub, struct cli_stack_args *
             bst_columns_opts o;
             bst_columns_opts_init(&o);
             const char *name = bst_layer_channel(sys, ch);
-            int st = bst_stack_columns(ctx, fset.n, (const bst_layer *const *)fset.layers, name,
-                                       ncols, cols, &o, &tf[ch], &rf[ch]);
-            if (st < 0) {
-                rc = cli_fail_ctx(sub, "fine columns", ctx);
-                break;
+            if (spectral) {
+                rc = cli_columns_spectral(ctx, sub, &fset, &args->sp, name, ncols, cols, &o, &tf[ch],
+                                          &rf[ch]);
+                if (rc != CLI_OK)
+                    break;
+            } else {
+                int st = bst_stack_columns(ctx, fset.n, (const bst_layer *const *)fset.layers, name,
+                                           ncols, cols, &o, &tf[ch], &rf[ch]);
+                if (st < 0) {
+                    rc = cli_fail_ctx(sub, "fine columns", ctx);
+                    break;
+                }
+                cli_warn_ctx(sub, NULL, st, ctx);
             }
-            cli_warn_ctx(sub, NULL, st, ctx);
             if (!(want & BST_COMP_BIT(BST_TF)))
                 bst_mat_free(tf[ch]), tf[ch] = NULL;
             if (!(want & BST_COMP_BIT(BST_RF)))
@@ -665,8 +688,12 @@ int cmd_combine(int argc, char **argv)
     bst_layer *sys = NULL;
     double *abs[2] = {NULL, NULL};
     if (rc == CLI_OK && ndirs) {
-        rc = write_all_columns(ctx, sub, outpath, &set, args.so.comps, ndirs, (const double (*)[2])dirs,
-                               verbose);
+        char why[2048];
+        int spectral = cli_spectral_plan(&set, args.per_channel, why, sizeof why);
+        if (verbose)
+            fprintf(stderr, "bsdfstack %s: spectral: %s\n", sub, why);
+        rc = write_all_columns(ctx, sub, outpath, &set, spectral ? &args.sp : NULL, args.so.comps, ndirs,
+                               (const double (*)[2])dirs, verbose);
         free(dirs);
         cli_layers_free(&set);
         bst_ctx_free(ctx);

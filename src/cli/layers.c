@@ -664,6 +664,26 @@ int cli_combine_spectral(bst_ctx *ctx, const char *sub, const struct cli_layers 
     return CLI_OK;
 }
 
+int cli_columns_spectral(bst_ctx *ctx, const char *sub, const struct cli_layers *set,
+                         const bst_spectral_opts *sp, const char *channel, size_t ncols,
+                         const size_t *cols, bst_columns_opts *o, bst_mat **tf, bst_mat **rf)
+{
+    bst_spectral_layer *l = calloc(set->n, sizeof *l);
+    if (!l)
+        return cli_fail(sub, "out of memory");
+    for (size_t i = 0; i < set->n; i++) {
+        l[i].pane = set->panes[i];
+        l[i].bands = set->panes[i] ? NULL : set->layers[i];
+    }
+    int st = bst_stack_columns_spectral_layers(ctx, set->n, l, set->basis, channel, sp, ncols, cols,
+                                               o, tf, rf);
+    free(l);
+    if (st < 0)
+        return cli_fail_ctx(sub, "iterating per wavelength", ctx);
+    cli_warn_ctx(sub, NULL, st, ctx);
+    return CLI_OK;
+}
+
 int cli_note_spectral(const char *sub, struct cli_layers *set, const char *why, int verbose)
 {
     if (verbose)

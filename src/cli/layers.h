@@ -125,6 +125,11 @@ int cli_spectral_plan(const struct cli_layers *set, int per_channel, char *why, 
 int cli_combine_spectral(bst_ctx *ctx, const char *sub, const struct cli_layers *set,
                          const bst_spectral_opts *sp, const bst_stack_opts *so, double *abs[2],
                          bst_layer **sys);
+/* Columns cols of the system per wavelength in one band channel (bst_stack_columns_spectral_layers,
+ * the stack as cli_combine_spectral takes it). */
+int cli_columns_spectral(bst_ctx *ctx, const char *sub, const struct cli_layers *set,
+                         const bst_spectral_opts *sp, const char *channel, size_t ncols,
+                         const size_t *cols, bst_columns_opts *o, bst_mat **tf, bst_mat **rf);
 /* Append "spectral: WHY" to set->description (the output's metadata); -v also prints it. */
 int cli_note_spectral(const char *sub, struct cli_layers *set, const char *why, int verbose);
 
