@@ -56,7 +56,7 @@ from ._lib import lib, text, cstr, cstr_array, COMPS
 __version__ = text(lib.bst_version())
 
 __all__ = ["Error", "LibraryWarning", "BSDF", "Stack", "Glass", "Comparison", "load", "glass",
-           "combine", "compare", "version", "library_path"]
+           "combine", "columns", "Columns", "compare", "version", "library_path"]
 
 
 class Error(Exception):
@@ -845,13 +845,7 @@ class Stack(BSDF):
         return front, back
 
     def _spectral_layers(self):
-        sl = (_lib.SpectralLayer * len(self._held))()
-        for i, (h, p) in enumerate(zip(self._held, self._panes)):
-            if p is not None:
-                sl[i].pane = p.ptr
-            else:
-                sl[i].bands = h._ptr
-        return sl
+        return _spectral_array(self._panes, [h._ptr for h in self._held])
 
 
 def _default_basis(ctx, sources):
@@ -929,6 +923,54 @@ def _spectral_plan(entries, ptrs, held, per_channel):
     return True, panes, "combined wavelength by wavelength, then averaged per channel"
 
 
+class _Prepared:
+    """A stack's entries over one basis, as combine() and columns() take them: the context, the
+    basis, each entry's layer pointer and owner, and the spectral plan (the program's)."""
+
+    def __init__(self, layers, k, klems, channels, precision, glass_rule, per_channel, what):
+        self.entries = [_as_layer(x) for x in layers]
+        if not self.entries:
+            raise Error("%s: no layers given" % what)
+        self.names = _names(channels)
+        self.prec = _precision(precision)
+        self.at_centre = _glass_rule(glass_rule)
+        self.ctx = _Ctx()
+        if k is not None and klems is not None:
+            raise Error("k and klems exclude each other")
+        self.basis = (_Basis.make(self.ctx, k, klems) if k is not None or klems is not None else
+                      _default_basis(self.ctx, [_source_of(e) for e in self.entries]))
+        self.ptrs, self.held = [], []
+        for e in self.entries:
+            p, h = _on_basis(e, self.basis.ptr, self.prec, self.names, self.at_centre)
+            self.ptrs.append(p)
+            self.held.append(h)
+        self.spectral, self.panes, self.plan = _spectral_plan(self.entries, self.ptrs, self.held,
+                                                              per_channel)
+
+    def spectral_layers(self):
+        return _spectral_array(self.panes, self.ptrs)
+
+    def spectral_opts(self, spectral_tol):
+        sopts = _lib.SpectralOpts()
+        lib.bst_spectral_opts_init(ctypes.byref(sopts))
+        sopts.at_centre = int(self.at_centre)
+        if spectral_tol is not None:
+            sopts.tol = float(spectral_tol)
+        return sopts
+
+
+def _spectral_array(panes, ptrs):
+    """The bst_spectral_layer array of a stack: its spectral panes, and its other layers as
+    dual-band ones."""
+    sl = (_lib.SpectralLayer * len(ptrs))()
+    for i, (pane, ptr) in enumerate(zip(panes, ptrs)):
+        if pane is not None:
+            sl[i].pane = pane.ptr
+        else:
+            sl[i].bands = ptr
+    return sl
+
+
 def combine(layers, k=None, klems=None, only=None, precision="double", channels=None,
             drop_tol=0.0, strict=False, dense=False, per_channel=False, spectral_tol=None,
             glass_rule="average", absorptance=False, progress=None):
@@ -946,64 +988,108 @@ def combine(layers, k=None, klems=None, only=None, precision="double", channels=
     absorptance: compute per-layer absorptance now (else on Stack.absorptance()).
     progress: fn(fraction, label), called from the combining thread with the GIL held.
     The GIL is released while the library combines."""
-    entries = [_as_layer(x) for x in layers]
-    if not entries:
-        raise Error("combine: no layers given")
-    names = _names(channels)
-    prec = _precision(precision)
-    at_centre = _glass_rule(glass_rule)
+    st = _Prepared(layers, k, klems, channels, precision, glass_rule, per_channel, "combine")
+    ctx, basis, ptrs = st.ctx, st.basis, st.ptrs
     opts = _lib.StackOpts()
     lib.bst_stack_opts_init(ctypes.byref(opts))
     opts.comps = _comps_mask(only) or opts.comps
     opts.drop_tol, opts.strict, opts.force_dense = float(drop_tol), int(strict), int(dense)
-    opts.precision = prec
-    sopts = _lib.SpectralOpts()
-    lib.bst_spectral_opts_init(ctypes.byref(sopts))
-    sopts.at_centre = int(at_centre)
-    if spectral_tol is not None:
-        sopts.tol = float(spectral_tol)
-    ctx = _Ctx()
-    if k is not None and klems is not None:
-        raise Error("k and klems exclude each other")
-    basis = (_Basis.make(ctx, k, klems) if k is not None or klems is not None else
-             _default_basis(ctx, [_source_of(e) for e in entries]))
-    ptrs, held = [], []
-    for e in entries:
-        p, h = _on_basis(e, basis.ptr, prec, names, at_centre)
-        ptrs.append(p)
-        held.append(h)
-    spectral, panes, plan = _spectral_plan(entries, ptrs, held, per_channel)
-    n = len(entries)
+    opts.precision = st.prec
+    sopts = st.spectral_opts(spectral_tol)
+    n = len(ptrs)
     out = ctypes.c_void_p()
     arr = (ctypes.c_void_p * n)(*ptrs)
     N = lib.bst_basis_size(basis.ptr)
     abs_buf = None
     with ctx as c, _Progress(ctx, progress):
-        if spectral:
+        if st.spectral:
             common = _common_channels(ptrs)
-            sl = (_lib.SpectralLayer * n)()
-            for i in range(n):
-                if panes[i] is not None:
-                    sl[i].pane = panes[i].ptr
-                else:
-                    sl[i].bands = ptrs[i]
             if absorptance:
                 abs_buf = (np.zeros((len(common), n, N)), np.zeros((len(common), n, N)))
             dp = [None, None] if abs_buf is None else [a.ctypes.data_as(_lib.double_p) for a in abs_buf]
-            st = lib.bst_stack_combine_spectral_layers(
-                c, n, sl, basis.ptr, len(common), cstr_array(common), ctypes.byref(sopts),
-                ctypes.byref(opts), ctypes.byref(out), dp[0], dp[1])
+            rc = lib.bst_stack_combine_spectral_layers(
+                c, n, st.spectral_layers(), basis.ptr, len(common), cstr_array(common),
+                ctypes.byref(sopts), ctypes.byref(opts), ctypes.byref(out), dp[0], dp[1])
         else:
-            st = lib.bst_stack_combine(c, n, arr, ctypes.byref(opts), ctypes.byref(out))
-        if st < 0 and out.value:
+            rc = lib.bst_stack_combine(c, n, arr, ctypes.byref(opts), ctypes.byref(out))
+        if rc < 0 and out.value:
             lib.bst_layer_free(out.value)
-        ctx.check(st, "combining per wavelength" if spectral else "combining")
-    s = Stack(out.value, ctx, entries, held, spectral, panes, plan, opts, sopts, basis)
+        ctx.check(rc, "combining per wavelength" if st.spectral else "combining")
+    s = Stack(out.value, ctx, st.entries, st.held, st.spectral, st.panes, st.plan, opts, sopts, basis)
     if abs_buf is not None:
         s._abs = abs_buf
     elif absorptance:
         s._abs = s._absorptance_all()
     return s
+
+
+class Columns:
+    """What columns() computed.  t[channel] and r[channel]: N x m arrays, BSDF in 1/sr, of the
+    system's Tf and Rf (Tb and Rb when back) for light incident along incident[q] (column q),
+    exit patch i in row i (in the basis of directions() of a BSDF over it); patches: the incident
+    patch of each direction; channels; iterations and residual: the most sweeps any iteration
+    made and the largest last change of flux over the incident flux; spectral and plan: whether
+    the stack went wavelength by wavelength, and why (as combine())."""
+
+    def __repr__(self):
+        return "<bsdfstack.Columns %d direction(s) x %d patches, %s: %d sweeps>" % (
+            len(self.patches), self.size, ", ".join(self.channels), self.iterations)
+
+
+def columns(layers, incident, k=None, klems=None, back=False, channels=None, precision="double",
+            per_channel=False, spectral_tol=None, glass_rule="average", tol=None, max_iter=None):
+    """The system's scattering for a few incident directions only, as `bsdfstack combine
+    --incident`: each column iterated between the layers (never forming the whole system), in
+    O(N^2) per direction and sweep.  incident: (theta, phi) pairs in degrees, the direction the
+    light propagates in; back: light arriving from the back (interior) side.  The other arguments
+    as combine(); tol and max_iter: the iteration's (bst_columns_opts, defaults
+    BST_COLUMNS_TOL and BST_COLUMNS_MAX_ITER).  A stack that combine() would take wavelength by
+    wavelength is iterated so too (its columns equal that system's).  Returns a Columns; a
+    column that did not converge warns (LibraryWarning).  The GIL is released meanwhile."""
+    dirs = [(float(t), float(p)) for t, p in incident]
+    if not dirs:
+        raise Error("columns: no incident directions given")
+    st = _Prepared(layers, k, klems, channels, precision, glass_rule, per_channel, "columns")
+    ctx, basis, ptrs = st.ctx, st.basis, st.ptrs
+    N, n, m = lib.bst_basis_size(basis.ptr), len(ptrs), len(dirs)
+    cols = (ctypes.c_size_t * m)(*[lib.bst_basis_patch(basis.ptr, _direction(t, p)) for t, p in dirs])
+    copts = _lib.ColumnsOpts()
+    lib.bst_columns_opts_init(ctypes.byref(copts))
+    copts.back = int(bool(back))
+    if tol is not None:
+        copts.tol = float(tol)
+    if max_iter is not None:
+        copts.max_iter = int(max_iter)
+    sopts = st.spectral_opts(spectral_tol)
+    arr = (ctypes.c_void_p * n)(*ptrs)
+    res = Columns()
+    res.incident, res.patches, res.size = tuple(dirs), tuple(cols), N
+    res.channels = tuple(_common_channels(ptrs))
+    res.spectral, res.plan, res.t, res.r = st.spectral, st.plan, {}, {}
+    res.iterations, res.residual = 0, 0.0
+    with ctx as c:
+        for name in res.channels:
+            tm, rm = ctypes.c_void_p(), ctypes.c_void_p()
+            if st.spectral:
+                rc = lib.bst_stack_columns_spectral_layers(
+                    c, n, st.spectral_layers(), basis.ptr, cstr(name), ctypes.byref(sopts), m, cols,
+                    ctypes.byref(copts), ctypes.byref(tm), ctypes.byref(rm))
+            else:
+                rc = lib.bst_stack_columns(c, n, arr, cstr(name), m, cols, ctypes.byref(copts),
+                                           ctypes.byref(tm), ctypes.byref(rm))
+            try:
+                if rc >= 0:
+                    for mat, into in ((tm, res.t), (rm, res.r)):
+                        a = np.empty((N, m), order="F")
+                        ctx.check(lib.bst_mat_to_dense_array(c, mat.value, a.ctypes.data_as(_lib.double_p)))
+                        into[name] = a
+            finally:
+                lib.bst_mat_free(tm.value)
+                lib.bst_mat_free(rm.value)
+            res.iterations = max(res.iterations, copts.iterations)
+            res.residual = max(res.residual, copts.residual)
+            ctx.check(rc, "%s columns%s" % (name, " per wavelength" if st.spectral else ""))
+    return res
 
 
 # ---------------------------------------------------------------------------------- accordance

@@ -60,6 +60,12 @@ class SpectralLayer(Structure):
     _fields_ = [("pane", c_void_p), ("bands", c_void_p)]
 
 
+class ColumnsOpts(Structure):
+    """bst_columns_opts."""
+    _fields_ = [("tol", c_double), ("max_iter", c_int), ("back", c_int), ("iterations", c_int),
+                ("residual", c_double)]
+
+
 class ReadOpts(Structure):
     """bst_bsdf_read_opts."""
     _fields_ = [("comps", c_uint), ("nchannels", c_size_t), ("channels", POINTER(c_char_p)),
@@ -93,6 +99,7 @@ _PROTOTYPES = {
     "bst_mat_cols": (c_size_t, [c_void_p]),
     "bst_mat_nnz": (c_size_t, [c_void_p]),
     "bst_mat_dense_data": (c_void_p, [c_void_p]),
+    "bst_mat_free": (None, [c_void_p]),
     "bst_mat_to_dense_array": (c_int, [c_void_p, c_void_p, double_p]),
     "bst_basis_new_sc": (c_int, [c_void_p, c_int, POINTER(c_void_p)]),
     "bst_basis_new_klems": (c_int, [c_void_p, c_char_p, POINTER(c_void_p)]),
@@ -130,6 +137,12 @@ _PROTOTYPES = {
     "bst_stack_combine_spectral_layers": (
         c_int, [c_void_p, c_size_t, POINTER(SpectralLayer), c_void_p, c_size_t, POINTER(c_char_p),
                 POINTER(SpectralOpts), POINTER(StackOpts), POINTER(c_void_p), double_p, double_p]),
+    "bst_columns_opts_init": (None, [POINTER(ColumnsOpts)]),
+    "bst_stack_columns": (c_int, [c_void_p, c_size_t, POINTER(c_void_p), c_char_p, c_size_t, size_p,
+                                  POINTER(ColumnsOpts), POINTER(c_void_p), POINTER(c_void_p)]),
+    "bst_stack_columns_spectral_layers": (
+        c_int, [c_void_p, c_size_t, POINTER(SpectralLayer), c_void_p, c_char_p, POINTER(SpectralOpts),
+                c_size_t, size_p, POINTER(ColumnsOpts), POINTER(c_void_p), POINTER(c_void_p)]),
     "bst_metrics_accordance": (c_int, [c_void_p, c_void_p, c_void_p, c_size_t, c_int, c_size_t,
                                        double_p, double_p, double_p]),
     "bst_metrics_accordance_all": (c_int, [c_void_p, c_void_p, c_void_p, c_size_t, c_int,

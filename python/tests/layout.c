@@ -21,6 +21,9 @@ int main(void)
     FIELD(bst_spectral_opts, tol);
     SIZE(bst_spectral_layer);
     FIELD(bst_spectral_layer, pane), FIELD(bst_spectral_layer, bands);
+    SIZE(bst_columns_opts);
+    FIELD(bst_columns_opts, tol), FIELD(bst_columns_opts, max_iter), FIELD(bst_columns_opts, back);
+    FIELD(bst_columns_opts, iterations), FIELD(bst_columns_opts, residual);
     SIZE(bst_bsdf_read_opts);
     FIELD(bst_bsdf_read_opts, comps), FIELD(bst_bsdf_read_opts, nchannels);
     FIELD(bst_bsdf_read_opts, channels), FIELD(bst_bsdf_read_opts, precision);

@@ -147,3 +147,37 @@ def test_accordance_is_eq_7_and_8(diffuser):
             assert np.allclose(r.la[c][q], la, rtol=0, atol=1e-9)
             assert r.ga_all[c][j] == r.ga[c][q]
         assert 90 < r.ga[c].min() < 100   # two genuinely different files
+
+
+@pytest.mark.parametrize("back", [False, True])
+def test_columns_equal_the_whole_systems(pane, diffuser, back):
+    """columns() iterates a few incident directions; they equal those columns of combine()'s
+    system (to 1e-8 of each column's largest value), front and back, in every channel."""
+    stack = [pane, diffuser, pane]
+    full = bsdfstack.combine(stack, k=3)
+    dirs = [(0, 0), (30, 270), (62, 45)]
+    c = bsdfstack.columns(stack, dirs, k=3, back=back)
+    assert c.channels == tuple(full.channels) and c.iterations >= 2 and c.residual <= 1e-12
+    assert list(c.patches) == [full.patch(t, p) for t, p in dirs]
+    for ch in c.channels:
+        for got, comp in ((c.t[ch], "Tb" if back else "Tf"), (c.r[ch], "Rb" if back else "Rf")):
+            m = full.matrix(comp, ch)
+            for q, j in enumerate(c.patches):
+                assert rel_max(got[:, q], m[:, j]) < 1e-8
+
+
+def test_spectral_columns_follow_the_spectral_system(tmp_path):
+    """A spectral stack with a band-value layer is iterated per wavelength as combine() combines
+    it, not by band values."""
+    band = tmp_path / "band.xml"
+    bsdfstack.glass("clear-6mm").layer(k=3).write(str(band), reduce=-1)
+    stack = ["glass:nfrc-102", str(band), "glass:nfrc-103"]
+    full = bsdfstack.combine(stack, k=3)
+    bands = bsdfstack.combine(stack, k=3, per_channel=True)
+    c = bsdfstack.columns(stack, [(0, 0), (40, 120)], k=3)
+    assert full.spectral and c.spectral and "Solar" in c.channels
+    j = c.patches[1]
+    assert rel_max(c.t["Solar"][:, 1], full.matrix("Tf", "Solar")[:, j]) < 1e-8
+    assert rel_max(c.t["Solar"][:, 1], bands.matrix("Tf", "Solar")[:, j]) > 1e-3
+    with pytest.raises(bsdfstack.Error, match="no incident directions"):
+        bsdfstack.columns(stack, [], k=3)

@@ -11,7 +11,8 @@ from bsdfstack import _lib
 from conftest import BUILDDIR
 
 STRUCTS = {"bst_stack_opts": _lib.StackOpts, "bst_spectral_opts": _lib.SpectralOpts,
-           "bst_spectral_layer": _lib.SpectralLayer, "bst_bsdf_read_opts": _lib.ReadOpts,
+           "bst_spectral_layer": _lib.SpectralLayer, "bst_columns_opts": _lib.ColumnsOpts,
+           "bst_bsdf_read_opts": _lib.ReadOpts,
            "bst_bsdf_write_opts": _lib.WriteOpts}
 
 
