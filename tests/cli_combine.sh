@@ -42,6 +42,8 @@ expect_status 0 "pane + dual-band layer + pane" -- "$B" combine -v --klems=quart
 grep -q "spectral: combined wavelength by wavelength" "$tmpdir/db.xml" && grep -q "as WINDOW's dual-band material" "$tmpdir/db.xml" \
     && pass "metadata: dual-band layer per wavelength" || fail "metadata of a stack with a dual-band layer"
 grep -q "^bsdfstack combine: spectral: combined wavelength by wavelength" "$tmpdir/err" && pass "-v says why" || fail "-v reason"
+grep -q "^bsdfstack combine: per wavelength: [1-9][0-9]* steps over the groups of wavelengths, least rcond 0\.[0-9]" "$tmpdir/err" &&
+    ! grep -q "layers 1-" "$tmpdir/err" && pass "-v: one line for the groups' steps" || fail "-v per wavelength: $(cat "$tmpdir/err")"
 awk -F'\t' 'NR > 1 { n++; d = $6 + $7 + $8 + $9 + $10 - 1; if (d < 0) d = -d; if (d > m) m = d }
     END { exit !(n == 164 && m < 5e-8) }' "$tmpdir/dab.tsv" && pass "dual-band stack: T + R + sum A = 1" || fail "dual-band balance"
 # --spectral-tol: 0 (every distinct wavelength) and the default 0.01 agree within the man page's

@@ -92,6 +92,18 @@ static const char help[] =
 /* the dense kernels' floating-point operations of every step so far (-v; steps are reported one at
  * a time, also by the spectral workers) */
 static double steps_flops;
+/* -v on a stack combined per wavelength: each group of wavelengths is a combination of its own,
+ * so its steps (hundreds) are summed into one line: how many, and the least rcond */
+static size_t steps_seen;
+static double steps_least_rcond = INFINITY;
+
+static void count_step(const bst_stack_step *s, void *opaque)
+{
+    (void)opaque;
+    steps_flops += s->flops;
+    steps_seen++;
+    steps_least_rcond = fmin(steps_least_rcond, s->rcond);
+}
 
 static void verbose_step(const bst_stack_step *s, void *opaque)
 {
@@ -711,7 +723,12 @@ int cmd_combine(int argc, char **argv)
     if (rc == CLI_OK)
         rc = cli_note_spectral(sub, &set, why, verbose);
     if (rc == CLI_OK && spectral) {
+        if (verbose)
+            args.so.on_step = count_step;
         rc = cli_combine_spectral(ctx, sub, &set, &args.sp, &args.so, abs, &sys);
+        if (rc == CLI_OK && verbose)
+            fprintf(stderr, "bsdfstack %s: per wavelength: %zu steps over the groups of wavelengths, "
+                    "least rcond %.3g\n", sub, steps_seen, steps_seen ? steps_least_rcond : 1.0);
     } else if (rc == CLI_OK) {
         /* without --absorptance the layers die with the combination: let it free each component
          * at its last use (a pane and a dense layer at k = 7: 12 instead of 20 GiB in double) */
