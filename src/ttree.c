@@ -1,5 +1,5 @@
 /* ttree.c - tensor trees: a streaming parser of the ScatteringData text, lookup, expansion onto a
- * regular grid.  Conventions in ttree.h.
+ * regular grid (that in ttree_expand.c).  Conventions in ttree.h.
  *
  * The parser never holds the text: it tokenizes each chunk as it arrives, keeping at most one
  * partial number between chunks, and appends leaf values to one float array, so the tree costs
@@ -258,53 +258,6 @@ double bsti_ttree_eval(const bsti_ttree *t, const double *pin)
         flat = flat * g + (c < g ? c : g - 1);
     }
     return t->values[n->first + flat];
-}
-
-/* Add the subtree of node id (at depth d, lower corner c[] in cells of that depth) to the grid. */
-static void expand4(const bsti_ttree *t, uint32_t id, int d, const size_t c[4], int k, double *m)
-{
-    const struct bsti_tnode *n = &t->nodes[id];
-    if (!n->leaf) {
-        for (int child = 0; child < 16; child++) {
-            size_t cc[4];
-            for (int i = 0; i < 4; i++)
-                cc[i] = 2 * c[i] + (size_t)((child >> i) & 1);
-            expand4(t, t->kids[n->first + (uint32_t)child], d + 1, cc, k, m);
-        }
-        return;
-    }
-    size_t G = (size_t)1 << k, N = G * G;
-    int lv = d + n->level;           /* level of the leaf's cells */
-    size_t g = (size_t)1 << n->level; /* leaf grid */
-    size_t rep = lv <= k ? (size_t)1 << (k - lv) : 1; /* target cells per leaf cell and dimension */
-    int shift = lv > k ? lv - k : 0;                  /* leaf cells per target cell: 2^shift */
-    double w = lv > k ? 1.0 / (double)((size_t)1 << (4 * shift)) : 1.0;
-    for (size_t a = 0; a < g; a++)
-        for (size_t b = 0; b < g; b++)
-            for (size_t e = 0; e < g; e++)
-                for (size_t f = 0; f < g; f++) {
-                    double v = w * t->values[n->first + ((a * g + b) * g + e) * g + f];
-                    if (v == 0.0)
-                        continue;
-                    size_t x0 = ((c[0] * g + a) * rep) >> shift, y0 = ((c[1] * g + b) * rep) >> shift;
-                    size_t u0 = ((c[2] * g + e) * rep) >> shift, v0 = ((c[3] * g + f) * rep) >> shift;
-                    for (size_t ix = x0; ix < x0 + rep; ix++)
-                        for (size_t iy = y0; iy < y0 + rep; iy++)
-                            for (size_t ox = u0; ox < u0 + rep; ox++)
-                                for (size_t oy = v0; oy < v0 + rep; oy++)
-                                    m[(ox * G + oy) + N * (ix * G + iy)] += v;
-                }
-}
-
-int bsti_ttree_expand4(const bsti_ttree *t, int k, double *m)
-{
-    if (t->dim != 4)
-        return bsti_error(t->ctx, BST_EINVAL, "expanding a rank-%d tree as rank 4", t->dim);
-    size_t G = (size_t)1 << k;
-    memset(m, 0, G * G * G * G * sizeof *m);
-    size_t c[4] = {0, 0, 0, 0};
-    expand4(t, 0, 0, c, k, m);
-    return BST_OK;
 }
 
 /* Share of the hypercube under node id (of volume vol) where the tree's value is not zero. */
