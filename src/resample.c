@@ -386,14 +386,18 @@ static int plan_make(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target, s
     return rc;
 }
 
-/* Stored component c on the Shirley-Chiu grid of order k (m: N x N). */
-static int to_grid(bst_ctx *ctx, const struct plan *p, size_t ch, int c, int k, double *m)
+/* Stored component c on the Shirley-Chiu grid of order k (m: N x N); a rank-4 tree comes as its
+ * reciprocal where *recip, which is then cleared. */
+static int to_grid(bst_ctx *ctx, const struct plan *p, size_t ch, int c, int k, double *m, int *recip)
 {
     const bst_bsdf *b = p->b;
     if (b->mat[ch][c])
         return bsti_klems_to_sc(ctx, p->in, b->mat[ch][c], m);
-    if (b->tree[ch][c]->dim == 4)
-        return bsti_ttree_expand4(b->tree[ch][c], k, m);
+    if (b->tree[ch][c]->dim == 4) {
+        bsti_ttree_fill4(b->tree[ch][c], k, *recip, BST_DOUBLE, m, bsti_ttree_threads(k));
+        *recip = 0;
+        return BST_OK;
+    }
     return expand3(ctx, b->tree[ch][c], k, m);
 }
 
@@ -413,14 +417,16 @@ static int plan_component(bst_ctx *ctx, const struct plan *p, size_t ch, int c, 
         memcpy(work, b->mat[ch][c], n * n * sizeof *work);
         return BST_OK;
     }
-    if (!p->kfine)
-        return to_grid(ctx, p, ch, c, p->target->k, work);
-    int rc = to_grid(ctx, p, ch, c, p->kfine, p->fine);
+    if (!p->kfine) {
+        int keep = 0; /* the caller reads a reciprocal from work */
+        return to_grid(ctx, p, ch, c, p->target->k, work, &keep);
+    }
+    int rc = to_grid(ctx, p, ch, c, p->kfine, p->fine, recip);
     if (rc < 0)
         return rc;
     /* A Klems patch is not a union of cells of the other side's patches: apply reciprocity on the
-     * fine grid, where it is exact, then average (otherwise the hemispherical Tf of a file
-     * storing only Tb is not kept). */
+     * fine grid, where it is exact (a rank-4 tree's expansion did as it wrote), then average
+     * (otherwise the hemispherical Tf of a file storing only Tb is not kept). */
     if (*recip)
         antipode_transpose(p->fine, (size_t)1 << (2 * p->kfine));
     *recip = 0;
@@ -489,8 +495,79 @@ static int component_from_work(bst_ctx *ctx, const bst_basis *target, const doub
     return rc;
 }
 
+/* The non-zero cells of a tree's expansion gathered for a sparse or diagonal matrix. */
+struct cells {
+    size_t *row, *col, n;
+    double *val, *diag;
+};
+
+static void collect(void *opaque, size_t row, size_t col, double v)
+{
+    struct cells *c = opaque;
+    if (c->diag) {
+        c->diag[row] = v;
+        return;
+    }
+    c->row[c->n] = row, c->col[c->n] = col, c->val[c->n++] = v;
+}
+
+/* A rank-4 tree (or its reciprocal) on the Shirley-Chiu grid of order k, straight into the
+ * structure component_from_work would choose for its expansion (the census comes from the tree):
+ * a dense matrix is filled in place in precision prec, with no N x N work copy between. */
+static int tree_component(bst_ctx *ctx, const bsti_ttree *t, int k, int recip, bst_precision prec,
+                          int threads, bst_mat **out)
+{
+    size_t n = (size_t)1 << (2 * k), nnz;
+    int diag_only, rc;
+    /* past this many non-zeros (one off the diagonal) it is dense: the census may stop there */
+    size_t sparse_max = (size_t)(BST_SPARSE_MAX_FILL * (double)n * (double)n);
+    bsti_ttree_census4(t, k, sparse_max, &nnz, &diag_only);
+    if (nnz == 0)
+        return bst_mat_new_zero(ctx, n, n, out);
+    if (!diag_only && (double)nnz > BST_SPARSE_MAX_FILL * (double)n * (double)n) {
+        bst_mat *d;
+        if ((rc = bsti_mat_alloc(ctx, BST_DENSE, prec, n, n, &d)) < 0)
+            return rc;
+        /* not cleared: the expansion writes every cell */
+        if (!(d->dense = bsti_alloc_array(ctx, n * n, prec == BST_DOUBLE ? sizeof(double) : sizeof(float)))) {
+            bst_mat_free(d);
+            return BST_ENOMEM;
+        }
+        bsti_ttree_fill4(t, k, recip, prec, d->dense, threads);
+        *out = d;
+        return BST_OK;
+    }
+    struct cells c = {0};
+    if (diag_only) {
+        if (!(c.diag = bsti_calloc(ctx, n, sizeof *c.diag)))
+            return BST_ENOMEM;
+        bsti_ttree_emit4(t, k, recip, collect, &c);
+        rc = bst_mat_new_diag(ctx, n, c.diag, out);
+        bsti_free(ctx, c.diag);
+        return rc;
+    }
+    c.row = bsti_alloc_array(ctx, 2 * nnz, sizeof *c.row);
+    c.val = bsti_alloc_array(ctx, nnz, sizeof *c.val);
+    if (c.row && c.val) {
+        c.col = c.row + nnz;
+        bsti_ttree_emit4(t, k, recip, collect, &c);
+        rc = bst_mat_new_sparse(ctx, n, n, nnz, c.row, c.col, c.val, out);
+    } else {
+        rc = BST_ENOMEM;
+    }
+    bsti_free(ctx, c.row);
+    bsti_free(ctx, c.val);
+    return rc;
+}
+
 /* Dense components come out in the precision the file was read for (bst_bsdf_read_opts). */
 int bst_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target_in, bst_layer **out)
+{
+    return bsti_bsdf_to_layer(ctx, b, target_in, 0, out);
+}
+
+int bsti_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target_in, int threads,
+                       bst_layer **out)
 {
     if (!ctx || !b || !out)
         return ctx ? bsti_error(ctx, BST_EINVAL, "to_layer: NULL argument") : BST_EINVAL;
@@ -505,27 +582,40 @@ int bst_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target_i
     }
     const bst_basis *target = target_in ? target_in : native;
     size_t n = bst_basis_size(target);
+    if (threads < 1)
+        threads = target->kind == BST_BASIS_SHIRLEY_CHIU ? bsti_ttree_threads(target->k) : 1;
     bst_layer *l = NULL;
     struct plan p = {0};
     double *work = NULL;
     rc = bst_layer_new(ctx, target, b->nch, (const char *const *)b->channels, &l);
     if (rc >= 0)
         rc = bst_layer_set_name(ctx, l, b->path);
-    if (rc >= 0 && !(work = bsti_alloc_array(ctx, n * n, sizeof *work)))
-        rc = BST_ENOMEM;
     if (rc >= 0)
         rc = plan_make(ctx, b, target, &p);
     for (size_t ch = 0; rc >= 0 && ch < b->nch; ch++)
         for (int c = 0; rc >= 0 && c < BST_NCOMP; c++) {
             bst_mat *m;
-            int other = bsti_bsdf_reciprocal(c), recip;
+            int other = bsti_bsdf_reciprocal(c), recip = 0, from = c;
             if (!bsti_bsdf_stored(b, ch, c) && (other < 0 || !bsti_bsdf_stored(b, ch, other))) {
                 if ((rc = bst_mat_new_zero(ctx, n, n, &m)) >= 0)
                     rc = bst_layer_set(ctx, l, ch, (bst_comp)c, m);
                 continue;
             }
-            if ((rc = plan_component(ctx, &p, ch, c, work, &recip)) >= 0 &&
-                (rc = component_from_work(ctx, target, work, recip, b->prec, &m)) >= 0)
+            if (!bsti_bsdf_stored(b, ch, c))
+                from = other, recip = 1;
+            const bsti_ttree *t = b->tree[ch][from];
+            if (target->kind == BST_BASIS_SHIRLEY_CHIU && t && t->dim == 4) {
+                rc = tree_component(ctx, t, target->k, recip, b->prec, threads, &m);
+            } else {
+                /* the N x N work buffer only where a component goes through it */
+                if (!work && !(work = bsti_alloc_array(ctx, n * n, sizeof *work))) {
+                    rc = BST_ENOMEM;
+                    break;
+                }
+                if ((rc = plan_component(ctx, &p, ch, c, work, &recip)) >= 0)
+                    rc = component_from_work(ctx, target, work, recip, b->prec, &m);
+            }
+            if (rc >= 0)
                 rc = bst_layer_set(ctx, l, ch, (bst_comp)c, m);
         }
     plan_free(ctx, &p);

@@ -47,4 +47,9 @@ int bsti_sc_to_klems(bst_ctx *ctx, const bsti_overlap *ov, const double *m, cons
 int bsti_resample_component(bst_ctx *ctx, const bst_bsdf *b, size_t ch, int c,
                             const bst_basis *target, double *work, int *recip);
 
+/* bst_bsdf_to_layer with the number of threads that may expand a tensor tree (0: one a processor,
+ * bsti_ttree_threads); the layer is the same whatever the number. */
+int bsti_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target, int threads,
+                       bst_layer **out);
+
 #endif

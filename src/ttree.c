@@ -1,5 +1,5 @@
 /* ttree.c - tensor trees: a streaming parser of the ScatteringData text, lookup, expansion onto a
- * regular grid.  Conventions in ttree.h.
+ * regular grid (that in ttree_expand.c).  Conventions in ttree.h.
  *
  * The parser never holds the text: it tokenizes each chunk as it arrives, keeping at most one
  * partial number between chunks, and appends leaf values to one float array, so the tree costs
@@ -165,55 +165,104 @@ static int close_node(bsti_tparse *p)
     return BST_OK;
 }
 
-static int number(bsti_tparse *p)
+/* Character classes of the tree text: what ends a token, and the braces among those. */
+enum { CH_TOKEN = 0, CH_SPACE = 1, CH_OPEN = 2, CH_CLOSE = 3 };
+static const unsigned char char_class[256] = {
+    [' '] = CH_SPACE, ['\t'] = CH_SPACE, ['\n'] = CH_SPACE, ['\r'] = CH_SPACE, [','] = CH_SPACE,
+    ['{'] = CH_OPEN, ['}'] = CH_CLOSE,
+};
+
+/* The number of the len characters at s; s is p->tok or the text fed (read in place). */
+static int number(bsti_tparse *p, const char *s, size_t len)
 {
     bsti_ttree *t = p->t;
-    p->tok[p->ntok] = '\0';
-    size_t len = (size_t)p->ntok;
-    p->ntok = 0;
     double v;
-    if (!bsti_parse_double(p->tok, len, &v))
-        return bsti_error(p->ctx, BST_EFORMAT, "'%s' is not a number", p->tok);
-    if (!isfinite(v))
-        return bsti_error(p->ctx, BST_EFORMAT, "value '%s' is not finite", p->tok);
-    if (fabs(v) > FLT_MAX)
-        return bsti_error(p->ctx, BST_EFORMAT, "value '%s' exceeds the single-precision range "
-                          "(%.4g) in which tensor trees are held", p->tok, (double)FLT_MAX);
-    if (p->top == 0)
-        return bsti_error(p->ctx, BST_EFORMAT, "number '%s' outside any tree node", p->tok);
-    struct open_node *o = &p->stack[p->top - 1];
-    if (o->nkids)
+    int ok = bsti_parse_double(s, len, &v);
+    if (!ok || !isfinite(v) || fabs(v) > FLT_MAX || p->top == 0 || p->stack[p->top - 1].nkids) {
+        if (s != p->tok) /* the message quotes it */
+            memcpy(p->tok, s, len);
+        p->tok[len] = '\0';
+        if (!ok)
+            return bsti_error(p->ctx, BST_EFORMAT, "'%s' is not a number", p->tok);
+        if (!isfinite(v))
+            return bsti_error(p->ctx, BST_EFORMAT, "value '%s' is not finite", p->tok);
+        if (fabs(v) > FLT_MAX)
+            return bsti_error(p->ctx, BST_EFORMAT, "value '%s' exceeds the single-precision range "
+                              "(%.4g) in which tensor trees are held", p->tok, (double)FLT_MAX);
+        if (p->top == 0)
+            return bsti_error(p->ctx, BST_EFORMAT, "number '%s' outside any tree node", p->tok);
         return bsti_error(p->ctx, BST_EFORMAT, "a tree node mixes values and child nodes");
+    }
     if (v < 0) { /* as libBSDF: negative values read as 0 */
         v = 0;
         t->negatives++;
     }
-    int rc = grow(p->ctx, (void **)&t->values, &t->cap_values, t->nvalues + 1, sizeof *t->values);
-    if (rc < 0)
-        return rc;
+    if (t->nvalues == t->cap_values) {
+        int rc = grow(p->ctx, (void **)&t->values, &t->cap_values, t->nvalues + 1, sizeof *t->values);
+        if (rc < 0)
+            return rc;
+    }
     t->values[t->nvalues++] = (float)v;
-    o->nvalues++;
+    p->stack[p->top - 1].nvalues++;
     return BST_OK;
 }
 
+static int too_long(bsti_tparse *p)
+{
+    return bsti_error(p->ctx, BST_EFORMAT, "a token longer than %d characters", TT_TOKEN_MAX);
+}
+
+/* A token is read in place where the chunk holds all of it; one cut by the chunk's end waits in
+ * p->tok for the rest. */
 int bsti_tparse_feed(bsti_tparse *p, const char *s, size_t len)
 {
-    for (size_t i = 0; i < len; i++) {
-        char c = s[i];
-        int sep = c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == ',' || c == '{' || c == '}';
-        if (!sep) {
-            if (p->ntok >= TT_TOKEN_MAX)
-                return bsti_error(p->ctx, BST_EFORMAT, "a token longer than %d characters", TT_TOKEN_MAX);
-            p->tok[p->ntok++] = c;
+    const unsigned char *c = (const unsigned char *)s, *end = c + len;
+    if (p->ntok) { /* the rest of a token cut at the end of the last chunk */
+        const unsigned char *q = c;
+        while (q < end && char_class[*q] == CH_TOKEN)
+            q++;
+        size_t more = (size_t)(q - c);
+        if ((size_t)p->ntok + more > TT_TOKEN_MAX)
+            return too_long(p);
+        memcpy(p->tok + p->ntok, c, more);
+        p->ntok += (int)more;
+        if (q == end)
+            return BST_OK;
+        size_t n = (size_t)p->ntok;
+        p->ntok = 0;
+        int rc = number(p, p->tok, n);
+        if (rc < 0)
+            return rc;
+        c = q;
+    }
+    while (c < end) {
+        unsigned cls = char_class[*c];
+        if (cls == CH_SPACE) {
+            c++;
             continue;
         }
-        int rc = BST_OK;
-        if (p->ntok)
-            rc = number(p);
-        if (rc >= 0 && c == '{')
+        int rc;
+        if (cls == CH_OPEN) {
             rc = open_node(p);
-        else if (rc >= 0 && c == '}')
+            c++;
+        } else if (cls == CH_CLOSE) {
             rc = close_node(p);
+            c++;
+        } else {
+            const unsigned char *q = c + 1;
+            while (q < end && char_class[*q] == CH_TOKEN)
+                q++;
+            size_t n = (size_t)(q - c);
+            if (n > TT_TOKEN_MAX)
+                return too_long(p);
+            if (q == end) { /* it may go on in the next chunk */
+                memcpy(p->tok, c, n);
+                p->ntok = (int)n;
+                return BST_OK;
+            }
+            rc = number(p, (const char *)c, n);
+            c = q;
+        }
         if (rc < 0)
             return rc;
     }
@@ -223,7 +272,12 @@ int bsti_tparse_feed(bsti_tparse *p, const char *s, size_t len)
 int bsti_tparse_finish(bsti_tparse *p, bsti_ttree **out)
 {
     *out = NULL;
-    int rc = p->ntok ? number(p) : BST_OK;
+    int rc = BST_OK;
+    if (p->ntok) {
+        size_t n = (size_t)p->ntok;
+        p->ntok = 0;
+        rc = number(p, p->tok, n);
+    }
     if (rc >= 0 && p->top > 0)
         rc = bsti_error(p->ctx, BST_EFORMAT, "the tree ends with %d unclosed node%s", p->top,
                         p->top > 1 ? "s" : "");
@@ -258,53 +312,6 @@ double bsti_ttree_eval(const bsti_ttree *t, const double *pin)
         flat = flat * g + (c < g ? c : g - 1);
     }
     return t->values[n->first + flat];
-}
-
-/* Add the subtree of node id (at depth d, lower corner c[] in cells of that depth) to the grid. */
-static void expand4(const bsti_ttree *t, uint32_t id, int d, const size_t c[4], int k, double *m)
-{
-    const struct bsti_tnode *n = &t->nodes[id];
-    if (!n->leaf) {
-        for (int child = 0; child < 16; child++) {
-            size_t cc[4];
-            for (int i = 0; i < 4; i++)
-                cc[i] = 2 * c[i] + (size_t)((child >> i) & 1);
-            expand4(t, t->kids[n->first + (uint32_t)child], d + 1, cc, k, m);
-        }
-        return;
-    }
-    size_t G = (size_t)1 << k, N = G * G;
-    int lv = d + n->level;           /* level of the leaf's cells */
-    size_t g = (size_t)1 << n->level; /* leaf grid */
-    size_t rep = lv <= k ? (size_t)1 << (k - lv) : 1; /* target cells per leaf cell and dimension */
-    int shift = lv > k ? lv - k : 0;                  /* leaf cells per target cell: 2^shift */
-    double w = lv > k ? 1.0 / (double)((size_t)1 << (4 * shift)) : 1.0;
-    for (size_t a = 0; a < g; a++)
-        for (size_t b = 0; b < g; b++)
-            for (size_t e = 0; e < g; e++)
-                for (size_t f = 0; f < g; f++) {
-                    double v = w * t->values[n->first + ((a * g + b) * g + e) * g + f];
-                    if (v == 0.0)
-                        continue;
-                    size_t x0 = ((c[0] * g + a) * rep) >> shift, y0 = ((c[1] * g + b) * rep) >> shift;
-                    size_t u0 = ((c[2] * g + e) * rep) >> shift, v0 = ((c[3] * g + f) * rep) >> shift;
-                    for (size_t ix = x0; ix < x0 + rep; ix++)
-                        for (size_t iy = y0; iy < y0 + rep; iy++)
-                            for (size_t ox = u0; ox < u0 + rep; ox++)
-                                for (size_t oy = v0; oy < v0 + rep; oy++)
-                                    m[(ox * G + oy) + N * (ix * G + iy)] += v;
-                }
-}
-
-int bsti_ttree_expand4(const bsti_ttree *t, int k, double *m)
-{
-    if (t->dim != 4)
-        return bsti_error(t->ctx, BST_EINVAL, "expanding a rank-%d tree as rank 4", t->dim);
-    size_t G = (size_t)1 << k;
-    memset(m, 0, G * G * G * G * sizeof *m);
-    size_t c[4] = {0, 0, 0, 0};
-    expand4(t, 0, 0, c, k, m);
-    return BST_OK;
 }
 
 /* Share of the hypercube under node id (of volume vol) where the tree's value is not zero. */

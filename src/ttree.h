@@ -49,7 +49,21 @@ double bsti_ttree_fill(const bsti_ttree *t);
 double bsti_ttree_eval(const bsti_ttree *t, const double *p);
 /* Rank 4 only: the tree on a grid of 2^k cells per dimension, as the column-major N x N matrix
  * (N = 4^k) M[o + N i] with i = ix 2^k + iy the cell of (p0, p1) and o = ox 2^k + oy that of
- * (p2, p3).  Finer tree cells are averaged, coarser ones replicated. */
+ * (p2, p3).  Finer tree cells are averaged, coarser ones replicated.  ttree_expand.c. */
 int bsti_ttree_expand4(const bsti_ttree *t, int k, double *m);
+
+/* The same in parts (rank 4 only, unchecked; k >= 1).  recip = 1 gives the matrix of the
+ * reciprocal transmission instead, M'[o + N i] = M[a(i) + N a(o)] with a(j) = N - 1 - j.  threads:
+ * how many threads may share the work (bsti_ttree_threads: one a processor at k >= 4); the
+ * values never depend on it. */
+int bsti_ttree_threads(int k);
+/* The number of non-zero cells and whether they all lie on the diagonal (o = i); the count stops
+ * (a lower bound then) once it passes limit with a cell off the diagonal. */
+void bsti_ttree_census4(const bsti_ttree *t, int k, size_t limit, size_t *nnz, int *diag_only);
+/* Every cell of m (N x N, double or float by prec) written once: m need not be cleared. */
+void bsti_ttree_fill4(const bsti_ttree *t, int k, int recip, bst_precision prec, void *m, int threads);
+/* emit(opaque, row, column, value) for each non-zero cell, one thread, in no particular order. */
+typedef void (*bsti_ttree_emit_fn)(void *opaque, size_t row, size_t col, double v);
+void bsti_ttree_emit4(const bsti_ttree *t, int k, int recip, bsti_ttree_emit_fn emit, void *opaque);
 
 #endif
