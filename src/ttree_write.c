@@ -156,7 +156,7 @@ static void prefetch_region(const struct tw *w, int l, const size_t *c)
             for (size_t x2 = 0; x2 < e1; x2++) {
                 size_t base = (c[0] + x0) * w->stride[0] + (c[1] + x1) * w->stride[1] +
                               (c[2] + x2) * w->stride[2];
-                size_t first = w->D == 4 ? base + c[3] : base, run = w->D == 4 ? s : s;
+                size_t first = w->D == 4 ? base + c[3] : base, run = s;
                 for (size_t q = 0; q < run; q += line)
                     __builtin_prefetch(p + (first + q) * sz);
                 __builtin_prefetch(p + (first + run - 1) * sz);

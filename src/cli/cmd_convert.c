@@ -240,7 +240,8 @@ write:;
     }
     strcpy(command, "bsdfstack");
     for (int i = 0; i < argc; i++)
-        strcat(strcat(command, " "), argv[i]);
+        if (!cli_threads_arg(argc, argv, &i)) /* changes no output byte: not recorded */
+            strcat(strcat(command, " "), argv[i]);
     bst_bsdf_write_opts o;
     bst_bsdf_write_opts_init(&o);
     o.rank = (bst_tree_rank)rank;
