@@ -720,6 +720,7 @@ static void run_task(struct run *r, size_t t)
     s->acc.h0 = tk->c[0], s->acc.h1 = tk->c[1];
     memset(hemi, 0, (w->D == 4 ? hside * hside : hside) * sizeof *hemi);
     s->text.n = 0;
+    prefetch_region(w, w->split, tk->c);
     emit(w, &s->acc, NULL, w->split, tk->c, tk->depth, tk->on_path);
 }
 
