@@ -90,6 +90,14 @@ void bst_ctx_clear(bst_ctx *ctx);
 typedef void (*bst_progress_fn)(double fraction, const char *label, void *opaque);
 void bst_ctx_set_progress(bst_ctx *ctx, bst_progress_fn fn, void *opaque);
 
+/* Threads the library may use for work that splits without changing a result (today: writing
+ * tensor trees, whose text is the same bytes with any count): 0 (the default) = one per online
+ * CPU, up to BST_THREADS_MAX; 1 = none besides the caller's; n > 1 = up to n.  A context with a
+ * custom allocator always works on the caller's thread alone.  BST_EINVAL when n < 0. */
+#define BST_THREADS_MAX 8
+int bst_ctx_set_threads(bst_ctx *ctx, int n);
+int bst_ctx_threads(const bst_ctx *ctx);
+
 /* --------------------------- structured matrices: mat.c, mat_mul.c (products), mat_add.c (sums) */
 
 typedef enum {

@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include <cholmod.h>
 
@@ -102,6 +103,35 @@ void bst_ctx_set_progress(bst_ctx *ctx, bst_progress_fn fn, void *opaque)
         return;
     ctx->progress_fn = fn;
     ctx->progress_opaque = opaque;
+}
+
+int bst_ctx_set_threads(bst_ctx *ctx, int n)
+{
+    if (!ctx)
+        return BST_EINVAL;
+    if (n < 0)
+        return bsti_error(ctx, BST_EINVAL, "threads: %d (must be >= 0, 0 = one per CPU)", n);
+    ctx->threads = n;
+    return BST_OK;
+}
+
+int bst_ctx_threads(const bst_ctx *ctx)
+{
+    return ctx ? ctx->threads : 0;
+}
+
+int bsti_ctx_workers(const bst_ctx *ctx, size_t jobs)
+{
+    if (!ctx || ctx->malloc_fn != system_malloc || jobs < 2)
+        return 1;
+    long n = ctx->threads;
+    if (n == 0)
+        n = sysconf(_SC_NPROCESSORS_ONLN);
+    if (n > BST_THREADS_MAX)
+        n = BST_THREADS_MAX;
+    if ((size_t)n > jobs)
+        n = (long)jobs;
+    return n > 1 ? (int)n : 1;
 }
 
 int bsti_error(bst_ctx *ctx, int status, const char *fmt, ...)

@@ -22,6 +22,7 @@ struct bst_ctx {
     bst_progress_fn progress_fn;
     void *progress_opaque;
     struct cholmod_common_struct *cholmod; /* started on first use, see bsti_cholmod */
+    int threads;            /* bst_ctx_set_threads: 0 = one per CPU */
 };
 
 /* Record status and a printf-style message in ctx and return status (so: return bsti_error(...)). */
@@ -46,6 +47,11 @@ void bsti_free(bst_ctx *ctx, void *p);
 char *bsti_strdup(bst_ctx *ctx, const char *s);
 /* a * b without overflow: 0 and *out set, or -1 on overflow. */
 int bsti_size_mul(size_t a, size_t b, size_t *out);
+
+/* How many threads (the caller's included) may share a job of at most `jobs` independent parts:
+ * bst_ctx_set_threads's setting (0: the online CPUs), at most BST_THREADS_MAX and jobs, 1 with a
+ * custom allocator (its hooks need not be thread-safe). */
+int bsti_ctx_workers(const bst_ctx *ctx, size_t jobs);
 
 /* Report progress of a long operation (no-op without a callback). */
 void bsti_progress(bst_ctx *ctx, double fraction, const char *label);

@@ -35,6 +35,16 @@ void bsti_sink_put(bsti_sink *s, const char *text, size_t len)
     if (s->failed)
         return;
     s->total += len;
+    if (len >= BSTI_SINK_BUF) { /* a large piece (a tree's text made ahead) goes as it is */
+        if (bsti_sink_flush(s) != 0)
+            return;
+        errno = 0;
+        if (s->fn(text, len, s->opaque) != 0) {
+            s->failed = 1;
+            s->err = errno;
+        }
+        return;
+    }
     while (len) {
         size_t room = BSTI_SINK_BUF - s->n, k = len < room ? len : room;
         memcpy(s->buf + s->n, text, k);

@@ -1,5 +1,6 @@
 /* sink.h - a small buffered text output used by the writers (tensor trees, XML): bytes go to a
- * callback in chunks of at most BSTI_SINK_BUF, so nothing larger than that buffer is ever held.
+ * callback in chunks of at most BSTI_SINK_BUF (a piece at least that long is passed on as it is, after
+ * what is buffered), so the sink itself holds nothing larger than that buffer.
  * The first failure of the callback is remembered; later writes are dropped and the writer
  * checks bsti_sink_failed() to stop early. */
 #ifndef BST_SINK_H

@@ -52,7 +52,11 @@ typedef struct {
 
 /* Write the tree of t to out.  Fails with BST_EINVAL (nothing written) when a value is not finite,
  * BST_EIO when the sink fails, BST_ENOMEM.  Memory: one float per tree node above the cells
- * (G^D / (2^D - 1) floats) and, when reducing, a copy of the finest level for the percentile. */
+ * (G^D / (2^D - 1) floats) and, when reducing, a copy of the finest level for the percentile; the
+ * text is made per subtree of at most 65536 cells on up to bst_ctx_set_threads threads (t->get
+ * must then be safe to call from several threads at once), at most two such texts per thread
+ * held at a time (about 1.1 MB each), and passed to out in tree order: the same bytes and
+ * statistics with any thread count. */
 int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, bsti_sink *out,
                      bsti_tree_stats *stats);
 

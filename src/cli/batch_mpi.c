@@ -350,8 +350,9 @@ static int run(int argc, char **argv, int rank, int size)
     if (!env || !*env)
         openblas_set_num_threads(per > 1 ? per : 1);
 #else
-    (void)per, (void)env;
+    (void)env;
 #endif
+    bst_ctx_set_threads(ctx, per > 1 ? per : 1); /* the writer's threads: the same share */
     /* a rank that could not set up cannot take part; the run cannot go on without it */
     int all_ok = rc == CLI_OK;
     MPI_Allreduce(MPI_IN_PLACE, &all_ok, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);

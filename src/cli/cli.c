@@ -269,3 +269,15 @@ void cli_print_help(FILE *fp, const char *text)
 {
     fputs(text, fp);
 }
+
+int cli_threads_arg(int argc, char **argv, int *i)
+{
+    const char *a = argv[*i];
+    if (strncmp(a, "--threads=", 10) == 0)
+        return 1;
+    if (strcmp(a, "--threads") != 0)
+        return 0;
+    if (*i + 1 < argc)
+        (*i)++;
+    return 1;
+}

@@ -91,6 +91,9 @@ void cli_hold_std_fds(void);
 /* Parse a double / int option value strictly (the whole string, finite). 0 on success. */
 int cli_parse_double(const char *s, double *out);
 int cli_parse_int(const char *s, int *out);
+/* Is argv[*i] a --threads option (its value skipped: *i advanced past "--threads N")?  The thread
+ * count changes no output byte, so the command line recorded in a file leaves it out. */
+int cli_threads_arg(int argc, char **argv, int *i);
 
 /* --only LIST (comma-separated Tf, Rf, Tb, Rb) into a BST_COMP_BIT mask; --precision double|single.
  * CLI_OK or a usage error (printed). */

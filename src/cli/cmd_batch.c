@@ -9,7 +9,7 @@
  * made by hand.  Each worker sets OpenBLAS to max(1, cores / N) threads (cores: the CPUs this
  * process may run on, sched_getaffinity), so that N workers keep the cores busy without
  * oversubscribing them; -j 1 runs in the process through the same code and leaves OpenBLAS as
- * configured.  Workers claim lines in file order from a counter in shared memory
+ * configured; the tree writer's threads (bst_ctx_set_threads) get the same share.  Workers claim lines in file order from a counter in shared memory
  * (MAP_SHARED | MAP_ANONYMOUS) and leave each stack's result there (state, seconds, peak memory,
  * T and R at normal incidence per channel, warnings); the parent draws the progress line on a
  * terminal and writes --summary from them once every worker has ended.
@@ -381,6 +381,8 @@ static void run_all(bst_ctx *ctx, struct batch *b, struct shared *sh, int jobs)
             if (!env || !*env)
                 openblas_set_num_threads(per > 1 ? per : 1);
 #endif
+            /* the tree writer's threads: the same share (any count writes the same bytes) */
+            bst_ctx_set_threads(ctx, batch_cores() / jobs > 1 ? batch_cores() / jobs : 1);
             work(ctx, b, sh);
             fflush(stdout);
             _exit(0);

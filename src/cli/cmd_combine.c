@@ -25,7 +25,7 @@ static const char help[] =
     "                         [--incident-file FILE]\n"
     "                         [--fine-incident THETA,PHI]... [--fine-incident-file FILE]\n"
     "                         [--sun-path LAT,LON,MERIDIAN [--azimuth DEG] [--sun-step MIN]]\n"
-    "                         [--coarse-k KC] [-v] -o OUT LAYER LAYER...\n"
+    "                         [--coarse-k KC] [--threads N] [-v] -o OUT LAYER LAYER...\n"
     "Combines the layers, listed exterior first, with every inter-reflection between them, and\n"
     "writes the system's BSDF as BSDF XML.  When at least one layer is a pane with spectral data\n"
     "and every other layer is a file with Solar and Visible channels (WINDOW's dual-band\n"
@@ -83,6 +83,8 @@ static const char help[] =
     "  --sun-step MIN     minutes of standard time between sun positions (default 60: every hour)\n"
     "  The file's fine columns are checked against the coarse system: a fine patch whose\n"
     "  hemispherical Tf or Rf differs from its coarse patch's by more than 0.02 is warned of\n"
+    "  --threads N        threads that write a tensor tree's text (default 0: one per CPU, up to\n"
+    "                     8); the file is the same bytes with any N\n"
     "  -v                 print the time and peak memory of reading, of each step (with its\n"
     "                     structures) and of writing\n"
     "  -o OUT             output file ('-' = standard output); a regular file is replaced\n"
@@ -499,7 +501,7 @@ static int parse_site(const char *sub, const char *s, bst_sun_site *site)
 int cmd_combine(int argc, char **argv)
 {
     enum { O_ABS = CLI_O_OWN, O_INCIDENT, O_INCFILE, O_FINE, O_FINEFILE, O_COARSEK, O_SUN, O_AZI,
-           O_SUNSTEP, O_HELP };
+           O_SUNSTEP, O_THREADS, O_HELP };
     static const struct option longopts[] = {
         CLI_STACK_LONGOPTS, {"absorptance", required_argument, NULL, O_ABS},
         {"incident", required_argument, NULL, O_INCIDENT},
@@ -508,10 +510,11 @@ int cmd_combine(int argc, char **argv)
         {"fine-incident-file", required_argument, NULL, O_FINEFILE},
         {"coarse-k", required_argument, NULL, O_COARSEK}, {"sun-path", required_argument, NULL, O_SUN},
         {"azimuth", required_argument, NULL, O_AZI}, {"sun-step", required_argument, NULL, O_SUNSTEP},
+        {"threads", required_argument, NULL, O_THREADS},
         {"help", no_argument, NULL, O_HELP}, {NULL, 0, NULL, 0}};
     const char *sub = "combine";
     const char *outpath = NULL, *abspath = NULL;
-    int verbose = 0;
+    int verbose = 0, threads = 0;
     double (*dirs)[2] = NULL, one[2];
     size_t ndirs = 0, cap = 0;
     const char *dirfile = NULL, *finefile = NULL;
@@ -602,6 +605,12 @@ int cmd_combine(int argc, char **argv)
             }
             step_set = 1;
             break;
+        case O_THREADS:
+            if (cli_parse_int(optarg, &threads) != 0 || threads < 0) {
+                free(dirs), free(fine);
+                return cli_usage(sub, "--threads %s: use 0 (one per CPU) or a positive count", optarg);
+            }
+            break;
         case 'v': verbose = 1; break;
         case 'h':
         case O_HELP: /* longer than a stdout buffer: a failed write is told with its own errno */
@@ -657,6 +666,8 @@ int cmd_combine(int argc, char **argv)
         bst_ctx *vctx = rc == CLI_OK ? cli_ctx_new(sub) : NULL;
         if (rc == CLI_OK && !vctx)
             rc = CLI_FAIL;
+        if (vctx)
+            bst_ctx_set_threads(vctx, threads);
         if (rc == CLI_OK)
             rc = combine_varres(vctx, sub, &args, kc ? kc : DEFAULT_COARSE_K, (size_t)(argc - optind),
                                 argv + optind, nfine, (const double (*)[2])fine, outpath, verbose,
@@ -683,6 +694,7 @@ int cmd_combine(int argc, char **argv)
         free(dirs);
         return CLI_FAIL;
     }
+    bst_ctx_set_threads(ctx, threads);
     struct cli_layers set;
     double t0 = now_s();
     args.basis.combining = ndirs == 0; /* columns (--incident) need little beyond the layers */

@@ -508,6 +508,8 @@ static int write_any(bst_ctx *ctx, const char *sub, const bst_layer *l, const bs
         return cli_fail(sub, "out of memory");
     snprintf(desc, len, "%s\ncommand: bsdfstack", set && set->description ? set->description : "");
     for (int i = 0; i < argc; i++) {
+        if (cli_threads_arg(argc, argv, &i)) /* changes no output byte: not recorded */
+            continue;
         strcat(desc, " ");
         strcat(desc, argv[i]);
     }
