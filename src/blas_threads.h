@@ -7,7 +7,7 @@
  * work, and a core taken from whatever else runs.  Systems of order at most BSTI_BLAS_SERIAL_N
  * therefore solve on one thread, as their factorizations already did (solve.c).  OpenBLAS splits
  * a solve by right-hand sides, so each column's arithmetic, and every bit of the result, is the
- * same on one thread or two (tests/test_blas_threads.c; N <= 300 and 1..700 right-hand sides
+ * same on one thread or two (tests/test_threads.c; N <= 300 and 1..700 right-hand sides
  * checked by hand).  GEMM is left alone: OpenBLAS splits it by rows too, and its edge kernels
  * round differently, so a product of order 101..199 changes in the last bits with the thread
  * count, and main's files with it.  The thread count is OpenBLAS's, process-wide: it is set back

@@ -1,8 +1,10 @@
-/* test_blas_threads.c - small systems' solves on one OpenBLAS thread (blas_threads.c): the thread
- * count is given back as it was, the triangular solves of a system of order <= BSTI_BLAS_SERIAL_N
- * give the same bits on one thread as on OpenBLAS's two (what lets solve.c switch without
- * changing a file), in double and float, transposed or not, for several numbers of right-hand
- * sides; and bst_solve_left's X solves (I - A) X = B (residual, an independent check). */
+/* test_threads.c - one thread or two, the same bits.  Small systems' solves on one OpenBLAS thread
+ * (blas_threads.c): the thread count is given back as it was, the triangular solves of a system
+ * of order <= BSTI_BLAS_SERIAL_N give the same bits on one thread as on OpenBLAS's two (what lets
+ * solve.c switch without changing a file), in double and float, transposed or not, for several
+ * numbers of right-hand sides; and bst_solve_left's X solves (I - A) X = B (residual, an
+ * independent check).  Catalogue panes' Klems layers (glass_layer.c: two threads with the default
+ * allocator, one with a caller's) are the same to the bit both ways. */
 #include <config.h>
 
 #include <cblas.h>
@@ -10,6 +12,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "blas_threads.h"
 #include "testutil.h"
@@ -105,13 +108,54 @@ START_TEST(test_solve_left_residual)
 }
 END_TEST
 
+/* nfrc-102 and nfrc-103 (spectral: Solar and Visible) over Klems full, built with the default
+ * allocator (two threads where the machine has two cores) and with a caller's (one thread). */
+START_TEST(test_glass_layer_same_bits)
+{
+    static const char *const panes[] = {"nfrc-102", "nfrc-103"};
+    const char *dir = getenv("BSDFSTACK_GLASS_DIR");
+    ck_assert_ptr_nonnull(dir);
+    bst_ctx *ctx = bst_ctx_new(), *own = bst_ctx_new();
+    tu_alloc counter = {0, 0, 0};
+    ck_assert_int_eq(bst_ctx_set_allocator(own, tu_alloc_malloc, tu_alloc_free, &counter), BST_OK);
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_klems(ctx, "full", &b), BST_OK);
+    size_t n = bst_basis_size(b);
+    for (size_t p = 0; p < 2; p++) {
+        bst_glass *g;
+        ck_assert_int_eq(bst_glass_parse(ctx, panes[p], dir, &g), BST_OK);
+        bst_layer *two, *one;
+        ck_assert_int_eq(bst_glass_layer(ctx, g, b, 0, NULL, 0, &two), BST_OK);
+        ck_assert_int_eq(bst_glass_layer(own, g, b, 0, NULL, 0, &one), BST_OK);
+        ck_assert_uint_eq(bst_layer_nchannels(one), bst_layer_nchannels(two));
+        ck_assert_uint_ge(bst_layer_nchannels(one), 2);
+        for (size_t ch = 0; ch < bst_layer_nchannels(one); ch++)
+            for (int c = 0; c < BST_NCOMP; c++)
+                for (size_t j = 0; j < n; j++) {
+                    double x = bst_mat_get(bst_layer_get(one, ch, (bst_comp)c), j, j);
+                    double y = bst_mat_get(bst_layer_get(two, ch, (bst_comp)c), j, j);
+                    ck_assert_msg(memcmp(&x, &y, sizeof x) == 0, "%s ch %zu comp %d patch %zu: %a vs %a",
+                                  panes[p], ch, c, j, x, y);
+                    ck_assert(x > 0.0 || c == BST_RF || c == BST_RB || j + 1 == n);
+                }
+        bst_layer_free(one), bst_layer_free(two);
+        bst_glass_free(g);
+    }
+    ck_assert_int_gt(counter.count, 0);
+    bst_basis_free(b);
+    bst_ctx_free(ctx), bst_ctx_free(own);
+    ck_assert_int_eq(counter.live, 0);
+}
+END_TEST
+
 static Suite *suite(void)
 {
-    Suite *s = suite_create("blas_threads");
+    Suite *s = suite_create("threads");
     TCase *tc = tcase_create("threads");
     tcase_add_test(tc, test_serial_begin_end);
     tcase_add_loop_test(tc, test_solve_same_bits, 0, (int)(sizeof orders / sizeof orders[0]));
     tcase_add_test(tc, test_solve_left_residual);
+    tcase_add_test(tc, test_glass_layer_same_bits);
     suite_add_tcase(s, tc);
     return s;
 }
