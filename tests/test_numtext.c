@@ -1,10 +1,11 @@
-/* test_numtext.c - the writer's shortest double text (numtext.c's fixed-point replay of the
- * search) against the reference itself, bsti_format_double_search (printf's "%.*g" and strtod):
+/* test_numtext.c - the writers' shortest double (and float) text (numtext.c's fixed-point replay
+ * of the search) against the reference itself, bsti_format_double_search (printf's "%.*g" and strtod):
  * byte for byte on random bit patterns over every exponent, on random values in the BSDF range
  * (1e-8 .. 1e4), on decimals of 1 to 17 significant digits and their neighbours, and on
  * boundaries: every power of two (whose lower gap is half the upper: where the search is not
  * monotone) and of ten with their neighbours, subnormals, DBL_MIN, DBL_MAX, and exact printf ties
- * (multiples of 2^-k).  The sizes here run in a few seconds; bench/numtext_sweep.c runs the same
+ * (multiples of 2^-k).  (A failure aborts through ck_abort_msg: ck_assert in the loops would
+ * cost a write to Check's pipe per value.)  The sizes here run in a few seconds; bench/numtext_sweep.c runs the same
  * comparison on as many values as asked. */
 #include <config.h>
 
@@ -37,9 +38,8 @@ static long check_around(double v)
                 continue;
             int len = bsti_format_double(u, 0, got, &back);
             bsti_format_double_search(u, want);
-            ck_assert_msg(strcmp(got, want) == 0, "%a: %s, reference %s", u, got, want);
-            ck_assert_int_eq(len, (int)strlen(want));
-            ck_assert(strtod(got, NULL) == u && back == u);
+            if (strcmp(got, want) != 0 || len != (int)strlen(want) || strtod(got, NULL) != u || back != u)
+                ck_abort_msg("%a: %s (%d), reference %s", u, got, len, want);
             n++;
         }
     }
@@ -54,7 +54,8 @@ static long check_one(double v)
         return 0;
     bsti_format_double(v, 0, got, &back);
     bsti_format_double_search(v, want);
-    ck_assert_msg(strcmp(got, want) == 0, "%a: %s, reference %s", v, got, want);
+    if (strcmp(got, want) != 0)
+        ck_abort_msg("%a: %s, reference %s", v, got, want);
     return 1;
 }
 
@@ -77,7 +78,8 @@ START_TEST(test_double_bsdf_range)
     uint64_t x = 0x9E3779B97F4A7C15ull;
     for (long i = 0; i < 250000; i++) {
         double u = (double)(xorshift(&x) >> 11) * 0x1p-53;
-        ck_assert_int_eq(check_one(pow(10.0, -8.0 + 12.0 * u)), 1);
+        if (check_one(pow(10.0, -8.0 + 12.0 * u)) != 1)
+            ck_abort_msg("%g: not a finite non-zero value", u);
     }
 }
 END_TEST
@@ -92,7 +94,8 @@ START_TEST(test_double_short_decimals)
         int d = 1 + (int)(xorshift(&x) % 17);
         double u = (double)(xorshift(&x) >> 11) * 0x1p-53;
         snprintf(text, sizeof text, "%.*e", d - 1, pow(10.0, -8.0 + 12.0 * u));
-        ck_assert_int_eq(check_around(strtod(text, NULL)), 6);
+        if (check_around(strtod(text, NULL)) != 6)
+            ck_abort_msg("%s: not 6 values checked", text);
     }
 }
 END_TEST
@@ -118,6 +121,37 @@ START_TEST(test_double_boundaries)
         check_one(i / 1024.0);
         check_one(ldexp(i, -30));
         check_one((double)i);
+    }
+}
+END_TEST
+
+/* Floats (bsti_format_float: the same fixed-point path with 9 digits at most) against their search
+ * in the BSDF range, as decimals of 1..9 digits with their neighbours, and at every power of two;
+ * tests/test_write.c adds random bit patterns. */
+START_TEST(test_float_vs_search)
+{
+    uint64_t x = 4711;
+    char got[32], want[32], text[40];
+    float back;
+    for (long i = 0; i < 100000; i++) {
+        double u = (double)(xorshift(&x) >> 11) * 0x1p-53;
+        int d = 1 + (int)(xorshift(&x) % 9);
+        snprintf(text, sizeof text, "%.*e", d - 1, pow(10.0, -8.0 + 12.0 * u));
+        float f = strtof(text, NULL);
+        float cand[3] = {f, nextafterf(f, 0.0f), nextafterf(f, INFINITY)};
+        for (int k = 0; k < 3; k++) {
+            bsti_format_float(cand[k], 0, got, &back);
+            bsti_format_float_search(cand[k], want);
+            if (strcmp(got, want) != 0 || back != cand[k] || strtof(got, NULL) != cand[k])
+                ck_abort_msg("%a: %s, reference %s", (double)cand[k], got, want);
+        }
+    }
+    for (int e = -149; e <= 127; e++) {
+        float f = ldexpf(1.0f, e);
+        bsti_format_float(f, 0, got, &back);
+        bsti_format_float_search(f, want);
+        if (strcmp(got, want) != 0)
+            ck_abort_msg("%a: %s, reference %s", (double)f, got, want);
     }
 }
 END_TEST
@@ -151,6 +185,7 @@ static Suite *suite(void)
     tcase_add_test(tc, test_double_random_bits);
     tcase_add_test(tc, test_double_bsdf_range);
     tcase_add_test(tc, test_double_short_decimals);
+    tcase_add_test(tc, test_float_vs_search);
     suite_add_tcase(s, tc);
     return s;
 }
