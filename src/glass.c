@@ -74,13 +74,15 @@ int bsti_glass_side_init(struct bsti_glass_side *s, double t0, double r0)
     return 0;
 }
 
-void bsti_glass_side_optics(const struct bsti_glass_side *s, double theta, double *t, double *r)
+/* bsti_glass_side_optics with ci = cos(theta) and si = sin(theta) given: a spectral channel sums
+ * the model over its wavelengths at one theta, and takes these once (bst_glass_optics). */
+static void side_optics_cs(const struct bsti_glass_side *s, double theta, double ci, double si,
+                           double *t, double *r)
 {
     if (theta <= 0.0) {
         *t = s->t0, *r = s->r0;
         return;
     }
-    double ci = cos(theta);
     if (theta >= M_PI / 2 || ci <= 0.0) {
         *t = 0.0, *r = 1.0;
         return;
@@ -89,7 +91,7 @@ void bsti_glass_side_optics(const struct bsti_glass_side *s, double theta, doubl
         *t = s->t0, *r = s->r0;
         return;
     }
-    double n = s->n, st = sin(theta) / n, ct = sqrt((1.0 - st) * (1.0 + st));
+    double n = s->n, st = si / n, ct = sqrt((1.0 - st) * (1.0 + st));
     /* tau = tau0^(1 / cos t) and 1 - tau from log(tau0): a near-mirror's 1 - tau is ~T0 */
     double e = s->ltau0 / ct, tau = exp(e), omt = -expm1(e);
     /* Fresnel r = ((a - b) / (a + b))^2, (a, b) = (cos i, n cos t) for s, (n cos i, cos t) for p.
@@ -117,6 +119,11 @@ void bsti_glass_side_optics(const struct bsti_glass_side *s, double theta, doubl
             rr = 1.0 - tt;
     }
     *t = tt, *r = rr;
+}
+
+void bsti_glass_side_optics(const struct bsti_glass_side *s, double theta, double *t, double *r)
+{
+    side_optics_cs(s, theta, cos(theta), sin(theta), t, r);
 }
 
 /* ------------------------------------------------------------------ the pane object */
@@ -175,11 +182,11 @@ int bst_glass_optics(const bst_glass *g, size_t ch, double theta, double *tf, do
     if (!g || ch >= g->nch || !(theta >= 0.0 && theta <= M_PI / 2 + 1e-12))
         return BST_EINVAL;
     const struct bsti_glass_channel *c = &g->ch[ch];
-    double st = 0, stb = 0, sf = 0, sb = 0;
+    double st = 0, stb = 0, sf = 0, sb = 0, ci = cos(theta), si = sin(theta);
     for (size_t k = 0; k < c->nk; k++) {
         double t1, r1, t2, r2;
-        bsti_glass_side_optics(&c->front[k], theta, &t1, &r1);
-        bsti_glass_side_optics(&c->back[k], theta, &t2, &r2);
+        side_optics_cs(&c->front[k], theta, ci, si, &t1, &r1);
+        side_optics_cs(&c->back[k], theta, ci, si, &t2, &r2);
         st += c->w[k] * t1, sf += c->w[k] * r1, stb += c->w[k] * t2, sb += c->w[k] * r2;
     }
     /* the weights sum to 1 up to rounding: keep T + R <= 1 as every node does */

@@ -14,6 +14,9 @@ int bsti_format_double(double v, int digits, char *buf, double *back);
 /* The reference the float's text must equal (numtext.c): the fewest "%.*g" digits strtof reads
  * back as f. */
 int bsti_format_float_search(float f, char *buf);
+/* The reference the double's text must equal: the fewest "%.*g" digits strtod reads back as v
+ * (a binary search over printf and strtod; v finite and non-zero). */
+int bsti_format_double_search(double v, char *buf);
 
 /* The double strtod reads from the len characters at s (no terminator needed): *v and 1 when the
  * whole text is a decimal number, 0 when it is not (nothing else written to *v).  Plain decimals

@@ -27,6 +27,7 @@ cancels digits although I - A itself is well scaled.
 #include <lapacke.h>
 #include <umfpack.h>
 
+#include "blas_threads.h"
 #include "ctx.h"
 #include "mat.h"
 
@@ -300,10 +301,12 @@ static int dense_solve_in_place(struct factor *f, int trans, bst_mat *x)
     if (f->n && x->cols) {
         char t = trans ? 'T' : 'N';
         bsti_flops_add((2.0 * (double)f->n - 1.0) * (double)f->n * (double)x->cols);
+        int saved = bsti_blas_serial_begin(f->n);
         if (f->prec == BST_DOUBLE)
             info = LAPACKE_dgetrs_work(LAPACK_COL_MAJOR, t, N, nrhs, f->lu, N, f->ipiv, x->dense, N);
         else
             info = LAPACKE_sgetrs_work(LAPACK_COL_MAJOR, t, N, nrhs, f->lu, N, f->ipiv, x->dense, N);
+        bsti_blas_serial_end(saved);
     }
     if (info != 0)
         return bsti_error(f->ctx, BST_EINTERNAL, "LAPACK getrs: argument %d", (int)-info);

@@ -1,0 +1,166 @@
+/* test_threads.c - one thread or two, the same bits.  Small systems' solves on one OpenBLAS thread
+ * (blas_threads.c): the thread count is given back as it was, the triangular solves of a system
+ * of order <= BSTI_BLAS_SERIAL_N give the same bits on one thread as on OpenBLAS's two (what lets
+ * solve.c switch without changing a file), in double and float, transposed or not, for several
+ * numbers of right-hand sides; and bst_solve_left's X solves (I - A) X = B (residual, an
+ * independent check).  Catalogue panes' Klems layers (glass_layer.c: two threads with the default
+ * allocator, one with a caller's) are the same to the bit both ways. */
+#include <config.h>
+
+#include <cblas.h>
+#include <lapacke.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "blas_threads.h"
+#include "testutil.h"
+
+START_TEST(test_serial_begin_end)
+{
+    openblas_set_num_threads(2);
+    int saved = bsti_blas_serial_begin(145);
+    ck_assert_int_eq(openblas_get_num_threads(), 1);
+    bsti_blas_serial_end(saved);
+    ck_assert_int_eq(openblas_get_num_threads(), 2);
+    ck_assert_int_eq(bsti_blas_serial_begin(BSTI_BLAS_SERIAL_N + 1), 0); /* large: all threads */
+    ck_assert_int_eq(openblas_get_num_threads(), 2);
+    openblas_set_num_threads(1);
+    ck_assert_int_eq(bsti_blas_serial_begin(10), 0); /* already one: nothing to give back */
+    bsti_blas_serial_end(0);
+    ck_assert_int_eq(openblas_get_num_threads(), 1);
+}
+END_TEST
+
+/* orders up to the limit (Klems full 145) and right-hand sides */
+static const int orders[] = {64, 145, 199, BSTI_BLAS_SERIAL_N};
+static const int nrhs[] = {1, 7, 145, 300};
+
+START_TEST(test_solve_same_bits)
+{
+    int n = orders[_i];
+    tu_rng r;
+    tu_rng_seed(&r, 5 + (uint64_t)n);
+    size_t nn = (size_t)n * (size_t)n, nb = (size_t)n * 300;
+    double *lu = malloc(nn * sizeof *lu), *b = malloc(nb * sizeof *b);
+    double *x1 = malloc(nb * sizeof *x1), *x2 = malloc(nb * sizeof *x2);
+    float *luf = malloc(nn * sizeof *luf), *xf1 = malloc(nb * sizeof *xf1), *xf2 = malloc(nb * sizeof *xf2);
+    lapack_int *ipiv = malloc((size_t)n * sizeof *ipiv), *ipivf = malloc((size_t)n * sizeof *ipivf);
+    ck_assert(lu && b && x1 && x2 && luf && xf1 && xf2 && ipiv && ipivf);
+    for (size_t i = 0; i < nn; i++) /* I - A, A with column sums 0.9 at most */
+        lu[i] = -0.9 * tu_rng_uniform(&r) / n + (i % (size_t)(n + 1) == 0);
+    for (size_t i = 0; i < nb; i++)
+        b[i] = tu_rng_uniform(&r);
+    for (size_t i = 0; i < nn; i++)
+        luf[i] = (float)lu[i];
+    openblas_set_num_threads(1);
+    ck_assert_int_eq(LAPACKE_dgetrf_work(LAPACK_COL_MAJOR, n, n, lu, n, ipiv), 0);
+    ck_assert_int_eq(LAPACKE_sgetrf_work(LAPACK_COL_MAJOR, n, n, luf, n, ipivf), 0);
+    for (size_t k = 0; k < sizeof nrhs / sizeof nrhs[0]; k++)
+        for (int trans = 0; trans < 2; trans++) {
+            char t = trans ? 'T' : 'N';
+            size_t len = (size_t)n * (size_t)nrhs[k];
+            for (int threads = 1; threads <= 2; threads++) {
+                double *x = threads == 1 ? x1 : x2;
+                float *xf = threads == 1 ? xf1 : xf2;
+                memcpy(x, b, len * sizeof *x);
+                for (size_t i = 0; i < len; i++)
+                    xf[i] = (float)b[i];
+                openblas_set_num_threads(threads);
+                ck_assert_int_eq(LAPACKE_dgetrs_work(LAPACK_COL_MAJOR, t, n, nrhs[k], lu, n, ipiv, x, n), 0);
+                ck_assert_int_eq(LAPACKE_sgetrs_work(LAPACK_COL_MAJOR, t, n, nrhs[k], luf, n, ipivf, xf, n), 0);
+            }
+            ck_assert_msg(memcmp(x1, x2, len * sizeof *x1) == 0, "double n %d nrhs %d %c", n, nrhs[k], t);
+            ck_assert_msg(memcmp(xf1, xf2, len * sizeof *xf1) == 0, "float n %d nrhs %d %c", n, nrhs[k], t);
+        }
+    free(lu), free(b), free(x1), free(x2), free(luf), free(xf1), free(xf2), free(ipiv), free(ipivf);
+}
+END_TEST
+
+/* bst_solve_left with two OpenBLAS threads around it: X solves (I - A) X = B, and the count is
+ * still two afterwards. */
+START_TEST(test_solve_left_residual)
+{
+    bst_ctx *ctx = bst_ctx_new();
+    tu_rng r;
+    tu_rng_seed(&r, 17);
+    size_t n = 145;
+    bst_mat *a, *b, *x = NULL;
+    ck_assert_int_eq(bst_mat_new_dense(ctx, n, n, BST_DOUBLE, &a), BST_OK);
+    ck_assert_int_eq(bst_mat_new_dense(ctx, n, n, BST_DOUBLE, &b), BST_OK);
+    double *A = bst_mat_dense_data(a), *B = bst_mat_dense_data(b);
+    for (size_t i = 0; i < n * n; i++)
+        A[i] = 0.9 * tu_rng_uniform(&r) / (double)n, B[i] = tu_rng_uniform(&r);
+    openblas_set_num_threads(2);
+    ck_assert_int_ge(bst_solve_left(ctx, a, b, BST_RCOND_WARN, &x, NULL), 0);
+    ck_assert_int_eq(openblas_get_num_threads(), 2);
+    const double *X = bst_mat_dense_data(x);
+    for (size_t j = 0; j < n; j++)
+        for (size_t i = 0; i < n; i++) {
+            double s = X[j * n + i];
+            for (size_t k = 0; k < n; k++)
+                s -= A[k * n + i] * X[j * n + k];
+            ck_assert(fabs(s - B[j * n + i]) <= 1e-13);
+        }
+    bst_mat_free(a), bst_mat_free(b), bst_mat_free(x);
+    bst_ctx_free(ctx);
+}
+END_TEST
+
+/* nfrc-102 and nfrc-103 (spectral: Solar and Visible) over Klems full, built with the default
+ * allocator (two threads where the machine has two cores) and with a caller's (one thread). */
+START_TEST(test_glass_layer_same_bits)
+{
+    static const char *const panes[] = {"nfrc-102", "nfrc-103"};
+    const char *dir = getenv("BSDFSTACK_GLASS_DIR");
+    ck_assert_ptr_nonnull(dir);
+    bst_ctx *ctx = bst_ctx_new(), *own = bst_ctx_new();
+    tu_alloc counter = {0, 0, 0};
+    ck_assert_int_eq(bst_ctx_set_allocator(own, tu_alloc_malloc, tu_alloc_free, &counter), BST_OK);
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_klems(ctx, "full", &b), BST_OK);
+    size_t n = bst_basis_size(b);
+    for (size_t p = 0; p < 2; p++) {
+        bst_glass *g;
+        ck_assert_int_eq(bst_glass_parse(ctx, panes[p], dir, &g), BST_OK);
+        bst_layer *two, *one;
+        ck_assert_int_eq(bst_glass_layer(ctx, g, b, 0, NULL, 0, &two), BST_OK);
+        ck_assert_int_eq(bst_glass_layer(own, g, b, 0, NULL, 0, &one), BST_OK);
+        ck_assert_uint_eq(bst_layer_nchannels(one), bst_layer_nchannels(two));
+        ck_assert_uint_ge(bst_layer_nchannels(one), 2);
+        for (size_t ch = 0; ch < bst_layer_nchannels(one); ch++)
+            for (int c = 0; c < BST_NCOMP; c++)
+                for (size_t j = 0; j < n; j++) {
+                    double x = bst_mat_get(bst_layer_get(one, ch, (bst_comp)c), j, j);
+                    double y = bst_mat_get(bst_layer_get(two, ch, (bst_comp)c), j, j);
+                    ck_assert_msg(memcmp(&x, &y, sizeof x) == 0, "%s ch %zu comp %d patch %zu: %a vs %a",
+                                  panes[p], ch, c, j, x, y);
+                    ck_assert(x > 0.0 || c == BST_RF || c == BST_RB || j + 1 == n);
+                }
+        bst_layer_free(one), bst_layer_free(two);
+        bst_glass_free(g);
+    }
+    ck_assert_int_gt(counter.count, 0);
+    bst_basis_free(b);
+    bst_ctx_free(ctx), bst_ctx_free(own);
+    ck_assert_int_eq(counter.live, 0);
+}
+END_TEST
+
+static Suite *suite(void)
+{
+    Suite *s = suite_create("threads");
+    TCase *tc = tcase_create("threads");
+    tcase_add_test(tc, test_serial_begin_end);
+    tcase_add_loop_test(tc, test_solve_same_bits, 0, (int)(sizeof orders / sizeof orders[0]));
+    tcase_add_test(tc, test_solve_left_residual);
+    tcase_add_test(tc, test_glass_layer_same_bits);
+    suite_add_tcase(s, tc);
+    return s;
+}
+
+int main(void)
+{
+    return tu_run(suite());
+}
