@@ -15,7 +15,10 @@
 #include <config.h>
 
 #include <math.h>
+#include <pthread.h>
+#include <stdint.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "basis.h"
 #include "ctx.h"
@@ -53,12 +56,71 @@ static inline double mget(const struct macc *a, size_t o, size_t i)
     return bst_mat_get(a->m, o, i);
 }
 
+struct r3 {
+    bst_ctx *ctx;
+    struct macc a;
+    size_t G, N, half, si, so;
+    int refine;
+    double *in, *out;   /* (radius, azimuth) of the incident and outgoing sample points */
+    double *t3;         /* the result; each ring's row is its worker's current iterate */
+    double *fa, *hemi;  /* (refine + 1) x half: FA and hemispherical change of ring j's iterate it */
+    pthread_mutex_t lock;
+    size_t next_ring;   /* rings handed out so far, largest first */
+    size_t done;        /* incident cells finished, for the progress report */
+    struct r3w *first;  /* the caller's worker */
+};
+
+/* A worker's buffers: all allocated by the caller, so that workers never use the context. */
+struct r3w {
+    struct r3 *w;
+    double *s, *e, *next; /* N values each: rotation sum of a column, expansion, next row */
+    uint16_t *tab_base, *tab_end; /* room for the sample-to-cell tables of the ring worked on */
+    uint16_t *tab;      /* where the next table goes; NULL: no more room in this ring */
+    const uint16_t **gat, **exp; /* per cell of the ring: its table, or NULL (not cached) */
+    pthread_t thread;
+    int started;
+};
+
+/* A sample-to-cell table lists, for every sample point of a pass in the order the pass visits
+ * them, the grid cell holding it (a value < TAB_MARK), or TAB_MARK + n and the n cells that meet
+ * at the boundary the point lies on.  Cell indices fit: N <= 4^BST_K_MAX = 16384 < TAB_MARK. */
+#define TAB_MARK 0xFFF0u
+
+/* Where a pass takes the cells of its sample points: evaluated (and, with put set, appended to
+ * the table being built, until it is full: then put becomes NULL and full 1), or read back. */
+struct cursor {
+    const uint16_t *get;
+    uint16_t *put, *end;
+    int full;
+};
+
 /* Value of the grid v (G x G cells) at the direction with disk radius rho and azimuth psi
  * (radians); on a cell boundary the mean of the cells that meet there, as the reader does. */
-static inline double polar_value(const double *v, double rho, double psi, size_t G)
+static inline double polar_value(const double *v, double rho, double psi, size_t G, struct cursor *cu)
 {
     size_t cells[4];
-    int n = bsti_sc_polar_cells(rho, psi, G, cells);
+    int n;
+    if (cu->get) {
+        unsigned x = *cu->get++;
+        if (x < TAB_MARK)
+            return v[x];
+        n = (int)(x - TAB_MARK);
+        for (int j = 0; j < n; j++)
+            cells[j] = *cu->get++;
+    } else {
+        n = bsti_sc_polar_cells(rho, psi, G, cells);
+        if (cu->put) {
+            if (cu->end - cu->put < 5) {
+                cu->put = NULL, cu->full = 1;
+            } else if (n == 1) {
+                *cu->put++ = (uint16_t)cells[0];
+            } else {
+                *cu->put++ = (uint16_t)(TAB_MARK + (unsigned)n);
+                for (int j = 0; j < n; j++)
+                    *cu->put++ = (uint16_t)cells[j];
+            }
+        }
+    }
     if (n == 1)
         return v[cells[0]];
     double sum = 0.0;
@@ -67,12 +129,11 @@ static inline double polar_value(const double *v, double rho, double psi, size_t
     return sum / n;
 }
 
-/* Ring of a grid cell: j = max(|2 cx + 1 - G|, |2 cy + 1 - G|) / 2 (integer). */
-static inline size_t ring(size_t c, size_t G)
+/* The c-th (0 <= c <= 2 j) incident cell of ring j in the quadrant cx, cy >= G/2, in the order
+ * (cx, cy) of the grid: (half + c, half + j) for c < j, then (half + j, half + c - j). */
+static inline size_t ring_cell(size_t j, size_t c, size_t half, size_t G)
 {
-    long cx = (long)(c / G), cy = (long)(c % G), g = (long)G;
-    long a = labs(2 * cx + 1 - g), b = labs(2 * cy + 1 - g);
-    return (size_t)((a > b ? a : b) / 2);
+    return c < j ? (half + c) * G + half + j : (half + j) * G + half + (c - j);
 }
 
 static int check_args(bst_ctx *ctx, const bst_mat *m, int k)
@@ -83,25 +144,39 @@ static int check_args(bst_ctx *ctx, const bst_mat *m, int k)
     return BST_OK;
 }
 
-struct r3 {
-    bst_ctx *ctx;
-    struct macc a;
-    size_t G, N, half, si, so;
-    double *in, *out; /* (radius, azimuth) of the incident and outgoing sample points */
-    double *s, *e;    /* N values each: rotation sum of a column, expansion of t3 */
-};
+/* A pass's cursor over table *slot: read it back when built, else build it while there is room. */
+static void cursor_open(struct r3w *x, const uint16_t *const *slot, struct cursor *cu)
+{
+    cu->get = *slot;
+    cu->put = !cu->get ? x->tab : NULL;
+    cu->end = x->tab_end;
+    cu->full = 0;
+}
+
+static void cursor_close(struct r3w *x, const uint16_t **slot, struct cursor *cu)
+{
+    if (cu->get)
+        return;
+    if (cu->put) {
+        *slot = x->tab;
+        x->tab = cu->put;
+    } else if (cu->full) {
+        x->tab = NULL; /* no room: the ring's other passes evaluate their points */
+    }
+}
 
 /* t3 row of ring j gathers S (the four rotated columns of incident cell i summed) along the
  * sample points of every rank-3 outgoing cell turned into the world frame. */
-static void gather(const struct r3 *w, size_t i, double *row)
+static void gather(const struct r3w *x, size_t i, double *row, struct cursor *cu)
 {
+    const struct r3 *w = x->w;
     for (size_t s = 0; s < w->si; s++) {
         double phi = w->in[2 * (i * w->si + s) + 1];
         for (size_t q = 0; q < w->N; q++) {
             double sum = 0.0;
             for (size_t t = 0; t < w->so; t++) {
                 const double *p = w->out + 2 * (q * w->so + t);
-                sum += polar_value(w->s, p[0], p[1] + phi, w->G);
+                sum += polar_value(x->s, p[0], p[1] + phi, w->G, cu);
             }
             row[q] += sum;
         }
@@ -110,82 +185,151 @@ static void gather(const struct r3 *w, size_t i, double *row)
 
 /* Column i of the grid expansion of t3, as the reader computes it: the average over the sample
  * points of incident cell i and of each outgoing cell, turned into the rotated frame. */
-static void expand(const struct r3 *w, size_t i, const double *row)
+static void expand(const struct r3w *x, size_t i, const double *row, struct cursor *cu)
 {
-    memset(w->e, 0, w->N * sizeof *w->e);
+    const struct r3 *w = x->w;
+    memset(x->e, 0, w->N * sizeof *x->e);
     for (size_t s = 0; s < w->si; s++) {
         double phi = w->in[2 * (i * w->si + s) + 1];
         for (size_t o = 0; o < w->N; o++) {
             double sum = 0.0;
             for (size_t t = 0; t < w->so; t++) {
                 const double *p = w->out + 2 * (o * w->so + t);
-                sum += polar_value(row, p[0], p[1] - phi, w->G);
+                sum += polar_value(row, p[0], p[1] - phi, w->G, cu);
             }
-            w->e[o] += sum;
+            x->e[o] += sum;
         }
     }
     for (size_t o = 0; o < w->N; o++)
-        w->e[o] /= (double)(w->si * w->so);
+        x->e[o] /= (double)(w->si * w->so);
 }
 
-/* One pass over the incident cells of the quadrant cx, cy >= G/2 (one of each 90-degree orbit).
- * With cur == NULL: next = the gathered matrix.  Otherwise next = cur + gathered residual
- * (matrix - expansion of cur), and *fa_min, *hemi_max describe cur. */
-static void sweep(struct r3 *w, const double *cur, double *next, double *fa_min, double *hemi_max,
-                  const char *label)
+/* Ring j from start to end: its row of w->t3 is the gathered matrix, then `refine` times the row
+ * plus the gathered residual (matrix - expansion of the row); every iterate it (0 .. refine) is
+ * measured into w->fa and w->hemi.  The rings do not interact: a row is gathered from, and
+ * expanded into, the incident cells of its own ring only.  Each cell's sample points are located
+ * once and their cells kept in tables while there is room, then read back by the later passes:
+ * the same cells, in the same order, so the same sums as evaluating them every time. */
+static void ring_run(struct r3w *x, size_t j)
 {
-    size_t G = w->G, N = w->N, half = w->half, done = 0;
-    double worst_fa = 100.0, worst_h = 0.0, lam = M_PI / (double)N;
-    memset(next, 0, half * N * sizeof *next);
-    for (size_t cx = half; cx < G; cx++)
-        for (size_t cy = half; cy < G; cy++) {
-            size_t i = cx * G + cy, j = ring(i, G);
+    struct r3 *w = x->w;
+    size_t G = w->G, N = w->N, half = w->half, nc = 2 * j + 1;
+    double *cur = w->t3 + (half - 1 - j) * N, *next = x->next, lam = M_PI / (double)N;
+    double wt = 1.0 / ((double)(8 * j + 4) * (double)(w->si * w->so)); /* 8j+4 cells */
+    x->tab = x->tab_base;
+    for (size_t c = 0; c < nc; c++)
+        x->gat[c] = x->exp[c] = NULL;
+    for (int it = -1; it <= w->refine; it++) {
+        int measure = it >= 0, accumulate = it < w->refine; /* the last iterate is only measured */
+        double worst_fa = 100.0, worst_h = 0.0;
+        struct cursor cu;
+        if (accumulate)
+            memset(next, 0, N * sizeof *next);
+        for (size_t c = 0; c < nc; c++) {
+            size_t i = ring_cell(j, c, half, G);
             size_t ri[4] = {i, bsti_sc_turn(i, 1, G), bsti_sc_turn(i, 2, G), bsti_sc_turn(i, 3, G)};
-            if (cur)
-                expand(w, i, cur + (half - 1 - j) * N);
+            if (measure) {
+                cursor_open(x, &x->exp[c], &cu);
+                expand(x, i, cur, &cu);
+                cursor_close(x, &x->exp[c], &cu);
+            }
             double diff[4] = {0}, sum[4] = {0}, dh[4] = {0};
             for (size_t o = 0; o < N; o++) {
                 size_t oo = o;
-                w->s[o] = 0.0;
+                x->s[o] = 0.0;
                 for (int r = 0; r < 4; r++, oo = bsti_sc_turn(oo, 1, G)) {
-                    double x = mget(&w->a, oo, ri[r]);
-                    w->s[o] += x;
-                    if (cur) { /* E(R o, R i) = E(o, i) */
-                        double y = w->e[o];
-                        diff[r] += fabs(x - y), sum[r] += fabs(x) + fabs(y), dh[r] += x - y;
+                    double v = mget(&w->a, oo, ri[r]);
+                    x->s[o] += v;
+                    if (measure) { /* E(R o, R i) = E(o, i) */
+                        double y = x->e[o];
+                        diff[r] += fabs(v - y), sum[r] += fabs(v) + fabs(y), dh[r] += v - y;
                     }
                 }
-                if (cur)
-                    w->s[o] -= 4.0 * w->e[o];
+                if (measure)
+                    x->s[o] -= 4.0 * x->e[o];
             }
-            for (int r = 0; cur && r < 4; r++) {
+            for (int r = 0; measure && r < 4; r++) {
                 worst_fa = fmin(worst_fa, sum[r] > 0.0 ? 100.0 * (1.0 - diff[r] / sum[r]) : 100.0);
                 worst_h = fmax(worst_h, fabs(dh[r]) * lam);
             }
-            gather(w, i, next + (half - 1 - j) * N);
-            if (++done % 16 == 0)
-                bsti_progress(w->ctx, (double)done / (double)(half * half), label);
+            if (accumulate) {
+                cursor_open(x, &x->gat[c], &cu);
+                gather(x, i, next, &cu);
+                cursor_close(x, &x->gat[c], &cu);
+            }
         }
-    for (size_t j = 0; j < half; j++) {
-        double wt = 1.0 / ((double)(8 * j + 4) * (double)(w->si * w->so)); /* 8j+4 cells */
-        double *row = next + (half - 1 - j) * N;
-        const double *c = cur ? cur + (half - 1 - j) * N : NULL;
-        for (size_t q = 0; q < N; q++) {
-            row[q] = row[q] * wt + (c ? c[q] : 0.0);
-            if (row[q] < 0.0)
-                row[q] = 0.0; /* a BSDF is not negative */
+        if (measure) {
+            w->fa[(size_t)it * half + j] = worst_fa;
+            w->hemi[(size_t)it * half + j] = worst_h;
+        }
+        for (size_t q = 0; accumulate && q < N; q++) {
+            cur[q] = next[q] * wt + (measure ? cur[q] : 0.0);
+            if (cur[q] < 0.0)
+                cur[q] = 0.0; /* a BSDF is not negative */
         }
     }
-    if (fa_min)
-        *fa_min = worst_fa, *hemi_max = worst_h;
+}
+
+/* A worker takes the rings that are left, largest first; worker 0 (the caller's thread) reports
+ * the progress. */
+static void *work(void *arg)
+{
+    struct r3w *x = arg;
+    struct r3 *w = x->w;
+    for (;;) {
+        pthread_mutex_lock(&w->lock);
+        size_t n = w->next_ring < w->half ? w->next_ring++ : w->half;
+        pthread_mutex_unlock(&w->lock);
+        if (n == w->half)
+            break;
+        size_t j = w->half - 1 - n;
+        ring_run(x, j);
+        pthread_mutex_lock(&w->lock);
+        double f = (double)(w->done += 2 * j + 1) / (double)(w->half * w->half);
+        pthread_mutex_unlock(&w->lock);
+        if (x == x->w->first)
+            bsti_progress(w->ctx, f, "rank-3 tree");
+    }
+    return NULL;
+}
+
+static void run_rings(struct r3 *w, struct r3w *wk, size_t nw)
+{
+    w->next_ring = w->done = 0;
+    for (size_t t = 1; t < nw; t++) /* a thread that cannot start: its share is done by the others */
+        wk[t].started = pthread_create(&wk[t].thread, NULL, work, &wk[t]) == 0;
+    work(&wk[0]);
+    for (size_t t = 1; t < nw; t++)
+        if (wk[t].started)
+            pthread_join(wk[t].thread, NULL);
+}
+
+static size_t worker_count(int threads, size_t half)
+{
+    size_t n = threads > 0 ? (size_t)threads : 1;
+    if (threads <= 0) {
+        long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+        n = cpus > 1 ? (size_t)cpus : 1;
+        if (n > BSTI_TT3_THREADS)
+            n = BSTI_TT3_THREADS;
+    }
+    return n < half ? n : half;
 }
 
 int bsti_tt3_from_sc(bst_ctx *ctx, const bst_mat *m, int k, int refine, double fa_stop,
                      double *t3, double *fa_min, double *hemi_max)
 {
+    return bsti_tt3_build(ctx, m, k, refine, fa_stop, 0, BSTI_TT3_TABLE_BYTES, t3, fa_min, hemi_max);
+}
+
+int bsti_tt3_build(bst_ctx *ctx, const bst_mat *m, int k, int refine, double fa_stop, int threads,
+                   size_t table_bytes, double *t3, double *fa_min, double *hemi_max)
+{
     int rc = check_args(ctx, m, k);
     if (rc < 0)
         return rc;
+    if (refine < 0)
+        refine = 0;
     struct r3 w;
     memset(&w, 0, sizeof w);
     w.ctx = ctx;
@@ -194,35 +338,75 @@ int bsti_tt3_from_sc(bst_ctx *ctx, const bst_mat *m, int k, int refine, double f
     w.half = w.G / 2;
     w.si = BSTI_TT3_IN_SAMPLES * BSTI_TT3_IN_SAMPLES;
     w.so = BSTI_TT3_OUT_SAMPLES * BSTI_TT3_OUT_SAMPLES;
+    w.refine = refine;
+    w.t3 = t3;
     macc_init(&w.a, m);
     if (m->s == BST_ZERO) {
         memset(t3, 0, w.half * w.N * sizeof *t3);
         *fa_min = 100.0, *hemi_max = 0.0;
         return BST_OK;
     }
-    double *tmp = NULL;
+    size_t nw = worker_count(threads, w.half), nc = 2 * w.half - 1;
+    /* the tables of the largest ring, with room for points on boundaries, within the budget */
+    size_t want = nc * w.si * w.so * w.N * 2, cap = table_bytes / sizeof(uint16_t);
+    want += want / 8 + 64;
+    if (want < cap)
+        cap = want;
+    struct r3w *wk = bsti_calloc(ctx, nw, sizeof *wk);
+    if (!wk)
+        return BST_ENOMEM;
     if ((rc = bsti_sc_cell_points(ctx, w.G, BSTI_TT3_IN_SAMPLES, &w.in)) < 0 ||
         (rc = bsti_sc_cell_points(ctx, w.G, BSTI_TT3_OUT_SAMPLES, &w.out)) < 0 ||
-        !(w.s = bsti_alloc_array(ctx, w.N, sizeof *w.s)) ||
-        !(w.e = bsti_alloc_array(ctx, w.N, sizeof *w.e)) ||
-        !(tmp = bsti_alloc_array(ctx, w.half * w.N, sizeof *tmp))) {
+        !(w.fa = bsti_alloc_array(ctx, ((size_t)refine + 1) * w.half, sizeof *w.fa)) ||
+        !(w.hemi = bsti_alloc_array(ctx, ((size_t)refine + 1) * w.half, sizeof *w.hemi)))
         rc = rc < 0 ? rc : BST_ENOMEM;
-    } else {
-        /* every sweep measures the current tensor and forms the corrected one; the last
-         * correction is not kept, so what is measured is what is returned */
-        sweep(&w, NULL, t3, NULL, NULL, "rank-3 tree");
-        for (int it = 0; it <= refine; it++) {
-            sweep(&w, t3, tmp, fa_min, hemi_max, it ? "rank-3 tree: refining" : "isotropy check");
-            if (it == refine || *fa_min < fa_stop)
-                break;
-            memcpy(t3, tmp, w.half * w.N * sizeof *t3);
-        }
+    for (size_t t = 0; rc >= 0 && t < nw; t++) {
+        struct r3w *x = &wk[t];
+        x->w = &w;
+        if (!(x->s = bsti_alloc_array(ctx, w.N, sizeof *x->s)) ||
+            !(x->e = bsti_alloc_array(ctx, w.N, sizeof *x->e)) ||
+            !(x->next = bsti_alloc_array(ctx, w.N, sizeof *x->next)) ||
+            !(x->gat = bsti_calloc(ctx, nc, sizeof *x->gat)) ||
+            !(x->exp = bsti_calloc(ctx, nc, sizeof *x->exp)) ||
+            (cap && !(x->tab_base = bsti_alloc_array(ctx, cap, sizeof *x->tab_base))))
+            rc = BST_ENOMEM;
+        else
+            x->tab_end = cap ? x->tab_base + cap : NULL;
     }
-    bsti_free(ctx, tmp);
+    if (rc >= 0) {
+        w.first = &wk[0];
+        pthread_mutex_init(&w.lock, NULL);
+        run_rings(&w, wk, nw);
+        /* the iterate returned: the last, or the first whose FA falls below fa_stop (the matrix
+         * is clearly not isotropic); in that rare case the rings are run again up to it */
+        int stop = refine;
+        for (int it = 0; it < refine && stop == refine; it++) {
+            double f = 100.0;
+            for (size_t j = 0; j < w.half; j++)
+                f = fmin(f, w.fa[(size_t)it * w.half + j]);
+            if (f < fa_stop)
+                stop = it;
+        }
+        if (stop < refine) {
+            w.refine = stop;
+            run_rings(&w, wk, nw);
+        }
+        *fa_min = 100.0, *hemi_max = 0.0;
+        for (size_t j = 0; j < w.half; j++) {
+            *fa_min = fmin(*fa_min, w.fa[(size_t)stop * w.half + j]);
+            *hemi_max = fmax(*hemi_max, w.hemi[(size_t)stop * w.half + j]);
+        }
+        pthread_mutex_destroy(&w.lock);
+    }
+    for (size_t t = 0; t < nw; t++) {
+        bsti_free(ctx, wk[t].s), bsti_free(ctx, wk[t].e), bsti_free(ctx, wk[t].next);
+        bsti_free(ctx, wk[t].gat), bsti_free(ctx, wk[t].exp), bsti_free(ctx, wk[t].tab_base);
+    }
+    bsti_free(ctx, wk);
     bsti_free(ctx, w.in);
     bsti_free(ctx, w.out);
-    bsti_free(ctx, w.s);
-    bsti_free(ctx, w.e);
+    bsti_free(ctx, w.fa);
+    bsti_free(ctx, w.hemi);
     return rc;
 }
 
