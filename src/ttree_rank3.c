@@ -56,17 +56,26 @@ static inline double mget(const struct macc *a, size_t o, size_t i)
     return bst_mat_get(a->m, o, i);
 }
 
+/* One matrix: its rank-3 tensor, and per ring the FA and hemispherical change of each iterate. */
+struct job {
+    struct macc a;
+    double *t3;         /* the result; each ring's row is its worker's current iterate */
+    double *fa, *hemi;  /* (refine + 1) x half: ring j's iterate it at [it half + j] */
+    int *last;          /* half: the iterate ring j's row holds, -1: to run (again) */
+    int bound;          /* no ring goes past this iterate (lowered when one falls below fa_stop) */
+};
+
 struct r3 {
     bst_ctx *ctx;
-    struct macc a;
     size_t G, N, half, si, so;
     int refine;
+    double fa_stop;
     double *in, *out;   /* (radius, azimuth) of the incident and outgoing sample points */
-    double *t3;         /* the result; each ring's row is its worker's current iterate */
-    double *fa, *hemi;  /* (refine + 1) x half: FA and hemispherical change of ring j's iterate it */
+    struct job *jobs;
+    size_t njobs;
     pthread_mutex_t lock;
     size_t next_ring;   /* rings handed out so far, largest first */
-    size_t done;        /* incident cells finished, for the progress report */
+    size_t done, total; /* incident cells x matrices finished and to do, for the progress */
     struct r3w *first;  /* the caller's worker */
 };
 
@@ -75,22 +84,31 @@ struct r3w {
     struct r3 *w;
     double *s, *e, *next; /* N values each: rotation sum of a column, expansion, next row */
     uint16_t *tab_base, *tab_end; /* room for the sample-to-cell tables of the ring worked on */
-    uint16_t *tab;      /* where the next table goes; NULL: no more room in this ring */
-    const uint16_t **gat, **exp; /* per cell of the ring: its table, or NULL (not cached) */
+    uint16_t *tab, *tab_top; /* free room: entries go up from tab (NULL: no more room in this
+                                ring), boundary lists down from tab_top */
+    struct tab *gat, *exp; /* per cell of the ring: its gather and its expansion table */
     pthread_t thread;
     int started;
 };
 
 /* A sample-to-cell table lists, for every sample point of a pass in the order the pass visits
- * them, the grid cell holding it (a value < TAB_MARK), or TAB_MARK + n and the n cells that meet
- * at the boundary the point lies on.  Cell indices fit: N <= 4^BST_K_MAX = 16384 < TAB_MARK. */
+ * them, one entry: the grid cell holding the point (a value < TAB_MARK), or TAB_MARK + n when it
+ * lies on a boundary where n cells meet; those n cells are kept apart, in a second list.  Entries
+ * have a fixed size so that reading one does not wait for the previous one.  A worker's room
+ * holds the entries from its start upwards and the boundary lists from its end downwards.  Cell
+ * indices fit: N <= 4^BST_K_MAX = 16384 < TAB_MARK. */
 #define TAB_MARK 0xFFF0u
 
-/* Where a pass takes the cells of its sample points: evaluated (and, with put set, appended to
- * the table being built, until it is full: then put becomes NULL and full 1), or read back. */
+struct tab {
+    const uint16_t *cell; /* the entries, NULL: not kept */
+    const uint16_t *side; /* end of its boundary lists (read downwards) */
+};
+
+/* Where a pass takes the cells of its sample points: read back (get), or evaluated and, while
+ * put is set, recorded (the boundary lists down from side, not below low). */
 struct cursor {
-    const uint16_t *get;
-    uint16_t *put, *end;
+    const uint16_t *get, *get_side;
+    uint16_t *put, *side, *low;
     int full;
 };
 
@@ -99,26 +117,17 @@ struct cursor {
 static inline double polar_value(const double *v, double rho, double psi, size_t G, struct cursor *cu)
 {
     size_t cells[4];
-    int n;
-    if (cu->get) {
-        unsigned x = *cu->get++;
-        if (x < TAB_MARK)
-            return v[x];
-        n = (int)(x - TAB_MARK);
-        for (int j = 0; j < n; j++)
-            cells[j] = *cu->get++;
-    } else {
-        n = bsti_sc_polar_cells(rho, psi, G, cells);
-        if (cu->put) {
-            if (cu->end - cu->put < 5) {
-                cu->put = NULL, cu->full = 1;
-            } else if (n == 1) {
-                *cu->put++ = (uint16_t)cells[0];
-            } else {
-                *cu->put++ = (uint16_t)(TAB_MARK + (unsigned)n);
-                for (int j = 0; j < n; j++)
-                    *cu->put++ = (uint16_t)cells[j];
-            }
+    int n = bsti_sc_polar_cells(rho, psi, G, cells);
+    if (cu->put) {
+        if (n == 1) {
+            *cu->put++ = (uint16_t)cells[0];
+        } else if (cu->side - cu->low < n) {
+            cu->put = NULL, cu->full = 1;
+        } else {
+            *cu->put++ = (uint16_t)(TAB_MARK + (unsigned)n);
+            cu->side -= n;
+            for (int j = 0; j < n; j++)
+                cu->side[j] = (uint16_t)cells[j];
         }
     }
     if (n == 1)
@@ -126,6 +135,19 @@ static inline double polar_value(const double *v, double rho, double psi, size_t
     double sum = 0.0;
     for (int j = 0; j < n; j++)
         sum += v[cells[j]];
+    return sum / n;
+}
+
+/* The same value from a table entry x. */
+static inline double table_value(const double *v, unsigned x, const uint16_t **side)
+{
+    if (x < TAB_MARK)
+        return v[x];
+    int n = (int)(x - TAB_MARK);
+    double sum = 0.0;
+    *side -= n;
+    for (int j = 0; j < n; j++)
+        sum += v[(*side)[j]];
     return sum / n;
 }
 
@@ -144,23 +166,27 @@ static int check_args(bst_ctx *ctx, const bst_mat *m, int k)
     return BST_OK;
 }
 
-/* A pass's cursor over table *slot: read it back when built, else build it while there is room. */
-static void cursor_open(struct r3w *x, const uint16_t *const *slot, struct cursor *cu)
+/* A pass's cursor over table *t of `len` entries: read it back when kept, else build it while
+ * there is room. */
+static void cursor_open(const struct r3w *x, const struct tab *t, size_t len, struct cursor *cu)
 {
-    cu->get = *slot;
-    cu->put = !cu->get ? x->tab : NULL;
-    cu->end = x->tab_end;
-    cu->full = 0;
+    cu->get = t->cell, cu->get_side = t->side;
+    cu->put = NULL, cu->full = 0;
+    if (!t->cell && x->tab && (size_t)(x->tab_top - x->tab) >= len) {
+        cu->put = x->tab;
+        cu->side = x->tab_top;
+        cu->low = x->tab + len;
+    }
 }
 
-static void cursor_close(struct r3w *x, const uint16_t **slot, struct cursor *cu)
+static void cursor_close(struct r3w *x, struct tab *t, struct cursor *cu)
 {
     if (cu->get)
         return;
     if (cu->put) {
-        *slot = x->tab;
-        x->tab = cu->put;
-    } else if (cu->full) {
+        t->cell = x->tab, t->side = x->tab_top;
+        x->tab = cu->put, x->tab_top = cu->side;
+    } else if (x->tab) {
         x->tab = NULL; /* no room: the ring's other passes evaluate their points */
     }
 }
@@ -170,12 +196,22 @@ static void cursor_close(struct r3w *x, const uint16_t **slot, struct cursor *cu
 static void gather(const struct r3w *x, size_t i, double *row, struct cursor *cu)
 {
     const struct r3 *w = x->w;
+    size_t N = w->N, so = w->so;
     for (size_t s = 0; s < w->si; s++) {
         double phi = w->in[2 * (i * w->si + s) + 1];
-        for (size_t q = 0; q < w->N; q++) {
+        if (cu->get) {
+            for (size_t q = 0; q < N; q++, cu->get += so) {
+                double sum = 0.0;
+                for (size_t t = 0; t < so; t++)
+                    sum += table_value(x->s, cu->get[t], &cu->get_side);
+                row[q] += sum;
+            }
+            continue;
+        }
+        for (size_t q = 0; q < N; q++) {
             double sum = 0.0;
-            for (size_t t = 0; t < w->so; t++) {
-                const double *p = w->out + 2 * (q * w->so + t);
+            for (size_t t = 0; t < so; t++) {
+                const double *p = w->out + 2 * (q * so + t);
                 sum += polar_value(x->s, p[0], p[1] + phi, w->G, cu);
             }
             row[q] += sum;
@@ -188,39 +224,50 @@ static void gather(const struct r3w *x, size_t i, double *row, struct cursor *cu
 static void expand(const struct r3w *x, size_t i, const double *row, struct cursor *cu)
 {
     const struct r3 *w = x->w;
-    memset(x->e, 0, w->N * sizeof *x->e);
+    size_t N = w->N, so = w->so;
+    memset(x->e, 0, N * sizeof *x->e);
     for (size_t s = 0; s < w->si; s++) {
         double phi = w->in[2 * (i * w->si + s) + 1];
-        for (size_t o = 0; o < w->N; o++) {
+        if (cu->get) {
+            for (size_t o = 0; o < N; o++, cu->get += so) {
+                double sum = 0.0;
+                for (size_t t = 0; t < so; t++)
+                    sum += table_value(row, cu->get[t], &cu->get_side);
+                x->e[o] += sum;
+            }
+            continue;
+        }
+        for (size_t o = 0; o < N; o++) {
             double sum = 0.0;
-            for (size_t t = 0; t < w->so; t++) {
-                const double *p = w->out + 2 * (o * w->so + t);
+            for (size_t t = 0; t < so; t++) {
+                const double *p = w->out + 2 * (o * so + t);
                 sum += polar_value(row, p[0], p[1] - phi, w->G, cu);
             }
             x->e[o] += sum;
         }
     }
-    for (size_t o = 0; o < w->N; o++)
+    for (size_t o = 0; o < N; o++)
         x->e[o] /= (double)(w->si * w->so);
 }
 
-/* Ring j from start to end: its row of w->t3 is the gathered matrix, then `refine` times the row
- * plus the gathered residual (matrix - expansion of the row); every iterate it (0 .. refine) is
- * measured into w->fa and w->hemi.  The rings do not interact: a row is gathered from, and
- * expanded into, the incident cells of its own ring only.  Each cell's sample points are located
- * once and their cells kept in tables while there is room, then read back by the later passes:
- * the same cells, in the same order, so the same sums as evaluating them every time. */
-static void ring_run(struct r3w *x, size_t j)
+/* Ring j of one matrix from start to end: its row of t3 is the gathered matrix, then up to
+ * `refine` times the row plus the gathered residual (matrix - expansion of the row); every
+ * iterate it is measured into fa and hemi.  The rings do not interact: a row is gathered from,
+ * and expanded into, the incident cells of its own ring only.  A ring whose FA falls below
+ * fa_stop stops there and keeps the other rings from going further (a matrix that is not
+ * isotropic costs little). */
+static void ring_job(struct r3w *x, size_t j, struct job *jb)
 {
     struct r3 *w = x->w;
     size_t G = w->G, N = w->N, half = w->half, nc = 2 * j + 1;
-    double *cur = w->t3 + (half - 1 - j) * N, *next = x->next, lam = M_PI / (double)N;
+    double *cur = jb->t3 + (half - 1 - j) * N, *next = x->next, lam = M_PI / (double)N;
     double wt = 1.0 / ((double)(8 * j + 4) * (double)(w->si * w->so)); /* 8j+4 cells */
-    x->tab = x->tab_base;
-    for (size_t c = 0; c < nc; c++)
-        x->gat[c] = x->exp[c] = NULL;
-    for (int it = -1; it <= w->refine; it++) {
-        int measure = it >= 0, accumulate = it < w->refine; /* the last iterate is only measured */
+    size_t len = w->si * w->so * N; /* entries of a table */
+    for (int it = -1;; it++) {
+        pthread_mutex_lock(&w->lock);
+        int bound = jb->bound;
+        pthread_mutex_unlock(&w->lock);
+        int measure = it >= 0, accumulate = it < bound; /* the last iterate is only measured */
         double worst_fa = 100.0, worst_h = 0.0;
         struct cursor cu;
         if (accumulate)
@@ -229,7 +276,7 @@ static void ring_run(struct r3w *x, size_t j)
             size_t i = ring_cell(j, c, half, G);
             size_t ri[4] = {i, bsti_sc_turn(i, 1, G), bsti_sc_turn(i, 2, G), bsti_sc_turn(i, 3, G)};
             if (measure) {
-                cursor_open(x, &x->exp[c], &cu);
+                cursor_open(x, &x->exp[c], len, &cu);
                 expand(x, i, cur, &cu);
                 cursor_close(x, &x->exp[c], &cu);
             }
@@ -238,7 +285,7 @@ static void ring_run(struct r3w *x, size_t j)
                 size_t oo = o;
                 x->s[o] = 0.0;
                 for (int r = 0; r < 4; r++, oo = bsti_sc_turn(oo, 1, G)) {
-                    double v = mget(&w->a, oo, ri[r]);
+                    double v = mget(&jb->a, oo, ri[r]);
                     x->s[o] += v;
                     if (measure) { /* E(R o, R i) = E(o, i) */
                         double y = x->e[o];
@@ -253,20 +300,52 @@ static void ring_run(struct r3w *x, size_t j)
                 worst_h = fmax(worst_h, fabs(dh[r]) * lam);
             }
             if (accumulate) {
-                cursor_open(x, &x->gat[c], &cu);
+                cursor_open(x, &x->gat[c], len, &cu);
                 gather(x, i, next, &cu);
                 cursor_close(x, &x->gat[c], &cu);
             }
         }
         if (measure) {
-            w->fa[(size_t)it * half + j] = worst_fa;
-            w->hemi[(size_t)it * half + j] = worst_h;
+            jb->fa[(size_t)it * half + j] = worst_fa;
+            jb->hemi[(size_t)it * half + j] = worst_h;
+            if (worst_fa < w->fa_stop) {
+                pthread_mutex_lock(&w->lock);
+                if (it < jb->bound)
+                    jb->bound = it;
+                pthread_mutex_unlock(&w->lock);
+                accumulate = 0;
+            }
         }
-        for (size_t q = 0; accumulate && q < N; q++) {
+        if (!accumulate) {
+            jb->last[j] = it;
+            return;
+        }
+        for (size_t q = 0; q < N; q++) {
             cur[q] = next[q] * wt + (measure ? cur[q] : 0.0);
             if (cur[q] < 0.0)
                 cur[q] = 0.0; /* a BSDF is not negative */
         }
+    }
+}
+
+/* Ring j of every matrix that needs it, with the same tables (they depend on the grid only):
+ * each cell's sample points are located once and their cells read back by the later passes, the
+ * same cells in the same order, so the same sums as evaluating them every time. */
+static void ring_run(struct r3w *x, size_t j)
+{
+    struct r3 *w = x->w;
+    x->tab = x->tab_base, x->tab_top = x->tab_end;
+    for (size_t c = 0; c < 2 * j + 1; c++)
+        x->gat[c].cell = x->exp[c].cell = NULL;
+    for (size_t m = 0; m < w->njobs; m++) {
+        if (w->jobs[m].last[j] >= 0)
+            continue;
+        ring_job(x, j, &w->jobs[m]);
+        pthread_mutex_lock(&w->lock);
+        double f = (double)(w->done += 2 * j + 1) / (double)w->total;
+        pthread_mutex_unlock(&w->lock);
+        if (x == w->first)
+            bsti_progress(w->ctx, f < 1.0 ? f : 1.0, "rank-3 tree");
     }
 }
 
@@ -282,20 +361,14 @@ static void *work(void *arg)
         pthread_mutex_unlock(&w->lock);
         if (n == w->half)
             break;
-        size_t j = w->half - 1 - n;
-        ring_run(x, j);
-        pthread_mutex_lock(&w->lock);
-        double f = (double)(w->done += 2 * j + 1) / (double)(w->half * w->half);
-        pthread_mutex_unlock(&w->lock);
-        if (x == x->w->first)
-            bsti_progress(w->ctx, f, "rank-3 tree");
+        ring_run(x, w->half - 1 - n);
     }
     return NULL;
 }
 
 static void run_rings(struct r3 *w, struct r3w *wk, size_t nw)
 {
-    w->next_ring = w->done = 0;
+    w->next_ring = 0;
     for (size_t t = 1; t < nw; t++) /* a thread that cannot start: its share is done by the others */
         wk[t].started = pthread_create(&wk[t].thread, NULL, work, &wk[t]) == 0;
     work(&wk[0]);
@@ -319,13 +392,46 @@ static size_t worker_count(int threads, size_t half)
 int bsti_tt3_from_sc(bst_ctx *ctx, const bst_mat *m, int k, int refine, double fa_stop,
                      double *t3, double *fa_min, double *hemi_max)
 {
-    return bsti_tt3_build(ctx, m, k, refine, fa_stop, 0, BSTI_TT3_TABLE_BYTES, t3, fa_min, hemi_max);
+    bsti_tt3_job jb = {m, t3, 0.0, 0.0};
+    int rc = bsti_tt3_build(ctx, k, refine, fa_stop, 0, BSTI_TT3_TABLE_BYTES, 1, &jb);
+    *fa_min = jb.fa_min, *hemi_max = jb.hemi_max;
+    return rc;
 }
 
-int bsti_tt3_build(bst_ctx *ctx, const bst_mat *m, int k, int refine, double fa_stop, int threads,
-                   size_t table_bytes, double *t3, double *fa_min, double *hemi_max)
+/* The iterate a matrix returns: the last, or the first whose FA falls below fa_stop; the rings
+ * whose row holds another one run again up to it (last = -1).  Returns how many. */
+static size_t settle(struct r3 *w, struct job *jb, bsti_tt3_job *out)
 {
-    int rc = check_args(ctx, m, k);
+    int stop = jb->bound;
+    for (int it = 0; it < jb->bound; it++) {
+        double f = 100.0;
+        for (size_t j = 0; j < w->half; j++)
+            f = fmin(f, jb->fa[(size_t)it * w->half + j]);
+        if (f < w->fa_stop) {
+            stop = it;
+            break;
+        }
+    }
+    jb->bound = stop;
+    out->fa_min = 100.0, out->hemi_max = 0.0;
+    size_t again = 0;
+    for (size_t j = 0; j < w->half; j++) {
+        out->fa_min = fmin(out->fa_min, jb->fa[(size_t)stop * w->half + j]);
+        out->hemi_max = fmax(out->hemi_max, jb->hemi[(size_t)stop * w->half + j]);
+        if (jb->last[j] != stop)
+            jb->last[j] = -1, again += 2 * j + 1;
+    }
+    return again;
+}
+
+int bsti_tt3_build(bst_ctx *ctx, int k, int refine, double fa_stop, int threads,
+                   size_t table_bytes, size_t njobs, bsti_tt3_job *jobs)
+{
+    int rc = BST_OK;
+    if (njobs == 0)
+        return BST_OK;
+    for (size_t m = 0; m < njobs && rc >= 0; m++)
+        rc = check_args(ctx, jobs[m].m, k);
     if (rc < 0)
         return rc;
     if (refine < 0)
@@ -339,13 +445,8 @@ int bsti_tt3_build(bst_ctx *ctx, const bst_mat *m, int k, int refine, double fa_
     w.si = BSTI_TT3_IN_SAMPLES * BSTI_TT3_IN_SAMPLES;
     w.so = BSTI_TT3_OUT_SAMPLES * BSTI_TT3_OUT_SAMPLES;
     w.refine = refine;
-    w.t3 = t3;
-    macc_init(&w.a, m);
-    if (m->s == BST_ZERO) {
-        memset(t3, 0, w.half * w.N * sizeof *t3);
-        *fa_min = 100.0, *hemi_max = 0.0;
-        return BST_OK;
-    }
+    w.fa_stop = fa_stop;
+    w.njobs = njobs;
     size_t nw = worker_count(threads, w.half), nc = 2 * w.half - 1;
     /* the tables of the largest ring, with room for points on boundaries, within the budget */
     size_t want = nc * w.si * w.so * w.N * 2, cap = table_bytes / sizeof(uint16_t);
@@ -353,13 +454,30 @@ int bsti_tt3_build(bst_ctx *ctx, const bst_mat *m, int k, int refine, double fa_
     if (want < cap)
         cap = want;
     struct r3w *wk = bsti_calloc(ctx, nw, sizeof *wk);
-    if (!wk)
-        return BST_ENOMEM;
-    if ((rc = bsti_sc_cell_points(ctx, w.G, BSTI_TT3_IN_SAMPLES, &w.in)) < 0 ||
-        (rc = bsti_sc_cell_points(ctx, w.G, BSTI_TT3_OUT_SAMPLES, &w.out)) < 0 ||
-        !(w.fa = bsti_alloc_array(ctx, ((size_t)refine + 1) * w.half, sizeof *w.fa)) ||
-        !(w.hemi = bsti_alloc_array(ctx, ((size_t)refine + 1) * w.half, sizeof *w.hemi)))
-        rc = rc < 0 ? rc : BST_ENOMEM;
+    if (!wk || !(w.jobs = bsti_calloc(ctx, njobs, sizeof *w.jobs)))
+        rc = BST_ENOMEM;
+    else if ((rc = bsti_sc_cell_points(ctx, w.G, BSTI_TT3_IN_SAMPLES, &w.in)) >= 0)
+        rc = bsti_sc_cell_points(ctx, w.G, BSTI_TT3_OUT_SAMPLES, &w.out);
+    for (size_t m = 0; rc >= 0 && m < njobs; m++) {
+        struct job *jb = &w.jobs[m];
+        macc_init(&jb->a, jobs[m].m);
+        jb->t3 = jobs[m].t3;
+        jb->bound = refine;
+        if (!(jb->fa = bsti_alloc_array(ctx, ((size_t)refine + 1) * w.half, sizeof *jb->fa)) ||
+            !(jb->hemi = bsti_alloc_array(ctx, ((size_t)refine + 1) * w.half, sizeof *jb->hemi)) ||
+            !(jb->last = bsti_alloc_array(ctx, w.half, sizeof *jb->last)))
+            rc = BST_ENOMEM;
+        for (size_t j = 0; jb->last && j < w.half; j++)
+            jb->last[j] = -1;
+        if (rc >= 0 && jobs[m].m->s == BST_ZERO) { /* nothing to run */
+            memset(jb->t3, 0, w.half * w.N * sizeof *jb->t3);
+            for (size_t j = 0; j < w.half; j++)
+                jb->last[j] = 0, jb->fa[j] = 100.0, jb->hemi[j] = 0.0;
+            jb->bound = 0;
+        } else {
+            w.total += w.half * w.half;
+        }
+    }
     for (size_t t = 0; rc >= 0 && t < nw; t++) {
         struct r3w *x = &wk[t];
         x->w = &w;
@@ -377,36 +495,29 @@ int bsti_tt3_build(bst_ctx *ctx, const bst_mat *m, int k, int refine, double fa_
         w.first = &wk[0];
         pthread_mutex_init(&w.lock, NULL);
         run_rings(&w, wk, nw);
-        /* the iterate returned: the last, or the first whose FA falls below fa_stop (the matrix
-         * is clearly not isotropic); in that rare case the rings are run again up to it */
-        int stop = refine;
-        for (int it = 0; it < refine && stop == refine; it++) {
-            double f = 100.0;
-            for (size_t j = 0; j < w.half; j++)
-                f = fmin(f, w.fa[(size_t)it * w.half + j]);
-            if (f < fa_stop)
-                stop = it;
-        }
-        if (stop < refine) {
-            w.refine = stop;
+        /* a matrix stopped at an iterate (rare: it is then not isotropic) runs again the rings
+         * that went further; they stop there, as the bound says */
+        size_t again = 0;
+        for (size_t m = 0; m < njobs; m++)
+            again += settle(&w, &w.jobs[m], &jobs[m]);
+        if (again) {
+            w.total += again;
             run_rings(&w, wk, nw);
-        }
-        *fa_min = 100.0, *hemi_max = 0.0;
-        for (size_t j = 0; j < w.half; j++) {
-            *fa_min = fmin(*fa_min, w.fa[(size_t)stop * w.half + j]);
-            *hemi_max = fmax(*hemi_max, w.hemi[(size_t)stop * w.half + j]);
         }
         pthread_mutex_destroy(&w.lock);
     }
-    for (size_t t = 0; t < nw; t++) {
+    for (size_t t = 0; wk && t < nw; t++) {
         bsti_free(ctx, wk[t].s), bsti_free(ctx, wk[t].e), bsti_free(ctx, wk[t].next);
         bsti_free(ctx, wk[t].gat), bsti_free(ctx, wk[t].exp), bsti_free(ctx, wk[t].tab_base);
     }
+    for (size_t m = 0; w.jobs && m < njobs; m++) {
+        bsti_free(ctx, w.jobs[m].fa), bsti_free(ctx, w.jobs[m].hemi);
+        bsti_free(ctx, w.jobs[m].last);
+    }
     bsti_free(ctx, wk);
+    bsti_free(ctx, w.jobs);
     bsti_free(ctx, w.in);
     bsti_free(ctx, w.out);
-    bsti_free(ctx, w.fa);
-    bsti_free(ctx, w.hemi);
     return rc;
 }
 

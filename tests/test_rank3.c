@@ -136,10 +136,11 @@ static void ref_build(const bst_mat *m, int k, int refine, double fa_stop, doubl
 
 /* ------------------------------------------------------------------ test matrices */
 
-enum { SMOOTH, NOISE };
+enum { SMOOTH, NOISE, CENTRE_NOISE };
 
 /* N x N, order k: SMOOTH, a Lambertian part and a lobe about the mirror direction (isotropic
- * but for the grid); NOISE, uniform random values (anisotropic).  prec and s choose the storage
+ * but for the grid); NOISE, uniform random values (anisotropic); CENTRE_NOISE, SMOOTH but for
+ * noise in the columns of the innermost ring (the ring handled last).  prec and s choose the storage
  * (BST_SPARSE: every third value dropped, read through bst_mat_get). */
 static bst_mat *test_matrix(int k, int kind, bst_precision prec, bst_structure s, uint64_t seed)
 {
@@ -153,8 +154,8 @@ static bst_mat *test_matrix(int k, int kind, bst_precision prec, bst_structure s
     for (size_t i = 0; i < N; i++)
         for (size_t o = 0; o < N; o++) {
             double dx = x[o] + x[i], dy = y[o] + y[i]; /* exit minus the mirrored incidence */
-            v[o + N * i] = kind == NOISE ? tu_rng_uniform(&r)
-                                         : 0.1 + 3.0 * exp(-(dx * dx + dy * dy) / 0.05);
+            int noise = kind == NOISE || (kind == CENTRE_NOISE && ref_ring(i, G) == 0);
+            v[o + N * i] = noise ? tu_rng_uniform(&r) : 0.1 + 3.0 * exp(-(dx * dx + dy * dy) / 0.05);
         }
     bst_mat *m = NULL;
     if (s == BST_SPARSE) {
@@ -182,6 +183,15 @@ static bst_mat *test_matrix(int k, int kind, bst_precision prec, bst_structure s
 }
 
 /* ------------------------------------------------------------------ tests */
+
+static int build1(bst_ctx *c, const bst_mat *m, int k, int refine, double stop, int threads,
+                  size_t table, double *t3, double *fa, double *hemi)
+{
+    bsti_tt3_job jb = {m, t3, -1.0, -1.0};
+    int rc = bsti_tt3_build(c, k, refine, stop, threads, table, 1, &jb);
+    *fa = jb.fa_min, *hemi = jb.hemi_max;
+    return rc;
+}
 
 /* The library against the definition, for each storage of the matrix, orders 2 to 4. */
 START_TEST(test_matches_definition)
@@ -223,12 +233,12 @@ START_TEST(test_threads_tables_same_bits)
     size_t G = (size_t)1 << k, n = G * G * G / 2;
     bst_mat *m = test_matrix(k, SMOOTH, BST_FLOAT, BST_DENSE, 5);
     double *base = malloc(n * sizeof *base), *t3 = malloc(n * sizeof *t3), f0, h0, f, h;
-    ck_assert_int_eq(bsti_tt3_build(ctx, m, k, 4, -INFINITY, 1, 0, base, &f0, &h0), BST_OK);
+    ck_assert_int_eq(build1(ctx, m, k, 4, -INFINITY, 1, 0, base, &f0, &h0), BST_OK);
     static const size_t tables[] = {0, 4096, 60000, BSTI_TT3_TABLE_BYTES};
     for (int th = 1; th <= 3; th++)
         for (size_t tb = 0; tb < sizeof tables / sizeof tables[0]; tb++) {
             memset(t3, 0xff, n * sizeof *t3);
-            ck_assert_int_eq(bsti_tt3_build(ctx, m, k, 4, -INFINITY, th, tables[tb], t3, &f, &h),
+            ck_assert_int_eq(build1(ctx, m, k, 4, -INFINITY, th, tables[tb], t3, &f, &h),
                              BST_OK);
             ck_assert_msg(memcmp(t3, base, n * sizeof *t3) == 0, "threads %d, table %zu", th,
                           tables[tb]);
@@ -248,7 +258,7 @@ START_TEST(test_early_stop)
     bst_mat *m = test_matrix(k, NOISE, BST_DOUBLE, BST_DENSE, 3);
     double *a = malloc(n * sizeof *a), *b = malloc(n * sizeof *b), fa, ha, fb, hb, f1, h1;
     double stop = 70.0;
-    ck_assert_int_eq(bsti_tt3_build(ctx, m, k, 3, stop, 2, BSTI_TT3_TABLE_BYTES, a, &fa, &ha),
+    ck_assert_int_eq(build1(ctx, m, k, 3, stop, 2, BSTI_TT3_TABLE_BYTES, a, &fa, &ha),
                      BST_OK);
     ck_assert(fa < stop);
     ref_build(m, k, 3, stop, b, &fb, &hb);
@@ -256,10 +266,67 @@ START_TEST(test_early_stop)
     for (size_t x = 0; x < n; x++)
         tu_assert_close(a[x], b[x], 1e-11, 1.0);
     /* stopped at the first measurement: no correction applied */
-    ck_assert_int_eq(bsti_tt3_build(ctx, m, k, 0, -INFINITY, 1, 0, b, &f1, &h1), BST_OK);
+    ck_assert_int_eq(build1(ctx, m, k, 0, -INFINITY, 1, 0, b, &f1, &h1), BST_OK);
     ck_assert(memcmp(a, b, n * sizeof *a) == 0 && f1 == fa && h1 == ha);
     free(a), free(b);
     bst_mat_free(m);
+}
+END_TEST
+
+/* The innermost ring falls below fa_stop after the outer ones ran every correction: those run
+ * again up to the first iterate, with 1 thread and with 2. */
+START_TEST(test_early_stop_late_ring)
+{
+    int k = 3;
+    size_t G = (size_t)1 << k, n = G * G * G / 2;
+    bst_mat *m = test_matrix(k, CENTRE_NOISE, BST_DOUBLE, BST_DENSE, 9);
+    double *a = malloc(n * sizeof *a), *b = malloc(n * sizeof *b), fa, ha, fb, hb;
+    double stop = 95.0;
+    ref_build(m, k, 3, -INFINITY, b, &fb, &hb);
+    ck_assert_msg(fb < stop, "FA %g", fb); /* the ring stays below even when corrected */
+    ref_build(m, k, 3, stop, b, &fb, &hb);
+    for (int th = 1; th <= 2; th++) {
+        ck_assert_int_eq(build1(ctx, m, k, 3, stop, th, BSTI_TT3_TABLE_BYTES, a, &fa, &ha), BST_OK);
+        tu_assert_close(fa, fb, 1e-11, 100.0);
+        tu_assert_close(ha, hb, 1e-9, 1.0);
+        for (size_t x = 0; x < n; x++)
+            tu_assert_close(a[x], b[x], 1e-11, 4.0);
+    }
+    free(a), free(b);
+    bst_mat_free(m);
+}
+END_TEST
+
+/* Several matrices at once (one stopping early, one zero) on 2 threads with tables: each the same
+ * bits as alone on 1 thread without tables. */
+START_TEST(test_many_same_bits)
+{
+    int k = 4;
+    size_t G = (size_t)1 << k, N = G * G, n = N * G / 2;
+    bst_mat *m[4];
+    m[0] = test_matrix(k, SMOOTH, BST_DOUBLE, BST_DENSE, 21);
+    m[1] = test_matrix(k, NOISE, BST_FLOAT, BST_DENSE, 22);
+    ck_assert_int_eq(bst_mat_new_zero(ctx, N, N, &m[2]), BST_OK);
+    m[3] = test_matrix(k, CENTRE_NOISE, BST_FLOAT, BST_DENSE, 23);
+    bsti_tt3_job jobs[4];
+    double stop = 90.0, *one = malloc(n * sizeof *one), f, h;
+    for (int j = 0; j < 4; j++) {
+        jobs[j].m = m[j];
+        jobs[j].t3 = malloc(n * sizeof *jobs[j].t3);
+        memset(jobs[j].t3, 0xff, n * sizeof *jobs[j].t3);
+    }
+    ck_assert_int_eq(bsti_tt3_build(ctx, k, 3, stop, 2, BSTI_TT3_TABLE_BYTES, 4, jobs), BST_OK);
+    for (int j = 0; j < 4; j++) {
+        ck_assert_int_eq(build1(ctx, m[j], k, 3, stop, 1, 0, one, &f, &h), BST_OK);
+        ck_assert_msg(memcmp(one, jobs[j].t3, n * sizeof *one) == 0, "matrix %d", j);
+        ck_assert(f == jobs[j].fa_min && h == jobs[j].hemi_max);
+        free(jobs[j].t3);
+        bst_mat_free(m[j]);
+    }
+    ck_assert_msg(jobs[0].fa_min > stop && jobs[1].fa_min < stop && jobs[2].fa_min == 100.0 &&
+                  jobs[3].fa_min < stop, "FA %g %g %g %g", jobs[0].fa_min, jobs[1].fa_min,
+                  jobs[2].fa_min, jobs[3].fa_min);
+    free(one);
 }
 END_TEST
 
@@ -292,14 +359,14 @@ START_TEST(test_alloc_failures)
     size_t G = (size_t)1 << k, n = G * G * G / 2;
     bst_mat *m = test_matrix(k, SMOOTH, BST_DOUBLE, BST_DENSE, 1);
     double *a = malloc(n * sizeof *a), *b = malloc(n * sizeof *b), f0, h0, f, h;
-    ck_assert_int_eq(bsti_tt3_build(ctx, m, k, 3, -INFINITY, 2, BSTI_TT3_TABLE_BYTES, a, &f0, &h0),
+    ck_assert_int_eq(build1(ctx, m, k, 3, -INFINITY, 2, BSTI_TT3_TABLE_BYTES, a, &f0, &h0),
                      BST_OK);
     long fail;
     for (fail = 1;; fail++) {
         tu_alloc al = {fail, 0, 0};
         bst_ctx *c2 = bst_ctx_new();
         ck_assert_int_eq(bst_ctx_set_allocator(c2, tu_alloc_malloc, tu_alloc_free, &al), BST_OK);
-        int rc = bsti_tt3_build(c2, m, k, 3, -INFINITY, 2, BSTI_TT3_TABLE_BYTES, b, &f, &h);
+        int rc = build1(c2, m, k, 3, -INFINITY, 2, BSTI_TT3_TABLE_BYTES, b, &f, &h);
         bst_ctx_free(c2);
         ck_assert_int_eq(al.live, 0);
         if (al.count < fail) {
@@ -324,6 +391,8 @@ static Suite *suite(void)
     tcase_add_test(tc, test_matches_definition);
     tcase_add_test(tc, test_threads_tables_same_bits);
     tcase_add_test(tc, test_early_stop);
+    tcase_add_test(tc, test_early_stop_late_ring);
+    tcase_add_test(tc, test_many_same_bits);
     tcase_add_test(tc, test_zero_and_errors);
     tcase_add_test(tc, test_alloc_failures);
     suite_add_tcase(s, tc);
