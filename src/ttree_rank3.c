@@ -11,7 +11,13 @@
  * Speed: a rotation by 90 degrees about Z maps grid cells onto grid cells exactly (cell (x, y) ->
  * (G-1-y, x)), and the sample patterns are invariant under it, so only the incident cells of one
  * quadrant are sampled; the other three follow by rotating both indices.  Angles are carried as
- * (radius, azimuth) so that rotating a direction is an addition. */
+ * (radius, azimuth) so that rotating a direction is an addition.  Locating a turned sample point
+ * in the grid is most of the cost, and which cell holds it depends on the geometry only: since
+ * the rings do not interact, each ring is taken from the first gather to the last measurement in
+ * one go, for every matrix of the call, while tables keep the cells of its sample points (2
+ * point sets a cell, gather and expansion, instead of 2 refine + 3 evaluations per matrix).  The
+ * rings are shared among threads.  None of this changes an operation or its order: the results
+ * are those of sweeping the whole quadrant pass after pass, bit for bit (tests/test_rank3.c). */
 #include <config.h>
 
 #include <math.h>
