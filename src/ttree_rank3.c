@@ -77,6 +77,7 @@ struct r3 {
     int refine;
     double fa_stop;
     double *in, *out;   /* (radius, azimuth) of the incident and outgoing sample points */
+    uint32_t *turn;     /* N: bsti_sc_turn(c, 1, G) of every cell c */
     struct job *jobs;
     size_t njobs;
     pthread_mutex_t lock;
@@ -290,7 +291,7 @@ static void ring_job(struct r3w *x, size_t j, struct job *jb)
             for (size_t o = 0; o < N; o++) {
                 size_t oo = o;
                 x->s[o] = 0.0;
-                for (int r = 0; r < 4; r++, oo = bsti_sc_turn(oo, 1, G)) {
+                for (int r = 0; r < 4; r++, oo = w->turn[oo]) {
                     double v = mget(&jb->a, oo, ri[r]);
                     x->s[o] += v;
                     if (measure) { /* E(R o, R i) = E(o, i) */
@@ -462,8 +463,12 @@ int bsti_tt3_build(bst_ctx *ctx, int k, int refine, double fa_stop, int threads,
     struct r3w *wk = bsti_calloc(ctx, nw, sizeof *wk);
     if (!wk || !(w.jobs = bsti_calloc(ctx, njobs, sizeof *w.jobs)))
         rc = BST_ENOMEM;
-    else if ((rc = bsti_sc_cell_points(ctx, w.G, BSTI_TT3_IN_SAMPLES, &w.in)) >= 0)
-        rc = bsti_sc_cell_points(ctx, w.G, BSTI_TT3_OUT_SAMPLES, &w.out);
+    else if ((rc = bsti_sc_cell_points(ctx, w.G, BSTI_TT3_IN_SAMPLES, &w.in)) >= 0 &&
+             (rc = bsti_sc_cell_points(ctx, w.G, BSTI_TT3_OUT_SAMPLES, &w.out)) >= 0 &&
+             !(w.turn = bsti_alloc_array(ctx, w.N, sizeof *w.turn)))
+        rc = BST_ENOMEM;
+    for (size_t c = 0; w.turn && c < w.N; c++)
+        w.turn[c] = (uint32_t)bsti_sc_turn(c, 1, w.G);
     for (size_t m = 0; rc >= 0 && m < njobs; m++) {
         struct job *jb = &w.jobs[m];
         macc_init(&jb->a, jobs[m].m);
@@ -524,6 +529,7 @@ int bsti_tt3_build(bst_ctx *ctx, int k, int refine, double fa_stop, int threads,
     bsti_free(ctx, w.jobs);
     bsti_free(ctx, w.in);
     bsti_free(ctx, w.out);
+    bsti_free(ctx, w.turn);
     return rc;
 }
 
