@@ -89,7 +89,9 @@ struct r3 {
 /* A worker's buffers: all allocated by the caller, so that workers never use the context. */
 struct r3w {
     struct r3 *w;
-    double *s, *e, *next; /* N values each: rotation sum of a column, expansion, next row */
+    double *s, *row;    /* rotation sum of a column, the ring's row: N values and the values
+                           at a table's boundary points (TAB_LIMIT in all) */
+    double *e, *next;   /* N values each: expansion, next row */
     uint16_t *tab_base, *tab_end; /* room for the sample-to-cell tables of the ring worked on */
     uint16_t *tab, *tab_top; /* free room: entries go up from tab (NULL: no more room in this
                                 ring), boundary lists down from tab_top */
@@ -99,24 +101,30 @@ struct r3w {
 };
 
 /* A sample-to-cell table lists, for every sample point of a pass in the order the pass visits
- * them, one entry: the grid cell holding the point (a value < TAB_MARK), or TAB_MARK + n when it
- * lies on a boundary where n cells meet; those n cells are kept apart, in a second list.  Entries
- * have a fixed size so that reading one does not wait for the previous one.  A worker's room
- * holds the entries from its start upwards and the boundary lists from its end downwards.  Cell
- * indices fit: N <= 4^BST_K_MAX = 16384 < TAB_MARK. */
-#define TAB_MARK 0xFFF0u
+ * them, one entry: the grid cell holding the point (a value < N), or N + r when the point lies on
+ * a boundary, r counting those points in the table.  Point r's cells (n of them, where they meet)
+ * are kept apart, in the boundary list; before a table is read back the value at each such point
+ * (the mean of its cells, summed in their order) is put after the N values of the grid, so that
+ * every entry is one index: no branch, no wait on the previous entry.  A worker's room holds the
+ * entries from its start upwards and the boundary lists from its end downwards.  Entries fit in
+ * 16 bits while N + r < 65536: N <= 4^BST_K_MAX = 16384, and a table with more boundary points
+ * than that leaves is not kept. */
+#define TAB_LIMIT 65536u
+_Static_assert(((size_t)1 << (2 * BST_K_MAX)) < TAB_LIMIT, "grid cells must fit in table entries");
+#define SO (BSTI_TT3_OUT_SAMPLES * BSTI_TT3_OUT_SAMPLES) /* entries per outgoing cell */
 
 struct tab {
     const uint16_t *cell; /* the entries, NULL: not kept */
-    const uint16_t *side; /* end of its boundary lists (read downwards) */
+    const uint16_t *side; /* end of its boundary lists (read downwards: the cells, then n) */
+    size_t nb;            /* boundary points */
 };
 
 /* Where a pass takes the cells of its sample points: read back (get), or evaluated and, while
- * put is set, recorded (the boundary lists down from side, not below low). */
+ * put is set, recorded (nb boundary points so far, their lists down from side, not below low). */
 struct cursor {
-    const uint16_t *get, *get_side;
+    const uint16_t *get;
     uint16_t *put, *side, *low;
-    int full;
+    size_t N, nb;
 };
 
 /* Value of the grid v (G x G cells) at the direction with disk radius rho and azimuth psi
@@ -128,13 +136,14 @@ static inline double polar_value(const double *v, double rho, double psi, size_t
     if (cu->put) {
         if (n == 1) {
             *cu->put++ = (uint16_t)cells[0];
-        } else if (cu->side - cu->low < n) {
-            cu->put = NULL, cu->full = 1;
+        } else if (cu->side - cu->low < n + 1 || cu->N + cu->nb >= TAB_LIMIT) {
+            cu->put = NULL; /* no room */
         } else {
-            *cu->put++ = (uint16_t)(TAB_MARK + (unsigned)n);
-            cu->side -= n;
+            *cu->put++ = (uint16_t)(cu->N + cu->nb++);
+            cu->side -= n + 1;
             for (int j = 0; j < n; j++)
                 cu->side[j] = (uint16_t)cells[j];
+            cu->side[n] = (uint16_t)n;
         }
     }
     if (n == 1)
@@ -145,17 +154,31 @@ static inline double polar_value(const double *v, double rho, double psi, size_t
     return sum / n;
 }
 
-/* The same value from a table entry x. */
-static inline double table_value(const double *v, unsigned x, const uint16_t **side)
+/* v[N + r] = the value at table t's boundary point r, from the grid values v[0 .. N). */
+static void boundary_values(double *v, size_t N, const struct tab *t)
 {
-    if (x < TAB_MARK)
-        return v[x];
-    int n = (int)(x - TAB_MARK);
-    double sum = 0.0;
-    *side -= n;
-    for (int j = 0; j < n; j++)
-        sum += v[(*side)[j]];
-    return sum / n;
+    const uint16_t *p = t->side;
+    for (size_t r = 0; r < t->nb; r++) {
+        int n = p[-1];
+        p -= n + 1;
+        double sum = 0.0;
+        for (int j = 0; j < n; j++)
+            sum += v[p[j]];
+        v[N + r] = sum / n;
+    }
+}
+
+/* acc[q] += the sum, in table order, of v at the SO points of each of n outgoing cells listed
+ * from `get` on; returns where the next cells' entries start. */
+static const uint16_t *replay(const double *v, const uint16_t *get, double *restrict acc, size_t n)
+{
+    for (size_t q = 0; q < n; q++, get += SO) {
+        double sum = 0.0;
+        for (size_t t = 0; t < SO; t++)
+            sum += v[get[t]];
+        acc[q] += sum;
+    }
+    return get;
 }
 
 /* The c-th (0 <= c <= 2 j) incident cell of ring j in the quadrant cx, cy >= G/2, in the order
@@ -177,8 +200,9 @@ static int check_args(bst_ctx *ctx, const bst_mat *m, int k)
  * there is room. */
 static void cursor_open(const struct r3w *x, const struct tab *t, size_t len, struct cursor *cu)
 {
-    cu->get = t->cell, cu->get_side = t->side;
-    cu->put = NULL, cu->full = 0;
+    cu->get = t->cell;
+    cu->put = NULL;
+    cu->N = x->w->N, cu->nb = 0;
     if (!t->cell && x->tab && (size_t)(x->tab_top - x->tab) >= len) {
         cu->put = x->tab;
         cu->side = x->tab_top;
@@ -191,28 +215,25 @@ static void cursor_close(struct r3w *x, struct tab *t, struct cursor *cu)
     if (cu->get)
         return;
     if (cu->put) {
-        t->cell = x->tab, t->side = x->tab_top;
+        t->cell = x->tab, t->side = x->tab_top, t->nb = cu->nb;
         x->tab = cu->put, x->tab_top = cu->side;
     } else if (x->tab) {
         x->tab = NULL; /* no room: the ring's other passes evaluate their points */
     }
 }
 
-/* t3 row of ring j gathers S (the four rotated columns of incident cell i summed) along the
- * sample points of every rank-3 outgoing cell turned into the world frame. */
-static void gather(const struct r3w *x, size_t i, double *row, struct cursor *cu)
+/* t3 row of ring j gathers S (x->s: the four rotated columns of incident cell i summed) along
+ * the sample points of every rank-3 outgoing cell turned into the world frame. */
+static void gather(const struct r3w *x, size_t i, const struct tab *t, double *row, struct cursor *cu)
 {
     const struct r3 *w = x->w;
     size_t N = w->N, so = w->so;
+    if (cu->get)
+        boundary_values(x->s, N, t);
     for (size_t s = 0; s < w->si; s++) {
         double phi = w->in[2 * (i * w->si + s) + 1];
         if (cu->get) {
-            for (size_t q = 0; q < N; q++, cu->get += so) {
-                double sum = 0.0;
-                for (size_t t = 0; t < so; t++)
-                    sum += table_value(x->s, cu->get[t], &cu->get_side);
-                row[q] += sum;
-            }
+            cu->get = replay(x->s, cu->get, row, N);
             continue;
         }
         for (size_t q = 0; q < N; q++) {
@@ -226,29 +247,27 @@ static void gather(const struct r3w *x, size_t i, double *row, struct cursor *cu
     }
 }
 
-/* Column i of the grid expansion of t3, as the reader computes it: the average over the sample
- * points of incident cell i and of each outgoing cell, turned into the rotated frame. */
-static void expand(const struct r3w *x, size_t i, const double *row, struct cursor *cu)
+/* Column i of the grid expansion of t3 (its ring's row in x->row), as the reader computes it: the
+ * average over the sample points of incident cell i and of each outgoing cell, turned into the
+ * rotated frame. */
+static void expand(const struct r3w *x, size_t i, const struct tab *t, struct cursor *cu)
 {
     const struct r3 *w = x->w;
     size_t N = w->N, so = w->so;
     memset(x->e, 0, N * sizeof *x->e);
+    if (cu->get)
+        boundary_values(x->row, N, t);
     for (size_t s = 0; s < w->si; s++) {
         double phi = w->in[2 * (i * w->si + s) + 1];
         if (cu->get) {
-            for (size_t o = 0; o < N; o++, cu->get += so) {
-                double sum = 0.0;
-                for (size_t t = 0; t < so; t++)
-                    sum += table_value(row, cu->get[t], &cu->get_side);
-                x->e[o] += sum;
-            }
+            cu->get = replay(x->row, cu->get, x->e, N);
             continue;
         }
         for (size_t o = 0; o < N; o++) {
             double sum = 0.0;
             for (size_t t = 0; t < so; t++) {
                 const double *p = w->out + 2 * (o * so + t);
-                sum += polar_value(row, p[0], p[1] - phi, w->G, cu);
+                sum += polar_value(x->row, p[0], p[1] - phi, w->G, cu);
             }
             x->e[o] += sum;
         }
@@ -279,36 +298,47 @@ static void ring_job(struct r3w *x, size_t j, struct job *jb)
         struct cursor cu;
         if (accumulate)
             memset(next, 0, N * sizeof *next);
+        if (measure)
+            memcpy(x->row, cur, N * sizeof *cur);
         for (size_t c = 0; c < nc; c++) {
             size_t i = ring_cell(j, c, half, G);
             size_t ri[4] = {i, bsti_sc_turn(i, 1, G), bsti_sc_turn(i, 2, G), bsti_sc_turn(i, 3, G)};
             if (measure) {
                 cursor_open(x, &x->exp[c], len, &cu);
-                expand(x, i, cur, &cu);
+                expand(x, i, &x->exp[c], &cu);
                 cursor_close(x, &x->exp[c], &cu);
             }
-            double diff[4] = {0}, sum[4] = {0}, dh[4] = {0};
-            for (size_t o = 0; o < N; o++) {
-                size_t oo = o;
-                x->s[o] = 0.0;
-                for (int r = 0; r < 4; r++, oo = w->turn[oo]) {
-                    double v = mget(&jb->a, oo, ri[r]);
-                    x->s[o] += v;
-                    if (measure) { /* E(R o, R i) = E(o, i) */
-                        double y = x->e[o];
-                        diff[r] += fabs(v - y), sum[r] += fabs(v) + fabs(y), dh[r] += v - y;
-                    }
+            /* S(o) = the four turned columns summed, less the expansion: E(R o, R i) = E(o, i) */
+            const struct macc *a = &jb->a;
+            const uint32_t *turn = w->turn;
+            if (!measure) {
+                for (size_t o = 0; o < N; o++) {
+                    size_t o1 = turn[o], o2 = turn[o1], o3 = turn[o2];
+                    x->s[o] = 0.0 + mget(a, o, ri[0]) + mget(a, o1, ri[1]) + mget(a, o2, ri[2]) +
+                              mget(a, o3, ri[3]);
                 }
-                if (measure)
-                    x->s[o] -= 4.0 * x->e[o];
-            }
-            for (int r = 0; measure && r < 4; r++) {
-                worst_fa = fmin(worst_fa, sum[r] > 0.0 ? 100.0 * (1.0 - diff[r] / sum[r]) : 100.0);
-                worst_h = fmax(worst_h, fabs(dh[r]) * lam);
+            } else {
+                double d0 = 0.0, d1 = 0.0, d2 = 0.0, d3 = 0.0, s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+                double h0 = 0.0, h1 = 0.0, h2 = 0.0, h3 = 0.0;
+                for (size_t o = 0; o < N; o++) {
+                    size_t o1 = turn[o], o2 = turn[o1], o3 = turn[o2];
+                    double v0 = mget(a, o, ri[0]), v1 = mget(a, o1, ri[1]);
+                    double v2 = mget(a, o2, ri[2]), v3 = mget(a, o3, ri[3]), y = x->e[o];
+                    d0 += fabs(v0 - y), s0 += fabs(v0) + fabs(y), h0 += v0 - y;
+                    d1 += fabs(v1 - y), s1 += fabs(v1) + fabs(y), h1 += v1 - y;
+                    d2 += fabs(v2 - y), s2 += fabs(v2) + fabs(y), h2 += v2 - y;
+                    d3 += fabs(v3 - y), s3 += fabs(v3) + fabs(y), h3 += v3 - y;
+                    x->s[o] = 0.0 + v0 + v1 + v2 + v3 - 4.0 * y;
+                }
+                double diff[4] = {d0, d1, d2, d3}, sum[4] = {s0, s1, s2, s3}, dh[4] = {h0, h1, h2, h3};
+                for (int r = 0; r < 4; r++) {
+                    worst_fa = fmin(worst_fa, sum[r] > 0.0 ? 100.0 * (1.0 - diff[r] / sum[r]) : 100.0);
+                    worst_h = fmax(worst_h, fabs(dh[r]) * lam);
+                }
             }
             if (accumulate) {
                 cursor_open(x, &x->gat[c], len, &cu);
-                gather(x, i, next, &cu);
+                gather(x, i, &x->gat[c], next, &cu);
                 cursor_close(x, &x->gat[c], &cu);
             }
         }
@@ -492,7 +522,8 @@ int bsti_tt3_build(bst_ctx *ctx, int k, int refine, double fa_stop, int threads,
     for (size_t t = 0; rc >= 0 && t < nw; t++) {
         struct r3w *x = &wk[t];
         x->w = &w;
-        if (!(x->s = bsti_alloc_array(ctx, w.N, sizeof *x->s)) ||
+        if (!(x->s = bsti_alloc_array(ctx, TAB_LIMIT, sizeof *x->s)) ||
+            !(x->row = bsti_alloc_array(ctx, TAB_LIMIT, sizeof *x->row)) ||
             !(x->e = bsti_alloc_array(ctx, w.N, sizeof *x->e)) ||
             !(x->next = bsti_alloc_array(ctx, w.N, sizeof *x->next)) ||
             !(x->gat = bsti_calloc(ctx, nc, sizeof *x->gat)) ||
@@ -519,6 +550,7 @@ int bsti_tt3_build(bst_ctx *ctx, int k, int refine, double fa_stop, int threads,
     }
     for (size_t t = 0; wk && t < nw; t++) {
         bsti_free(ctx, wk[t].s), bsti_free(ctx, wk[t].e), bsti_free(ctx, wk[t].next);
+        bsti_free(ctx, wk[t].row);
         bsti_free(ctx, wk[t].gat), bsti_free(ctx, wk[t].exp), bsti_free(ctx, wk[t].tab_base);
     }
     for (size_t m = 0; w.jobs && m < njobs; m++) {
