@@ -93,8 +93,8 @@ double bsti_varres_get(const void *opaque, size_t index);
  * so the FA measured here is what the file reads back as to within about 0.1 (RADIANCE's
  * diffuser: 99.82-99.83 predicted, 99.73-99.80 read back).  Corrections stop early when *fa_min
  * falls below fa_stop (the matrix is clearly not isotropic; -INFINITY never stops).  The exact
- * 90-degree rotation symmetry of the grid cuts the work to a quarter; memory: about
- * 3 N doubles and the tables (below) a thread, and G N / 2 doubles. */
+ * 90-degree rotation symmetry of the grid cuts the work to a quarter; memory: see
+ * bsti_tt3_build. */
 #define BSTI_TT3_IN_SAMPLES 2
 #define BSTI_TT3_OUT_SAMPLES 3
 #define BSTI_TT3_REFINE 3
@@ -111,8 +111,8 @@ int bsti_tt3_from_sc(bst_ctx *ctx, const bst_mat *m, int k, int refine, double f
  * table_bytes (the largest ring needs about 144 G N bytes: 38 MB at k = 6, 300 MB at k = 7), so
  * that the points are located twice per ring instead of 2 refine + 3 times per matrix.  A ring
  * whose FA falls below fa_stop stops the others at that iterate; the rings that had gone further
- * run again up to it.  Memory: 3 N doubles and the tables a thread, (refine + 1) G doubles a
- * matrix; every buffer is taken from ctx by the caller's thread (workers allocate nothing). */
+ * run again up to it.  Memory: 2 N doubles, 1 MB and the tables a thread, (refine + 1) G doubles
+ * a matrix; every buffer is taken from ctx by the caller's thread (workers allocate nothing). */
 typedef struct {
     const bst_mat *m;       /* in: N x N, N = 4^k */
     double *t3;             /* out: (G/2) N values */

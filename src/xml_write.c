@@ -222,8 +222,9 @@ static void free_t3(struct xw *w)
  * theta 75.6 degrees), and a rank-3 cell, seen from the grid's incident cells at their different
  * azimuths, straddles grid cells: the expansion spreads the peak (169 1/sr read back as 90), FA 60
  * there and below 90 at every incidence - the file would move that much flux.  Tf and Tb fail
- * too, at grazing incidence only (FA 91 in the corner cells of the outer ring, whose incident
- * samples sit at larger theta than a side cell's while the pane's transmission falls fast).  The
+ * too, at grazing incidence only (FA 91 in the corner cells of the outer ring: three quarters of
+ * a corner cell lie in the outer half of its ring, half of a side cell, so at grazing incidence,
+ * where the pane's transmission falls fast with theta, the cells of one ring differ).  The
  * 90-degree rotation test cannot see either (rotation FA 99.9: a mirror peak turns into itself),
  * so the FA of the rank-3 form decides, as it should. */
 static int build_t3(struct xw *w, int *isotropic)
