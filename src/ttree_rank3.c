@@ -69,6 +69,7 @@ struct job {
     double *fa, *hemi;  /* (refine + 1) x half: ring j's iterate it at [it half + j] */
     int *last;          /* half: the iterate ring j's row holds, -1: to run (again) */
     int bound;          /* no ring goes past this iterate (lowered when one falls below fa_stop) */
+    double below;       /* the least FA measured below fa_stop, else NaN */
 };
 
 struct r3 {
@@ -76,6 +77,8 @@ struct r3 {
     size_t G, N, half, si, so;
     int refine;
     double fa_stop;
+    int give_up;        /* a ring below fa_stop stops every matrix (abandoned is then set) */
+    int abandoned;
     double *in, *out;   /* (radius, azimuth) of the incident and outgoing sample points */
     uint32_t *turn;     /* N: bsti_sc_turn(c, 1, G) of every cell c */
     struct job *jobs;
@@ -291,8 +294,10 @@ static void ring_job(struct r3w *x, size_t j, struct job *jb)
     size_t len = w->si * w->so * N; /* entries of a table */
     for (int it = -1;; it++) {
         pthread_mutex_lock(&w->lock);
-        int bound = jb->bound;
+        int bound = jb->bound, abandoned = w->abandoned;
         pthread_mutex_unlock(&w->lock);
+        if (abandoned)
+            return;
         int measure = it >= 0, accumulate = it < bound; /* the last iterate is only measured */
         double worst_fa = 100.0, worst_h = 0.0;
         struct cursor cu;
@@ -349,6 +354,9 @@ static void ring_job(struct r3w *x, size_t j, struct job *jb)
                 pthread_mutex_lock(&w->lock);
                 if (it < jb->bound)
                     jb->bound = it;
+                if (!(jb->below <= worst_fa))
+                    jb->below = worst_fa;
+                w->abandoned |= w->give_up;
                 pthread_mutex_unlock(&w->lock);
                 accumulate = 0;
             }
@@ -394,7 +402,7 @@ static void *work(void *arg)
     struct r3 *w = x->w;
     for (;;) {
         pthread_mutex_lock(&w->lock);
-        size_t n = w->next_ring < w->half ? w->next_ring++ : w->half;
+        size_t n = w->next_ring < w->half && !w->abandoned ? w->next_ring++ : w->half;
         pthread_mutex_unlock(&w->lock);
         if (n == w->half)
             break;
@@ -430,7 +438,7 @@ int bsti_tt3_from_sc(bst_ctx *ctx, const bst_mat *m, int k, int refine, double f
                      double *t3, double *fa_min, double *hemi_max)
 {
     bsti_tt3_job jb = {m, t3, 0.0, 0.0};
-    int rc = bsti_tt3_build(ctx, k, refine, fa_stop, 0, BSTI_TT3_TABLE_BYTES, 1, &jb);
+    int rc = bsti_tt3_build(ctx, k, refine, fa_stop, 0, 0, BSTI_TT3_TABLE_BYTES, 1, &jb);
     *fa_min = jb.fa_min, *hemi_max = jb.hemi_max;
     return rc;
 }
@@ -461,7 +469,7 @@ static size_t settle(struct r3 *w, struct job *jb, bsti_tt3_job *out)
     return again;
 }
 
-int bsti_tt3_build(bst_ctx *ctx, int k, int refine, double fa_stop, int threads,
+int bsti_tt3_build(bst_ctx *ctx, int k, int refine, double fa_stop, int give_up, int threads,
                    size_t table_bytes, size_t njobs, bsti_tt3_job *jobs)
 {
     int rc = BST_OK;
@@ -483,6 +491,7 @@ int bsti_tt3_build(bst_ctx *ctx, int k, int refine, double fa_stop, int threads,
     w.so = BSTI_TT3_OUT_SAMPLES * BSTI_TT3_OUT_SAMPLES;
     w.refine = refine;
     w.fa_stop = fa_stop;
+    w.give_up = give_up;
     w.njobs = njobs;
     size_t nw = worker_count(threads, w.half), nc = 2 * w.half - 1;
     /* the tables of the largest ring, with room for points on boundaries, within the budget */
@@ -504,6 +513,7 @@ int bsti_tt3_build(bst_ctx *ctx, int k, int refine, double fa_stop, int threads,
         macc_init(&jb->a, jobs[m].m);
         jb->t3 = jobs[m].t3;
         jb->bound = refine;
+        jb->below = NAN;
         if (!(jb->fa = bsti_alloc_array(ctx, ((size_t)refine + 1) * w.half, sizeof *jb->fa)) ||
             !(jb->hemi = bsti_alloc_array(ctx, ((size_t)refine + 1) * w.half, sizeof *jb->hemi)) ||
             !(jb->last = bsti_alloc_array(ctx, w.half, sizeof *jb->last)))
@@ -540,8 +550,10 @@ int bsti_tt3_build(bst_ctx *ctx, int k, int refine, double fa_stop, int threads,
         /* a matrix stopped at an iterate (rare: it is then not isotropic) runs again the rings
          * that went further; they stop there, as the bound says */
         size_t again = 0;
-        for (size_t m = 0; m < njobs; m++)
+        for (size_t m = 0; m < njobs && !w.abandoned; m++)
             again += settle(&w, &w.jobs[m], &jobs[m]);
+        for (size_t m = 0; m < njobs && w.abandoned; m++)
+            jobs[m].fa_min = w.jobs[m].below, jobs[m].hemi_max = NAN;
         if (again) {
             w.total += again;
             run_rings(&w, wk, nw);

@@ -111,7 +111,10 @@ int bsti_tt3_from_sc(bst_ctx *ctx, const bst_mat *m, int k, int refine, double f
  * table_bytes (the largest ring needs about 144 G N bytes: 38 MB at k = 6, 300 MB at k = 7), so
  * that the points are located twice per ring instead of 2 refine + 3 times per matrix.  A ring
  * whose FA falls below fa_stop stops the others at that iterate; the rings that had gone further
- * run again up to it.  Memory: 2 N doubles, 1 MB and the tables a thread, (refine + 1) G doubles
+ * run again up to it.  With give_up, the first ring of any matrix below fa_stop stops them all
+ * (enough to know that a layer is not isotropic: that matrix's FA is below fa_stop): fa_min is
+ * then the least FA measured below fa_stop, NaN for the other matrices, and neither t3 nor
+ * hemi_max (NaN) means anything.  Memory: 2 N doubles, 1 MB and the tables a thread, (refine + 1) G doubles
  * a matrix; every buffer is taken from ctx by the caller's thread (workers allocate nothing). */
 typedef struct {
     const bst_mat *m;       /* in: N x N, N = 4^k */
@@ -120,7 +123,7 @@ typedef struct {
 } bsti_tt3_job;
 #define BSTI_TT3_THREADS 2
 #define BSTI_TT3_TABLE_BYTES ((size_t)256 << 20)
-int bsti_tt3_build(bst_ctx *ctx, int k, int refine, double fa_stop, int threads,
+int bsti_tt3_build(bst_ctx *ctx, int k, int refine, double fa_stop, int give_up, int threads,
                    size_t table_bytes, size_t njobs, bsti_tt3_job *jobs);
 
 /* The least FA over the incident patches between m and m turned by 90 degrees about Z (exact on

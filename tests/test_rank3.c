@@ -188,7 +188,7 @@ static int build1(bst_ctx *c, const bst_mat *m, int k, int refine, double stop, 
                   size_t table, double *t3, double *fa, double *hemi)
 {
     bsti_tt3_job jb = {m, t3, -1.0, -1.0};
-    int rc = bsti_tt3_build(c, k, refine, stop, threads, table, 1, &jb);
+    int rc = bsti_tt3_build(c, k, refine, stop, 0, threads, table, 1, &jb);
     *fa = jb.fa_min, *hemi = jb.hemi_max;
     return rc;
 }
@@ -315,7 +315,7 @@ START_TEST(test_many_same_bits)
         jobs[j].t3 = malloc(n * sizeof *jobs[j].t3);
         memset(jobs[j].t3, 0xff, n * sizeof *jobs[j].t3);
     }
-    ck_assert_int_eq(bsti_tt3_build(ctx, k, 3, stop, 2, BSTI_TT3_TABLE_BYTES, 4, jobs), BST_OK);
+    ck_assert_int_eq(bsti_tt3_build(ctx, k, 3, stop, 0, 2, BSTI_TT3_TABLE_BYTES, 4, jobs), BST_OK);
     for (int j = 0; j < 4; j++) {
         ck_assert_int_eq(build1(ctx, m[j], k, 3, stop, 1, 0, one, &f, &h), BST_OK);
         ck_assert_msg(memcmp(one, jobs[j].t3, n * sizeof *one) == 0, "matrix %d", j);
@@ -327,6 +327,32 @@ START_TEST(test_many_same_bits)
                   jobs[3].fa_min < stop, "FA %g %g %g %g", jobs[0].fa_min, jobs[1].fa_min,
                   jobs[2].fa_min, jobs[3].fa_min);
     free(one);
+}
+END_TEST
+
+/* give_up: a matrix below fa_stop stops all, its FA below fa_stop; without one below, the same
+ * bits as without give_up. */
+START_TEST(test_give_up)
+{
+    int k = 4;
+    size_t G = (size_t)1 << k, n = G * G * G / 2;
+    bst_mat *a = test_matrix(k, SMOOTH, BST_DOUBLE, BST_DENSE, 31);
+    bst_mat *b = test_matrix(k, CENTRE_NOISE, BST_DOUBLE, BST_DENSE, 32);
+    double *t0 = malloc(n * sizeof *t0), *t1 = malloc(n * sizeof *t1), *t2 = malloc(n * sizeof *t2);
+    double stop = 90.0, f, h;
+    for (int th = 1; th <= 2; th++) {
+        bsti_tt3_job jobs[2] = {{a, t0, 0.0, 0.0}, {b, t1, 0.0, 0.0}};
+        ck_assert_int_eq(bsti_tt3_build(ctx, k, 3, stop, 1, th, BSTI_TT3_TABLE_BYTES, 2, jobs), BST_OK);
+        ck_assert_msg(jobs[1].fa_min < stop, "FA %g", jobs[1].fa_min);
+        ck_assert(isnan(jobs[0].fa_min)); /* abandoned: never measured below fa_stop */
+        bsti_tt3_job one[1] = {{a, t0, 0.0, 0.0}};
+        ck_assert_int_eq(bsti_tt3_build(ctx, k, 3, stop, 1, th, BSTI_TT3_TABLE_BYTES, 1, one), BST_OK);
+        ck_assert_int_eq(build1(ctx, a, k, 3, stop, 1, 0, t2, &f, &h), BST_OK);
+        ck_assert(f > stop && one[0].fa_min == f && one[0].hemi_max == h);
+        ck_assert(memcmp(t0, t2, n * sizeof *t0) == 0);
+    }
+    free(t0), free(t1), free(t2);
+    bst_mat_free(a), bst_mat_free(b);
 }
 END_TEST
 
@@ -393,6 +419,7 @@ static Suite *suite(void)
     tcase_add_test(tc, test_early_stop);
     tcase_add_test(tc, test_early_stop_late_ring);
     tcase_add_test(tc, test_many_same_bits);
+    tcase_add_test(tc, test_give_up);
     tcase_add_test(tc, test_zero_and_errors);
     tcase_add_test(tc, test_alloc_failures);
     suite_add_tcase(s, tc);
