@@ -589,7 +589,8 @@ double bsti_tt3_rotation_fa(const bst_mat *m, int k)
         size_t ri = bsti_sc_turn(i, 1, G);
         double diff = 0.0, sum = 0.0;
         for (size_t o = 0; o < N; o++) {
-            double x = mget(&a, o, i), y = mget(&a, bsti_sc_turn(o, 1, G), ri);
+            size_t ro = ((G - 1 - (o & (G - 1))) << k) | (o >> k); /* bsti_sc_turn(o, 1, G) */
+            double x = mget(&a, o, i), y = mget(&a, ro, ri);
             diff += fabs(x - y);
             sum += fabs(x) + fabs(y);
         }

@@ -356,6 +356,30 @@ START_TEST(test_give_up)
 }
 END_TEST
 
+/* The rotation test against its definition: min over i of FA(M(., i), M(R ., R i)). */
+START_TEST(test_rotation_fa)
+{
+    for (int k = 2; k <= 4; k++) {
+        size_t G = (size_t)1 << k, N = G * G;
+        bst_mat *m = test_matrix(k, k == 3 ? SMOOTH : NOISE, BST_FLOAT, BST_DENSE, 40 + (uint64_t)k);
+        double *M = malloc(N * N * sizeof *M), want = 100.0;
+        ck_assert_int_eq(bst_mat_to_dense_array(ctx, m, M), BST_OK);
+        for (size_t i = 0; i < N; i++) {
+            double d = 0.0, s = 0.0;
+            for (size_t o = 0; o < N; o++) {
+                double x = M[o + N * i], y = M[bsti_sc_turn(o, 1, G) + N * bsti_sc_turn(i, 1, G)];
+                d += fabs(x - y), s += fabs(x) + fabs(y);
+            }
+            want = fmin(want, 100.0 * (1.0 - d / s));
+        }
+        tu_assert_close(bsti_tt3_rotation_fa(m, k), want, 1e-13, 100.0);
+        ck_assert(k == 3 ? want > 99.0 : want < 90.0);
+        free(M);
+        bst_mat_free(m);
+    }
+}
+END_TEST
+
 START_TEST(test_zero_and_errors)
 {
     int k = 3;
@@ -420,6 +444,7 @@ static Suite *suite(void)
     tcase_add_test(tc, test_early_stop_late_ring);
     tcase_add_test(tc, test_many_same_bits);
     tcase_add_test(tc, test_give_up);
+    tcase_add_test(tc, test_rotation_fa);
     tcase_add_test(tc, test_zero_and_errors);
     tcase_add_test(tc, test_alloc_failures);
     suite_add_tcase(s, tc);
