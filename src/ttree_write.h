@@ -97,13 +97,38 @@ double bsti_varres_get(const void *opaque, size_t index);
  * so the FA measured here is what the file reads back as to within about 0.1 (RADIANCE's
  * diffuser: 99.82-99.83 predicted, 99.73-99.80 read back).  Corrections stop early when *fa_min
  * falls below fa_stop (the matrix is clearly not isotropic; -INFINITY never stops).  The exact
- * 90-degree rotation symmetry of the grid cuts the work to a quarter; memory: about
- * 2 N + G N / 2 doubles. */
+ * 90-degree rotation symmetry of the grid cuts the work to a quarter; memory: see
+ * bsti_tt3_build. */
 #define BSTI_TT3_IN_SAMPLES 2
 #define BSTI_TT3_OUT_SAMPLES 3
 #define BSTI_TT3_REFINE 3
 int bsti_tt3_from_sc(bst_ctx *ctx, const bst_mat *m, int k, int refine, double fa_stop,
                      double *t3, double *fa_min, double *hemi_max);
+/* Several matrices of order k at once (the components of a layer), each one's t3, fa_min and
+ * hemi_max as bsti_tt3_from_sc gives them, on `threads` threads (<= 0: one a core, at most
+ * BSTI_TT3_THREADS), with at most table_bytes of tables a thread (0: none).
+ * How: the rings of the incident grid do not interact (a row of t3 is gathered from, and expanded
+ * into, its own ring's cells), so each ring runs all its corrections on one thread, the rings
+ * shared out: every sum is formed in the same order whatever the number of threads, and the
+ * results are bit for bit the same.  A thread keeps the cells of its ring's sample points in
+ * tables (they depend on the grid only: one set serves every matrix and every pass), at most
+ * table_bytes (the largest ring needs about 144 G N bytes: 38 MB at k = 6, 300 MB at k = 7), so
+ * that the points are located twice per ring instead of 2 refine + 3 times per matrix.  A ring
+ * whose FA falls below fa_stop stops the others at that iterate; the rings that had gone further
+ * run again up to it.  With give_up, the first ring of any matrix below fa_stop stops them all
+ * (enough to know that a layer is not isotropic: that matrix's FA is below fa_stop): fa_min is
+ * then the least FA measured below fa_stop, NaN for the other matrices, and neither t3 nor
+ * hemi_max (NaN) means anything.  Memory: 2 N doubles, 1 MB and the tables a thread, (refine + 1) G doubles
+ * a matrix; every buffer is taken from ctx by the caller's thread (workers allocate nothing). */
+typedef struct {
+    const bst_mat *m;       /* in: N x N, N = 4^k */
+    double *t3;             /* out: (G/2) N values */
+    double fa_min, hemi_max; /* out */
+} bsti_tt3_job;
+#define BSTI_TT3_THREADS 2
+#define BSTI_TT3_TABLE_BYTES ((size_t)256 << 20)
+int bsti_tt3_build(bst_ctx *ctx, int k, int refine, double fa_stop, int give_up, int threads,
+                   size_t table_bytes, size_t njobs, bsti_tt3_job *jobs);
 
 /* The least FA over the incident patches between m and m turned by 90 degrees about Z (exact on
  * the grid).  A rank-3 form is turned into itself, so by the triangle inequality a matrix whose
