@@ -124,4 +124,17 @@ expect_error "info --max-memory below the need" "info: k = 5 needs about 0.05[0-
     "$BSDFSTACK" info --max-memory 10M "$ref/L_diffuser_t3k5.xml"
 [ ! -s "$tmpdir/out" ] && pass "info prints nothing when refused" || fail "info printed though refused"
 
+# SOURCE_DATE_EPOCH fixes the header's date, so that two conversions give the same bytes but for the
+# recorded command line (the output's name)
+for f in e1 e2; do
+    expect_status 0 "convert with SOURCE_DATE_EPOCH ($f)" -- env SOURCE_DATE_EPOCH=86400 "$BSDFSTACK" convert -k 3 \
+        -o "$tmpdir/$f.xml" "$ref/L_diffuser_t3k5.xml"
+done
+grep -q "Written by bsdfstack .* on 1970-01-02T00:00:00Z" "$tmpdir/e1.xml" && pass "convert: the header's date from SOURCE_DATE_EPOCH" \
+    || fail "convert header: $(sed -n 3p "$tmpdir/e1.xml")"
+grep -v "Command: " "$tmpdir/e1.xml" > "$tmpdir/e1.body"
+grep -v "Command: " "$tmpdir/e2.xml" > "$tmpdir/e2.body"
+cmp -s "$tmpdir/e1.body" "$tmpdir/e2.body" && pass "convert: reproducible bytes" \
+    || fail "convert: two runs differ"
+
 finish

@@ -254,6 +254,8 @@ write:;
     o.rank3_source = b;
     o.on_block = report;
     o.opaque = &verbose;
+    char date[64];
+    o.date = cli_source_date(date, sizeof date);
     struct cli_out co;
     if (cli_out_open(&co, sub, out) != CLI_OK) {
         rc = CLI_FAIL;

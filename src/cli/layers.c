@@ -517,20 +517,8 @@ static int write_any(bst_ctx *ctx, const char *sub, const bst_layer *l, const bs
     bst_bsdf_write_opts_init(&wo);
     wo.reduce_pct = reduce;
     wo.description = desc;
-    /* SOURCE_DATE_EPOCH (reproducible-builds.org): the header's date, so that two runs can give
-     * byte-identical files; ignored unless a whole non-negative number of seconds */
     char date[64];
-    const char *epoch = getenv("SOURCE_DATE_EPOCH");
-    if (epoch && *epoch) {
-        char *end;
-        errno = 0;
-        long long secs = strtoll(epoch, &end, 10);
-        time_t t = (time_t)secs;
-        struct tm tm;
-        if (*end == '\0' && errno == 0 && secs >= 0 && gmtime_r(&t, &tm) &&
-            strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", &tm))
-            wo.date = date;
-    }
+    wo.date = cli_source_date(date, sizeof date);
     struct cli_out out;
     int rc = cli_out_open(&out, sub, path);
     if (rc == CLI_OK) {
@@ -543,6 +531,22 @@ static int write_any(bst_ctx *ctx, const char *sub, const bst_layer *l, const bs
     }
     free(desc);
     return rc;
+}
+
+const char *cli_source_date(char *buf, size_t size)
+{
+    const char *epoch = getenv("SOURCE_DATE_EPOCH");
+    if (!epoch || !*epoch)
+        return NULL;
+    char *end;
+    errno = 0;
+    long long secs = strtoll(epoch, &end, 10);
+    time_t t = (time_t)secs;
+    struct tm tm;
+    if (*end == '\0' && errno == 0 && secs >= 0 && gmtime_r(&t, &tm) &&
+        strftime(buf, size, "%Y-%m-%dT%H:%M:%SZ", &tm))
+        return buf;
+    return NULL;
 }
 
 int cli_write_layer(bst_ctx *ctx, const char *sub, const bst_layer *l, const char *path,
