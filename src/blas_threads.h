@@ -1,4 +1,4 @@
-/* blas_threads.h - one OpenBLAS thread for the triangular solves of small systems.
+/* blas_threads.h - one OpenBLAS thread for the solves and products of small systems.
  *
  * OpenBLAS splits a getrs's triangular solves (dtrsm), and GEMMs above 64^3 multiply-adds, over
  * all its threads, and its worker then spins in sched_yield for about 0.1 s after each call
@@ -7,12 +7,13 @@
  * OPENBLAS_NUM_THREADS=1.  Systems of order at most BSTI_BLAS_SERIAL_N solve on one thread, as
  * their factorizations already did (solve.c): OpenBLAS splits a solve by right-hand sides, so each
  * column's arithmetic, and every bit of the result, is the same on one thread or two
- * (tests/test_threads.c; N <= 300 and 1..700 right-hand sides checked by hand).  GEMM is left
- * alone, and so the worker still wakes in that case: OpenBLAS splits a product by rows too and its
- * edge kernels round differently, so a product of order 101..199 changes in its last bits with
- * the thread count (3 of 16 reference Klems stacks would), and main's files with it.  The thread
- * count is OpenBLAS's, process-wide: it is set back at once, and a caller that already runs one
- * thread (the spectral workers) changes nothing. */
+ * (tests/test_threads.c; N <= 300 and 1..700 right-hand sides checked by hand).  GEMMs whose
+ * dimensions are all at most BSTI_BLAS_SERIAL_N run on one thread too (mat_mul.c): OpenBLAS
+ * splits a product by rows as well and its edge kernels round differently, so a product of order
+ * 101..199 changed in its last bits with the thread count, and a Klems stack of two dense layers
+ * with it; on one thread every machine writes the same file (and the spinning worker is gone).
+ * The thread count is OpenBLAS's, process-wide: it is set back at once, and a caller that already
+ * runs one thread (the spectral workers) changes nothing. */
 #ifndef BST_BLAS_THREADS_H
 #define BST_BLAS_THREADS_H
 

@@ -20,6 +20,7 @@
 
 #include <cblas.h>
 
+#include "blas_threads.h"
 #include "ctx.h"
 #include "mat.h"
 
@@ -145,12 +146,17 @@ static int mul_dense_dense(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, dou
         const bst_mat *A = ta ? ta : a, *B = tb ? tb : b;
         int m = (int)a->rows, n = (int)b->cols, k = (int)a->cols;
         bsti_flops_add(2.0 * m * n * k);
+        /* small products on one OpenBLAS thread (blas_threads.h): the same bits on any number of
+         * cores, and no worker left spinning after a Klems stack */
+        int big = m > n ? (m > k ? m : k) : (n > k ? n : k);
+        int saved = bsti_blas_serial_begin((size_t)big);
         if (prec == BST_DOUBLE)
             cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, m, n, k, 1.0, A->dense, m,
                         B->dense, k, 0.0, c->dense, m);
         else
             cblas_sgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, m, n, k, 1.0f, A->dense, m,
                         B->dense, k, 0.0f, c->dense, m);
+        bsti_blas_serial_end(saved);
     }
     bst_mat_free(ta);
     bst_mat_free(tb);

@@ -78,6 +78,42 @@ START_TEST(test_solve_same_bits)
 }
 END_TEST
 
+/* bst_mat_mul of dense operands of order <= BSTI_BLAS_SERIAL_N: the same bits with OpenBLAS on one
+ * thread or two around it (mat_mul.c runs them on one), double and float, square and not; and the
+ * count is given back. */
+START_TEST(test_gemm_same_bits)
+{
+    static const int dims[][3] = {{145, 145, 145}, {199, 120, 160}, {101, 1, 150}};
+    const int *d = dims[_i];
+    bst_ctx *ctx = bst_ctx_new();
+    tu_rng r;
+    tu_rng_seed(&r, 11 + (uint64_t)_i);
+    for (int prec = 0; prec < 2; prec++) {
+        bst_precision p = prec ? BST_FLOAT : BST_DOUBLE;
+        bst_mat *a, *b, *c[2];
+        ck_assert_int_eq(bst_mat_new_dense(ctx, (size_t)d[0], (size_t)d[2], p, &a), BST_OK);
+        ck_assert_int_eq(bst_mat_new_dense(ctx, (size_t)d[2], (size_t)d[1], p, &b), BST_OK);
+        for (size_t i = 0; i < (size_t)d[0] * (size_t)d[2]; i++)
+            prec ? (((float *)bst_mat_dense_data(a))[i] = (float)tu_rng_uniform(&r))
+                 : (((double *)bst_mat_dense_data(a))[i] = tu_rng_uniform(&r));
+        for (size_t i = 0; i < (size_t)d[2] * (size_t)d[1]; i++)
+            prec ? (((float *)bst_mat_dense_data(b))[i] = (float)tu_rng_uniform(&r))
+                 : (((double *)bst_mat_dense_data(b))[i] = tu_rng_uniform(&r));
+        for (int threads = 1; threads <= 2; threads++) {
+            openblas_set_num_threads(threads);
+            ck_assert_int_eq(bst_mat_mul(ctx, a, b, 0.0, &c[threads - 1]), BST_OK);
+            ck_assert_int_eq(openblas_get_num_threads(), threads);
+        }
+        size_t bytes = (size_t)d[0] * (size_t)d[1] * (prec ? sizeof(float) : sizeof(double));
+        ck_assert_msg(memcmp(bst_mat_dense_data(c[0]), bst_mat_dense_data(c[1]), bytes) == 0,
+                      "%s product %d x %d x %d differs between 1 and 2 threads", prec ? "float" : "double",
+                      d[0], d[2], d[1]);
+        bst_mat_free(a), bst_mat_free(b), bst_mat_free(c[0]), bst_mat_free(c[1]);
+    }
+    bst_ctx_free(ctx);
+}
+END_TEST
+
 /* bst_solve_left with two OpenBLAS threads around it: X solves (I - A) X = B, and the count is
  * still two afterwards. */
 START_TEST(test_solve_left_residual)
@@ -154,6 +190,7 @@ static Suite *suite(void)
     TCase *tc = tcase_create("threads");
     tcase_add_test(tc, test_serial_begin_end);
     tcase_add_loop_test(tc, test_solve_same_bits, 0, (int)(sizeof orders / sizeof orders[0]));
+    tcase_add_loop_test(tc, test_gemm_same_bits, 0, 3);
     tcase_add_test(tc, test_solve_left_residual);
     tcase_add_test(tc, test_glass_layer_same_bits);
     suite_add_tcase(s, tc);
