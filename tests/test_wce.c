@@ -709,6 +709,36 @@ static bst_layer *dual_band_layer(const bst_basis *b, double *const sol[BST_NCOM
     return l;
 }
 
+/* NFRC 102, NFRC 103 and the dual-band 2011-SA1 shade (WCE's Solar and Visible matrices) over Klems
+ * full: what the library's tests of spectral stacks with that shade start from. */
+struct sa1_case {
+    bst_basis *b;
+    size_t N;
+    bst_glass *g[2];
+    bst_layer *shade;
+};
+
+static void sa1_case_new(struct sa1_case *s)
+{
+    static const char *const panes[2] = {"nfrc-102", "nfrc-103"};
+    s->b = wce_basis("basis_klems_full.tsv");
+    s->N = bst_basis_size(s->b);
+    for (int q = 0; q < 2; q++)
+        ck_assert_int_eq(bst_glass_parse(ctx, panes[q], getenv("BSDFSTACK_GLASS_DIR"), &s->g[q]), BST_OK);
+    double *vis[BST_NCOMP], *sol[BST_NCOMP];
+    read_sa1(s->N, vis, sol);
+    s->shade = dual_band_layer(s->b, sol, vis);
+    for (int c = 0; c < BST_NCOMP; c++)
+        free(vis[c]), free(sol[c]);
+}
+
+static void sa1_case_free(struct sa1_case *s)
+{
+    bst_layer_free(s->shade);
+    bst_glass_free(s->g[0]), bst_glass_free(s->g[1]);
+    bst_basis_free(s->b);
+}
+
 /* Channel c of a spectral combination and its absorptance as a struct sys. */
 static void sys_from(struct sys *s, const bst_layer *r, size_t c, const double *af,
                      const double *ab)
@@ -749,14 +779,12 @@ static void assert_energy(const struct sys *s)
  * the balance in both bands. */
 START_TEST(test_dg_full_2011SA1_library)
 {
-    bst_basis *b = wce_basis("basis_klems_full.tsv");
-    size_t N = bst_basis_size(b);
-    bst_glass *g;
-    ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-102", getenv("BSDFSTACK_GLASS_DIR"), &g), BST_OK);
-    double *vis[BST_NCOMP], *sol[BST_NCOMP];
-    read_sa1(N, vis, sol);
-    bst_layer *shade = dual_band_layer(b, sol, vis);
-    bst_spectral_layer l[2] = {{.pane = g}, {.bands = shade}};
+    struct sa1_case sa;
+    sa1_case_new(&sa);
+    bst_basis *b = sa.b;
+    size_t N = sa.N;
+    bst_layer *shade = sa.shade;
+    bst_spectral_layer l[2] = {{.pane = sa.g[0]}, {.bands = shade}};
     bst_spectral_opts so;
     bst_spectral_opts_init(&so);
     so.at_centre = 1;
@@ -789,12 +817,8 @@ START_TEST(test_dg_full_2011SA1_library)
     ck_assert_int_eq(bst_stack_combine_spectral_layers(ctx, 2, l, b, 1, bands, &so, NULL, &r, NULL,
                                                        NULL), BST_EINVAL);
     bst_layer_free(solo);
-    bst_layer_free(shade);
     free(af), free(ab);
-    for (int c = 0; c < BST_NCOMP; c++)
-        free(vis[c]), free(sol[c]);
-    bst_glass_free(g);
-    bst_basis_free(b);
+    sa1_case_free(&sa);
 }
 END_TEST
 
@@ -805,14 +829,12 @@ END_TEST
  * stack with no spectral pane are refused. */
 START_TEST(test_spectral_columns)
 {
-    bst_basis *b = wce_basis("basis_klems_full.tsv");
-    size_t N = bst_basis_size(b);
-    bst_glass *g[2];
-    ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-102", getenv("BSDFSTACK_GLASS_DIR"), &g[0]), BST_OK);
-    ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-103", getenv("BSDFSTACK_GLASS_DIR"), &g[1]), BST_OK);
-    double *vis[BST_NCOMP], *sol[BST_NCOMP];
-    read_sa1(N, vis, sol);
-    bst_layer *shade = dual_band_layer(b, sol, vis), *sys;
+    struct sa1_case sa;
+    sa1_case_new(&sa);
+    bst_basis *b = sa.b;
+    size_t N = sa.N;
+    bst_glass *const *g = sa.g;
+    bst_layer *shade = sa.shade, *sys;
     bst_spectral_layer l[3] = {{.pane = g[0]}, {.bands = shade}, {.pane = g[1]}};
     static const char *const bands[2] = {"Solar", "Visible"};
     int rc = bst_stack_combine_spectral_layers(ctx, 3, l, b, 2, bands, NULL, NULL, &sys, NULL, NULL);
@@ -852,11 +874,7 @@ START_TEST(test_spectral_columns)
     ck_assert_int_eq(bst_stack_columns_spectral_layers(ctx, 2, none, b, "Solar", NULL, 1, cols, NULL, &t, &r),
                      BST_EINVAL);
     bst_layer_free(sys);
-    bst_layer_free(shade);
-    for (int c = 0; c < BST_NCOMP; c++)
-        free(vis[c]), free(sol[c]);
-    bst_glass_free(g[0]), bst_glass_free(g[1]);
-    bst_basis_free(b);
+    sa1_case_free(&sa);
 }
 END_TEST
 
@@ -1005,14 +1023,12 @@ static void spectral_tol_error(size_t n, const bst_spectral_layer *l, const bst_
  * (patch averages), Klems full.  BST_SPECTRAL_SWEEP=1 prints the man page's table. */
 START_TEST(test_spectral_groups)
 {
-    bst_basis *b = wce_basis("basis_klems_full.tsv");
-    size_t N = bst_basis_size(b);
-    bst_glass *g[2];
-    ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-102", getenv("BSDFSTACK_GLASS_DIR"), &g[0]), BST_OK);
-    ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-103", getenv("BSDFSTACK_GLASS_DIR"), &g[1]), BST_OK);
-    double *vis[BST_NCOMP], *sol[BST_NCOMP];
-    read_sa1(N, vis, sol);
-    bst_layer *shade = dual_band_layer(b, sol, vis);
+    struct sa1_case sa;
+    sa1_case_new(&sa);
+    bst_basis *b = sa.b;
+    size_t N = sa.N;
+    bst_glass *const *g = sa.g;
+    bst_layer *shade = sa.shade;
     const bst_spectral_layer cases[2][2] = {{{.pane = g[0]}, {.bands = shade}},
                                             {{.pane = g[0]}, {.pane = g[1]}}};
     static const char *const names[2] = {"NFRC 102 + 2011-SA1", "NFRC 102 + NFRC 103"};
@@ -1035,11 +1051,7 @@ START_TEST(test_spectral_groups)
             printf("  tol %g: T %.2e, R %.2e, A %.2e\n", sweep[t], err[0], err[1], err[2]);
         }
     }
-    bst_layer_free(shade);
-    for (int c = 0; c < BST_NCOMP; c++)
-        free(vis[c]), free(sol[c]);
-    bst_glass_free(g[0]), bst_glass_free(g[1]);
-    bst_basis_free(b);
+    sa1_case_free(&sa);
 }
 END_TEST
 
@@ -1151,14 +1163,12 @@ END_TEST
  * run frees every block it allocated. */
 START_TEST(test_spectral_workers)
 {
-    bst_basis *b = wce_basis("basis_klems_full.tsv");
-    size_t N = bst_basis_size(b);
-    bst_glass *g[2];
-    ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-102", getenv("BSDFSTACK_GLASS_DIR"), &g[0]), BST_OK);
-    ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-103", getenv("BSDFSTACK_GLASS_DIR"), &g[1]), BST_OK);
-    double *vis[BST_NCOMP], *sol[BST_NCOMP];
-    read_sa1(N, vis, sol);
-    bst_layer *shade = dual_band_layer(b, sol, vis);
+    struct sa1_case sa;
+    sa1_case_new(&sa);
+    bst_basis *b = sa.b;
+    size_t N = sa.N;
+    bst_glass *const *g = sa.g;
+    bst_layer *shade = sa.shade;
     const bst_spectral_layer l[3] = {{.pane = g[0]}, {.bands = shade}, {.pane = g[1]}};
     static const char *const bands[2] = {"Solar", "Visible"};
     double *a[4];
@@ -1187,11 +1197,7 @@ START_TEST(test_spectral_workers)
     bst_layer_free(r[0]);
     for (int q = 0; q < 4; q++)
         free(a[q]);
-    bst_layer_free(shade);
-    for (int c = 0; c < BST_NCOMP; c++)
-        free(vis[c]), free(sol[c]);
-    bst_glass_free(g[0]), bst_glass_free(g[1]);
-    bst_basis_free(b);
+    sa1_case_free(&sa);
 }
 END_TEST
 
