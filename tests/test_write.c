@@ -28,35 +28,11 @@ static void teardown(void) { bst_ctx_free(ctx); }
 
 /* ------------------------------------------------------------------ helpers */
 
-/* Output collected in memory; fails once more than `limit` bytes were offered (0 = never). */
-struct membuf {
-    char *p;
-    size_t n, cap, limit;
-    int calls;
-};
-
-static int mem_write(const char *buf, size_t len, void *opaque)
-{
-    struct membuf *m = opaque;
-    m->calls++;
-    if (m->limit && m->n + len > m->limit)
-        return -1;
-    if (m->n + len + 1 > m->cap) {
-        m->cap = (m->n + len + 1) * 2;
-        m->p = realloc(m->p, m->cap);
-        ck_assert_ptr_nonnull(m->p);
-    }
-    memcpy(m->p + m->n, buf, len);
-    m->n += len;
-    m->p[m->n] = '\0';
-    return 0;
-}
-
 static char *tree_text(const bsti_tensor *t, double pct, bsti_tree_stats *st)
 {
-    struct membuf m = {0};
+    tu_membuf m = {0};
     bsti_sink *s = malloc(sizeof *s);
-    bsti_sink_init(s, mem_write, &m);
+    bsti_sink_init(s, tu_mem_write, &m);
     bsti_reduce r = {pct, BST_REDUCE_FLOOR, 0};
     int rc = bsti_ttree_write(ctx, t, &r, s, st);
     ck_assert_msg(rc == BST_OK, "tree write: %s", bst_ctx_message(ctx));
@@ -711,9 +687,9 @@ START_TEST(test_tree_errors)
     double t[256] = {0};
     t[17] = NAN;
     bsti_tensor a = {4, 2, t, NULL, NULL, NULL, 0, NULL};
-    struct membuf m = {0};
+    tu_membuf m = {0};
     bsti_sink *s = malloc(sizeof *s);
-    bsti_sink_init(s, mem_write, &m);
+    bsti_sink_init(s, tu_mem_write, &m);
     bsti_reduce r = {90, BST_REDUCE_FLOOR, 0};
     ck_assert_int_eq(bsti_ttree_write(ctx, &a, &r, s, NULL), BST_EINVAL);
     ck_assert_uint_eq(s->total, 0); /* nothing written */
@@ -741,7 +717,7 @@ START_TEST(test_tree_errors)
         tu_alloc al = {fail, 0, 0};
         bst_ctx *c2 = bst_ctx_new();
         bst_ctx_set_allocator(c2, tu_alloc_malloc, tu_alloc_free, &al);
-        bsti_sink_init(s, mem_write, &m);
+        bsti_sink_init(s, tu_mem_write, &m);
         rc = bsti_ttree_write(c2, &b, &r, s, NULL);
         if (al.count >= fail)
             ck_assert_int_eq(rc, BST_ENOMEM);
@@ -1260,7 +1236,7 @@ static void no_op(const bst_bsdf_write_block *b, void *opaque)
 START_TEST(test_write_errors)
 {
     bst_layer *l = small_layer(ctx, 2, NULL, 1, 3);
-    struct membuf m = {0};
+    tu_membuf m = {0};
     /* arguments */
     ck_assert_int_eq(bst_bsdf_write(ctx, NULL, stdout, NULL), BST_EINVAL);
     ck_assert_int_eq(bst_bsdf_write(ctx, l, NULL, NULL), BST_EINVAL);
@@ -1270,17 +1246,17 @@ START_TEST(test_write_errors)
     bst_bsdf_write_opts o;
     bst_bsdf_write_opts_init(&o);
     o.reduce_pct = 100;
-    ck_assert_int_eq(bst_bsdf_write_fn(ctx, l, mem_write, &m, &o), BST_EINVAL);
+    ck_assert_int_eq(bst_bsdf_write_fn(ctx, l, tu_mem_write, &m, &o), BST_EINVAL);
     bst_bsdf_write_opts_init(&o);
     o.rank = 5;
-    ck_assert_int_eq(bst_bsdf_write_fn(ctx, l, mem_write, &m, &o), BST_EINVAL);
+    ck_assert_int_eq(bst_bsdf_write_fn(ctx, l, tu_mem_write, &m, &o), BST_EINVAL);
     ck_assert_int_eq(m.calls, 0);
     /* a value that is not finite: nothing is written */
     bst_mat *d;
     ck_assert_int_eq(bst_mat_new_dense(ctx, 16, 16, BST_DOUBLE, &d), BST_OK);
     ((double *)bst_mat_dense_data(d))[37] = NAN;
     ck_assert_int_eq(bst_layer_set(ctx, l, 0, BST_RB, d), BST_OK);
-    ck_assert_int_eq(bst_bsdf_write_fn(ctx, l, mem_write, &m, NULL), BST_EINVAL);
+    ck_assert_int_eq(bst_bsdf_write_fn(ctx, l, tu_mem_write, &m, NULL), BST_EINVAL);
     ck_assert_int_eq(m.calls, 0);
     ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "not finite"));
     bst_layer_free(l);
@@ -1290,10 +1266,10 @@ START_TEST(test_write_errors)
     static const size_t limits[] = {100, 4000, 70000}; /* the file has 78 kB */
     for (size_t li = 0; li < 3; li++) {
         size_t limit = limits[li];
-        struct membuf f = {.limit = limit};
+        tu_membuf f = {.limit = limit};
         bst_bsdf_write_opts_init(&o);
         o.on_block = no_op;
-        ck_assert_int_eq(bst_bsdf_write_fn(ctx, g, mem_write, &f, &o), BST_EIO);
+        ck_assert_int_eq(bst_bsdf_write_fn(ctx, g, tu_mem_write, &f, &o), BST_EIO);
         ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "write failed"));
         free(f.p);
     }
@@ -1383,11 +1359,11 @@ START_TEST(test_write_alloc_failures)
             tu_alloc al = {fail, 0, 0};
             bst_ctx *c2 = bst_ctx_new();
             ck_assert_int_eq(bst_ctx_set_allocator(c2, tu_alloc_malloc, tu_alloc_free, &al), BST_OK);
-            struct membuf m = {0};
+            tu_membuf m = {0};
             bst_bsdf_write_opts o;
             bst_bsdf_write_opts_init(&o);
             o.rank = (bst_tree_rank)cases[cse].rank;
-            int rc = bst_bsdf_write_fn(c2, l, mem_write, &m, &o);
+            int rc = bst_bsdf_write_fn(c2, l, tu_mem_write, &m, &o);
             bst_ctx_free(c2);
             free(m.p);
             ck_assert_int_eq(al.live, 0);

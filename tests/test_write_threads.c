@@ -22,33 +22,14 @@
 static const int thread_counts[] = {1, 2, 3, 8};
 #define NCOUNTS (sizeof thread_counts / sizeof thread_counts[0])
 
-struct membuf {
-    char *p;
-    size_t n, cap;
-};
-
-static int mem_write(const char *buf, size_t len, void *opaque)
-{
-    struct membuf *m = opaque;
-    if (m->n + len + 1 > m->cap) {
-        m->cap = 2 * (m->n + len + 1);
-        m->p = realloc(m->p, m->cap);
-        ck_assert_ptr_nonnull(m->p);
-    }
-    memcpy(m->p + m->n, buf, len);
-    m->n += len;
-    m->p[m->n] = '\0';
-    return 0;
-}
-
 /* The tree text of t written with `threads` threads (the caller frees it). */
 static char *tree_text(const bsti_tensor *t, double pct, int threads, bsti_tree_stats *st)
 {
     bst_ctx *ctx = bst_ctx_new();
     ck_assert_int_eq(bst_ctx_set_threads(ctx, threads), BST_OK);
-    struct membuf m = {0};
+    tu_membuf m = {0};
     bsti_sink *s = malloc(sizeof *s);
-    bsti_sink_init(s, mem_write, &m);
+    bsti_sink_init(s, tu_mem_write, &m);
     bsti_reduce r = {pct, BST_REDUCE_FLOOR, 0};
     int rc = bsti_ttree_write(ctx, t, &r, s, st);
     ck_assert_msg(rc == BST_OK, "tree write: %s", bst_ctx_message(ctx));
@@ -65,7 +46,7 @@ struct ref {
     const double *t;
     int D;
     size_t G, half;
-    struct membuf out;
+    tu_membuf out;
     int force;
     size_t values, leaves;
     double sa, se, me, *hemi;
@@ -100,7 +81,7 @@ static int ref_constant(const struct ref *r, int l, const size_t *c, double *v)
 
 static void ref_put(struct ref *r, const char *text)
 {
-    mem_write(text, strlen(text), &r->out);
+    tu_mem_write(text, strlen(text), &r->out);
 }
 
 static void ref_value(struct ref *r, double v)
@@ -326,15 +307,15 @@ START_TEST(test_xml_threads)
         o.date = "2000-01-01T00:00:00Z";
         o.reduce_pct = p ? BST_REDUCE_PCT : -1.0;
         o.rank = _i ? BST_RANK_3 : BST_RANK_4;
-        struct membuf one = {0};
+        tu_membuf one = {0};
         ck_assert_int_eq(bst_ctx_set_threads(ctx, 1), BST_OK);
-        ck_assert_msg(bst_bsdf_write_fn(ctx, l, mem_write, &one, &o) >= 0, "%s", bst_ctx_message(ctx));
+        ck_assert_msg(bst_bsdf_write_fn(ctx, l, tu_mem_write, &one, &o) >= 0, "%s", bst_ctx_message(ctx));
         ck_assert_ptr_nonnull(strstr(one.p, _i ? "TensorTree3" : "TensorTree4"));
         for (size_t c = 1; c < NCOUNTS; c++) {
-            struct membuf many = {0};
+            tu_membuf many = {0};
             ck_assert_int_eq(bst_ctx_set_threads(ctx, thread_counts[c]), BST_OK);
             ck_assert_int_eq(bst_ctx_threads(ctx), thread_counts[c]);
-            ck_assert(bst_bsdf_write_fn(ctx, l, mem_write, &many, &o) >= 0);
+            ck_assert(bst_bsdf_write_fn(ctx, l, tu_mem_write, &many, &o) >= 0);
             ck_assert_uint_eq(one.n, many.n);
             ck_assert_msg(memcmp(one.p, many.p, one.n) == 0, "%s: %d threads write other bytes",
                           layers[_i], thread_counts[c]);
@@ -389,9 +370,9 @@ START_TEST(test_alloc_failure)
         tu_alloc a = {fail, 0, 0};
         bst_ctx *ctx = bst_ctx_new();
         ck_assert_int_eq(bst_ctx_set_allocator(ctx, tu_alloc_malloc, tu_alloc_free, &a), BST_OK);
-        struct membuf m = {0};
+        tu_membuf m = {0};
         bsti_sink s;
-        bsti_sink_init(&s, mem_write, &m);
+        bsti_sink_init(&s, tu_mem_write, &m);
         bsti_reduce red = {90, BST_REDUCE_FLOOR, 0};
         int rc = bsti_ttree_write(ctx, &x, &red, &s, &st);
         ck_assert_int_eq(a.live, 0);

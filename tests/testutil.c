@@ -81,6 +81,24 @@ const char *tu_src(const char *name)
     return buf;
 }
 
+
+int tu_mem_write(const char *buf, size_t len, void *opaque)
+{
+    tu_membuf *m = opaque;
+    m->calls++;
+    if (m->limit && m->n + len > m->limit)
+        return -1;
+    if (m->n + len + 1 > m->cap) {
+        m->cap = (m->n + len + 1) * 2;
+        m->p = realloc(m->p, m->cap);
+        ck_assert_ptr_nonnull(m->p);
+    }
+    memcpy(m->p + m->n, buf, len);
+    m->n += len;
+    m->p[m->n] = '\0';
+    return 0;
+}
+
 /* Each block carries its size in front so tu_alloc_free can keep the live count. */
 void *tu_alloc_malloc(size_t size, void *opaque)
 {

@@ -45,6 +45,16 @@ typedef struct {
 void *tu_alloc_malloc(size_t size, void *opaque);
 void tu_alloc_free(void *p, void *opaque);
 
+/* Output collected in memory, NUL-terminated (p, n; the caller frees p): tu_mem_write is a
+ * bst_bsdf_write_sink that fails once more than `limit` bytes were offered (0 = never) and counts
+ * its calls. */
+typedef struct {
+    char *p;
+    size_t n, cap, limit;
+    int calls;
+} tu_membuf;
+int tu_mem_write(const char *buf, size_t len, void *opaque);
+
 /* Run a Check suite; returns the process exit status. */
 int tu_run(Suite *s);
 
