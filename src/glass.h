@@ -106,18 +106,20 @@ int bsti_glass_add_band(bst_ctx *ctx, bst_glass *g, const char *where,
 /* ------------------------------------------------------------------ layers (glass_layer.c) */
 
 /* Patch averages (bst_glass_layer with at_centre = 0) integrate over bst_basis_sample's (u, v)
- * square split into four triangles, each with BST_GLASS_SAMPLES^2 Gauss-Legendre points after a
- * substitution that removes the rim's square-root singularity (glass_layer.c, patch_rule):
- * 4 x 8^2 = 256 directions per patch.  Against 4 x 32^2 points the patch values (Lambda x value, i.e. T or R)
- * differ by at most 7.6e-6 at k = 1, 2.5e-6 at k = 2..7 and 1e-6 in Klems full; the diffuse-diffuse
- * sum over patches matches the continuous pane's 2 int P sin cos dtheta to 7.6e-6 (k = 1), 6.3e-7
- * (k = 3) and 2.8e-8 (k = 7) (clear 6 mm and NFRC 103, Visible: bench/bench_glass; test_glass
- * checks the k = 3 and 7 sums). */
+ * square with Gauss-Legendre points after a substitution that removes the rim's square-root
+ * singularity (glass_layer.c, patch_rule): Shirley-Chiu's square split into four triangles, each
+ * with BST_GLASS_SAMPLES^2 points (4 x 8^2 = 256 directions per patch); Klems, whose patches' incidence
+ * angle depends on u alone, 4 BST_GLASS_SAMPLES points in u (32 per patch).  Against 4x more points
+ * per dimension the patch values (Lambda x value, i.e. T or R) differ by at most 7.6e-6 at k = 1,
+ * 2.5e-6 at k = 2..7 and 4.8e-11 in Klems full; the diffuse-diffuse sum over patches matches the
+ * continuous pane's 2 int P sin cos dtheta to 7.6e-6 (k = 1), 6.3e-7 (k = 3), 2.8e-8 (k = 7) and
+ * 3.2e-12 (Klems full) (clear 6 mm and NFRC 103, Visible: bench/bench_glass; test_glass checks the
+ * k = 3 and 7 sums). */
 #define BST_GLASS_SAMPLES 8
 
 /* Angular table used by patch averages when they need more distinct directions than it has angles
  * (256 directions per patch, and a spectral channel sums the model over about a hundred
- * wavelengths per direction; Shirley-Chiu k >= 4, not Klems full's 2304): Tf, Tb, Rf, Rb at BST_GLASS_TABLE_STEPS + 1
+ * wavelengths per direction; Shirley-Chiu k >= 4, not Klems full's 288): Tf, Tb, Rf, Rb at BST_GLASS_TABLE_STEPS + 1
  * equidistant angles 0..90 degrees, linear in between.  Pointwise it deviates from exact evaluation
  * by < 2e-6 up to 89.9 degrees and < 2e-5 in the last 0.01 degree; in a layer's patch values
  * (Lambda x value) by at most BST_GLASS_TABLE_ERR (catalogue panes, Klems full and Shirley-Chiu k = 3

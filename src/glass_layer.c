@@ -20,8 +20,8 @@
 #include "glass.h"
 
 /* A catalogue channel's exact patch averages (each direction a sum over the channel's ~100
- * wavelengths) of at least this many directions run on two threads (Klems full: 2304 directions,
- * 20 ms a channel; a thread starts in ~0.05 ms).  Per-wavelength layers (spectral.c's workers,
+ * wavelengths) of at least this many directions run on two threads (Shirley-Chiu k = 3: 10 orbits x 256 =
+ * 2560 directions; a thread starts in ~0.05 ms; Klems full's 9 rings x 32 = 288 stay on one).  Per-wavelength layers (spectral.c's workers,
  * already parallel), table lookups and a context with its own allocator stay on one. */
 #define BSTI_GLASS_PAR_MIN 1024
 
@@ -99,35 +99,45 @@ static void gauss_legendre(int m, double *x, double *w)
 }
 
 /* The rule for a patch average over bst_basis_sample's (u, v) square: points u[], v[] with weights
- * w[] (4 m^2 of each, weights sum to 1).
+ * w[] (*np of each, weights sum to 1).
  * An isotropic pane's property depends on the radius r = sin(theta) alone, and is a smooth function
- * of cos(theta) = sqrt(1 - r^2): at the rim it has a square-root singularity.  Both bases' sample
- * maps are linear in u and v, with the rim on a cell edge; Shirley-Chiu's concentric map has
- * r = max(|a|, |b|) in square coordinates, with a kink along the cell diagonals of the cells that lie
- * on the square's diagonals.  So the square is split by both its diagonals into four triangles
- * (centre, corner, next corner), every kink and singular edge becomes a triangle edge, and each
- * triangle, collapsed onto [0, 1]^2 by p = c + s (p1 + t (p2 - p1) - c) (Jacobian s / 2), gets an
- * m x m Gauss-Legendre rule after the substitution s = q^2 (3 - 2 q) (likewise t), which turns
- * sqrt(1 - s) into the smooth (1 - q) sqrt(1 + 2 q).  A plain midpoint rule errs by up to 1e-2 in
- * rim patches; this one by < 1e-7 (bench/bench_glass). */
-static int patch_rule(bst_ctx *ctx, int m, double **u, double **v, double **w)
+ * of r^2 except at the rim, where cos(theta) = sqrt(1 - r^2) has a square-root singularity.
+ * Klems: r^2 is linear in u and independent of v (bst_basis_sample), so the average is a 1-D
+ * integral over u: 4 m Gauss-Legendre points in u (v = 1/2) after the substitution
+ * u = q^2 (3 - 2 q), which turns sqrt(1 - u) into the smooth (1 - q) sqrt(1 + 2 q).
+ * Shirley-Chiu: the concentric map has r = max(|a|, |b|) in square coordinates, with a kink along
+ * the cell diagonals of the cells that lie on the square's diagonals.  So the square is split by
+ * both its diagonals into four triangles (centre, corner, next corner), every kink and singular
+ * edge becomes a triangle edge, and each triangle, collapsed onto [0, 1]^2 by
+ * p = c + s (p1 + t (p2 - p1) - c) (Jacobian s / 2), gets an m x m Gauss-Legendre rule after the
+ * same substitution in s and t: 4 m^2 points.  A plain midpoint rule errs by up to 1e-2 in rim
+ * patches; these by < 3e-6 (bench/bench_glass). */
+static int patch_rule(bst_ctx *ctx, const bst_basis *b, int m, size_t *np, double **u, double **v,
+                      double **w)
 {
-    size_t np = 4 * (size_t)m * (size_t)m;
-    double *x = bsti_alloc_array(ctx, (size_t)m, sizeof *x), *gw = bsti_alloc_array(ctx, (size_t)m, sizeof *gw);
-    *u = bsti_alloc_array(ctx, np, sizeof **u);
-    *v = bsti_alloc_array(ctx, np, sizeof **v);
-    *w = bsti_alloc_array(ctx, np, sizeof **w);
+    int klems = b->kind != BST_BASIS_SHIRLEY_CHIU, mq = klems ? 4 * m : m;
+    *np = klems ? 4 * (size_t)m : 4 * (size_t)m * (size_t)m;
+    double *x = bsti_alloc_array(ctx, (size_t)mq, sizeof *x), *gw = bsti_alloc_array(ctx, (size_t)mq, sizeof *gw);
+    *u = bsti_alloc_array(ctx, *np, sizeof **u);
+    *v = bsti_alloc_array(ctx, *np, sizeof **v);
+    *w = bsti_alloc_array(ctx, *np, sizeof **w);
     if (!x || !gw || !*u || !*v || !*w) {
         bsti_free(ctx, x), bsti_free(ctx, gw);
         bsti_free(ctx, *u), bsti_free(ctx, *v), bsti_free(ctx, *w);
         *u = *v = *w = NULL;
         return -1;
     }
-    gauss_legendre(m, x, gw);
-    for (int i = 0; i < m; i++) { /* the substitution q -> q^2 (3 - 2 q) */
+    gauss_legendre(mq, x, gw);
+    for (int i = 0; i < mq; i++) { /* the substitution q -> q^2 (3 - 2 q) */
         double q = x[i];
         x[i] = q * q * (3.0 - 2.0 * q);
         gw[i] *= 6.0 * q * (1.0 - q);
+    }
+    if (klems) {
+        for (int i = 0; i < mq; i++)
+            (*u)[i] = x[i], (*v)[i] = 0.5, (*w)[i] = gw[i];
+        bsti_free(ctx, x), bsti_free(ctx, gw);
+        return 0;
     }
     static const double corner[5][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}, {0, 0}};
     size_t k = 0;
@@ -195,14 +205,16 @@ int bsti_glass_rule_new(bst_ctx *ctx, const bst_basis *basis, int at_centre, int
     *out = NULL;
     if (!at_centre && samples < 1)
         return bsti_error(ctx, BST_EINVAL, "glass layer: %d samples per patch", samples);
-    size_t n = bst_basis_size(basis), np = at_centre ? 1 : 4 * (size_t)samples * (size_t)samples;
-    bsti_glass_rule *r = bsti_calloc(ctx, 1, sizeof *r);
+    size_t n = bst_basis_size(basis), np = 1;
     double *qu = NULL, *qv = NULL, *qw = NULL;
+    if (!at_centre && patch_rule(ctx, basis, samples, &np, &qu, &qv, &qw) < 0)
+        return BST_ENOMEM;
+    bsti_glass_rule *r = bsti_calloc(ctx, 1, sizeof *r);
     if (!r || !(r->theta = bsti_alloc_array(ctx, n * np, sizeof *r->theta)) ||
         !(r->w = bsti_alloc_array(ctx, n * np, sizeof *r->w)) ||
-        !(r->rep = bsti_alloc_array(ctx, n, sizeof *r->rep)) ||
-        (!at_centre && patch_rule(ctx, samples, &qu, &qv, &qw) < 0)) {
+        !(r->rep = bsti_alloc_array(ctx, n, sizeof *r->rep))) {
         bsti_glass_rule_free(ctx, r);
+        bsti_free(ctx, qu), bsti_free(ctx, qv), bsti_free(ctx, qw);
         return BST_ENOMEM;
     }
     r->n = n, r->np = np;
@@ -277,7 +289,7 @@ static void *part_run(void *arg)
  * (one channel, names[0]), averaged with rule r over each patch.  A patch average evaluates
  * hundreds of directions per patch: through the angular table when that is cheaper (more distinct
  * directions than table angles: Shirley-Chiu k >= 4, 36 orbits x 256 = 9216 at k = 4) unless exact;
- * else, and for every rule of patch centres, exactly (Klems full: 9 rings x 256 = 2304). */
+ * else, and for every rule of patch centres, exactly (Klems full: 9 rings x 32 = 288). */
 static int build_layer(bst_ctx *ctx, const struct source *src, const bst_basis *basis,
                        const bsti_glass_rule *r, size_t nc, const size_t *idx,
                        const char *const *names, int exact, bst_layer **out)
