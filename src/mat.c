@@ -495,13 +495,26 @@ int bst_mat_transpose(bst_ctx *ctx, const bst_mat *a, bst_mat **out)
         bst_mat *t;
         if ((rc = bst_mat_new_dense(ctx, a->cols, a->rows, a->prec, &t)) < 0)
             return rc;
-        size_t r = a->rows, c = a->cols;
-        for (size_t j = 0; j < c; j++)
-            for (size_t i = 0; i < r; i++) {
-                if (a->prec == BST_DOUBLE)
-                    ((double *)t->dense)[i * c + j] = ((const double *)a->dense)[j * r + i];
-                else
-                    ((float *)t->dense)[i * c + j] = ((const float *)a->dense)[j * r + i];
+        /* in tiles of 32 x 32 that stay in the L1 cache: element by element, every write of a
+         * large matrix's column would touch another cache line and page (2-3x slower at N = 4096,
+         * where OpenBLAS's omatcopy is no faster either) */
+        const size_t r = a->rows, c = a->cols, B = 32;
+        for (size_t j0 = 0; j0 < c; j0 += B)
+            for (size_t i0 = 0; i0 < r; i0 += B) {
+                size_t j1 = j0 + B < c ? j0 + B : c, i1 = i0 + B < r ? i0 + B : r;
+                if (a->prec == BST_DOUBLE) {
+                    const double *src = a->dense;
+                    double *dst = t->dense;
+                    for (size_t j = j0; j < j1; j++)
+                        for (size_t i = i0; i < i1; i++)
+                            dst[i * c + j] = src[j * r + i];
+                } else {
+                    const float *src = a->dense;
+                    float *dst = t->dense;
+                    for (size_t j = j0; j < j1; j++)
+                        for (size_t i = i0; i < i1; i++)
+                            dst[i * c + j] = src[j * r + i];
+                }
             }
         *out = t;
         return BST_OK;

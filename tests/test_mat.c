@@ -91,6 +91,28 @@ START_TEST(test_add_all_pairs)
 }
 END_TEST
 
+/* The transpose of rectangular dense matrices, double and float, with sides that are and are not
+ * multiples of its tiles (32), element by element against the definition. */
+START_TEST(test_transpose_rect)
+{
+    static const size_t dims[][2] = {{1, 40}, {33, 5}, {64, 96}, {70, 129}};
+    tu_rng r;
+    tu_rng_seed(&r, 4242 + (uint64_t)_i);
+    int kind = _i % 2 ? TM_FLOAT : TM_DENSE;
+    size_t rows = dims[_i / 2][0], cols = dims[_i / 2][1];
+    bst_mat *a = tm_random(ctx, kind, rows, cols, 1.0, &r), *t;
+    ck_assert_int_eq(bst_mat_transpose(ctx, a, &t), BST_OK);
+    ck_assert_int_eq(bst_mat_structure(t), BST_DENSE);
+    ck_assert_int_eq(bst_mat_precision(t), bst_mat_precision(a));
+    ck_assert_uint_eq(bst_mat_rows(t), cols);
+    ck_assert_uint_eq(bst_mat_cols(t), rows);
+    for (size_t j = 0; j < cols; j++)
+        for (size_t i = 0; i < rows; i++)
+            ck_assert_double_eq(bst_mat_get(t, j, i), bst_mat_get(a, i, j));
+    bst_mat_free(a), bst_mat_free(t);
+}
+END_TEST
+
 /* Scaling, transpose, conversions, compaction, column selection and sums for each kind. */
 START_TEST(test_unary)
 {
@@ -288,6 +310,7 @@ static Suite *mat_suite(void)
     tcase_add_loop_test(tc, test_mul_all_pairs, 0, pairs);
     tcase_add_loop_test(tc, test_add_all_pairs, 0, pairs);
     tcase_add_loop_test(tc, test_unary, 0, TM_NKINDS * (int)NSIZES);
+    tcase_add_loop_test(tc, test_transpose_rect, 0, 8);
     tcase_add_test(tc, test_drop_tol);
     tcase_add_test(tc, test_errors);
     tcase_add_loop_test(tc, test_alloc_failure, 0, TM_NKINDS * TM_NKINDS);
