@@ -78,6 +78,23 @@ END {
         printf "| `%s` | %s | %s | %s | %s | %s | %s |\n", v[r, 2], v[r, 6], v[r, 7], v[r, 8], v[r, 12], rate, v[r, 5]
     }
     print ""
+    print "## Spectral stacks with a shade (issue #15)"
+    print ""
+    print "`combine BASIS --spectral-tol X --absorptance A glass:nfrc-102 SHADE glass:nfrc-103`: SHADE is"
+    print "Windows-CalcEngine's two-band shade 2011-SA1 (its Solar and Visible Klems matrices, written by"
+    print "`bench/wce_shade`; at k = 5 resampled by `convert -k 5`), combined wavelength by wavelength as"
+    print "WINDOW's dual-band material, Solar and Visible.  Differences: the largest over both channels,"
+    print "both sides and every incident patch of the hemispherical T, R and each layer's absorptance"
+    print "(the --absorptance table, 8 decimals) against `--spectral-tol 0` (every distinct wavelength"
+    print "combined; one run at k = 5); `--per-channel` is the band-value answer, for scale. Targets:"
+    print "Klems full <= 0.5 s wall, k = 5 <= 15 s."
+    print ""
+    print "| basis | option | wall s | CPU s | GFLOP | bound | max dT | max dR | max dA |"
+    print "|---|---|---|---|---|---|---|---|---|"
+    for (r = 1; r <= n; r++)
+        if (v[r, 1] == "spectral")
+            printf "| %s%s | %s | %s | %s | %s | %s | %s | %s | %s |\n", v[r, 2], (v[r, 3] > 0 ? " k = " v[r, 3] : ""), v[r, 5], v[r, 6], v[r, 7], gflop(v[r, 17]), bound(v[r, 3], v[r, 10], v[r, 4], v[r, 17]), v[r, 13], v[r, 14], v[r, 15]
+    print ""
     print "## Tree reduction and the sparse drop tolerance (S1, double)"
     print ""
     print "GA: least over the five directions, Tf and Tb (drop-tol: least over every incident patch),"
