@@ -16,6 +16,14 @@ NR == 1 { next }
 function N(k) { return 4 ^ k }
 # the dense kernels' counted work (combine -v, bsdfstack-combine(1) says how it counts), and the
 # time it would take at this run's GEMM rate as a share of the combining time measured
+# a Markdown table's header row h and the separator row under it
+function thead(h,   cols, sep, i) {
+    cols = gsub(/\|/, "|", h) - 1
+    sep = "|"
+    for (i = 0; i < cols; i++) sep = sep "---|"
+    print h
+    print sep
+}
 function gflop(f) { return f == "" || f == "-" ? "-" : sprintf("%.4g", f) }
 function bound(k, s, prec, f,   rate) {
     rate = (prec == "single" ? g[2] : g[1])
@@ -44,8 +52,7 @@ END {
     print "them; O(N^2) element-wise work not counted). \"bound\": the time those take at this run's GEMM"
     print "rate as a share of the combining time measured (100 % = every second spent at the GEMM rate)."
     print ""
-    print "| k | N | precision | wall s | CPU s | read s | combine s | write s | GFLOP | bound | peak MiB | file MB | GA vs k5 least / mean | GA vs k6 least / mean | genBSDF CPU s / ours | paper Table 6 / ours |"
-    print "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    thead("| k | N | precision | wall s | CPU s | read s | combine s | write s | GFLOP | bound | peak MiB | file MB | GA vs k5 least / mean | GA vs k6 least / mean | genBSDF CPU s / ours | paper Table 6 / ours |")
     for (r = 1; r <= n; r++) {
         if (v[r, 1] != "S1") continue
         k = v[r, 3]
@@ -68,8 +75,7 @@ END {
     print "over CPU seconds (info: the file read, 109 MB; convert: the file written, over the CPU seconds"
     print "beyond info's). S1's end-to-end CPU seconds and its read and write times are in the first table."
     print ""
-    print "| work | wall s | CPU s | peak MiB | file MB | MB/s | target |"
-    print "|---|---|---|---|---|---|---|"
+    thead("| work | wall s | CPU s | peak MiB | file MB | MB/s | target |")
     for (r = 1; r <= n; r++) {
         if (v[r, 1] != "io") continue
         rate = "-"
@@ -89,8 +95,7 @@ END {
     print "combined; one run at k = 5); `--per-channel` is the band-value answer, for scale. Targets:"
     print "Klems full <= 0.5 s wall, k = 5 <= 15 s."
     print ""
-    print "| basis | option | wall s | CPU s | GFLOP | bound | max dT | max dR | max dA |"
-    print "|---|---|---|---|---|---|---|---|---|"
+    thead("| basis | option | wall s | CPU s | GFLOP | bound | max dT | max dR | max dA |")
     for (r = 1; r <= n; r++)
         if (v[r, 1] == "spectral")
             printf "| %s%s | %s | %s | %s | %s | %s | %s | %s | %s |\n", v[r, 2], (v[r, 3] > 0 ? " k = " v[r, 3] : ""), v[r, 5], v[r, 6], v[r, 7], gflop(v[r, 17]), bound(v[r, 3], v[r, 10], v[r, 4], v[r, 17]), v[r, 13], v[r, 14], v[r, 15]
@@ -100,16 +105,14 @@ END {
     print "GA: least over the five directions, Tf and Tb (drop-tol: least over every incident patch),"
     print "of the file against the unreduced, exact one."
     print ""
-    print "| k | option | wall s | write s | file MB | GA vs exact |"
-    print "|---|---|---|---|---|---|"
+    thead("| k | option | wall s | write s | file MB | GA vs exact |")
     for (r = 1; r <= n; r++)
         if (v[r, 1] == "reduce" || v[r, 1] == "drop-tol")
             printf "| %s | %s | %s | %s | %s | %s |\n", v[r, 3], v[r, 5], v[r, 6], v[r, 11], v[r, 12], v[r, 13]
     print ""
     print "## Dense worst cases"
     print ""
-    print "| stack | k | precision | wall s | CPU s | read s | combine s | write s | GFLOP | bound | peak MiB | file MB |"
-    print "|---|---|---|---|---|---|---|---|---|---|---|---|"
+    thead("| stack | k | precision | wall s | CPU s | read s | combine s | write s | GFLOP | bound | peak MiB | file MB |")
     for (r = 1; r <= n; r++)
         if (v[r, 1] == "dense")
             printf "| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", v[r, 2], v[r, 3], v[r, 4], v[r, 6], v[r, 7], v[r, 9], v[r, 10], v[r, 11], gflop(v[r, 17]), bound(v[r, 3], v[r, 10], v[r, 4], v[r, 17]), v[r, 8], v[r, 12]
