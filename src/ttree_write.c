@@ -11,7 +11,8 @@
  *    block above it a 2^D-value leaf, anything else a branch.  The error each leaf makes, against
  *    the value a reader will store (single precision), is summed on the way.
  * The measure of a finest block is sd / (sqrt(mean) + floor); of a larger node, the largest of its
- * children's measures and of the same ratio over the children's means.  Dividing by the root of
+ * children's measures and of the same ratio over the children's means.  Without reduction (pct
+ * < 0, threshold 0) only m = 0 counts, and every other node gets FLT_MIN.  Dividing by the root of
  * the mean makes Monte Carlo noise (variance proportional to the mean) count about the same
  * everywhere, so the percentile culls noise and keeps structure.
  *
@@ -62,6 +63,7 @@ struct tw {                        /* read-only while threads run */
     int force;                     /* expand the path of child 0 down to the finest blocks */
     int digits;
     double floor;
+    int lossless;                  /* no reduction: only whether m is 0 matters, not its size */
     int split;                     /* level of the tasks (0: none, the tree is one task) */
     double *lmean;                 /* the mean of every node of level split */
     int top;                       /* build: the nodes of level split are done (lmean, m) */
@@ -234,6 +236,9 @@ static double build(const struct tw *w, struct bacc *b, int l, const size_t *c, 
         if (lo == hi) {
             mean = lo;
             m = 0.0f;
+        } else if (w->lossless) {
+            mean = sum / nk;
+            m = FLT_MIN;
         } else {
             mean = sum / nk;
             double ss = 0.0;
@@ -266,6 +271,9 @@ static double build(const struct tw *w, struct bacc *b, int l, const size_t *c, 
         if (constant) {
             mean = vals[0];
             m = 0.0f;
+        } else if (w->lossless) {
+            mean /= nk;
+            m = FLT_MIN;
         } else {
             mean /= nk;
             double ss = 0.0;
@@ -594,7 +602,9 @@ static void leaf_block(const struct tw *w, struct eacc *a, const size_t *c, int 
         p += put_value(w, a->memo, clamp0(v), p, &back);
         /* dimension 0 slowest: j's top bits are the incident cell */
         size_t i0 = c[0] + (size_t)(j >> (D - 1)), i1 = c[1] + (size_t)((j >> 2) & 1);
-        if (D == 4 || i0 < w->half)
+        if (v == (double)back) /* read back exactly (a float source): an error of +0 adds nothing */
+            a->sum_abs += D == 4 || i0 < w->half ? v : 0.0;
+        else if (D == 4 || i0 < w->half)
             account(w, a, i0, i1, v, back);
     }
     *p++ = ' ', *p++ = '}', *p++ = '\n';
@@ -898,6 +908,7 @@ int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, b
     w.half = w.G / 2;
     w.digits = r->digits;
     w.floor = r->floor;
+    w.lossless = r->pct < 0.0;
     for (int i = w.D - 1; i >= 0; i--)
         w.stride[i] = i == w.D - 1 ? 1 : w.stride[i + 1] * w.G;
     for (int j = 0; j < (1 << w.D); j++)
