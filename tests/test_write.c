@@ -776,6 +776,51 @@ START_TEST(test_reference_round_trip)
 }
 END_TEST
 
+/* bst_bsdf_set_precision: a rank-4 reference tree at its own depth (the blind: dense, Tf by
+ * reciprocity) expanded in single precision holds the double expansion's values exactly, and its
+ * file, reduced and exact, with 1 and 2 threads, is the double layer's to the byte; the setter
+ * refuses what it cannot set. */
+START_TEST(test_float_layer_same_bytes)
+{
+    bst_bsdf *b = read_ok(tu_ref("L_blind0_t4k5.xml"));
+    ck_assert_int_eq(bst_bsdf_depth(b), bst_bsdf_order(b));
+    bst_layer *ld = layer_of(b, NULL);
+    ck_assert_int_eq(bst_bsdf_set_precision(ctx, b, BST_FLOAT), BST_OK);
+    bst_layer *lf = layer_of(b, NULL);
+    int dense = 0;
+    for (int c = 0; c < BST_NCOMP; c++) {
+        const bst_mat *m = bst_layer_get(lf, 0, (bst_comp)c);
+        if (m && bst_mat_structure(m) == BST_DENSE) {
+            ck_assert_int_eq(bst_mat_precision(m), BST_FLOAT);
+            dense++;
+        }
+        ck_assert_msg(max_diff(ld, lf, 0, (bst_comp)c) == 0.0, "%s differs in single precision",
+                      bst_comp_name((bst_comp)c));
+    }
+    ck_assert_int_ge(dense, 3);
+    for (int red = 0; red < 2; red++)
+        for (int th = 1; th <= 2; th++) {
+            bst_bsdf_write_opts o;
+            bst_bsdf_write_opts_init(&o);
+            o.date = "2000-01-01T00:00:00Z";
+            o.reduce_pct = red ? BST_REDUCE_PCT : -1.0;
+            tu_membuf md = {0}, mf = {0};
+            bst_ctx_set_threads(ctx, th);
+            ck_assert_int_eq(bst_bsdf_write_fn(ctx, ld, tu_mem_write, &md, &o), BST_OK);
+            ck_assert_int_eq(bst_bsdf_write_fn(ctx, lf, tu_mem_write, &mf, &o), BST_OK);
+            ck_assert_uint_eq(md.n, mf.n);
+            ck_assert_msg(memcmp(md.p, mf.p, md.n) == 0, "the files differ (%s, %d threads)",
+                          red ? "reduced" : "exact", th);
+            free(md.p), free(mf.p);
+        }
+    bst_ctx_set_threads(ctx, 0);
+    ck_assert_int_eq(bst_bsdf_set_precision(ctx, b, (bst_precision)7), BST_EINVAL);
+    ck_assert_int_eq(bst_bsdf_set_precision(ctx, NULL, BST_FLOAT), BST_EINVAL);
+    ck_assert_int_eq(bst_bsdf_set_precision(NULL, b, BST_FLOAT), BST_EINVAL);
+    bst_layer_free(ld), bst_layer_free(lf), bst_bsdf_free(b);
+}
+END_TEST
+
 /* T and R of a file for one hemi.tsv row, over a 64 x 64 grid of outgoing cell centres, and the
  * outgoing distributions for the accordance. */
 static void hemi_row(bst_bsdf *b, const bst_basis *g, int front, double th, double ph, double *t,
@@ -1407,6 +1452,7 @@ static Suite *suite(void)
     tcase_add_checked_fixture(tc, setup, teardown);
     tcase_set_timeout(tc, 300);
     tcase_add_loop_test(tc, test_reference_round_trip, 0, 3);
+    tcase_add_test(tc, test_float_layer_same_bytes);
     tcase_add_loop_test(tc, test_reference_hemi, 0, 4);
     tcase_add_loop_test(tc, test_reference_klems, 0, 4);
     tcase_add_test(tc, test_rank3_auto);
