@@ -695,6 +695,16 @@ START_TEST(test_tree_errors)
     ck_assert_uint_eq(s->total, 0); /* nothing written */
     t[17] = 1e39;                   /* beyond single precision */
     ck_assert_int_eq(bsti_ttree_write(ctx, &a, &r, s, NULL), BST_EINVAL);
+    /* two: the one in the first finest block in tree order is named, whichever thread meets it
+     * first (cell 200 = (3, 2, 2, 0) lies in block 14, cell 17 = (0, 1, 0, 1) in block 0) */
+    t[200] = 3e39;
+    for (int th = 1; th <= 2; th++) {
+        bst_ctx_set_threads(ctx, th);
+        ck_assert_int_eq(bsti_ttree_write(ctx, &a, &r, s, NULL), BST_EINVAL);
+        ck_assert_msg(strstr(bst_ctx_message(ctx), "1e+39") != NULL, "%s", bst_ctx_message(ctx));
+    }
+    bst_ctx_set_threads(ctx, 0);
+    t[200] = 0.0;
     t[17] = 1.0;
     bsti_tensor bad = {5, 2, t, NULL, NULL, NULL, 0, NULL};
     ck_assert_int_eq(bsti_ttree_write(ctx, &bad, &r, s, NULL), BST_EINVAL);
