@@ -458,6 +458,11 @@ int bst_bsdf_eval(bst_ctx *ctx, const bst_bsdf *b, size_t ch, const double in[3]
 /* The file's BSDF as a layer over target (NULL: the file's own basis), each component in its
  * cheapest structure, dense ones in the read precision; resampling: bsdfstack-convert(1). */
 int bst_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target, bst_layer **out);
+/* Change the precision of the dense components bst_bsdf_to_layer makes from b (the read option
+ * bst_bsdf_read_opts.precision) once the file's kind is known: a rank-4 tree at its own depth
+ * (bst_bsdf_depth = bst_bsdf_order) expanded to its own order holds only single-precision values
+ * of the file, so BST_FLOAT keeps them exactly in half the memory. */
+int bst_bsdf_set_precision(bst_ctx *ctx, bst_bsdf *b, bst_precision prec);
 
 /* --------------------------- BSDF XML writer: xml_write.c, ttree_write.c, ttree_rank3.c, sink.c */
 

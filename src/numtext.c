@@ -41,13 +41,25 @@ static const double pow10_pos[] = {
 
 /* The text printf's "%.*g" with precision prec gives for r * 10^lead / 10^(ndigits(r) - 1), r's
  * leading digit at decimal exponent lead, trailing zeros dropped as %g drops them. */
+static const char pairs[201] = "00010203040506070809101112131415161718192021222324252627282930313233"
+    "343536373839404142434445464748495051525354555657585960616263646566676869707172737475767778798081"
+    "828384858687888990919293949596979899";
+
 static int g_text(uint64_t r, int lead, int prec, int negative, char *buf)
 {
     char dig[24];
     int m = 0;
-    while (r) {
-        dig[m++] = (char)('0' + r % 10);
-        r /= 10;
+    while (r >= 100) { /* two digits a step: half the chain of dependent divisions */
+        uint64_t q = r / 100, d = r - 100 * q;
+        dig[m++] = pairs[2 * d + 1];
+        dig[m++] = pairs[2 * d];
+        r = q;
+    }
+    if (r >= 10) {
+        dig[m++] = pairs[2 * r + 1];
+        dig[m++] = pairs[2 * r];
+    } else if (r) {
+        dig[m++] = (char)('0' + r);
     }
     int lo = 0; /* dig[] is least significant first: skip trailing zeros */
     while (lo < m - 1 && dig[lo] == '0')
@@ -185,12 +197,38 @@ static int dfixed_cmp(u128 a, u128 b, int exact)
     return a > b ? 1 : a < b ? -1 : 0;
 }
 
+/* x / 10^k for k = 17 - p, p = 1..17: a constant divisor in each case, which the compiler turns
+ * into a multiplication (a 64-bit division by a variable takes several times as long, and this
+ * is the formatter's inner step). */
+static inline uint64_t div_p10(uint64_t x, int k)
+{
+    switch (k) {
+    case 0: return x;
+    case 1: return x / 10ull;
+    case 2: return x / 100ull;
+    case 3: return x / 1000ull;
+    case 4: return x / 10000ull;
+    case 5: return x / 100000ull;
+    case 6: return x / 1000000ull;
+    case 7: return x / 10000000ull;
+    case 8: return x / 100000000ull;
+    case 9: return x / 1000000000ull;
+    case 10: return x / 10000000000ull;
+    case 11: return x / 100000000000ull;
+    case 12: return x / 1000000000000ull;
+    case 13: return x / 10000000000000ull;
+    case 14: return x / 100000000000000ull;
+    case 15: return x / 1000000000000000ull;
+    default: return x / 10000000000000000ull; /* 16 (p = 1) */
+    }
+}
+
 /* The P-digit rounding of X, r (10^(P-1) <= r <= 10^P), and whether strtod reads r 10^(17-P-s)
  * back as v: 1 or 0, or -1 when that is not certain here. */
 static int dfixed_digits(const struct dfixed *d, int p, uint64_t *r)
 {
-    uint64_t D = p10u[17 - p], xi = (uint64_t)(d->x >> FRAC), q = xi / D;
-    u128 rem = (u128)(xi % D) << FRAC | (d->x & (((u128)1 << FRAC) - 1));
+    uint64_t D = p10u[17 - p], xi = (uint64_t)(d->x >> FRAC), q = div_p10(xi, 17 - p);
+    u128 rem = (u128)(xi - q * D) << FRAC | (d->x & (((u128)1 << FRAC) - 1));
     int c = dfixed_cmp(rem, (u128)D << (FRAC - 1), d->exact);
     if (c == -2)
         return -1;

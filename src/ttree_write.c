@@ -11,7 +11,8 @@
  *    block above it a 2^D-value leaf, anything else a branch.  The error each leaf makes, against
  *    the value a reader will store (single precision), is summed on the way.
  * The measure of a finest block is sd / (sqrt(mean) + floor); of a larger node, the largest of its
- * children's measures and of the same ratio over the children's means.  Dividing by the root of
+ * children's measures and of the same ratio over the children's means.  Without reduction (pct
+ * < 0, threshold 0) only m = 0 counts, and every other node gets FLT_MIN.  Dividing by the root of
  * the mean makes Monte Carlo noise (variance proportional to the mean) count about the same
  * everywhere, so the percentile culls noise and keeps structure.
  *
@@ -40,6 +41,8 @@
 #define PROGRESS_STEPS 256
 /* A task: a subtree of at most this many cells (rank 4: 16^4, rank 3: 8^5 cells). */
 #define TASK_CELLS 65536
+/* Block rows stream_blocks asks for ahead of the one it reads (8 rows of cells each). */
+#define STREAM_AHEAD 4
 /* Task texts in flight per thread. */
 #define WINDOW 2
 /* The most bytes one leaf line takes: indent, braces, 16 values of <= 15 characters, each after a
@@ -62,6 +65,7 @@ struct tw {                        /* read-only while threads run */
     int force;                     /* expand the path of child 0 down to the finest blocks */
     int digits;
     double floor;
+    int lossless;                  /* no reduction: only whether m is 0 matters, not its size */
     int split;                     /* level of the tasks (0: none, the tree is one task) */
     double *lmean;                 /* the mean of every node of level split */
     int top;                       /* build: the nodes of level split are done (lmean, m) */
@@ -196,8 +200,112 @@ struct bacc {
     size_t badnode;                /* the finest block holding it (the least such is reported) */
 };
 
+/* Measure (*m_out) and mean of the finest block at corner c from its 2^D values (w->boff order,
+ * changed in place: negatives and bad values read 0). */
+static double block_measure(const struct tw *w, struct bacc *b, const size_t *c, double *vals,
+                            float *m_out)
+{
+    int nk = 1 << w->D;
+    double lo = INFINITY, hi = -INFINITY, sum = 0.0, mean;
+    float m;
+    for (int j = 0; j < nk; j++) {
+        double v = vals[j];
+        if (!isfinite(v) || v > FLT_MAX) {
+            size_t q = node_index(w, 1, c);
+            if (!b->bad || q < b->badnode)
+                b->badval = v, b->badnode = q;
+            b->bad = 1;
+            v = 0.0;
+        }
+        if (v < 0.0) {
+            b->negatives++;
+            v = 0.0;
+        }
+        vals[j] = v;
+        lo = v < lo ? v : lo, hi = v > hi ? v : hi, sum += v; /* (no NaN left) */
+    }
+    if (lo == hi) {
+        mean = lo;
+        m = 0.0f;
+    } else if (w->lossless) {
+        mean = sum / nk;
+        m = FLT_MIN;
+    } else {
+        mean = sum / nk;
+        double ss = 0.0;
+        for (int j = 0; j < nk; j++)
+            ss += (vals[j] - mean) * (vals[j] - mean);
+        m = measure(sqrt(ss / nk), mean, w->floor);
+    }
+    w->m[node_index(w, 1, c)] = m;
+    *m_out = m;
+    return mean;
+}
+
+/* A task's finest blocks measured ahead of the walk (stream_blocks): their means, the block at
+ * offset (q_0, .., q_{D-1}) (in blocks from corner c) at index sum q_i side^(D-1-i). */
+struct pre1 {
+    size_t c[4], side;
+    double *mean;
+};
+
+/* Ask for block row u of a rank-4 task (stream_blocks): its 8 rows of 2h cells. */
+static inline void prefetch_row3(const struct tw *w, const struct pre1 *pre, size_t u)
+{
+#if defined(__GNUC__)
+    size_t h = pre->side, n[3] = {u / (h * h), (u / h) % h, u % h};
+    size_t sz = w->d ? sizeof(double) : sizeof(float);
+    const char *p = w->d ? (const char *)w->d : (const char *)w->f;
+    for (int r = 0; r < 8; r++) {
+        size_t first = pre->c[3];
+        for (int i = 0; i < 3; i++)
+            first += (pre->c[i] + 2 * n[i] + (size_t)((r >> i) & 1)) * w->stride[i];
+        for (size_t x = 0; x < 2 * h * sz; x += 64)
+            __builtin_prefetch(p + first * sz + x);
+    }
+#else
+    (void)w, (void)pre, (void)u;
+#endif
+}
+
+/* The finest blocks of a rank-4 task at pre->c in index order (dimension 3 fastest), measured
+ * into w->m and pre->mean: the 8 rows of cells of one (x0, x1, x2) block row are read along
+ * dimension 3 while the rows STREAM_AHEAD block rows on are asked for, so the reads follow the
+ * memory instead of the tree (whose order left the walk waiting on each block: most of build's
+ * time). */
+static void stream_blocks(const struct tw *w, struct bacc *b, const struct pre1 *pre)
+{
+    size_t h = pre->side, nt = h * h * h, q = 0;
+    for (size_t t = 0; t < STREAM_AHEAD && t < nt; t++)
+        prefetch_row3(w, pre, t);
+    for (size_t t = 0; t < nt; t++) {
+        size_t a[3] = {t / (h * h), (t / h) % h, t % h}, row[8];
+        for (int r = 0; r < 8; r++) {
+            row[r] = pre->c[3];
+            for (int i = 0; i < 3; i++)
+                row[r] += (pre->c[i] + 2 * a[i] + (size_t)((r >> i) & 1)) * w->stride[i];
+        }
+        if (t + STREAM_AHEAD < nt)
+            prefetch_row3(w, pre, t + STREAM_AHEAD);
+        for (size_t a3 = 0; a3 < h; a3++, q++) {
+            double vals[16]; /* w->boff order: bit i of j is dimension i */
+            size_t c[4] = {pre->c[0] + 2 * a[0], pre->c[1] + 2 * a[1], pre->c[2] + 2 * a[2],
+                           pre->c[3] + 2 * a3};
+            if (w->f)
+                for (int j = 0; j < 16; j++)
+                    vals[j] = (double)w->f[row[j & 7] + 2 * a3 + (size_t)(j >> 3)];
+            else
+                for (int j = 0; j < 16; j++)
+                    vals[j] = w->d[row[j & 7] + 2 * a3 + (size_t)(j >> 3)];
+            float mm;
+            pre->mean[q] = block_measure(w, b, c, vals, &mm);
+        }
+    }
+}
+
 /* Measure of the node of level l at corner c (in cells); returns its mean (exact when constant). */
-static double build(const struct tw *w, struct bacc *b, int l, const size_t *c, float *m_out)
+static double build(const struct tw *w, struct bacc *b, const struct pre1 *pre, int l, const size_t *c,
+                    float *m_out)
 {
     int D = w->D, nk = 1 << D;
     double vals[16], mean = 0.0;
@@ -212,35 +320,16 @@ static double build(const struct tw *w, struct bacc *b, int l, const size_t *c, 
         *m_out = w->m[q];
         return w->lmean[q - w->off[l]];
     }
+    if (l == 1 && pre) { /* measured by stream_blocks */
+        size_t h = pre->side, q = 0;
+        for (int i = 0; i < D; i++)
+            q = q * h + ((c[i] - pre->c[i]) >> 1);
+        *m_out = w->m[node_index(w, 1, c)];
+        return pre->mean[q];
+    }
     if (l == 1) {
-        double lo = INFINITY, hi = -INFINITY, sum = 0.0;
         block_values(w, c, w->boff, 0, vals);
-        for (int j = 0; j < nk; j++) {
-            double v = vals[j];
-            if (!isfinite(v) || v > FLT_MAX) {
-                size_t q = node_index(w, 1, c);
-                if (!b->bad || q < b->badnode)
-                    b->badval = v, b->badnode = q;
-                b->bad = 1;
-                v = 0.0;
-            }
-            if (v < 0.0) {
-                b->negatives++;
-                v = 0.0;
-            }
-            vals[j] = v;
-            lo = v < lo ? v : lo, hi = v > hi ? v : hi, sum += v; /* (no NaN left) */
-        }
-        if (lo == hi) {
-            mean = lo;
-            m = 0.0f;
-        } else {
-            mean = sum / nk;
-            double ss = 0.0;
-            for (int j = 0; j < nk; j++)
-                ss += (vals[j] - mean) * (vals[j] - mean);
-            m = measure(sqrt(ss / nk), mean, w->floor);
-        }
+        return block_measure(w, b, c, vals, m_out);
     } else {
         float ms[16], mmax = 0.0f;
         int constant = 1;
@@ -258,7 +347,7 @@ static double build(const struct tw *w, struct bacc *b, int l, const size_t *c, 
                     prefetch_node2(w, cn, 1);
                 }
             }
-            vals[j] = build(w, b, l - 1, cc, &ms[j]);
+            vals[j] = build(w, b, pre, l - 1, cc, &ms[j]);
             mmax = ms[j] > mmax ? ms[j] : mmax;
             constant &= ms[j] == 0.0f && vals[j] == vals[0];
             mean += vals[j];
@@ -266,6 +355,9 @@ static double build(const struct tw *w, struct bacc *b, int l, const size_t *c, 
         if (constant) {
             mean = vals[0];
             m = 0.0f;
+        } else if (w->lossless) {
+            mean /= nk;
+            m = FLT_MIN;
         } else {
             mean /= nk;
             double ss = 0.0;
@@ -308,13 +400,18 @@ static void *build_tasks(void *arg)
     struct build_worker *bw = arg;
     struct build_job *job = bw->job;
     const struct tw *w = job->w;
+    double mean[TASK_CELLS / 16];
+    int streamed = w->D == 4 && (w->d || w->f); /* (then never diagonal: that is t->get) */
     for (size_t q; (q = atomic_fetch_add(&job->next, 1)) < job->n;) {
         size_t c[4] = {0, 0, 0, 0};
         float mm;
         node_corner(w, w->split, q, c);
-        if (!(w->D == 4 && w->t->diagonal && (c[0] != c[2] || c[1] != c[3])))
+        struct pre1 pre = {{c[0], c[1], c[2], c[3]}, (size_t)1 << (w->split - 1), mean};
+        if (streamed)
+            stream_blocks(w, &bw->b, &pre);
+        else if (!(w->D == 4 && w->t->diagonal && (c[0] != c[2] || c[1] != c[3])))
             prefetch_region(w, w->split, c);
-        w->lmean[q] = build(w, &bw->b, w->split, c, &mm);
+        w->lmean[q] = build(w, &bw->b, streamed ? &pre : NULL, w->split, c, &mm);
     }
     return NULL;
 }
@@ -347,7 +444,7 @@ static void build_all(struct tw *w, int nthreads, struct bacc *b)
         }
         w->top = 1;
     }
-    build(w, b, w->k, zero, &mroot);
+    build(w, b, NULL, w->k, zero, &mroot);
 }
 
 /* k-th smallest (0-based) of a[0..n-1], reordering a (Wirth's selection with a median-of-3
@@ -500,7 +597,9 @@ static inline void account(const struct tw *w, struct eacc *a, size_t i0, size_t
 }
 
 /* The cells of the node of level l at corner c in index order (dimension D - 1 fastest), those
- * that hold data: their sum (account = 0) or their error against back (account = 1). */
+ * that hold data: their sum (account = 0) or their error against back (account = 1).  With direct
+ * access, row by row of the last dimension (s contiguous cells) into the incident cell's error
+ * sum found once a row: the same additions in the same order as cell by cell. */
 static double region_pass(const struct tw *w, struct eacc *a, int l, const size_t *c, int acct,
                           double back, size_t *live)
 {
@@ -511,7 +610,31 @@ static double region_pass(const struct tw *w, struct eacc *a, int l, const size_
         size_t i0 = c[0] + x0;
         if (w->D == 3 && i0 >= w->half)
             break;
-        for (size_t x1 = 0; x1 < s; x1++)
+        for (size_t x1 = 0; x1 < s; x1++) {
+            if (w->d || w->f) {
+                double *hp = acct ? hemi_at(w, a, i0, c[1] + x1) : NULL;
+                for (size_t x2 = 0; x2 < e1; x2++) { /* rows: dimension 2 (rank 4) */
+                    size_t base = i0 * w->stride[0] + (c[1] + x1) * w->stride[1] +
+                                  (w->D == 4 ? (c[2] + x2) * w->stride[2] + c[3] : c[2]);
+                    const double *pd = w->d ? w->d + base : NULL;
+                    const float *pf = w->f ? w->f + base : NULL;
+                    if (acct) {
+                        for (size_t x = 0; x < s; x++) {
+                            double v = pd ? pd[x] : (double)pf[x], e = v - back;
+                            a->sum_abs += fabs(v);
+                            a->sum_err += fabs(e);
+                            if (fabs(e) > a->max_error)
+                                a->max_error = fabs(e);
+                            *hp += e;
+                        }
+                    } else {
+                        for (size_t x = 0; x < s; x++)
+                            sum += clamp0(pd ? pd[x] : (double)pf[x]);
+                    }
+                    n += s;
+                }
+                continue;
+            }
             for (size_t x2 = 0; x2 < s; x2++)
                 for (size_t x3 = 0; x3 < e1; x3++) {
                     size_t cc[4] = {i0, c[1] + x1, c[2] + x2, c[3] + x3};
@@ -522,6 +645,7 @@ static double region_pass(const struct tw *w, struct eacc *a, int l, const size_
                         sum += clamp0(v);
                     n++;
                 }
+        }
     }
     if (live)
         *live = n;
@@ -594,7 +718,9 @@ static void leaf_block(const struct tw *w, struct eacc *a, const size_t *c, int 
         p += put_value(w, a->memo, clamp0(v), p, &back);
         /* dimension 0 slowest: j's top bits are the incident cell */
         size_t i0 = c[0] + (size_t)(j >> (D - 1)), i1 = c[1] + (size_t)((j >> 2) & 1);
-        if (D == 4 || i0 < w->half)
+        if (v == (double)back) /* read back exactly (a float source): an error of +0 adds nothing */
+            a->sum_abs += D == 4 || i0 < w->half ? v : 0.0;
+        else if (D == 4 || i0 < w->half)
             account(w, a, i0, i1, v, back);
     }
     *p++ = ' ', *p++ = '}', *p++ = '\n';
@@ -635,6 +761,17 @@ static void emit(const struct tw *w, struct eacc *a, struct run *r, int l, const
         return;
     }
     put_line(a, depth, "{\n", 2);
+#if defined(__GNUC__)
+    /* the children's measures, read first thing by each: scattered over the level's row-major
+     * array (children j and j + 8 share a line: dimension 3 is the array's fastest), so asked for
+     * together */
+    for (int j = 0; j < (1 << w->D); j++) {
+        size_t cc[4] = {0, 0, 0, 0};
+        for (int i = 0; i < w->D; i++)
+            cc[i] = c[i] + ((size_t)((j >> i) & 1) << (l - 1));
+        __builtin_prefetch(&w->m[node_index(w, l - 1, cc)]);
+    }
+#endif
     for (int j = 0; j < (1 << w->D); j++) {
         size_t cc[4] = {0, 0, 0, 0};
         for (int i = 0; i < w->D; i++)
@@ -898,6 +1035,7 @@ int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, b
     w.half = w.G / 2;
     w.digits = r->digits;
     w.floor = r->floor;
+    w.lossless = r->pct < 0.0;
     for (int i = w.D - 1; i >= 0; i--)
         w.stride[i] = i == w.D - 1 ? 1 : w.stride[i + 1] * w.G;
     for (int j = 0; j < (1 << w.D); j++)

@@ -666,6 +666,14 @@ int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_bsdf_read_opts *opts
 bst_file_kind bst_bsdf_kind(const bst_bsdf *b) { return b->kind; }
 int bst_bsdf_order(const bst_bsdf *b) { return b->kind == BST_FILE_KLEMS ? 0 : b->k; }
 int bst_bsdf_depth(const bst_bsdf *b) { return b->depth; }
+int bst_bsdf_set_precision(bst_ctx *ctx, bst_bsdf *b, bst_precision prec)
+{
+    if (!ctx || !b || (prec != BST_DOUBLE && prec != BST_FLOAT))
+        return ctx ? bsti_error(ctx, BST_EINVAL, "set_precision: NULL BSDF or unknown precision %d",
+                                (int)prec) : BST_EINVAL;
+    b->prec = prec;
+    return BST_OK;
+}
 double bst_bsdf_fill(const bst_bsdf *b, size_t ch, bst_comp c)
 {
     if (ch >= b->nch || (unsigned)c >= BST_NCOMP)

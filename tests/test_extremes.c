@@ -798,6 +798,77 @@ START_TEST(test_reciprocity)
 }
 END_TEST
 
+/* The dense pairs' tiled check against the element-wise definition, written out here: several
+ * tiles (k = 4: 256 patches, tiles of 64; Klems full: 145, a partial tile), both precisions, and
+ * two equal worst pairs where the tiles meet them out of order, (i, o) = (2, 5) before (1, 100):
+ * the one reported is the first of the element-wise loop (i, then o). */
+START_TEST(test_reciprocity_tiled)
+{
+    for (int kb = 0; kb < 2; kb++)
+        for (int fl = 0; fl < 2; fl++) {
+            bst_basis *b = kb ? klems("full") : sc(4);
+            size_t n = bst_basis_size(b), i, o;
+            tu_rng rng;
+            tu_rng_seed(&rng, 31 + (unsigned)(2 * kb + fl));
+            double *tf = malloc(2 * n * n * sizeof *tf), *tb = tf + n * n, top = 0.0, err;
+            for (size_t q = 0; q < n * n; q++) { /* values single precision holds exactly */
+                tf[q] = (double)(float)(0.1 + tu_rng_uniform(&rng));
+                tb[q] = (double)(float)(0.1 + tu_rng_uniform(&rng) * 1e-3);
+            }
+            for (size_t ii = 0; ii < n; ii++) /* Tb near the reciprocal of Tf */
+                for (size_t oo = 0; oo < n; oo++) {
+                    size_t q = bst_basis_antipode(b, ii) + n * bst_basis_antipode(b, oo);
+                    tb[q] = (double)(float)(tf[oo + n * ii] + tb[q]);
+                }
+            size_t pi[2] = {2, 1}, po[2] = {5, 100};
+            for (int t = 0; t < 2; t++) { /* the same, larger difference at two pairs */
+                tf[po[t] + n * pi[t]] = 0.75;
+                tb[bst_basis_antipode(b, pi[t]) + n * bst_basis_antipode(b, po[t])] = 1.25;
+            }
+            double want = 0.0;
+            size_t wi = 0, wo = 0;
+            for (size_t ii = 0; ii < n; ii++)
+                for (size_t oo = 0; oo < n; oo++) {
+                    double d = fabs(tf[oo + n * ii] -
+                                    tb[bst_basis_antipode(b, ii) + n * bst_basis_antipode(b, oo)]);
+                    if (d > want)
+                        want = d, wi = ii, wo = oo;
+                }
+            for (size_t q = 0; q < 2 * n * n; q++)
+                top = fmax(top, tf[q]);
+            bst_precision prec = fl ? BST_FLOAT : BST_DOUBLE;
+            bst_mat *m[2];
+            for (int t = 0; t < 2; t++) {
+                const double *src = t ? tb : tf;
+                ck_assert_int_eq(bst_mat_new_dense(ctx, n, n, prec, &m[t]), BST_OK);
+                for (size_t q = 0; q < n * n; q++) {
+                    if (fl)
+                        ((float *)bst_mat_dense_data(m[t]))[q] = (float)src[q];
+                    else
+                        ((double *)bst_mat_dense_data(m[t]))[q] = src[q];
+                }
+            }
+            bst_layer *l = layer4(b, m[0], NULL, m[1], NULL);
+            ck_assert_int_eq(bst_metrics_reciprocity(ctx, l, 0, &err, &i, &o), BST_OK);
+            ck_assert_uint_eq(wi, 1);
+            ck_assert_uint_eq(wo, 100);
+            ck_assert_uint_eq(i, wi);
+            ck_assert_uint_eq(o, wo);
+            tu_assert_close(err, want / top, 1e-15, 0.0);
+            /* an infinity in Tb, far from the first tile */
+            if (fl)
+                ((float *)bst_mat_dense_data(m[1]))[n * n - 3] = INFINITY;
+            else
+                ((double *)bst_mat_dense_data(m[1]))[n * n - 3] = INFINITY;
+            ck_assert_int_eq(bst_metrics_reciprocity(ctx, l, 0, &err, &i, &o), BST_EINVAL);
+            ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "not finite"));
+            bst_layer_free(l);
+            free(tf);
+            bst_basis_free(b);
+        }
+}
+END_TEST
+
 static Suite *extremes_suite(void)
 {
     Suite *s = suite_create("extremes");
@@ -826,6 +897,7 @@ static Suite *extremes_suite(void)
     tc = tcase_create("reciprocity");
     tcase_add_checked_fixture(tc, setup, teardown);
     tcase_add_test(tc, test_reciprocity);
+    tcase_add_test(tc, test_reciprocity_tiled);
     suite_add_tcase(s, tc);
     return s;
 }

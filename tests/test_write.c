@@ -695,6 +695,16 @@ START_TEST(test_tree_errors)
     ck_assert_uint_eq(s->total, 0); /* nothing written */
     t[17] = 1e39;                   /* beyond single precision */
     ck_assert_int_eq(bsti_ttree_write(ctx, &a, &r, s, NULL), BST_EINVAL);
+    /* two: the one in the first finest block in tree order is named, whichever thread meets it
+     * first (cell 200 = (3, 2, 2, 0) lies in block 14, cell 17 = (0, 1, 0, 1) in block 0) */
+    t[200] = 3e39;
+    for (int th = 1; th <= 2; th++) {
+        bst_ctx_set_threads(ctx, th);
+        ck_assert_int_eq(bsti_ttree_write(ctx, &a, &r, s, NULL), BST_EINVAL);
+        ck_assert_msg(strstr(bst_ctx_message(ctx), "1e+39") != NULL, "%s", bst_ctx_message(ctx));
+    }
+    bst_ctx_set_threads(ctx, 0);
+    t[200] = 0.0;
     t[17] = 1.0;
     bsti_tensor bad = {5, 2, t, NULL, NULL, NULL, 0, NULL};
     ck_assert_int_eq(bsti_ttree_write(ctx, &bad, &r, s, NULL), BST_EINVAL);
@@ -773,6 +783,51 @@ START_TEST(test_reference_round_trip)
         unlink(path);
     }
     bst_layer_free(l), bst_bsdf_free(b);
+}
+END_TEST
+
+/* bst_bsdf_set_precision: a rank-4 reference tree at its own depth (the blind: dense, Tf by
+ * reciprocity) expanded in single precision holds the double expansion's values exactly, and its
+ * file, reduced and exact, with 1 and 2 threads, is the double layer's to the byte; the setter
+ * refuses what it cannot set. */
+START_TEST(test_float_layer_same_bytes)
+{
+    bst_bsdf *b = read_ok(tu_ref("L_blind0_t4k5.xml"));
+    ck_assert_int_eq(bst_bsdf_depth(b), bst_bsdf_order(b));
+    bst_layer *ld = layer_of(b, NULL);
+    ck_assert_int_eq(bst_bsdf_set_precision(ctx, b, BST_FLOAT), BST_OK);
+    bst_layer *lf = layer_of(b, NULL);
+    int dense = 0;
+    for (int c = 0; c < BST_NCOMP; c++) {
+        const bst_mat *m = bst_layer_get(lf, 0, (bst_comp)c);
+        if (m && bst_mat_structure(m) == BST_DENSE) {
+            ck_assert_int_eq(bst_mat_precision(m), BST_FLOAT);
+            dense++;
+        }
+        ck_assert_msg(max_diff(ld, lf, 0, (bst_comp)c) == 0.0, "%s differs in single precision",
+                      bst_comp_name((bst_comp)c));
+    }
+    ck_assert_int_ge(dense, 3);
+    for (int red = 0; red < 2; red++)
+        for (int th = 1; th <= 2; th++) {
+            bst_bsdf_write_opts o;
+            bst_bsdf_write_opts_init(&o);
+            o.date = "2000-01-01T00:00:00Z";
+            o.reduce_pct = red ? BST_REDUCE_PCT : -1.0;
+            tu_membuf md = {0}, mf = {0};
+            bst_ctx_set_threads(ctx, th);
+            ck_assert_int_eq(bst_bsdf_write_fn(ctx, ld, tu_mem_write, &md, &o), BST_OK);
+            ck_assert_int_eq(bst_bsdf_write_fn(ctx, lf, tu_mem_write, &mf, &o), BST_OK);
+            ck_assert_uint_eq(md.n, mf.n);
+            ck_assert_msg(memcmp(md.p, mf.p, md.n) == 0, "the files differ (%s, %d threads)",
+                          red ? "reduced" : "exact", th);
+            free(md.p), free(mf.p);
+        }
+    bst_ctx_set_threads(ctx, 0);
+    ck_assert_int_eq(bst_bsdf_set_precision(ctx, b, (bst_precision)7), BST_EINVAL);
+    ck_assert_int_eq(bst_bsdf_set_precision(ctx, NULL, BST_FLOAT), BST_EINVAL);
+    ck_assert_int_eq(bst_bsdf_set_precision(NULL, b, BST_FLOAT), BST_EINVAL);
+    bst_layer_free(ld), bst_layer_free(lf), bst_bsdf_free(b);
 }
 END_TEST
 
@@ -1407,6 +1462,7 @@ static Suite *suite(void)
     tcase_add_checked_fixture(tc, setup, teardown);
     tcase_set_timeout(tc, 300);
     tcase_add_loop_test(tc, test_reference_round_trip, 0, 3);
+    tcase_add_test(tc, test_float_layer_same_bytes);
     tcase_add_loop_test(tc, test_reference_hemi, 0, 4);
     tcase_add_loop_test(tc, test_reference_klems, 0, 4);
     tcase_add_test(tc, test_rank3_auto);

@@ -1,7 +1,8 @@
 /* cmd_convert.c - `bsdfstack convert IN -o OUT`: read any BSDF XML file the reader supports (or a
  * glass:SPEC pane, or a reversed layer LAYER^), resample it to another basis if asked
  * (bst_bsdf_to_layer), write it (bst_bsdf_write) through an atomic output file.  A plain file keeps
- * its own basis exactly when no other is asked, a rank-3 file its rank-3 trees. */
+ * its own basis exactly when no other is asked, a rank-3 file its rank-3 trees; a rank-4 tree kept
+ * at its own order is held in single precision (its values are the file's floats). */
 #include <config.h>
 
 #include <getopt.h>
@@ -210,12 +211,20 @@ int cmd_convert(int argc, char **argv)
         bst_basis_free(target);
         target = NULL;
     }
+    /* a rank-4 tree kept at its own order: every value is a float of the file, held exactly in
+     * single precision (half the memory and the traffic of double) */
+    bst_precision prec = BST_DOUBLE;
+    if (st >= 0 && !target && bst_bsdf_kind(b) == BST_FILE_TT4 &&
+        bst_bsdf_depth(b) == bst_bsdf_order(b)) {
+        prec = BST_FLOAT;
+        st = bst_bsdf_set_precision(ctx, b, prec);
+    }
     if (st >= 0) {
         bst_basis *own_basis = NULL;
         if (!target && bst_bsdf_kind(b) != BST_FILE_KLEMS)
             st = bst_basis_new_sc(ctx, bst_bsdf_order(b), &own_basis);
         const bst_basis *at = target ? target : own_basis ? own_basis : bst_bsdf_klems_basis(b);
-        if (st >= 0 && cli_memory_check(sub, at, 1, &b, 0, BST_DOUBLE, &basis) != CLI_OK) {
+        if (st >= 0 && cli_memory_check(sub, at, 1, &b, 0, prec, &basis) != CLI_OK) {
             bst_basis_free(own_basis);
             rc = CLI_FAIL;
             goto done;
