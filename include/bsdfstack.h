@@ -352,9 +352,9 @@ typedef struct {
 typedef struct {
     int at_centre;            /* 1: panes at patch centres (WINDOW's), 0: patch averages; default 0 */
     double dual_f;            /* f of dual-band layers, default BST_DUAL_BAND_F; 0 <= f < 1 */
-    double tol;               /* wavelengths are combined once per group, the groups as few as
-                                 keep the band-weighted RMS deviation of every pane's
-                                 normal-incidence T and R from their group's mean within tol
+    double tol;               /* wavelengths are combined once per group, grouped so that the
+                                 band-weighted RMS deviation of every pane's normal-incidence
+                                 T and R from their group's mean is within tol
                                  (spectral.c); 0: only equal data share a combination, < 0: none
                                  does; default BST_SPECTRAL_TOL */
 } bst_spectral_opts;
