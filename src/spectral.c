@@ -327,8 +327,15 @@ static size_t channel_groups(size_t nq, const double *d, int split, const double
     return count;
 }
 
-/* The per-group budget for tolerance tol (> 0): the largest (to a factor 1 + 1e-3 or so) for which
- * the channel's groups' shares sum to at most tol^2; 0 when none is (only equal data grouped). */
+/* The budget's search (group_budget): bracketed upwards from tol^2 GROUP_BUDGET_LOW by factors of
+ * 4, then GROUP_BUDGET_STEPS geometric bisections (a factor 4 to within 1 + 1e-12). */
+#define GROUP_BUDGET_LOW 1e-16
+#define GROUP_BUDGET_STEPS 40
+
+/* The per-group budget for tolerance tol (> 0): the largest (found by bisection, see above) for
+ * which the channel's groups' shares sum to at most tol^2; 0 when none is (only equal data
+ * grouped).  The greedy groups' sum need not grow monotonically with the budget: the bisection
+ * keeps a budget whose sum was seen within tol^2, which is what the groups are then made with. */
 static double group_budget(size_t nq, const double *d, int split, const double *wl,
                            const double *w, size_t nwl, double tol, double *ws)
 {
@@ -336,7 +343,7 @@ static double group_budget(size_t nq, const double *d, int split, const double *
     channel_groups(nq, d, split, wl, w, nwl, hi, 0, NULL, NULL, ws, &total);
     if (total <= tol * tol)
         return hi;
-    for (double b = hi * 1e-16; b < hi; b *= 4.0) { /* bracket: lo feasible, hi not */
+    for (double b = hi * GROUP_BUDGET_LOW; b < hi; b *= 4.0) { /* lo feasible, hi not */
         channel_groups(nq, d, split, wl, w, nwl, b, 0, NULL, NULL, ws, &total);
         if (total > tol * tol) {
             hi = b;
@@ -344,7 +351,7 @@ static double group_budget(size_t nq, const double *d, int split, const double *
         }
         lo = b;
     }
-    for (int it = 0; it < 40 && lo > 0.0; it++) {
+    for (int it = 0; it < GROUP_BUDGET_STEPS && lo > 0.0; it++) {
         double b = sqrt(lo * hi);
         channel_groups(nq, d, split, wl, w, nwl, b, 0, NULL, NULL, ws, &total);
         if (total <= tol * tol)

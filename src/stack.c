@@ -106,7 +106,10 @@ struct combiner {
     size_t step;
     const char *channel;
     double flops_mark; /* bsti_flops_done when the component being formed began */
+    struct prefix *keep; /* the absorptance's: factorizations kept (keep_slot), else NULL */
 };
+
+static bsti_factor **keep_slot(struct combiner *cb, const char *what);
 
 /* Record a warning (or, in strict mode, turn it into an error). */
 static int note_warning(struct combiner *cb, int status)
@@ -287,7 +290,8 @@ static struct term solve(struct combiner *cb, int side, struct term a, struct te
     else if (!a.m)
         rc = copy(cb, b.m, &out);
     else
-        rc = bsti_solve_take(cb->ctx, side, a.dies, b.m, cb->opts->rcond_warn, &out, &cb->rcond);
+        rc = bsti_solve_take(cb->ctx, side, a.dies, b.m, cb->opts->rcond_warn, &out, &cb->rcond,
+                             keep_slot(cb, what));
     bst_mat_free(b.dies);
     rc = solve_status(cb, rc, what);
     return result(cb, rc, out);
@@ -314,7 +318,7 @@ static struct term solve2(struct combiner *cb, struct term a, struct term b1, st
         return r1;
     }
     rc = bsti_solve_take_left2(cb->ctx, a.dies, b1.m, b2.m, cb->opts->rcond_warn, &out1, &out2,
-                               &cb->rcond);
+                               &cb->rcond, keep_slot(cb, what));
     release(b1, b2);
     rc = solve_status(cb, rc, what);
     *x2 = result(cb, rc, out2);
@@ -588,7 +592,23 @@ static int prepare(struct combiner *cb, const bst_layer *l, bst_layer *take, siz
 struct prefix {
     const char *name;
     bst_mat **tf, **rb;
+    bsti_factor **fin, **fout; /* NULL, or step k's factorizations of I - A1 and I - A2 */
 };
+
+/* Where the solve of the step being formed keeps its factorization for the absorptance: step
+ * k's inward one (I - L Rb_U L Rf_k, the gap's front incidence) in fin[k], the outward one
+ * (I - L Rf_k L Rb_U) in fout[k]; NULL when nothing is kept.  (The step's two solves are told
+ * apart by the name inward and outward give them.) */
+static bsti_factor **keep_slot(struct combiner *cb, const char *what)
+{
+    if (!cb->keep || !cb->keep->fin)
+        return NULL;
+    bsti_factor **slot = strcmp(what, "towards the interior") == 0 ? &cb->keep->fin[cb->step]
+                                                                    : &cb->keep->fout[cb->step];
+    bsti_factor_free(*slot); /* not expected: one solve a side and step */
+    *slot = NULL;
+    return slot;
+}
 
 /* A copy of m, or a zero N x N matrix for m == NULL (zero). */
 static int copy_or_zero(bst_ctx *ctx, const bst_mat *m, size_t N, bst_mat **out)
@@ -659,6 +679,7 @@ static int combine(bst_ctx *ctx, size_t n, const bst_layer *const *layers, bst_l
     struct combiner cb = {.ctx = ctx, .opts = opts, .lam = bst_basis_lambda(l0->basis), .n = n};
     for (size_t ch = 0; ch < nch && rc >= 0; ch++) {
         cb.channel = names[ch];
+        cb.keep = keep && strcmp(names[ch], keep->name) == 0 ? keep : NULL;
         for (size_t i = 0; i < n && rc >= 0; i++)
             rc = check_energy(&cb, layers[i], i, (size_t)bst_layer_find_channel(layers[i], names[ch]));
         if (rc < 0)
@@ -941,9 +962,18 @@ int bst_stack_absorptance(bst_ctx *ctx, size_t n, const bst_layer *const *layers
  * each) through every gap, each gap costing one factorization and products of n rows by N x N
  * matrices, O(n N^2); the rows left on g_n are zero.  Back incidence: a row r^T on g_k becomes
  * (r^T M'_k^-1) L Tb_k on g_{k+1}, layer k's alpha_f(k)^T L Rb_U joins on g_k, and the rows
- * reaching g_n = I are the absorptances.  Per gap the old scheme (each gap's h from the interior
- * partial stack V_k = layers k..n-1, formed here) cost also V_k's combination: pane / dense shade /
- * pane 7.3 N^3 flops against 2.7 N^3 now (two factorizations a gap). */
+ * reaching g_n = I are the absorptances.  The combination's step k factors M_k and M'_k itself:
+ * up to BSTI_ABS_KEEP_MAX_N patches, in double, it hands the factorizations over (keep_slot) and
+ * the sweeps cost O(n^2 N^2) in all; otherwise each gap factors both again.  The old scheme (each
+ * gap's h from the interior partial stack V_k = layers k..n-1, formed here, and its own
+ * factorizations) cost pane / dense shade / pane 7.3 N^3 flops against 2.7 N^3 when factoring
+ * again and O(N^2) with the kept factorizations. */
+
+/* The combination's factorizations of each gap's two matrices are kept for the sweeps (one
+ * factorization a gap and side fewer) up to this many patches (k = 5): 2 (n - 1) LU factors of
+ * N x N doubles beside the partial stacks' copies; above it, and in single precision, the
+ * sweeps factor them again. */
+#define BSTI_ABS_KEEP_MAX_N 1024
 
 /* A dense double matrix of nr rows (nr x N, column-major) from arr. */
 static int rows_new(bst_ctx *ctx, size_t nr, size_t N, const double *arr, bst_mat **out)
@@ -977,9 +1007,11 @@ static int rows_mul(bst_ctx *ctx, const double *lam, size_t nr, size_t N, const 
     return rc;
 }
 
-/* out = rows (I - L x L y)^-1 for nr rows (x or y NULL: out = rows). */
+/* out = rows (I - L x L y)^-1 for nr rows (x or y NULL: out = rows), with I - L x L y factored
+ * here, or in f (the combination's, kept) when not NULL. */
 static int rows_solve(bst_ctx *ctx, const double *lam, size_t nr, size_t N, const double *rows,
-                      const bst_mat *x, const bst_mat *y, double rcond_warn, double *out)
+                      const bst_mat *x, const bst_mat *y, bsti_factor *f, double rcond_warn,
+                      double *out)
 {
     if (!x || !y) {
         memmove(out, rows, nr * N * sizeof *out);
@@ -987,6 +1019,15 @@ static int rows_solve(bst_ctx *ctx, const double *lam, size_t nr, size_t N, cons
     }
     bst_mat *lx = NULL, *ly = NULL, *a = NULL, *b = NULL, *sol = NULL;
     double rcond;
+    if (f) {
+        int rc = rows_new(ctx, nr, N, rows, &b);
+        if (rc >= 0)
+            rc = bsti_factor_solve_right(ctx, f, b, &sol);
+        if (rc >= 0)
+            rc = bst_mat_to_dense_array(ctx, sol, out);
+        bst_mat_free(b), bst_mat_free(sol);
+        return rc;
+    }
     int rc = bst_mat_scale(ctx, lam, x, NULL, &lx);
     if (rc >= 0)
         rc = bst_mat_scale(ctx, lam, y, NULL, &ly);
@@ -1010,7 +1051,8 @@ static int rows_solve(bst_ctx *ctx, const double *lam, size_t nr, size_t N, cons
  * absorptances af, ab ([layer][patch]) and U_k's Tf and Rb (tf_u[k], rb_u[k], k = 1..n-1). */
 static int absorptance_sweeps(bst_ctx *ctx, size_t n, const bst_layer *const *layers,
                               const char *chname, const bst_mat *const *tf_u,
-                              const bst_mat *const *rb_u, const double *af, const double *ab,
+                              const bst_mat *const *rb_u, bsti_factor *const *fin,
+                              bsti_factor *const *fout, const double *af, const double *ab,
                               double rcond_warn, double *abs_front, double *abs_back)
 {
     size_t N = bst_basis_size(layers[0]->basis);
@@ -1034,7 +1076,7 @@ static int absorptance_sweeps(bst_ctx *ctx, size_t n, const bst_layer *const *la
             for (size_t p = 0; rc >= 0 && p < N; p++)
                 d[p * n + k] = af[k * N + p], e[p * n + k] = ab[k * N + p];
             if (rc >= 0)
-                rc = rows_solve(ctx, lam, n, N, d, rb_u[k], rf, rcond_warn, y);
+                rc = rows_solve(ctx, lam, n, N, d, rb_u[k], rf, fin ? fin[k] : NULL, rcond_warn, y);
             if (rc >= 0)
                 rc = rows_mul(ctx, lam, n, N, y, tf_u[k], d); /* absorbed */
             for (size_t p = 0; rc >= 0 && p < N; p++)
@@ -1063,7 +1105,8 @@ static int absorptance_sweeps(bst_ctx *ctx, size_t n, const bst_layer *const *la
             for (size_t p = 0; rc >= 0 && p < N; p++)
                 c[p * n + k] = rb_u[k] ? row[p] : 0.0;
             if (rc >= 0)
-                rc = rows_solve(ctx, lam, n, N, c, rf, rb_u[k], rcond_warn, y);
+                rc = rows_solve(ctx, lam, n, N, c, rf, rb_u[k], fout ? fout[k] : NULL, rcond_warn,
+                                y);
             if (rc >= 0)
                 rc = rows_mul(ctx, lam, n, N, y, tb, c); /* on g_{k+1}, with layer k's back */
             for (size_t p = 0; rc >= 0 && p < N; p++)
@@ -1111,6 +1154,10 @@ int bsti_stack_combine_absorptance(bst_ctx *ctx, size_t n, const bst_layer *cons
     struct prefix keep = {.name = chname};
     keep.tf = bsti_calloc(ctx, 2 * n, sizeof *keep.tf);
     keep.rb = keep.tf ? keep.tf + n : NULL;
+    if (N <= BSTI_ABS_KEEP_MAX_N && opts->precision == BST_DOUBLE && keep.tf) {
+        keep.fin = bsti_calloc(ctx, 2 * n, sizeof *keep.fin); /* none kept: factored again */
+        keep.fout = keep.fin ? keep.fin + n : NULL;
+    }
     double *alpha = bsti_alloc_array(ctx, 2 * n * N, sizeof *alpha); /* [side][layer][patch] */
     bst_layer *sys = NULL;
     int rc = keep.tf && alpha ? combine(ctx, n, layers, NULL, opts, &sys, &keep) : BST_ENOMEM;
@@ -1126,14 +1173,17 @@ int bsti_stack_combine_absorptance(bst_ctx *ctx, size_t n, const bst_layer *cons
         const bst_mat **tf = (const bst_mat **)keep.tf, **rb = (const bst_mat **)keep.rb;
         if (n > 1)
             tf[1] = bst_layer_get(layers[0], c0, BST_TF), rb[1] = bst_layer_get(layers[0], c0, BST_RB);
-        rc = absorptance_sweeps(ctx, n, layers, chname, tf, rb, alpha, alpha + n * N,
-                                opts->rcond_warn, abs_front, abs_back);
+        rc = absorptance_sweeps(ctx, n, layers, chname, tf, rb, keep.fin, keep.fout, alpha,
+                                alpha + n * N, opts->rcond_warn, abs_front, abs_back);
         if (n > 1)
             tf[1] = rb[1] = NULL; /* borrowed: not freed below */
     }
     for (size_t k = 0; keep.tf && k < n; k++)
         bst_mat_free(keep.tf[k]), bst_mat_free(keep.rb[k]);
+    for (size_t k = 0; keep.fin && k < n; k++)
+        bsti_factor_free(keep.fin[k]), bsti_factor_free(keep.fout[k]);
     bsti_free(ctx, keep.tf);
+    bsti_free(ctx, keep.fin);
     bsti_free(ctx, alpha);
     if (rc < 0) {
         bst_layer_free(sys);
