@@ -1096,7 +1096,8 @@ static bst_layer *shade_solar_layer(const bst_basis *b)
  * backward sweep, no flipped stack) against bst_stack_combine and bst_stack_absorptance (partial
  * stacks formed anew, back incidence on the flipped stack): NFRC 102 / 2011-SA1 / NFRC 103 and
  * NFRC 102 / 2011-SA1 / NFRC 103 / 2011-SA1 (two backward steps), Klems full at 0.55 um, both
- * sides, to 1e-12; a subset of components takes the two calls' own path (equal); a layer without
+ * sides, to 1e-12 (the combination's factorizations kept), and in single precision (each gap
+ * factored again) to 1e-5; a subset of components takes the two calls' own path (equal); a layer without
  * the channel is refused. */
 START_TEST(test_combine_absorptance_one_pass)
 {
@@ -1140,6 +1141,18 @@ START_TEST(test_combine_absorptance_one_pass)
         ck_assert_ptr_null(bst_layer_get(one, 0, BST_RF));
         for (size_t i = 0; i < n * N; i++)
             ck_assert_double_eq(a[0][i], a[2][i]);
+        bst_layer_free(one);
+        /* single precision: the sweeps factor each gap again (the combination keeps its
+         * factorizations in double only); both sides against bst_stack_absorptance in float */
+        bst_stack_opts of;
+        bst_stack_opts_init(&of);
+        of.precision = BST_FLOAT;
+        ck_assert_int_ge(bsti_stack_combine_absorptance(ctx, n, stack, 0, &of, &one, a[0], a[1]), 0);
+        ck_assert_int_ge(bst_stack_absorptance(ctx, n, stack, 0, &of, a[2], a[3]), 0);
+        for (size_t i = 0; i < n * N; i++)
+            ck_assert_msg(fabs(a[0][i] - a[2][i]) <= 1e-5 && fabs(a[1][i] - a[3][i]) <= 1e-5,
+                          "float, %zu layers, layer %zu patch %zu: front %.9g vs %.9g, back %.9g "
+                          "vs %.9g", n, i / N + 1, i % N, a[0][i], a[2][i], a[1][i], a[3][i]);
         bst_layer_free(one);
         for (int q = 0; q < 4; q++)
             free(a[q]);
