@@ -20,14 +20,13 @@
  * large it joins only close ones.  Before 2026-11-25 a group extended while every datum stayed
  * within tol of its first wavelength's (the default 0.01): on NFRC 102 / the dual-band 2011-SA1 /
  * NFRC 103 (Klems full, Solar and Visible) that took 57 combinations; the RMS rule at 0.004 takes
- * 39 (5 Visible, 34 Solar) with errors within the old ones' bound: T, R and A
- * move by at most 5.1e-5 against tol = 0 on NFRC 102 + 2011-SA1 and NFRC 102 + 103 (test_wce.c),
- * 3.9e-5 on the three layers, Klems full, and 3.7e-5 at k = 5 (against 4.8e-5 and 4.5e-5 with
- * the old rule; bench/README.md).  Evaluating the panes
- * at a group's weight-centroid wavelength instead of its mean data errs far more (2.5e-3 in T at
- * the old 0.01: the solar weights are uneven within a group), so the mean data it is.  tol = 0
- * groups only wavelengths with equal data (the result equals the ungrouped one to rounding), tol <
- * 0 none (test_wce.c).
+ * 39 (5 Visible, 34 Solar) with errors within the old ones' bound: T, R and A move by at most
+ * 5.1e-5 against tol = 0 on NFRC 102 + 2011-SA1 and NFRC 102 + 103 (test_wce.c), 3.9e-5 on the
+ * three layers, Klems full, and 3.7e-5 at k = 5 (against 4.8e-5 and 4.5e-5 with the old rule;
+ * bench/README.md).  Evaluating the panes at a group's weight-centroid wavelength instead of its
+ * mean data errs far more (2.5e-3 in T at the old 0.01: the solar weights are uneven within a
+ * group), so the mean data it is.  tol = 0 groups only wavelengths with equal data (the result
+ * equals the ungrouped one to rounding), tol < 0 none (test_wce.c).
  * What does not depend on the wavelength is built once, before the groups: the patch rule of the
  * panes (bsti_glass_rule: directions and weights), the dual-band layers (two one-channel layers in
  * their cheapest structures), the groups themselves; per group each pane's two slab sides are set
@@ -36,7 +35,8 @@
  * and the flipped stack's, and a pair of components whose outer factor is a pane takes two left
  * solves with one factorization (stack.c, inward/outward); the groups run side by side, one worker
  * a core (below).  Per group, pane / dense shade / pane costs about 18.7 N^3 flops for the system
- * and 2.7 N^3 for the absorptance (bench/README.md, "Spectral stacks with a shade").
+ * and O(N^2) for the absorptance, which reuses the combination's factorizations up to k = 5
+ * (bench/README.md, "Spectral stacks with a shade").
  *
  * A band channel (Visible, Solar, CIE-X, CIE-Y, CIE-Z) missing from the first pane is added to it;
  * its wavelengths are the union of the layers' own ones, or the band's integration grid when that
