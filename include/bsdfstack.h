@@ -352,12 +352,13 @@ typedef struct {
 typedef struct {
     int at_centre;            /* 1: panes at patch centres (WINDOW's), 0: patch averages; default 0 */
     double dual_f;            /* f of dual-band layers, default BST_DUAL_BAND_F; 0 <= f < 1 */
-    double tol;               /* wavelengths are combined once per group over which every pane's
-                                 normal-incidence T and R move by at most tol (spectral.c); 0:
-                                 only equal data share a combination, < 0: none does; default
-                                 BST_SPECTRAL_TOL */
+    double tol;               /* wavelengths are combined once per group, grouped so that the
+                                 band-weighted RMS deviation of every pane's normal-incidence
+                                 T and R from their group's mean is within tol
+                                 (spectral.c); 0: only equal data share a combination, < 0: none
+                                 does; default BST_SPECTRAL_TOL */
 } bst_spectral_opts;
-#define BST_SPECTRAL_TOL 0.01 /* T, R, A within 6.3e-5 of tol 0, see bsdfstack-combine(1) */
+#define BST_SPECTRAL_TOL 0.004 /* T, R, A within 5.1e-5 of tol 0, see bsdfstack-combine(1) */
 void bst_spectral_opts_init(bst_spectral_opts *opts);
 
 /* Layers (exterior first, at least one a spectral pane) combined wavelength by wavelength, then

@@ -394,8 +394,10 @@ static int factor_solve(struct factor *f, int trans, const bst_mat *b, bst_mat *
  * is factored, so that A and its factorization are never both held beside the results. */
 static int solve_owning(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a, size_t nb,
                         const bst_mat *const *b, double rcond_warn, bst_mat **out,
-                        double *rcond_out)
+                        double *rcond_out, bsti_factor **keep)
 {
+    if (keep)
+        *keep = NULL;
     if (!ctx)
         return BST_EINVAL;
     for (size_t q = 0; q < nb; q++)
@@ -452,7 +454,7 @@ static int solve_owning(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own
                 rc = factor_solve(&f, 1, bt, &xt);
             }
             bst_mat_free(bt);
-            if (q + 1 == nb)
+            if (q + 1 == nb && !keep)
                 factor_free(&f);
             if (rc >= 0)
                 rc = bst_mat_transpose(ctx, xt, &out[q]);
@@ -461,7 +463,10 @@ static int solve_owning(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own
             rc = factor_solve(&f, 0, b[q], &out[q]);
         }
     }
-    factor_free(&f);
+    if (rc >= 0 && keep && f.s != BST_ZERO && (*keep = bsti_alloc_array(ctx, 1, sizeof **keep)))
+        **keep = f; /* handed to the caller (bsti_factor_free) */
+    else
+        factor_free(&f);
     rcond = fmin(rcond, 1.0); /* rounding in the estimate may exceed the bound 1 */
     if (rcond_out)
         *rcond_out = rcond;
@@ -493,7 +498,7 @@ int bst_solve_left(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double rcon
         return BST_EINVAL;
     if (!x)
         return bsti_error(ctx, BST_EINVAL, "solve: NULL result pointer");
-    return solve_owning(ctx, 0, a, &none, 1, &b, rcond_warn, x, rcond);
+    return solve_owning(ctx, 0, a, &none, 1, &b, rcond_warn, x, rcond, NULL);
 }
 
 int bst_solve_right(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double rcond_warn,
@@ -504,25 +509,26 @@ int bst_solve_right(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double rco
         return BST_EINVAL;
     if (!y)
         return bsti_error(ctx, BST_EINVAL, "solve: NULL result pointer");
-    return solve_owning(ctx, 1, a, &none, 1, &b, rcond_warn, y, rcond);
+    return solve_owning(ctx, 1, a, &none, 1, &b, rcond_warn, y, rcond, NULL);
 }
 
 int bsti_solve_take(bst_ctx *ctx, int right, bst_mat *a, const bst_mat *b, double rcond_warn,
-                    bst_mat **out, double *rcond)
+                    bst_mat **out, double *rcond, bsti_factor **keep)
 {
     bst_mat *own = a;
-    int rc = out ? solve_owning(ctx, right, a, &own, 1, &b, rcond_warn, out, rcond)
+    int rc = out ? solve_owning(ctx, right, a, &own, 1, &b, rcond_warn, out, rcond, keep)
                  : ctx ? bsti_error(ctx, BST_EINVAL, "solve: NULL result pointer") : BST_EINVAL;
     bst_mat_free(own); /* when an error came before the factorization */
     return rc;
 }
 
 int bsti_solve_take_left2(bst_ctx *ctx, bst_mat *a, const bst_mat *b1, const bst_mat *b2,
-                          double rcond_warn, bst_mat **x1, bst_mat **x2, double *rcond)
+                          double rcond_warn, bst_mat **x1, bst_mat **x2, double *rcond,
+                          bsti_factor **keep)
 {
     bst_mat *own = a, *x[2] = {NULL, NULL};
     const bst_mat *b[2] = {b1, b2};
-    int rc = x1 && x2 ? solve_owning(ctx, 0, a, &own, 2, b, rcond_warn, x, rcond)
+    int rc = x1 && x2 ? solve_owning(ctx, 0, a, &own, 2, b, rcond_warn, x, rcond, keep)
                       : ctx ? bsti_error(ctx, BST_EINVAL, "solve: NULL result pointer") : BST_EINVAL;
     bst_mat_free(own);
     if (x1)
@@ -530,4 +536,29 @@ int bsti_solve_take_left2(bst_ctx *ctx, bst_mat *a, const bst_mat *b1, const bst
     if (x2)
         *x2 = x[1];
     return rc;
+}
+
+int bsti_factor_solve_right(bst_ctx *ctx, bsti_factor *f, const bst_mat *b, bst_mat **y)
+{
+    bst_mat *bt = NULL, *xt = NULL;
+    *y = NULL;
+    if (b->cols != f->n)
+        return bsti_error(ctx, BST_ESIZE, "solve: factor of %zu, B is %zu x %zu", f->n, b->rows,
+                          b->cols);
+    int rc = bst_mat_transpose(ctx, b, &bt);
+    if (rc >= 0)
+        rc = factor_solve(f, 1, bt, &xt);
+    if (rc >= 0)
+        rc = bst_mat_transpose(ctx, xt, y);
+    bst_mat_free(bt), bst_mat_free(xt);
+    return rc;
+}
+
+void bsti_factor_free(bsti_factor *f)
+{
+    if (!f)
+        return;
+    bst_ctx *ctx = f->ctx;
+    factor_free(f);
+    bsti_free(ctx, f);
 }

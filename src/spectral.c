@@ -5,19 +5,28 @@
  *
  * The average of a system property over a band is linear in the per-wavelength system, so the
  * band's matrices are sum_k w_k M(lambda_k) with bst_glass_channel_weights' w.  Wavelengths of zero
- * weight are skipped.  The rest are combined once per group (cost control): walking the grid in
- * order, a group extends while every pane's normal-incidence Tf, Tb, Rf, Rb stay within tol
- * (absolute) of those at its first wavelength and, with a dual-band layer, the wavelength stays on
- * the same side of the visible range's limits (the layer is constant on each side).  A group is
- * combined once, each pane built from its data averaged with the weights over the group, and added
- * with the group's summed weight (absorptance likewise).  The system is smooth in the panes' data
- * and the mean cancels the first-order term, so the error is second order in the data's spread:
- * on NFRC 102 + 2011-SA1 and NFRC 102 + 103 (Klems full, Solar and Visible) tol = 0.01 moves T, R
- * and A by at most 6.3e-5, and NFRC 102 / a dual-band diffuser / NFRC 103 needs 57 combinations
- * (41 Solar, 16 Visible) instead of about 160 at tol = 0; evaluating the panes at
- * the group's weight-centroid wavelength instead errs by up to 2.5e-3 (the solar weights are
- * uneven within a group), so the mean data it is.  tol = 0 groups only wavelengths with equal
- * data (the result equals the ungrouped one to rounding), tol < 0 none (test_wce.c).
+ * weight are skipped.  The rest are combined once per group (cost control), each pane built from
+ * its data averaged with the weights over the group, the system added with the group's summed
+ * weight (absorptance likewise).  The system is smooth in the panes' data and the mean cancels the
+ * first-order term, so a group's error is about its weighted sum of squared deviations from the
+ * mean, sum_k w_k (d_k - mean)^2 (d: every pane's normal-incidence Tf, Tb, Rf, Rb; the largest of
+ * them), and the band's error about the sum of that over its groups: with the band's weights
+ * summing to 1, the weighted mean square deviation of the data from their groups' means.  So the
+ * groups are formed for that sum: walking the grid in order, a group extends while its share stays
+ * within a budget b (and, with a dual-band layer, on the same side of the visible range's limits,
+ * where the layer is constant), and b is the largest (bisection) for which the shares sum to at
+ * most tol^2: tol is the weighted RMS deviation of the panes' data from their group means.  Where
+ * the weights are small (solar UV and far IR) this joins data that differ much; where they are
+ * large it joins only close ones.  Before 2026-11-25 a group extended while every datum stayed
+ * within tol of its first wavelength's (the default 0.01): on NFRC 102 / the dual-band 2011-SA1 /
+ * NFRC 103 (Klems full, Solar and Visible) that took 57 combinations; the RMS rule at 0.004 takes
+ * 39 (5 Visible, 34 Solar) with errors within the old ones' bound: T, R and A move by at most
+ * 5.1e-5 against tol = 0 on NFRC 102 + 2011-SA1 and NFRC 102 + 103 (test_wce.c), 3.9e-5 on the
+ * three layers, Klems full, and 3.7e-5 at k = 5 (against 4.8e-5 and 4.5e-5 with the old rule;
+ * bench/README.md).  Evaluating the panes at a group's weight-centroid wavelength instead of its
+ * mean data errs far more (2.5e-3 in T at the old 0.01: the solar weights are uneven within a
+ * group), so the mean data it is.  tol = 0 groups only wavelengths with equal data (the result
+ * equals the ungrouped one to rounding), tol < 0 none (test_wce.c).
  * What does not depend on the wavelength is built once, before the groups: the patch rule of the
  * panes (bsti_glass_rule: directions and weights), the dual-band layers (two one-channel layers in
  * their cheapest structures), the groups themselves; per group each pane's two slab sides are set
@@ -25,9 +34,9 @@
  * reads its partial stacks (bsti_stack_combine_absorptance, stack.c) instead of forming them again
  * and the flipped stack's, and a pair of components whose outer factor is a pane takes two left
  * solves with one factorization (stack.c, inward/outward); the groups run side by side, one worker
- * a core (below).  NFRC 102 / 2011-SA1 / NFRC 103 with --absorptance, Solar and Visible (57
- * groups), the whole command: Klems full 1.3x less CPU than one combination and two absorptance
- * passes a group, k = 5 1.9x less (bench/README.md, "Spectral stacks with a shade").
+ * a core (below).  Per group, pane / dense shade / pane costs about 18.7 N^3 flops for the system
+ * and O(N^2) for the absorptance, which reuses the combination's factorizations up to k = 5
+ * (bench/README.md, "Spectral stacks with a shade").
  *
  * A band channel (Visible, Solar, CIE-X, CIE-Y, CIE-Z) missing from the first pane is added to it;
  * its wavelengths are the union of the layers' own ones, or the band's integration grid when that
@@ -41,6 +50,7 @@
 #include <config.h>
 
 #include <float.h>
+#include <limits.h>
 #include <math.h>
 #include <pthread.h>
 #include <stdatomic.h>
@@ -190,13 +200,28 @@ static int dual_new(bst_ctx *ctx, const bst_layer *l, size_t pos, const bst_basi
 
 /* ------------------------------------------------------------------ the combination */
 
-/* acc[c] += w * m[c] for the requested components (acc[c] == NULL: acc[c] = w * m[c]). */
-static int accumulate(bst_ctx *ctx, bst_mat **acc, const bst_layer *sys, unsigned want, double w)
+/* acc[c] += w * m[c] for the requested components (acc[c] == NULL: acc[c] = w * m[c]).  Dense
+ * double sums are added in place (and the first taken from sys, scaled in place): no N x N
+ * matrix allocated, filled and freed per group and component. */
+static int accumulate(bst_ctx *ctx, bst_mat **acc, bst_layer *sys, unsigned want, double w)
 {
     for (int c = 0; c < BST_NCOMP; c++) {
         if (!(want & BST_COMP_BIT(c)))
             continue;
         const bst_mat *m = bst_layer_get(sys, 0, (bst_comp)c);
+        int dense = m && bst_mat_structure(m) == BST_DENSE && bst_mat_precision(m) == BST_DOUBLE;
+        size_t size = dense ? bst_mat_rows(m) * bst_mat_cols(m) : 0;
+        if (dense && !acc[c] && size <= INT_MAX) {
+            acc[c] = bst_layer_take(sys, 0, (bst_comp)c);
+            cblas_dscal((int)size, w, bst_mat_dense_data(acc[c]), 1);
+            continue;
+        }
+        if (dense && bst_mat_structure(acc[c]) == BST_DENSE &&
+            bst_mat_precision(acc[c]) == BST_DOUBLE && size <= INT_MAX) {
+            cblas_daxpy((int)size, w, bst_mat_dense_data((bst_mat *)m), 1,
+                        bst_mat_dense_data(acc[c]), 1);
+            continue;
+        }
         bst_mat *sum;
         int rc = acc[c] ? bst_mat_add(ctx, 1.0, acc[c], w, m, &sum) : bst_mat_add(ctx, w, m, 0.0, m, &sum);
         if (rc < 0)
@@ -225,41 +250,116 @@ static int inside_visible(double um)
     return um >= BST_DUAL_BAND_LO && um <= BST_DUAL_BAND_HI;
 }
 
-/* The group that starts at wavelength k0 (w[k0] > 0): the end (one past its last wavelength) and
- * in mean[4 n] the panes' normal-incidence data averaged with the weights, in *wsum their sum.
- * The group extends while every pane's data differ from those at wl[k0] by at most tol and, when
- * the stack has a dual-band layer (split), the wavelength is on wl[k0]'s side of the visible
- * range's limits; wavelengths of zero weight neither join nor end it; tol < 0: one wavelength.
- * first and here are 4 n values of work space. */
-static size_t group(size_t n, const bst_spectral_layer *layers, int split, const double *wl,
-                    const double *w, size_t nwl, size_t k0, double tol, double *first,
-                    double *here, double *mean, double *wsum)
+/* One group of one channel: the wavelengths [first, end) of its grid (first after the previous
+ * group, for progress), the side of the visible range, the summed weight, the panes' mean data
+ * (4 n). */
+struct job {
+    size_t ch, first, end;
+    int inside;
+    double wsum;
+    const double *mean;
+};
+
+/* The group that starts at wavelength k0 (w[k0] > 0) of a channel's grid wl (nwl wavelengths,
+ * weights w, the panes' normal-incidence data d[k * nq + q], nq = 4 n): its end (one past its last
+ * wavelength), in mean[nq] the data averaged with the weights, in *wsum their sum and in *var the
+ * largest over q of sum_k w_k (d_kq - mean_q)^2 (the group's share of the grouping's error, see
+ * channel_groups).  The group extends while that stays within budget and, when the stack has a
+ * dual-band layer (split), the wavelength is on wl[k0]'s side of the visible range's limits;
+ * wavelengths of zero weight neither join nor end it; budget < 0: one wavelength.  Budget 0
+ * joins only equal data (the weighted update below then changes nothing).  m2 and try are nq
+ * values of work space. */
+static size_t group(size_t nq, const double *d, int split, const double *wl, const double *w,
+                    size_t nwl, size_t k0, double budget, double *mean, double *m2, double *try,
+                    double *wsum, double *var)
 {
-    /* decimal data (0.848 - 0.847) differ by tol only to an ulp or two of 1 */
-    double slack = tol > 0 ? 4 * DBL_EPSILON : 0.0;
-    panes_at(n, layers, wl[k0], first);
-    for (size_t q = 0; q < 4 * n; q++)
-        mean[q] = w[k0] * first[q];
+    for (size_t q = 0; q < nq; q++)
+        mean[q] = d[k0 * nq + q], m2[q] = 0.0;
     *wsum = w[k0];
+    *var = 0.0;
     size_t k = k0 + 1;
-    for (; tol >= 0 && k < nwl; k++) {
+    for (; budget >= 0 && k < nwl; k++) {
         if (w[k] == 0.0)
             continue;
         if (split && inside_visible(wl[k]) != inside_visible(wl[k0]))
             break;
-        panes_at(n, layers, wl[k], here);
-        size_t q = 0;
-        while (q < 4 * n && fabs(here[q] - first[q]) <= tol + slack)
-            q++;
-        if (q < 4 * n)
+        /* the weighted mean and sum of squared deviations with wavelength k (West's update) */
+        double ws = *wsum + w[k], v = 0.0;
+        for (size_t q = 0; q < nq; q++) {
+            double delta = d[k * nq + q] - mean[q];
+            try[q] = m2[q] + w[k] * delta * (d[k * nq + q] - (mean[q] + w[k] / ws * delta));
+            v = fmax(v, try[q]);
+        }
+        if (v > budget)
             break;
-        for (q = 0; q < 4 * n; q++)
-            mean[q] += w[k] * here[q];
-        *wsum += w[k];
+        for (size_t q = 0; q < nq; q++) {
+            mean[q] += w[k] / ws * (d[k * nq + q] - mean[q]);
+            m2[q] = try[q];
+        }
+        *wsum = ws;
+        *var = v;
     }
-    for (size_t q = 0; q < 4 * n; q++)
-        mean[q] /= *wsum;
     return k;
+}
+
+/* A channel's groups for a per-group budget: how many, and in *total the sum of their shares
+ * (group's *var).  With jobs, each is written there (ch, first, end, side, weight) with its mean
+ * data at means + (job index) nq.  ws: 3 nq values of work space. */
+static size_t channel_groups(size_t nq, const double *d, int split, const double *wl,
+                             const double *w, size_t nwl, double budget, size_t ch,
+                             struct job *jobs, double *means, double *ws, double *total)
+{
+    size_t count = 0;
+    *total = 0.0;
+    for (size_t k = 0, prev = 0; k < nwl; k++) {
+        if (w[k] == 0.0)
+            continue;
+        double wsum, var, *mean = jobs ? means + count * nq : ws + 2 * nq;
+        size_t end = group(nq, d, split, wl, w, nwl, k, budget, mean, ws, ws + nq, &wsum, &var);
+        if (jobs)
+            jobs[count] = (struct job){.ch = ch, .first = prev, .end = end,
+                                       .inside = inside_visible(wl[k]), .wsum = wsum, .mean = mean};
+        *total += var;
+        count++;
+        prev = end;
+        k = end - 1;
+    }
+    return count;
+}
+
+/* The budget's search (group_budget): bracketed upwards from tol^2 GROUP_BUDGET_LOW by factors of
+ * 4, then GROUP_BUDGET_STEPS geometric bisections (a factor 4 to within 1 + 1e-12). */
+#define GROUP_BUDGET_LOW 1e-16
+#define GROUP_BUDGET_STEPS 40
+
+/* The per-group budget for tolerance tol (> 0): the largest (found by bisection, see above) for
+ * which the channel's groups' shares sum to at most tol^2; 0 when none is (only equal data
+ * grouped).  The greedy groups' sum need not grow monotonically with the budget: the bisection
+ * keeps a budget whose sum was seen within tol^2, which is what the groups are then made with. */
+static double group_budget(size_t nq, const double *d, int split, const double *wl,
+                           const double *w, size_t nwl, double tol, double *ws)
+{
+    double total, lo = 0.0, hi = tol * tol;
+    channel_groups(nq, d, split, wl, w, nwl, hi, 0, NULL, NULL, ws, &total);
+    if (total <= tol * tol)
+        return hi;
+    for (double b = hi * GROUP_BUDGET_LOW; b < hi; b *= 4.0) { /* lo feasible, hi not */
+        channel_groups(nq, d, split, wl, w, nwl, b, 0, NULL, NULL, ws, &total);
+        if (total > tol * tol) {
+            hi = b;
+            break;
+        }
+        lo = b;
+    }
+    for (int it = 0; it < GROUP_BUDGET_STEPS && lo > 0.0; it++) {
+        double b = sqrt(lo * hi);
+        channel_groups(nq, d, split, wl, w, nwl, b, 0, NULL, NULL, ws, &total);
+        if (total <= tol * tol)
+            lo = b;
+        else
+            hi = b;
+    }
+    return lo;
 }
 
 /* Validates the layers; *first = the first pane (it gives the bands' weights). */
@@ -311,15 +411,6 @@ static int check_layers(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers
 /* At most this many workers (and no more than online processors). */
 #define BSTI_SPECTRAL_MAX_WORKERS 16
 
-/* One group of one channel: the wavelengths [first, end) of its grid (first after the previous
- * group, for progress), the side of the visible range, the summed weight, the panes' mean data
- * (4 n). */
-struct job {
-    size_t ch, first, end;
-    int inside;
-    double wsum;
-    const double *mean;
-};
 
 /* What every worker reads; stop is set by a worker that fails, so that the others end early. */
 struct shared {
@@ -526,8 +617,6 @@ static int spectral_run(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers
     bsti_glass_rule *rule = NULL;
     int split = 0; /* a dual-band layer changes at the visible range's limits */
     rc = dual ? union_grid(ctx, n, layers, &all, &nall) : BST_ENOMEM;
-    if (rc >= 0 && !(data = bsti_alloc_array(ctx, 8 * n, sizeof *data)))
-        rc = BST_ENOMEM;
     for (size_t i = 0; i < n && rc >= 0; i++)
         if (layers[i].bands)
             rc = dual_new(ctx, layers[i].bands, i, basis, so->dual_f, &dual[i]), split = 1;
@@ -554,18 +643,18 @@ static int spectral_run(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers
             break;
         }
         rc = bst_glass_channel_weights(ctx, ref, ch, nwl, wl, w);
-        for (size_t k = 0, prev = 0; k < nwl && rc >= 0; k++) {
-            if (w[k] == 0.0)
-                continue;
-            struct job *j = &jobs[njobs];
-            double *mean = means + njobs * 4 * n;
-            j->ch = c, j->first = prev, j->inside = inside_visible(wl[k]), j->mean = mean;
-            j->end = group(n, layers, split, wl, w, nwl, k, so->tol, data, data + 4 * n, mean,
-                           &j->wsum);
-            prev = j->end;
-            k = j->end - 1;
-            njobs++;
-        }
+        bsti_free(ctx, data);
+        if (rc >= 0 && !(data = bsti_alloc_array(ctx, (nwl + 3) * 4 * n, sizeof *data)))
+            rc = BST_ENOMEM;
+        for (size_t k = 0; rc >= 0 && k < nwl; k++)
+            panes_at(n, layers, wl[k], data + k * 4 * n);
+        if (rc < 0)
+            break;
+        double *ws = data + nwl * 4 * n, vsum;
+        double budget = so->tol > 0 ? group_budget(4 * n, data, split, wl, w, nwl, so->tol, ws)
+                                    : so->tol;
+        njobs += channel_groups(4 * n, data, split, wl, w, nwl, budget, c, jobs + njobs,
+                                means + njobs * 4 * n, ws, &vsum);
     }
     /* the workers and their sums */
     struct shared sh = {.n = n, .N = N, .njobs = njobs, .total = total ? total : 1,

@@ -106,7 +106,10 @@ struct combiner {
     size_t step;
     const char *channel;
     double flops_mark; /* bsti_flops_done when the component being formed began */
+    struct prefix *keep; /* the absorptance's: factorizations kept (keep_slot), else NULL */
 };
+
+static bsti_factor **keep_slot(struct combiner *cb, const char *what);
 
 /* Record a warning (or, in strict mode, turn it into an error). */
 static int note_warning(struct combiner *cb, int status)
@@ -287,7 +290,8 @@ static struct term solve(struct combiner *cb, int side, struct term a, struct te
     else if (!a.m)
         rc = copy(cb, b.m, &out);
     else
-        rc = bsti_solve_take(cb->ctx, side, a.dies, b.m, cb->opts->rcond_warn, &out, &cb->rcond);
+        rc = bsti_solve_take(cb->ctx, side, a.dies, b.m, cb->opts->rcond_warn, &out, &cb->rcond,
+                             keep_slot(cb, what));
     bst_mat_free(b.dies);
     rc = solve_status(cb, rc, what);
     return result(cb, rc, out);
@@ -314,7 +318,7 @@ static struct term solve2(struct combiner *cb, struct term a, struct term b1, st
         return r1;
     }
     rc = bsti_solve_take_left2(cb->ctx, a.dies, b1.m, b2.m, cb->opts->rcond_warn, &out1, &out2,
-                               &cb->rcond);
+                               &cb->rcond, keep_slot(cb, what));
     release(b1, b2);
     rc = solve_status(cb, rc, what);
     *x2 = result(cb, rc, out2);
@@ -588,7 +592,23 @@ static int prepare(struct combiner *cb, const bst_layer *l, bst_layer *take, siz
 struct prefix {
     const char *name;
     bst_mat **tf, **rb;
+    bsti_factor **fin, **fout; /* NULL, or step k's factorizations of I - A1 and I - A2 */
 };
+
+/* Where the solve of the step being formed keeps its factorization for the absorptance: step
+ * k's inward one (I - L Rb_U L Rf_k, the gap's front incidence) in fin[k], the outward one
+ * (I - L Rf_k L Rb_U) in fout[k]; NULL when nothing is kept.  (The step's two solves are told
+ * apart by the name inward and outward give them.) */
+static bsti_factor **keep_slot(struct combiner *cb, const char *what)
+{
+    if (!cb->keep || !cb->keep->fin)
+        return NULL;
+    bsti_factor **slot = strcmp(what, "towards the interior") == 0 ? &cb->keep->fin[cb->step]
+                                                                    : &cb->keep->fout[cb->step];
+    bsti_factor_free(*slot); /* not expected: one solve a side and step */
+    *slot = NULL;
+    return slot;
+}
 
 /* A copy of m, or a zero N x N matrix for m == NULL (zero). */
 static int copy_or_zero(bst_ctx *ctx, const bst_mat *m, size_t N, bst_mat **out)
@@ -659,6 +679,7 @@ static int combine(bst_ctx *ctx, size_t n, const bst_layer *const *layers, bst_l
     struct combiner cb = {.ctx = ctx, .opts = opts, .lam = bst_basis_lambda(l0->basis), .n = n};
     for (size_t ch = 0; ch < nch && rc >= 0; ch++) {
         cb.channel = names[ch];
+        cb.keep = keep && strcmp(names[ch], keep->name) == 0 ? keep : NULL;
         for (size_t i = 0; i < n && rc >= 0; i++)
             rc = check_energy(&cb, layers[i], i, (size_t)bst_layer_find_channel(layers[i], names[ch]));
         if (rc < 0)
@@ -922,61 +943,180 @@ int bst_stack_absorptance(bst_ctx *ctx, size_t n, const bst_layer *const *layers
 /* ------------------------------------------------------------------ the system and its absorptance
  *
  * bst_stack_combine and bst_stack_absorptance each form partial stacks: the combination those of
- * layers 0..k-1 (U_k), the absorptance U_k again and those of layers k..n-1 (V_k), and the back
- * incidence all of it once more on the flipped stack.  Here the combination keeps its U_k's Tf and
- * Rb (struct prefix), one backward sweep forms V_k's Rf and Tb, and each gap k reads both, for
- * either side of incidence (L = Lambda, alpha_f / alpha_b the layers' side absorptances):
- *   front: h = (I - L Rb_U L Rf_V)^-1 L Tf_U (the light arriving at V), g = L Rf_V h (at U's back):
- *          layer k absorbs alpha_f(k)^T h, layer k-1 alpha_b(k-1)^T L Rf_V h;
- *   back:  h = (I - L Rf_V L Rb_U)^-1 L Tb_V (arriving at U's back), g = L Rb_U h (at V's front):
- *          layer k-1 absorbs alpha_b(k-1)^T h, layer k alpha_f(k)^T L Rb_U h;
- * and the incident beam: layer 0's front, layer n-1's back.  Each gap costs a factorization and a
- * right solve with two rows instead of two partial stacks and a flip. */
+ * layers 0..k-1 (U_k), the absorptance U_k again and those of layers k..n-1, and the back incidence
+ * all of it once more on the flipped stack.  Here the combination keeps its U_k's Tf and Rb
+ * (struct prefix) and the absorptance needs nothing else: no interior partial stack, only row
+ * vectors carried through the gaps (an adjoint sweep, L = Lambda, alpha_f / alpha_b the layers'
+ * side absorptances, columns = incident patches).  In gap k (between U_k and layer k) let h_k be
+ * the light arriving at layer k's front and g_k that arriving at U_k's back; layer k absorbs
+ * alpha_f(k)^T h_k + alpha_b(k)^T g_{k+1}, and
+ *   g_k = L Rf_k h_k + L Tb_k g_{k+1}                     (layer k's front sends back)
+ *   h_k = L Tf_U + L Rb_U g_k   (front incidence),   h_k = L Rb_U g_k   (back incidence)
+ * (U = U_k; h_0 = I, g_n = 0 for front incidence; h_0 = 0, g_n = I for back incidence).  So
+ *   front: h_k = M_k^-1 (L Tf_U + L Rb_U L Tb_k g_{k+1}),   M_k  = I - L Rb_U L Rf_k,
+ *   back:  g_k = M'_k^-1 L Tb_k g_{k+1},                    M'_k = I - L Rf_k L Rb_U,
+ * the matrices the combination's step k inverts (inward and outward).  A row c^T applied to g_k
+ * (front) becomes (c^T L Rf_k) on h_k plus (c^T L Tb_k) on g_{k+1}, and a row d^T on h_k becomes,
+ * with y^T = d^T M_k^-1 (one right solve), y^T L Tf_U (absorbed: done) plus y^T L Rb_U L Tb_k on
+ * g_{k+1}: so one sweep from the exterior inwards carries every layer's row (n rows, N values
+ * each) through every gap, each gap costing one factorization and products of n rows by N x N
+ * matrices, O(n N^2); the rows left on g_n are zero.  Back incidence: a row r^T on g_k becomes
+ * (r^T M'_k^-1) L Tb_k on g_{k+1}, layer k's alpha_f(k)^T L Rb_U joins on g_k, and the rows
+ * reaching g_n = I are the absorptances.  The combination's step k factors M_k and M'_k itself:
+ * up to BSTI_ABS_KEEP_MAX_N patches, in double, it hands the factorizations over (keep_slot) and
+ * the sweeps cost O(n^2 N^2) in all; otherwise each gap factors both again.  The old scheme (each
+ * gap's h from the interior partial stack V_k = layers k..n-1, formed here, and its own
+ * factorizations) cost pane / dense shade / pane 7.3 N^3 flops against 2.7 N^3 when factoring
+ * again and O(N^2) with the kept factorizations. */
 
-/* a0 += r0^T (I - L x L y)^-1 L z and a1 += (w^T L y) (I - L x L y)^-1 L z (all N; a NULL
- * matrix is zero). */
-static int gap_rows(bst_ctx *ctx, const double *lam, size_t N, const bst_mat *x, const bst_mat *y,
-                    const bst_mat *z, const double *r0, const double *w, double rcond_warn,
-                    double *a0, double *a1)
+/* The combination's factorizations of each gap's two matrices are kept for the sweeps (one
+ * factorization a gap and side fewer) up to this many patches (k = 5): 2 (n - 1) LU factors of
+ * N x N doubles beside the partial stacks' copies; above it, and in single precision, the
+ * sweeps factor them again. */
+#define BSTI_ABS_KEEP_MAX_N 1024
+
+/* A dense double matrix of nr rows (nr x N, column-major) from arr. */
+static int rows_new(bst_ctx *ctx, size_t nr, size_t N, const double *arr, bst_mat **out)
 {
-    if (!z) /* no light enters the gap */
-        return BST_OK;
-    bst_mat *lx = NULL, *ly = NULL, *a = NULL, *bm = NULL, *sol = NULL, *lz = NULL, *res = NULL;
-    bst_mat *zero = NULL;
-    double *r1 = bsti_calloc(ctx, N, sizeof *r1), rcond;
-    int rc = r1 ? BST_OK : BST_ENOMEM;
-    if (rc >= 0 && (!x || !y))
-        rc = bst_mat_new_zero(ctx, N, N, &zero);
-    x = x ? x : zero, y = y ? y : zero;
+    int rc = bst_mat_new_dense(ctx, nr, N, BST_DOUBLE, out);
     if (rc >= 0)
-        rc = bst_mat_scale(ctx, lam, x, NULL, &lx);
+        memcpy(bst_mat_dense_data(*out), arr, nr * N * sizeof *arr);
+    return rc;
+}
+
+/* out = (rows L) m for nr rows (nr x N column-major arrays; m NULL = zero). */
+static int rows_mul(bst_ctx *ctx, const double *lam, size_t nr, size_t N, const double *rows,
+                    const bst_mat *m, double *out)
+{
+    if (!m) {
+        memset(out, 0, nr * N * sizeof *out);
+        return BST_OK;
+    }
+    bst_mat *r = NULL, *res = NULL;
+    int rc = bst_mat_new_dense(ctx, nr, N, BST_DOUBLE, &r);
+    if (rc >= 0) {
+        double *d = bst_mat_dense_data(r);
+        for (size_t p = 0; p < N; p++)
+            for (size_t i = 0; i < nr; i++)
+                d[p * nr + i] = rows[p * nr + i] * lam[p];
+        rc = bst_mat_mul(ctx, r, m, 0.0, &res);
+    }
+    if (rc >= 0)
+        rc = bst_mat_to_dense_array(ctx, res, out);
+    bst_mat_free(r), bst_mat_free(res);
+    return rc;
+}
+
+/* out = rows (I - L x L y)^-1 for nr rows (x or y NULL: out = rows), with I - L x L y factored
+ * here, or in f (the combination's, kept) when not NULL. */
+static int rows_solve(bst_ctx *ctx, const double *lam, size_t nr, size_t N, const double *rows,
+                      const bst_mat *x, const bst_mat *y, bsti_factor *f, double rcond_warn,
+                      double *out)
+{
+    if (!x || !y) {
+        memmove(out, rows, nr * N * sizeof *out);
+        return BST_OK;
+    }
+    bst_mat *lx = NULL, *ly = NULL, *a = NULL, *b = NULL, *sol = NULL;
+    double rcond;
+    if (f) {
+        int rc = rows_new(ctx, nr, N, rows, &b);
+        if (rc >= 0)
+            rc = bsti_factor_solve_right(ctx, f, b, &sol);
+        if (rc >= 0)
+            rc = bst_mat_to_dense_array(ctx, sol, out);
+        bst_mat_free(b), bst_mat_free(sol);
+        return rc;
+    }
+    int rc = bst_mat_scale(ctx, lam, x, NULL, &lx);
     if (rc >= 0)
         rc = bst_mat_scale(ctx, lam, y, NULL, &ly);
     if (rc >= 0)
         rc = bst_mat_mul(ctx, lx, ly, 0.0, &a);
+    bst_mat_free(lx), bst_mat_free(ly);
     if (rc >= 0)
-        rc = bst_mat_col_weighted_sum(ctx, ly, w, r1);
+        rc = rows_new(ctx, nr, N, rows, &b);
     if (rc >= 0) {
-        const double *rows[2] = {r0, r1};
-        rc = rows_matrix(ctx, 2, rows, N, &bm);
-    }
-    if (rc >= 0) {
-        rc = bst_solve_right(ctx, a, bm, rcond_warn, &sol, &rcond);
+        rc = bst_solve_right(ctx, a, b, rcond_warn, &sol, &rcond);
         if (rc == BST_WILLCOND)
             rc = BST_OK; /* already reported by the combination */
     }
     if (rc >= 0)
-        rc = bst_mat_scale(ctx, lam, z, NULL, &lz);
-    if (rc >= 0)
-        rc = bst_mat_mul(ctx, sol, lz, 0.0, &res); /* 2 x N */
-    for (size_t j = 0; rc >= 0 && j < N; j++) {
-        a0[j] += bst_mat_get(res, 0, j);
-        a1[j] += bst_mat_get(res, 1, j);
+        rc = bst_mat_to_dense_array(ctx, sol, out);
+    bst_mat_free(a), bst_mat_free(b), bst_mat_free(sol);
+    return rc;
+}
+
+/* The gap sweeps above: abs_front and abs_back ([layer][patch], either NULL) from the layers' side
+ * absorptances af, ab ([layer][patch]) and U_k's Tf and Rb (tf_u[k], rb_u[k], k = 1..n-1). */
+static int absorptance_sweeps(bst_ctx *ctx, size_t n, const bst_layer *const *layers,
+                              const char *chname, const bst_mat *const *tf_u,
+                              const bst_mat *const *rb_u, bsti_factor *const *fin,
+                              bsti_factor *const *fout, const double *af, const double *ab,
+                              double rcond_warn, double *abs_front, double *abs_back)
+{
+    size_t N = bst_basis_size(layers[0]->basis);
+    const double *lam = bst_basis_lambda(layers[0]->basis);
+    double *c = bsti_calloc(ctx, 4 * n * N, sizeof *c), *d = c ? c + n * N : NULL;
+    double *e = c ? d + n * N : NULL, *y = c ? e + n * N : NULL;
+    double *row = bsti_alloc_array(ctx, N, sizeof *row), *w = bsti_alloc_array(ctx, N, sizeof *w);
+    int rc = c && row && w ? BST_OK : BST_ENOMEM;
+    for (size_t p = 0; rc >= 0 && p < N; p++) /* rows on g_1: layer 0's back */
+        c[p * n] = ab[p];
+    if (rc >= 0 && abs_front) {
+        for (size_t i = 0; i < n * N; i++)
+            abs_front[i] = i < N ? af[i] : 0.0;
+        for (size_t k = 1; rc >= 0 && k < n; k++) {
+            size_t ck = (size_t)bst_layer_find_channel(layers[k], chname);
+            const bst_mat *rf = bst_layer_get(layers[k], ck, BST_RF);
+            const bst_mat *tb = bst_layer_get(layers[k], ck, BST_TB);
+            rc = rows_mul(ctx, lam, n, N, c, rf, d); /* rows on h_k */
+            if (rc >= 0 && k + 1 < n)
+                rc = rows_mul(ctx, lam, n, N, c, tb, e); /* and on g_{k+1} */
+            for (size_t p = 0; rc >= 0 && p < N; p++)
+                d[p * n + k] = af[k * N + p], e[p * n + k] = ab[k * N + p];
+            if (rc >= 0)
+                rc = rows_solve(ctx, lam, n, N, d, rb_u[k], rf, fin ? fin[k] : NULL, rcond_warn, y);
+            if (rc >= 0)
+                rc = rows_mul(ctx, lam, n, N, y, tf_u[k], d); /* absorbed */
+            for (size_t p = 0; rc >= 0 && p < N; p++)
+                for (size_t i = 0; i <= k; i++)
+                    abs_front[i * N + p] += d[p * n + i];
+            if (rc >= 0 && k + 1 < n) { /* what goes on to g_{k+1} */
+                rc = rows_mul(ctx, lam, n, N, y, rb_u[k], d);
+                if (rc >= 0)
+                    rc = rows_mul(ctx, lam, n, N, d, tb, c);
+                for (size_t i = 0; rc >= 0 && i < n * N; i++)
+                    c[i] += e[i];
+            }
+        }
     }
-    bsti_free(ctx, r1);
-    bst_mat_free(zero);
-    bst_mat_free(lx), bst_mat_free(ly), bst_mat_free(a), bst_mat_free(bm);
-    bst_mat_free(sol), bst_mat_free(lz), bst_mat_free(res);
+    if (rc >= 0 && abs_back) {
+        memset(c, 0, n * N * sizeof *c);
+        for (size_t p = 0; p < N; p++) /* rows on g_1 */
+            c[p * n] = ab[p];
+        for (size_t k = 1; rc >= 0 && k < n; k++) {
+            size_t ck = (size_t)bst_layer_find_channel(layers[k], chname);
+            const bst_mat *rf = bst_layer_get(layers[k], ck, BST_RF);
+            const bst_mat *tb = bst_layer_get(layers[k], ck, BST_TB);
+            for (size_t p = 0; p < N; p++) /* layer k's front: alpha_f(k)^T L Rb_U on g_k */
+                w[p] = af[k * N + p] * lam[p];
+            rc = rb_u[k] ? bst_mat_col_weighted_sum(ctx, rb_u[k], w, row) : BST_OK;
+            for (size_t p = 0; rc >= 0 && p < N; p++)
+                c[p * n + k] = rb_u[k] ? row[p] : 0.0;
+            if (rc >= 0)
+                rc = rows_solve(ctx, lam, n, N, c, rf, rb_u[k], fout ? fout[k] : NULL, rcond_warn,
+                                y);
+            if (rc >= 0)
+                rc = rows_mul(ctx, lam, n, N, y, tb, c); /* on g_{k+1}, with layer k's back */
+            for (size_t p = 0; rc >= 0 && p < N; p++)
+                c[p * n + k] += ab[k * N + p];
+        }
+        for (size_t i = 0; rc >= 0 && i < n; i++) /* g_n = I */
+            for (size_t p = 0; p < N; p++)
+                abs_back[i * N + p] = c[p * n + i];
+    }
+    bsti_free(ctx, c), bsti_free(ctx, row), bsti_free(ctx, w);
     return rc;
 }
 
@@ -1014,8 +1154,12 @@ int bsti_stack_combine_absorptance(bst_ctx *ctx, size_t n, const bst_layer *cons
     struct prefix keep = {.name = chname};
     keep.tf = bsti_calloc(ctx, 2 * n, sizeof *keep.tf);
     keep.rb = keep.tf ? keep.tf + n : NULL;
+    if (N <= BSTI_ABS_KEEP_MAX_N && opts->precision == BST_DOUBLE && keep.tf) {
+        keep.fin = bsti_calloc(ctx, 2 * n, sizeof *keep.fin); /* none kept: factored again */
+        keep.fout = keep.fin ? keep.fin + n : NULL;
+    }
     double *alpha = bsti_alloc_array(ctx, 2 * n * N, sizeof *alpha); /* [side][layer][patch] */
-    bst_layer *sys = NULL, *v = NULL, *vnext = NULL; /* V_k, V_{k+1} when formed here */
+    bst_layer *sys = NULL;
     int rc = keep.tf && alpha ? combine(ctx, n, layers, NULL, opts, &sys, &keep) : BST_ENOMEM;
     int warn = rc > 0 ? rc : BST_OK;
     for (size_t i = 0; rc >= 0 && i < n; i++) {
@@ -1024,48 +1168,22 @@ int bsti_stack_combine_absorptance(bst_ctx *ctx, size_t n, const bst_layer *cons
         if (rc >= 0)
             rc = side_absorptance(ctx, layers[i], c, 1, alpha + (n + i) * N);
     }
-    const double *af = alpha, *ab = alpha ? alpha + n * N : NULL;
-    for (size_t i = 0; rc >= 0 && i < n * N; i++) {
-        if (abs_front)
-            abs_front[i] = i < N ? af[i] : 0.0;
-        if (abs_back)
-            abs_back[i] = i >= (n - 1) * N ? ab[i] : 0.0;
+    if (rc >= 0) { /* U_1 is layer 0 itself */
+        size_t c0 = (size_t)bst_layer_find_channel(layers[0], chname);
+        const bst_mat **tf = (const bst_mat **)keep.tf, **rb = (const bst_mat **)keep.rb;
+        if (n > 1)
+            tf[1] = bst_layer_get(layers[0], c0, BST_TF), rb[1] = bst_layer_get(layers[0], c0, BST_RB);
+        rc = absorptance_sweeps(ctx, n, layers, chname, tf, rb, keep.fin, keep.fout, alpha,
+                                alpha + n * N, opts->rcond_warn, abs_front, abs_back);
+        if (n > 1)
+            tf[1] = rb[1] = NULL; /* borrowed: not freed below */
     }
-    /* gap k, from the interior outwards: V_k = layer k + V_{k+1} (Rf and Tb) */
-    bst_stack_opts o = *opts;
-    o.on_step = NULL;
-    o.comps = BST_COMP_BIT(BST_RF) | BST_COMP_BIT(BST_TB);
-    const bst_layer *vk = layers[n - 1];
-    for (size_t k = n - 1; rc >= 0 && k >= 1; k--) {
-        if (k < n - 1) {
-            const bst_layer *pair[2] = {layers[k], vk};
-            rc = bst_stack_combine(ctx, 2, pair, &o, &v);
-            vk = v;
-        }
-        if (rc >= 0) {
-            size_t cu = (size_t)bst_layer_find_channel(layers[0], chname);
-            size_t cv = (size_t)bst_layer_find_channel(vk, chname);
-            const bst_mat *tf_u = k == 1 ? bst_layer_get(layers[0], cu, BST_TF) : keep.tf[k];
-            const bst_mat *rb_u = k == 1 ? bst_layer_get(layers[0], cu, BST_RB) : keep.rb[k];
-            const bst_mat *rf_v = bst_layer_get(vk, cv, BST_RF);
-            const bst_mat *tb_v = bst_layer_get(vk, cv, BST_TB);
-            if (abs_front)
-                rc = gap_rows(ctx, bst_basis_lambda(layers[0]->basis), N, rb_u, rf_v, tf_u,
-                              af + k * N, ab + (k - 1) * N, opts->rcond_warn,
-                              abs_front + k * N, abs_front + (k - 1) * N);
-            if (rc >= 0 && abs_back)
-                rc = gap_rows(ctx, bst_basis_lambda(layers[0]->basis), N, rf_v, rb_u, tb_v,
-                              ab + (k - 1) * N, af + k * N, opts->rcond_warn,
-                              abs_back + (k - 1) * N, abs_back + k * N);
-        }
-        bst_layer_free(vnext);
-        vnext = v;
-        v = NULL;
-    }
-    bst_layer_free(vnext);
     for (size_t k = 0; keep.tf && k < n; k++)
         bst_mat_free(keep.tf[k]), bst_mat_free(keep.rb[k]);
+    for (size_t k = 0; keep.fin && k < n; k++)
+        bsti_factor_free(keep.fin[k]), bsti_factor_free(keep.fout[k]);
     bsti_free(ctx, keep.tf);
+    bsti_free(ctx, keep.fin);
     bsti_free(ctx, alpha);
     if (rc < 0) {
         bst_layer_free(sys);
