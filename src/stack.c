@@ -16,7 +16,10 @@
  * stack, the components required of its two parts; a stack of n layers is n - 1 steps, and each
  * partial result is freed as soon as the next step has used it.  Within a step, count_uses derives
  * from need() how often each component of the two parts will be read, and every matrix the
- * combination owns is freed at its last read (struct term, use()).  When both members of a pair
+ * combination owns is freed at its last read (struct term, use()); a dense one whose last read is
+ * a diagonal scaling or a solve holds the result in its own storage (I - A its LU factors, a
+ * right-hand side its solution), so that a step with a dense partial system peaks at that system
+ * and three N x N matrices (bench/README.md, the memory guard's model).  When both members of a pair
  * (Tf, Rb) or (Rf, Tb) are needed, one factorization serves both through W = T2 (I - A)^-1 (a right
  * solve), or, when T2 is diagonal (a pane), through two left solves scaled by T2 (W's products
  * would be dense); when one is needed, a left solve with its own right-hand side is cheaper.  The
@@ -200,27 +203,50 @@ static int copy(struct combiner *cb, const bst_mat *m, bst_mat **out)
     return bst_mat_convert(cb->ctx, m, bst_mat_structure(m), bst_mat_precision(m), out);
 }
 
+/* diag(dr) a diag(dc): in a's own storage when this read is a's last (the same values). */
+static struct term scaled(struct combiner *cb, const double *dr, struct term a, const double *dc)
+{
+    bst_mat *out = NULL;
+    int rc = BST_OK;
+    if (cb->status < 0 || !a.m)
+        bst_mat_free(a.dies);
+    else if (a.dies)
+        rc = bsti_mat_scale_take(cb->ctx, dr, a.dies, dc, &out);
+    else
+        rc = bst_mat_scale(cb->ctx, dr, a.m, dc, &out);
+    return result(cb, rc, out);
+}
+
 /* L a. */
 static struct term lam_times(struct combiner *cb, struct term a)
 {
-    bst_mat *out = NULL;
-    int rc = cb->status >= 0 && a.m ? bst_mat_scale(cb->ctx, cb->lam, a.m, NULL, &out) : BST_OK;
-    bst_mat_free(a.dies);
-    return result(cb, rc, out);
+    return scaled(cb, cb->lam, a, NULL);
 }
 
 /* L a L (both sides scaled by the projected solid angles). */
 static struct term lam_both(struct combiner *cb, struct term a)
 {
-    bst_mat *out = NULL;
-    int rc = cb->status >= 0 && a.m ? bst_mat_scale(cb->ctx, cb->lam, a.m, cb->lam, &out) : BST_OK;
-    bst_mat_free(a.dies);
-    return result(cb, rc, out);
+    return scaled(cb, cb->lam, a, cb->lam);
 }
 
-/* a b. */
+/* a b; a diagonal factor times a dense one read for the last time scales the dense one in its
+ * own storage (what the product's kernel computes, mat_mul.c). */
 static struct term mul(struct combiner *cb, struct term a, struct term b)
 {
+    if (cb->status >= 0 && a.m && b.m) {
+        if (bst_mat_structure(a.m) == BST_DIAG && b.dies && bst_mat_structure(b.m) == BST_DENSE) {
+            const double *d = bst_mat_diag_data((bst_mat *)a.m);
+            struct term r = scaled(cb, d, b, NULL);
+            bst_mat_free(a.dies);
+            return r;
+        }
+        if (bst_mat_structure(b.m) == BST_DIAG && a.dies && bst_mat_structure(a.m) == BST_DENSE) {
+            const double *d = bst_mat_diag_data((bst_mat *)b.m);
+            struct term r = scaled(cb, NULL, a, d);
+            bst_mat_free(b.dies);
+            return r;
+        }
+    }
     bst_mat *out = NULL;
     int rc = cb->status >= 0 && a.m && b.m
                  ? bst_mat_mul(cb->ctx, a.m, b.m, cb->opts->drop_tol, &out) : BST_OK;
@@ -234,11 +260,9 @@ static struct term lam_mul(struct combiner *cb, struct term a, struct term b)
     if (!a.m || !b.m || bst_mat_structure(b.m) != BST_DIAG)
         return lam_times(cb, mul(cb, a, b));
     /* a diagonal factor folds into one scaling: no product held beside its scaled copy */
-    bst_mat *out = NULL;
-    int rc = cb->status >= 0 ? bst_mat_scale(cb->ctx, cb->lam, a.m,
-                                             bst_mat_diag_data((bst_mat *)b.m), &out) : BST_OK;
-    release(a, b);
-    return result(cb, rc, out);
+    struct term r = scaled(cb, cb->lam, a, bst_mat_diag_data((bst_mat *)b.m));
+    bst_mat_free(b.dies);
+    return r;
 }
 
 /* r + s; a new matrix also when one of them is zero. */
@@ -274,21 +298,27 @@ static int solve_status(struct combiner *cb, int rc, const char *what)
     return rc;
 }
 
-/* (I - A)^-1 B (LEFT) or B (I - A)^-1 (RIGHT).  A is a result of the step, freed as soon as it is
- * factored.  cb->rcond receives the condition estimate (1 without a solve). */
+/* (I - A)^-1 B (LEFT) or B (I - A)^-1 (RIGHT).  A is a result of the step: a dense A becomes its
+ * own LU factors, any other goes as soon as it is factored; a B read for the last time is solved
+ * in its own storage when dense (bsti_solve_take).  cb->rcond receives the condition estimate (1
+ * without a solve). */
 static struct term solve(struct combiner *cb, int side, struct term a, struct term b,
                          const char *what)
 {
     bst_mat *out = NULL;
     int rc = BST_OK;
     cb->rcond = 1.0;
-    if (cb->status < 0 || !b.m)
-        bst_mat_free(a.dies);
-    else if (!a.m)
-        rc = copy(cb, b.m, &out);
-    else
-        rc = bsti_solve_take(cb->ctx, side, a.dies, b.m, cb->opts->rcond_warn, &out, &cb->rcond);
-    bst_mat_free(b.dies);
+    if (cb->status < 0 || !b.m) {
+        release(a, b);
+    } else if (!a.m) { /* no inter-reflection: B itself */
+        if (b.dies)
+            out = b.dies;
+        else
+            rc = copy(cb, b.m, &out);
+    } else {
+        rc = bsti_solve_take(cb->ctx, side, a.dies, b.m, b.dies, cb->opts->rcond_warn, &out,
+                             &cb->rcond);
+    }
     rc = solve_status(cb, rc, what);
     return result(cb, rc, out);
 }
@@ -313,9 +343,8 @@ static struct term solve2(struct combiner *cb, struct term a, struct term b1, st
         }
         return r1;
     }
-    rc = bsti_solve_take_left2(cb->ctx, a.dies, b1.m, b2.m, cb->opts->rcond_warn, &out1, &out2,
-                               &cb->rcond);
-    release(b1, b2);
+    rc = bsti_solve_take_left2(cb->ctx, a.dies, b1.m, b1.dies, b2.m, b2.dies,
+                               cb->opts->rcond_warn, &out1, &out2, &cb->rcond);
     rc = solve_status(cb, rc, what);
     *x2 = result(cb, rc, out2);
     return result(cb, rc, out1);
