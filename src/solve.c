@@ -512,8 +512,13 @@ static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **ow
             bst_mat_free(bt);
             if (q + 1 == nb)
                 factor_free(&f);
-            if (rc >= 0)
+            if (rc >= 0 && xt->s == BST_DENSE && xt->rows == xt->cols) {
+                transpose_square_in_place(xt);
+                out[q] = xt;
+                xt = NULL;
+            } else if (rc >= 0) {
                 rc = bst_mat_transpose(ctx, xt, &out[q]);
+            }
             bst_mat_free(xt);
         } else {
             rc = factor_solve(&f, 0, b[q], &out[q]);

@@ -82,11 +82,13 @@ static double now_seconds(void)
 /* One channel's four components of a part; NULL = zero.  `own` marks matrices this module
  * allocated (partial results, converted copies) or took from a consumed layer, as opposed to
  * borrowed from an input layer; `uses` counts the reads of each component still to come in the
- * step being formed (count_uses). */
+ * step being formed (count_uses); `tf_lam`: m[BST_TF] holds L Tf, scaled in its own storage at
+ * the start of the step (combine_pair). */
 struct part {
     const bst_mat *m[BST_NCOMP];
     bst_mat *own[BST_NCOMP];
     int uses[BST_NCOMP];
+    int tf_lam;
 };
 
 static void part_clear(struct part *p)
@@ -377,12 +379,18 @@ static void form(struct combiner *cb, struct part *s, bst_comp c, double t0, str
  * diagonal pane), so that V's dense matrices are never copied just to be scaled.  Where a formula
  * nests, the innermost product is formed first and each factor goes as soon as it has been read. */
 
+/* L Tf1, for one of the reads of U's Tf that count_uses counted. */
+static struct term lam_tf1(struct combiner *cb, struct part *u)
+{
+    return u->tf_lam ? use(u, BST_TF) : lam_times(cb, use(u, BST_TF));
+}
+
 /* L Rf2 L X1: what V reflects back into the gap of X1's light, for X1 = Rb1 (A2) and X1 = Tf1 (the
  * right-hand side of Rf). */
 static struct term reflected_outwards(struct combiner *cb, struct part *v, struct part *u,
                                       bst_comp x1)
 {
-    return lam_mul(cb, use(v, BST_RF), lam_times(cb, use(u, x1)));
+    return lam_mul(cb, use(v, BST_RF), x1 == BST_TF ? lam_tf1(cb, u) : lam_times(cb, use(u, x1)));
 }
 
 /* Light travelling inwards in the gap, A1 = L Rb1 L Rf2 = (L Rb1 L) Rf2:
@@ -400,13 +408,13 @@ static void inward(struct combiner *cb, struct part *u, struct part *v, unsigned
     struct term llrb1 = lam_both(cb, use(u, BST_RB));
     struct term a1 = mul(cb, want & BIT(BST_RB) ? keep(llrb1) : llrb1, use(v, BST_RF));
     if (want == BIT(BST_TF)) {
-        struct term x = solve(cb, LEFT, a1, lam_times(cb, use(u, BST_TF)), what);
+        struct term x = solve(cb, LEFT, a1, lam_tf1(cb, u), what);
         form(cb, s, BST_TF, t0, mul(cb, use(v, BST_TF), x));
     } else if (want == BIT(BST_RB)) {
         struct term x = solve(cb, LEFT, a1, mul(cb, llrb1, use(v, BST_TB)), what);
         form(cb, s, BST_RB, t0, add(cb, use(v, BST_RB), mul(cb, use(v, BST_TF), x)));
     } else if (v->m[BST_TF] && bst_mat_structure(v->m[BST_TF]) == BST_DIAG) {
-        struct term x2, x1 = solve2(cb, a1, lam_times(cb, use(u, BST_TF)),
+        struct term x2, x1 = solve2(cb, a1, lam_tf1(cb, u),
                                     mul(cb, llrb1, use(v, BST_TB)), what, &x2);
         struct term tf2 = use(v, BST_TF);
         form(cb, s, BST_RB, t0, add(cb, use(v, BST_RB), mul(cb, keep(tf2), x2)));
@@ -417,7 +425,7 @@ static void inward(struct combiner *cb, struct part *u, struct part *v, unsigned
         form(cb, s, BST_RB, t0,
              add(cb, use(v, BST_RB), mul(cb, keep(w), mul(cb, llrb1, use(v, BST_TB)))));
         t0 = now_seconds();
-        form(cb, s, BST_TF, t0, mul(cb, w, lam_times(cb, use(u, BST_TF))));
+        form(cb, s, BST_TF, t0, mul(cb, w, lam_tf1(cb, u)));
     }
 }
 
@@ -461,6 +469,15 @@ static int combine_pair(struct combiner *cb, struct part *u, struct part *v, uns
 {
     memset(s, 0, sizeof *s);
     count_uses(want, u, v);
+    /* Every read of U's Tf is of L Tf1 (the inward right-hand side, the outward L Rf2 L Tf1): an
+     * owned one is scaled once, in its own storage, instead of into a copy at each read. */
+    u->tf_lam = 0;
+    if (cb->status >= 0 && u->uses[BST_TF] > 0 && u->own[BST_TF]) {
+        struct term t = scaled(cb, cb->lam, (struct term){u->m[BST_TF], u->own[BST_TF]}, NULL);
+        u->m[BST_TF] = t.m;
+        u->own[BST_TF] = t.dies;
+        u->tf_lam = 1;
+    }
     if (want & INWARD)
         inward(cb, u, v, want & INWARD, s);
     if (want & OUTWARD)
