@@ -139,7 +139,9 @@ static double memory_available(void)
  * them the conversion needs one double grid, a combination 3 N^2 values of the work precision
  * (a step with a dense partial system: I - A, factored in its own storage, and two right-hand
  * sides, solved in theirs; pane + diffuser + pane peaks at the four components and these three),
- * whichever is more; 16 MiB for the rest. */
+ * whichever is more; for the rest (the program and its libraries, OpenBLAS's buffers, diagonal
+ * and sparse parts, per-patch arrays: 18 MiB at k = 5, 43-54 MiB at k = 6, about 100 MiB at
+ * k = 7), 64 MiB and N^2 / 2 bytes. */
 static double memory_need(const bst_basis *basis, size_t n, bst_bsdf *const *files, unsigned comps,
                           bst_precision prec, const struct cli_basis_choice *choice, size_t *ndense)
 {
@@ -159,7 +161,7 @@ static double memory_need(const bst_basis *basis, size_t n, bst_bsdf *const *fil
             }
     }
     *ndense = held;
-    double need = 16.0 * 1048576.0 + sparse;
+    double need = 64.0 * 1048576.0 + 0.5 * cells + sparse;
     if (held == 0)
         return need;
     double work = choice->combining ? 3.0 * (choice->work == BST_FLOAT ? 4.0 : 8.0) : 0.0;
