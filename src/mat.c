@@ -417,35 +417,29 @@ int bst_mat_compact(bst_ctx *ctx, const bst_mat *m, double sparse_max_fill, bst_
 /* ------------------------------------------------------------------ scaling */
 
 /* C = diag(dr) A diag(dc), same structure as A.  Workspace: the result only. */
-int bsti_mat_scale(bst_ctx *ctx, const double *dr, const bst_mat *a, const double *dc, bst_mat **out)
+/* c := diag(dr) c diag(dc) in c's own storage (either NULL = identity); the one loop that both
+ * bsti_mat_scale and bsti_mat_scale_take run, so that scaling a copy and scaling in place give
+ * the same bits. */
+static void scale_values(bst_mat *c, const double *dr, const double *dc)
 {
-    bst_mat *c;
-    int rc;
-    switch (a->s) {
-    case BST_ZERO: return bst_mat_new_zero(ctx, a->rows, a->cols, out);
+    switch (c->s) {
     case BST_DIAG:
-        if ((rc = bst_mat_new_diag(ctx, a->rows, a->diag, &c)) < 0)
-            return rc;
-        for (size_t i = 0; i < a->rows; i++)
+        for (size_t i = 0; i < c->rows; i++)
             c->diag[i] *= (dr ? dr[i] : 1.0) * (dc ? dc[i] : 1.0);
         break;
     case BST_SPARSE: {
-        if ((rc = bsti_mat_to_sparse(ctx, a, &c)) < 0)
-            return rc;
         const SuiteSparse_long *p = c->sp->p, *ri = c->sp->i;
         double *x = c->sp->x;
-        for (size_t j = 0; j < a->cols; j++)
+        for (size_t j = 0; j < c->cols; j++)
             for (SuiteSparse_long k = p[j]; k < p[j + 1]; k++)
                 x[k] *= (dr ? dr[ri[k]] : 1.0) * (dc ? dc[j] : 1.0);
         break;
     }
     case BST_DENSE: {
-        if ((rc = bsti_mat_to_dense(ctx, a, a->prec, &c)) < 0)
-            return rc;
-        size_t r = a->rows;
-        for (size_t j = 0; j < a->cols; j++) {
+        size_t r = c->rows;
+        for (size_t j = 0; j < c->cols; j++) {
             double s = dc ? dc[j] : 1.0;
-            if (a->prec == BST_DOUBLE) {
+            if (c->prec == BST_DOUBLE) {
                 double *col = (double *)c->dense + j * r;
                 for (size_t i = 0; i < r; i++)
                     col[i] *= (dr ? dr[i] : 1.0) * s;
@@ -457,10 +451,38 @@ int bsti_mat_scale(bst_ctx *ctx, const double *dr, const bst_mat *a, const doubl
         }
         break;
     }
+    default: break;
+    }
+}
+
+int bsti_mat_scale(bst_ctx *ctx, const double *dr, const bst_mat *a, const double *dc, bst_mat **out)
+{
+    bst_mat *c;
+    int rc;
+    switch (a->s) {
+    case BST_ZERO: return bst_mat_new_zero(ctx, a->rows, a->cols, out);
+    case BST_DIAG: rc = bst_mat_new_diag(ctx, a->rows, a->diag, &c); break;
+    case BST_SPARSE: rc = bsti_mat_to_sparse(ctx, a, &c); break;
+    case BST_DENSE: rc = bsti_mat_to_dense(ctx, a, a->prec, &c); break;
     default: return bsti_error(ctx, BST_EINVAL, "scale: unknown structure");
     }
+    if (rc < 0)
+        return rc;
+    scale_values(c, dr, dc);
     *out = c;
     return BST_OK;
+}
+
+int bsti_mat_scale_take(bst_ctx *ctx, const double *dr, bst_mat *a, const double *dc, bst_mat **out)
+{
+    if (a->s == BST_DIAG || a->s == BST_DENSE) {
+        scale_values(a, dr, dc);
+        *out = a;
+        return BST_OK;
+    }
+    int rc = bsti_mat_scale(ctx, dr, a, dc, out);
+    bst_mat_free(a);
+    return rc;
 }
 
 int bst_mat_scale(bst_ctx *ctx, const double *d_rows, const bst_mat *a, const double *d_cols,

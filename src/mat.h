@@ -51,20 +51,28 @@ int bsti_mat_dense_pair(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, bst_ma
 /* C = diag(dr) A diag(dc) (either NULL = identity), in A's structure. */
 int bsti_mat_scale(bst_ctx *ctx, const double *dr, const bst_mat *a, const double *dc,
                    bst_mat **out);
+/* The same of a matrix the caller gives up: a DENSE or DIAG a is scaled in its own storage and
+ * becomes *out (the same values bsti_mat_scale gives); any other is scaled into a new matrix and
+ * freed, also on failure. */
+int bsti_mat_scale_take(bst_ctx *ctx, const double *dr, bst_mat *a, const double *dc,
+                        bst_mat **out);
 
-/* bst_solve_left (right = 0) or bst_solve_right (right = 1) taking A: it is freed as soon as
- * I - A is factored (on every path), so that A, its factorization and the result are never all
- * held at once; a dense right-hand side of a right solve is solved in place in its transpose. */
-/* keep (may be NULL): on success the factorization of I - A is handed out there (NULL when A is
+/* bst_solve_left (right = 0) or bst_solve_right (right = 1) taking A, and B when b_own is B
+ * (NULL: B is borrowed).  A dense A in the factor's precision is overwritten by its own LU
+ * factors, any other A freed as soon as I - A is factored, so that A, its factorization and the
+ * result are never all held at once; a taken dense B in the factor's precision is solved in its
+ * own storage and returned as *out (a right solve's through its transpose, in place), any other
+ * freed once read.  Taken matrices are freed on every error path.
+ * keep (may be NULL): on success the factorization of I - A is handed out there (NULL when A is
  * zero or it could not be kept), to be used with bsti_factor_solve_right and freed with
  * bsti_factor_free (the absorptance reuses the combination's, stack.c). */
 typedef struct factor bsti_factor;
-int bsti_solve_take(bst_ctx *ctx, int right, bst_mat *a, const bst_mat *b, double rcond_warn,
-                    bst_mat **out, double *rcond, bsti_factor **keep);
+int bsti_solve_take(bst_ctx *ctx, int right, bst_mat *a, const bst_mat *b, bst_mat *b_own,
+                    double rcond_warn, bst_mat **out, double *rcond, bsti_factor **keep);
 /* The same as two left solves with one factorization: x1 = (I - A)^-1 b1, x2 = (I - A)^-1 b2. */
-int bsti_solve_take_left2(bst_ctx *ctx, bst_mat *a, const bst_mat *b1, const bst_mat *b2,
-                          double rcond_warn, bst_mat **x1, bst_mat **x2, double *rcond,
-                          bsti_factor **keep);
+int bsti_solve_take_left2(bst_ctx *ctx, bst_mat *a, const bst_mat *b1, bst_mat *b1_own,
+                          const bst_mat *b2, bst_mat *b2_own, double rcond_warn, bst_mat **x1,
+                          bst_mat **x2, double *rcond, bsti_factor **keep);
 /* Y = B (I - A)^-1 with a kept factorization (no condition estimate); NULL-safe free. */
 int bsti_factor_solve_right(bst_ctx *ctx, bsti_factor *f, const bst_mat *b, bst_mat **y);
 void bsti_factor_free(bsti_factor *f);

@@ -15,7 +15,9 @@
 that rcond also falls when A approaches a multiple of I (two facing mirrors), where forming I - A
 cancels digits although I - A itself is well scaled.
  *
- * Workspace: DENSE: a copy of I - A (N^2) and the result; SPARSE: I - A in CHOLMOD form, UMFPACK's
+ * Workspace: DENSE: a copy of I - A (N^2) and the result, none of them when the caller gives up a
+ * dense A and B in the factor's precision (bsti_solve_take: I - A and its LU factors overwrite A,
+ * the solution B, a right solve's through B's transpose, formed in place); SPARSE: I - A in CHOLMOD form, UMFPACK's
  * factors, two vectors of N, and the result (accumulated densely, N x ncols, then compacted when B
  * was sparse or diagonal). */
 #include <config.h>
@@ -59,6 +61,7 @@ struct factor {
     void *numeric;          /* SPARSE: UMFPACK numeric factorization */
     bst_precision prec;     /* DENSE */
     void *lu;               /* DENSE: LU factors (double or float) */
+    bst_mat *lu_mat;        /* DENSE: the matrix A whose storage holds lu, when it was taken */
     lapack_int *ipiv;
     double *w1, *w2;        /* SPARSE: vectors of n */
 };
@@ -71,7 +74,10 @@ static void factor_free(struct factor *f)
         cholmod_l_free_sparse(&f->m, bsti_cholmod(ctx));
     if (f->numeric)
         umfpack_dl_free_numeric(&f->numeric);
-    bsti_free(ctx, f->lu);
+    if (f->lu_mat)
+        bst_mat_free(f->lu_mat);
+    else
+        bsti_free(ctx, f->lu);
     bsti_free(ctx, f->ipiv);
     bsti_free(ctx, f->w1);
     bsti_free(ctx, f->w2);
@@ -153,9 +159,11 @@ static int hager_inverse_norm(struct factor *f, double *est)
     return rc;
 }
 
-/* Factor I - A; *rcond as documented at the top. */
+/* Factor I - A; *rcond as documented at the top.  With *take = a (A given up by the caller) a
+ * dense A in the factor's precision is overwritten by I - A and then its LU factors, and the factor
+ * owns it (*take = NULL): no second N x N buffer. */
 static int factor_new(bst_ctx *ctx, const bst_mat *a, bst_precision prec, struct factor *f,
-                      double *rcond)
+                      double *rcond, bst_mat **take)
 {
     memset(f, 0, sizeof *f);
     f->ctx = ctx;
@@ -238,9 +246,15 @@ static int factor_new(bst_ctx *ctx, const bst_mat *a, bst_precision prec, struct
     case BST_DENSE: {
         f->prec = prec;
         size_t es = prec == BST_DOUBLE ? sizeof(double) : sizeof(float);
-        if (!(f->lu = bsti_alloc_array(ctx, n * n, es)) ||
-            !(f->ipiv = bsti_alloc_array(ctx, n ? n : 1, sizeof *f->ipiv)))
+        if (!(f->ipiv = bsti_alloc_array(ctx, n ? n : 1, sizeof *f->ipiv)))
             return BST_ENOMEM;
+        if (*take == a && a->prec == prec) { /* each element is read before it is overwritten */
+            f->lu_mat = *take;
+            f->lu = f->lu_mat->dense;
+            *take = NULL;
+        } else if (!(f->lu = bsti_alloc_array(ctx, n * n, es))) {
+            return BST_ENOMEM;
+        }
         for (size_t j = 0; j < n; j++) {
             double s = 0.0;
             for (size_t i = 0; i < n; i++) {
@@ -311,6 +325,38 @@ static int dense_solve_in_place(struct factor *f, int trans, bst_mat *x)
     if (info != 0)
         return bsti_error(f->ctx, BST_EINTERNAL, "LAPACK getrs: argument %d", (int)-info);
     return BST_OK;
+}
+
+/* m := m^T for a square dense m, in its own storage (the values of a transposed copy), tile by
+ * tile so that both the tile and its mirror stay in cache. */
+#define TRANSPOSE_TILE 64
+static void transpose_square_in_place(bst_mat *m)
+{
+    size_t n = m->rows;
+    for (size_t jb = 0; jb < n; jb += TRANSPOSE_TILE) {
+        size_t je = jb + TRANSPOSE_TILE < n ? jb + TRANSPOSE_TILE : n;
+        for (size_t ib = jb; ib < n; ib += TRANSPOSE_TILE) {
+            size_t ie = ib + TRANSPOSE_TILE < n ? ib + TRANSPOSE_TILE : n;
+            for (size_t j = jb; j < je; j++) {
+                size_t i0 = ib == jb ? j + 1 : ib; /* a diagonal tile: its lower triangle */
+                if (m->prec == BST_DOUBLE) {
+                    double *d = m->dense;
+                    for (size_t i = i0; i < ie; i++) {
+                        double t = d[j * n + i];
+                        d[j * n + i] = d[i * n + j];
+                        d[i * n + j] = t;
+                    }
+                } else {
+                    float *d = m->dense;
+                    for (size_t i = i0; i < ie; i++) {
+                        float t = d[j * n + i];
+                        d[j * n + i] = d[i * n + j];
+                        d[i * n + j] = t;
+                    }
+                }
+            }
+        }
+    }
 }
 
 /* X = M^-1 B (trans 0) or M^-T B (trans 1) for the factored M = I - A. */
@@ -389,19 +435,14 @@ static int factor_solve(struct factor *f, int trans, const bst_mat *b, bst_mat *
     return BST_OK;
 }
 
-/* The solve with nb right-hand sides b[0..nb-1] (one factorization for all: out[q] = (I - A)^-1
- * b[q], or b[q] (I - A)^-1); *own_a (NULL or a itself) is freed, and set to NULL, as soon as I - A
- * is factored, so that A and its factorization are never both held beside the results. */
-static int solve_owning(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a, size_t nb,
-                        const bst_mat *const *b, double rcond_warn, bst_mat **out,
-                        double *rcond_out, bsti_factor **keep)
+static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a, size_t nb,
+                         const bst_mat *const *b, bst_mat **own_b, double rcond_warn,
+                         bst_mat **out, double *rcond_out, bsti_factor **keep)
 {
     if (keep)
         *keep = NULL;
     if (!ctx)
         return BST_EINVAL;
-    for (size_t q = 0; q < nb; q++)
-        out[q] = NULL;
     if (rcond_out)
         *rcond_out = 0.0;
     if (!a)
@@ -425,27 +466,44 @@ static int solve_owning(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own
     struct factor f;
     double rcond;
     bst_mat *adense = NULL;
-    int rc = factor_new(ctx, a, prec, &f, &rcond);
+    int a_dense = a->s == BST_DENSE;
+    int rc = factor_new(ctx, a, prec, &f, &rcond, own_a);
     if (rc == BSTI_USE_DENSE) { /* workspace: a dense copy of A (n^2 doubles) */
         factor_free(&f);
         rc = bst_mat_convert(ctx, a, BST_DENSE, BST_DOUBLE, &adense);
         if (rc >= 0)
-            rc = factor_new(ctx, adense, prec, &f, &rcond);
+            rc = factor_new(ctx, adense, prec, &f, &rcond, &adense);
         bst_mat_free(adense);
     }
-    int a_dense = a->s == BST_DENSE;
     if (*own_a) {
         bst_mat_free(*own_a);
         *own_a = NULL;
-        a = NULL;
     }
+    a = NULL;
     if (rcond_out)
         *rcond_out = rcond;
     for (size_t q = 0; q < nb && rc >= 0; q++) {
-        bst_mat *bt = NULL, *xt = NULL;
-        if (right) { /* Y^T = (I - A)^-T B^T; each workspace freed as soon as it is dead, B^T
-                      * solved in place when it is dense in the factor's precision */
+        bst_mat *bq = own_b ? own_b[q] : NULL;
+        int in_place = bq && f.s == BST_DENSE && bq->s == BST_DENSE && bq->prec == f.prec &&
+                       (!right || bq->rows == bq->cols);
+        if (in_place) {
+            out[q] = bq;
+            own_b[q] = NULL;
+            if (right)
+                transpose_square_in_place(bq);
+            rc = dense_solve_in_place(&f, right, bq);
+            if (right && q + 1 == nb && !keep)
+                factor_free(&f);
+            if (right)
+                transpose_square_in_place(bq);
+        } else if (right) { /* Y^T = (I - A)^-T B^T; each workspace freed as soon as it is dead,
+                             * B^T solved in place when it is dense in the factor's precision */
+            bst_mat *bt = NULL, *xt = NULL;
             rc = bst_mat_transpose(ctx, b[q], &bt);
+            if (bq) {
+                bst_mat_free(bq);
+                own_b[q] = NULL;
+            }
             if (rc >= 0 && f.s == BST_DENSE && bt->s == BST_DENSE && bt->prec == f.prec) {
                 rc = dense_solve_in_place(&f, 1, bt);
                 xt = bt;
@@ -456,11 +514,20 @@ static int solve_owning(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own
             bst_mat_free(bt);
             if (q + 1 == nb && !keep)
                 factor_free(&f);
-            if (rc >= 0)
+            if (rc >= 0 && xt->s == BST_DENSE && xt->rows == xt->cols) {
+                transpose_square_in_place(xt);
+                out[q] = xt;
+                xt = NULL;
+            } else if (rc >= 0) {
                 rc = bst_mat_transpose(ctx, xt, &out[q]);
+            }
             bst_mat_free(xt);
         } else {
             rc = factor_solve(&f, 0, b[q], &out[q]);
+            if (bq) {
+                bst_mat_free(bq);
+                own_b[q] = NULL;
+            }
         }
     }
     if (rc >= 0 && keep && f.s != BST_ZERO && (*keep = bsti_alloc_array(ctx, 1, sizeof **keep)))
@@ -490,6 +557,30 @@ static int solve_owning(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own
     return BST_OK;
 }
 
+/* The solve with nb right-hand sides b[0..nb-1] (one factorization for all: out[q] = (I - A)^-1
+ * b[q], or b[q] (I - A)^-1); *own_a (NULL or a itself) is taken: a dense A becomes its own
+ * factorization (factor_new), any other is freed as soon as I - A is factored, so that A, its
+ * factorization and the results are never all held at once.  own_b (NULL, or per right-hand side
+ * NULL or b[q] itself) are taken likewise: a dense b[q] in the factor's precision is solved in its
+ * own storage and becomes out[q] (square, through its transpose, for a right solve), any other is
+ * freed once it has been read.  Every matrix taken is gone, or is a result, on return, whatever
+ * the status. */
+static int solve_owning(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a, size_t nb,
+                        const bst_mat *const *b, bst_mat **own_b, double rcond_warn, bst_mat **out,
+                        double *rcond_out, bsti_factor **keep)
+{
+    for (size_t q = 0; q < nb; q++)
+        out[q] = NULL;
+    int rc = solve_checked(ctx, right, a, own_a, nb, b, own_b, rcond_warn, out, rcond_out, keep);
+    bst_mat_free(*own_a); /* when an error came before the factorization */
+    *own_a = NULL;
+    for (size_t q = 0; own_b && q < nb; q++) { /* when an error came before it was read */
+        bst_mat_free(own_b[q]);
+        own_b[q] = NULL;
+    }
+    return rc;
+}
+
 int bst_solve_left(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double rcond_warn,
                    bst_mat **x, double *rcond)
 {
@@ -498,7 +589,7 @@ int bst_solve_left(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double rcon
         return BST_EINVAL;
     if (!x)
         return bsti_error(ctx, BST_EINVAL, "solve: NULL result pointer");
-    return solve_owning(ctx, 0, a, &none, 1, &b, rcond_warn, x, rcond, NULL);
+    return solve_owning(ctx, 0, a, &none, 1, &b, NULL, rcond_warn, x, rcond, NULL);
 }
 
 int bst_solve_right(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double rcond_warn,
@@ -509,32 +600,40 @@ int bst_solve_right(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double rco
         return BST_EINVAL;
     if (!y)
         return bsti_error(ctx, BST_EINVAL, "solve: NULL result pointer");
-    return solve_owning(ctx, 1, a, &none, 1, &b, rcond_warn, y, rcond, NULL);
+    return solve_owning(ctx, 1, a, &none, 1, &b, NULL, rcond_warn, y, rcond, NULL);
 }
 
-int bsti_solve_take(bst_ctx *ctx, int right, bst_mat *a, const bst_mat *b, double rcond_warn,
-                    bst_mat **out, double *rcond, bsti_factor **keep)
+int bsti_solve_take(bst_ctx *ctx, int right, bst_mat *a, const bst_mat *b, bst_mat *b_own,
+                    double rcond_warn, bst_mat **out, double *rcond, bsti_factor **keep)
 {
-    bst_mat *own = a;
-    int rc = out ? solve_owning(ctx, right, a, &own, 1, &b, rcond_warn, out, rcond, keep)
-                 : ctx ? bsti_error(ctx, BST_EINVAL, "solve: NULL result pointer") : BST_EINVAL;
-    bst_mat_free(own); /* when an error came before the factorization */
-    return rc;
+    bst_mat *own = a, *own_b[1] = {b_own};
+    if (keep)
+        *keep = NULL;
+    if (!ctx || !out) {
+        bst_mat_free(a);
+        bst_mat_free(b_own);
+        return ctx ? bsti_error(ctx, BST_EINVAL, "solve: NULL result pointer") : BST_EINVAL;
+    }
+    return solve_owning(ctx, right, a, &own, 1, &b, own_b, rcond_warn, out, rcond, keep);
 }
 
-int bsti_solve_take_left2(bst_ctx *ctx, bst_mat *a, const bst_mat *b1, const bst_mat *b2,
-                          double rcond_warn, bst_mat **x1, bst_mat **x2, double *rcond,
-                          bsti_factor **keep)
+int bsti_solve_take_left2(bst_ctx *ctx, bst_mat *a, const bst_mat *b1, bst_mat *b1_own,
+                          const bst_mat *b2, bst_mat *b2_own, double rcond_warn, bst_mat **x1,
+                          bst_mat **x2, double *rcond, bsti_factor **keep)
 {
-    bst_mat *own = a, *x[2] = {NULL, NULL};
+    bst_mat *own = a, *x[2] = {NULL, NULL}, *own_b[2] = {b1_own, b2_own};
     const bst_mat *b[2] = {b1, b2};
-    int rc = x1 && x2 ? solve_owning(ctx, 0, a, &own, 2, b, rcond_warn, x, rcond, keep)
-                      : ctx ? bsti_error(ctx, BST_EINVAL, "solve: NULL result pointer") : BST_EINVAL;
-    bst_mat_free(own);
-    if (x1)
-        *x1 = x[0];
-    if (x2)
-        *x2 = x[1];
+    if (keep)
+        *keep = NULL;
+    if (!ctx || !x1 || !x2) {
+        bst_mat_free(a);
+        bst_mat_free(b1_own);
+        bst_mat_free(b2_own);
+        return ctx ? bsti_error(ctx, BST_EINVAL, "solve: NULL result pointer") : BST_EINVAL;
+    }
+    int rc = solve_owning(ctx, 0, a, &own, 2, b, own_b, rcond_warn, x, rcond, keep);
+    *x1 = x[0];
+    *x2 = x[1];
     return rc;
 }
 

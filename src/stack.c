@@ -16,7 +16,10 @@
  * stack, the components required of its two parts; a stack of n layers is n - 1 steps, and each
  * partial result is freed as soon as the next step has used it.  Within a step, count_uses derives
  * from need() how often each component of the two parts will be read, and every matrix the
- * combination owns is freed at its last read (struct term, use()).  When both members of a pair
+ * combination owns is freed at its last read (struct term, use()); a dense one whose last read is
+ * a diagonal scaling or a solve holds the result in its own storage (I - A its LU factors, a
+ * right-hand side its solution), so that a step with a dense partial system peaks at that system
+ * and three N x N matrices (bench/README.md, the memory guard's model).  When both members of a pair
  * (Tf, Rb) or (Rf, Tb) are needed, one factorization serves both through W = T2 (I - A)^-1 (a right
  * solve), or, when T2 is diagonal (a pane), through two left solves scaled by T2 (W's products
  * would be dense); when one is needed, a left solve with its own right-hand side is cheaper.  The
@@ -79,11 +82,13 @@ static double now_seconds(void)
 /* One channel's four components of a part; NULL = zero.  `own` marks matrices this module
  * allocated (partial results, converted copies) or took from a consumed layer, as opposed to
  * borrowed from an input layer; `uses` counts the reads of each component still to come in the
- * step being formed (count_uses). */
+ * step being formed (count_uses); `tf_lam`: m[BST_TF] holds L Tf, scaled in its own storage at
+ * the start of the step (combine_pair). */
 struct part {
     const bst_mat *m[BST_NCOMP];
     bst_mat *own[BST_NCOMP];
     int uses[BST_NCOMP];
+    int tf_lam;
 };
 
 static void part_clear(struct part *p)
@@ -110,6 +115,9 @@ struct combiner {
 };
 
 static bsti_factor **keep_slot(struct combiner *cb, const char *what);
+/* the names of a step's two solves (messages), by which keep_slot tells them apart */
+static const char towards_interior[] = "towards the interior";
+static const char towards_exterior[] = "towards the exterior";
 
 /* Record a warning (or, in strict mode, turn it into an error). */
 static int note_warning(struct combiner *cb, int status)
@@ -203,27 +211,50 @@ static int copy(struct combiner *cb, const bst_mat *m, bst_mat **out)
     return bst_mat_convert(cb->ctx, m, bst_mat_structure(m), bst_mat_precision(m), out);
 }
 
+/* diag(dr) a diag(dc): in a's own storage when this read is a's last (the same values). */
+static struct term scaled(struct combiner *cb, const double *dr, struct term a, const double *dc)
+{
+    bst_mat *out = NULL;
+    int rc = BST_OK;
+    if (cb->status < 0 || !a.m)
+        bst_mat_free(a.dies);
+    else if (a.dies)
+        rc = bsti_mat_scale_take(cb->ctx, dr, a.dies, dc, &out);
+    else
+        rc = bst_mat_scale(cb->ctx, dr, a.m, dc, &out);
+    return result(cb, rc, out);
+}
+
 /* L a. */
 static struct term lam_times(struct combiner *cb, struct term a)
 {
-    bst_mat *out = NULL;
-    int rc = cb->status >= 0 && a.m ? bst_mat_scale(cb->ctx, cb->lam, a.m, NULL, &out) : BST_OK;
-    bst_mat_free(a.dies);
-    return result(cb, rc, out);
+    return scaled(cb, cb->lam, a, NULL);
 }
 
 /* L a L (both sides scaled by the projected solid angles). */
 static struct term lam_both(struct combiner *cb, struct term a)
 {
-    bst_mat *out = NULL;
-    int rc = cb->status >= 0 && a.m ? bst_mat_scale(cb->ctx, cb->lam, a.m, cb->lam, &out) : BST_OK;
-    bst_mat_free(a.dies);
-    return result(cb, rc, out);
+    return scaled(cb, cb->lam, a, cb->lam);
 }
 
-/* a b. */
+/* a b; a diagonal factor times a dense one read for the last time scales the dense one in its
+ * own storage (what the product's kernel computes, mat_mul.c). */
 static struct term mul(struct combiner *cb, struct term a, struct term b)
 {
+    if (cb->status >= 0 && a.m && b.m) {
+        if (bst_mat_structure(a.m) == BST_DIAG && b.dies && bst_mat_structure(b.m) == BST_DENSE) {
+            const double *d = bst_mat_diag_data((bst_mat *)a.m);
+            struct term r = scaled(cb, d, b, NULL);
+            bst_mat_free(a.dies);
+            return r;
+        }
+        if (bst_mat_structure(b.m) == BST_DIAG && a.dies && bst_mat_structure(a.m) == BST_DENSE) {
+            const double *d = bst_mat_diag_data((bst_mat *)b.m);
+            struct term r = scaled(cb, NULL, a, d);
+            bst_mat_free(b.dies);
+            return r;
+        }
+    }
     bst_mat *out = NULL;
     int rc = cb->status >= 0 && a.m && b.m
                  ? bst_mat_mul(cb->ctx, a.m, b.m, cb->opts->drop_tol, &out) : BST_OK;
@@ -237,11 +268,9 @@ static struct term lam_mul(struct combiner *cb, struct term a, struct term b)
     if (!a.m || !b.m || bst_mat_structure(b.m) != BST_DIAG)
         return lam_times(cb, mul(cb, a, b));
     /* a diagonal factor folds into one scaling: no product held beside its scaled copy */
-    bst_mat *out = NULL;
-    int rc = cb->status >= 0 ? bst_mat_scale(cb->ctx, cb->lam, a.m,
-                                             bst_mat_diag_data((bst_mat *)b.m), &out) : BST_OK;
-    release(a, b);
-    return result(cb, rc, out);
+    struct term r = scaled(cb, cb->lam, a, bst_mat_diag_data((bst_mat *)b.m));
+    bst_mat_free(b.dies);
+    return r;
 }
 
 /* r + s; a new matrix also when one of them is zero. */
@@ -277,22 +306,27 @@ static int solve_status(struct combiner *cb, int rc, const char *what)
     return rc;
 }
 
-/* (I - A)^-1 B (LEFT) or B (I - A)^-1 (RIGHT).  A is a result of the step, freed as soon as it is
- * factored.  cb->rcond receives the condition estimate (1 without a solve). */
+/* (I - A)^-1 B (LEFT) or B (I - A)^-1 (RIGHT).  A is a result of the step: a dense A becomes its
+ * own LU factors, any other goes as soon as it is factored; a B read for the last time is solved
+ * in its own storage when dense (bsti_solve_take).  cb->rcond receives the condition estimate (1
+ * without a solve). */
 static struct term solve(struct combiner *cb, int side, struct term a, struct term b,
                          const char *what)
 {
     bst_mat *out = NULL;
     int rc = BST_OK;
     cb->rcond = 1.0;
-    if (cb->status < 0 || !b.m)
-        bst_mat_free(a.dies);
-    else if (!a.m)
-        rc = copy(cb, b.m, &out);
-    else
-        rc = bsti_solve_take(cb->ctx, side, a.dies, b.m, cb->opts->rcond_warn, &out, &cb->rcond,
-                             keep_slot(cb, what));
-    bst_mat_free(b.dies);
+    if (cb->status < 0 || !b.m) {
+        release(a, b);
+    } else if (!a.m) { /* no inter-reflection: B itself */
+        if (b.dies)
+            out = b.dies;
+        else
+            rc = copy(cb, b.m, &out);
+    } else {
+        rc = bsti_solve_take(cb->ctx, side, a.dies, b.m, b.dies, cb->opts->rcond_warn, &out,
+                             &cb->rcond, keep_slot(cb, what));
+    }
     rc = solve_status(cb, rc, what);
     return result(cb, rc, out);
 }
@@ -317,9 +351,8 @@ static struct term solve2(struct combiner *cb, struct term a, struct term b1, st
         }
         return r1;
     }
-    rc = bsti_solve_take_left2(cb->ctx, a.dies, b1.m, b2.m, cb->opts->rcond_warn, &out1, &out2,
-                               &cb->rcond, keep_slot(cb, what));
-    release(b1, b2);
+    rc = bsti_solve_take_left2(cb->ctx, a.dies, b1.m, b1.dies, b2.m, b2.dies,
+                               cb->opts->rcond_warn, &out1, &out2, &cb->rcond, keep_slot(cb, what));
     rc = solve_status(cb, rc, what);
     *x2 = result(cb, rc, out2);
     return result(cb, rc, out1);
@@ -352,12 +385,18 @@ static void form(struct combiner *cb, struct part *s, bst_comp c, double t0, str
  * diagonal pane), so that V's dense matrices are never copied just to be scaled.  Where a formula
  * nests, the innermost product is formed first and each factor goes as soon as it has been read. */
 
+/* L Tf1, for one of the reads of U's Tf that count_uses counted. */
+static struct term lam_tf1(struct combiner *cb, struct part *u)
+{
+    return u->tf_lam ? use(u, BST_TF) : lam_times(cb, use(u, BST_TF));
+}
+
 /* L Rf2 L X1: what V reflects back into the gap of X1's light, for X1 = Rb1 (A2) and X1 = Tf1 (the
  * right-hand side of Rf). */
 static struct term reflected_outwards(struct combiner *cb, struct part *v, struct part *u,
                                       bst_comp x1)
 {
-    return lam_mul(cb, use(v, BST_RF), lam_times(cb, use(u, x1)));
+    return lam_mul(cb, use(v, BST_RF), x1 == BST_TF ? lam_tf1(cb, u) : lam_times(cb, use(u, x1)));
 }
 
 /* Light travelling inwards in the gap, A1 = L Rb1 L Rf2 = (L Rb1 L) Rf2:
@@ -369,19 +408,19 @@ static struct term reflected_outwards(struct combiner *cb, struct part *v, struc
 static void inward(struct combiner *cb, struct part *u, struct part *v, unsigned want,
                    struct part *s)
 {
-    static const char what[] = "towards the interior";
+    const char *what = towards_interior;
     double t0 = now_seconds();
     cb->flops_mark = bsti_flops_done;
     struct term llrb1 = lam_both(cb, use(u, BST_RB));
     struct term a1 = mul(cb, want & BIT(BST_RB) ? keep(llrb1) : llrb1, use(v, BST_RF));
     if (want == BIT(BST_TF)) {
-        struct term x = solve(cb, LEFT, a1, lam_times(cb, use(u, BST_TF)), what);
+        struct term x = solve(cb, LEFT, a1, lam_tf1(cb, u), what);
         form(cb, s, BST_TF, t0, mul(cb, use(v, BST_TF), x));
     } else if (want == BIT(BST_RB)) {
         struct term x = solve(cb, LEFT, a1, mul(cb, llrb1, use(v, BST_TB)), what);
         form(cb, s, BST_RB, t0, add(cb, use(v, BST_RB), mul(cb, use(v, BST_TF), x)));
     } else if (v->m[BST_TF] && bst_mat_structure(v->m[BST_TF]) == BST_DIAG) {
-        struct term x2, x1 = solve2(cb, a1, lam_times(cb, use(u, BST_TF)),
+        struct term x2, x1 = solve2(cb, a1, lam_tf1(cb, u),
                                     mul(cb, llrb1, use(v, BST_TB)), what, &x2);
         struct term tf2 = use(v, BST_TF);
         form(cb, s, BST_RB, t0, add(cb, use(v, BST_RB), mul(cb, keep(tf2), x2)));
@@ -392,7 +431,7 @@ static void inward(struct combiner *cb, struct part *u, struct part *v, unsigned
         form(cb, s, BST_RB, t0,
              add(cb, use(v, BST_RB), mul(cb, keep(w), mul(cb, llrb1, use(v, BST_TB)))));
         t0 = now_seconds();
-        form(cb, s, BST_TF, t0, mul(cb, w, lam_times(cb, use(u, BST_TF))));
+        form(cb, s, BST_TF, t0, mul(cb, w, lam_tf1(cb, u)));
     }
 }
 
@@ -403,7 +442,7 @@ static void inward(struct combiner *cb, struct part *u, struct part *v, unsigned
 static void outward(struct combiner *cb, struct part *u, struct part *v, unsigned want,
                     struct part *s)
 {
-    static const char what[] = "towards the exterior";
+    const char *what = towards_exterior;
     double t0 = now_seconds();
     cb->flops_mark = bsti_flops_done;
     struct term a2 = reflected_outwards(cb, v, u, BST_RB);
@@ -436,6 +475,15 @@ static int combine_pair(struct combiner *cb, struct part *u, struct part *v, uns
 {
     memset(s, 0, sizeof *s);
     count_uses(want, u, v);
+    /* Every read of U's Tf is of L Tf1 (the inward right-hand side, the outward L Rf2 L Tf1): an
+     * owned one is scaled once, in its own storage, instead of into a copy at each read. */
+    u->tf_lam = 0;
+    if (cb->status >= 0 && u->uses[BST_TF] > 0 && u->own[BST_TF]) {
+        struct term t = scaled(cb, cb->lam, (struct term){u->m[BST_TF], u->own[BST_TF]}, NULL);
+        u->m[BST_TF] = t.m;
+        u->own[BST_TF] = t.dies;
+        u->tf_lam = 1;
+    }
     if (want & INWARD)
         inward(cb, u, v, want & INWARD, s);
     if (want & OUTWARD)
@@ -598,12 +646,12 @@ struct prefix {
 /* Where the solve of the step being formed keeps its factorization for the absorptance: step
  * k's inward one (I - L Rb_U L Rf_k, the gap's front incidence) in fin[k], the outward one
  * (I - L Rf_k L Rb_U) in fout[k]; NULL when nothing is kept.  (The step's two solves are told
- * apart by the name inward and outward give them.) */
+ * apart by the name inward and outward give them, towards_interior and towards_exterior.) */
 static bsti_factor **keep_slot(struct combiner *cb, const char *what)
 {
     if (!cb->keep || !cb->keep->fin)
         return NULL;
-    bsti_factor **slot = strcmp(what, "towards the interior") == 0 ? &cb->keep->fin[cb->step]
+    bsti_factor **slot = what == towards_interior ? &cb->keep->fin[cb->step]
                                                                     : &cb->keep->fout[cb->step];
     bsti_factor_free(*slot); /* not expected: one solve a side and step */
     *slot = NULL;

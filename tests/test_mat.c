@@ -133,6 +133,19 @@ START_TEST(test_unary)
             ref[j * n + i] = w[i] * da[j * n + i] * v[j];
     double *dt = tm_dense(ctx, t);
     ck_assert_double_le(tm_maxdiff(dt, ref, n * n), 8.0 * eps);
+    /* scaling a copy given up (bsti_mat_scale_take): the same bits, in its own storage when
+     * dense or diagonal */
+    bst_mat *own, *ts;
+    ck_assert_int_eq(bst_mat_convert(ctx, a, bst_mat_structure(a), bst_mat_precision(a), &own), BST_OK);
+    ck_assert_int_eq(bsti_mat_scale_take(ctx, w, own, v, &ts), BST_OK);
+    ck_assert_int_eq(bst_mat_structure(ts), bst_mat_structure(t));
+    ck_assert_int_eq(bst_mat_precision(ts), bst_mat_precision(t));
+    if (ka == TM_DENSE || ka == TM_FLOAT || ka == TM_DIAG)
+        ck_assert_ptr_eq(ts, own);
+    double *dts = tm_dense(ctx, ts);
+    ck_assert_int_eq(memcmp(dts, dt, n * n * sizeof *dt), 0);
+    free(dts);
+    bst_mat_free(ts);
     free(dt);
     bst_mat_free(t);
     /* transpose */

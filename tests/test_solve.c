@@ -1,6 +1,8 @@
 /* test_solve.c - X = (I - A)^-1 B and Y = B (I - A)^-1 for every structure of A and B: residuals
  * against plain dense arithmetic, agreement with the dense generic solve, the condition estimate
- * as A approaches a singular I - A, singular cases, errors and injected allocation failures. */
+ * as A approaches a singular I - A, singular cases, errors and injected allocation failures; the
+ * solves that take their operands (bsti_solve_take*, the stack's): the same bits as the borrowing
+ * ones, a dense right-hand side solved in its own storage, nothing leaked on any path. */
 #include <config.h>
 
 #include <float.h>
@@ -8,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "mat.h"
 #include "testmat.h"
 
 static bst_ctx *ctx;
@@ -213,6 +216,116 @@ START_TEST(test_alloc_failure)
 }
 END_TEST
 
+/* Sizes of the taking solves: below, at and across the in-place transpose's 64 x 64 tiles. */
+static const size_t take_sizes[] = {1, 7, 64, 150};
+#define NTAKE (sizeof take_sizes / sizeof take_sizes[0])
+
+/* Bits of two matrices of one structure and shape equal (dense values, or the dense copies). */
+static int same_bits(const bst_mat *x, const bst_mat *y)
+{
+    if (bst_mat_structure(x) != bst_mat_structure(y) || bst_mat_precision(x) != bst_mat_precision(y) ||
+        bst_mat_rows(x) != bst_mat_rows(y) || bst_mat_cols(x) != bst_mat_cols(y))
+        return 0;
+    double *dx = tm_dense(ctx, x), *dy = tm_dense(ctx, y);
+    int same = memcmp(dx, dy, bst_mat_rows(x) * bst_mat_cols(x) * sizeof *dx) == 0;
+    free(dx), free(dy);
+    return same;
+}
+
+/* bsti_solve_take with A and B taken gives the bits of bst_solve_left / bst_solve_right (which
+ * copy both), and a dense B in the factor's precision comes back as the result itself.  _i
+ * enumerates (kind of A, kind of B, size, side); B is square, as the stack's are. */
+START_TEST(test_solve_take)
+{
+    int ka = _i % TM_NKINDS, kb = (_i / TM_NKINDS) % TM_NKINDS;
+    size_t n = take_sizes[(_i / (TM_NKINDS * TM_NKINDS)) % NTAKE];
+    int right = _i / (TM_NKINDS * TM_NKINDS * (int)NTAKE);
+    tu_rng r;
+    tu_rng_seed(&r, 8100 + (uint64_t)_i);
+    bst_mat *a = contraction(ka, n, &r), *b = tm_random(ctx, kb, n, n, 1.0, &r);
+    bst_mat *ref = NULL, *x = NULL, *at, *bt;
+    int rc = right ? bst_solve_right(ctx, a, b, BST_RCOND_WARN, &ref, NULL)
+                   : bst_solve_left(ctx, a, b, BST_RCOND_WARN, &ref, NULL);
+    ck_assert_int_eq(rc, BST_OK);
+    ck_assert_int_eq(bst_mat_convert(ctx, a, bst_mat_structure(a), bst_mat_precision(a), &at), BST_OK);
+    ck_assert_int_eq(bst_mat_convert(ctx, b, bst_mat_structure(b), bst_mat_precision(b), &bt), BST_OK);
+    double rcond;
+    rc = bsti_solve_take(ctx, right, at, bt, bt, BST_RCOND_WARN, &x, &rcond, NULL);
+    ck_assert_msg(rc == BST_OK, "%s A, %s B, n %zu: %s", tm_kind_name[ka], tm_kind_name[kb], n,
+                  bst_ctx_message(ctx));
+    ck_assert_msg(same_bits(x, ref), "%s A, %s B, n %zu, %s: not the borrowing solve's bits",
+                  tm_kind_name[ka], tm_kind_name[kb], n, right ? "right" : "left");
+    int in_place = (ka == TM_DENSE || ka == TM_FLOAT) && /* and B in the factor's precision */
+                   (kb == TM_FLOAT || (ka == TM_DENSE && kb == TM_DENSE));
+    if (in_place) /* bt was solved in its own storage (the matrix freed otherwise) */
+        ck_assert_ptr_eq(x, bt);
+    bst_mat_free(a), bst_mat_free(b), bst_mat_free(ref), bst_mat_free(x);
+}
+END_TEST
+
+/* bsti_solve_take_left2 with both right-hand sides taken: the bits of two bst_solve_left. */
+START_TEST(test_solve_take_left2)
+{
+    int ka = _i % TM_NKINDS, kb = _i / TM_NKINDS; /* B1's kind; B2 dense, in float with A or
+                                                  * B1 (one factor's precision for both) */
+    size_t n = 150;
+    tu_rng r;
+    tu_rng_seed(&r, 8300 + (uint64_t)_i);
+    bst_mat *a = contraction(ka, n, &r), *b1 = tm_random(ctx, kb, n, n, 1.0, &r);
+    bst_mat *b2 = tm_random(ctx, ka == TM_FLOAT || kb == TM_FLOAT ? TM_FLOAT : TM_DENSE, n, n, 1.0, &r);
+    bst_mat *r1, *r2, *at, *b1t, *b2t, *x1 = NULL, *x2 = NULL;
+    ck_assert_int_eq(bst_solve_left(ctx, a, b1, BST_RCOND_WARN, &r1, NULL), BST_OK);
+    ck_assert_int_eq(bst_solve_left(ctx, a, b2, BST_RCOND_WARN, &r2, NULL), BST_OK);
+    ck_assert_int_eq(bst_mat_convert(ctx, a, bst_mat_structure(a), bst_mat_precision(a), &at), BST_OK);
+    ck_assert_int_eq(bst_mat_convert(ctx, b1, bst_mat_structure(b1), bst_mat_precision(b1), &b1t), BST_OK);
+    ck_assert_int_eq(bst_mat_convert(ctx, b2, bst_mat_structure(b2), bst_mat_precision(b2), &b2t), BST_OK);
+    ck_assert_int_eq(bsti_solve_take_left2(ctx, at, b1t, b1t, b2t, b2t, BST_RCOND_WARN, &x1, &x2, NULL, NULL),
+                     BST_OK);
+    ck_assert_msg(same_bits(x1, r1) && same_bits(x2, r2), "%s A, %s B1", tm_kind_name[ka],
+                  tm_kind_name[kb]);
+    bst_mat_free(a), bst_mat_free(b1), bst_mat_free(b2), bst_mat_free(r1), bst_mat_free(r2);
+    bst_mat_free(x1), bst_mat_free(x2);
+}
+END_TEST
+
+/* Every allocation failure in a taking solve frees what it took (the counting allocator ends at
+ * zero live blocks) and returns no result; dense A and B of both precisions, both sides. */
+START_TEST(test_take_alloc_failure)
+{
+    int ka = _i % 2 ? TM_FLOAT : TM_DENSE, kb = (_i / 2) % 2 ? TM_FLOAT : TM_DENSE, right = _i / 4;
+    bst_ctx *c = bst_ctx_new();
+    tu_alloc al = {0};
+    ck_assert_int_eq(bst_ctx_set_allocator(c, tu_alloc_malloc, tu_alloc_free, &al), BST_OK);
+    bst_ctx *save = ctx;
+    ctx = c;
+    tu_rng r;
+    tu_rng_seed(&r, 10 + (uint64_t)_i);
+    bst_mat *a = contraction(ka, 70, &r), *b = tm_random(c, kb, 70, 70, 1.0, &r);
+    long base = al.live;
+    for (long k = 1;; k++) {
+        bst_mat *at = NULL, *bt = NULL, *x = (bst_mat *)1;
+        ck_assert_int_eq(bst_mat_convert(c, a, BST_DENSE, bst_mat_precision(a), &at), BST_OK);
+        ck_assert_int_eq(bst_mat_convert(c, b, BST_DENSE, bst_mat_precision(b), &bt), BST_OK);
+        al.fail_at = al.count + k;
+        int rc = bsti_solve_take(c, right, at, bt, bt, 0, &x, NULL, NULL);
+        al.fail_at = 0;
+        if (rc == BST_OK) {
+            bst_mat_free(x);
+            ck_assert_int_eq(al.live, base);
+            break;
+        }
+        ck_assert_int_eq(rc, BST_ENOMEM);
+        ck_assert_ptr_null(x);
+        ck_assert_int_eq(al.live, base);
+        ck_assert_int_lt(k, 60);
+    }
+    bst_mat_free(a), bst_mat_free(b);
+    ck_assert_int_eq(al.live, 0);
+    ctx = save;
+    bst_ctx_free(c);
+}
+END_TEST
+
 static Suite *solve_suite(void)
 {
     Suite *s = suite_create("solve");
@@ -223,6 +336,9 @@ static Suite *solve_suite(void)
     tcase_add_loop_test(tc, test_condition, TM_DIAG, TM_NKINDS);
     tcase_add_test(tc, test_errors);
     tcase_add_loop_test(tc, test_alloc_failure, 0, 16);
+    tcase_add_loop_test(tc, test_solve_take, 0, 2 * TM_NKINDS * TM_NKINDS * (int)NTAKE);
+    tcase_add_loop_test(tc, test_solve_take_left2, 0, TM_NKINDS * TM_NKINDS);
+    tcase_add_loop_test(tc, test_take_alloc_failure, 0, 8);
     suite_add_tcase(s, tc);
     return s;
 }

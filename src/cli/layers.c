@@ -136,10 +136,12 @@ static double memory_available(void)
 /* Bytes the work needs at its peak, by the model measured in bench/README.md: a component a
  * file's layer holds is dense (N^2 values of the read precision) unless the file's values fill
  * at most BST_SPARSE_MAX_FILL of its domain (specular trees: sparse, 16 bytes a value); on top of
- * them the conversion needs one double grid, a combination 5 N^2 values of the work precision
- * (a step with a dense partial system: the scaled reflection, I - A and its factor, two solutions;
- * measured at k = 7, pane + diffuser + pane in double, 18.1 GiB), whichever is more; 16 MiB for
- * the rest. */
+ * them the conversion needs one double grid, a combination 3 N^2 values of the work precision
+ * (a step with a dense partial system: I - A, factored in its own storage, and two right-hand
+ * sides, solved in theirs; pane + diffuser + pane peaks at the four components and these three),
+ * whichever is more; for the rest (the program and its libraries, OpenBLAS's buffers, diagonal
+ * and sparse parts, per-patch arrays: 18 MiB at k = 5, 43-54 MiB at k = 6, about 100 MiB at
+ * k = 7), 64 MiB and N^2 / 2 bytes. */
 static double memory_need(const bst_basis *basis, size_t n, bst_bsdf *const *files, unsigned comps,
                           bst_precision prec, const struct cli_basis_choice *choice, size_t *ndense)
 {
@@ -159,10 +161,10 @@ static double memory_need(const bst_basis *basis, size_t n, bst_bsdf *const *fil
             }
     }
     *ndense = held;
-    double need = 16.0 * 1048576.0 + sparse;
+    double need = 64.0 * 1048576.0 + 0.5 * cells + sparse;
     if (held == 0)
         return need;
-    double work = choice->combining ? 5.0 * (choice->work == BST_FLOAT ? 4.0 : 8.0) : 0.0;
+    double work = choice->combining ? 3.0 * (choice->work == BST_FLOAT ? 4.0 : 8.0) : 0.0;
     need += cells * ((double)held * (prec == BST_FLOAT ? 4.0 : 8.0) + (work > 8.0 ? work : 8.0));
     return need;
 }
