@@ -599,6 +599,11 @@ static int is_dual_band(const bst_layer *l)
            bst_layer_find_channel(l, "Visible") >= 0;
 }
 
+/* What cli_spectral_plan says of a file layer that has Solar but not Visible (--channels Solar
+ * reads no more), and cli_note_spectral turns into a warning: WINDOW's dual-band rule needs both. */
+static const char solar_only[] = "has Solar but not Visible, which WINDOW's dual-band rule needs "
+                                 "beside it: name Visible in --channels too";
+
 int cli_spectral_plan(const struct cli_layers *set, int per_channel, char *why, size_t size)
 {
     size_t first_plain = set->n, ndual = 0;
@@ -617,6 +622,10 @@ int cli_spectral_plan(const struct cli_layers *set, int per_channel, char *why, 
     int spectral = 0;
     if (per_channel)
         snprintf(why, size, "band values combined per channel (as asked, --per-channel)");
+    else if (first_plain < set->n && set->npanes &&
+             bst_layer_find_channel(set->layers[first_plain], "Solar") >= 0)
+        snprintf(why, size, "band values combined per channel (layer %zu, %s, %s)", first_plain + 1,
+                 bst_layer_name(set->layers[first_plain]), solar_only);
     else if (first_plain < set->n && set->npanes)
         snprintf(why, size, "band values combined per channel (layer %zu, %s, has no spectral data "
                  "and no Solar and Visible channels)", first_plain + 1,
@@ -697,6 +706,8 @@ int cli_note_spectral(const char *sub, struct cli_layers *set, const char *why, 
 {
     if (verbose)
         fprintf(stderr, "bsdfstack %s: spectral: %s\n", sub, why);
+    else if (strstr(why, solar_only)) /* not what a user of --channels Solar expects: say so */
+        fprintf(stderr, "bsdfstack %s: warning: %s\n", sub, why);
     char *d = realloc(set->description, strlen(set->description) + strlen(why) + 12);
     if (!d)
         return cli_fail(sub, "out of memory");
