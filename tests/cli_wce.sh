@@ -41,4 +41,9 @@ grep -q "warning: .*has Solar but not Visible.*name Visible in --channels too" "
 set -- $(diff_wce "$tmpdir/a1.tsv")
 awk -v d="$3" 'BEGIN { exit !(d > 1e-3) }' && pass "--channels Solar: band values, $3 from WCE" \
     || fail "--channels Solar: $3 from WCE, expected band values (> 1e-3)"
+# a pane without spectral data is no dual-band material: no such warning for it
+expect_status 0 "--channels Solar, two panes" -- "$B" combine --klems --channels Solar -o "$tmpdir/p.xml" \
+    glass:nfrc-102 glass:clear-6mm
+grep -q "warning" "$tmpdir/err" && fail "--channels Solar, two panes: $(cat "$tmpdir/err")" \
+    || pass "--channels Solar, two panes: no warning"
 finish

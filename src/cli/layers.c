@@ -590,12 +590,17 @@ static size_t common_channels(const struct cli_layers *set, const char **names)
     return m;
 }
 
-/* A layer that enters a spectral stack as WINDOW's dual-band material: read from a file (not a
- * pane: its name is not glass:...) with Solar and Visible channels. */
-static int is_dual_band(const bst_layer *l)
+/* A layer read from a file (not a pane: its name is not glass:...); one with Solar and Visible
+ * channels enters a spectral stack as WINDOW's dual-band material. */
+static int is_file_layer(const bst_layer *l)
 {
     const char *name = bst_layer_name(l);
-    return (!name || strncmp(name, "glass:", 6) != 0) && bst_layer_find_channel(l, "Solar") >= 0 &&
+    return !name || strncmp(name, "glass:", 6) != 0;
+}
+
+static int is_dual_band(const bst_layer *l)
+{
+    return is_file_layer(l) && bst_layer_find_channel(l, "Solar") >= 0 &&
            bst_layer_find_channel(l, "Visible") >= 0;
 }
 
@@ -622,8 +627,9 @@ int cli_spectral_plan(const struct cli_layers *set, int per_channel, char *why, 
     int spectral = 0;
     if (per_channel)
         snprintf(why, size, "band values combined per channel (as asked, --per-channel)");
-    else if (first_plain < set->n && set->npanes &&
-             bst_layer_find_channel(set->layers[first_plain], "Solar") >= 0)
+    else if (first_plain < set->n && set->npanes && is_file_layer(set->layers[first_plain]) &&
+             bst_layer_find_channel(set->layers[first_plain], "Solar") >= 0 &&
+             bst_layer_find_channel(set->layers[first_plain], "Visible") < 0)
         snprintf(why, size, "band values combined per channel (layer %zu, %s, %s)", first_plain + 1,
                  bst_layer_name(set->layers[first_plain]), solar_only);
     else if (first_plain < set->n && set->npanes)
