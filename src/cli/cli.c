@@ -204,6 +204,22 @@ void cli_hold_std_fds(void)
     }
 }
 
+/* OpenBLAS (pthreads) parks its worker threads only after spinning on sched_yield for a while
+ * (2^28 cycles, about 0.1 s) since their start and since each job: a core's CPU time burnt beside
+ * the reading, resampling and writing around the algebra (S1 at k = 5: 0.25 of its 1.08 CPU
+ * seconds; convert --no-reduce of the k = 6 blind, which does no BLAS work at all: 0.2-0.35 of
+ * 1.6-1.8).  Its blas_thread_shutdown_ (exported for fork handlers; weak here, so that another BLAS
+ * links too) stops them, and its next threaded call starts them again (OpenBLAS's lazy
+ * re-initialization after a fork).  Called from the main thread between phases, when no BLAS call
+ * can be in flight: at the start and after a combination. */
+extern int blas_thread_shutdown_(void) __attribute__((weak));
+
+void cli_blas_rest(void)
+{
+    if (blas_thread_shutdown_)
+        blas_thread_shutdown_();
+}
+
 int cli_parse_double(const char *s, double *out)
 {
     char *end;

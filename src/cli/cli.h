@@ -87,6 +87,9 @@ int cli_stdout_check(const char *sub);
  * taken by /dev/null opened the wrong way round, so that using it fails with EBADF as it would
  * have, and no file the program opens (an output, its temporary) lands on 0, 1 or 2. */
 void cli_hold_std_fds(void);
+/* Stop OpenBLAS's idle worker threads, which spin for about 0.1 s after their last job (cli.c);
+ * only when no BLAS call is in flight. */
+void cli_blas_rest(void);
 
 /* Parse a double / int option value strictly (the whole string, finite). 0 on success. */
 int cli_parse_double(const char *s, double *out);

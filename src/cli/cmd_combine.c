@@ -755,6 +755,7 @@ int cmd_combine(int argc, char **argv)
         if (rc == CLI_OK && abspath)
             rc = absorptance(ctx, sub, &set, sys, &args.so, abs);
     }
+    cli_blas_rest(); /* writing does no BLAS work */
     if (rc == CLI_OK && verbose) {
         char what[96];
         snprintf(what, sizeof what, "combined, %.4g GFLOP in dense kernels", steps_flops * 1e-9);
