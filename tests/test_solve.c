@@ -43,12 +43,20 @@ static bst_mat *contraction(int kind, size_t n, tu_rng *r)
     return s;
 }
 
+/* Case i of a loop test: the kinds of A and B, the size (one of sz[0..nsz-1]), the side. */
+static void pick_case(int i, const size_t *sz, size_t nsz, int *ka, int *kb, size_t *n, int *right)
+{
+    *ka = i % TM_NKINDS, *kb = (i / TM_NKINDS) % TM_NKINDS;
+    *n = sz[(size_t)(i / (TM_NKINDS * TM_NKINDS)) % nsz];
+    *right = i / (TM_NKINDS * TM_NKINDS * (int)nsz);
+}
+
 /* _i enumerates (kind of A, kind of B, size, side). */
 START_TEST(test_solve_all_pairs)
 {
-    int ka = _i % TM_NKINDS, kb = (_i / TM_NKINDS) % TM_NKINDS;
-    size_t n = sizes[(_i / (TM_NKINDS * TM_NKINDS)) % NSIZES];
-    int right = _i / (TM_NKINDS * TM_NKINDS * (int)NSIZES);
+    int ka, kb, right;
+    size_t n;
+    pick_case(_i, sizes, NSIZES, &ka, &kb, &n, &right);
     tu_rng r;
     tu_rng_seed(&r, 7000 + (uint64_t)_i);
     size_t m = kb == TM_DIAG ? n : n + 2; /* the other dimension of B */
@@ -237,9 +245,9 @@ static int same_bits(const bst_mat *x, const bst_mat *y)
  * enumerates (kind of A, kind of B, size, side); B is square, as the stack's are. */
 START_TEST(test_solve_take)
 {
-    int ka = _i % TM_NKINDS, kb = (_i / TM_NKINDS) % TM_NKINDS;
-    size_t n = take_sizes[(_i / (TM_NKINDS * TM_NKINDS)) % NTAKE];
-    int right = _i / (TM_NKINDS * TM_NKINDS * (int)NTAKE);
+    int ka, kb, right;
+    size_t n;
+    pick_case(_i, take_sizes, NTAKE, &ka, &kb, &n, &right);
     tu_rng r;
     tu_rng_seed(&r, 8100 + (uint64_t)_i);
     bst_mat *a = contraction(ka, n, &r), *b = tm_random(ctx, kb, n, n, 1.0, &r);
