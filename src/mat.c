@@ -517,10 +517,10 @@ int bst_mat_transpose(bst_ctx *ctx, const bst_mat *a, bst_mat **out)
         bst_mat *t;
         if ((rc = bst_mat_new_dense(ctx, a->cols, a->rows, a->prec, &t)) < 0)
             return rc;
-        /* in tiles of 32 x 32 that stay in the L1 cache: element by element, every write of a
-         * large matrix's column would touch another cache line and page (2-3x slower at N = 4096,
-         * where OpenBLAS's omatcopy is no faster either) */
-        const size_t r = a->rows, c = a->cols, B = 32;
+        /* tile by tile (BSTI_TRANSPOSE_TILE): element by element, every write of a large matrix's
+         * column would touch another cache line and page (2-3x slower at N = 4096, where
+         * OpenBLAS's omatcopy is no faster either) */
+        const size_t r = a->rows, c = a->cols, B = BSTI_TRANSPOSE_TILE;
         for (size_t j0 = 0; j0 < c; j0 += B)
             for (size_t i0 = 0; i0 < r; i0 += B) {
                 size_t j1 = j0 + B < c ? j0 + B : c, i1 = i0 + B < r ? i0 + B : r;
@@ -543,6 +543,35 @@ int bst_mat_transpose(bst_ctx *ctx, const bst_mat *a, bst_mat **out)
     }
     }
     return bsti_error(ctx, BST_EINVAL, "transpose: unknown structure");
+}
+
+void bsti_mat_transpose_in_place(bst_mat *m)
+{
+    const size_t n = m->rows, B = BSTI_TRANSPOSE_TILE;
+    for (size_t jb = 0; jb < n; jb += B) {
+        size_t je = jb + B < n ? jb + B : n;
+        for (size_t ib = jb; ib < n; ib += B) { /* a tile and its mirror, swapped */
+            size_t ie = ib + B < n ? ib + B : n;
+            for (size_t j = jb; j < je; j++) {
+                size_t i0 = ib == jb ? j + 1 : ib; /* a diagonal tile: its lower triangle */
+                if (m->prec == BST_DOUBLE) {
+                    double *d = m->dense;
+                    for (size_t i = i0; i < ie; i++) {
+                        double t = d[j * n + i];
+                        d[j * n + i] = d[i * n + j];
+                        d[i * n + j] = t;
+                    }
+                } else {
+                    float *d = m->dense;
+                    for (size_t i = i0; i < ie; i++) {
+                        float t = d[j * n + i];
+                        d[j * n + i] = d[i * n + j];
+                        d[i * n + j] = t;
+                    }
+                }
+            }
+        }
+    }
 }
 
 int bst_mat_col_weighted_sum(bst_ctx *ctx, const bst_mat *m, const double *w, double *out)

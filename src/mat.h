@@ -77,6 +77,12 @@ int bsti_solve_take_left2(bst_ctx *ctx, bst_mat *a, const bst_mat *b1, bst_mat *
 int bsti_factor_solve_right(bst_ctx *ctx, bsti_factor *f, const bst_mat *b, bst_mat **y);
 void bsti_factor_free(bsti_factor *f);
 
+/* Transposes (bst_mat_transpose, and this one) go tile by tile, BSTI_TRANSPOSE_TILE square, so that
+ * a tile and the one it lands in stay in the L1 cache. */
+#define BSTI_TRANSPOSE_TILE 32
+/* m := m^T for a square DENSE m, in its own storage (the values of a transposed copy). */
+void bsti_mat_transpose_in_place(bst_mat *m);
+
 /* The generic product: both operands converted to dense, then GEMM (the tests' baseline). */
 int bsti_mat_mul_generic(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, bst_mat **out);
 /* The generic sum: both operands converted to dense, then added elementwise (the tests' baseline). */

@@ -327,38 +327,6 @@ static int dense_solve_in_place(struct factor *f, int trans, bst_mat *x)
     return BST_OK;
 }
 
-/* m := m^T for a square dense m, in its own storage (the values of a transposed copy), tile by
- * tile so that both the tile and its mirror stay in cache. */
-#define TRANSPOSE_TILE 64
-static void transpose_square_in_place(bst_mat *m)
-{
-    size_t n = m->rows;
-    for (size_t jb = 0; jb < n; jb += TRANSPOSE_TILE) {
-        size_t je = jb + TRANSPOSE_TILE < n ? jb + TRANSPOSE_TILE : n;
-        for (size_t ib = jb; ib < n; ib += TRANSPOSE_TILE) {
-            size_t ie = ib + TRANSPOSE_TILE < n ? ib + TRANSPOSE_TILE : n;
-            for (size_t j = jb; j < je; j++) {
-                size_t i0 = ib == jb ? j + 1 : ib; /* a diagonal tile: its lower triangle */
-                if (m->prec == BST_DOUBLE) {
-                    double *d = m->dense;
-                    for (size_t i = i0; i < ie; i++) {
-                        double t = d[j * n + i];
-                        d[j * n + i] = d[i * n + j];
-                        d[i * n + j] = t;
-                    }
-                } else {
-                    float *d = m->dense;
-                    for (size_t i = i0; i < ie; i++) {
-                        float t = d[j * n + i];
-                        d[j * n + i] = d[i * n + j];
-                        d[i * n + j] = t;
-                    }
-                }
-            }
-        }
-    }
-}
-
 /* X = M^-1 B (trans 0) or M^-T B (trans 1) for the factored M = I - A. */
 static int factor_solve(struct factor *f, int trans, const bst_mat *b, bst_mat **out)
 {
@@ -490,12 +458,12 @@ static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **ow
             out[q] = bq;
             own_b[q] = NULL;
             if (right)
-                transpose_square_in_place(bq);
+                bsti_mat_transpose_in_place(bq);
             rc = dense_solve_in_place(&f, right, bq);
             if (right && q + 1 == nb && !keep)
                 factor_free(&f);
             if (right)
-                transpose_square_in_place(bq);
+                bsti_mat_transpose_in_place(bq);
         } else if (right) { /* Y^T = (I - A)^-T B^T; each workspace freed as soon as it is dead,
                              * B^T solved in place when it is dense in the factor's precision */
             bst_mat *bt = NULL, *xt = NULL;
@@ -515,7 +483,7 @@ static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **ow
             if (q + 1 == nb && !keep)
                 factor_free(&f);
             if (rc >= 0 && xt->s == BST_DENSE && xt->rows == xt->cols) {
-                transpose_square_in_place(xt);
+                bsti_mat_transpose_in_place(xt);
                 out[q] = xt;
                 xt = NULL;
             } else if (rc >= 0) {

@@ -224,7 +224,8 @@ START_TEST(test_alloc_failure)
 }
 END_TEST
 
-/* Sizes of the taking solves: below, at and across the in-place transpose's 64 x 64 tiles. */
+/* Sizes of the taking solves: below, at and across the in-place transpose's tiles (32 x 32,
+ * BSTI_TRANSPOSE_TILE). */
 static const size_t take_sizes[] = {1, 7, 64, 150};
 #define NTAKE (sizeof take_sizes / sizeof take_sizes[0])
 
