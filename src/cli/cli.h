@@ -90,6 +90,9 @@ void cli_hold_std_fds(void);
 /* Stop OpenBLAS's idle worker threads, which spin for about 0.1 s after their last job (cli.c);
  * only when no BLAS call is in flight. */
 void cli_blas_rest(void);
+/* At the start: OpenBLAS's workers to spin about 0.3 ms after a job instead of 0.1 s, unless the
+ * user's OPENBLAS_THREAD_TIMEOUT says otherwise (cli.c), then cli_blas_rest. */
+void cli_blas_setup(void);
 
 /* Parse a double / int option value strictly (the whole string, finite). 0 on success. */
 int cli_parse_double(const char *s, double *out);

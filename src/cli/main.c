@@ -75,7 +75,7 @@ static int dispatch(int argc, char **argv, const char **sub)
 int main(int argc, char **argv)
 {
     cli_hold_std_fds();
-    cli_blas_rest(); /* spinning from the library's start: reading comes first */
+    cli_blas_setup(); /* spinning from the library's start: reading comes first */
     const char *sub = NULL;
     int rc = dispatch(argc, argv, &sub);
     /* whatever a command printed must have reached standard output: a full disk or a closed
