@@ -4,6 +4,12 @@
  * size that takes seconds).
  *
  *   make bench/numtext_sweep && bench/numtext_sweep [N [SEED]]
+ *   bench/numtext_sweep --floats [THREADS]
+ *
+ * --floats: every float from 2^-68 to 2^25 (the positive ones; the sign is one character), the
+ * float writer's shortest-digits way against the fixed-point replay of the search that doubles
+ * take, which the rest of this program and the tests check against the search itself: 1.56e9
+ * values, about a minute a thread here.
  *
  * N values of each family (default 10^6): random bit patterns (every exponent, both signs),
  * log-uniform values in the BSDF range 1e-8..1e4, and decimals of 1..17 significant digits in
@@ -16,6 +22,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -84,8 +91,58 @@ static double time_it(int which, const double *vals, size_t n)
     return best;
 }
 
+/* Every float from 2^-68 to 2^25 (the writer's shortest-digits way) against the fixed-point
+ * replay of the search (bsti_format_float_general), bits lo..hi-1 of the positive floats. */
+struct span {
+    uint32_t lo, hi;
+    long compared, differ;
+};
+
+static void *float_span(void *arg)
+{
+    struct span *sp = arg;
+    char got[32], want[32];
+    float back;
+    for (uint32_t bits = sp->lo; bits < sp->hi; bits++) {
+        float f;
+        memcpy(&f, &bits, sizeof f);
+        int nw = bsti_format_float_general(f, want);
+        if (!nw)
+            nw = bsti_format_float_search(f, want);
+        bsti_format_float(f, 0, got, &back);
+        sp->compared++;
+        if (strcmp(got, want) != 0 && sp->differ++ < 20)
+            printf("DIFFERENT %a: %s, reference %s\n", (double)f, got, want);
+    }
+    return NULL;
+}
+
+static int all_floats(int nthreads)
+{
+    uint32_t lo = (uint32_t)59 << 23, hi = (uint32_t)152 << 23; /* biased exponents 59..151 */
+    struct span sp[16];
+    pthread_t th[16];
+    if (nthreads < 1 || nthreads > 16)
+        nthreads = 2;
+    for (int t = 0; t < nthreads; t++) {
+        sp[t].lo = lo + (uint32_t)((uint64_t)(hi - lo) * (uint64_t)t / (uint64_t)nthreads);
+        sp[t].hi = lo + (uint32_t)((uint64_t)(hi - lo) * (uint64_t)(t + 1) / (uint64_t)nthreads);
+        sp[t].compared = sp[t].differ = 0;
+        if (pthread_create(&th[t], NULL, float_span, &sp[t]) != 0)
+            return 2;
+    }
+    for (int t = 0; t < nthreads; t++) {
+        pthread_join(th[t], NULL);
+        compared += sp[t].compared, differ += sp[t].differ;
+    }
+    printf("%ld floats compared (2^-68 to 2^25), %ld different\n", compared, differ);
+    return differ != 0;
+}
+
 int main(int argc, char **argv)
 {
+    if (argc > 1 && strcmp(argv[1], "--floats") == 0)
+        return all_floats(argc > 2 ? atoi(argv[2]) : 2);
     long n = argc > 1 ? atol(argv[1]) : 1000000;
     if (argc > 2)
         rng = strtoull(argv[2], NULL, 10) | 1;

@@ -310,6 +310,125 @@ static int format_double_fast(double v, char *buf)
     return format_fixed(frac | 1ull << 52, bexp - 1075, frac == 0 && bexp > 1, 17, negative, buf);
 }
 
+/* ------------------------------------------------------------------ floats: the shortest digits
+ *
+ * The writers' values are floats, and for them a shorter way finds the same text.  Where the gaps
+ * on both sides of v are equal (all but the powers of two), the search's test is monotone in P and
+ * the least P that passes is the length of the shortest decimal inside v's rounding interval (if
+ * any P-digit number lies inside, so does the nearest one, printf's: the interval is symmetric);
+ * and printf's P digits are that shortest decimal nearest v.  That is what Ryu's digit removal
+ * finds (Adams 2018, section 3): v and its interval's ends on a decimal grid finer than the gap,
+ * exactly, then one digit off all three while a coarser grid point still lies inside, the digits
+ * removed from v remembered for the rounding.  Here the grid values come exact from one 128-bit
+ * product: v = 4m 2^-s (s > 0), the ends 4m -/+ 2, times 10^d; floors by a shift, exactness from
+ * the bits shifted out.  10^d 2^-s lies in [10, 100), so the interval spans at least 40 grid
+ * steps (a digit is always removed, and v's remainder is seen) and 4m 10^d < 2^128 for d <= 30:
+ * normal floats from 2^-68 to 2^25 (about 3e-21 to 3e7), where every BSDF value lies; the others
+ * and the powers of two take format_fixed's way.  Compared with it on every float in that range
+ * by hand (bench/numtext_sweep --floats), with the search in tests/test_write.c and
+ * tests/test_numtext.c. */
+#define P19 10000000000000000000ull
+static const u128 p10w[31] = {1ull, 10ull, 100ull, 1000ull, 10000ull, 100000ull, 1000000ull,
+    10000000ull, 100000000ull, 1000000000ull, 10000000000ull, 100000000000ull, 1000000000000ull,
+    10000000000000ull, 100000000000000ull, 1000000000000000ull, 10000000000000000ull,
+    100000000000000000ull, 1000000000000000000ull, P19, (u128)P19 * 10u, (u128)P19 * 100u,
+    (u128)P19 * 1000u, (u128)P19 * 10000u, (u128)P19 * 100000u, (u128)P19 * 1000000u,
+    (u128)P19 * 10000000u, (u128)P19 * 100000000u, (u128)P19 * 1000000000u,
+    (u128)P19 * 10000000000ull, (u128)P19 * 100000000000ull};
+
+/* g_text for r 10^e, r of at most 9 digits, the last not 0 (printf's "%.*g" with precision the
+ * number of digits of r): the digits written once, right to left, two a step, then moved into
+ * place. */
+static int float_text(uint32_t r, int e, int negative, char *buf)
+{
+    char dig[10], *end = dig + 10, *q = end;
+    while (r >= 100) {
+        uint32_t t = r / 100, p = r - 100 * t;
+        q -= 2;
+        memcpy(q, pairs + 2 * p, 2);
+        r = t;
+    }
+    if (r >= 10) {
+        q -= 2;
+        memcpy(q, pairs + 2 * r, 2);
+    } else {
+        *--q = (char)('0' + r);
+    }
+    int nd = (int)(end - q), lead = e + nd - 1;
+    char *s = buf;
+    if (negative)
+        *s++ = '-';
+    if (lead < -4 || lead >= nd) { /* d.ddde+XX */
+        *s++ = q[0];
+        if (nd > 1) {
+            *s++ = '.';
+            memcpy(s, q + 1, (size_t)nd - 1);
+            s += nd - 1;
+        }
+        int x = lead < 0 ? -lead : lead;
+        *s++ = 'e';
+        *s++ = lead < 0 ? '-' : '+';
+        if (x >= 100)
+            *s++ = (char)('0' + x / 100), x %= 100;
+        memcpy(s, pairs + 2 * x, 2);
+        s += 2;
+    } else if (lead >= 0) { /* ddd.ddd (nd > lead) */
+        memcpy(s, q, (size_t)lead + 1);
+        s += lead + 1;
+        if (nd > lead + 1) {
+            *s++ = '.';
+            memcpy(s, q + lead + 1, (size_t)(nd - lead - 1));
+            s += nd - lead - 1;
+        }
+    } else { /* 0.000ddd */
+        *s++ = '0';
+        *s++ = '.';
+        for (int k = -1; k > lead; k--)
+            *s++ = '0';
+        memcpy(s, q, (size_t)nd);
+        s += nd;
+    }
+    *s = '\0';
+    return (int)(s - buf);
+}
+
+/* m 2^e, 2^23 < m < 2^24, s = 2 - e in 1..93: the search's text, its length. */
+static int format_float_short(uint32_t m, int e, int negative, char *buf)
+{
+    int s = 2 - e, d = ((s * 78913) >> 18) + 2; /* floor(s log10 2) + 2 */
+    u128 t = p10w[d], x = (u128)(4u * m) * t, h = 2 * t, mask = ((u128)1 << s) - 1;
+    u128 lo = x - h, hi = x + h;                /* 10^d times v, its ends; units 2^-s */
+    uint64_t vr = (uint64_t)(x >> s), vp = (uint64_t)(hi >> s), vm = (uint64_t)(lo >> s);
+    int even = !(m & 1);                        /* strtod: an end reads as v when m is even */
+    int vr_tz = (x & mask) == 0, vm_tz = even && (lo & mask) == 0, last = 0, removed = 0;
+    if (!even && (hi & mask) == 0)
+        vp--;                                   /* the upper end itself reads as the neighbour */
+    while (vp / 100 > vm / 100) {               /* two digits a step while that is inside */
+        vm_tz &= vm % 100 == 0;
+        vr_tz &= last == 0 && vr % 10 == 0;
+        last = (int)(vr / 10 % 10);
+        vr /= 100, vp /= 100, vm /= 100, removed += 2;
+    }
+    while (vp / 10 > vm / 10) {                 /* a coarser grid point still inside */
+        vm_tz &= vm % 10 == 0;
+        vr_tz &= last == 0;
+        last = (int)(vr % 10);
+        vr /= 10, vp /= 10, vm /= 10, removed++;
+    }
+    if (vm_tz) /* the lower end is inside and on the grid: shorter texts may end there */
+        while (vm % 10 == 0) {
+            vr_tz &= last == 0;
+            last = (int)(vr % 10);
+            vr /= 10, vp /= 10, vm /= 10, removed++;
+        }
+    if (vr_tz && last == 5 && !(vr & 1))
+        last = 4;                               /* an exact half: printf rounds to even */
+    uint32_t r = (uint32_t)(vr + ((vr == vm && !vm_tz) || last >= 5)); /* at most 9 digits */
+    while (r % 10 == 0)
+        r /= 10, removed++;
+    return float_text(r, removed - d, negative, buf);
+}
+
 /* A finite f != 0 as bsti_format_float_search prints it, or 0. */
 static int format_float_fixed(float f, char *buf)
 {
@@ -321,7 +440,26 @@ static int format_float_fixed(float f, char *buf)
         return 0;
     if (bexp == 0)
         return format_fixed(frac, -149, 0, 9, negative, buf);
+    if (frac && bexp >= 59 && bexp <= 151)
+        return format_float_short(frac | 1u << 23, bexp - 150, negative, buf);
     return format_fixed(frac | 1u << 23, bexp - 150, frac == 0 && bexp > 1, 9, negative, buf);
+}
+
+int bsti_format_float_general(float f, char *buf)
+{
+    uint32_t bits;
+    memcpy(&bits, &f, sizeof bits);
+    int bexp = (int)(bits >> 23 & 0xff), negative = (int)(bits >> 31);
+    uint32_t frac = bits & ((1u << 23) - 1);
+    if (bexp == 0xff || bexp == 0)
+        return 0;
+    return format_fixed(frac | 1u << 23, bexp - 150, frac == 0 && bexp > 1, 9, negative, buf);
+}
+#else
+int bsti_format_float_general(float f, char *buf)
+{
+    (void)f, (void)buf;
+    return 0;
 }
 #endif /* __SIZEOF_INT128__ */
 

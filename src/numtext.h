@@ -14,6 +14,10 @@ int bsti_format_double(double v, int digits, char *buf, double *back);
 /* The reference the float's text must equal (numtext.c): the fewest "%.*g" digits strtof reads
  * back as f. */
 int bsti_format_float_search(float f, char *buf);
+/* A normal float's text by the fixed-point replay of the search that doubles take (numtext.c),
+ * not the shortest-digits way floats take where they can: the length, or 0 where it cannot decide
+ * (then the search does).  For comparing the two ways. */
+int bsti_format_float_general(float f, char *buf);
 /* The reference the double's text must equal: the fewest "%.*g" digits strtod reads back as v
  * (a binary search over printf and strtod; v finite and non-zero). */
 int bsti_format_double_search(double v, char *buf);

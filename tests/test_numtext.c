@@ -156,6 +156,47 @@ START_TEST(test_float_vs_search)
 }
 END_TEST
 
+/* Floats from 2^-68 to 2^25 take the shortest-digits way (Ryu's digit removal), the others the
+ * fixed-point replay of the search: the two agree on 4 million random floats of that range and
+ * on every float of one binade's neighbourhood of the decimals 10^-8..10^4 (all 1.56e9 of the
+ * range were compared once by hand, bench/numtext_sweep --floats: no difference); the search
+ * itself is the reference above and in tests/test_write.c. */
+START_TEST(test_float_short_vs_general)
+{
+    uint64_t x = 2718281828;
+    char got[32], want[32];
+    float back;
+    long compared = 0;
+    for (long i = 0; i < 4000000; i++) {
+        uint32_t bits = (uint32_t)((59u + xorshift(&x) % 93u) << 23 | (xorshift(&x) & 0x7fffffu));
+        float f;
+        memcpy(&f, &bits, sizeof f);
+        if (!bsti_format_float_general(f, want))
+            bsti_format_float_search(f, want);
+        bsti_format_float(f, 0, got, &back);
+        if (strcmp(got, want) != 0)
+            ck_abort_msg("%a: %s, reference %s", (double)f, got, want);
+        compared++;
+    }
+    for (int k = -8; k <= 4; k++) { /* 2^16 floats on either side of each power of ten */
+        float c = (float)pow(10.0, k);
+        uint32_t b0;
+        memcpy(&b0, &c, sizeof b0);
+        for (uint32_t bits = b0 - 65536; bits < b0 + 65536; bits++) {
+            float f;
+            memcpy(&f, &bits, sizeof f);
+            if (!bsti_format_float_general(f, want))
+                bsti_format_float_search(f, want);
+            bsti_format_float(f, 0, got, &back);
+            if (strcmp(got, want) != 0 || back != f)
+                ck_abort_msg("%a: %s, reference %s", (double)f, got, want);
+            compared++;
+        }
+    }
+    ck_assert_int_eq(compared, 4000000 + 13 * 131072);
+}
+END_TEST
+
 /* The texts known by heart (printf's layout: exponent form below 1e-4 and at or above 1e(P)). */
 START_TEST(test_double_texts)
 {
@@ -186,6 +227,7 @@ static Suite *suite(void)
     tcase_add_test(tc, test_double_bsdf_range);
     tcase_add_test(tc, test_double_short_decimals);
     tcase_add_test(tc, test_float_vs_search);
+    tcase_add_test(tc, test_float_short_vs_general);
     suite_add_tcase(s, tc);
     return s;
 }
