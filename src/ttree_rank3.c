@@ -584,7 +584,7 @@ int bsti_tt3_build(bst_ctx *ctx, int k, int refine, double fa_stop, int give_up,
     return rc;
 }
 
-double bsti_tt3_rotation_fa(const bst_mat *m, int k)
+double bsti_tt3_rotation_fa(const bst_mat *m, int k, double stop)
 {
     size_t G = (size_t)1 << k, N = G * G;
     if (!m || m->s == BST_ZERO || m->rows != N)
@@ -603,6 +603,8 @@ double bsti_tt3_rotation_fa(const bst_mat *m, int k)
         }
         if (sum > 0.0)
             worst = fmin(worst, 100.0 * (1.0 - diff / sum));
+        if (worst < stop)
+            break;
     }
     return worst;
 }

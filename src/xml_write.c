@@ -254,8 +254,8 @@ static int build_t3(struct xw *w, int *isotropic)
                  * azimuths of a cell ring and fails the check (glass panes at k = 3, 5, 7): not
                  * tried, which spares O(N^2) sweeps; cheap rejection next (factor 4 instead of
                  * the triangle inequality's 2) */
-                if (bst_mat_structure(m) == BST_DIAG ||
-                    bsti_tt3_rotation_fa(m, w->k) < 100.0 - 4.0 * (100.0 - o->iso_fa_min)) {
+                double bar = 100.0 - 4.0 * (100.0 - o->iso_fa_min);
+                if (bst_mat_structure(m) == BST_DIAG || bsti_tt3_rotation_fa(m, w->k, bar) < bar) {
                     *isotropic = 0;
                     if (o->rank != BST_RANK_3)
                         goto done;

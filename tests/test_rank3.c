@@ -356,7 +356,8 @@ START_TEST(test_give_up)
 }
 END_TEST
 
-/* The rotation test against its definition: min over i of FA(M(., i), M(R ., R i)). */
+/* The rotation test against its definition: min over i of FA(M(., i), M(R ., R i)); with a bar,
+ * the same answer to "below it?". */
 START_TEST(test_rotation_fa)
 {
     for (int k = 2; k <= 4; k++) {
@@ -372,8 +373,11 @@ START_TEST(test_rotation_fa)
             }
             want = fmin(want, 100.0 * (1.0 - d / s));
         }
-        tu_assert_close(bsti_tt3_rotation_fa(m, k), want, 1e-13, 100.0);
+        tu_assert_close(bsti_tt3_rotation_fa(m, k, -INFINITY), want, 1e-13, 100.0);
         ck_assert(k == 3 ? want > 99.0 : want < 90.0);
+        /* stopping early: the same decision against the bar */
+        for (double bar = 80.0; bar <= 100.0; bar += 5.0)
+            ck_assert_int_eq(bsti_tt3_rotation_fa(m, k, bar) < bar, want < bar);
         free(M);
         bst_mat_free(m);
     }
