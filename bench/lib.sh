@@ -1,3 +1,4 @@
+# shellcheck shell=bash
 # lib.sh - what bench/run and bench/run-long share, sourced by both (bash): how a run is timed
 # (`measure`), how S1's accuracy is computed (`ga`), how a row of results.csv is written (`row`),
 # and the command line of each configuration they both measure (`case_s1`, `case_gdg`, `case_dd`),
