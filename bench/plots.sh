@@ -11,7 +11,7 @@ series=()
 while IFS= read -r key; do
     f=$tmp/$(echo "$key" | tr ' +' '__').dat
     awk -F, -v key="$key" 'NR > 1 && ($1 == "S1" || $1 == "dense") && ($2 " " $4) == key {
-        print 4 ^ $3, $6, $8 }' "$csv" > "$f"
+        print 4 ^ $3, $6, $8 }' "$csv" | sort -g > "$f"
     [ -s "$f" ] && series+=("$key|$f")
 done < <(awk -F, 'NR > 1 && ($1 == "S1" || $1 == "dense") { print $2 " " $4 }' "$csv" | sort -u)
 awk -F, 'NR > 1 && $1 == "S1" && $15 != "-" { print $7, $15, $3, $4 }' "$csv" > "$tmp/ga.dat"
