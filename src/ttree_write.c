@@ -42,7 +42,7 @@
 /* A task: a subtree of at most this many cells (rank 4: 16^4, rank 3: 8^5 cells). */
 #define TASK_CELLS 65536
 /* Block rows stream_blocks asks for ahead of the one it reads (8 rows of cells each). */
-#define STREAM_AHEAD 8
+#define STREAM_AHEAD 16
 /* Task texts in flight per thread. */
 #define WINDOW 2
 /* The most bytes one leaf line takes: indent, braces, 16 values of <= 15 characters, each after a
