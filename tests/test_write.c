@@ -786,6 +786,85 @@ START_TEST(test_reference_round_trip)
 }
 END_TEST
 
+/* Every value read back exactly as written (issue #14), beyond the reference trees above: the
+ * ray-traced S1's layers combined at k = 5 (pane + blind + pane, the README's system) and written
+ * without reduction, both transmissions (recip_tol < 0), comes back as each double's float; with
+ * the default reciprocity tolerance the stored Tb, Rf and Rb still do.  The rank-3 diffuser written
+ * from its own file (its trees copied) reads back as the file did: the same values on the grid
+ * (each a cell's average of the tree, so not a float itself).  Seven digits instead of the exact
+ * text fail the S1 check. */
+static double max_float_diff(const bst_layer *exact, const bst_layer *back, bst_comp c)
+{
+    const bst_mat *x = bst_layer_get(exact, 0, c), *y = bst_layer_get(back, 0, c);
+    ck_assert_ptr_nonnull(x);
+    ck_assert_ptr_nonnull(y);
+    size_t n = bst_basis_size(bst_layer_basis(exact)), bad = 0;
+    double d = 0;
+    for (size_t i = 0; i < n; i++)
+        for (size_t o = 0; o < n; o++) {
+            double want = (double)(float)bst_mat_get(x, o, i), got = bst_mat_get(y, o, i);
+            if (got != want && bad++ < 3)
+                printf("%s (%zu <- %zu): %.9g written, %.9g read back\n", bst_comp_name(c), o, i, want, got);
+            d = fmax(d, fabs(got - want));
+        }
+    return d;
+}
+
+START_TEST(test_system_round_trip)
+{
+    static const char *const names[] = {"L_glass_t4k5.xml", "L_blind0_t4k5.xml", "L_glass_t4k5.xml"};
+    bst_bsdf *b[3];
+    bst_layer *l[3], *sys;
+    for (int i = 0; i < 3; i++)
+        b[i] = read_ok(tu_ref(names[i])), l[i] = layer_of(b[i], NULL);
+    bst_stack_opts so;
+    bst_stack_opts_init(&so);
+    ck_assert_int_ge(bst_stack_combine(ctx, 3, (const bst_layer *const *)l, &so, &sys), 0);
+    ck_assert_uint_eq(bst_basis_size(bst_layer_basis(sys)), 1024);
+    for (int recip = 0; recip < 2; recip++) {
+        bst_bsdf_write_opts o;
+        bst_bsdf_write_opts_init(&o);
+        o.reduce_pct = -1;
+        if (!recip)
+            o.recip_tol = -1;
+        const char *path = tmp_path("s1");
+        write_ok(sys, path, &o);
+        bst_bsdf *rb = read_ok(path);
+        ck_assert_int_eq(bst_bsdf_order(rb), 5);
+        bst_layer *back = layer_of(rb, NULL);
+        for (int c = 0; c < BST_NCOMP; c++) {
+            if (recip && c == BST_TF && !bst_bsdf_stored(rb, 0, BST_TF))
+                continue; /* rebuilt from Tb by reciprocity: not the value written */
+            ck_assert_msg(max_float_diff(sys, back, (bst_comp)c) == 0.0, "S1 %s (%s) not read back exactly",
+                          bst_comp_name((bst_comp)c), recip ? "default reciprocity" : "both transmissions");
+        }
+        ck_assert(recip || bst_bsdf_stored(rb, 0, BST_TF));
+        bst_layer_free(back), bst_bsdf_free(rb);
+        unlink(path);
+    }
+    bst_layer_free(sys);
+    for (int i = 0; i < 3; i++)
+        bst_layer_free(l[i]), bst_bsdf_free(b[i]);
+
+    bst_bsdf *d = read_ok(tu_ref("L_diffuser_t3k5.xml"));
+    bst_layer *ld = layer_of(d, NULL);
+    bst_bsdf_write_opts o;
+    bst_bsdf_write_opts_init(&o);
+    o.reduce_pct = -1, o.rank3_source = d, o.recip_tol = -1; /* both transmissions, as the file */
+    const char *path = tmp_path("d3");
+    write_ok(ld, path, &o);
+    bst_bsdf *rd = read_ok(path);
+    ck_assert_int_eq(bst_bsdf_kind(rd), BST_FILE_TT3);
+    ck_assert(bst_bsdf_stored(rd, 0, BST_TF) && bst_bsdf_stored(rd, 0, BST_TB));
+    bst_layer *ld2 = layer_of(rd, NULL);
+    for (int c = 0; c < BST_NCOMP; c++) /* the same trees: the same expansion onto the grid */
+        ck_assert_msg(max_diff(ld, ld2, 0, (bst_comp)c) == 0.0, "diffuser %s not read back exactly",
+                      bst_comp_name((bst_comp)c));
+    bst_layer_free(ld2), bst_bsdf_free(rd), bst_layer_free(ld), bst_bsdf_free(d);
+    unlink(path);
+}
+END_TEST
+
 /* bst_bsdf_set_precision: a rank-4 reference tree at its own depth (the blind: dense, Tf by
  * reciprocity) expanded in single precision holds the double expansion's values exactly, and its
  * file, reduced and exact, with 1 and 2 threads, is the double layer's to the byte; the setter
@@ -1463,6 +1542,7 @@ static Suite *suite(void)
     tcase_set_timeout(tc, 300);
     tcase_add_loop_test(tc, test_reference_round_trip, 0, 3);
     tcase_add_test(tc, test_float_layer_same_bytes);
+    tcase_add_test(tc, test_system_round_trip);
     tcase_add_loop_test(tc, test_reference_hemi, 0, 4);
     tcase_add_loop_test(tc, test_reference_klems, 0, 4);
     tcase_add_test(tc, test_rank3_auto);
