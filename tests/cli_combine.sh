@@ -213,4 +213,21 @@ expect_error "--max-memory with a bad size" "--max-memory 12x: give a size such 
 grep -q "k = 5 needs about 0.11[0-9]* GiB (4 dense components of 0.00781 GiB" "$tmpdir/err" \
     && pass "specular trees are counted sparse" || fail "memory estimate of S1: $(cat "$tmpdir/err")"
 
+# Layers that are all rank-4 trees of order 3, combined at -k 4: a warning that the system is the
+# order-3 one repeated (not at -k 3, and not with a pane, which is exact at any order; the blind's
+# order-3 average exceeds T + R = 1 by 3 %, which is warned about too); and it
+# is: the -k 4 system equals the -k 3 system read at order 4 (GA 100 and FA 100 at every patch)
+expect_status 0 "convert the blind to order 3" -- "$BSDFSTACK" convert -k 3 -o "$tmpdir/b3.xml" "$ref/L_blind0_t4k5.xml"
+expect_status 0 "convert the pane to order 3" -- "$BSDFSTACK" convert -k 3 -o "$tmpdir/g3.xml" "$ref/L_glass_t4k5.xml"
+"$BSDFSTACK" combine -k 4 --no-reduce -o "$tmpdir/s34.xml" "$tmpdir/g3.xml" "$tmpdir/b3.xml" "$tmpdir/g3.xml" 2>"$tmpdir/err"
+grep -q "warning: every layer is a rank-4 tensor tree of order 3 or less: -k 4 gives their order-3 system, each patch's values repeated over its 4 finer patches, in up to 64 times the time; use -k 3, or layers of order 4" "$tmpdir/err" \
+    && pass "-k above every tree's order: a warning" || fail "-k above the trees' order: $(cat "$tmpdir/err")"
+expect_status 0 "the same at -k 3" -- "$BSDFSTACK" combine -k 3 --no-reduce -o "$tmpdir/s33.xml" "$tmpdir/g3.xml" "$tmpdir/b3.xml" "$tmpdir/g3.xml"
+! grep -q "every layer is a rank-4" "$tmpdir/err" && pass "no such warning at the trees' order" || fail "warning at the trees' order: $(cat "$tmpdir/err")"
+expect_status 0 "with a pane at -k 4" -- "$BSDFSTACK" combine -k 4 -o "$tmpdir/p34.xml" glass:clear-6mm "$tmpdir/b3.xml"
+! grep -q "every layer is a rank-4" "$tmpdir/err" && pass "no such warning with a pane" || fail "warning with a pane: $(cat "$tmpdir/err")"
+expect_status 0 "compare the two" -- "$BSDFSTACK" compare -k 4 "$tmpdir/s33.xml" "$tmpdir/s34.xml"
+[ "$(grep -c 'all 256 incident patches: GA mean 100.000, least 100.000 .*FA mean 100.00, least 100.00' "$tmpdir/out")" -eq 4 ] \
+    && pass "-k 4 of order-3 trees is the order-3 system repeated" || fail "-k 4 against -k 3: $(grep 'all 256' "$tmpdir/out")"
+
 finish

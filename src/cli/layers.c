@@ -269,21 +269,34 @@ static int read_all(bst_ctx *ctx, const char *sub, size_t n, char **specs,
                     const struct cli_basis_choice *choice, const bst_bsdf_read_opts *ro,
                     bst_precision prec, bst_bsdf **files, bst_basis **basis, struct cli_basis_pick *pick)
 {
-    int kmax = 0, rc = CLI_OK;
+    int kmax = 0, rc = CLI_OK, all_tt4 = 1;
     long klems_file = -1;
     for (size_t i = 0; i < n && rc == CLI_OK; i++) {
-        if (is_glass(specs[i]))
+        if (is_glass(specs[i])) {
+            all_tt4 = 0;
             continue;
+        }
         rc = read_one(ctx, sub, NULL, specs[i], ro, 0, &files[i]);
         if (rc == CLI_OK) {
             if (bst_bsdf_order(files[i]) > kmax)
                 kmax = bst_bsdf_order(files[i]);
             if (klems_file < 0 && bst_bsdf_kind(files[i]) == BST_FILE_KLEMS)
                 klems_file = (long)i;
+            all_tt4 &= bst_bsdf_kind(files[i]) == BST_FILE_TT4;
         }
     }
     if (rc != CLI_OK)
         return rc;
+    /* Rank-4 trees are constant on the cells of their order, and the combination keeps that (a
+     * finer cell's projected solid angle is its parent's quarter, so every product and inverse
+     * of replicated matrices is replicated): above the finest layer's order the system is that
+     * order's, repeated. */
+    if (choice->combining && all_tt4 && n > 0 && !choice->klems && choice->k > kmax)
+        fprintf(stderr, "bsdfstack %s: warning: every layer is a rank-4 tensor tree of order %d or "
+                "less: -k %d gives their order-%d system, each patch's values repeated over its %d "
+                "finer patches, in up to %.0f times the time; use -k %d, or layers of order %d\n", sub,
+                kmax, choice->k, kmax, 1 << (2 * (choice->k - kmax)), pow(64.0, choice->k - kmax), kmax,
+                choice->k);
     memset(pick, 0, sizeof *pick);
     pick->file = -1;
     if (choice->klems)
