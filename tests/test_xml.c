@@ -424,6 +424,9 @@ START_TEST(test_bad_files)
     static const struct { const char *structure, *dir, *basis, *data, *expect; } bad[] = {
         {"TensorTree4", "Transmission Front", "LBNL/Shirley-Chiu", "{ 1 2 3 }", "not a power"},
         {"TensorTree4", "Transmission Front", "LBNL/Shirley-Chiu", "{ 1 2 x 4 }", "'x' is not a number"},
+        {"TensorTree4", "Transmission Front", "LBNL/Shirley-Chiu", "{ 1 2 1.2.3 4 }", "'1.2.3' is not a number"},
+        {"TensorTree4", "Transmission Front", "LBNL/Shirley-Chiu", "{ 1 2 3 4e+ }", "'4e+' is not a number"},
+        {"TensorTree4", "Transmission Front", "LBNL/Shirley-Chiu", "{ 1 --2 3 4 }", "'--2' is not a number"},
         {"TensorTree4", "Transmission Front", "LBNL/Shirley-Chiu", "{ 1 nan 3 4 }", "not finite"},
         {"TensorTree4", "Transmission Front", "LBNL/Shirley-Chiu", "{ { 1 } { 2 } }", "2 children"},
         {"TensorTree4", "Transmission Front", "LBNL/Shirley-Chiu", "{ { 1 }", "unclosed"},
