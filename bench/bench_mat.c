@@ -2,6 +2,9 @@
  * arguments): diag*dense, sparse(1 %)*dense, dense*dense (GEMM, double and float), and the solves
  * (I - A)^-1 B for diagonal, sparse (1 %) and dense A with a dense B of NRHS columns.  Median of
  * three runs in seconds, GFLOP/s by the nominal operation count, and the process's peak RSS.
+ * First, as lines starting with '#', the BLAS it ran on: OpenBLAS's build configuration (its
+ * version first) and the number of threads it uses, asked of the library loaded (bench/run puts
+ * them in bench/REPORT.md's header).
  * Run: make bench && bench/bench_mat [n ...] */
 #include <config.h>
 
@@ -14,6 +17,22 @@
 
 #define RUNS 3
 #define NRHS 256
+
+/* OpenBLAS's own answers (its cblas.h declares them; weak here, so that another BLAS links too and
+ * the lines say that it was not OpenBLAS) */
+extern int openblas_get_num_threads(void) __attribute__((weak));
+extern char *openblas_get_config(void) __attribute__((weak));
+
+static void print_blas(void)
+{
+    if (openblas_get_config && openblas_get_num_threads) {
+        printf("# BLAS: %s\n", openblas_get_config());
+        printf("# BLAS threads: %d\n", openblas_get_num_threads());
+    } else {
+        printf("# BLAS: not OpenBLAS (no openblas_get_config in the process)\n");
+        printf("# BLAS threads: unknown\n");
+    }
+}
 
 static double now(void)
 {
@@ -88,6 +107,7 @@ int main(int argc, char **argv)
             sizes[ns++] = (size_t)atol(argv[i]);
     }
     bst_ctx *ctx = bst_ctx_new();
+    print_blas();
     printf("%-28s %6s %10s %9s %10s\n", "operation", "n", "median_s", "GFLOP/s", "peakRSS_MiB");
     for (int s = 0; s < ns; s++) {
         size_t n = sizes[s];

@@ -1,4 +1,5 @@
-# shellcheck shell=bash
+# shellcheck shell=bash disable=SC2034,SC2154
+# (SC2034, SC2154: variables this file sets for, and reads from, the scripts that source it)
 # lib.sh - what bench/run and bench/run-long share, sourced by both (bash): how a run is timed
 # (`measure`), how S1's accuracy is computed (`ga`), how a row of results.csv is written (`row`),
 # and the command line of each configuration they both measure (`case_s1`, `case_gdg`, `case_dd`),
@@ -16,7 +17,8 @@ bench_init() {
     # In a build tree ./bsdfstack is libtool's wrapper script, which sets the library path and
     # starts .libs/bsdfstack (about 10 ms a run): time the program itself, as it runs once installed.
     if [ -x "$(dirname "$bst")/.libs/$(basename "$bst")" ] && head -c 64 "$bst" | grep -q '^#!'; then
-        export LD_LIBRARY_PATH="$(dirname "$bst")/.libs${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+        LD_LIBRARY_PATH="$(dirname "$bst")/.libs${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+        export LD_LIBRARY_PATH
         bst=$(dirname "$bst")/.libs/$(basename "$bst")
     fi
     [ -f "$ref/S1_t4k5.xml" ] || { echo "$me: no reference data in $ref (--ref DIR)" >&2; exit 2; }
@@ -38,21 +40,27 @@ s1_layers() { # K: the S1 layers a combination at order K starts from (k = 6 fil
 }
 
 # measure ID ARGS...: RUNS runs of `bsdfstack ARGS` (its -o output in $work/ID.xml), the median by
-# wall time as "wall cpu rss_MiB read_s write_s size_MB" in $work/ID.m
+# wall time as "wall cpu rss_MiB read_s write_s size_MB GFLOP run" in $work/ID.m (the lower middle
+# one of an even count), a line a run in $work/ID.runs, and the median run's standard error (the
+# -v lines: each step's seconds and flops) in $work/ID.err
 measure() {
-    local id=$1; shift
+    local id=$1 i
+    shift
     : > "$work/$id.runs"
-    for _ in $(seq "$runs"); do
-        /usr/bin/time -f '%e %U %S %M' -o "$work/time" "$bst" "$@" > "$work/stdout" 2> "$work/err" || {
-            echo "$me: $id failed: $(tail -1 "$work/err")" >&2; return 1; }
+    for i in $(seq "$runs"); do
+        /usr/bin/time -f '%e %U %S %M' -o "$work/time" "$bst" "$@" > "$work/stdout" 2> "$work/$id.err.$i" || {
+            echo "$me: $id failed: $(tail -1 "$work/$id.err.$i")" >&2; return 1; }
         local rd wr fl
-        rd=$(awk '/: read [0-9]+ layer/ { sub(/ s,.*/, ""); print $NF }' "$work/err" | tail -1)
-        wr=$(awk '/: wrote / { sub(/ s,.*/, ""); print $NF }' "$work/err" | tail -1)
-        fl=$(awk '/: combined, .* GFLOP in dense kernels/ { for (i = 1; i < NF; i++) if ($(i + 1) == "GFLOP") print $i }' "$work/err" | tail -1)
-        awk -v rd="${rd:-0}" -v wr="${wr:-0}" -v fl="${fl:--}" -v sz="$(stat -c %s "$work/$id.xml" 2>/dev/null || echo 0)" \
-            '{ printf "%s %.2f %.0f %s %s %.1f %s\n", $1, $2 + $3, $4 / 1024, rd, wr, sz / 1e6, fl }' "$work/time" >> "$work/$id.runs"
+        rd=$(awk '/: read [0-9]+ layer/ { sub(/ s,.*/, ""); print $NF }' "$work/$id.err.$i" | tail -1)
+        wr=$(awk '/: wrote / { sub(/ s,.*/, ""); print $NF }' "$work/$id.err.$i" | tail -1)
+        fl=$(awk '/: combined, .* GFLOP in dense kernels/ { for (i = 1; i < NF; i++) if ($(i + 1) == "GFLOP") print $i }' "$work/$id.err.$i" | tail -1)
+        awk -v rd="${rd:-0}" -v wr="${wr:-0}" -v fl="${fl:--}" -v run="$i" \
+            -v sz="$(stat -c %s "$work/$id.xml" 2>/dev/null || echo 0)" \
+            '{ printf "%s %.2f %.0f %s %s %.1f %s %s\n", $1, $2 + $3, $4 / 1024, rd, wr, sz / 1e6, fl, run }' "$work/time" >> "$work/$id.runs"
     done
     sort -g "$work/$id.runs" | sed -n "$(( (runs + 1) / 2 ))p" > "$work/$id.m"
+    mv "$work/$id.err.$(awk '{ print $8 }' "$work/$id.m")" "$work/$id.err"
+    rm -f "$work/$id".err.*
 }
 
 # ga ID TRUTH: least and mean GA over the paper's five directions, Tf and Tb, on the k = 6 grid

@@ -1,24 +1,53 @@
 #!/usr/bin/awk -f
-# report.awk - bench/REPORT.md from bench/run's results.csv as bench/long-merge.awk extends it with
-# the rows of bench/long-results.csv (variables: cpu, cores, mem, blas, threads, commit, date, runs,
-# gemm "double float" GFLOP/s, load: the measuring run's; rendered: when the report was made again
-# from the files by `bench/run --render-only`, empty in the measuring run).
+# report.awk ROWS STEPS - bench/REPORT.md from bench/run's results.csv as bench/long-merge.awk
+# extends it with the rows of bench/long-results.csv (ROWS), and the dense steps of the median runs
+# (STEPS: bench/run's steps.csv, or /dev/null).  Variables, the measuring run's: cpu, cores, mem,
+# blas (the Debian package of the BLAS library loaded), blas_config (OpenBLAS's own configuration
+# string), threads, threads_src (how the thread count was known), commit, date, runs, gemm "double
+# float" GFLOP/s at n = gemm_n, load; rendered: when the report was made again from the files by
+# `bench/run --render-only`, empty in the measuring run; genbsdf: genBSDF's S1 rows of
+# timings.tsv, "k user_s sys_s wall_s" (sys_s "-" where not recorded) separated by ";"; paper: the
+# paper's Table 6 for CFS1 (S1), "k hours" and "genBSDF hours" separated by ";".
 BEGIN {
     FS = ","
-    # What the alternatives cost for the same work (../shared/reference/timings.tsv, the paper)
-    genbsdf[5] = 632; genbsdf[6] = 3673
-    paper[5] = 0.26 * 3600; paper[6] = 0.39 * 3600; paper[7] = 7.09 * 3600
+    # Windows-CalcEngine was not run here: the figures the issues give for it (its README,
+    # ../shared/reference/wce/README.md, gives no timing of a combination).  Issue #14: the Klems
+    # three-layer case (NFRC 102 + 2011-SA1 + NFRC 103, band values) in process; issue #15: the
+    # same stack per wavelength (115 wavelengths).
+    wce_klems = 0.08; wce_spectral = 19.4
     split(gemm, g, " ")
+    ng = split(genbsdf, gl, ";")
+    for (i = 1; i <= ng; i++) {
+        split(gl[i], f, " ")
+        gb_user[f[1]] = f[2]; gb_sys[f[1]] = f[3]; gb_wall[f[1]] = f[4]
+        gb[f[1]] = f[2] + (f[3] == "-" ? 0 : f[3])
+        gb_order[i] = f[1]
+    }
+    np = split(paper, pl, ";")
+    for (i = 1; i <= np; i++) {
+        split(pl[i], f, " ")
+        if (f[1] == "genBSDF") paper_genbsdf = f[2]
+        else { paper_h[f[1]] = f[2]; pp_order[++npk] = f[1] }
+    }
 }
-NR == 1 { next }
-{
+FNR == 1 { file++; next }
+file == 1 {
     n++
     for (i = 1; i <= NF; i++) v[n, i] = $i
     if ($19 != "") long++
+    next
+}
+# steps.csv: case,stack,k,precision,step,channel,component,GFLOP,seconds,runs
+file == 2 {
+    sk = $2 SUBSEP $5 SUBSEP $6 SUBSEP $7
+    if (!((sk) in seen)) { seen[sk] = 1; skey[++nsk] = sk }
+    if (!($2 in stacks)) { stacks[$2] = 1; stack_order[++nstacks] = $2 }
+    if (!($6 in channels)) { channels[$6] = 1; nch++ }
+    st_g[sk, $3] = $8; st_s[sk, $3] = $9
+    st_total[$2, $3] += $8; st_secs[$2, $3] += $9; st_runs[$2, $3] = $10
+    st_k[$3] = 1
 }
 function N(k) { return 4 ^ k }
-# the dense kernels' counted work (combine -v, bsdfstack-combine(1) says how it counts), and the
-# time it would take at this run's GEMM rate as a share of the combining time measured
 # a Markdown table's header row h and the separator row under it
 function thead(h,   cols, sep, i) {
     cols = gsub(/\|/, "|", h) - 1
@@ -27,11 +56,12 @@ function thead(h,   cols, sep, i) {
     print h
     print sep
 }
-# the runs a row is the median of: a row from long-results.csv (its dates in column 19) with fewer
-# than the three the report asks for says so
-function runsof(r) {
+# the runs a row is the median of: fewer than the report asks for (three for a row from
+# long-results.csv, its dates in column 19; this run's count otherwise) says so
+function runsof(r,   want) {
     if (v[r, 18] == "") return "-"
-    return v[r, 19] != "" && v[r, 18] < 3 ? v[r, 18] " (of 3)" : v[r, 18]
+    want = v[r, 19] != "" ? 3 : runs
+    return v[r, 18] + 0 < want + 0 ? v[r, 18] " (of " want ")" : v[r, 18]
 }
 # under a table: where the rows of CASE from long-results.csv come from
 function provenance(c,   r, any) {
@@ -47,30 +77,57 @@ function provenance(c,   r, any) {
             v[r, 18], v[r, 18] == 1 ? "" : "s", v[r, 19], index(v[r, 20], " ") ? "s" : "", v[r, 20], v[r, 21], v[r, 22]
     }
 }
+# s printed as lines of at most 100 characters, the first prefixed by p1, the others by p2
+function wrap(s, p1, p2,   w, nw, i, line) {
+    nw = split(s, w, " ")
+    line = p1 w[1]
+    for (i = 2; i <= nw; i++) {
+        if (length(line) + 1 + length(w[i]) > 100) { print line; line = p2 w[i] }
+        else line = line " " w[i]
+    }
+    print line
+}
 function gflop(f) { return f == "" || f == "-" ? "-" : sprintf("%.4g", f) }
+function ratio(x) { return x >= 10 ? sprintf("%.0fx", x) : sprintf("%.1fx", x) }
+# the counted flops f (GFLOP) at this run's GEMM rate as a share of the seconds s measured
 function bound(k, s, prec, f,   rate) {
     rate = (prec == "single" ? g[2] : g[1])
-    if (rate <= 0 || s <= 0 || k < 5 || f == "" || f == "-") return "-"
+    if (rate <= 0 || s <= 0 || k < 5 || f == "" || f == "-" || f <= 0) return "-"
     return sprintf("%.0f %%", 100 * f / rate / s)
+}
+# Windows-CalcEngine's figure for row r's work, as a ratio to our wall time ("-": no figure for it)
+function wce(r,   t) {
+    if (v[r, 1] == "io" && v[r, 2] ~ /^combine --klems --per-channel/) t = wce_klems
+    else if (v[r, 1] == "spectral" && v[r, 2] == "Klems full" && v[r, 5] ~ /^per-channel/) t = wce_klems
+    else if (v[r, 1] == "spectral" && v[r, 2] == "Klems full" && v[r, 5] ~ /^spectral-tol/) t = wce_spectral
+    else return "-"
+    return v[r, 6] > 0 ? sprintf("%s s: %s", t, ratio(t / v[r, 6])) : "-"
 }
 END {
     print "# bsdfstack: the speed-accuracy trade, measured"
     print ""
-    printf "Generated by `bench/run` (`make bench-report`) on %s, commit %s. Machine: %s, %s cores, %s,\n", date, commit, cpu, cores, mem
-    printf "%s with %s threads; load average at the end %s (the machine is shared: compare\n", blas, threads, load
-    printf "ratios measured in one run, not across reports). Every row is the median of %d runs by wall\n", runs
-    if (long) {
-        print "time (a row recorded by `bench/run-long`: of its runs recorded, counted in \"runs\"), each a fresh"
-        print "process (`/usr/bin/time`); read / combine / write split from `combine -v`"
-    } else
-        print "time, each a fresh process (`/usr/bin/time`); read / combine / write split from `combine -v`"
-    print "(reading includes resampling onto the target basis); CPU = user + system seconds."
-    printf "This run's OpenBLAS GEMM rate at n = 4096: %s GFLOP/s double, %s single (`bench/bench_mat`).\n", g[1], g[2]
+    wrap("Generated by `bench/run` (`make bench-report`) on " date ", commit " commit ". Machine: " cpu ", " \
+        cores " cores, " mem "; BLAS " blas (blas_config != "-" && blas_config != "" ? " (" blas_config ")" : "") \
+        ", " threads " threads (" threads_src "); load average at the end " load " (the machine is shared:" \
+        " compare ratios measured in one run, not across reports).", "", "")
+    printf "This run's OpenBLAS GEMM rate at n = %s: %s GFLOP/s double, %s single (`bench/bench_mat`).\n", gemm_n, g[1], g[2]
+    print ""
+    wrap("How each row was measured: the median by wall time of its runs, their number in the table's" \
+        " \"runs\" column (this run made " runs " of each, fewer where the column says so" \
+        (long ? "; a row recorded by `bench/run-long`: of the runs recorded" : "") "), every column" \
+        " from that one run; each run a fresh process timed by `/usr/bin/time` unless the table says" \
+        " otherwise. CPU s = user + system seconds. \"read s\" and \"write s\" are the program's own timings" \
+        " (`combine -v`) of reading the layers (with resampling onto the target basis) and of writing the" \
+        " result; \"combine s\" = wall - read - write, so it includes the process's start (loading the" \
+        " program and its libraries), the combination's own setup and the combination itself. \"bound\":" \
+        " the time the dense kernels' counted flops (\"GFLOP\") take at this run's GEMM rate (double or" \
+        " single, as the row) divided by \"combine s\" (100 % = every second of it spent at the GEMM rate);" \
+        " \"-\" below k = 5, where those times are milliseconds.", "", "")
     if (rendered != "") {
         print ""
-        printf "Re-rendered by `bench/run --render-only` on %s from bench/results.csv, bench/results.meta\n", rendered
-        print "(what the measuring run recorded: the date, commit, machine, load and GEMM rate above) and"
-        print "bench/long-results.csv; nothing was measured then."
+        printf "Re-rendered by `bench/run --render-only` on %s from bench/results.csv, bench/steps.csv,\n", rendered
+        print "bench/results.meta (what the measuring run recorded: the date, commit, machine, load and GEMM"
+        print "rate above) and bench/long-results.csv; nothing was measured then."
     }
     print ""
     print "## S1: pane + blind + pane (L_glass, L_blind0, L_glass), every order and precision"
@@ -82,37 +139,74 @@ END {
     print "k = 6 layers. \"GFLOP\": floating-point operations of the dense kernels the combination ran"
     print "(GEMM 2mnk, LU 2/3 n^3 - 1/2 n^2 + 5/6 n, triangular solves (2 n^2 - n) per column, sparse by"
     print "dense 2 per stored value and column: LAPACK Working Note 41's counts, as `combine -v` prints"
-    print "them; O(N^2) element-wise work not counted). \"bound\": the time those take at this run's GEMM"
-    print "rate as a share of the combining time measured (100 % = every second spent at the GEMM rate)."
+    print "them; O(N^2) element-wise work not counted); each step's share is under \"Flops of each dense"
+    print "step\" below."
     print ""
     thead("| k | N | precision | wall s | CPU s | read s | combine s | write s | GFLOP | bound | peak MiB | file MB | GA vs k5 least / mean | GA vs k6 least / mean | genBSDF CPU s / ours | paper Table 6 / ours | runs |")
     for (r = 1; r <= n; r++) {
         if (v[r, 1] != "S1") continue
         k = v[r, 3]
-        gb = (k in genbsdf) ? sprintf("%.0fx", genbsdf[k] / v[r, 7]) : "-"
-        pp = (k in paper) ? sprintf("%.0fx", paper[k] / v[r, 7]) : "-"
-        printf "| %s | %d | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s / %s | %s / %s | %s | %s | %s |\n", k, N(k), v[r, 4], v[r, 6], v[r, 7], v[r, 9], v[r, 10], v[r, 11], gflop(v[r, 17]), bound(k, v[r, 10], v[r, 4], v[r, 17]), v[r, 8], v[r, 12], v[r, 13], v[r, 14], v[r, 15], v[r, 16], gb, pp, runsof(r)
+        gbr = (k in gb) && v[r, 7] > 0 ? ratio(gb[k] / v[r, 7]) : "-"
+        ppr = (k in paper_h) && v[r, 7] > 0 ? ratio(paper_h[k] * 3600 / v[r, 7]) : "-"
+        if (k == 7 && v[r, 4] == "double") cpu7 = v[r, 7]
+        printf "| %s | %d | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s / %s | %s / %s | %s | %s | %s |\n", k, N(k), v[r, 4], v[r, 6], v[r, 7], v[r, 9], v[r, 10], v[r, 11], gflop(v[r, 17]), bound(k, v[r, 10], v[r, 4], v[r, 17]), v[r, 8], v[r, 12], v[r, 13], v[r, 14], v[r, 15], v[r, 16], gbr, ppr, runsof(r)
     }
     provenance("S1")
     print ""
-    print "genBSDF: ../shared/reference/timings.tsv (S1, 632 CPU-s at k = 5, 3673 at k = 6). Paper Table 6:"
-    print "0.26 h at k = 5, 0.39 h at k = 6, 7.09 h at k = 7, one thread. Both ratios divide by our CPU"
-    print "seconds (both cores used where OpenBLAS threads)."
+    print "The alternatives on the same work, each divided by our CPU seconds (user + system; both cores"
+    print "used where OpenBLAS threads), their figures read from their sources when the report is rendered:"
     print ""
-    print "Windows-CalcEngine: its README (../shared/reference/wce/README.md) gives no timing of a Klems"
-    print "combination, and it is not run here; issue #14 cites 0.08 s in-process for the Klems three-layer"
-    print "case of the next section, issue #15 19.4 s for the same stack per wavelength (115 wavelengths)."
+    if (ng) {
+        t = "genBSDF (../shared/reference/timings.tsv, its rows S1_t4k*: genBSDF ray tracing S1's geometric" \
+            " model as one system at that order, not a sum of layers), user + system seconds, as ours:"
+        for (i = 1; i <= ng; i++) {
+            k = gb_order[i]
+            if (gb_sys[k] != "-")
+                t = t sprintf("%s k = %s: %s + %s = %.2f CPU-s (%s s wall)", (i > 1 ? ";" : ""), k, gb_user[k], gb_sys[k], gb[k], gb_wall[k])
+            else
+                t = t sprintf("%s k = %s: %s s in the row's user_s column and none in its sys_s (system time not" \
+                    " recorded; ../shared/reference/README.md calls it %s CPU-s; %s s wall), so that ratio counts" \
+                    " genBSDF's user time only", (i > 1 ? ";" : ""), k, gb_user[k], gb_user[k], gb_wall[k])
+        }
+        if (5 in gb && gb_sys[5] != "-" && gb[5] > 0)
+            t = t sprintf(" (at k = 5 system time was %.1f %% of genBSDF's CPU seconds)", 100 * gb_sys[5] / gb[5])
+        wrap(t ".", "* ", "  ")
+    } else
+        print "* genBSDF: ../shared/reference/timings.tsv not found when this was rendered: no ratio."
+    if (npk) {
+        t = "The paper's Table 6 (../shared/paper/grobe2017.txt, CFS1 = S1, \"elapsed user time\" of the" \
+            " extended matrix formalism, one thread):"
+        for (i = 1; i <= npk; i++)
+            t = t sprintf("%s %s h at k = %s", (i > 1 ? "," : ""), paper_h[pp_order[i]], pp_order[i])
+        t = t "."
+        if (paper_genbsdf != "") {
+            t = t sprintf(" The same table gives %s h for genBSDF ray tracing the three layers' BSDFs at k = 7", paper_genbsdf)
+            if (cpu7 > 0) t = t sprintf(": %s our k = 7 double CPU seconds", ratio(paper_genbsdf * 3600 / cpu7))
+            t = t "."
+        }
+        wrap(t, "* ", "  ")
+    } else
+        print "* The paper's Table 6: ../shared/paper/grobe2017.txt not found when this was rendered: no ratio."
+    print "* Windows-CalcEngine (WCE) was not run here, and its README (../shared/reference/wce/README.md)"
+    printf "  gives no timing of a combination. Its figures are the issues': issue #14 gives %s s in process\n", wce_klems
+    print "  for the Klems three-layer case (NFRC 102 + 2011-SA1 + NFRC 103 with band values: the text I/O"
+    print "  table's `combine --klems --per-channel --absorptance` row, and the spectral table's per-channel"
+    printf "  row), issue #15 %s s for the same stack per wavelength (115 wavelengths: the spectral table's\n", wce_spectral
+    print "  Klems full spectral-tol rows). Those rows give WCE's seconds over our wall seconds: an"
+    print "  in-process time against our whole process (its start, reading the layers and the panes'"
+    print "  optics, writing the XML and the absorptance table), which favours WCE."
     print ""
     print "## Text I/O"
     print ""
-    print "Reading and writing BSDF XML (issue #14's targets in the last column). MB/s: the file's size"
+    print "Reading and writing BSDF XML (issue #14's targets in the \"target\" column). MB/s: the file's size"
     print "over CPU seconds (info: the file read, 109 MB; convert: the file written, over the CPU seconds"
     print "beyond info's; bench_read and bench_write: the reader and the writer alone, as those programs"
-    print "time them, the medians of their runs in one process: the file read into a layer, 109 MB; the"
-    print "ray-traced S1 at k = 6 written into a counting sink, no disk). S1's end-to-end CPU seconds and"
-    print "its read and write times are in the first table."
+    print "time them, the medians by wall time of their runs in one process (\"runs\"), not fresh processes:"
+    print "the file read into a layer, 109 MB; the ray-traced S1 at k = 6 written into a counting sink, no"
+    print "disk). S1's end-to-end CPU seconds and its read and write times are in the first table. WCE:"
+    print "Windows-CalcEngine's seconds for the same work (issue #14's figure, not measured here) over ours."
     print ""
-    thead("| work | wall s | CPU s | peak MiB | file MB | MB/s | target |")
+    thead("| work | wall s | CPU s | peak MiB | file MB | MB/s | target | WCE / ours | runs |")
     for (r = 1; r <= n; r++) {
         if (v[r, 1] != "io") continue
         rate = "-"
@@ -120,7 +214,7 @@ END {
         else if (v[r, 2] ~ /^bench_write/ && v[r, 7] > 0) rate = sprintf("%.0f (written)", v[r, 12] / v[r, 7])
         else if (v[r, 2] ~ /^info/) { info_cpu = v[r, 7]; rate = sprintf("%.0f (read)", v[r, 12] / v[r, 7]) }
         else if (v[r, 2] ~ /^convert/ && info_cpu > 0 && v[r, 7] > info_cpu) rate = sprintf("%.0f (written)", v[r, 12] / (v[r, 7] - info_cpu))
-        printf "| `%s` | %s | %s | %s | %s | %s | %s |\n", v[r, 2], v[r, 6], v[r, 7], v[r, 8], v[r, 12], rate, v[r, 5]
+        printf "| `%s` | %s | %s | %s | %s | %s | %s | %s | %s |\n", v[r, 2], v[r, 6], v[r, 7], v[r, 8], v[r, 12], rate, v[r, 5], wce(r), runsof(r)
     }
     print ""
     print "## Spectral stacks with a shade (issue #15)"
@@ -131,23 +225,32 @@ END {
     print "WINDOW's dual-band material, Solar and Visible.  Differences: the largest over both channels,"
     print "both sides and every incident patch of the hemispherical T, R and each layer's absorptance"
     print "(the --absorptance table, 8 decimals) against `--spectral-tol 0` (every distinct wavelength"
-    print "combined; one run at k = 5); `--per-channel` is the band-value answer, for scale. Targets:"
-    print "Klems full <= 0.5 s wall, k = 5 <= 15 s."
+    print "combined; one run at k = 5: \"runs\"); `--per-channel` is the band-value answer, for scale."
+    print "Targets: Klems full <= 0.5 s wall, k = 5 <= 15 s. WCE / ours: Windows-CalcEngine's seconds for"
+    printf "the same stack (issue #15's %s s per wavelength; the per-channel row: issue #14's %s s with\n", wce_spectral, wce_klems
+    print "band values; not measured here) over our wall seconds; WCE's figures are Klems only."
     print ""
-    thead("| basis | option | wall s | CPU s | GFLOP | bound | max dT | max dR | max dA |")
+    thead("| basis | option | wall s | CPU s | combine s | GFLOP | bound | max dT | max dR | max dA | WCE / ours | runs |")
     for (r = 1; r <= n; r++)
         if (v[r, 1] == "spectral")
-            printf "| %s%s | %s | %s | %s | %s | %s | %s | %s | %s |\n", v[r, 2], (v[r, 3] > 0 ? " k = " v[r, 3] : ""), v[r, 5], v[r, 6], v[r, 7], gflop(v[r, 17]), bound(v[r, 3], v[r, 10], v[r, 4], v[r, 17]), v[r, 13], v[r, 14], v[r, 15]
+            printf "| %s%s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", v[r, 2], (v[r, 3] > 0 ? " k = " v[r, 3] : ""), v[r, 5], v[r, 6], v[r, 7], v[r, 10], gflop(v[r, 17]), bound(v[r, 3], v[r, 10], v[r, 4], v[r, 17]), v[r, 13], v[r, 14], v[r, 15], wce(r), runsof(r)
     print ""
     print "## Tree reduction and the sparse drop tolerance (S1, double)"
     print ""
     print "GA: least over the five directions, Tf and Tb (drop-tol: least over every incident patch),"
-    print "of the file against the unreduced, exact one."
+    print "of the file against the unreduced, exact one. \"read back s\": `bsdfstack info` of the file"
+    print "written, wall seconds, the median by wall time of as many runs (fresh processes) as the row's."
     print ""
-    thead("| k | option | wall s | write s | file MB | GA vs exact |")
+    thead("| k | option | wall s | write s | file MB | read back s | GA vs exact | runs |")
     for (r = 1; r <= n; r++)
-        if (v[r, 1] == "reduce" || v[r, 1] == "drop-tol")
-            printf "| %s | %s | %s | %s | %s | %s |\n", v[r, 3], v[r, 5], v[r, 6], v[r, 11], v[r, 12], v[r, 13]
+        if (v[r, 1] == "reduce" || v[r, 1] == "drop-tol") {
+            opt = v[r, 5]; rb = "-"
+            if (match(opt, / \(read back [0-9.]+ s\)$/)) {
+                rb = substr(opt, RSTART + 12, RLENGTH - 12 - 3)
+                opt = substr(opt, 1, RSTART - 1)
+            }
+            printf "| %s | %s | %s | %s | %s | %s | %s | %s |\n", v[r, 3], opt, v[r, 6], v[r, 11], v[r, 12], rb, v[r, 13], runsof(r)
+        }
     print ""
     print "## Dense worst cases"
     print ""
@@ -156,6 +259,7 @@ END {
         if (v[r, 1] == "dense")
             printf "| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", v[r, 2], v[r, 3], v[r, 4], v[r, 6], v[r, 7], v[r, 9], v[r, 10], v[r, 11], gflop(v[r, 17]), bound(v[r, 3], v[r, 10], v[r, 4], v[r, 17]), v[r, 8], v[r, 12], runsof(r)
     provenance("dense")
+    steps_table()
     print ""
     print "## Plots"
     print ""
@@ -167,4 +271,71 @@ END {
     print "axes; the legend gives each series' exponent, fitted to its points at k >= 5 (N^3 is the"
     print "dense algebra's bound). The second plots, for S1, the least GA against the k = 6 truth"
     print "against CPU seconds: the trade itself."
+}
+# The flops of each dense step (steps.csv) at the two highest orders recorded, the seconds and the
+# bound at the highest
+function steps_table(   k, ks, nk, i, j, s, sk, p, k1, k2, comp, row, f, st, secs, bnd) {
+    print ""
+    print "## Flops of each dense step"
+    print ""
+    for (k in st_k) ks[++nk] = k + 0
+    if (!nk) {
+        print "No steps recorded (bench/steps.csv: written by a measuring `bench/run` since this table exists)."
+        return
+    }
+    for (i = 2; i <= nk; i++)
+        for (j = i; j > 1 && ks[j] < ks[j - 1]; j--) { k = ks[j]; ks[j] = ks[j - 1]; ks[j - 1] = k }
+    k2 = ks[nk]; k1 = nk > 1 ? ks[nk - 1] : ""
+    wrap("What the \"GFLOP\" of the tables above is made of: the dense kernels' floating-point operations" \
+        " in each step of the combination, as `combine -v` prints them (one line per step and component," \
+        " 3 significant digits), counted as above (LAPACK Working Note 41: GEMM 2mnk, LU 2/3 n^3 - 1/2" \
+        " n^2 + 5/6 n, triangular solves (2 n^2 - n) per right-hand side, sparse by dense 2 per stored" \
+        " value and column; O(N^2) element-wise work not counted). Step \"layers 1-j\" adds layer j to the" \
+        " system of layers 1..j-1; its components in the order `combine` forms them: Rb's line carries the" \
+        " factorization of I - A for the light going inwards in the gap (and the solves it shares with Tf)," \
+        " Tb's that for the light going outwards (shared with Rf); Tf and Rf then cost one product each, a" \
+        " GEMM (2 N^3) or, with a pane's diagonal or sparse matrix, O(N^2): 0 or near 0. The counts depend" \
+        " on the stack, the order and the operands' structures only, not on the run, the machine, the" \
+        " threads or the precision (single counts the same totals: first table), so any run gives them;" \
+        " these are the double rows' median runs'. \"share\": of the sum of the stack's steps at that order." \
+        " \"k = " k2 " s\": the step's seconds as `-v` prints them in that median run (of " \
+        (st_runs[stack_order[1], k2] != "" ? st_runs[stack_order[1], k2] : runs) "; one run's, not a median" \
+        " per step); \"bound\": its GFLOP at this run's double GEMM rate over those seconds (\"-\" below" \
+        " k = 5).", "", "")
+    print ""
+    if (k1 != "")
+        thead(sprintf("| stack | step | component | k = %s GFLOP | share | k = %s GFLOP | share | k = %s s | bound |", k1, k2, k2))
+    else
+        thead(sprintf("| stack | step | component | k = %s GFLOP | share | k = %s s | bound |", k2, k2))
+    for (s = 1; s <= nstacks; s++) {
+        for (p = 1; p <= nsk; p++) {
+            sk = skey[p]
+            split(sk, f, SUBSEP)
+            if (f[1] != stack_order[s]) continue
+            comp = nch > 1 ? f[3] " " f[4] : f[4]
+            row = sprintf("| %s | %s | %s |", f[1], f[2], comp)
+            if (k1 != "") row = row step_cells(sk, f[1], k1)
+            row = row step_cells(sk, f[1], k2)
+            secs = bnd = "-"
+            if ((sk, k2) in st_s) { secs = st_s[sk, k2]; bnd = bound(k2, secs, "double", st_g[sk, k2]) }
+            printf "%s %s | %s |\n", row, secs, bnd
+        }
+        st = stack_order[s]
+        row = sprintf("| %s | all steps | |", st)
+        if (k1 != "") row = row total_cells(st, k1)
+        row = row total_cells(st, k2)
+        secs = bnd = "-"
+        if ((st, k2) in st_secs) { secs = sprintf("%.3f", st_secs[st, k2]); bnd = bound(k2, st_secs[st, k2], "double", st_total[st, k2]) }
+        printf "%s %s | %s |\n", row, secs, bnd
+    }
+}
+# " GFLOP | share |" of the sum of stack st's steps at order k
+function total_cells(st, k) {
+    return ((st, k) in st_total) ? sprintf(" %s | 100 %% |", gflop(st_total[st, k])) : " - | - |"
+}
+# " GFLOP | share |" of step sk (of stack st) at order k
+function step_cells(sk, st, k,   tot) {
+    if (!((sk, k) in st_g)) return " - | - |"
+    tot = st_total[st, k]
+    return sprintf(" %s | %s |", st_g[sk, k], tot > 0 ? sprintf("%.1f %%", 100 * st_g[sk, k] / tot) : "-")
 }
