@@ -259,6 +259,10 @@ END {
         if (v[r, 1] == "dense")
             printf "| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", v[r, 2], v[r, 3], v[r, 4], v[r, 6], v[r, 7], v[r, 9], v[r, 10], v[r, 11], gflop(v[r, 17]), bound(v[r, 3], v[r, 10], v[r, 4], v[r, 17]), v[r, 8], v[r, 12], runsof(r)
     provenance("dense")
+    print ""
+    print "Diffuser + diffuser at k = 7 in double precision is not measured: both layers are dense in all"
+    print "four components (8 matrices of 2 GiB), and `combine` estimates its peak at 22.2 GiB, more than"
+    print "this 23.5 GiB machine can spare beside its other work (`--max-memory 1M` prints the estimate)."
     steps_table()
     print ""
     print "## Plots"
