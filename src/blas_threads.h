@@ -5,9 +5,10 @@
  * (THREAD_TIMEOUT): in the Klems spectral combine of issue #14 that is 0.1-0.2 s of system time,
  * a core taken from whatever else runs, and 0.12-0.21 s wall against 0.10 s with
  * OPENBLAS_NUM_THREADS=1.  Systems of order at most BSTI_BLAS_SERIAL_N solve on one thread, as
- * their factorizations already did (solve.c): OpenBLAS splits a solve by right-hand sides, so each
- * column's arithmetic, and every bit of the result, is the same on one thread or two
- * (tests/test_threads.c; N <= 300 and 1..700 right-hand sides checked by hand).  GEMMs whose
+ * their factorizations already did (solve.c): OpenBLAS splits a solve by right-hand sides, and
+ * with some of its kernels (Haswell's, as OPENBLAS_CORETYPE=Haswell selects on an AVX-512
+ * machine) a column's last bits then depend on the split, so only one thread gives every machine
+ * the same result (tests/test_threads.c).  GEMMs whose
  * dimensions are all at most BSTI_BLAS_SERIAL_N run on one thread too (mat_mul.c): OpenBLAS
  * splits a product by rows as well and its edge kernels round differently, so a product of order
  * 101..199 changed in its last bits with the thread count, and a Klems stack of two dense layers

@@ -1,14 +1,12 @@
 /* test_threads.c - one thread or two, the same bits.  Small systems' solves on one OpenBLAS thread
- * (blas_threads.c): the thread count is given back as it was, the triangular solves of a system
- * of order <= BSTI_BLAS_SERIAL_N give the same bits on one thread as on OpenBLAS's two (what lets
- * solve.c switch without changing a file), in double and float, transposed or not, for several
- * numbers of right-hand sides; and bst_solve_left's X solves (I - A) X = B (residual, an
- * independent check).  Catalogue panes' Klems layers (glass_layer.c: two threads with the default
+ * (blas_threads.c): the thread count is given back as it was, the solves of a system of order
+ * <= BSTI_BLAS_SERIAL_N give the same bits whether OpenBLAS was set to one thread or two, in
+ * double and float, from the left and the right, for several numbers of right-hand sides; and
+ * bst_solve_left's X solves (I - A) X = B (residual, an independent check).  Catalogue panes' Klems layers (glass_layer.c: two threads with the default
  * allocator, one with a caller's) are the same to the bit both ways. */
 #include <config.h>
 
 #include <cblas.h>
-#include <lapacke.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -37,44 +35,51 @@ END_TEST
 static const int orders[] = {64, 145, 199, BSTI_BLAS_SERIAL_N};
 static const int nrhs[] = {1, 7, 145, 300};
 
+/* bst_solve_left and bst_solve_right of a dense system of order <= BSTI_BLAS_SERIAL_N: the same
+ * bits with OpenBLAS set to one thread or two around them (solve.c runs them on one), double and
+ * float, and the count given back.  OpenBLAS's own getrs is not always so: with the Haswell
+ * kernels (OPENBLAS_CORETYPE=Haswell on an AVX-512 machine) its two-thread solve of 145
+ * right-hand sides differs in the last bits from its one-thread solve, which fails this test
+ * when solve.c leaves the thread count alone. */
 START_TEST(test_solve_same_bits)
 {
     int n = orders[_i];
+    bst_ctx *ctx = bst_ctx_new();
     tu_rng r;
     tu_rng_seed(&r, 5 + (uint64_t)n);
-    size_t nn = (size_t)n * (size_t)n, nb = (size_t)n * 300;
-    double *lu = malloc(nn * sizeof *lu), *b = malloc(nb * sizeof *b);
-    double *x1 = malloc(nb * sizeof *x1), *x2 = malloc(nb * sizeof *x2);
-    float *luf = malloc(nn * sizeof *luf), *xf1 = malloc(nb * sizeof *xf1), *xf2 = malloc(nb * sizeof *xf2);
-    lapack_int *ipiv = malloc((size_t)n * sizeof *ipiv), *ipivf = malloc((size_t)n * sizeof *ipivf);
-    ck_assert(lu && b && x1 && x2 && luf && xf1 && xf2 && ipiv && ipivf);
-    for (size_t i = 0; i < nn; i++) /* I - A, A with column sums 0.9 at most */
-        lu[i] = -0.9 * tu_rng_uniform(&r) / n + (i % (size_t)(n + 1) == 0);
-    for (size_t i = 0; i < nb; i++)
-        b[i] = tu_rng_uniform(&r);
-    for (size_t i = 0; i < nn; i++)
-        luf[i] = (float)lu[i];
-    openblas_set_num_threads(1);
-    ck_assert_int_eq(LAPACKE_dgetrf_work(LAPACK_COL_MAJOR, n, n, lu, n, ipiv), 0);
-    ck_assert_int_eq(LAPACKE_sgetrf_work(LAPACK_COL_MAJOR, n, n, luf, n, ipivf), 0);
-    for (size_t k = 0; k < sizeof nrhs / sizeof nrhs[0]; k++)
-        for (int trans = 0; trans < 2; trans++) {
-            char t = trans ? 'T' : 'N';
-            size_t len = (size_t)n * (size_t)nrhs[k];
-            for (int threads = 1; threads <= 2; threads++) {
-                double *x = threads == 1 ? x1 : x2;
-                float *xf = threads == 1 ? xf1 : xf2;
-                memcpy(x, b, len * sizeof *x);
-                for (size_t i = 0; i < len; i++)
-                    xf[i] = (float)b[i];
-                openblas_set_num_threads(threads);
-                ck_assert_int_eq(LAPACKE_dgetrs_work(LAPACK_COL_MAJOR, t, n, nrhs[k], lu, n, ipiv, x, n), 0);
-                ck_assert_int_eq(LAPACKE_sgetrs_work(LAPACK_COL_MAJOR, t, n, nrhs[k], luf, n, ipivf, xf, n), 0);
-            }
-            ck_assert_msg(memcmp(x1, x2, len * sizeof *x1) == 0, "double n %d nrhs %d %c", n, nrhs[k], t);
-            ck_assert_msg(memcmp(xf1, xf2, len * sizeof *xf1) == 0, "float n %d nrhs %d %c", n, nrhs[k], t);
+    for (int prec = 0; prec < 2; prec++) {
+        bst_precision p = prec ? BST_FLOAT : BST_DOUBLE;
+        bst_mat *a;
+        ck_assert_int_eq(bst_mat_new_dense(ctx, (size_t)n, (size_t)n, p, &a), BST_OK);
+        for (size_t i = 0; i < (size_t)n * (size_t)n; i++) { /* column sums 0.9 at most */
+            double v = 0.9 * tu_rng_uniform(&r) / n;
+            prec ? (((float *)bst_mat_dense_data(a))[i] = (float)v) : (((double *)bst_mat_dense_data(a))[i] = v);
         }
-    free(lu), free(b), free(x1), free(x2), free(luf), free(xf1), free(xf2), free(ipiv), free(ipivf);
+        for (size_t k = 0; k < sizeof nrhs / sizeof nrhs[0]; k++)
+            for (int right = 0; right < 2; right++) {
+                size_t rows = right ? (size_t)nrhs[k] : (size_t)n, cols = right ? (size_t)n : (size_t)nrhs[k];
+                bst_mat *b, *x[2];
+                ck_assert_int_eq(bst_mat_new_dense(ctx, rows, cols, p, &b), BST_OK);
+                for (size_t i = 0; i < rows * cols; i++) {
+                    double v = tu_rng_uniform(&r);
+                    prec ? (((float *)bst_mat_dense_data(b))[i] = (float)v) : (((double *)bst_mat_dense_data(b))[i] = v);
+                }
+                for (int threads = 1; threads <= 2; threads++) {
+                    openblas_set_num_threads(threads);
+                    int st = right ? bst_solve_right(ctx, a, b, BST_RCOND_WARN, &x[threads - 1], NULL)
+                                   : bst_solve_left(ctx, a, b, BST_RCOND_WARN, &x[threads - 1], NULL);
+                    ck_assert_int_ge(st, 0);
+                    ck_assert_int_eq(openblas_get_num_threads(), threads);
+                }
+                size_t bytes = rows * cols * (prec ? sizeof(float) : sizeof(double));
+                ck_assert_msg(memcmp(bst_mat_dense_data(x[0]), bst_mat_dense_data(x[1]), bytes) == 0,
+                              "%s n %d nrhs %d %s: one thread and two differ", prec ? "float" : "double",
+                              n, nrhs[k], right ? "right" : "left");
+                bst_mat_free(b), bst_mat_free(x[0]), bst_mat_free(x[1]);
+            }
+        bst_mat_free(a);
+    }
+    bst_ctx_free(ctx);
 }
 END_TEST
 
