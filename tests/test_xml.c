@@ -270,7 +270,7 @@ static double cell_mean(const bst_bsdf *b, const bst_basis *sc, int c, size_t i,
 
 /* A rank-3 tree on a Shirley-Chiu grid of order k (bst_bsdf_to_layer) is the mean over 2 x 2
  * points of each incident cell and 3 x 3 of each outgoing cell (2^(5-k) times as many per side
- * below order 5), a point on a cell boundary taking the mean of the cells there.  Checked against
+ * below the tree's depth 5), a point on a cell boundary taking the mean of the cells there.  Checked against
  * the cell mean estimated independently, point by point through bst_bsdf_eval (the lookup that
  * matches libBSDF's query tables), on twice as many points per side, each jittered in its
  * stratum: per column, accordance and the hemispherical value.  Beside it, the plain 2 x 2 x 3 x 3
