@@ -398,7 +398,8 @@ int bst_stack_combine_spectral(bst_ctx *ctx, size_t n, bst_glass *const *panes,
  * L_i the projected solid angles; see bsdfstack-compare(1)); any of ga, fa, la (N), not all NULL:
  *   GA = 100 (1 - sum L_i (a_i - b_i)^2 / sum L_i (a_i + b_i)^2)     global, eq. 7
  *   LA_i = 100 (1 - |a_i - b_i| / (a_i + b_i)), 100 where both are 0  local, eq. 8
- *   FA = 100 (1 - sum L_i |a_i - b_i| / sum L_i (a_i + b_i))          flux (not the paper's) */
+ *   FA = 100 (1 - sum L_i |a_i - b_i| / sum L_i (a_i + b_i))          flux (not the paper's)
+ * A negative value (round-off) counts as 0, as bst_bsdf_read reads one; BST_EINVAL for NaN or Inf. */
 int bst_metrics_accordance(bst_ctx *ctx, const bst_layer *a, const bst_layer *b, size_t ch,
                            bst_comp c, size_t incident, double *ga, double *fa, double *la);
 /* GA and FA (either may be NULL) for every incident patch: N values each. */

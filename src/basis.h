@@ -84,7 +84,8 @@ static inline size_t bsti_sc_turn(size_t c, int r, size_t g)
 
 /* (r, phi) on the disk of ns x ns points of every cell of a g x g grid, at (s + 1/2) / ns of the
  * cell per side: pol[2 (c ns^2 + s)] and pol[2 (c ns^2 + s) + 1].  The point patterns are
- * invariant under the square's symmetries.  Allocated with ctx's allocator. */
+ * invariant under the square's symmetries, and f ns points per side of a cell are the ns of each
+ * of its f x f subcells (of the grid g f).  Allocated with ctx's allocator. */
 int bsti_sc_cell_points(bst_ctx *ctx, size_t g, size_t ns, double **pol);
 
 /* One coordinate of a grid of g cells: the cell of f = x g, and in *other the cell across the

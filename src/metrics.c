@@ -27,7 +27,9 @@ static int check_args(bst_ctx *ctx, const bst_layer *a, const bst_layer *b, size
  * DSF = BSDF cos(theta_i) takes the incident direction's cosine, the same for every term of one
  * column, so it cancels in (7) and (8); the terms of (7) are weighted by the outgoing patches'
  * projected solid angles L_i (all equal in Shirley-Chiu bases, where this is the paper's plain
- * sum). */
+ * sum).  The paper's DSFs are not negative: a negative value (the round-off of a combination
+ * where the light is 0, or one in a TSV of columns) counts as 0, as the readers read one; by its
+ * magnitude it would score LA 0 against an exact 0. */
 static int column(bst_ctx *ctx, const bst_mat *ma, const bst_mat *mb, const double *lam, size_t n,
                   size_t j, double *ga, double *fa, double *la)
 {
@@ -38,7 +40,7 @@ static int column(bst_ctx *ctx, const bst_mat *ma, const bst_mat *mb, const doub
         if (!isfinite(x) || !isfinite(y))
             return bsti_error(ctx, BST_EINVAL, "accordance: non-finite value for incident patch %zu, "
                               "outgoing patch %zu", j, i);
-        x = fabs(x), y = fabs(y);
+        x = fmax(x, 0.0), y = fmax(y, 0.0);
         d2 += lam[i] * (x - y) * (x - y), s2 += lam[i] * (x + y) * (x + y);
         diff += lam[i] * fabs(x - y), sum += lam[i] * (x + y);
         if (la)

@@ -1,10 +1,11 @@
 /* resample.c - a BSDF file's components on the basis a stack works in.
  *
  * Tensor trees of rank 4 lie on Shirley-Chiu grids already (ttree.c averages or replicates them
- * onto another order); rank-3 trees are expanded by sampling (expand3); Klems files and the Klems
- * output basis meet the Shirley-Chiu grid through one table of exact cell/patch overlaps
- * (bsti_overlap), which both directions use, so light is neither lost nor made where a patch
- * boundary cuts a cell.  Conventions: resample.h, basis.h. */
+ * onto another order); rank-3 trees are expanded by sampling, at every order on the points of the
+ * tree's finest cells (expand3); Klems files and the Klems output basis meet the Shirley-Chiu grid
+ * through one table of exact cell/patch overlaps (bsti_overlap), which both directions use, so
+ * light is neither lost nor made where a patch boundary cuts a cell.  Conventions: resample.h,
+ * basis.h. */
 #include <config.h>
 
 #include <math.h>
@@ -257,9 +258,10 @@ int bsti_sc_to_klems(bst_ctx *ctx, const bsti_overlap *ov, const double *m, cons
 /* A rank-3 tree on the Shirley-Chiu grid of order k, M[o + N i] as bsti_ttree_expand4 lays it
  * out: the average over TT3_IN_SAMPLES^2 points of incident cell i and TT3_OUT_SAMPLES^2 points of
  * outgoing cell o of the tree at (sin(theta_in) on the lower half of p0, the exit point turned by
- * -phi_in).  A cell coarser than both the tree's and order 5's gets 2^j times as many points per
- * side, 2^j being how much wider it is: 2 x 2 x 3 x 3 points in a cell 4 tree cells wide miss a
- * peaked distribution's cell mean by up to 5 % of its light (tests/test_xml.c).
+ * -phi_in).  A cell coarser than the tree's finest, f = 2^(depth - k) of them per side, takes the
+ * points of all its f x f finer cells (bsti_sc_cell_points), so the tree read at k is the block
+ * average of the tree read at its depth (tests/test_xml.c): fewer points per cell would miss a
+ * peaked distribution's cell mean.  Below its depth a tree thus costs what it costs at its depth.
  * The tree is first laid on a grid of its own finest cells (a lookup there is the tree's lookup),
  * and sample points are kept in polar form, so a turn is a subtraction; a point on a cell
  * boundary takes the mean of the cells there (bsti_sc_polar_cells).  The result is invariant
@@ -270,9 +272,7 @@ static int expand3(bst_ctx *ctx, const bsti_ttree *t, int k, double *m)
 {
     size_t G = (size_t)1 << k, n = G * G;
     size_t gd = (size_t)1 << t->depth, h0 = gd > 1 ? gd / 2 : 1;
-    /* cells coarser than the tree's get proportionally more points, up to those of order 5 */
-    int fine = (t->depth < 5 ? t->depth : 5) - k;
-    size_t f = fine > 0 ? (size_t)1 << fine : 1;
+    size_t f = t->depth > k ? (size_t)1 << (t->depth - k) : 1; /* tree cells per cell side */
     size_t S = TT3_IN_SAMPLES * f, T = TT3_OUT_SAMPLES * f, ni = S * S, no = T * T;
     float *grid = bsti_alloc_array(ctx, h0 * gd * gd, sizeof *grid);
     double *pin = NULL, *pol = NULL;

@@ -1,5 +1,6 @@
 # cli_compare.sh - `bsdfstack compare`: a BSDF against itself, shape against amount, the ray-traced
-# system S1 against the combination of its layers, usage errors.
+# system S1 against the combination of its layers, the local accordance drawn and as a table, usage
+# errors.
 . "${BST_SRCDIR:-.}/tests/clitest.sh"
 ref=${BST_REFDIR:?}
 B=$BSDFSTACK
@@ -49,8 +50,34 @@ n=$(cells "$tmpdir/s1.svg"); m=$(cells "$tmpdir/s1.svg" "$top")
 [ "$n" -eq 1024 ] && [ "$m" -lt 1024 ] && pass "S1 map: 1024 cells, $m of them at LA 100" || fail "S1 map: $n cells, $m at 100"
 expect_status 0 "map as PNG" -- "$B" compare --only Tb --map "$tmpdir/s1.png" "$ref/S1_t4k5.xml" "$tmpdir/s1.xml"
 [ "$(od -An -tx1 -N8 "$tmpdir/s1.png" | tr -d ' \n')" = 89504e470d0a1a0a ] && pass "map PNG signature" || fail "map PNG"
-expect_error "map extension" "name a .png or .svg" -- "$B" compare --map "$tmpdir/m.jpg" glass:clear-6mm glass:clear-6mm
+expect_error "map extension" "name a .png, .svg or .tsv file" -- "$B" compare --map "$tmpdir/m.jpg" glass:clear-6mm glass:clear-6mm
 [ ! -e "$tmpdir/m.jpg" ] && pass "no map after the error" || fail "m.jpg left behind"
+
+# --map OUT.tsv: the same LA as numbers, a '#' line naming what it holds, then one row per exit
+# patch: patch, theta, phi, A, B, LA.  A file against itself: LA 100 in all 1024 rows at k = 5;
+# the file appears alone in its directory (written through a temporary renamed into place)
+mkdir "$tmpdir/la"
+expect_status 0 "LA table of a file against itself" -- "$B" compare --only Tf --incident 45,90 --map "$tmpdir/la/self.tsv" "$ref/S1_t4k5.xml" "$ref/S1_t4k5.xml"
+head -n 1 "$tmpdir/la/self.tsv" | grep -q '^# .*: Tf, channel Visible, incidence theta 45 phi 90 (patch [0-9]*); columns: patch, theta_deg and phi_deg .*, A and B .*, LA$' \
+    && pass "LA table: header line" || fail "LA table header: $(head -n 1 "$tmpdir/la/self.tsv")"
+n=$(awk -F'\t' '!/^#/ && NF == 6 && $1 == NR - 2 && $4 == $5 && $6 == 100' "$tmpdir/la/self.tsv" | wc -l)
+[ "$n" -eq 1024 ] && [ "$(wc -l < "$tmpdir/la/self.tsv")" -eq 1025 ] && pass "LA table against itself: LA 100 in all 1024 rows" ||
+    fail "LA table against itself: $n of 1024 rows at 100"
+[ "$(ls -A "$tmpdir/la")" = self.tsv ] && pass "LA table: no temporary left" || fail "LA table: $(ls -A "$tmpdir/la")"
+grep -q "local accordance at (45, 90) written to $tmpdir/la/self.tsv" "$tmpdir/out" && pass "LA table: told in the report" ||
+    fail "LA table report: $(tail -n 3 "$tmpdir/out")"
+# the two panes: LA of the specular cell is 100 (1 - |T1 - T2| / (T1 + T2)) of the table's own a
+# and b (each cell's average BSDF), every other cell holds no light in either and reads 100
+expect_status 0 "LA table of two panes" -- "$B" compare -k 3 --only Tf --incident 0,0 --map "$tmpdir/panes.tsv" glass:clear-6mm glass:lowiron-6mm
+awk -F'\t' '/^#/ {next} {rows++} $4 > 0 || $5 > 0 {lit++; la = 100 * (1 - ($4 > $5 ? $4 - $5 : $5 - $4) / ($4 + $5));
+    ok = $4 > 0 && $5 > 0 && $4 != $5 && ($6 - la)^2 < (1e-6 * la)^2 && $6 < 100; next} $6 != 100 {bad++}
+    END {exit !(rows == 64 && lit == 1 && ok && !bad)}' "$tmpdir/panes.tsv" \
+    && pass "panes: LA = 100 (1 - |a - b| / (a + b)) in the specular cell, 100 in the 63 dark ones" ||
+    fail "panes LA table: $(awk -F'\t' '!/^#/ && ($4 > 0 || $5 > 0 || $6 != 100)' "$tmpdir/panes.tsv")"
+# '-': the table alone on standard output, the report on standard error
+expect_status 0 "LA table on standard output" -- "$B" compare -k 3 --only Tf --incident 0,0 --map - glass:clear-6mm glass:lowiron-6mm
+cmp -s "$tmpdir/out" "$tmpdir/panes.tsv" && grep -q "written to standard output" "$tmpdir/err" && grep -q '^Tf (front incidence)' "$tmpdir/err" \
+    && pass "--map -: the table on standard output, the report on standard error" || fail "--map -: $(head -c 300 "$tmpdir/out")"
 
 # usage and input errors
 expect_error "one BSDF" "two BSDFs expected" -- "$B" compare "$ref/L_glass_t4k5.xml"

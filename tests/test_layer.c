@@ -226,6 +226,17 @@ START_TEST(test_hemispherical_and_accordance)
     ck_assert_int_eq(bst_metrics_accordance(ctx, y, z, 0, BST_TB, 7, &ga, &fa, NULL), BST_OK);
     ck_assert_double_eq(ga, 0.0);
     ck_assert_double_eq(fa, 0.0);
+    /* negatives count as 0: -1e-17 against 0 agrees (LA 100), -2 against 1 is 0 against 1 (LA 0),
+     * 1 against 1 agrees: GA = 100 (1 - 1 / (1 + 4)) = 80, FA = 100 (1 - 1 / 3) */
+    for (size_t i = 0; i < n; i++)
+        da[7 * n + i] = db[7 * n + i] = 0.0;
+    da[7 * n] = -1e-17, da[7 * n + 1] = -2.0, db[7 * n + 1] = 1.0, da[7 * n + 2] = db[7 * n + 2] = 1.0;
+    ck_assert_int_eq(bst_metrics_accordance(ctx, y, z, 0, BST_TB, 7, &ga, &fa, la), BST_OK);
+    ck_assert_double_eq(la[0], 100.0);
+    ck_assert_double_eq(la[1], 0.0);
+    ck_assert_double_eq(la[2], 100.0);
+    tu_assert_close(ga, 80.0, 1e-12, 0.0);
+    tu_assert_close(fa, 100.0 * (1.0 - 1.0 / 3.0), 1e-12, 0.0);
     /* one side zero, both zero */
     ck_assert_int_eq(bst_metrics_accordance(ctx, x, z, 0, BST_RF, 5, &ga, &fa, NULL), BST_OK);
     ck_assert_double_eq(ga, 100.0); /* both absent */

@@ -288,6 +288,16 @@ int cli_parse_incident(const char *sub, const char *s, double dir[2])
     return CLI_OK;
 }
 
+void cli_patch_direction(const bst_basis *b, size_t p, double *theta, double *phi)
+{
+    double d[3];
+    bst_basis_center(b, p, d);
+    *theta = acos(d[2]) * 180 / M_PI;
+    *phi = atan2(d[1], d[0]) * 180 / M_PI;
+    if (*phi < 0)
+        *phi += 360;
+}
+
 int cli_parse_precision(const char *sub, const char *s, bst_precision *prec)
 {
     if (strcmp(s, "double") == 0)

@@ -108,6 +108,10 @@ int cli_parse_precision(const char *sub, const char *s, bst_precision *prec);
 /* --incident THETA,PHI (degrees, 0 <= THETA < 90) into dir[0], dir[1]; CLI_OK or a usage error. */
 int cli_parse_incident(const char *sub, const char *s, double dir[2]);
 
+/* Theta and phi (degrees, phi in [0, 360)) of the centre of patch p of b (bst_basis_center): the
+ * exit direction of every TSV the program writes. */
+void cli_patch_direction(const bst_basis *b, size_t p, double *theta, double *phi);
+
 /* Print a subcommand's help text (the same text as its man page's synopsis and options). */
 void cli_print_help(FILE *fp, const char *text);
 

@@ -174,11 +174,9 @@ static int write_absorptance(bst_ctx *ctx, const char *sub, const char *path, st
             bst_layer_hemispherical(ctx, sys, ch, side ? BST_TB : BST_TF, t);
             bst_layer_hemispherical(ctx, sys, ch, side ? BST_RB : BST_RF, r);
             for (size_t j = 0; j < N; j++) {
-                double d[3];
-                bst_basis_center(set->basis, j, d);
-                double th = acos(d[2]) * 180 / M_PI, ph = atan2(d[1], d[0]) * 180 / M_PI;
-                fprintf(out->fp, "%s\t%s\t%zu\t%.4f\t%.4f", name, side ? "back" : "front", j, th,
-                        ph < 0 ? ph + 360 : ph);
+                double th, ph;
+                cli_patch_direction(set->basis, j, &th, &ph);
+                fprintf(out->fp, "%s\t%s\t%zu\t%.4f\t%.4f", name, side ? "back" : "front", j, th, ph);
                 for (size_t i = 0; i < n; i++)
                     fprintf(out->fp, "\t%.8f", a[i * N + j]);
                 fprintf(out->fp, "\t%.8f\t%.8f\n", t[j], r[j]);
@@ -246,12 +244,11 @@ static int write_columns(bst_ctx *ctx, const char *sub, FILE *fp, const struct c
                 for (size_t q = 0; (comps & BST_COMP_BIT(comp)) && q < ndirs; q++) {
                     double cin = cos(dirs[q][0] * M_PI / 180);
                     for (size_t e = 0; e < N; e++) {
-                        double d[3], v = bst_mat_get(m[c], e, q);
-                        bst_basis_center(set->basis, e, d);
-                        double th = acos(d[2]) * 180 / M_PI, ph = atan2(d[1], d[0]) * 180 / M_PI;
+                        double th, ph, v = bst_mat_get(m[c], e, q);
+                        cli_patch_direction(set->basis, e, &th, &ph);
                         fprintf(fp, "%s\t%s\t%g\t%g\t%zu\t%zu\t%.4f\t%.4f\t%.9g\t%.9g\n", name,
-                                bst_comp_name(comp), dirs[q][0], dirs[q][1], cols[q], e, th,
-                                ph < 0 ? ph + 360 : ph, v, v * cin);
+                                bst_comp_name(comp), dirs[q][0], dirs[q][1], cols[q], e, th, ph, v,
+                                v * cin);
                     }
                 }
             }

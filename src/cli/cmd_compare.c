@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "cli.h"
+#include "draw.h"
 #include "hemimap.h"
 #include "incident_tsv.h"
 #include "layers.h"
@@ -16,7 +17,7 @@
 static const char help[] =
     "Usage: bsdfstack compare [-k K | --klems[=full|half|quarter]] [--channel NAME]\n"
     "                         [--only Tf,Rf,Tb,Rb] [--incident THETA,PHI]... [--fail-below GA]\n"
-    "                         [--map OUT.png|OUT.svg] A B\n"
+    "                         [--map OUT.png|OUT.svg|OUT.tsv] A B\n"
     "Compares two BSDFs (files or glass: specs, a trailing ^ reverses one), both resampled onto one\n"
     "basis (default: the finer tensor-tree order of the two, else the Klems basis of a Klems file).\n"
     "For each component and incidence direction it prints\n"
@@ -38,9 +39,12 @@ static const char help[] =
     "  --incident T,P     an incidence direction, repeatable (default: 0,0 25,90 45,90 50,90 45,45\n"
     "                     65,90, the last five Grobe 2017's)\n"
     "  --fail-below GA    exit status 1 when any printed GA falls below GA\n"
-    "  --map OUT          draw the local accordance LA = 100 (1 - |a - b| / (a + b)) of every exit\n"
-    "                     cell for the first component and the first direction (PNG or SVG, by\n"
-    "                     the extension; as `plot` draws, +X right, +Y up, seen from +Z)\n"
+    "  --map OUT          the local accordance LA = 100 (1 - |a - b| / (a + b)) of every exit\n"
+    "                     cell for the first component and the first direction, by the extension:\n"
+    "                     drawn as PNG or SVG (as `plot` draws, +X right, +Y up, seen from +Z), or\n"
+    "                     .tsv, a table of one row per exit patch: patch, theta and phi of its\n"
+    "                     centre, A's and B's BSDF, LA ('-': standard output, and the report goes\n"
+    "                     to standard error)\n"
     "Either of A and B may be the TSV that `combine --incident` writes: its columns are compared,\n"
     "in the basis they were made in (told by their exit patches), against the other TSV's columns\n"
     "of the same incident patches or the BSDF file's, with the same GA, FA and hemispherical\n"
@@ -49,13 +53,46 @@ static const char help[] =
 
 #define MAX_DIRS 64
 
-/* The local accordance of component c for incident patch j over the exit cells, drawn. */
-static int write_map(bst_ctx *ctx, const char *sub, const char *path, int svg, const bst_layer *a,
-                     const bst_layer *b, bst_comp c, size_t j, const double dir[2], char **specs,
-                     double *la)
+/* What --map writes, told by OUT's extension; "-" is the table on standard output. */
+enum map_kind { MAP_PNG = CLI_DRAW_PNG, MAP_SVG = CLI_DRAW_SVG, MAP_TSV };
+
+/* --map's table: a header line, then per exit patch its centre, A's and B's BSDF and LA. */
+static void la_table(FILE *fp, const bst_layer *a, const bst_layer *b, bst_comp c, size_t j,
+                     const double dir[2], char **specs, const double *la)
+{
+    const bst_basis *basis = bst_layer_basis(a);
+    const bst_mat *ma = bst_layer_get(a, 0, c), *mb = bst_layer_get(b, 0, c);
+    fprintf(fp, "# local accordance LA (%%, Grobe 2017 eq. 8) of A %s and B %s: %s, channel %s, "
+            "incidence theta %g phi %g (patch %zu); columns: patch, theta_deg and phi_deg of its "
+            "centre, A and B (BSDF, 1/sr), LA\n", specs[0], specs[1], bst_comp_name(c),
+            bst_layer_channel(a, 0), dir[0], dir[1], j);
+    for (size_t o = 0; o < bst_basis_size(basis); o++) {
+        double th, ph;
+        cli_patch_direction(basis, o, &th, &ph);
+        fprintf(fp, "%zu\t%.4f\t%.4f\t%.9g\t%.9g\t%.9g\n", o, th, ph, ma ? bst_mat_get(ma, o, j) : 0.0,
+                mb ? bst_mat_get(mb, o, j) : 0.0, la[o]);
+    }
+}
+
+/* The local accordance of component c for incident patch j over the exit cells (into la),
+ * drawn or as a table, and a line saying so in the report rep. */
+static int write_map(bst_ctx *ctx, const char *sub, const char *path, enum map_kind kind, FILE *rep,
+                     const bst_layer *a, const bst_layer *b, bst_comp c, size_t j,
+                     const double dir[2], char **specs, double *la)
 {
     if (bst_metrics_accordance(ctx, a, b, 0, c, j, NULL, NULL, la) < 0)
         return cli_fail_ctx(sub, NULL, ctx);
+    struct cli_out out;
+    int rc = cli_out_open(&out, sub, path);
+    if (rc != CLI_OK)
+        return rc;
+    if (kind == MAP_TSV) {
+        la_table(out.fp, a, b, c, j, dir, specs, la);
+        if ((rc = cli_out_commit(&out, sub)) == CLI_OK)
+            fprintf(rep, "  local accordance at (%g, %g) written to %s\n", dir[0], dir[1],
+                    strcmp(path, "-") == 0 ? "standard output" : path);
+        return rc;
+    }
     char title[1024];
     const char *na = strrchr(specs[0], '/') ? strrchr(specs[0], '/') + 1 : specs[0];
     const char *nb = strrchr(specs[1], '/') ? strrchr(specs[1], '/') + 1 : specs[1];
@@ -65,17 +102,15 @@ static int write_map(bst_ctx *ctx, const char *sub, const char *path, int svg, c
     struct cli_hemimap m = {.basis = bst_layer_basis(a), .cell = la, .log = 0, .lo = 0, .hi = 100,
                             .size = 480, .title = title, .unit = "%",
                             .mark = {sin(t) * cos(p), sin(t) * sin(p), cos(t)}};
-    struct cli_out out;
-    int rc = cli_out_open(&out, sub, path);
-    if (rc != CLI_OK)
-        return rc;
-    if (cli_hemimap_write(out.fp, svg, &m) < 0) {
+    if (cli_hemimap_write(out.fp, (int)kind, &m) < 0) {
         if ((rc = cli_out_flush(&out, sub)) == CLI_OK) /* a write error is told there */
             rc = cli_fail(sub, "%s: out of memory drawing the image", path);
         cli_out_abort(&out);
         return rc;
     }
-    return cli_out_commit(&out, sub);
+    if ((rc = cli_out_commit(&out, sub)) == CLI_OK)
+        fprintf(rep, "  local accordance at (%g, %g) drawn in %s\n", dir[0], dir[1], path);
+    return rc;
 }
 
 /* The BSDF file or glass spec loaded over the TSV's basis (its channel only). */
@@ -108,24 +143,26 @@ static int has_column(const struct cli_tsv *t, const char *channel, bst_comp com
 
 /* compare with a TSV of combine --incident on either side (help text above). */
 
-/* The lines above the table: the basis (with where it came from), A, B, the channel, the legend. */
-static void print_header(const bst_basis *basis, char **specs, const char *channel, const char *from)
+/* The report's lines above the table: the basis (with where it came from), A, B, the channel,
+ * the legend. */
+static void print_header(FILE *rep, const bst_basis *basis, char **specs, const char *channel,
+                         const char *from)
 {
     size_t n = bst_basis_size(basis);
     if (bst_basis_kind_of(basis) == BST_BASIS_KLEMS)
-        printf("basis     %s, %zu patches per hemisphere%s\n", bst_basis_name(basis), n, from);
+        fprintf(rep, "basis     %s, %zu patches per hemisphere%s\n", bst_basis_name(basis), n, from);
     else
-        printf("basis     Shirley-Chiu k = %d, %zu patches per hemisphere%s\n", bst_basis_order(basis),
-               n, from);
-    printf("A         %s\nB         %s\nchannel   %s\n", specs[0], specs[1], channel);
-    printf("GA: global accordance (Grobe 2017 eq. 7, %%); FA: flux accordance (share of the\n"
-           "scattered flux that A and B place alike, %%); hem:\n"
-           "directional-hemispherical value.  Directions: light propagation, degrees.\n");
+        fprintf(rep, "basis     Shirley-Chiu k = %d, %zu patches per hemisphere%s\n",
+                bst_basis_order(basis), n, from);
+    fprintf(rep, "A         %s\nB         %s\nchannel   %s\n", specs[0], specs[1], channel);
+    fprintf(rep, "GA: global accordance (Grobe 2017 eq. 7, %%); FA: flux accordance (share of the\n"
+                 "scattered flux that A and B place alike, %%); hem:\n"
+                 "directional-hemispherical value.  Directions: light propagation, degrees.\n");
 }
 
 static int compare_tsv(const char *sub, bst_ctx *ctx, char **specs, const int is_tsv[2],
                        const char *channel, unsigned comps, size_t ndirs, double (*dirs)[2],
-                       double fail_below, const char *mappath, int map_svg)
+                       double fail_below, const char *mappath, enum map_kind map_kind, FILE *rep)
 {
     struct cli_tsv tt[2];
     memset(tt, 0, sizeof tt);
@@ -165,7 +202,7 @@ static int compare_tsv(const char *sub, bst_ctx *ctx, char **specs, const int is
     if (rc == CLI_OK && m == 0)
         rc = cli_fail(sub, "%s: no column of channel '%s'", specs[first], channel);
     if (rc == CLI_OK) {
-        print_header(t.basis, specs, channel, " (from the TSV)");
+        print_header(rep, t.basis, specs, channel, " (from the TSV)");
     }
     int below = 0, shown = 0;
     for (int cc = 0; cc < BST_NCOMP && rc == CLI_OK; cc++) {
@@ -182,9 +219,10 @@ static int compare_tsv(const char *sub, bst_ctx *ctx, char **specs, const int is
             break;
         }
         const char *sd = comp == BST_TF || comp == BST_RF ? "front" : "back";
-        printf("\n%s (%s incidence)%s%s\n", bst_comp_name(comp), sd, bst_layer_get(a, 0, comp) ? "" : ": absent from A",
-               bst_layer_get(b, 0, comp) ? "" : ": absent from B");
-        printf("  theta    phi  patch       GA      FA    hem A    hem B\n");
+        fprintf(rep, "\n%s (%s incidence)%s%s\n", bst_comp_name(comp), sd,
+                bst_layer_get(a, 0, comp) ? "" : ": absent from A",
+                bst_layer_get(b, 0, comp) ? "" : ": absent from B");
+        fprintf(rep, "  theta    phi  patch       GA      FA    hem A    hem B\n");
         for (size_t q = 0; q < m && rc == CLI_OK; q++) {
             double th = d[q][0] * M_PI / 180, ph = d[q][1] * M_PI / 180;
             double v[3] = {sin(th) * cos(ph) + 1e-9, sin(th) * sin(ph) + 1e-9, cos(th)};
@@ -199,11 +237,11 @@ static int compare_tsv(const char *sub, bst_ctx *ctx, char **specs, const int is
                 rc = cli_fail_ctx(sub, NULL, ctx);
             if (rc != CLI_OK)
                 break;
-            printf("%7.2f %6.2f %6zu %8.3f %7.2f %8.4f %8.4f\n", d[q][0], d[q][1], j, ga, fa, ha[j], hb[j]);
+            fprintf(rep, "%7.2f %6.2f %6zu %8.3f %7.2f %8.4f %8.4f\n", d[q][0], d[q][1], j, ga, fa,
+                    ha[j], hb[j]);
             below |= ga < fail_below;
-            if (mappath && q == 0 && (rc = write_map(ctx, sub, mappath, map_svg, a, b, comp, j, d[0],
-                                                     specs, la)) == CLI_OK)
-                printf("  local accordance at (%g, %g) drawn in %s\n", d[0][0], d[0][1], mappath);
+            if (mappath && q == 0)
+                rc = write_map(ctx, sub, mappath, map_kind, rep, a, b, comp, j, d[0], specs, la);
         }
         mappath = NULL;
         shown++;
@@ -233,7 +271,7 @@ int cmd_compare(int argc, char **argv)
                                              {"help", no_argument, NULL, 'h'},
                                              {NULL, 0, NULL, 0}};
     const char *sub = "compare", *channel = NULL, *mappath = NULL;
-    int map_svg = 0;
+    enum map_kind map_kind = MAP_PNG;
     struct cli_basis_choice choice = {0};
     unsigned comps = 0;
     double dirs[MAX_DIRS][2], fail_below = -INFINITY;
@@ -266,10 +304,15 @@ int cmd_compare(int argc, char **argv)
                 return cli_usage(sub, "--fail-below %s: give a GA between 0 and 100", optarg);
             break;
         case 'm': {
-            size_t n = strlen(optarg);
-            map_svg = n > 4 && strcmp(optarg + n - 4, ".svg") == 0;
-            if (!map_svg && !(n > 4 && strcmp(optarg + n - 4, ".png") == 0))
-                return cli_usage(sub, "--map %s: name a .png or .svg file", optarg);
+            static const struct { const char *ext; enum map_kind kind; } kinds[] = {
+                {".png", MAP_PNG}, {".svg", MAP_SVG}, {".tsv", MAP_TSV}};
+            size_t n = strlen(optarg), e = 0;
+            while (e < 3 && !(n > 4 && strcmp(optarg + n - 4, kinds[e].ext) == 0))
+                e++;
+            if (e == 3 && strcmp(optarg, "-") != 0)
+                return cli_usage(sub, "--map %s: name a .png, .svg or .tsv file, or - for the table on "
+                                 "standard output", optarg);
+            map_kind = e < 3 ? kinds[e].kind : MAP_TSV;
             mappath = optarg;
             break;
         }
@@ -280,6 +323,7 @@ int cmd_compare(int argc, char **argv)
     }
     if (argc - optind != 2)
         return cli_usage(sub, argc - optind < 2 ? "two BSDFs expected, A and B" : "only two BSDFs, A and B");
+    FILE *rep = mappath && strcmp(mappath, "-") == 0 ? stderr : stdout; /* the report */
     char **tspecs = argv + optind;
     int is_tsv[2] = {cli_tsv_detect(tspecs[0]), cli_tsv_detect(tspecs[1])};
     if (is_tsv[0] || is_tsv[1]) {
@@ -289,7 +333,7 @@ int cmd_compare(int argc, char **argv)
         if (!tctx)
             return CLI_FAIL;
         int rc = compare_tsv(sub, tctx, tspecs, is_tsv, channel, comps, ndirs, dirs, fail_below,
-                             mappath, map_svg);
+                             mappath, map_kind, rep);
         bst_ctx_free(tctx);
         return rc;
     }
@@ -334,7 +378,7 @@ int cmd_compare(int argc, char **argv)
         rc = cli_fail(sub, "out of memory");
         goto out;
     }
-    print_header(basis, specs, bst_layer_channel(a, 0), "");
+    print_header(rep, basis, specs, bst_layer_channel(a, 0), "");
     int below = 0, shown = 0;
     for (int cc = 0; cc < BST_NCOMP && rc == CLI_OK; cc++) {
         bst_comp comp = (bst_comp)cc;
@@ -347,19 +391,18 @@ int cmd_compare(int argc, char **argv)
             break;
         }
         const char *side = comp == BST_TF || comp == BST_RF ? "front" : "back";
-        printf("\n%s (%s incidence)%s%s\n", bst_comp_name(comp), side, in_a ? "" : ": absent from A",
-               in_b ? "" : ": absent from B");
-        printf("  theta    phi  patch       GA      FA    hem A    hem B\n");
+        fprintf(rep, "\n%s (%s incidence)%s%s\n", bst_comp_name(comp), side,
+                in_a ? "" : ": absent from A", in_b ? "" : ": absent from B");
+        fprintf(rep, "  theta    phi  patch       GA      FA    hem A    hem B\n");
         for (size_t q = 0; q < ndirs; q++) {
             double t = dirs[q][0] * M_PI / 180, p = dirs[q][1] * M_PI / 180;
             double d[3] = {sin(t) * cos(p) + 1e-9, sin(t) * sin(p) + 1e-9, cos(t)};
             size_t j = bst_basis_patch(basis, d);
-            printf("%7.2f %6.2f %6zu %8.3f %7.2f %8.4f %8.4f\n", dirs[q][0], dirs[q][1], j, ga[j],
-                   fa[j], ha[j], hb[j]);
+            fprintf(rep, "%7.2f %6.2f %6zu %8.3f %7.2f %8.4f %8.4f\n", dirs[q][0], dirs[q][1], j,
+                    ga[j], fa[j], ha[j], hb[j]);
             below |= ga[j] < fail_below;
-            if (mappath && q == 0 && (rc = write_map(ctx, sub, mappath, map_svg, a, b, comp, j, dirs[0],
-                                                     specs, la)) == CLI_OK)
-                printf("  local accordance at (%g, %g) drawn in %s\n", dirs[0][0], dirs[0][1], mappath);
+            if (mappath && q == 0)
+                rc = write_map(ctx, sub, mappath, map_kind, rep, a, b, comp, j, dirs[0], specs, la);
             if (rc != CLI_OK)
                 break;
         }
@@ -375,10 +418,10 @@ int cmd_compare(int argc, char **argv)
         }
         double dg[3], df[3], dh[3];
         bst_basis_center(basis, jg, dg), bst_basis_center(basis, jf, df), bst_basis_center(basis, jh, dh);
-        printf("  all %zu incident patches: GA mean %.3f, least %.3f (patch %zu, theta %.1f); FA mean "
-               "%.2f, least %.2f (patch %zu, theta %.1f); largest |hem A - hem B| %.4f (patch %zu, "
-               "theta %.1f)\n", n, mg, ga[jg], jg, acos(dg[2]) * 180 / M_PI, mf, fa[jf], jf,
-               acos(df[2]) * 180 / M_PI, fabs(ha[jh] - hb[jh]), jh, acos(dh[2]) * 180 / M_PI);
+        fprintf(rep, "  all %zu incident patches: GA mean %.3f, least %.3f (patch %zu, theta %.1f); "
+                "FA mean %.2f, least %.2f (patch %zu, theta %.1f); largest |hem A - hem B| %.4f "
+                "(patch %zu, theta %.1f)\n", n, mg, ga[jg], jg, acos(dg[2]) * 180 / M_PI, mf, fa[jf],
+                jf, acos(df[2]) * 180 / M_PI, fabs(ha[jh] - hb[jh]), jh, acos(dh[2]) * 180 / M_PI);
         shown++;
     }
     if (rc == CLI_OK && !shown)

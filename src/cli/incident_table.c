@@ -88,7 +88,8 @@ static int check_rows(const char *sub, const char *path, struct row *rows, size_
         seen[e] = 1;
         bst_basis_center(col->basis, e, c);
         if (hypot(hypot(c[0] - d[0], c[1] - d[1]), c[2] - d[2]) > 1e-3) {
-            double ct = acos(c[2]) * 180 / M_PI, cp = atan2(c[1], c[0]) * 180 / M_PI;
+            double ct, cp;
+            cli_patch_direction(col->basis, e, &ct, &cp);
             char name[80];
             if (bst_basis_kind_of(col->basis) == BST_BASIS_SHIRLEY_CHIU)
                 snprintf(name, sizeof name, "Shirley-Chiu k = %d", bst_basis_order(col->basis));
@@ -96,7 +97,7 @@ static int check_rows(const char *sub, const char *path, struct row *rows, size_
                 snprintf(name, sizeof name, "%s", bst_basis_name(col->basis));
             rc = cli_fail(sub, "%s: exit patch %zu at (%g, %g) deg, but patch %zu of %s lies at "
                           "(%.4f, %.4f): not a column of that basis", path, e, rows[i].theta,
-                          rows[i].phi, e, name, ct, cp < 0 ? cp + 360 : cp);
+                          rows[i].phi, e, name, ct, cp);
         }
         col->bsdf[e] = rows[i].bsdf;
     }
