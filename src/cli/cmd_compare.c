@@ -306,13 +306,14 @@ int cmd_compare(int argc, char **argv)
         case 'm': {
             static const struct { const char *ext; enum map_kind kind; } kinds[] = {
                 {".png", MAP_PNG}, {".svg", MAP_SVG}, {".tsv", MAP_TSV}};
+            const size_t nk = sizeof kinds / sizeof kinds[0];
             size_t n = strlen(optarg), e = 0;
-            while (e < 3 && !(n > 4 && strcmp(optarg + n - 4, kinds[e].ext) == 0))
+            while (e < nk && !(n > 4 && strcmp(optarg + n - 4, kinds[e].ext) == 0))
                 e++;
-            if (e == 3 && strcmp(optarg, "-") != 0)
+            if (e == nk && strcmp(optarg, "-") != 0)
                 return cli_usage(sub, "--map %s: name a .png, .svg or .tsv file, or - for the table on "
                                  "standard output", optarg);
-            map_kind = e < 3 ? kinds[e].kind : MAP_TSV;
+            map_kind = e < nk ? kinds[e].kind : MAP_TSV;
             mappath = optarg;
             break;
         }
