@@ -9,6 +9,8 @@
 #include <config.h>
 
 #include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -255,6 +257,52 @@ int bsti_sc_to_klems(bst_ctx *ctx, const bsti_overlap *ov, const double *m, cons
 
 /* ------------------------------------------------------------------ rank-3 trees */
 
+struct e3 {
+    size_t G, n, gd, h0, ni, no, lo;
+    const float *grid;        /* h0 slabs of gd x gd: the tree on its finest cells */
+    const double *pin, *pol;  /* (radius, azimuth) of the incident and outgoing sample points */
+    double *m;
+    atomic_size_t next, done; /* quadrant columns handed out, finished */
+};
+
+/* Column i of the quadrant's incident cells: the sum over its points, in the same order on any
+ * thread, so the matrix does not depend on how many share the work. */
+static void e3_column(const struct e3 *e, size_t i)
+{
+    size_t n = e->n, ni = e->ni, no = e->no, gd = e->gd, h0 = e->h0;
+    double *col = e->m + n * i;
+    memset(col, 0, n * sizeof *col);
+    for (size_t si = 0; si < ni; si++) {
+        double r = e->pin[2 * (i * ni + si)], phi = e->pin[2 * (i * ni + si) + 1];
+        size_t i0 = (size_t)((0.5 - 1e-6 - 0.5 * r) * (double)gd);
+        const float *slab = e->grid + (i0 < h0 ? i0 : h0 - 1) * gd * gd;
+        for (size_t o = 0; o < n; o++) {
+            const double *po = e->pol + 2 * o * no;
+            double sum = 0;
+            for (size_t s = 0; s < no; s++) {
+                size_t cells[4];
+                int nc = bsti_sc_polar_cells(po[2 * s], po[2 * s + 1] - phi, gd, cells);
+                double v = 0.0;
+                for (int j = 0; j < nc; j++)
+                    v += slab[cells[j]];
+                sum += v / nc;
+            }
+            col[o] += sum / (double)(no * ni);
+        }
+    }
+}
+
+static void *e3_work(void *opaque)
+{
+    struct e3 *e = opaque;
+    size_t side = e->G - e->lo, q;
+    while ((q = atomic_fetch_add(&e->next, 1)) < side * side) {
+        e3_column(e, (e->lo + q / side) * e->G + e->lo + q % side);
+        atomic_fetch_add(&e->done, 1);
+    }
+    return NULL;
+}
+
 /* A rank-3 tree on the Shirley-Chiu grid of order k, M[o + N i] as bsti_ttree_expand4 lays it
  * out: the average over TT3_IN_SAMPLES^2 points of incident cell i and TT3_OUT_SAMPLES^2 points of
  * outgoing cell o of the tree at (sin(theta_in) on the lower half of p0, the exit point turned by
@@ -267,13 +315,14 @@ int bsti_sc_to_klems(bst_ctx *ctx, const bsti_overlap *ov, const double *m, cons
  * boundary takes the mean of the cells there (bsti_sc_polar_cells).  The result is invariant
  * under quarter turns of both cells (the concentric map commutes with them and the sample points
  * of a cell turn into those of the turned cell), so only incident cells of one quadrant are
- * computed and the other three columns are copied. */
+ * computed and the other three columns are copied.  Those columns are shared among the context's
+ * threads (bst_ctx_set_threads); the caller's thread alone reports progress. */
 static int expand3(bst_ctx *ctx, const bsti_ttree *t, int k, double *m)
 {
     size_t G = (size_t)1 << k, n = G * G;
     size_t gd = (size_t)1 << t->depth, h0 = gd > 1 ? gd / 2 : 1;
     size_t f = t->depth > k ? (size_t)1 << (t->depth - k) : 1; /* tree cells per cell side */
-    size_t S = TT3_IN_SAMPLES * f, T = TT3_OUT_SAMPLES * f, ni = S * S, no = T * T;
+    size_t S = TT3_IN_SAMPLES * f, T = TT3_OUT_SAMPLES * f;
     float *grid = bsti_alloc_array(ctx, h0 * gd * gd, sizeof *grid);
     double *pin = NULL, *pol = NULL;
     if (!grid || bsti_sc_cell_points(ctx, G, S, &pin) < 0 || bsti_sc_cell_points(ctx, G, T, &pol) < 0) {
@@ -285,33 +334,29 @@ static int expand3(bst_ctx *ctx, const bsti_ttree *t, int k, double *m)
             double p[3] = {(i0 + 0.5) / gd, (q / gd + 0.5) / gd, (q % gd + 0.5) / gd};
             grid[i0 * gd * gd + q] = (float)bsti_ttree_eval(t, p);
         }
-    size_t lo = G > 1 ? G / 2 : 0, done = 0, todo = (G - lo) * (G - lo);
-    for (size_t ix = lo; ix < G; ix++)
-        for (size_t iy = lo; iy < G; iy++) {
-            size_t i = ix * G + iy;
-            double *col = m + n * i;
-            memset(col, 0, n * sizeof *col);
-            for (size_t si = 0; si < ni; si++) {
-                double r = pin[2 * (i * ni + si)], phi = pin[2 * (i * ni + si) + 1];
-                size_t i0 = (size_t)((0.5 - 1e-6 - 0.5 * r) * (double)gd);
-                const float *slab = grid + (i0 < h0 ? i0 : h0 - 1) * gd * gd;
-                for (size_t o = 0; o < n; o++) {
-                    const double *po = pol + 2 * o * no;
-                    double sum = 0;
-                    for (size_t s = 0; s < no; s++) {
-                        size_t cells[4];
-                        int nc = bsti_sc_polar_cells(po[2 * s], po[2 * s + 1] - phi, gd, cells);
-                        double v = 0.0;
-                        for (int j = 0; j < nc; j++)
-                            v += slab[cells[j]];
-                        sum += v / nc;
-                    }
-                    col[o] += sum / (double)(no * ni);
-                }
-            }
-            if (++done % 16 == 0)
-                bsti_progress(ctx, (double)done / (double)todo, "expanding an isotropic tree");
-        }
+    size_t lo = G > 1 ? G / 2 : 0, todo = (G - lo) * (G - lo);
+    struct e3 e = {.G = G, .n = n, .gd = gd, .h0 = h0, .ni = S * S, .no = T * T, .lo = lo,
+                   .grid = grid, .pin = pin, .pol = pol, .m = m};
+    atomic_init(&e.next, 0);
+    atomic_init(&e.done, 0);
+    /* a column costs ni no N lookups: below 2^22 in all threads are not worth their start */
+    int threads = todo * e.ni * e.no * n < ((size_t)1 << 22) ? 1 : bsti_ctx_workers(ctx, todo);
+    pthread_t th[BST_THREADS_MAX];
+    int started[BST_THREADS_MAX] = {0};
+    for (int w = 1; w < threads; w++) /* one that cannot start leaves its share to the others */
+        started[w] = pthread_create(&th[w], NULL, e3_work, &e) == 0;
+    size_t q, side = G - lo;
+    while ((q = atomic_fetch_add(&e.next, 1)) < todo) {
+        e3_column(&e, (lo + q / side) * G + lo + q % side);
+        size_t done = atomic_fetch_add(&e.done, 1) + 1;
+        if (done % 16 == 0 && done < todo)
+            bsti_progress(ctx, (double)done / (double)todo, "expanding an isotropic tree");
+    }
+    for (int w = 1; w < threads; w++)
+        if (started[w])
+            pthread_join(th[w], NULL);
+    if (todo >= 16)
+        bsti_progress(ctx, 1.0, "expanding an isotropic tree");
     /* the three other quadrants, by quarter turns of both cells */
     for (size_t ix = lo; G > 1 && ix < G; ix++)
         for (size_t iy = lo; iy < G; iy++) {
