@@ -91,7 +91,8 @@ typedef void (*bst_progress_fn)(double fraction, const char *label, void *opaque
 void bst_ctx_set_progress(bst_ctx *ctx, bst_progress_fn fn, void *opaque);
 
 /* Threads the library may use for work that splits without changing a result (today: writing
- * tensor trees, whose text is the same bytes with any count): 0 (the default) = one per online
+ * tensor trees, whose text is the same bytes with any count, and laying a rank-3 tree onto a grid
+ * as it is read, the same values with any count): 0 (the default) = one per online
  * CPU, up to BST_THREADS_MAX; 1 = none besides the caller's; n > 1 = up to n.  A context with a
  * custom allocator always works on the caller's thread alone.  BST_EINVAL when n < 0. */
 #define BST_THREADS_MAX 8
