@@ -75,6 +75,7 @@ struct job {
 struct r3 {
     bst_ctx *ctx;
     size_t G, N, half, si, so;
+    size_t nb_max;      /* boundary points a table may hold */
     int refine;
     double fa_stop;
     int give_up;        /* a ring below fa_stop stops every matrix (abandoned is then set) */
@@ -123,11 +124,14 @@ struct tab {
 };
 
 /* Where a pass takes the cells of its sample points: read back (get), or evaluated and, while
- * put is set, recorded (nb boundary points so far, their lists down from side, not below low). */
+ * put is set, recorded (nb boundary points so far, at most nb_max, their lists down from side,
+ * not below low).  full: the worker's room ran out (else a table given up on had more boundary
+ * points than its entries can name, and the room stays for the ring's other tables). */
 struct cursor {
     const uint16_t *get;
     uint16_t *put, *side, *low;
-    size_t N, nb;
+    size_t N, nb, nb_max;
+    int full;
 };
 
 /* Value of the grid v (G x G cells) at the direction with disk radius rho and azimuth psi
@@ -139,8 +143,10 @@ static inline double polar_value(const double *v, double rho, double psi, size_t
     if (cu->put) {
         if (n == 1) {
             *cu->put++ = (uint16_t)cells[0];
-        } else if (cu->side - cu->low < n + 1 || cu->N + cu->nb >= TAB_LIMIT) {
-            cu->put = NULL; /* no room */
+        } else if (cu->side - cu->low < n + 1) {
+            cu->put = NULL, cu->full = 1; /* no room */
+        } else if (cu->nb >= cu->nb_max) {
+            cu->put = NULL; /* this table is not kept */
         } else {
             *cu->put++ = (uint16_t)(cu->N + cu->nb++);
             cu->side -= n + 1;
@@ -205,8 +211,9 @@ static void cursor_open(const struct r3w *x, const struct tab *t, size_t len, st
 {
     cu->get = t->cell;
     cu->put = NULL;
-    cu->N = x->w->N, cu->nb = 0;
-    if (!t->cell && x->tab && (size_t)(x->tab_top - x->tab) >= len) {
+    cu->N = x->w->N, cu->nb = 0, cu->nb_max = x->w->nb_max;
+    cu->full = !t->cell && x->tab && (size_t)(x->tab_top - x->tab) < len;
+    if (!t->cell && x->tab && !cu->full) {
         cu->put = x->tab;
         cu->side = x->tab_top;
         cu->low = x->tab + len;
@@ -220,9 +227,12 @@ static void cursor_close(struct r3w *x, struct tab *t, struct cursor *cu)
     if (cu->put) {
         t->cell = x->tab, t->side = x->tab_top, t->nb = cu->nb;
         x->tab = cu->put, x->tab_top = cu->side;
-    } else if (x->tab) {
+    } else if (cu->full) {
         x->tab = NULL; /* no room: the ring's other passes evaluate their points */
     }
+    /* else too many boundary points (the corner cell of a ring at k = 7: a quarter of its 36 N
+     * points, against at most 65536 - N): that cell's passes evaluate theirs, the others keep
+     * tables in the same room */
 }
 
 /* t3 row of ring j gathers S (x->s: the four rotated columns of incident cell i summed) along
@@ -445,7 +455,7 @@ int bsti_tt3_from_sc(bst_ctx *ctx, const bst_mat *m, int k, int refine, double f
                      double *t3, double *fa_min, double *hemi_max)
 {
     bsti_tt3_job jb = {m, t3, 0.0, 0.0};
-    int rc = bsti_tt3_build(ctx, k, refine, fa_stop, 0, 0, BSTI_TT3_TABLE_BYTES, 1, &jb);
+    int rc = bsti_tt3_build(ctx, k, refine, fa_stop, 0, 0, BSTI_TT3_TABLE_BYTES, 0, 1, &jb);
     *fa_min = jb.fa_min, *hemi_max = jb.hemi_max;
     return rc;
 }
@@ -477,7 +487,7 @@ static size_t settle(struct r3 *w, struct job *jb, bsti_tt3_job *out)
 }
 
 int bsti_tt3_build(bst_ctx *ctx, int k, int refine, double fa_stop, int give_up, int threads,
-                   size_t table_bytes, size_t njobs, bsti_tt3_job *jobs)
+                   size_t table_bytes, size_t boundary_max, size_t njobs, bsti_tt3_job *jobs)
 {
     int rc = BST_OK;
     if (njobs == 0)
@@ -494,6 +504,9 @@ int bsti_tt3_build(bst_ctx *ctx, int k, int refine, double fa_stop, int give_up,
     w.G = (size_t)1 << k;
     w.N = w.G * w.G;
     w.half = w.G / 2;
+    w.nb_max = TAB_LIMIT - w.N;
+    if (boundary_max > 0 && boundary_max < w.nb_max)
+        w.nb_max = boundary_max;
     w.si = BSTI_TT3_IN_SAMPLES * BSTI_TT3_IN_SAMPLES;
     w.so = BSTI_TT3_OUT_SAMPLES * BSTI_TT3_OUT_SAMPLES;
     w.refine = refine;

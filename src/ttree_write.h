@@ -113,7 +113,10 @@ int bsti_tt3_from_sc(bst_ctx *ctx, const bst_mat *m, int k, int refine, double f
  * results are bit for bit the same.  A thread keeps the cells of its ring's sample points in
  * tables (they depend on the grid only: one set serves every matrix and every pass), at most
  * table_bytes (the largest ring needs about 144 G N bytes: 38 MB at k = 6, 300 MB at k = 7), so
- * that the points are located twice per ring instead of 2 refine + 3 times per matrix.  A ring
+ * that the points are located twice per ring instead of 2 refine + 3 times per matrix.  A table
+ * keeps at most boundary_max points that lie on cell boundaries (0: as many as its 16-bit entries
+ * can name, 65536 - N); a cell with more (the corner cell of each ring at k = 7, a quarter of its
+ * points) locates its points on every pass, and the ring's other cells keep their tables.  A ring
  * whose FA falls below fa_stop stops the others at that iterate; the rings that had gone further
  * run again up to it.  With give_up, the first ring of any matrix below fa_stop stops them all
  * (enough to know that a layer is not isotropic: that matrix's FA is below fa_stop): fa_min is
@@ -128,7 +131,7 @@ typedef struct {
 #define BSTI_TT3_THREADS 2
 #define BSTI_TT3_TABLE_BYTES ((size_t)256 << 20)
 int bsti_tt3_build(bst_ctx *ctx, int k, int refine, double fa_stop, int give_up, int threads,
-                   size_t table_bytes, size_t njobs, bsti_tt3_job *jobs);
+                   size_t table_bytes, size_t boundary_max, size_t njobs, bsti_tt3_job *jobs);
 
 /* The least FA over the incident patches between m and m turned by 90 degrees about Z (exact on
  * the grid).  A rank-3 form is turned into itself, so by the triangle inequality a matrix whose

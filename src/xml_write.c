@@ -269,7 +269,7 @@ static int build_t3(struct xw *w, int *isotropic)
          * ring of one component falls there (the layer is then written as rank 4) */
         double stop = o->rank == BST_RANK_3 ? -INFINITY : o->iso_fa_min - 2.0;
         rc = bsti_tt3_build(w->ctx, w->k, o->iso_refine, stop, o->rank != BST_RANK_3, 0,
-                            BSTI_TT3_TABLE_BYTES, nj, jobs);
+                            BSTI_TT3_TABLE_BYTES, 0, nj, jobs);
         for (size_t j = 0; rc >= 0 && j < nj; j++) {
             w->iso[at[j]] = jobs[j].fa_min;
             if (jobs[j].fa_min < o->iso_fa_min)

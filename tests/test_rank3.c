@@ -185,10 +185,10 @@ static bst_mat *test_matrix(int k, int kind, bst_precision prec, bst_structure s
 /* ------------------------------------------------------------------ tests */
 
 static int build1(bst_ctx *c, const bst_mat *m, int k, int refine, double stop, int threads,
-                  size_t table, double *t3, double *fa, double *hemi)
+                  size_t table, size_t boundary, double *t3, double *fa, double *hemi)
 {
     bsti_tt3_job jb = {m, t3, -1.0, -1.0};
-    int rc = bsti_tt3_build(c, k, refine, stop, 0, threads, table, 1, &jb);
+    int rc = bsti_tt3_build(c, k, refine, stop, 0, threads, table, boundary, 1, &jb);
     *fa = jb.fa_min, *hemi = jb.hemi_max;
     return rc;
 }
@@ -226,24 +226,29 @@ START_TEST(test_matches_definition)
 }
 END_TEST
 
-/* 1, 2 and 3 threads, tables of every size (none, some rings' cells only, all): the same bits. */
+/* 1, 2 and 3 threads, tables of every size (none, some rings' cells only, all), and tables
+ * given up on for their boundary points (a ring's cells with more than 0, 40 or 600 of them; the
+ * others keep theirs in the same room): the same bits. */
 START_TEST(test_threads_tables_same_bits)
 {
     int k = 4;
     size_t G = (size_t)1 << k, n = G * G * G / 2;
     bst_mat *m = test_matrix(k, SMOOTH, BST_FLOAT, BST_DENSE, 5);
     double *base = malloc(n * sizeof *base), *t3 = malloc(n * sizeof *t3), f0, h0, f, h;
-    ck_assert_int_eq(build1(ctx, m, k, 4, -INFINITY, 1, 0, base, &f0, &h0), BST_OK);
+    ck_assert_int_eq(build1(ctx, m, k, 4, -INFINITY, 1, 0, 0, base, &f0, &h0), BST_OK);
     static const size_t tables[] = {0, 4096, 60000, BSTI_TT3_TABLE_BYTES};
+    static const size_t boundary[] = {0, 1, 40, 600};
     for (int th = 1; th <= 3; th++)
-        for (size_t tb = 0; tb < sizeof tables / sizeof tables[0]; tb++) {
-            memset(t3, 0xff, n * sizeof *t3);
-            ck_assert_int_eq(build1(ctx, m, k, 4, -INFINITY, th, tables[tb], t3, &f, &h),
-                             BST_OK);
-            ck_assert_msg(memcmp(t3, base, n * sizeof *t3) == 0, "threads %d, table %zu", th,
-                          tables[tb]);
-            ck_assert(f == f0 && h == h0);
-        }
+        for (size_t tb = 0; tb < sizeof tables / sizeof tables[0]; tb++)
+            for (size_t bd = 0; bd < sizeof boundary / sizeof boundary[0]; bd++) {
+                memset(t3, 0xff, n * sizeof *t3);
+                ck_assert_int_eq(build1(ctx, m, k, 4, -INFINITY, th, tables[tb], boundary[bd], t3,
+                                        &f, &h), BST_OK);
+                ck_assert_msg(memcmp(t3, base, n * sizeof *t3) == 0,
+                              "threads %d, table %zu, boundary points %zu", th, tables[tb],
+                              boundary[bd]);
+                ck_assert(f == f0 && h == h0);
+            }
     free(base), free(t3);
     bst_mat_free(m);
 }
@@ -258,7 +263,7 @@ START_TEST(test_early_stop)
     bst_mat *m = test_matrix(k, NOISE, BST_DOUBLE, BST_DENSE, 3);
     double *a = malloc(n * sizeof *a), *b = malloc(n * sizeof *b), fa, ha, fb, hb, f1, h1;
     double stop = 70.0;
-    ck_assert_int_eq(build1(ctx, m, k, 3, stop, 2, BSTI_TT3_TABLE_BYTES, a, &fa, &ha),
+    ck_assert_int_eq(build1(ctx, m, k, 3, stop, 2, BSTI_TT3_TABLE_BYTES, 0, a, &fa, &ha),
                      BST_OK);
     ck_assert(fa < stop);
     ref_build(m, k, 3, stop, b, &fb, &hb);
@@ -266,7 +271,7 @@ START_TEST(test_early_stop)
     for (size_t x = 0; x < n; x++)
         tu_assert_close(a[x], b[x], 1e-11, 1.0);
     /* stopped at the first measurement: no correction applied */
-    ck_assert_int_eq(build1(ctx, m, k, 0, -INFINITY, 1, 0, b, &f1, &h1), BST_OK);
+    ck_assert_int_eq(build1(ctx, m, k, 0, -INFINITY, 1, 0, 0, b, &f1, &h1), BST_OK);
     ck_assert(memcmp(a, b, n * sizeof *a) == 0 && f1 == fa && h1 == ha);
     free(a), free(b);
     bst_mat_free(m);
@@ -286,7 +291,7 @@ START_TEST(test_early_stop_late_ring)
     ck_assert_msg(fb < stop, "FA %g", fb); /* the ring stays below even when corrected */
     ref_build(m, k, 3, stop, b, &fb, &hb);
     for (int th = 1; th <= 2; th++) {
-        ck_assert_int_eq(build1(ctx, m, k, 3, stop, th, BSTI_TT3_TABLE_BYTES, a, &fa, &ha), BST_OK);
+        ck_assert_int_eq(build1(ctx, m, k, 3, stop, th, BSTI_TT3_TABLE_BYTES, 0, a, &fa, &ha), BST_OK);
         tu_assert_close(fa, fb, 1e-11, 100.0);
         tu_assert_close(ha, hb, 1e-9, 1.0);
         for (size_t x = 0; x < n; x++)
@@ -315,9 +320,9 @@ START_TEST(test_many_same_bits)
         jobs[j].t3 = malloc(n * sizeof *jobs[j].t3);
         memset(jobs[j].t3, 0xff, n * sizeof *jobs[j].t3);
     }
-    ck_assert_int_eq(bsti_tt3_build(ctx, k, 3, stop, 0, 2, BSTI_TT3_TABLE_BYTES, 4, jobs), BST_OK);
+    ck_assert_int_eq(bsti_tt3_build(ctx, k, 3, stop, 0, 2, BSTI_TT3_TABLE_BYTES, 0, 4, jobs), BST_OK);
     for (int j = 0; j < 4; j++) {
-        ck_assert_int_eq(build1(ctx, m[j], k, 3, stop, 1, 0, one, &f, &h), BST_OK);
+        ck_assert_int_eq(build1(ctx, m[j], k, 3, stop, 1, 0, 0, one, &f, &h), BST_OK);
         ck_assert_msg(memcmp(one, jobs[j].t3, n * sizeof *one) == 0, "matrix %d", j);
         ck_assert(f == jobs[j].fa_min && h == jobs[j].hemi_max);
         free(jobs[j].t3);
@@ -342,12 +347,12 @@ START_TEST(test_give_up)
     double stop = 90.0, f, h;
     for (int th = 1; th <= 2; th++) {
         bsti_tt3_job jobs[2] = {{a, t0, 0.0, 0.0}, {b, t1, 0.0, 0.0}};
-        ck_assert_int_eq(bsti_tt3_build(ctx, k, 3, stop, 1, th, BSTI_TT3_TABLE_BYTES, 2, jobs), BST_OK);
+        ck_assert_int_eq(bsti_tt3_build(ctx, k, 3, stop, 1, th, BSTI_TT3_TABLE_BYTES, 0, 2, jobs), BST_OK);
         ck_assert_msg(jobs[1].fa_min < stop, "FA %g", jobs[1].fa_min);
         ck_assert(isnan(jobs[0].fa_min)); /* abandoned: never measured below fa_stop */
         bsti_tt3_job one[1] = {{a, t0, 0.0, 0.0}};
-        ck_assert_int_eq(bsti_tt3_build(ctx, k, 3, stop, 1, th, BSTI_TT3_TABLE_BYTES, 1, one), BST_OK);
-        ck_assert_int_eq(build1(ctx, a, k, 3, stop, 1, 0, t2, &f, &h), BST_OK);
+        ck_assert_int_eq(bsti_tt3_build(ctx, k, 3, stop, 1, th, BSTI_TT3_TABLE_BYTES, 0, 1, one), BST_OK);
+        ck_assert_int_eq(build1(ctx, a, k, 3, stop, 1, 0, 0, t2, &f, &h), BST_OK);
         ck_assert(f > stop && one[0].fa_min == f && one[0].hemi_max == h);
         ck_assert(memcmp(t0, t2, n * sizeof *t0) == 0);
     }
@@ -413,14 +418,14 @@ START_TEST(test_alloc_failures)
     size_t G = (size_t)1 << k, n = G * G * G / 2;
     bst_mat *m = test_matrix(k, SMOOTH, BST_DOUBLE, BST_DENSE, 1);
     double *a = malloc(n * sizeof *a), *b = malloc(n * sizeof *b), f0, h0, f, h;
-    ck_assert_int_eq(build1(ctx, m, k, 3, -INFINITY, 2, BSTI_TT3_TABLE_BYTES, a, &f0, &h0),
+    ck_assert_int_eq(build1(ctx, m, k, 3, -INFINITY, 2, BSTI_TT3_TABLE_BYTES, 0, a, &f0, &h0),
                      BST_OK);
     long fail;
     for (fail = 1;; fail++) {
         tu_alloc al = {fail, 0, 0};
         bst_ctx *c2 = bst_ctx_new();
         ck_assert_int_eq(bst_ctx_set_allocator(c2, tu_alloc_malloc, tu_alloc_free, &al), BST_OK);
-        int rc = build1(c2, m, k, 3, -INFINITY, 2, BSTI_TT3_TABLE_BYTES, b, &f, &h);
+        int rc = build1(c2, m, k, 3, -INFINITY, 2, BSTI_TT3_TABLE_BYTES, 0, b, &f, &h);
         bst_ctx_free(c2);
         ck_assert_int_eq(al.live, 0);
         if (al.count < fail) {
