@@ -263,6 +263,7 @@ struct e3 {
     const double *pin, *pol;  /* (radius, azimuth) of the incident and outgoing sample points */
     double *m;
     atomic_size_t next, done; /* quadrant columns handed out, finished */
+    bst_ctx *ctx;             /* whose progress the caller's thread reports */
 };
 
 /* Column i of the quadrant's incident cells: the sum over its points, in the same order on any
@@ -292,14 +293,21 @@ static void e3_column(const struct e3 *e, size_t i)
     }
 }
 
+/* Columns of the quadrant until none is left; `report`: the caller's thread, which reports. */
+static void e3_take(struct e3 *e, int report)
+{
+    size_t side = e->G - e->lo, todo = side * side, q;
+    while ((q = atomic_fetch_add(&e->next, 1)) < todo) {
+        e3_column(e, (e->lo + q / side) * e->G + e->lo + q % side);
+        size_t done = atomic_fetch_add(&e->done, 1) + 1;
+        if (report && done % 16 == 0 && done < todo)
+            bsti_progress(e->ctx, (double)done / (double)todo, "expanding an isotropic tree");
+    }
+}
+
 static void *e3_work(void *opaque)
 {
-    struct e3 *e = opaque;
-    size_t side = e->G - e->lo, q;
-    while ((q = atomic_fetch_add(&e->next, 1)) < side * side) {
-        e3_column(e, (e->lo + q / side) * e->G + e->lo + q % side);
-        atomic_fetch_add(&e->done, 1);
-    }
+    e3_take(opaque, 0);
     return NULL;
 }
 
@@ -336,7 +344,7 @@ static int expand3(bst_ctx *ctx, const bsti_ttree *t, int k, double *m)
         }
     size_t lo = G > 1 ? G / 2 : 0, todo = (G - lo) * (G - lo);
     struct e3 e = {.G = G, .n = n, .gd = gd, .h0 = h0, .ni = S * S, .no = T * T, .lo = lo,
-                   .grid = grid, .pin = pin, .pol = pol, .m = m};
+                   .grid = grid, .pin = pin, .pol = pol, .m = m, .ctx = ctx};
     atomic_init(&e.next, 0);
     atomic_init(&e.done, 0);
     /* a column costs ni no N lookups: below 2^22 in all threads are not worth their start */
@@ -345,13 +353,7 @@ static int expand3(bst_ctx *ctx, const bsti_ttree *t, int k, double *m)
     int started[BST_THREADS_MAX] = {0};
     for (int w = 1; w < threads; w++) /* one that cannot start leaves its share to the others */
         started[w] = pthread_create(&th[w], NULL, e3_work, &e) == 0;
-    size_t q, side = G - lo;
-    while ((q = atomic_fetch_add(&e.next, 1)) < todo) {
-        e3_column(&e, (lo + q / side) * G + lo + q % side);
-        size_t done = atomic_fetch_add(&e.done, 1) + 1;
-        if (done % 16 == 0 && done < todo)
-            bsti_progress(ctx, (double)done / (double)todo, "expanding an isotropic tree");
-    }
+    e3_take(&e, 1);
     for (int w = 1; w < threads; w++)
         if (started[w])
             pthread_join(th[w], NULL);
