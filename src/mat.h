@@ -33,6 +33,16 @@ static inline double bsti_dense_get(const bst_mat *m, size_t i, size_t j)
                                  : (double)((const float *)m->dense)[j * m->rows + i];
 }
 
+/* Element (i, j) of any matrix as double; NULL or ZERO reads 0 (sparse: a binary search). */
+static inline double bsti_mat_at(const bst_mat *m, size_t i, size_t j)
+{
+    if (!m || m->s == BST_ZERO)
+        return 0.0;
+    if (m->s == BST_DENSE)
+        return bsti_dense_get(m, i, j);
+    return bst_mat_get(m, i, j);
+}
+
 /* Shared by mat.c, mat_mul.c and mat_add.c (unchecked: the public entries validate first). */
 /* *out = NULL, or BST_EINVAL (with a message when ctx is there) for a NULL ctx or out. */
 int bsti_mat_check_out(bst_ctx *ctx, bst_mat **out);

@@ -64,19 +64,10 @@ struct xw {
 
 /* ------------------------------------------------------------------ matrix access */
 
-static inline double mval(const bst_mat *m, size_t o, size_t i)
-{
-    if (!m || m->s == BST_ZERO)
-        return 0.0;
-    if (m->s == BST_DENSE)
-        return bsti_dense_get(m, o, i);
-    return bst_mat_get(m, o, i);
-}
-
 static double tensor_get(const void *opaque, size_t index)
 {
     const bst_mat *m = opaque;
-    return mval(m, index % m->rows, index / m->rows);
+    return bsti_mat_at(m, index % m->rows, index / m->rows);
 }
 
 static double zero_get(const void *opaque, size_t index)
@@ -446,7 +437,7 @@ static void klems_data(struct xw *w, const bst_mat *m, bst_bsdf_write_block *rep
     memset(hemi, 0, n * sizeof *hemi);
     for (size_t o = 0; o < n && !bsti_sink_failed(w->out); o++) {
         for (size_t i = 0; i < n; i++) {
-            double v = mval(m, o, i), back;
+            double v = bsti_mat_at(m, o, i), back;
             char buf[32];
             int len = bsti_format_double(v < 0.0 ? 0.0 : v, w->o->digits, buf, &back);
             if (i)
