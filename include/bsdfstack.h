@@ -470,8 +470,10 @@ int bst_bsdf_set_precision(bst_ctx *ctx, bst_bsdf *b, bst_precision prec);
 /* --------------------------- BSDF XML writer: xml_write.c, ttree_write.c, ttree_rank3.c, sink.c */
 
 /* A layer as LBNL WindowElement BSDF XML (libBSDF, WINDOW, EnergyPlus): Klems matrices on a Klems
- * basis, else a RADIANCE tensor tree of order k, TensorTree3 when isotropic, reduced as genBSDF's
- * rttree_reduce (xml_write.c, ttree_write.c; figures in bsdfstack-convert(1)).  No conversion at
+ * basis, else a RADIANCE tensor tree of order k, TensorTree3 when isotropic, reduced by a
+ * variation criterion as genBSDF's rttree_reduce, bounded so that every incident patch's
+ * directional-hemispherical T and R stay within reduce_tol of the layer's (xml_write.c,
+ * ttree_write.c, write_bound.h; figures in bsdfstack-convert(1)).  No conversion at
  * the boundary: our front is the XML "Front".  A component absent from the layer is left out
  * (write a zero matrix to state zero), and so is a tree transmission reciprocal to the other's. */
 typedef enum { BST_RANK_AUTO = 0, BST_RANK_3 = 3, BST_RANK_4 = 4 } bst_tree_rank;
@@ -480,6 +482,9 @@ typedef enum { BST_RANK_AUTO = 0, BST_RANK_3 = 3, BST_RANK_4 = 4 } bst_tree_rank
 #define BST_REDUCE_PCT 90.0
 /* Offset of sqrt(mean) in the variation measure (sqrt(1/sr)), as rttree_reduce. */
 #define BST_REDUCE_FLOOR 0.03
+/* Largest change a reduction may make to any incident patch's directional-hemispherical T or R
+ * (and to T + R above the layer's largest on that side). */
+#define BST_REDUCE_TOL 0.002
 /* TensorTree3 only when every incident patch keeps this flux accordance FA (%) in rank 3. */
 #define BST_ISO_FA_MIN 99.0
 /* A tree transmission is left out when bst_metrics_reciprocity's error is <= recip_tol. */
@@ -515,6 +520,8 @@ typedef struct {
     double reduce_pct;      /* trees: culling percentile in [0, 100); < 0 = no reduction;
                                default BST_REDUCE_PCT */
     double reduce_floor;    /* default BST_REDUCE_FLOOR */
+    double reduce_tol;      /* trees: >= 0, default BST_REDUCE_TOL; INFINITY: the percentile alone
+                               (rttree_reduce's rule, which may change hemispherical values) */
     int digits;             /* significant digits of every value; 0 (default) = as many as needed
                                to read back exactly (float for trees, double for Klems) */
     double iso_fa_min;      /* default BST_ISO_FA_MIN */

@@ -49,7 +49,8 @@
  * space, and the terminator bsti_format_float writes. */
 #define LEAF_ROOM (BST_K_MAX + 8 + 16 * 16 + 16)
 
-struct tw {                        /* read-only while threads run */
+struct tw {                        /* read-only while threads run (but for the marks of the
+                                      bound, made by the calling thread: see collect) */
     bst_ctx *ctx;
     const bsti_tensor *t;
     const double *d;               /* t->d, t->f: direct access, else t->get */
@@ -69,6 +70,10 @@ struct tw {                        /* read-only while threads run */
     int split;                     /* level of the tasks (0: none, the tree is one task) */
     double *lmean;                 /* the mean of every node of level split */
     int top;                       /* build: the nodes of level split are done (lmean, m) */
+    const double *col_budget, *row_budget; /* the bound (bsti_reduce); col_budget NULL: none */
+    double task_share;             /* a task's share of each column (or row): 4^split / G^2 */
+    double *vsum;                  /* nodes of levels >= split (index - off[split]): the sum of a
+                                      candidate that passed the bound, NaN before it is checked */
 };
 
 /* ------------------------------------------------------------------ tensor access */
@@ -540,6 +545,10 @@ struct eacc {
     size_t values, leaves, blocks_kept, cells;
     double sum_abs, sum_err, max_error;
     double *hemi;                  /* per incident cell of the region: sum of the errors */
+    double *ws;                    /* the bound's sums over a candidate (sums_room doubles) */
+    double *erow;                  /* the bound's rows: change of each outgoing cell's
+                                      directional-hemispherical sum so far (task side ^ 2) */
+    size_t o0, o1;                 /* the region's first outgoing cell */
     size_t h0, h1, hside;          /* the region's first incident cell and side (rank 3: h0) */
 };
 
@@ -652,15 +661,150 @@ static double region_pass(const struct tw *w, struct eacc *a, int l, const size_
     return sum;
 }
 
+/* ------------------------------------------------------------------ the bound */
+
+/* Cells of the node of level l at corner c that hold data (rank 3: not in the dead half). */
+static size_t live_cells(const struct tw *w, int l, const size_t *c)
+{
+    size_t s = (size_t)1 << l, in = s * s;
+    if (w->D == 3)
+        in = c[0] >= w->half ? 0 : w->half - c[0] < s ? w->half - c[0] : s;
+    return in * s * s;
+}
+
+/* Doubles of the bound's sums over a node of level l: one a column (incident index), and one a
+ * row (outgoing cell) when rows are bounded (rank 4 only). */
+static size_t sums_room(const struct tw *w, int l)
+{
+    size_t s = (size_t)1 << l;
+    return w->D == 4 ? 2 * s * s : s;
+}
+
+/* The sums of the node of level l at corner c over its cells that hold data, negatives read as 0:
+ * cs[x] over the outgoing cells of its incident index x (rank 4: x = x0 s + x1, rank 3: x = x0),
+ * and with rs, rs[y] over its incident indices for its outgoing cell y (x2 s + x3).  Returns the
+ * sum of them all; *nin the incident indices that hold data. */
+static double bound_sums(const struct tw *w, int l, const size_t *c, double *cs, double *rs,
+                         size_t *nin)
+{
+    size_t s = (size_t)1 << l, ni = w->D == 4 ? s * s : s, od = (size_t)w->D - 2, x;
+    double total = 0.0;
+    if (rs)
+        memset(rs, 0, s * s * sizeof *rs);
+    for (x = 0; x < ni; x++) {
+        size_t i0 = c[0] + (w->D == 4 ? x / s : x);
+        if (w->D == 3 && i0 >= w->half)
+            break;
+        size_t ibase = i0 * w->stride[0] + (w->D == 4 ? (c[1] + x % s) * w->stride[1] : 0);
+        double col = 0.0;
+        for (size_t a = 0; a < s; a++) { /* the outgoing cells, runs of the last dimension */
+            size_t base = ibase + (c[od] + a) * w->stride[od] + c[od + 1];
+            double *r = rs ? rs + a * s : NULL;
+            for (size_t b = 0; b < s; b++) {
+                double v = clamp0(w->d ? w->d[base + b] : w->f ? (double)w->f[base + b]
+                                                                : w->t->get(w->t->opaque, base + b));
+                col += v;
+                if (r)
+                    r[b] += v;
+            }
+        }
+        cs[x] = col;
+        total += col;
+    }
+    *nin = x;
+    return total;
+}
+
+/* Does the one value of the node of level l at corner c keep every sum the bound watches within
+ * its budget (bsti_reduce)?  Inside a task (a: its sums; a->hemi the errors so far of its incident
+ * indices, a->erow the changes so far of its rows) the changes add to those of the task; above the
+ * tasks (a NULL) the node's own changes are held to its share.  ws: sums_room(l) doubles; *sum:
+ * the sum of the node's cells.  A node that passes in a task has its rows' changes added to
+ * a->erow (its columns' reach a->hemi as leaf_merged writes it). */
+static int within_bound(const struct tw *w, struct eacc *a, double *ws, int l, const size_t *c,
+                        double *sum)
+{
+    size_t s = (size_t)1 << l, per = s * s, nin, G2 = w->G * w->G, ts = a ? a->hside : 0;
+    double *cs = ws, *rs = w->row_budget ? ws + per : NULL;
+    double total = bound_sums(w, l, c, cs, rs, &nin);
+    *sum = total;
+    if (!nin)
+        return 1;
+    char text[40];
+    float back;
+    bsti_format_float(total / (double)(nin * per), w->digits, text, &back); /* as leaf_merged */
+    double v = back, lam = M_PI / (double)G2;
+    double col_share = a ? w->task_share : (double)per / (double)G2;
+    double row_share = a ? w->task_share : (double)nin / (double)G2;
+    for (size_t x = 0; x < nin; x++) { /* per outgoing cells of an incident index */
+        size_t i0 = c[0] + (w->D == 4 ? x / s : x), i1 = w->D == 4 ? c[1] + x % s : 0;
+        double change = lam * ((double)per * v - cs[x]); /* new - old */
+        if (a)
+            change -= lam * *hemi_at(w, a, i0, i1); /* (hemi sums old - new) */
+        if (!(fabs(change) <= w->col_budget[w->D == 4 ? i0 * w->G + i1 : i0] * col_share))
+            return 0;
+    }
+    for (size_t y = 0; rs && y < per; y++) { /* (rank 4: nin incident cells, every one live) */
+        size_t o0 = c[2] + y / s, o1 = c[3] + y % s;
+        double change = lam * ((double)nin * v - rs[y]);
+        if (a)
+            change += a->erow[(o0 - a->o0) * ts + o1 - a->o1];
+        if (!(fabs(change) <= w->row_budget[o0 * w->G + o1] * row_share))
+            return 0;
+    }
+    for (size_t y = 0; a && rs && y < per; y++)
+        a->erow[(c[2] + y / s - a->o0) * ts + c[3] + y % s - a->o1] += lam * ((double)nin * v - rs[y]);
+    return 1;
+}
+
+/* A node whose measure is at most the threshold, off the forced path. */
+static inline int candidate(const struct tw *w, float m, int on_path)
+{
+    return m >= 0.0f && m <= w->thresh && !(w->force && on_path);
+}
+
+/* Is the node of level l at corner c written as one value?  A candidate is, unless the bound
+ * forbids it.  Nodes of levels >= split (when there are tasks) are checked once, by the calling
+ * thread in collect, before any worker starts: a failed one's measure is negated, a passed one's
+ * sum kept in vsum.  The others are checked by the one thread that emits their task (a).  *sum:
+ * the node's sum when the check found it, else NaN. */
+static int merged(const struct tw *w, struct eacc *a, int l, const size_t *c, int on_path, double *sum)
+{
+    size_t q = node_index(w, l, c);
+    float m = w->m[q];
+    *sum = NAN;
+    if (!candidate(w, m, on_path))
+        return 0;
+    if (!w->col_budget || m == 0.0f) /* (a constant region changes no sum) */
+        return 1;
+    double *kept = w->split && l >= w->split ? &w->vsum[q - w->off[w->split]] : NULL;
+    if (kept && !isnan(*kept)) {
+        *sum = *kept;
+        return 1;
+    }
+    if (within_bound(w, kept ? NULL : a, a->ws, l, c, sum)) {
+        if (kept)
+            *kept = *sum;
+        return 1;
+    }
+    if (kept)
+        w->m[q] = -m;
+    return 0;
+}
+
+/* The one-value leaf of the node of level l at corner c; sum: the sum of its cells, or NaN. */
 static void leaf_merged(const struct tw *w, struct eacc *a, int l, const size_t *c, int constant,
-                        int depth)
+                        int depth, double sum)
 {
     size_t n = (size_t)1 << (w->D * l), live = 0;
     double v, first = cell(w, c);
     if (constant) {
         v = clamp0(first);
     } else { /* average over the cells that hold data (rank 3: never straddles the dead half) */
-        double sum = region_pass(w, a, l, c, 0, 0.0, &live);
+        if (isnan(sum))
+            sum = region_pass(w, a, l, c, 0, 0.0, &live);
+        else
+            live = live_cells(w, l, c);
         v = live ? sum / (double)live : 0.0;
     }
     char *p = tb_room(a->out, (size_t)depth + 24);
@@ -734,12 +878,6 @@ static void leaf_block(const struct tw *w, struct eacc *a, const size_t *c, int 
 struct run;
 static void consume(struct run *r, int depth);
 
-/* A node with m <= threshold (off the forced path) is a one-value leaf. */
-static inline int merged(const struct tw *w, float m, int on_path)
-{
-    return m <= w->thresh && !(w->force && on_path);
-}
-
 /* The text of the node of level l at corner c; with r (the levels above the tasks), a node of
  * level split is the next task's text. */
 static void emit(const struct tw *w, struct eacc *a, struct run *r, int l, const size_t *c,
@@ -747,9 +885,9 @@ static void emit(const struct tw *w, struct eacc *a, struct run *r, int l, const
 {
     if (a->out->fail)
         return;
-    float m = w->m[node_index(w, l, c)];
-    if (merged(w, m, on_path)) {
-        leaf_merged(w, a, l, c, m == 0.0f, depth);
+    double sum;
+    if (merged(w, a, l, c, on_path, &sum)) {
+        leaf_merged(w, a, l, c, w->m[node_index(w, l, c)] == 0.0f, depth, sum);
         return;
     }
     if (r && l == w->split) {
@@ -822,7 +960,8 @@ struct run {
 /* The nodes of level split the emitter reaches, in tree order. */
 static void collect(const struct tw *w, struct run *r, int l, const size_t *c, int depth, int on_path)
 {
-    if (merged(w, w->m[node_index(w, l, c)], on_path))
+    double sum;
+    if (merged(w, r->top, l, c, on_path, &sum))
         return;
     if (l == w->split) {
         if (r->task) {
@@ -846,16 +985,21 @@ static void run_task(struct run *r, size_t t)
     const struct tw *w = r->w;
     struct slot *s = &r->slot[t % r->window];
     const struct task *tk = &r->task[t];
-    double *hemi = s->acc.hemi;
+    double *hemi = s->acc.hemi, *ws = s->acc.ws, *erow = s->acc.erow;
     size_t hside = s->acc.hside;
     struct memo *mm = s->acc.memo;
     memset(&s->acc, 0, sizeof s->acc);
     s->acc.out = &s->text;
     s->acc.memo = mm;
+    s->acc.ws = ws;
+    s->acc.erow = erow;
     s->acc.hemi = hemi;
     s->acc.hside = hside;
     s->acc.h0 = tk->c[0], s->acc.h1 = tk->c[1];
+    s->acc.o0 = tk->c[w->D - 2], s->acc.o1 = tk->c[w->D - 1];
     memset(hemi, 0, (w->D == 4 ? hside * hside : hside) * sizeof *hemi);
+    if (erow)
+        memset(erow, 0, hside * hside * sizeof *erow);
     s->text.n = 0;
     prefetch_region(w, w->split, tk->c);
     emit(w, &s->acc, NULL, w->split, tk->c, tk->depth, tk->on_path);
@@ -965,7 +1109,9 @@ static int emit_all(const struct tw *w, int nthreads, struct eacc *top, bsti_sin
     r.slot = bsti_calloc(w->ctx, r.window, sizeof *r.slot);
     double *hemi = bsti_alloc_array(w->ctx, r.window * nh, sizeof *hemi);
     struct memo *memo = w->digits ? NULL : bsti_calloc(w->ctx, r.window + 1, sizeof *memo);
-    int rc = r.task && r.slot && hemi && (w->digits || memo) ? BST_OK : BST_ENOMEM;
+    size_t room = w->col_budget ? sums_room(w, w->split) : 0, nr = w->row_budget ? hs * hs : 0;
+    double *ws = room ? bsti_alloc_array(w->ctx, r.window * (room + nr), sizeof *ws) : NULL;
+    int rc = r.task && r.slot && hemi && (w->digits || memo) && (!room || ws) ? BST_OK : BST_ENOMEM;
     if (rc == BST_OK) {
         r.ntasks = 0;
         collect(w, &r, w->k, zero, 0, 1);
@@ -974,6 +1120,8 @@ static int emit_all(const struct tw *w, int nthreads, struct eacc *top, bsti_sin
             r.slot[i].acc.hemi = hemi + i * nh;
             r.slot[i].acc.hside = hs;
             r.slot[i].acc.memo = memo ? memo + i : NULL;
+            r.slot[i].acc.ws = ws ? ws + i * (room + nr) : NULL;
+            r.slot[i].acc.erow = nr ? ws + i * (room + nr) + room : NULL;
         }
         top->memo = memo ? memo + r.window : NULL;
         pthread_mutex_init(&r.lock, NULL);
@@ -1005,6 +1153,7 @@ static int emit_all(const struct tw *w, int nthreads, struct eacc *top, bsti_sin
     bsti_free(w->ctx, r.slot);
     bsti_free(w->ctx, hemi);
     bsti_free(w->ctx, memo);
+    bsti_free(w->ctx, ws);
     top->memo = NULL;
     return rc;
 }
@@ -1023,6 +1172,9 @@ int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, b
     if (r->pct >= 100.0 || isnan(r->pct) || !(r->floor > 0.0))
         return bsti_error(ctx, BST_EINVAL, "tensor tree: culling percentile %g (must be < 100) or "
                           "floor %g (must be > 0) out of range", r->pct, r->floor);
+    if (r->row_budget && (t->rank != 4 || !r->col_budget))
+        return bsti_error(ctx, BST_EINVAL, "tensor tree: row budgets need a rank-4 tree and column "
+                          "budgets");
     struct tw w;
     memset(&w, 0, sizeof w);
     w.ctx = ctx;
@@ -1036,6 +1188,8 @@ int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, b
     w.digits = r->digits;
     w.floor = r->floor;
     w.lossless = r->pct < 0.0;
+    w.col_budget = w.lossless ? NULL : r->col_budget; /* (lossless: nothing to bound) */
+    w.row_budget = w.col_budget ? r->row_budget : NULL;
     for (int i = w.D - 1; i >= 0; i--)
         w.stride[i] = i == w.D - 1 ? 1 : w.stride[i + 1] * w.G;
     for (int j = 0; j < (1 << w.D); j++)
@@ -1061,10 +1215,18 @@ int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, b
     double *hemi = bsti_calloc(ctx, nin, sizeof *hemi);
     w.m = bsti_calloc(ctx, nodes, sizeof *w.m);
     w.lmean = nsplit ? bsti_alloc_array(ctx, nsplit, sizeof *w.lmean) : NULL;
-    if (!w.m || !hemi || (nsplit && !w.lmean)) {
+    size_t nkept = w.col_budget && w.split ? nodes - w.off[w.split] : 0;
+    w.vsum = nkept ? bsti_alloc_array(ctx, nkept, sizeof *w.vsum) : NULL;
+    w.task_share = w.split ? (double)((size_t)1 << 2 * w.split) / (double)(w.G * w.G) : 1.0;
+    size_t nr = w.row_budget && !w.split ? w.G * w.G : 0; /* one level: the top is the task */
+    double *ws = w.col_budget ? bsti_alloc_array(ctx, sums_room(&w, w.k) + nr, sizeof *ws) : NULL;
+    if (!w.m || !hemi || (nsplit && !w.lmean) || (nkept && !w.vsum) || (w.col_budget && !ws)) {
         bsti_free(ctx, w.m), bsti_free(ctx, hemi), bsti_free(ctx, w.lmean);
+        bsti_free(ctx, w.vsum), bsti_free(ctx, ws);
         return BST_ENOMEM;
     }
+    for (size_t q = 0; q < nkept; q++)
+        w.vsum[q] = NAN;
     struct bacc b;
     build_all(&w, nthreads, &b);
     st->negatives = (int)b.negatives;
@@ -1108,6 +1270,10 @@ int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, b
         memset(&top, 0, sizeof top);
         top.out = &text;
         top.hemi = hemi;
+        top.ws = ws;
+        top.erow = nr ? ws + sums_room(&w, w.k) : NULL;
+        if (top.erow)
+            memset(top.erow, 0, nr * sizeof *top.erow);
         top.hside = w.G;
         uint64_t before = out->total;
         rc = emit_all(&w, nthreads, &top, out);
@@ -1130,6 +1296,8 @@ int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, b
     }
     bsti_free(ctx, w.m);
     bsti_free(ctx, w.lmean);
+    bsti_free(ctx, w.vsum);
+    bsti_free(ctx, ws);
     bsti_free(ctx, hemi);
     return rc;
 }

@@ -36,10 +36,27 @@ typedef struct {
                                percentile is then taken over the finest blocks touching them */
 } bsti_tensor;
 
+/* How a tree is reduced.  A node whose variation measure is at most the pct-th percentile is a
+ * candidate for one value; with budgets it becomes one only if the changes it makes to the
+ * directional-hemispherical values (pi / G^2 times the sum of an incident index's cells) keep
+ * every incident index x within its budget b(x).  The budget of a column is shared out over the
+ * parts of its outgoing domain in proportion to their solid angle: the subtrees the writer's
+ * threads take (tasks) and the one-value leaves above them.  A leaf above the tasks may change x
+ * by b(x) times its share; inside a task the changes are summed as made, with their signs (and
+ * with those of every value's rounding to float), and a node merges only while the sum stays
+ * within b(x) times the task's share: noise averaged away in one place and another partly cancels,
+ * and the budget of the blocks a task keeps whole goes to those it merges.  Whatever the tree,
+ * the shares add up to 1, so a whole column changes by at most b(x).  With row budgets the same
+ * holds for every outgoing cell's sum over incidence (a transmission whose reciprocal a reader
+ * takes for the other side: its rows are that side's columns).  Decisions depend on the task's own
+ * cells only: the same tree with any number of threads. */
 typedef struct {
     double pct;             /* culling percentile in [0, 100); < 0: lossless */
     double floor;           /* BST_REDUCE_FLOOR */
     int digits;             /* 0: shortest text that reads back as the same float */
+    const double *col_budget; /* NULL: no bound; else per incident index, rank 4 G^2 (ix G + iy),
+                               rank 3 G/2 (ix), directional-hemispherical units, >= 0 */
+    const double *row_budget; /* rank 4, may be NULL: per outgoing cell (ox G + oy) */
 } bsti_reduce;
 
 typedef struct {

@@ -11,8 +11,10 @@
  *
  * Choices: trees are rank 3 when every component passes the isotropy check (ttree_rank3.c), else
  * rank 4; a rank-4 transmission that is the reciprocal of the other side's is left out as genBSDF
- * does; values keep single precision exactly in trees (what readers store) and double precision
- * exactly in Klems matrices, unless a number of digits is asked for. */
+ * does, unless reciprocity alone would move its hemispherical values beyond the reduction's
+ * tolerance; a reduced tree keeps every incident patch's hemispherical values within budgets
+ * (write_bound.h); values keep single precision exactly in trees (what readers store) and double
+ * precision exactly in Klems matrices, unless a number of digits is asked for. */
 #include <config.h>
 
 #include <errno.h>
@@ -29,6 +31,7 @@
 #include "mat.h"
 #include "sink.h"
 #include "ttree_write.h"
+#include "write_bound.h"
 
 static const char *const block_label[BST_NCOMP] = {
     "Transmission Front", "Reflection Front", "Transmission Back", "Reflection Back"};
@@ -39,6 +42,7 @@ void bst_bsdf_write_opts_init(bst_bsdf_write_opts *o)
     o->rank = BST_RANK_AUTO;
     o->reduce_pct = BST_REDUCE_PCT;
     o->reduce_floor = BST_REDUCE_FLOOR;
+    o->reduce_tol = BST_REDUCE_TOL;
     o->digits = 0;
     o->iso_fa_min = BST_ISO_FA_MIN;
     o->recip_tol = BST_RECIP_TOL;
@@ -60,6 +64,8 @@ struct xw {
     const bst_varres *v;    /* variable resolution: fine columns over the coarse layer l, w->k
                                the fine order and kc the layer's (bst_bsdf_write_varres) */
     int kc;
+    bsti_bounds bounds;     /* a reduced tree's budgets (col NULL: no bound) */
+    double *ring;           /* rank 3: G/2 budgets */
 };
 
 /* ------------------------------------------------------------------ matrix access */
@@ -273,6 +279,27 @@ done:
     return rc;
 }
 
+/* The budgets of a reduced tree (write_bound.h); a Tf that reciprocity alone would move beyond
+ * its budget is written after all. */
+static int bounds(struct xw *w)
+{
+    int *omit_tf = bsti_alloc_array(w->ctx, w->nch + 1, sizeof *omit_tf);
+    size_t G = (size_t)1 << w->k;
+    if (!omit_tf || (w->kind == BST_FILE_TT3 && !(w->ring = bsti_alloc_array(w->ctx, G / 2, sizeof *w->ring)))) {
+        bsti_free(w->ctx, omit_tf);
+        return BST_ENOMEM;
+    }
+    for (size_t ch = 0; ch < w->nch; ch++)
+        omit_tf[ch] = w->omit[ch * BST_NCOMP + BST_TF] == 1;
+    int rc = w->v ? bsti_bounds_varres(w->ctx, w->l, w->v, w->o->reduce_tol, &w->bounds)
+                  : bsti_bounds_layer(w->ctx, w->l, w->o->reduce_tol, omit_tf, &w->bounds);
+    for (size_t ch = 0; rc >= 0 && ch < w->nch; ch++)
+        if (w->omit[ch * BST_NCOMP + BST_TF] == 1 && !omit_tf[ch])
+            w->omit[ch * BST_NCOMP + BST_TF] = 0;
+    bsti_free(w->ctx, omit_tf);
+    return rc;
+}
+
 /* ------------------------------------------------------------------ the pieces of the file */
 
 static const char *spectrum(const char *channel, const char **detector)
@@ -347,9 +374,15 @@ static void header(struct xw *w)
         if (w->v)
             bsti_sink_printf(s, "  Variable resolution: Tf and Rf at k = %d for %zu front incident "
                              "patches, k = %d elsewhere and for Tb and Rb\n", w->k, w->v->ncols, w->kc);
-        if (o->reduce_pct >= 0.0)
+        if (o->reduce_pct >= 0.0 && w->bounds.col)
             bsti_sink_printf(s, "  Tree reduction: cells below the %g-th percentile of variation "
-                             "merged (floor %g)\n", o->reduce_pct, o->reduce_floor);
+                             "merged (floor %g) where every incident patch's directional-"
+                             "hemispherical T and R stay within %g of the unreduced values\n",
+                             o->reduce_pct, o->reduce_floor, o->reduce_tol);
+        else if (o->reduce_pct >= 0.0)
+            bsti_sink_printf(s, "  Tree reduction: cells below the %g-th percentile of variation "
+                             "merged (floor %g), no bound on hemispherical values\n",
+                             o->reduce_pct, o->reduce_floor);
         else
             bsti_sink_puts(s, "  Tree reduction: none (only exactly constant regions merged)\n");
         for (size_t ch = 0; ch < w->nch; ch++)
@@ -500,7 +533,16 @@ static int write_blocks(struct xw *w)
                         t.get = zero_get;
                     if (w->v && !t.fine_in)
                         t.k = w->kc; /* coarse only (Tb, Rb): a tree of depth kc */
-                    bsti_reduce r = {o->reduce_pct, o->reduce_floor, o->digits};
+                    bsti_reduce r = {o->reduce_pct, o->reduce_floor, o->digits, NULL, NULL};
+                    if (w->bounds.col) {
+                        r.col_budget = w->bounds.col + idx * w->bounds.n;
+                        if (w->kind == BST_FILE_TT3) {
+                            bsti_bounds_rings(w->k, r.col_budget, w->ring);
+                            r.col_budget = w->ring;
+                        }
+                        if (c == BST_TB && w->omit[ch * BST_NCOMP + BST_TF] == 1)
+                            r.row_budget = w->bounds.row + ch * w->bounds.n;
+                    }
                     bsti_tree_stats st;
                     int rc = bsti_ttree_write(w->ctx, &t, &r, w->out, &st);
                     bsti_varres_done(w->ctx, &vr);
@@ -541,11 +583,13 @@ static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst
         opts = &def;
     }
     if (opts->reduce_pct >= 100.0 || isnan(opts->reduce_pct) || !(opts->reduce_floor > 0.0) ||
-        opts->digits < 0 || opts->iso_refine < 0 || isnan(opts->iso_fa_min) ||
+        !(opts->reduce_tol >= 0.0) || opts->digits < 0 || opts->iso_refine < 0 ||
+        isnan(opts->iso_fa_min) ||
         (opts->rank != BST_RANK_AUTO && opts->rank != BST_RANK_3 && opts->rank != BST_RANK_4))
         return bsti_error(ctx, BST_EINVAL, "writing BSDF XML: invalid options (reduce_pct %g must "
-                          "be < 100, reduce_floor %g > 0, digits %d >= 0, rank %d 0, 3 or 4)",
-                          opts->reduce_pct, opts->reduce_floor, opts->digits, (int)opts->rank);
+                          "be < 100, reduce_floor %g > 0, reduce_tol %g >= 0, digits %d >= 0, "
+                          "rank %d 0, 3 or 4)", opts->reduce_pct, opts->reduce_floor,
+                          opts->reduce_tol, opts->digits, (int)opts->rank);
     struct xw w;
     memset(&w, 0, sizeof w);
     w.ctx = ctx;
@@ -605,6 +649,8 @@ static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst
         }
     if (rc >= 0 && !any)
         rc = bsti_error(ctx, BST_EINVAL, "writing BSDF XML: the layer has no component to write");
+    if (rc >= 0 && w.kind != BST_FILE_KLEMS && opts->reduce_pct >= 0.0 && isfinite(opts->reduce_tol))
+        rc = bounds(&w);
     if (rc >= 0) {
         header(&w);
         rc = write_blocks(&w);
@@ -615,6 +661,8 @@ static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst
             rc = BST_EIO;
     }
     free_t3(&w);
+    bsti_bounds_free(ctx, &w.bounds);
+    bsti_free(ctx, w.ring);
     bsti_free(ctx, w.omit);
     bsti_free(ctx, w.hemi);
     if (rc == BST_EIO)

@@ -75,7 +75,7 @@ class ReadOpts(Structure):
 class WriteOpts(Structure):
     """bst_bsdf_write_opts."""
     _fields_ = [("rank", c_int), ("reduce_pct", c_double), ("reduce_floor", c_double),
-                ("digits", c_int), ("iso_fa_min", c_double), ("recip_tol", c_double),
+                ("reduce_tol", c_double), ("digits", c_int), ("iso_fa_min", c_double), ("recip_tol", c_double),
                 ("iso_refine", c_int), ("rank3_source", c_void_p), ("name", c_char_p),
                 ("manufacturer", c_char_p), ("device_type", c_char_p), ("thickness", c_double),
                 ("width", c_double), ("height", c_double), ("nlayers", c_size_t),

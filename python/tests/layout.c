@@ -29,7 +29,8 @@ int main(void)
     FIELD(bst_bsdf_read_opts, channels), FIELD(bst_bsdf_read_opts, precision);
     SIZE(bst_bsdf_write_opts);
     FIELD(bst_bsdf_write_opts, rank), FIELD(bst_bsdf_write_opts, reduce_pct);
-    FIELD(bst_bsdf_write_opts, reduce_floor), FIELD(bst_bsdf_write_opts, digits);
+    FIELD(bst_bsdf_write_opts, reduce_floor), FIELD(bst_bsdf_write_opts, reduce_tol);
+    FIELD(bst_bsdf_write_opts, digits);
     FIELD(bst_bsdf_write_opts, iso_fa_min), FIELD(bst_bsdf_write_opts, recip_tol);
     FIELD(bst_bsdf_write_opts, iso_refine), FIELD(bst_bsdf_write_opts, rank3_source);
     FIELD(bst_bsdf_write_opts, name), FIELD(bst_bsdf_write_opts, manufacturer);

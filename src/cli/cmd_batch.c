@@ -273,7 +273,7 @@ int batch_run_stack(bst_ctx *ctx, const struct batch *b, const struct batch_line
         }
     }
     if (rc == CLI_OK)
-        rc = cli_write_layer(ctx, sub, sys, sl->out, b->args.reduce, b->argc, b->argv, &view);
+        rc = cli_write_layer(ctx, sub, sys, sl->out, &b->args.reduce, b->argc, b->argv, &view);
     if (rc == CLI_OK)
         normal_tr(ctx, b->all.basis, sys, r);
     r->seconds = batch_since(&t0);

@@ -470,7 +470,7 @@ static int combine_varres(bst_ctx *ctx, const char *sub, struct cli_stack_args *
     cli_layers_free(&fset);
     t0 = now_s();
     if (rc == CLI_OK)
-        rc = cli_write_varres(ctx, sub, sys, &v, outpath, args->reduce, argc, argv, &set);
+        rc = cli_write_varres(ctx, sub, sys, &v, outpath, &args->reduce, argc, argv, &set);
     if (rc == CLI_OK && verbose)
         verbose_phase("wrote the file", t0);
     for (size_t i = 0; tf && i < 2 * nch; i++)
@@ -769,7 +769,7 @@ int cmd_combine(int argc, char **argv)
     }
     t0 = now_s();
     if (rc == CLI_OK)
-        rc = cli_write_layer(ctx, sub, sys, outpath, args.reduce, argc, argv, &set);
+        rc = cli_write_layer(ctx, sub, sys, outpath, &args.reduce, argc, argv, &set);
     if (rc == CLI_OK && abspath)
         rc = cli_out_commit(&abs_out, sub);
     else

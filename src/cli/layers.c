@@ -44,7 +44,8 @@ int cli_parse_basis_option(const char *sub, int opt, const char *value, struct c
 void cli_stack_args_init(struct cli_stack_args *a)
 {
     memset(a, 0, sizeof *a);
-    a->reduce = 90.0;
+    a->reduce.pct = BST_REDUCE_PCT;
+    a->reduce.tol = BST_REDUCE_TOL;
     bst_stack_opts_init(&a->so);
     bst_spectral_opts_init(&a->sp);
 }
@@ -62,10 +63,11 @@ int cli_stack_option(const char *sub, int c, const char *arg, struct cli_stack_a
             return cli_usage(sub, "--drop-tol %s: a number in [0, 1) is required", arg);
         return CLI_OK;
     case CLI_O_REDUCE:
-        if (cli_parse_double(arg, &a->reduce) || a->reduce < 0 || a->reduce >= 100)
+        if (cli_parse_double(arg, &a->reduce.pct) || a->reduce.pct < 0 || a->reduce.pct >= 100)
             return cli_usage(sub, "--reduce %s: a percentile in [0, 100) is required", arg);
         return CLI_OK;
-    case CLI_O_NOREDUCE: a->reduce = -1; return CLI_OK;
+    case CLI_O_NOREDUCE: a->reduce.pct = -1; return CLI_OK;
+    case CLI_O_REDUCETOL: return cli_parse_reduce_tol(sub, arg, &a->reduce.tol);
     case CLI_O_DENSE: a->so.force_dense = 1; return CLI_OK;
     case CLI_O_STRICT: a->so.strict = 1; return CLI_OK;
     case CLI_O_PERCH: a->per_channel = 1; return CLI_OK;
@@ -513,7 +515,7 @@ int cli_layer_load(bst_ctx *ctx, const char *sub, const char *what, const char *
 
 /* cli_write_layer, and cli_write_varres when v is set (l the coarse system). */
 static int write_any(bst_ctx *ctx, const char *sub, const bst_layer *l, const bst_varres *v,
-                     const char *path, double reduce, int argc, char **argv,
+                     const char *path, const struct cli_reduce *reduce, int argc, char **argv,
                      const struct cli_layers *set)
 {
     size_t len = 64 + (set && set->description ? strlen(set->description) : 0);
@@ -531,7 +533,8 @@ static int write_any(bst_ctx *ctx, const char *sub, const bst_layer *l, const bs
     }
     bst_bsdf_write_opts wo;
     bst_bsdf_write_opts_init(&wo);
-    wo.reduce_pct = reduce;
+    wo.reduce_pct = reduce->pct;
+    wo.reduce_tol = reduce->tol;
     wo.description = desc;
     char date[64];
     wo.date = cli_source_date(date, sizeof date);
@@ -547,6 +550,18 @@ static int write_any(bst_ctx *ctx, const char *sub, const bst_layer *l, const bs
     }
     free(desc);
     return rc;
+}
+
+int cli_parse_reduce_tol(const char *sub, const char *arg, double *tol)
+{
+    if (strcmp(arg, "none") == 0) {
+        *tol = INFINITY;
+        return CLI_OK;
+    }
+    if (cli_parse_double(arg, tol) || !(*tol >= 0.0) || !isfinite(*tol))
+        return cli_usage(sub, "--reduce-tol %s: a directional-hemispherical change >= 0 (e.g. "
+                         "0.002), or none", arg);
+    return CLI_OK;
 }
 
 const char *cli_source_date(char *buf, size_t size)
@@ -566,13 +581,13 @@ const char *cli_source_date(char *buf, size_t size)
 }
 
 int cli_write_layer(bst_ctx *ctx, const char *sub, const bst_layer *l, const char *path,
-                    double reduce, int argc, char **argv, const struct cli_layers *set)
+                    const struct cli_reduce *reduce, int argc, char **argv, const struct cli_layers *set)
 {
     return write_any(ctx, sub, l, NULL, path, reduce, argc, argv, set);
 }
 
 int cli_write_varres(bst_ctx *ctx, const char *sub, const bst_layer *coarse, const bst_varres *v,
-                     const char *path, double reduce, int argc, char **argv,
+                     const char *path, const struct cli_reduce *reduce, int argc, char **argv,
                      const struct cli_layers *set)
 {
     return write_any(ctx, sub, coarse, v, path, reduce, argc, argv, set);

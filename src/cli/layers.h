@@ -45,23 +45,32 @@ int cli_parse_basis_option(const char *sub, int opt, const char *value, struct c
  * options start at CLI_O_OWN. */
 enum { CLI_O_KLEMS = 256, CLI_O_ONLY, CLI_O_CHANNELS, CLI_O_PRECISION, CLI_O_DROP, CLI_O_REDUCE,
        CLI_O_NOREDUCE, CLI_O_DENSE, CLI_O_STRICT, CLI_O_PERCH, CLI_O_MAXMEM, CLI_O_SPTOL,
-       CLI_O_GLASSRULE, CLI_O_OWN };
+       CLI_O_GLASSRULE, CLI_O_REDUCETOL, CLI_O_OWN };
 #define CLI_STACK_LONGOPTS                                                                         \
     {"klems", optional_argument, NULL, CLI_O_KLEMS}, {"only", required_argument, NULL, CLI_O_ONLY},  \
     {"channels", required_argument, NULL, CLI_O_CHANNELS},                                          \
     {"precision", required_argument, NULL, CLI_O_PRECISION},                                        \
     {"drop-tol", required_argument, NULL, CLI_O_DROP},                                              \
     {"reduce", required_argument, NULL, CLI_O_REDUCE},                                              \
+    {"reduce-tol", required_argument, NULL, CLI_O_REDUCETOL},                                       \
     {"no-reduce", no_argument, NULL, CLI_O_NOREDUCE}, {"dense", no_argument, NULL, CLI_O_DENSE},     \
     {"strict", no_argument, NULL, CLI_O_STRICT}, {"per-channel", no_argument, NULL, CLI_O_PERCH},   \
     {"max-memory", required_argument, NULL, CLI_O_MAXMEM},                                          \
     {"spectral-tol", required_argument, NULL, CLI_O_SPTOL},                                         \
     {"glass-rule", required_argument, NULL, CLI_O_GLASSRULE}
 
+/* How a tree is reduced: --reduce PCT (pct -1 for --no-reduce) and --reduce-tol T (INFINITY:
+ * the percentile alone); bst_bsdf_write_opts's reduce_pct and reduce_tol. */
+struct cli_reduce {
+    double pct, tol;
+};
+/* Parse --reduce-tol's value into *tol (a number >= 0, or "none"); CLI_OK or a usage error. */
+int cli_parse_reduce_tol(const char *sub, const char *arg, double *tol);
+
 struct cli_stack_args {
     struct cli_basis_choice basis;
     const char *channels; /* --channels, or NULL */
-    double reduce;        /* --reduce percentile, -1 for --no-reduce (default 90) */
+    struct cli_reduce reduce; /* default 90 and BST_REDUCE_TOL */
     int per_channel;      /* --per-channel */
     bst_stack_opts so;    /* --only, --precision, --drop-tol, --dense, --strict */
     bst_spectral_opts sp; /* --spectral-tol, --glass-rule (also in basis.at_centre) */
@@ -111,12 +120,12 @@ int cli_layer_load(bst_ctx *ctx, const char *sub, const char *what, const char *
  * runs can give byte-identical files; NULL (the current date) unless it is a whole non-negative
  * number of seconds. */
 const char *cli_source_date(char *buf, size_t size);
-/* Write a layer as BSDF XML to path ("-" = stdout), atomically; reduce < 0: no reduction. */
+/* Write a layer as BSDF XML to path ("-" = stdout), atomically, reduced as reduce says. */
 int cli_write_layer(bst_ctx *ctx, const char *sub, const bst_layer *l, const char *path,
-                    double reduce, int argc, char **argv, const struct cli_layers *set);
+                    const struct cli_reduce *reduce, int argc, char **argv, const struct cli_layers *set);
 /* The same for a variable-resolution system (bst_bsdf_write_varres): coarse and fine columns v. */
 int cli_write_varres(bst_ctx *ctx, const char *sub, const bst_layer *coarse, const bst_varres *v,
-                     const char *path, double reduce, int argc, char **argv,
+                     const char *path, const struct cli_reduce *reduce, int argc, char **argv,
                      const struct cli_layers *set);
 
 /* Whether the stack is combined wavelength by wavelength (1) or by band values per channel (0),

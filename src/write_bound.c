@@ -1,0 +1,222 @@
+/* write_bound.c - the budgets of a reduced tensor tree (write_bound.h says what they promise and
+ * how they are shared out). */
+#include <config.h>
+
+#include <math.h>
+#include <string.h>
+
+#include "basis.h"
+#include "ctx.h"
+#include "layer.h"
+#include "mat.h"
+#include "write_bound.h"
+
+/* col[i] = sum over o of m(o, i), row[o] = sum over i (row may be NULL), negatives read as 0, as
+ * a tree reader stores them; m (NULL: zeros) has nr rows and n columns. */
+static void sums(const bst_mat *m, size_t nr, size_t n, double *col, double *row)
+{
+    memset(col, 0, n * sizeof *col);
+    if (row)
+        memset(row, 0, nr * sizeof *row);
+    if (!m || m->s == BST_ZERO)
+        return;
+    if (m->s == BST_DIAG) {
+        for (size_t i = 0; i < n && i < nr; i++) {
+            col[i] = fmax(m->diag[i], 0.0);
+            if (row)
+                row[i] = col[i];
+        }
+    } else if (m->s == BST_SPARSE) {
+        const SuiteSparse_long *p = m->sp->p, *ri = m->sp->i;
+        const double *x = m->sp->x;
+        for (size_t i = 0; i < n; i++)
+            for (SuiteSparse_long q = p[i]; q < p[i + 1]; q++) {
+                double v = fmax(x[q], 0.0);
+                col[i] += v;
+                if (row)
+                    row[ri[q]] += v;
+            }
+    } else {
+        for (size_t i = 0; i < n; i++) {
+            double s = 0.0;
+            if (m->prec == BST_DOUBLE) {
+                const double *c = (const double *)m->dense + i * nr;
+                for (size_t o = 0; o < nr; o++) {
+                    double v = c[o] > 0.0 ? c[o] : 0.0;
+                    s += v;
+                    if (row)
+                        row[o] += v;
+                }
+            } else {
+                const float *c = (const float *)m->dense + i * nr;
+                for (size_t o = 0; o < nr; o++) {
+                    double v = c[o] > 0.0f ? (double)c[o] : 0.0;
+                    s += v;
+                    if (row)
+                        row[o] += v;
+                }
+            }
+            col[i] = s;
+        }
+    }
+}
+
+/* One side: t and r the directional-hemispherical values of its transmission and reflection
+ * (NULL: absent), n patches; their budgets into bt and br (those of an absent one are left). */
+static void side(size_t n, const double *t, const double *r, double tol, double *bt, double *br)
+{
+    double smax = 0.0, m = (t ? 1.0 : 0.0) + (r ? 1.0 : 0.0);
+    if (m == 0.0)
+        return;
+    for (size_t i = 0; i < n; i++)
+        smax = fmax(smax, (t ? t[i] : 0.0) + (r ? r[i] : 0.0));
+    for (size_t i = 0; i < n; i++) {
+        double slack = smax - (t ? t[i] : 0.0) - (r ? r[i] : 0.0);
+        double b = fmin(tol, (tol + slack) / m);
+        if (t)
+            bt[i] = b;
+        if (r)
+            br[i] = b;
+    }
+}
+
+static int bounds_alloc(bst_ctx *ctx, size_t nch, size_t n, bsti_bounds *b)
+{
+    b->nch = nch;
+    b->n = n;
+    b->col = bsti_calloc(ctx, nch * BST_NCOMP * n, sizeof *b->col);
+    b->row = bsti_calloc(ctx, nch * n, sizeof *b->row);
+    if (b->col && b->row)
+        return BST_OK;
+    bsti_bounds_free(ctx, b);
+    return BST_ENOMEM;
+}
+
+void bsti_bounds_free(bst_ctx *ctx, bsti_bounds *b)
+{
+    bsti_free(ctx, b->col);
+    bsti_free(ctx, b->row);
+    b->col = b->row = NULL;
+}
+
+int bsti_bounds_layer(bst_ctx *ctx, const bst_layer *l, double tol, int *omit_tf, bsti_bounds *b)
+{
+    size_t nch = bst_layer_nchannels(l), n = bst_basis_size(bst_layer_basis(l));
+    double lam = M_PI / (double)n; /* Shirley-Chiu: every patch pi / N */
+    memset(b, 0, sizeof *b);
+    int rc = bounds_alloc(ctx, nch, n, b);
+    double *h = rc >= 0 ? bsti_alloc_array(ctx, (BST_NCOMP + 1) * n, sizeof *h) : NULL;
+    if (rc >= 0 && !h)
+        rc = BST_ENOMEM;
+    for (size_t ch = 0; rc >= 0 && ch < nch; ch++) {
+        const double *hc[BST_NCOMP];
+        double *tb_rows = h + BST_NCOMP * n;
+        for (int c = 0; c < BST_NCOMP; c++) {
+            const bst_mat *m = bst_layer_get(l, ch, (bst_comp)c);
+            sums(m, n, n, h + c * n, c == BST_TB && omit_tf[ch] ? tb_rows : NULL);
+            for (size_t i = 0; i < n; i++)
+                h[c * n + i] *= lam;
+            hc[c] = m ? h + c * n : NULL;
+        }
+        double *col = b->col + ch * BST_NCOMP * n, *row = b->row + ch * n;
+        side(n, hc[BST_TF], hc[BST_RF], tol, col + BST_TF * n, col + BST_RF * n);
+        side(n, hc[BST_TB], hc[BST_RB], tol, col + BST_TB * n, col + BST_RB * n);
+        if (!omit_tf[ch] || !hc[BST_TF] || !hc[BST_TB])
+            continue;
+        for (size_t i = 0; i < n && omit_tf[ch]; i++) {
+            size_t a = bst_basis_antipode(bst_layer_basis(l), i);
+            double left = col[BST_TF * n + i] - fabs(hc[BST_TF][i] - lam * tb_rows[a]);
+            if (left < 0.0)
+                omit_tf[ch] = 0; /* reciprocity alone moves Tf too far: Tf is written */
+            row[a] = left;
+        }
+    }
+    bsti_free(ctx, h);
+    if (rc < 0)
+        bsti_bounds_free(ctx, b);
+    return rc;
+}
+
+/* Directional-hemispherical values of a front component's columns at order k (N patches) into
+ * out: the fine column where there is one, the coarse patch's (hc, order kc) elsewhere. */
+static void varres_front(const bst_varres *v, const bst_mat *fine, int kc, const double *hc,
+                         double *out, double *colsum)
+{
+    size_t G = (size_t)1 << v->k, N = G * G, Gc = (size_t)1 << kc;
+    int sh = v->k - kc;
+    for (size_t i = 0; i < N; i++)
+        out[i] = hc[((i / G) >> sh) * Gc + ((i % G) >> sh)];
+    if (!fine || fine->rows != N || fine->cols != v->ncols)
+        return; /* (bsti_varres_init refuses it later) */
+    sums(fine, N, v->ncols, colsum, NULL);
+    for (size_t q = 0; q < v->ncols; q++)
+        if (v->cols[q] < N)
+            out[v->cols[q]] = colsum[q] * M_PI / (double)N;
+}
+
+int bsti_bounds_varres(bst_ctx *ctx, const bst_layer *coarse, const bst_varres *v, double tol,
+                       bsti_bounds *b)
+{
+    size_t nch = bst_layer_nchannels(coarse), Nc = bst_basis_size(bst_layer_basis(coarse));
+    int kc = bst_basis_order(bst_layer_basis(coarse));
+    size_t N = (size_t)1 << (2 * v->k);
+    double lam = M_PI / (double)Nc;
+    memset(b, 0, sizeof *b);
+    int rc = bounds_alloc(ctx, nch, N, b);
+    double *h = rc >= 0 ? bsti_alloc_array(ctx, BST_NCOMP * Nc + 2 * N + v->ncols + 1, sizeof *h) : NULL;
+    if (rc >= 0 && !h)
+        rc = BST_ENOMEM;
+    for (size_t ch = 0; rc >= 0 && ch < nch; ch++) {
+        const double *hc[BST_NCOMP];
+        for (int c = 0; c < BST_NCOMP; c++) {
+            const bst_mat *m = bst_layer_get(coarse, ch, (bst_comp)c);
+            sums(m, Nc, Nc, h + c * Nc, NULL);
+            for (size_t i = 0; i < Nc; i++)
+                h[c * Nc + i] *= lam;
+            hc[c] = m ? h + c * Nc : NULL;
+        }
+        double *col = b->col + ch * BST_NCOMP * N, *ft = h + BST_NCOMP * Nc, *fr = ft + N;
+        double *colsum = fr + N;
+        if (hc[BST_TF])
+            varres_front(v, v->tf ? v->tf[ch] : NULL, kc, hc[BST_TF], ft, colsum);
+        if (hc[BST_RF])
+            varres_front(v, v->rf ? v->rf[ch] : NULL, kc, hc[BST_RF], fr, colsum);
+        side(N, hc[BST_TF] ? ft : NULL, hc[BST_RF] ? fr : NULL, tol, col + BST_TF * N, col + BST_RF * N);
+        side(Nc, hc[BST_TB], hc[BST_RB], tol, col + BST_TB * N, col + BST_RB * N);
+        /* a front component with no fine columns is written at order kc: the least of each
+         * coarse patch's fine budgets */
+        for (int c = BST_TF; c <= BST_RF; c++) {
+            const bst_mat *const *fine = c == BST_TF ? v->tf : v->rf;
+            if (fine && fine[ch])
+                continue;
+            double *bc = col + c * N, *pool = ft;
+            size_t G = (size_t)1 << v->k, Gc = (size_t)1 << kc;
+            int sh = v->k - kc;
+            for (size_t q = 0; q < Nc; q++)
+                pool[q] = INFINITY;
+            for (size_t i = 0; i < N; i++) {
+                size_t q = ((i / G) >> sh) * Gc + ((i % G) >> sh);
+                pool[q] = fmin(pool[q], bc[i]);
+            }
+            memcpy(bc, pool, Nc * sizeof *bc);
+        }
+    }
+    bsti_free(ctx, h);
+    if (rc < 0)
+        bsti_bounds_free(ctx, b);
+    return rc;
+}
+
+void bsti_bounds_rings(int k, const double *col, double *ring)
+{
+    size_t G = (size_t)1 << k;
+    for (size_t x = 0; x < G / 2; x++)
+        ring[x] = INFINITY;
+    for (size_t ix = 0; ix < G; ix++)
+        for (size_t iy = 0; iy < G; iy++) {
+            size_t dx = 2 * ix + 1 > G ? 2 * ix + 1 - G : G - 2 * ix - 1;
+            size_t dy = 2 * iy + 1 > G ? 2 * iy + 1 - G : G - 2 * iy - 1;
+            size_t j = ((dx > dy ? dx : dy) - 1) / 2, x = G / 2 - 1 - j;
+            ring[x] = fmin(ring[x], col[ix * G + iy]);
+        }
+}

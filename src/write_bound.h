@@ -1,0 +1,45 @@
+/* write_bound.h - what a reduced tensor tree may change: a budget for every incident patch's
+ * directional-hemispherical value, per channel and component, taken from the layer written.
+ *
+ * The promise (bsdfstack-convert(1), "Tree reduction"): read back, every incident patch's
+ * directional-hemispherical T and R of every component and channel lies within tol of the
+ * layer's, and T + R on a side never exceeds the layer's largest T + R on that side by more than
+ * tol.  The tree writer keeps each patch's change within its budget (bsti_reduce); here the
+ * budgets are shared out so that both halves of the promise hold:
+ * - on a side whose present components (T, R or both: m of them) give S(i) = T(i) + R(i), largest
+ *   Smax, each gets b(i) = min(tol, (tol + Smax - S(i)) / m);
+ * - a rank-4 Tf left out of the file is read as Tb's reciprocal (CONVENTIONS.md 1,
+ *   Tf(o, i) = Tb(a(i), a(o))), so Tf's value at front patch i is Tb's row a(i) summed over
+ *   incidence: that row gets Tf's budget less what reciprocity itself changes there, |Tf's column
+ *   sum - Tb's row sum|; where that alone exceeds Tf's budget, Tf is written after all.
+ * Values are as a reader stores them (negatives 0).  Shirley-Chiu layers only (trees). */
+#ifndef BST_WRITE_BOUND_H
+#define BST_WRITE_BOUND_H
+
+#include <stddef.h>
+#include "bsdfstack.h"
+
+typedef struct {
+    size_t nch, n;          /* channels, patches */
+    double *col;            /* nch * BST_NCOMP * n: channel ch, component c at (ch BST_NCOMP + c) n */
+    double *row;            /* nch * n: Tb's rows where Tf is left out (else unused) */
+} bsti_bounds;
+
+/* Budgets of every component of layer l (Shirley-Chiu) under tolerance tol >= 0.  omit_tf:
+ * per channel, 1 where Tf is to be left out as Tb's reciprocal; set to 0 here where reciprocity
+ * alone would break the promise.  Free with bsti_bounds_free. */
+int bsti_bounds_layer(bst_ctx *ctx, const bst_layer *l, double tol, int *omit_tf, bsti_bounds *b);
+
+/* The same for a variable-resolution file (bst_bsdf_write_varres): Tf and Rf at the fine order
+ * v->k (the fine columns at their patches, the coarse values elsewhere; b->n = 4^k), Tb and Rb
+ * at the coarse layer's order (the first 4^kc values of their slots).  Nothing is left out. */
+int bsti_bounds_varres(bst_ctx *ctx, const bst_layer *coarse, const bst_varres *v, double tol,
+                       bsti_bounds *b);
+
+void bsti_bounds_free(bst_ctx *ctx, bsti_bounds *b);
+
+/* Budgets of the G/2 rank-3 incident indices (ix = G/2 - 1 - j for the square ring j of the
+ * grid) from col's G^2 (order k): the least over each ring's cells. */
+void bsti_bounds_rings(int k, const double *col, double *ring);
+
+#endif
