@@ -37,6 +37,9 @@ static const char help[] =
     "      --reduce PCT     tree reduction: merge regions whose variation is below the PCT-th\n"
     "                       percentile of the finest blocks' (0 <= PCT < 100, default 90 as\n"
     "                       genBSDF)\n"
+    "      --reduce-tol T   ... but only where every incident patch's directional-hemispherical\n"
+    "                       T and R stay within T of the unreduced values (default 0.002;\n"
+    "                       none: the percentile alone, as rttree_reduce)\n"
     "      --no-reduce      write every tree value (only exactly constant regions merged)\n"
     "      --rank 3|4       force a TensorTree3 or TensorTree4 (default: by an isotropy test)\n"
     "      --digits N       significant digits per value (default: as many as read back exactly)\n"
@@ -91,11 +94,12 @@ static void report(const bst_bsdf_write_block *b, void *opaque)
 int cmd_convert(int argc, char **argv)
 {
     enum { OPT_KLEMS = 256, OPT_REDUCE, OPT_NO_REDUCE, OPT_RANK, OPT_DIGITS, OPT_NAME, OPT_CHANNELS,
-           OPT_MAXMEM, OPT_THREADS };
+           OPT_MAXMEM, OPT_THREADS, OPT_REDUCE_TOL };
     static const struct option longopts[] = {
         {"output", required_argument, NULL, 'o'}, {"order", required_argument, NULL, 'k'},
         {"klems", optional_argument, NULL, OPT_KLEMS}, {"reduce", required_argument, NULL, OPT_REDUCE},
         {"no-reduce", no_argument, NULL, OPT_NO_REDUCE}, {"rank", required_argument, NULL, OPT_RANK},
+        {"reduce-tol", required_argument, NULL, OPT_REDUCE_TOL},
         {"digits", required_argument, NULL, OPT_DIGITS}, {"name", required_argument, NULL, OPT_NAME},
         {"channels", required_argument, NULL, OPT_CHANNELS},
         {"max-memory", required_argument, NULL, OPT_MAXMEM},
@@ -105,7 +109,7 @@ int cmd_convert(int argc, char **argv)
     struct cli_basis_choice basis = {0};
     int rank = 0, digits = 0, threads = 0, c;
     int reduce_set = 0, no_reduce = 0;
-    double pct = BST_REDUCE_PCT;
+    double pct = BST_REDUCE_PCT, tol = BST_REDUCE_TOL;
     struct verbose verbose = {0};
     optind = 1;
     opterr = 0;
@@ -124,6 +128,11 @@ int cmd_convert(int argc, char **argv)
             reduce_set = 1;
             break;
         case OPT_NO_REDUCE: no_reduce = 1; break;
+        case OPT_REDUCE_TOL:
+            if (cli_parse_reduce_tol(sub, optarg, &tol) != CLI_OK)
+                return CLI_USAGE;
+            reduce_set = 1;
+            break;
         case OPT_RANK:
             if (cli_parse_int(optarg, &rank) || (rank != 3 && rank != 4))
                 return cli_usage(sub, "--rank %s: use 3 or 4", optarg);
@@ -255,6 +264,7 @@ write:;
     bst_bsdf_write_opts_init(&o);
     o.rank = (bst_tree_rank)rank;
     o.reduce_pct = no_reduce ? -1.0 : pct;
+    o.reduce_tol = tol;
     o.digits = digits;
     o.name = name;
     o.nlayers = 1;
