@@ -485,6 +485,10 @@ typedef enum { BST_RANK_AUTO = 0, BST_RANK_3 = 3, BST_RANK_4 = 4 } bst_tree_rank
 /* Largest change a reduction may make to any incident patch's directional-hemispherical T or R
  * (and to T + R above the layer's largest on that side). */
 #define BST_REDUCE_TOL 0.002
+/* Significant digits of a reduced tree's values: each within 5e-5 of itself (rttree_reduce writes
+ * seven decimals below 10, four digits above); the bound counts their rounding too. */
+#define BST_REDUCE_DIGITS 5
+#define BST_DIGITS_AUTO (-1)
 /* TensorTree3 only when every incident patch keeps this flux accordance FA (%) in rank 3. */
 #define BST_ISO_FA_MIN 99.0
 /* A tree transmission is left out when bst_metrics_reciprocity's error is <= recip_tol. */
@@ -522,8 +526,9 @@ typedef struct {
     double reduce_floor;    /* default BST_REDUCE_FLOOR */
     double reduce_tol;      /* trees: >= 0, default BST_REDUCE_TOL; INFINITY: the percentile alone
                                (rttree_reduce's rule, which may change hemispherical values) */
-    int digits;             /* significant digits of every value; 0 (default) = as many as needed
-                               to read back exactly (float for trees, double for Klems) */
+    int digits;             /* significant digits of every value; 0 = as many as needed to read
+                               back exactly (float for trees, double for Klems); BST_DIGITS_AUTO
+                               (default): 0, but BST_REDUCE_DIGITS in a reduced tree */
     double iso_fa_min;      /* default BST_ISO_FA_MIN */
     double recip_tol;       /* default BST_RECIP_TOL; < 0 always writes both transmissions */
     int iso_refine;         /* rank 3 built from the layer: corrections of the rank-3 tensor

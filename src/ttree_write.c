@@ -866,6 +866,9 @@ static void leaf_block(const struct tw *w, struct eacc *a, const size_t *c, int 
             a->sum_abs += D == 4 || i0 < w->half ? v : 0.0;
         else if (D == 4 || i0 < w->half)
             account(w, a, i0, i1, v, back);
+        if (a->erow && v != (double)back) /* the bound's rows (rank 4): the rounding's change */
+            a->erow[(c[2] + (size_t)((j >> 1) & 1) - a->o0) * a->hside + c[3] + (size_t)(j & 1) - a->o1] +=
+                M_PI / (double)(w->G * w->G) * ((double)back - clamp0(v));
     }
     *p++ = ' ', *p++ = '}', *p++ = '\n';
     a->out->n = (size_t)(p - a->out->p);

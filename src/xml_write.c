@@ -14,7 +14,8 @@
  * does, unless reciprocity alone would move its hemispherical values beyond the reduction's
  * tolerance; a reduced tree keeps every incident patch's hemispherical values within budgets
  * (write_bound.h); values keep single precision exactly in trees (what readers store) and double
- * precision exactly in Klems matrices, unless a number of digits is asked for. */
+ * precision exactly in Klems matrices, unless a number of digits is asked for; a reduced tree's
+ * values have BST_REDUCE_DIGITS by default. */
 #include <config.h>
 
 #include <errno.h>
@@ -43,7 +44,7 @@ void bst_bsdf_write_opts_init(bst_bsdf_write_opts *o)
     o->reduce_pct = BST_REDUCE_PCT;
     o->reduce_floor = BST_REDUCE_FLOOR;
     o->reduce_tol = BST_REDUCE_TOL;
-    o->digits = 0;
+    o->digits = BST_DIGITS_AUTO;
     o->iso_fa_min = BST_ISO_FA_MIN;
     o->recip_tol = BST_RECIP_TOL;
     o->iso_refine = BST_ISO_REFINE;
@@ -65,6 +66,7 @@ struct xw {
                                the fine order and kc the layer's (bst_bsdf_write_varres) */
     int kc;
     bsti_bounds bounds;     /* a reduced tree's budgets (col NULL: no bound) */
+    int digits;             /* o->digits, BST_DIGITS_AUTO resolved */
     double *ring;           /* rank 3: G/2 budgets */
 };
 
@@ -472,7 +474,7 @@ static void klems_data(struct xw *w, const bst_mat *m, bst_bsdf_write_block *rep
         for (size_t i = 0; i < n; i++) {
             double v = bsti_mat_at(m, o, i), back;
             char buf[32];
-            int len = bsti_format_double(v < 0.0 ? 0.0 : v, w->o->digits, buf, &back);
+            int len = bsti_format_double(v < 0.0 ? 0.0 : v, w->digits, buf, &back);
             if (i)
                 bsti_sink_put(w->out, " ", 1);
             bsti_sink_put(w->out, buf, (size_t)len);
@@ -533,7 +535,7 @@ static int write_blocks(struct xw *w)
                         t.get = zero_get;
                     if (w->v && !t.fine_in)
                         t.k = w->kc; /* coarse only (Tb, Rb): a tree of depth kc */
-                    bsti_reduce r = {o->reduce_pct, o->reduce_floor, o->digits, NULL, NULL};
+                    bsti_reduce r = {o->reduce_pct, o->reduce_floor, w->digits, NULL, NULL};
                     if (w->bounds.col) {
                         r.col_budget = w->bounds.col + idx * w->bounds.n;
                         if (w->kind == BST_FILE_TT3) {
@@ -583,11 +585,11 @@ static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst
         opts = &def;
     }
     if (opts->reduce_pct >= 100.0 || isnan(opts->reduce_pct) || !(opts->reduce_floor > 0.0) ||
-        !(opts->reduce_tol >= 0.0) || opts->digits < 0 || opts->iso_refine < 0 ||
+        !(opts->reduce_tol >= 0.0) || opts->digits < BST_DIGITS_AUTO || opts->iso_refine < 0 ||
         isnan(opts->iso_fa_min) ||
         (opts->rank != BST_RANK_AUTO && opts->rank != BST_RANK_3 && opts->rank != BST_RANK_4))
         return bsti_error(ctx, BST_EINVAL, "writing BSDF XML: invalid options (reduce_pct %g must "
-                          "be < 100, reduce_floor %g > 0, reduce_tol %g >= 0, digits %d >= 0, "
+                          "be < 100, reduce_floor %g > 0, reduce_tol %g >= 0, digits %d >= -1, "
                           "rank %d 0, 3 or 4)", opts->reduce_pct, opts->reduce_floor,
                           opts->reduce_tol, opts->digits, (int)opts->rank);
     struct xw w;
@@ -651,6 +653,8 @@ static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst
         rc = bsti_error(ctx, BST_EINVAL, "writing BSDF XML: the layer has no component to write");
     if (rc >= 0 && w.kind != BST_FILE_KLEMS && opts->reduce_pct >= 0.0 && isfinite(opts->reduce_tol))
         rc = bounds(&w);
+    w.digits = opts->digits != BST_DIGITS_AUTO ? opts->digits
+               : w.kind != BST_FILE_KLEMS && opts->reduce_pct >= 0.0 ? BST_REDUCE_DIGITS : 0;
     if (rc >= 0) {
         header(&w);
         rc = write_blocks(&w);

@@ -437,7 +437,7 @@ class BSDF:
             ctx.check(lib.bst_layer_flip(c, self._layer(), ctypes.byref(out)))
         return BSDF(out.value, ctx, (self.name or "BSDF") + "^")
 
-    def write(self, path, reduce=90.0, rank="auto", digits=0, name=None, description=None,
+    def write(self, path, reduce=90.0, rank="auto", digits=None, name=None, description=None,
               date=None, progress=None, reduce_tol=None):
         """Write as BSDF XML (a Klems matrix file over a Klems basis, else a RADIANCE tensor
         tree), as `bsdfstack combine -o` does: the file appears whole or not at all.
@@ -445,7 +445,8 @@ class BSDF:
         the largest change the reduction may make to any incident patch's directional-
         hemispherical T or R (None: the library's default, 0.002; float("inf"): the percentile
         alone); rank: "auto", 3 or 4; digits: significant digits (0: enough to read back
-        exactly); date: the header's date (default: $SOURCE_DATE_EPOCH when set, else now)."""
+        exactly; None: exact, but 5 in a reduced tree); date: the header's date (default:
+        $SOURCE_DATE_EPOCH when set, else now)."""
         opts = _lib.WriteOpts()
         lib.bst_bsdf_write_opts_init(ctypes.byref(opts))
         opts.reduce_pct = -1.0 if reduce is None or reduce is False else float(reduce)
@@ -454,7 +455,8 @@ class BSDF:
         if rank not in ("auto", 3, 4):
             raise Error("rank %r: use \"auto\", 3 or 4" % (rank,))
         opts.rank = 0 if rank == "auto" else rank
-        opts.digits = int(digits)
+        if digits is not None:
+            opts.digits = int(digits)
         keep = [cstr(name), cstr(description or self._description()), cstr(date or _epoch_date())]
         opts.name, opts.description, opts.date = keep
         with self._ctx as c, _Progress(self._ctx, progress):

@@ -42,7 +42,8 @@ static const char help[] =
     "                       none: the percentile alone, as rttree_reduce)\n"
     "      --no-reduce      write every tree value (only exactly constant regions merged)\n"
     "      --rank 3|4       force a TensorTree3 or TensorTree4 (default: by an isotropy test)\n"
-    "      --digits N       significant digits per value (default: as many as read back exactly)\n"
+    "      --digits N|exact significant digits per value, or as many as read back exactly\n"
+    "                       (default: exact, but 5 in a reduced tree)\n"
     "      --channels NAMES only these spectral channels (comma-separated)\n"
     "      --name NAME      the Material Name written (default: the input file's name)\n"
     "      --max-memory SIZE refuse when the estimated need exceeds SIZE (16G, 800M; default:\n"
@@ -107,7 +108,7 @@ int cmd_convert(int argc, char **argv)
         {"verbose", no_argument, NULL, 'v'}, {"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}};
     const char *sub = "convert", *out = NULL, *name = NULL, *channels = NULL;
     struct cli_basis_choice basis = {0};
-    int rank = 0, digits = 0, threads = 0, c;
+    int rank = 0, digits = BST_DIGITS_AUTO, threads = 0, c;
     int reduce_set = 0, no_reduce = 0;
     double pct = BST_REDUCE_PCT, tol = BST_REDUCE_TOL;
     struct verbose verbose = {0};
@@ -138,8 +139,10 @@ int cmd_convert(int argc, char **argv)
                 return cli_usage(sub, "--rank %s: use 3 or 4", optarg);
             break;
         case OPT_DIGITS:
-            if (cli_parse_int(optarg, &digits) || digits < 1 || digits > 17)
-                return cli_usage(sub, "--digits %s: use 1 to 17", optarg);
+            if (strcmp(optarg, "exact") == 0)
+                digits = 0;
+            else if (cli_parse_int(optarg, &digits) || digits < 1 || digits > 17)
+                return cli_usage(sub, "--digits %s: use 1 to 17, or exact", optarg);
             break;
         case OPT_NAME: name = optarg; break;
         case OPT_MAXMEM:
