@@ -2,6 +2,7 @@
  * how they are shared out). */
 #include <config.h>
 
+#include <float.h>
 #include <math.h>
 #include <string.h>
 
@@ -61,9 +62,15 @@ static void sums(const bst_mat *m, size_t nr, size_t n, double *col, double *row
     }
 }
 
+double bsti_bounds_rho(int digits)
+{
+    return digits > 0 ? 0.5 * pow(10.0, 1 - digits) : FLT_EPSILON / 2;
+}
+
 /* One side: t and r the directional-hemispherical values of its transmission and reflection
  * (NULL: absent), n patches; their budgets into bt and br (those of an absent one are left). */
-static void side(size_t n, const double *t, const double *r, double tol, double *bt, double *br)
+static void side(size_t n, const double *t, const double *r, double tol, double rho, double *bt,
+                 double *br)
 {
     double smax = 0.0, m = (t ? 1.0 : 0.0) + (r ? 1.0 : 0.0);
     if (m == 0.0)
@@ -74,9 +81,9 @@ static void side(size_t n, const double *t, const double *r, double tol, double 
         double slack = smax - (t ? t[i] : 0.0) - (r ? r[i] : 0.0);
         double b = fmin(tol, (tol + slack) / m);
         if (t)
-            bt[i] = b;
+            bt[i] = fmax(0.0, b - rho * t[i]);
         if (r)
-            br[i] = b;
+            br[i] = fmax(0.0, b - rho * r[i]);
     }
 }
 
@@ -99,7 +106,8 @@ void bsti_bounds_free(bst_ctx *ctx, bsti_bounds *b)
     b->col = b->row = NULL;
 }
 
-int bsti_bounds_layer(bst_ctx *ctx, const bst_layer *l, double tol, int *omit_tf, bsti_bounds *b)
+int bsti_bounds_layer(bst_ctx *ctx, const bst_layer *l, double tol, double rho, int *omit_tf,
+                      bsti_bounds *b)
 {
     size_t nch = bst_layer_nchannels(l), n = bst_basis_size(bst_layer_basis(l));
     double lam = M_PI / (double)n; /* Shirley-Chiu: every patch pi / N */
@@ -119,12 +127,13 @@ int bsti_bounds_layer(bst_ctx *ctx, const bst_layer *l, double tol, int *omit_tf
             hc[c] = m ? h + c * n : NULL;
         }
         double *col = b->col + ch * BST_NCOMP * n, *row = b->row + ch * n;
-        side(n, hc[BST_TF], hc[BST_RF], tol, col + BST_TF * n, col + BST_RF * n);
-        side(n, hc[BST_TB], hc[BST_RB], tol, col + BST_TB * n, col + BST_RB * n);
+        side(n, hc[BST_TF], hc[BST_RF], tol, rho, col + BST_TF * n, col + BST_RF * n);
+        side(n, hc[BST_TB], hc[BST_RB], tol, rho, col + BST_TB * n, col + BST_RB * n);
         if (!omit_tf[ch] || !hc[BST_TF] || !hc[BST_TB])
             continue;
         for (size_t i = 0; i < n && omit_tf[ch]; i++) {
             size_t a = bst_basis_antipode(bst_layer_basis(l), i);
+            /* (Tf's budget already holds back the rounding of its own values, here Tb's row) */
             double left = col[BST_TF * n + i] - fabs(hc[BST_TF][i] - lam * tb_rows[a]);
             if (left < 0.0)
                 omit_tf[ch] = 0; /* reciprocity alone moves Tf too far: Tf is written */
@@ -155,7 +164,7 @@ static void varres_front(const bst_varres *v, const bst_mat *fine, int kc, const
 }
 
 int bsti_bounds_varres(bst_ctx *ctx, const bst_layer *coarse, const bst_varres *v, double tol,
-                       bsti_bounds *b)
+                       double rho, bsti_bounds *b)
 {
     size_t nch = bst_layer_nchannels(coarse), Nc = bst_basis_size(bst_layer_basis(coarse));
     int kc = bst_basis_order(bst_layer_basis(coarse));
@@ -181,8 +190,9 @@ int bsti_bounds_varres(bst_ctx *ctx, const bst_layer *coarse, const bst_varres *
             varres_front(v, v->tf ? v->tf[ch] : NULL, kc, hc[BST_TF], ft, colsum);
         if (hc[BST_RF])
             varres_front(v, v->rf ? v->rf[ch] : NULL, kc, hc[BST_RF], fr, colsum);
-        side(N, hc[BST_TF] ? ft : NULL, hc[BST_RF] ? fr : NULL, tol, col + BST_TF * N, col + BST_RF * N);
-        side(Nc, hc[BST_TB], hc[BST_RB], tol, col + BST_TB * N, col + BST_RB * N);
+        side(N, hc[BST_TF] ? ft : NULL, hc[BST_RF] ? fr : NULL, tol, rho, col + BST_TF * N,
+             col + BST_RF * N);
+        side(Nc, hc[BST_TB], hc[BST_RB], tol, rho, col + BST_TB * N, col + BST_RB * N);
         /* a front component with no fine columns is written at order kc: the least of each
          * coarse patch's fine budgets */
         for (int c = BST_TF; c <= BST_RF; c++) {

@@ -8,6 +8,9 @@
  * budgets are shared out so that both halves of the promise hold:
  * - on a side whose present components (T, R or both: m of them) give S(i) = T(i) + R(i), largest
  *   Smax, each gets b(i) = min(tol, (tol + Smax - S(i)) / m);
+ * - each is then lowered by rho H(i), H(i) the component's own value and rho the largest relative
+ *   rounding of a value's text (the writer counts the rounding it has made when it merges, but not
+ *   that of the values it keeps after its last merge);
  * - a rank-4 Tf left out of the file is read as Tb's reciprocal (CONVENTIONS.md 1,
  *   Tf(o, i) = Tb(a(i), a(o))), so Tf's value at front patch i is Tb's row a(i) summed over
  *   incidence: that row gets Tf's budget less what reciprocity itself changes there, |Tf's column
@@ -25,16 +28,22 @@ typedef struct {
     double *row;            /* nch * n: Tb's rows where Tf is left out (else unused) */
 } bsti_bounds;
 
-/* Budgets of every component of layer l (Shirley-Chiu) under tolerance tol >= 0.  omit_tf:
+/* Budgets of every component of layer l (Shirley-Chiu) under tolerance tol >= 0, values written
+ * with relative rounding at most rho (bsti_bounds_rho).  omit_tf:
  * per channel, 1 where Tf is to be left out as Tb's reciprocal; set to 0 here where reciprocity
  * alone would break the promise.  Free with bsti_bounds_free. */
-int bsti_bounds_layer(bst_ctx *ctx, const bst_layer *l, double tol, int *omit_tf, bsti_bounds *b);
+int bsti_bounds_layer(bst_ctx *ctx, const bst_layer *l, double tol, double rho, int *omit_tf,
+                      bsti_bounds *b);
 
 /* The same for a variable-resolution file (bst_bsdf_write_varres): Tf and Rf at the fine order
  * v->k (the fine columns at their patches, the coarse values elsewhere; b->n = 4^k), Tb and Rb
  * at the coarse layer's order (the first 4^kc values of their slots).  Nothing is left out. */
 int bsti_bounds_varres(bst_ctx *ctx, const bst_layer *coarse, const bst_varres *v, double tol,
-                       bsti_bounds *b);
+                       double rho, bsti_bounds *b);
+
+/* The largest relative change of a value written with `digits` significant digits (0: the
+ * shortest text of its float). */
+double bsti_bounds_rho(int digits);
 
 void bsti_bounds_free(bst_ctx *ctx, bsti_bounds *b);
 

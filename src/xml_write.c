@@ -293,8 +293,9 @@ static int bounds(struct xw *w)
     }
     for (size_t ch = 0; ch < w->nch; ch++)
         omit_tf[ch] = w->omit[ch * BST_NCOMP + BST_TF] == 1;
-    int rc = w->v ? bsti_bounds_varres(w->ctx, w->l, w->v, w->o->reduce_tol, &w->bounds)
-                  : bsti_bounds_layer(w->ctx, w->l, w->o->reduce_tol, omit_tf, &w->bounds);
+    double tol = w->o->reduce_tol, rho = bsti_bounds_rho(w->digits);
+    int rc = w->v ? bsti_bounds_varres(w->ctx, w->l, w->v, tol, rho, &w->bounds)
+                  : bsti_bounds_layer(w->ctx, w->l, tol, rho, omit_tf, &w->bounds);
     for (size_t ch = 0; rc >= 0 && ch < w->nch; ch++)
         if (w->omit[ch * BST_NCOMP + BST_TF] == 1 && !omit_tf[ch])
             w->omit[ch * BST_NCOMP + BST_TF] = 0;
@@ -651,10 +652,10 @@ static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst
         }
     if (rc >= 0 && !any)
         rc = bsti_error(ctx, BST_EINVAL, "writing BSDF XML: the layer has no component to write");
-    if (rc >= 0 && w.kind != BST_FILE_KLEMS && opts->reduce_pct >= 0.0 && isfinite(opts->reduce_tol))
-        rc = bounds(&w);
     w.digits = opts->digits != BST_DIGITS_AUTO ? opts->digits
                : w.kind != BST_FILE_KLEMS && opts->reduce_pct >= 0.0 ? BST_REDUCE_DIGITS : 0;
+    if (rc >= 0 && w.kind != BST_FILE_KLEMS && opts->reduce_pct >= 0.0 && isfinite(opts->reduce_tol))
+        rc = bounds(&w);
     if (rc >= 0) {
         header(&w);
         rc = write_blocks(&w);
