@@ -17,7 +17,7 @@
 static const char help[] =
     "Usage: bsdfstack compare [-k K | --klems[=full|half|quarter]] [--channel NAME]\n"
     "                         [--only Tf,Rf,Tb,Rb] [--incident THETA,PHI]... [--fail-below GA]\n"
-    "                         [--map OUT.png|OUT.svg|OUT.tsv] A B\n"
+    "                         [--fail-hem D] [--map OUT.png|OUT.svg|OUT.tsv] A B\n"
     "Compares two BSDFs (files or glass: specs, a trailing ^ reverses one), both resampled onto one\n"
     "basis (default: the finer tensor-tree order of the two, else the Klems basis of a Klems file).\n"
     "For each component and incidence direction it prints\n"
@@ -28,8 +28,10 @@ static const char help[] =
     "      counts diffuse light by its flux, and every percent of noise costs it about a point\n"
     "  the directional-hemispherical value of A and of B\n"
     "and, over every incident patch, the least and the mean GA and FA and the largest\n"
-    "hemispherical difference.  Directions are those the light propagates in, (theta, phi) in\n"
-    "degrees as in `info`; a direction on a cell boundary takes the cell on its +x, +y side.\n"
+    "hemispherical difference; a closing table gives, per component, the largest |hem A - hem B|\n"
+    "over every incident patch (what a reduced or converted file changed of the T and R users\n"
+    "compute with) and the least FA.  Directions are those the light propagates in, (theta, phi)\n"
+    "in degrees as in `info`; a direction on a cell boundary takes the cell on its +x, +y side.\n"
     "\n"
     "Options:\n"
     "  -k K               Shirley-Chiu order of the common basis (1-7)\n"
@@ -39,6 +41,9 @@ static const char help[] =
     "  --incident T,P     an incidence direction, repeatable (default: 0,0 25,90 45,90 50,90 45,45\n"
     "                     65,90, the last five Grobe 2017's)\n"
     "  --fail-below GA    exit status 1 when any printed GA falls below GA\n"
+    "  --fail-hem D       exit status 1 when any component's largest |hem A - hem B| exceeds D\n"
+    "                     (e.g. 0.002, a reduced file against the same file written with\n"
+    "                     --no-reduce)\n"
     "  --map OUT          the local accordance LA = 100 (1 - |a - b| / (a + b)) of every exit\n"
     "                     cell for the first component and the first direction, by the extension:\n"
     "                     drawn as PNG or SVG (as `plot` draws, +X right, +Y up, seen from +Z), or\n"
@@ -113,19 +118,36 @@ static int write_map(bst_ctx *ctx, const char *sub, const char *path, enum map_k
     return rc;
 }
 
+/* What the closing table shows of a component: where its hemispherical values differ most, its
+ * least FA and GA over every incident patch. */
+struct worst {
+    bst_comp comp;
+    size_t patch;
+    double ha, hb, fa, ga;
+};
+
+static void print_summary(FILE *rep, const bst_basis *basis, const struct worst *w, int n)
+{
+    fprintf(rep, "\nOver every incident patch: the largest change of a directional-hemispherical value,\n"
+                 "where it is, and the least FA and GA\n"
+                 "  comp  |hem A - hem B|  patch  theta    phi    hem A    hem B  FA least  GA least\n");
+    for (int q = 0; q < n; q++) {
+        double d[3];
+        bst_basis_center(basis, w[q].patch, d);
+        double th = acos(d[2]) * 180 / M_PI, ph = atan2(d[1], d[0]) * 180 / M_PI;
+        fprintf(rep, "  %-4s  %15.6f %6zu %6.1f %6.1f %8.4f %8.4f %9.2f %9.3f\n",
+                bst_comp_name(w[q].comp), fabs(w[q].ha - w[q].hb), w[q].patch, th, ph < 0 ? ph + 360 : ph,
+                w[q].ha, w[q].hb, w[q].fa, w[q].ga);
+    }
+}
+
 /* The BSDF file or glass spec loaded over the TSV's basis (its channel only). */
 static int file_side(const char *sub, bst_ctx *ctx, char *spec, const struct cli_tsv *t,
                      const char *channel, unsigned comps, struct cli_layers *set, bst_layer **l)
 {
     *l = NULL;
-    struct cli_basis_choice choice = {0};
-    static const char *const klems[] = {"LBNL/Klems Full", "full", "LBNL/Klems Half", "half",
-                                        "LBNL/Klems Quarter", "quarter"};
-    if (bst_basis_kind_of(t->basis) == BST_BASIS_SHIRLEY_CHIU)
-        choice.k = bst_basis_order(t->basis);
-    for (size_t i = 0; i < 6; i += 2)
-        if (bst_basis_kind_of(t->basis) == BST_BASIS_KLEMS && strcmp(bst_basis_name(t->basis), klems[i]) == 0)
-            choice.klems = klems[i + 1];
+    struct cli_basis_choice choice;
+    cli_basis_choice_of(t->basis, &choice);
     int rc = cli_layers_load(set, ctx, sub, 1, &spec, &choice, channel, comps, BST_DOUBLE);
     if (rc == CLI_OK)
         *l = set->layers[0];
@@ -267,6 +289,7 @@ int cmd_compare(int argc, char **argv)
                                              {"only", required_argument, NULL, 'o'},
                                              {"incident", required_argument, NULL, 'i'},
                                              {"fail-below", required_argument, NULL, 'f'},
+                                             {"fail-hem", required_argument, NULL, 'H'},
                                              {"map", required_argument, NULL, 'm'},
                                              {"help", no_argument, NULL, 'h'},
                                              {NULL, 0, NULL, 0}};
@@ -274,7 +297,7 @@ int cmd_compare(int argc, char **argv)
     enum map_kind map_kind = MAP_PNG;
     struct cli_basis_choice choice = {0};
     unsigned comps = 0;
-    double dirs[MAX_DIRS][2], fail_below = -INFINITY;
+    double dirs[MAX_DIRS][2], fail_below = -INFINITY, fail_hem = INFINITY;
     size_t ndirs = 0;
     int c;
     optind = 1;
@@ -303,6 +326,10 @@ int cmd_compare(int argc, char **argv)
             if (cli_parse_double(optarg, &fail_below) != 0 || fail_below < 0 || fail_below > 100)
                 return cli_usage(sub, "--fail-below %s: give a GA between 0 and 100", optarg);
             break;
+        case 'H':
+            if (cli_parse_double(optarg, &fail_hem) != 0 || !(fail_hem >= 0) || !isfinite(fail_hem))
+                return cli_usage(sub, "--fail-hem %s: give a hemispherical difference >= 0", optarg);
+            break;
         case 'm': {
             static const struct { const char *ext; enum map_kind kind; } kinds[] = {
                 {".png", MAP_PNG}, {".svg", MAP_SVG}, {".tsv", MAP_TSV}};
@@ -330,6 +357,8 @@ int cmd_compare(int argc, char **argv)
     if (is_tsv[0] || is_tsv[1]) {
         if (choice.k || choice.klems)
             return cli_usage(sub, "a TSV of combine --incident keeps its basis: no -k or --klems");
+        if (isfinite(fail_hem))
+            return cli_usage(sub, "--fail-hem needs every incident patch: not with a TSV");
         bst_ctx *tctx = cli_ctx_new(sub);
         if (!tctx)
             return CLI_FAIL;
@@ -381,6 +410,7 @@ int cmd_compare(int argc, char **argv)
     }
     print_header(rep, basis, specs, bst_layer_channel(a, 0), "");
     int below = 0, shown = 0;
+    struct worst summary[BST_NCOMP];
     for (int cc = 0; cc < BST_NCOMP && rc == CLI_OK; cc++) {
         bst_comp comp = (bst_comp)cc;
         int in_a = bst_layer_get(a, 0, comp) != NULL, in_b = bst_layer_get(b, 0, comp) != NULL;
@@ -423,8 +453,15 @@ int cmd_compare(int argc, char **argv)
                 "FA mean %.2f, least %.2f (patch %zu, theta %.1f); largest |hem A - hem B| %.4f "
                 "(patch %zu, theta %.1f)\n", n, mg, ga[jg], jg, acos(dg[2]) * 180 / M_PI, mf, fa[jf],
                 jf, acos(df[2]) * 180 / M_PI, fabs(ha[jh] - hb[jh]), jh, acos(dh[2]) * 180 / M_PI);
-        shown++;
+        summary[shown++] = (struct worst){comp, jh, ha[jh], hb[jh], fa[jf], ga[jg]};
     }
+    if (rc == CLI_OK && shown)
+        print_summary(rep, basis, summary, shown);
+    for (int q = 0; rc == CLI_OK && q < shown; q++)
+        if (fabs(summary[q].ha - summary[q].hb) > fail_hem)
+            rc = cli_fail(sub, "%s: the hemispherical values differ by %.6f at patch %zu, more than %g",
+                          bst_comp_name(summary[q].comp), fabs(summary[q].ha - summary[q].hb),
+                          summary[q].patch, fail_hem);
     if (rc == CLI_OK && !shown)
         rc = cli_fail(sub, "neither BSDF holds %s", comps ? "the components asked for" : "any component");
     if (rc == CLI_OK && below)

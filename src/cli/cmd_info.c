@@ -1,5 +1,6 @@
 /* cmd_info.c - `bsdfstack info FILE`: what a BSDF file holds, its directional-hemispherical T and R
- * by incidence angle, its energy balance and the reciprocity of its transmissions. */
+ * by incidence angle, its energy balance and the reciprocity of its transmissions; with
+ * --reference, how far its T and R are from another BSDF's at every incident patch. */
 #include <config.h>
 
 #include <getopt.h>
@@ -11,7 +12,7 @@
 #include "layers.h"
 
 static const char help[] =
-    "Usage: bsdfstack info [--max-memory SIZE] FILE\n"
+    "Usage: bsdfstack info [--max-memory SIZE] [--reference REF] FILE\n"
     "Prints the basis and channels of a BSDF XML file, which components it stores, the\n"
     "directional-hemispherical transmittance T and reflectance R for front (exterior) and back\n"
     "incidence at theta = 0, 15, 30, 45, 60, 75 degrees (propagation azimuth 0 and 90), and the\n"
@@ -19,7 +20,13 @@ static const char help[] =
     "reciprocity error of the transmissions: the largest |Tf(o,i) - Tb(a(i),a(o))| (a: the\n"
     "antipodal patch) relative to the largest T, and the patches (incident -> outgoing) where\n"
     "it is largest.  The file is taken whole at its own basis; --max-memory SIZE (16G, 800M;\n"
-    "default: the memory available now) refuses it first when the estimate exceeds SIZE.\n";
+    "default: the memory available now) refuses it first when the estimate exceeds SIZE.\n"
+    "--reference REF (a BSDF file or glass: spec, read at FILE's basis): for each channel of\n"
+    "FILE (REF must hold it) and each component, the largest difference of a directional-\n"
+    "hemispherical value over every incident patch, where it is, and the least flux\n"
+    "accordance FA (the share of the scattered flux placed alike, as `compare` prints it):\n"
+    "what a reduced, resampled or converted file changed of the T and R users compute with\n"
+    "(REF: the same system written with --no-reduce, say).\n";
 
 /* The reciprocity line of channel ch of layer l, read from b (bst_metrics_reciprocity). */
 static void print_reciprocity(bst_ctx *ctx, const bst_bsdf *b, const bst_layer *l, size_t ch)
@@ -45,6 +52,62 @@ static void print_reciprocity(bst_ctx *ctx, const bst_bsdf *b, const bst_layer *
            err, i, acos(din[2]) * 180 / M_PI, o, acos(dout[2]) * 180 / M_PI);
 }
 
+/* The per-incident-patch change of FILE's (path, read as l) hemispherical values against ref,
+ * channel by channel (both loaded again over l's basis with that channel alone). */
+static int print_against(bst_ctx *ctx, const char *sub, const char *path, const char *ref,
+                         const bst_layer *l)
+{
+    struct cli_basis_choice choice;
+    cli_basis_choice_of(bst_layer_basis(l), &choice);
+    size_t n = bst_basis_size(bst_layer_basis(l));
+    double *ha = malloc(4 * n * sizeof *ha), *hb = ha + n, *fa = hb + n, *ga = fa + n;
+    if (!ha)
+        return cli_fail(sub, "out of memory");
+    int rc = CLI_OK, any = 0;
+    for (size_t ch = 0; rc == CLI_OK && ch < bst_layer_nchannels(l); ch++) {
+        char *specs[2] = {(char *)path, (char *)ref};
+        struct cli_layers set;
+        const char *name = bst_layer_channel(l, ch);
+        bst_ctx_clear(ctx);
+        if (cli_layers_load(&set, ctx, sub, 2, specs, &choice, name, 0, BST_DOUBLE) != CLI_OK) {
+            rc = CLI_FAIL; /* (told) */
+            break;
+        }
+        const bst_layer *a = set.layers[0], *b = set.layers[1];
+        if (ch == 0)
+            printf("\nagainst   %s (read at this file's basis): the largest change of a directional-\n"
+                   "hemispherical value over every incident patch, where it is, and the least FA\n", ref);
+        printf("%s:\n  comp  |FILE - REF|  patch  theta    phi     FILE      REF  FA least\n", name);
+        for (int c = 0; c < BST_NCOMP && rc == CLI_OK; c++) {
+            bst_comp comp = (bst_comp)c;
+            if (!bst_layer_get(a, 0, comp) && !bst_layer_get(b, 0, comp))
+                continue;
+            if (bst_layer_hemispherical(ctx, a, 0, comp, ha) < 0 ||
+                bst_layer_hemispherical(ctx, b, 0, comp, hb) < 0 ||
+                bst_metrics_accordance_all(ctx, a, b, 0, comp, ga, fa) < 0) {
+                rc = cli_fail_ctx(sub, NULL, ctx);
+                break;
+            }
+            size_t jh = 0, jf = 0;
+            for (size_t j = 0; j < n; j++) {
+                jh = fabs(ha[j] - hb[j]) > fabs(ha[jh] - hb[jh]) ? j : jh;
+                jf = fa[j] < fa[jf] ? j : jf;
+            }
+            double d[3];
+            bst_basis_center(bst_layer_basis(a), jh, d);
+            double th = acos(d[2]) * 180 / M_PI, ph = atan2(d[1], d[0]) * 180 / M_PI;
+            printf("  %-4s %12.6f %6zu %6.1f %6.1f %8.4f %8.4f %9.2f\n", bst_comp_name(comp),
+                   fabs(ha[jh] - hb[jh]), jh, th, ph < 0 ? ph + 360 : ph, ha[jh], hb[jh], fa[jf]);
+            any = 1;
+        }
+        cli_layers_free(&set);
+    }
+    if (rc == CLI_OK && !any)
+        rc = cli_fail(sub, "%s and %s hold no component in common", path, ref);
+    free(ha);
+    return rc;
+}
+
 /* Values of a sane file (|v| < INFO_FIXED_MAX) print with 4 decimals; anything a broken file holds,
  * 1e300 say, as %.4g: one short line rather than 300 digits. */
 #define INFO_FIXED_MAX 1e6
@@ -63,8 +126,11 @@ int cmd_info(int argc, char **argv)
         return CLI_OK;
     }
     struct cli_basis_choice limit = {.lower = "'bsdfstack convert -k K' to a coarser file first"};
-    if (argc == 4 && strcmp(argv[1], "--max-memory") == 0) {
-        if (cli_parse_memory(sub, argv[2], &limit.max_memory) != CLI_OK)
+    const char *ref = NULL;
+    while (argc >= 4 && (strcmp(argv[1], "--max-memory") == 0 || strcmp(argv[1], "--reference") == 0)) {
+        if (argv[1][2] == 'r')
+            ref = argv[2];
+        else if (cli_parse_memory(sub, argv[2], &limit.max_memory) != CLI_OK)
             return CLI_USAGE;
         argv += 2, argc -= 2;
     }
@@ -155,9 +221,10 @@ int cmd_info(int argc, char **argv)
         }
         print_reciprocity(ctx, b, l, ch);
     }
+    int rc = ref ? print_against(ctx, sub, path, ref, l) : CLI_OK;
     free(h);
     bst_layer_free(l);
     bst_bsdf_free(b);
     bst_ctx_free(ctx);
-    return CLI_OK;
+    return rc;
 }

@@ -41,6 +41,18 @@ int cli_parse_basis_option(const char *sub, int opt, const char *value, struct c
     return CLI_OK;
 }
 
+void cli_basis_choice_of(const bst_basis *b, struct cli_basis_choice *choice)
+{
+    static const char *const klems[] = {"LBNL/Klems Full", "full", "LBNL/Klems Half", "half",
+                                        "LBNL/Klems Quarter", "quarter"};
+    memset(choice, 0, sizeof *choice);
+    if (bst_basis_kind_of(b) == BST_BASIS_SHIRLEY_CHIU)
+        choice->k = bst_basis_order(b);
+    for (size_t i = 0; i < 6; i += 2)
+        if (bst_basis_kind_of(b) == BST_BASIS_KLEMS && strcmp(bst_basis_name(b), klems[i]) == 0)
+            choice->klems = klems[i + 1];
+}
+
 void cli_stack_args_init(struct cli_stack_args *a)
 {
     memset(a, 0, sizeof *a);

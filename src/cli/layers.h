@@ -16,6 +16,9 @@ struct cli_basis_choice {
     int at_centre;     /* --glass-rule centre: panes at patch centres (WINDOW's), 0: averages */
 };
 
+/* The choice that loads layers over basis b itself (a Shirley-Chiu order or a named Klems basis). */
+void cli_basis_choice_of(const bst_basis *b, struct cli_basis_choice *choice);
+
 /* The memory guard: the peak a command will need (the layers read from files over `basis`, the
  * conversion's grid, the combination's work when choice->combining), estimated as in
  * bench/README.md, against choice->max_memory or the memory available (MemAvailable, or a
