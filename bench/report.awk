@@ -235,13 +235,18 @@ END {
         if (v[r, 1] == "spectral")
             printf "| %s%s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", v[r, 2], (v[r, 3] > 0 ? " k = " v[r, 3] : ""), v[r, 5], v[r, 6], v[r, 7], v[r, 10], gflop(v[r, 17]), bound(v[r, 3], v[r, 10], v[r, 4], v[r, 17]), v[r, 13], v[r, 14], v[r, 15], wce(r), runsof(r)
     print ""
-    print "## Tree reduction and the sparse drop tolerance (S1, double)"
+    print "## Tree reduction and the sparse drop tolerance (double)"
     print ""
-    print "GA: least over the five directions, Tf and Tb (drop-tol: least over every incident patch),"
-    print "of the file against the unreduced, exact one. \"read back s\": `bsdfstack info` of the file"
-    print "written, wall seconds, the median by wall time of as many runs (fresh processes) as the row's."
+    print "Each file against the unreduced, exact one: GA, the least over the five directions, Tf and Tb"
+    print "(drop-tol: least over every incident patch); over every incident patch (`compare`'s closing"
+    print "table), the largest change of a directional-hemispherical T (Tf, Tb) and R (Rf, Rb) and the"
+    print "least flux accordance FA. The reduction rows vary the culling percentile at the default"
+    print "tolerance, then the tolerance (`--reduce-tol`) at the default percentile; \"reduce-tol none\" is"
+    print "the percentile alone, as RADIANCE's rttree_reduce (and bsdfstack before issue #30). \"read back"
+    print "s\": `bsdfstack info` of the file written, wall seconds, the median by wall time of as many runs"
+    print "(fresh processes) as the row's."
     print ""
-    thead("| k | option | wall s | write s | file MB | read back s | GA vs exact | runs |")
+    thead("| stack | k | option | wall s | write s | file MB | read back s | GA vs exact | max dT | max dR | FA least | runs |")
     for (r = 1; r <= n; r++)
         if (v[r, 1] == "reduce" || v[r, 1] == "drop-tol") {
             opt = v[r, 5]; rb = "-"
@@ -249,7 +254,7 @@ END {
                 rb = substr(opt, RSTART + 12, RLENGTH - 12 - 3)
                 opt = substr(opt, 1, RSTART - 1)
             }
-            printf "| %s | %s | %s | %s | %s | %s | %s | %s |\n", v[r, 3], opt, v[r, 6], v[r, 11], v[r, 12], rb, v[r, 13], runsof(r)
+            printf "| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", v[r, 2], v[r, 3], opt, v[r, 6], v[r, 11], v[r, 12], rb, v[r, 13], v[r, 14], v[r, 15], v[r, 16], runsof(r)
         }
     print ""
     print "## Dense worst cases"
