@@ -3,12 +3,16 @@
  * (bst_ctx_set_threads), each write timed by the wall clock and by the process's CPU clock.
  * Prints one line per write and the medians: seconds, CPU-s, MB and MB/s of text.
  *
- * Usage: bench_write FILE [--runs R] [--no-reduce] [--float] [--threads LIST]
+ * Usage: bench_write FILE [--runs R] [--no-reduce] [--float] [--threads LIST] [--reduce-tol T]
+ *                    [--digits N]
  *   --float: the layer in single precision (the writer's float access); LIST: comma-separated
- *   thread counts, default 1,2.  Only the public API is used, so the same source also measures an
- *   older libbsdfstack (without bst_ctx_set_threads: one line per run, "threads -"). */
+ *   thread counts, default 1,2; T: the reduction's tolerance (none: the percentile alone); N:
+ *   significant digits (0: exact).  Only the public API is used, so the same source also measures
+ *   an older libbsdfstack (without bst_ctx_set_threads: one line per run, "threads -"; without
+ *   BST_REDUCE_TOL in its header: no --reduce-tol or --digits). */
 #include <config.h>
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -43,7 +47,8 @@ static int cmp_double(const void *a, const void *b)
 int main(int argc, char **argv)
 {
     const char *path = NULL, *list = "1,2";
-    int runs = 3, no_reduce = 0, single = 0;
+    int runs = 3, no_reduce = 0, single = 0, digits = -2;
+    double tol = NAN;
     for (int i = 1; i < argc; i++) {
         if (strcmp(argv[i], "--runs") == 0 && i + 1 < argc)
             runs = atoi(argv[++i]);
@@ -53,11 +58,15 @@ int main(int argc, char **argv)
             single = 1;
         else if (strcmp(argv[i], "--threads") == 0 && i + 1 < argc)
             list = argv[++i];
+        else if (strcmp(argv[i], "--reduce-tol") == 0 && i + 1 < argc)
+            tol = strcmp(argv[i + 1], "none") == 0 ? INFINITY : atof(argv[i + 1]), i++;
+        else if (strcmp(argv[i], "--digits") == 0 && i + 1 < argc)
+            digits = atoi(argv[++i]);
         else if (argv[i][0] != '-' && !path)
             path = argv[i];
         else {
             fprintf(stderr, "usage: bench_write FILE [--runs R] [--no-reduce] [--float] "
-                            "[--threads LIST]\n");
+                            "[--threads LIST] [--reduce-tol T] [--digits N]\n");
             return 2;
         }
     }
@@ -97,6 +106,17 @@ int main(int argc, char **argv)
     o.date = "2000-01-01T00:00:00Z";
     o.reduce_pct = no_reduce ? -1.0 : BST_REDUCE_PCT;
     o.rank3_source = b;
+#ifdef BST_REDUCE_TOL
+    if (!isnan(tol))
+        o.reduce_tol = tol;
+    if (digits > -2)
+        o.digits = digits;
+#else
+    if (!isnan(tol) || digits > -2) {
+        fprintf(stderr, "bench_write: this libbsdfstack has no reduce_tol or automatic digits\n");
+        return 2;
+    }
+#endif
     double *wall = calloc((size_t)runs * (size_t)ncounts, sizeof *wall);
     double *cpu = calloc((size_t)runs * (size_t)ncounts, sizeof *cpu);
     size_t bytes = 0;

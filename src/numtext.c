@@ -312,6 +312,43 @@ static int format_double_fast(double v, char *buf)
     return format_fixed(frac | 1ull << 52, bexp - 1075, frac == 0 && bexp > 1, 17, negative, buf);
 }
 
+/* A finite v != 0 with p significant digits (1 <= p <= 17), as printf's "%.*g" prints it: the
+ * P-digit rounding of X (half-way to even, decided exactly as the search's are), or 0 where it is
+ * too close to call here (then printf does it).  A fixed number of digits (a reduced tree's) costs
+ * what the shortest text does instead of a printf. */
+static int format_digits_fast(double v, int p, char *buf)
+{
+    uint64_t bits;
+    memcpy(&bits, &v, sizeof bits);
+    int bexp = (int)(bits >> 52 & 0x7ff), negative = (int)(bits >> 63);
+    uint64_t m = bits & ((1ull << 52) - 1);
+    int e = -1074;
+    if (bexp == 0x7ff || (bexp == 0 && m == 0))
+        return 0;
+    if (bexp)
+        m |= 1ull << 52, e = bexp - 1075;
+    int e2 = e + 63 - __builtin_clzll(m), lead = (int)floor(e2 * 0.30102999566398120);
+    struct dfixed d;
+    if (!dfixed_scale(m, e, 16 - lead, 0, &d))
+        return 0;
+    if ((uint64_t)(d.x >> FRAC) >= p10u[17]) {
+        lead++;
+        if (!dfixed_scale(m, e, 16 - lead, 0, &d))
+            return 0;
+    }
+    if ((uint64_t)(d.x >> FRAC) < p10u[16])
+        return 0;
+    uint64_t D = p10u[17 - p], xi = (uint64_t)(d.x >> FRAC), r = div_p10(xi, 17 - p);
+    u128 rem = (u128)(xi - r * D) << FRAC | (d.x & (((u128)1 << FRAC) - 1));
+    int c = dfixed_cmp(rem, (u128)D << (FRAC - 1), d.exact);
+    if (c == -2)
+        return 0;
+    r += c > 0 || (c == 0 && (r & 1));
+    if (r >= p10u[p]) /* 9.9996 -> 10.000: one digit up */
+        lead++;
+    return g_text(r, lead, p, negative, buf);
+}
+
 /* ------------------------------------------------------------------ floats: the shortest digits
  *
  * The writers' values are floats, and for them a shorter way finds the same text.  Where the gaps
@@ -486,9 +523,15 @@ int bsti_format_float(double v, int digits, char *buf, float *back)
         *back = 0.0f;
         return 1;
     }
-    if (digits > 0) {
-        int n = snprintf(buf, 32, "%.*g", digits > 9 ? 9 : digits, v);
-        *back = strtof(buf, NULL);
+    if (digits > 0) { /* what a reader stores: the text read as a double, then the float of it */
+        int n = 0;
+        double x;
+#ifdef HAVE_DFIXED
+        n = format_digits_fast(v, digits > 9 ? 9 : digits, buf);
+#endif
+        if (!n)
+            n = snprintf(buf, 32, "%.*g", digits > 9 ? 9 : digits, v);
+        *back = bsti_parse_double(buf, (size_t)n, &x) ? (float)x : strtof(buf, NULL);
         return n;
     }
     float f = (float)v;
@@ -509,8 +552,14 @@ int bsti_format_double(double v, int digits, char *buf, double *back)
         return 1;
     }
     if (digits > 0) {
-        int n = snprintf(buf, 32, "%.*g", digits > 17 ? 17 : digits, v);
-        *back = strtod(buf, NULL);
+        int n = 0;
+#ifdef HAVE_DFIXED
+        n = format_digits_fast(v, digits > 17 ? 17 : digits, buf);
+#endif
+        if (!n)
+            n = snprintf(buf, 32, "%.*g", digits > 17 ? 17 : digits, v);
+        if (!bsti_parse_double(buf, (size_t)n, back))
+            *back = strtod(buf, NULL);
         return n;
     }
     *back = v;

@@ -528,20 +528,21 @@ static void tb_free(struct tbuf *b)
     b->n = b->cap = 0;
 }
 
-/* The texts of recent values: without a digits setting a value's text is a function of its float
- * alone, and measured data repeat values (RADIANCE's blind at k = 6: a third of 5.3 million
- * non-zero values found in a table of this size). */
+/* The texts of recent values: a value's text is a function of its float alone (value_text), and
+ * measured data repeat values (RADIANCE's blind at k = 6: a third of 5.3 million non-zero values
+ * found in a table of this size). */
 #define MEMO_BITS 12
 struct memo {
     uint32_t key[1 << MEMO_BITS];  /* the float's bits; 0 (+0, never stored) = empty */
     unsigned char len[1 << MEMO_BITS];
+    float back[1 << MEMO_BITS];    /* what a reader stores of the text */
     char text[1 << MEMO_BITS][16];
 };
 
 /* The emitting side of one task (or of the levels above them): its text and its error sums. */
 struct eacc {
     struct tbuf *out;
-    struct memo *memo;             /* NULL: every value formatted (a digits setting) */
+    struct memo *memo;             /* NULL: every value formatted */
     size_t values, leaves, blocks_kept, cells;
     double sum_abs, sum_err, max_error;
     double *hemi;                  /* per incident cell of the region: sum of the errors */
@@ -557,26 +558,32 @@ static inline double *hemi_at(const struct tw *w, struct eacc *a, size_t i0, siz
     return w->D == 4 ? &a->hemi[(i0 - a->h0) * a->hside + (i1 - a->h1)] : &a->hemi[i0 - a->h0];
 }
 
-/* v >= 0 as bsti_format_float writes it at p (16 bytes of room), through the memo. */
+/* The text of v >= 0 at p (16 bytes of room): the shortest that reads back as its float, or with a
+ * digits setting that float's w->digits significant digits; *back what a reader stores. */
+static inline int value_text(const struct tw *w, double v, char *p, float *back)
+{
+    return bsti_format_float(w->digits ? (double)(float)v : v, w->digits, p, back);
+}
+
+/* value_text through the memo (mm may be NULL). */
 static inline int put_value(const struct tw *w, struct memo *mm, double v, char *p, float *back)
 {
-    if (!mm || v == 0.0)
-        return bsti_format_float(v, w->digits, p, back);
     float f = (float)v;
     uint32_t bits;
     memcpy(&bits, &f, sizeof bits);
-    if (bits == 0 || !isfinite(f))
-        return bsti_format_float(v, w->digits, p, back);
+    if (!mm || bits == 0 || !isfinite(f))
+        return value_text(w, v, p, back);
     size_t h = (size_t)((bits * UINT32_C(2654435761)) >> (32 - MEMO_BITS));
     if (mm->key[h] == bits) {
-        *back = f;
+        *back = mm->back[h];
         memcpy(p, mm->text[h], 16);
         return mm->len[h];
     }
-    int n = bsti_format_float(v, 0, p, back);
+    int n = value_text(w, v, p, back);
     if (n < 16) {
         mm->key[h] = bits;
         mm->len[h] = (unsigned char)n;
+        mm->back[h] = *back;
         memcpy(mm->text[h], p, 16);
     }
     return n;
@@ -732,7 +739,7 @@ static int within_bound(const struct tw *w, struct eacc *a, double *ws, int l, c
         return 1;
     char text[40];
     float back;
-    bsti_format_float(total / (double)(nin * per), w->digits, text, &back); /* as leaf_merged */
+    value_text(w, total / (double)(nin * per), text, &back); /* as leaf_merged writes it */
     double v = back, lam = M_PI / (double)G2;
     double col_share = a ? w->task_share : (double)per / (double)G2;
     double row_share = a ? w->task_share : (double)nin / (double)G2;
@@ -1111,10 +1118,10 @@ static int emit_all(const struct tw *w, int nthreads, struct eacc *top, bsti_sin
     r.task = bsti_alloc_array(w->ctx, ntasks + 1, sizeof *r.task);
     r.slot = bsti_calloc(w->ctx, r.window, sizeof *r.slot);
     double *hemi = bsti_alloc_array(w->ctx, r.window * nh, sizeof *hemi);
-    struct memo *memo = w->digits ? NULL : bsti_calloc(w->ctx, r.window + 1, sizeof *memo);
+    struct memo *memo = bsti_calloc(w->ctx, r.window + 1, sizeof *memo);
     size_t room = w->col_budget ? sums_room(w, w->split) : 0, nr = w->row_budget ? hs * hs : 0;
     double *ws = room ? bsti_alloc_array(w->ctx, r.window * (room + nr), sizeof *ws) : NULL;
-    int rc = r.task && r.slot && hemi && (w->digits || memo) && (!room || ws) ? BST_OK : BST_ENOMEM;
+    int rc = r.task && r.slot && hemi && memo && (!room || ws) ? BST_OK : BST_ENOMEM;
     if (rc == BST_OK) {
         r.ntasks = 0;
         collect(w, &r, w->k, zero, 0, 1);

@@ -64,7 +64,8 @@ static void sums(const bst_mat *m, size_t nr, size_t n, double *col, double *row
 
 double bsti_bounds_rho(int digits)
 {
-    return digits > 0 ? 0.5 * pow(10.0, 1 - digits) : FLT_EPSILON / 2;
+    /* (with digits, the value's float is rounded: both roundings) */
+    return digits > 0 ? 0.5 * pow(10.0, 1 - digits) + FLT_EPSILON : FLT_EPSILON / 2;
 }
 
 /* One side: t and r the directional-hemispherical values of its transmission and reflection

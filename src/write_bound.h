@@ -41,8 +41,8 @@ int bsti_bounds_layer(bst_ctx *ctx, const bst_layer *l, double tol, double rho, 
 int bsti_bounds_varres(bst_ctx *ctx, const bst_layer *coarse, const bst_varres *v, double tol,
                        double rho, bsti_bounds *b);
 
-/* The largest relative change of a value written with `digits` significant digits (0: the
- * shortest text of its float). */
+/* The largest relative change of a value written with `digits` significant digits of its float
+ * (0: the shortest text of the float). */
 double bsti_bounds_rho(int digits);
 
 void bsti_bounds_free(bst_ctx *ctx, bsti_bounds *b);

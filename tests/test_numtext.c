@@ -216,6 +216,47 @@ START_TEST(test_double_texts)
 }
 END_TEST
 
+/* A fixed number of significant digits (a reduced tree's, a --digits setting): printf's "%.*g"
+ * text byte for byte, for doubles (1 to 17 digits) and floats (1 to 9), on random bit patterns, on
+ * the BSDF range and on exact printf ties (d.5 at the last digit, which go to even); and what a
+ * reader stores of it (strtod, then the float). */
+START_TEST(test_fixed_digits)
+{
+    uint64_t x = 0x9e3779b97f4a7c15ull;
+    long compared = 0;
+    for (int i = 0; i < 300000; i++) {
+        uint64_t bits = xorshift(&x);
+        double v;
+        if (i % 3 == 0) {
+            memcpy(&v, &bits, sizeof v);
+            if (!isfinite(v) || v == 0.0)
+                continue;
+        } else if (i % 3 == 1) {
+            v = exp(log(1e-8) + (double)(bits >> 11) * 0x1p-53 * (log(1e4) - log(1e-8)));
+        } else { /* ties: r5 10^q, r of 1..8 digits */
+            int nd = 1 + (int)(bits % 8), q = (int)((bits >> 8) % 12) - 8;
+            double r = (double)((bits >> 20) % (uint64_t)pow(10, nd));
+            v = (10.0 * r + 5.0) * pow(10.0, q);
+        }
+        int d = 1 + (int)((bits >> 40) % 17);
+        char got[40], want[40];
+        double back;
+        bsti_format_double(v, d, got, &back);
+        snprintf(want, sizeof want, "%.*g", d, v);
+        if (strcmp(got, want) != 0 || back != strtod(want, NULL))
+            ck_abort_msg("double %a, %d digits: %s, want %s", v, d, got, want);
+        float fb;
+        int df = 1 + d % 9;
+        bsti_format_float(v, df, got, &fb);
+        snprintf(want, sizeof want, "%.*g", df, v);
+        if (fabs(v) <= FLT_MAX && (strcmp(got, want) != 0 || fb != (float)strtod(want, NULL)))
+            ck_abort_msg("float path %a, %d digits: %s, want %s", v, df, got, want);
+        compared++;
+    }
+    ck_assert_int_gt(compared, 250000);
+}
+END_TEST
+
 static Suite *suite(void)
 {
     Suite *s = suite_create("numtext");
@@ -228,6 +269,7 @@ static Suite *suite(void)
     tcase_add_test(tc, test_double_short_decimals);
     tcase_add_test(tc, test_float_vs_search);
     tcase_add_test(tc, test_float_short_vs_general);
+    tcase_add_test(tc, test_fixed_digits);
     suite_add_tcase(s, tc);
     return s;
 }
