@@ -44,7 +44,8 @@ void openblas_set_num_threads(int num_threads); /* OpenBLAS's cblas.h */
 static const char help[] =
     "Usage: mpirun -n N bsdfstack-mpi [-k K | --klems[=full|half|quarter]] [--only Tf,Rf,Tb,Rb]\n"
     "                       [--channels NAMES] [--precision double|single] [--drop-tol X]\n"
-    "                       [--reduce PCT | --no-reduce] [--dense] [--per-channel]\n"
+    "                       [--reduce PCT | --no-reduce] [--reduce-tol T] [--dense]\n"
+    "                       [--per-channel]\n"
     "                       [--spectral-tol X] [--glass-rule average|centre] [--strict]\n"
     "                       [--max-memory SIZE] [--summary FILE] [--resume] FILE\n"
     "`bsdfstack batch` over the N ranks of an MPI job: the same file, options and outputs (byte\n"

@@ -18,7 +18,8 @@
 static const char help[] =
     "Usage: bsdfstack combine [-k K | --klems[=full|half|quarter]] [--only Tf,Rf,Tb,Rb]\n"
     "                         [--channels NAMES] [--precision double|single] [--drop-tol X]\n"
-    "                         [--reduce PCT | --no-reduce] [--dense] [--absorptance FILE]\n"
+    "                         [--reduce PCT | --no-reduce] [--reduce-tol T] [--dense]\n"
+    "                         [--absorptance FILE]\n"
     "                         [--per-channel] [--spectral-tol X] [--glass-rule average|centre]\n"
     "                         [--strict] [--max-memory SIZE]\n"
     "                         [--incident THETA,PHI]...\n"
@@ -51,6 +52,8 @@ static const char help[] =
     "  --precision P      double (default) or single precision for dense work\n"
     "  --drop-tol X       drop sparse fill-in below X times a product's largest value (default 0)\n"
     "  --reduce PCT       tensor-tree reduction percentile written (default 90); --no-reduce: none\n"
+    "  --reduce-tol T     ... merging only where every incident patch's hemispherical T and R\n"
+    "                     stay within T (default 0.002; none: the percentile alone)\n"
     "  --dense            force every matrix dense (the baseline for comparisons)\n"
     "  --absorptance FILE also write per-layer absorptance per incident patch (TSV: channel,\n"
     "                     side, patch, theta, phi of the propagation direction, A1..An, T, R)\n"
