@@ -103,6 +103,25 @@ def test_write_and_read_back(tmp_path, pane, diffuser):
     assert rel_max(bsdfstack.load(tmp_path / "k.xml").matrix("Rb"), k.matrix("Rb")) < 1e-15
 
 
+def test_reduced_write_keeps_hemispherical_values(tmp_path, pane, diffuser):
+    """The default reduction keeps every incident patch's T and R within 0.002 of the system
+    (and reduce_tol within that tolerance); the percentile alone (reduce_tol=inf) does not."""
+    s = bsdfstack.combine([pane, diffuser, pane], k=4)
+    worst = {}
+    for tol in (None, 0.005, float("inf")):
+        path = tmp_path / ("r%s.xml" % tol)
+        s.write(path, reduce_tol=tol)
+        back = bsdfstack.load(path)
+        worst[tol] = max(np.abs(back.hemispherical(c) - s.hemispherical(c)).max()
+                         for c in ("Tf", "Rf", "Tb", "Rb"))
+    assert worst[None] <= 0.002 + 1e-9
+    assert worst[0.005] <= 0.005 + 1e-9
+    assert worst[float("inf")] > 0.01
+    with pytest.raises(bsdfstack.Error, match="reduce_tol"):
+        s.write(tmp_path / "bad.xml", reduce_tol=-1)
+    assert not (tmp_path / "bad.xml").exists()
+
+
 def test_layers_load_once_and_serve_many_stacks(pane, diffuser):
     a = bsdfstack.combine([pane, diffuser, pane], k=3)
     b = bsdfstack.combine([pane, diffuser], k=2)
