@@ -315,6 +315,31 @@ START_TEST(test_varres)
 }
 END_TEST
 
+/* The bound's decisions depend on each task's own cells: one, two and three threads write the same
+ * bytes (the blind stack at k = 5: reciprocal, so Tf is left out and Tb's rows are bounded too). */
+START_TEST(test_threads_same_bytes)
+{
+    bst_layer *sys = stack(shades[2], 5, BST_DOUBLE);
+    bst_bsdf_write_opts o;
+    bst_bsdf_write_opts_init(&o);
+    o.date = "2000-01-01T00:00:00Z";
+    tu_membuf m[3];
+    memset(m, 0, sizeof m);
+    for (int t = 0; t < 3; t++) {
+        ck_assert_int_eq(bst_ctx_set_threads(ctx, t + 1), BST_OK);
+        ck_assert_int_ge(bst_bsdf_write_fn(ctx, sys, tu_mem_write, &m[t], &o), 0);
+    }
+    ck_assert_ptr_nonnull(strstr(m[0].p, "left out, the reciprocal of"));
+    for (int t = 1; t < 3; t++) {
+        ck_assert_uint_eq(m[t].n, m[0].n);
+        ck_assert_int_eq(memcmp(m[t].p, m[0].p, m[0].n), 0);
+    }
+    for (int t = 0; t < 3; t++)
+        free(m[t].p);
+    bst_layer_free(sys);
+}
+END_TEST
+
 /* Bad tolerances are refused. */
 START_TEST(test_bad_tolerance)
 {
@@ -345,6 +370,7 @@ static Suite *suite(void)
     tcase_add_test(tc, test_closed_form);
     tcase_add_test(tc, test_rank3);
     tcase_add_test(tc, test_varres);
+    tcase_add_test(tc, test_threads_same_bytes);
     tcase_add_test(tc, test_bad_tolerance);
     suite_add_tcase(s, tc);
     return s;
