@@ -1,0 +1,241 @@
+/* ttree_tw.h - the tensor-tree writer's state, private to its files: ttree_write.c (the driver,
+ * the text and the threads that write it; the passes are described there), ttree_measure.c
+ * (pass 1: the variation measures, and the percentile's selection) and ttree_bound.c (the bound
+ * on directional-hemispherical values, bsti_reduce).  Orders and conventions: ttree_write.h. */
+#ifndef BST_TTREE_TW_H
+#define BST_TTREE_TW_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "ctx.h"
+#include "numtext.h"
+#include "ttree_write.h"
+
+/* Progress is reported about this many times per tree. */
+#define PROGRESS_STEPS 256
+/* A task: a subtree of at most this many cells (rank 4: 16^4, rank 3: 8^5 cells). */
+#define TASK_CELLS 65536
+/* Block rows stream_blocks asks for ahead of the one it reads (8 rows of cells each). */
+#define STREAM_AHEAD 16
+/* Task texts in flight per thread. */
+#define WINDOW 2
+/* The most bytes one leaf line takes: indent, braces, 16 values of <= 15 characters, each after a
+ * space, and the terminator bsti_format_float writes. */
+#define LEAF_ROOM (BST_K_MAX + 8 + 16 * 16 + 16)
+
+struct tw {                        /* read-only while threads run (but for the marks of the
+                                      bound, made by the calling thread: see collect) */
+    bst_ctx *ctx;
+    const bsti_tensor *t;
+    const double *d;               /* t->d, t->f: direct access, else t->get */
+    const float *f;
+    int D, k;
+    size_t G, half;                /* rank 3: cells of dimension 0 that hold data (G/2) */
+    size_t stride[4];              /* index step of each dimension in the tensor */
+    size_t boff[16], loff[16];     /* index offset of member j of a finest block: dimension i at
+                                      bit i of j (build), dimension 0 slowest (leaf text) */
+    float *m;                      /* variation measure of every node of levels 1..k */
+    size_t off[BST_K_MAX + 2];     /* first node of level l in m (level l: side 2^l cells) */
+    double thresh;
+    int force;                     /* expand the path of child 0 down to the finest blocks */
+    int digits;
+    double floor;
+    int lossless;                  /* no reduction: only whether m is 0 matters, not its size */
+    int split;                     /* level of the tasks (0: none, the tree is one task) */
+    double *lmean;                 /* the mean of every node of level split */
+    int top;                       /* build: the nodes of level split are done (lmean, m) */
+    const double *col_budget, *row_budget; /* the bound (bsti_reduce); col_budget NULL: none */
+    double task_share;             /* a task's share of each column (or row): 4^split / G^2 */
+    double *vsum;                  /* nodes of levels >= split (index - off[split]): the sum of a
+                                      candidate that passed the bound, NaN before it is checked */
+};
+
+/* ------------------------------------------------------------------ tensor access */
+
+/* Raw value of cell c (rank 3: 0 in the unused upper half of dimension 0). */
+static inline double cell(const struct tw *w, const size_t *c)
+{
+    size_t idx;
+    if (w->D == 3 && c[0] >= w->half)
+        return 0.0;
+    idx = c[0] * w->stride[0] + c[1] * w->stride[1] + c[2] * w->stride[2];
+    if (w->D == 4)
+        idx += c[3];
+    return w->d ? w->d[idx] : w->f ? (double)w->f[idx] : w->t->get(w->t->opaque, idx);
+}
+
+/* The 2^D values of the finest block at corner c, member j at index offset off[j] (w->boff or
+ * w->loff; leaf says which, for a rank-3 block in the dead half). */
+static inline void block_values(const struct tw *w, const size_t *c, const size_t *off, int leaf,
+                                double *v)
+{
+    int D = w->D, nk = 1 << D;
+    if (D == 3 && c[0] + 1 >= w->half) { /* k = 1, or the dead half: cell by cell */
+        for (int j = 0; j < nk; j++) {
+            size_t cc[4] = {0, 0, 0, 0};
+            for (int i = 0; i < D; i++)
+                cc[i] = c[i] + (size_t)((j >> (leaf ? D - 1 - i : i)) & 1);
+            v[j] = cell(w, cc);
+        }
+        return;
+    }
+    size_t base = c[0] * w->stride[0] + c[1] * w->stride[1] + c[2] * w->stride[2];
+    if (D == 4)
+        base += c[3];
+    if (w->f) {
+        const float *p = w->f + base;
+        for (int j = 0; j < nk; j++)
+            v[j] = (double)p[off[j]];
+    } else if (w->d) {
+        const double *p = w->d + base;
+        for (int j = 0; j < nk; j++)
+            v[j] = p[off[j]];
+    } else {
+        for (int j = 0; j < nk; j++)
+            v[j] = w->t->get(w->t->opaque, base + off[j]);
+    }
+}
+
+/* Ask for the cells of the level-2 node at corner c (4^D cells in 4^(D-1) runs of 4) ahead of
+ * use: the walk visits them in tree order, which no hardware prefetcher follows.  all = 0: only
+ * its first cell. */
+static inline void prefetch_node2(const struct tw *w, const size_t *c, int all)
+{
+#if defined(__GNUC__)
+    if (!w->d && !w->f)
+        return;
+    if (w->D == 3 && c[0] + 3 >= w->half)
+        return;
+    size_t base = c[0] * w->stride[0] + c[1] * w->stride[1] + c[2] * w->stride[2];
+    if (w->D == 4)
+        base += c[3];
+    size_t n1 = all ? 4 : 1, n3 = all && w->D == 4 ? 4 : 1, s1 = w->stride[1];
+    size_t s2 = w->D == 4 ? w->stride[2] : 0, sz = w->d ? sizeof(double) : sizeof(float);
+    const char *p = w->d ? (const char *)w->d : (const char *)w->f;
+    for (size_t x0 = 0; x0 < n1; x0++)
+        for (size_t x1 = 0; x1 < n1; x1++)
+            for (size_t x2 = 0; x2 < n3; x2++)
+                __builtin_prefetch(p + (base + x0 * w->stride[0] + x1 * s1 + x2 * s2) * sz);
+#else
+    (void)w, (void)c, (void)all;
+#endif
+}
+
+/* Ask for every cell of the node of level l at corner c, in index order (whole runs of dimension
+ * D - 1): a task's region (at most TASK_CELLS cells, 512 KiB of doubles) then sits in the cache
+ * while the walk in tree order reads it. */
+static inline void prefetch_region(const struct tw *w, int l, const size_t *c)
+{
+#if defined(__GNUC__)
+    if (!w->d && !w->f)
+        return;
+    size_t s = (size_t)1 << l, sz = w->d ? sizeof(double) : sizeof(float), line = 64 / sz;
+    size_t e1 = w->D == 4 ? s : 1;
+    const char *p = w->d ? (const char *)w->d : (const char *)w->f;
+    for (size_t x0 = 0; x0 < s; x0++) {
+        if (w->D == 3 && c[0] + x0 >= w->half)
+            break;
+        for (size_t x1 = 0; x1 < s; x1++)
+            for (size_t x2 = 0; x2 < e1; x2++) {
+                size_t base = (c[0] + x0) * w->stride[0] + (c[1] + x1) * w->stride[1] +
+                              (c[2] + x2) * w->stride[2];
+                size_t first = w->D == 4 ? base + c[3] : base, run = s;
+                for (size_t q = 0; q < run; q += line)
+                    __builtin_prefetch(p + (first + q) * sz);
+                __builtin_prefetch(p + (first + run - 1) * sz);
+            }
+    }
+#else
+    (void)w, (void)l, (void)c;
+#endif
+}
+
+/* Negative BSDF values (round-off of a combination) are written as 0, as readers read them. */
+static inline double clamp0(double v) { return v < 0.0 ? 0.0 : v; }
+
+static inline size_t node_index(const struct tw *w, int l, const size_t *c)
+{
+    size_t S = w->G >> l, idx = 0;
+    for (int i = 0; i < w->D; i++)
+        idx = idx * S + (c[i] >> l);
+    return w->off[l] + idx;
+}
+
+/* What one thread's share of build found. */
+struct bacc {
+    size_t negatives;
+    int bad;                       /* a value that is not finite in single precision */
+    double badval;
+    size_t badnode;                /* the finest block holding it (the least such is reported) */
+};
+/* Pass 1 on nthreads threads (the measures of every node into w->m, the means of the tasks' nodes
+ * into w->lmean); *b gets what they found.  ttree_measure.c. */
+void bsti_tw_build_all(struct tw *w, int nthreads, struct bacc *b);
+/* The k-th smallest (0-based) of a[0..n-1], reordering a.  ttree_measure.c. */
+float bsti_tw_select_kth(float *a, size_t n, size_t k);
+
+/* ------------------------------------------------------------------ pass 3: the text */
+
+/* A growing text buffer (the context's allocator, no error recorded: threads share the ctx). */
+struct tbuf {
+    const bst_ctx *ctx;
+    char *p;
+    size_t n, cap;
+    int fail;                      /* an allocation failed: the text is incomplete */
+};
+
+/* The texts of recent values: a value's text is a function of its float alone (value_text), and
+ * measured data repeat values (RADIANCE's blind at k = 6: a third of 5.3 million non-zero values
+ * found in a table of this size). */
+#define MEMO_BITS 12
+struct memo {
+    uint32_t key[1 << MEMO_BITS];  /* the float's bits; 0 (+0, never stored) = empty */
+    unsigned char len[1 << MEMO_BITS];
+    float back[1 << MEMO_BITS];    /* what a reader stores of the text */
+    char text[1 << MEMO_BITS][16];
+};
+
+/* The emitting side of one task (or of the levels above them): its text and its error sums. */
+struct eacc {
+    struct tbuf *out;
+    struct memo *memo;             /* NULL: every value formatted */
+    size_t values, leaves, blocks_kept, cells;
+    double sum_abs, sum_err, max_error;
+    double *hemi;                  /* per incident cell of the region: sum of the errors */
+    double *ws;                    /* the bound's sums over a candidate (sums_room doubles) */
+    double *erow;                  /* the bound's rows: change of each outgoing cell's
+                                      directional-hemispherical sum so far (task side ^ 2) */
+    size_t o0, o1;                 /* the region's first outgoing cell */
+    size_t h0, h1, hside;          /* the region's first incident cell and side (rank 3: h0) */
+};
+
+static inline double *hemi_at(const struct tw *w, struct eacc *a, size_t i0, size_t i1)
+{
+    return w->D == 4 ? &a->hemi[(i0 - a->h0) * a->hside + (i1 - a->h1)] : &a->hemi[i0 - a->h0];
+}
+
+/* The text of v >= 0 at p (16 bytes of room): the shortest that reads back as its float, or with a
+ * digits setting that float's w->digits significant digits; *back what a reader stores. */
+static inline int value_text(const struct tw *w, double v, char *p, float *back)
+{
+    return bsti_format_float(w->digits ? (double)(float)v : v, w->digits, p, back);
+}
+
+/* ------------------------------------------------------------------ the bound (ttree_bound.c) */
+
+/* Cells of the node of level l at corner c that hold data (rank 3: not in the dead half). */
+size_t bsti_tw_live_cells(const struct tw *w, int l, const size_t *c);
+/* Doubles of the bound's sums over a node of level l: one a column (incident index), and one a
+ * row (outgoing cell) when rows are bounded (rank 4 only). */
+size_t bsti_tw_sums_room(const struct tw *w, int l);
+/* Does the one value of the node of level l at corner c keep every sum the bound watches within
+ * its budget (bsti_reduce)?  Inside a task (a: its sums; a->hemi the errors so far of its incident
+ * indices, a->erow the changes so far of its rows) the changes add to those of the task; above the
+ * tasks (a NULL) the node's own changes are held to its share.  ws: bsti_tw_sums_room(l) doubles;
+ * *sum: the sum of the node's cells.  A node that passes in a task has its rows' changes added to
+ * a->erow (its columns' reach a->hemi as leaf_merged writes it). */
+int bsti_tw_within_bound(const struct tw *w, struct eacc *a, double *ws, int l, const size_t *c,
+                         double *sum);
+
+#endif
