@@ -432,7 +432,9 @@ typedef struct {
 
 /* Read a file (opts NULL = defaults); BST_WDATA when it is read other than it states: a missing
  * component completed (a transmission by reciprocity, a reflection as zero), a tree of depth
- * BST_K_MAX + 1 read at BST_K_MAX (deeper ones are refused), negative values read as 0. */
+ * BST_K_MAX + 1 read at BST_K_MAX (deeper ones are refused), negative values read as 0.  A file
+ * holds one kind of data (its bst_file_kind): one mixing Klems and tree blocks, or trees of both
+ * ranks, is BST_EFORMAT, whichever channels and components opts asks for. */
 int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_bsdf_read_opts *opts, bst_bsdf **out);
 void bst_bsdf_free(bst_bsdf *b);
 bst_file_kind bst_bsdf_kind(const bst_bsdf *b);

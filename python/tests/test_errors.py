@@ -6,7 +6,7 @@ import os
 import pytest
 
 import bsdfstack
-from conftest import ref, run_cli
+from conftest import SRCDIR, ref, run_cli
 
 
 def cli_error(*args):
@@ -29,6 +29,16 @@ def test_malformed_file(tmp_path):
     with pytest.raises(bsdfstack.Error) as e:
         bsdfstack.load(path)
     assert e.value.status < 0 and str(e.value)
+    assert str(e.value) in cli_error("info", path)
+
+
+@pytest.mark.parametrize("name", ["mixed-klems-then-tree.xml", "mixed-tree-then-klems.xml"])
+def test_mixed_kinds(name):
+    """A file mixing Klems and tensor-tree blocks is refused (the interpreter died of SIGSEGV)."""
+    path = os.path.join(SRCDIR, "tests", "fuzz", "regress", "xml", name)
+    with pytest.raises(bsdfstack.Error) as e:
+        bsdfstack.load(path)
+    assert e.value.status == -5 and "a file holds one kind" in str(e.value)   # BST_EFORMAT
     assert str(e.value) in cli_error("info", path)
 
 

@@ -1,0 +1,28 @@
+# cli_hostile.sh - hostile and unlucky input, round two (issue #34): every command that reads a
+# BSDF file refuses one that mixes kinds of scattering data; ...
+. "${BST_SRCDIR:-.}/tests/clitest.sh"
+B=$BSDFSTACK
+regress=$BST_SRCDIR/tests/fuzz/regress/xml
+d=$tmpdir/o
+mkdir "$d" || exit 99
+
+# --- a file mixing a Klems block and a tensor-tree block is refused by every reader, in one line
+# naming the file (each died of SIGSEGV: a NULL overlap table or a NULL matrix)
+for mixed in "$regress"/mixed-*.xml; do
+    m=$(basename "$mixed")
+    why="$m: line [0-9]+: a [A-Za-z0-9]+ block after [A-Za-z0-9]+ blocks"
+    expect_error "info $m" "^bsdfstack info: .*$why" -- "$B" info "$mixed"
+    expect_error "convert $m" "^bsdfstack convert: .*$why" -- "$B" convert -k 1 "$mixed" -o "$d/c.xml"
+    expect_error "combine $m" "^bsdfstack combine: .*$why" -- \
+        "$B" combine -k 1 glass:clear-6mm "$mixed" -o "$d/s.xml"
+    expect_error "compare $m" "^bsdfstack compare: .*$why" -- "$B" compare -k 1 glass:clear-6mm "$mixed"
+    expect_error "plot --curve $m" "^bsdfstack plot: .*$why" -- \
+        "$B" plot --curve --format svg -o "$d/p.svg" "$mixed"
+    expect_error "query $m" "^bsdfstack query: .*$why" -- "$B" query "$mixed" < /dev/null
+    printf '%s glass:clear-6mm %s\n' "$d/b.xml" "$mixed" > "$d/mixed.batch"
+    expect_status 1 "batch $m" -- "$B" batch -k 1 "$d/mixed.batch"
+    grep -Eq "$why" "$tmpdir/err" && pass "batch names $m" || fail "batch $m: $(cat "$tmpdir/err")"
+done
+[ "$(ls "$d")" = mixed.batch ] && pass "no output from a mixed file" || fail "outputs left: $(ls "$d")"
+
+finish
