@@ -1,5 +1,6 @@
 # cli_hostile.sh - hostile and unlucky input, round two (issue #34): every command that reads a
-# BSDF file refuses one that mixes kinds of scattering data; ...
+# BSDF file refuses one that mixes kinds of scattering data; compare refuses a bad table of
+# combine --incident with one line; ...
 . "${BST_SRCDIR:-.}/tests/clitest.sh"
 B=$BSDFSTACK
 regress=$BST_SRCDIR/tests/fuzz/regress/xml
@@ -24,5 +25,21 @@ for mixed in "$regress"/mixed-*.xml; do
     grep -Eq "$why" "$tmpdir/err" && pass "batch names $m" || fail "batch $m: $(cat "$tmpdir/err")"
 done
 [ "$(ls "$d")" = mixed.batch ] && pass "no output from a mixed file" || fail "outputs left: $(ls "$d")"
+
+# --- compare on a table of combine --incident that its reader refuses: one error line, exit 1
+# (a refused table's file was closed twice: SIGABRT on a double free)
+t=$tmpdir/t
+mkdir "$t" || exit 99
+"$B" combine -k 1 --incident 0,0 glass:clear-6mm -o "$t/ok.tsv" 2>/dev/null || fail "combine --incident"
+head -n 1 "$t/ok.tsv" > "$t/header-only.tsv"
+{ cat "$t/ok.tsv"; tail -n 1 "$t/ok.tsv"; } > "$t/duplicated-row.tsv"
+{ head -n 2 "$t/ok.tsv"; printf 'not a row\n'; } > "$t/malformed-row.tsv"
+sed '3s/\t30\.0000\t/\t31.0000\t/' "$t/ok.tsv" > "$t/moved-exit.tsv"   # refused by the second pass
+for bad in header-only duplicated-row malformed-row moved-exit; do
+    expect_error "compare $bad.tsv" "^bsdfstack compare: .*$bad\.tsv" -- \
+        "$B" compare "$t/$bad.tsv" glass:clear-6mm
+    expect_error "compare ok.tsv $bad.tsv" "^bsdfstack compare: .*$bad\.tsv" -- \
+        "$B" compare "$t/ok.tsv" "$t/$bad.tsv"
+done
 
 finish
