@@ -1,6 +1,6 @@
 # cli_hostile.sh - hostile and unlucky input, round two (issue #34): every command that reads a
 # BSDF file refuses one that mixes kinds of scattering data; compare refuses a bad table of
-# combine --incident with one line; ...
+# combine --incident with one line; names that are not UTF-8 leave outputs that read back; ...
 . "${BST_SRCDIR:-.}/tests/clitest.sh"
 B=$BSDFSTACK
 regress=$BST_SRCDIR/tests/fuzz/regress/xml
@@ -41,5 +41,21 @@ for bad in header-only duplicated-row malformed-row moved-exit; do
     expect_error "compare ok.tsv $bad.tsv" "^bsdfstack compare: .*$bad\.tsv" -- \
         "$B" compare "$t/ok.tsv" "$t/$bad.tsv"
 done
+
+# --- a file name, -o path or --name whose bytes are not UTF-8 goes into the XML (declared UTF-8)
+# as U+FFFD, so that the output reads back (nothing could read it: exit 0, an unreadable file)
+u=$tmpdir/u
+mkdir "$u" || exit 99
+bad=$(printf 'x\377\300\257y')
+expect_status 0 "combine -o a non-UTF-8 name" -- "$B" combine -k 1 glass:clear-6mm -o "$u/$bad.xml"
+expect_status 0 "info reads it back" -- "$B" info "$u/$bad.xml"
+expect_status 0 "convert --name non-UTF-8 of a non-UTF-8 file" -- \
+    "$B" convert --name "$bad" "$u/$bad.xml" -o "$u/named.xml"
+expect_status 0 "info reads the converted file back" -- "$B" info "$u/named.xml"
+grep -q "<Name>x$(printf '\357\277\275\357\277\275\357\277\275')y</Name>" "$u/named.xml" &&
+    pass "each byte that is not UTF-8 is one U+FFFD" || fail "named.xml: $(grep -a '<Name>' "$u/named.xml")"
+printf '%s glass:clear-6mm\n' "$u/$bad-batch.xml" > "$u/b.batch"
+expect_status 0 "batch to a non-UTF-8 output name" -- "$B" batch -k 1 "$u/b.batch"
+expect_status 0 "info reads the batch output back" -- "$B" info "$u/$bad-batch.xml"
 
 finish

@@ -1294,6 +1294,61 @@ START_TEST(test_channels_metadata)
 }
 END_TEST
 
+/* Names and paths are bytes, the file is declared UTF-8: a sequence that is not the UTF-8 of an
+ * XML character (a stray byte, overlong, a surrogate, U+FFFE, beyond U+10FFFF, cut off at the end)
+ * is written as U+FFFD per byte, wherever the text goes (comment, element, channel name), so that
+ * the file reads back (it did not); valid multi-byte characters are kept as they are. */
+START_TEST(test_non_utf8_text)
+{
+    static const char *const bad[] = {"a\xff" "b", "a\xc0\xaf" "b", "a\xed\xa0\x80" "b",
+                                      "a\xef\xbf\xbe" "b", "a\xf4\x90\x80\x80" "b", "a\xe2\x82"};
+    static const char *const good = "caf\xc3\xa9 \xe2\x82\xac \xf0\x9f\x98\x80 \xed\x9f\xbf";
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        const char *names[] = {bad[i]};
+        bst_basis *bs;
+        ck_assert_int_eq(bst_basis_new_sc(ctx, 1, &bs), BST_OK);
+        bst_layer *l;
+        ck_assert_int_eq(bst_layer_new(ctx, bs, 1, names, &l), BST_OK);
+        double diag[4] = {0.5, 0.5, 0.5, 0.5};
+        bst_mat *m;
+        ck_assert_int_eq(bst_mat_new_diag(ctx, 4, diag, &m), BST_OK);
+        ck_assert_int_eq(bst_layer_set(ctx, l, 0, BST_TF, m), BST_OK);
+        ck_assert_int_eq(bst_layer_set_name(ctx, l, bad[i]), BST_OK);
+        bst_bsdf_write_opts o;
+        bst_bsdf_write_opts_init(&o);
+        const char *layers[] = {bad[i], good};
+        o.nlayers = 2, o.layers = layers;
+        o.command = bad[i], o.description = bad[i], o.manufacturer = bad[i];
+        o.date = "2026-01-02T03:04:05Z";
+        const char *path = tmp_path("utf8");
+        write_ok(l, path, &o);
+        xmlDocPtr doc = xmlReadFile(path, NULL, XML_PARSE_NONET);
+        ck_assert_msg(doc != NULL, "case %zu: not well-formed XML", i);
+        xmlFreeDoc(doc);
+        bst_bsdf *b = read_ok(path);
+        size_t want = strlen(bad[i]) - 1 - (bad[i][strlen(bad[i]) - 1] == 'b'); /* replaced bytes */
+        char expect[64] = "a";
+        for (size_t k = 0; k < want; k++)
+            strcat(expect, "\xef\xbf\xbd");
+        if (bad[i][strlen(bad[i]) - 1] == 'b')
+            strcat(expect, "b");
+        ck_assert_str_eq(bst_bsdf_channel(b, 0), expect);
+        bst_bsdf_free(b);
+        FILE *fp = fopen(path, "rb");
+        static char text[1 << 16];
+        size_t len = fread(text, 1, sizeof text - 1, fp);
+        fclose(fp);
+        text[len] = '\0';
+        ck_assert_msg(strstr(text, good), "case %zu: valid UTF-8 not kept", i);
+        char named[96];
+        snprintf(named, sizeof named, "<Name>%s</Name>", expect);
+        ck_assert_msg(strstr(text, named), "case %zu: no %s", i, named);
+        unlink(path);
+        bst_layer_free(l), bst_basis_free(bs);
+    }
+}
+END_TEST
+
 /* Entries of a directory other than . and .. */
 static int count_entries(const char *dir)
 {
@@ -1540,6 +1595,7 @@ static Suite *suite(void)
     tcase_add_loop_test(tc, test_reference_klems, 0, 4);
     tcase_add_test(tc, test_rank3_auto);
     tcase_add_test(tc, test_channels_metadata);
+    tcase_add_test(tc, test_non_utf8_text);
     tcase_add_test(tc, test_reduced_round_trip);
     tcase_add_test(tc, test_write_errors);
     tcase_add_test(tc, test_write_alloc_failures);
