@@ -598,6 +598,14 @@ FILE *bst_output_file(const bst_output *o);
 const char *bst_output_path(const bst_output *o);
 /* Flush and check for a write error so far (the object stays open). */
 int bst_output_flush(bst_output *o);
+/* Which file path writes, as a key (text, into key[0..size-1]; BST_OUTPUT_KEY_MAX is enough for a
+ * name of up to 255 bytes): two paths with one key write one file, however they are spelt (a.xml,
+ * ./a.xml, d/../a.xml, a symbolic link or hard link to it).  An existing file is known by its
+ * device and inode, through any links; a file not there yet by those of the directory it will be
+ * created in, and its name.  BST_EIO (no key) when neither can be found (a missing directory, no
+ * permission): opening the path would then fail too. */
+#define BST_OUTPUT_KEY_MAX 320
+int bst_output_key(bst_ctx *ctx, const char *path, char *key, size_t size);
 int bst_output_commit(bst_output *o);
 void bst_output_abort(bst_output *o);
 

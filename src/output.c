@@ -7,7 +7,11 @@
  *                                    a new one gets 0666 & ~umask as fopen would give it
  *   a symbolic link (chain)          the same beside the file the links lead to: the links stay
  *   a device, FIFO or socket         opened and written directly, no temporary
- *   a directory                      an error */
+ *   a directory                      an error
+ *
+ * Two paths write one file when bst_output_key gives them one key: the file's identity (device
+ * and inode, through any links), or, for a file not there yet, the identity of the directory it
+ * will be created in and its name there.  Names are compared as bytes. */
 #include <config.h>
 
 #include <errno.h>
@@ -166,6 +170,46 @@ int bst_output_open(bst_ctx *ctx, const char *path, bst_output **out)
         return rc;
     }
     *out = o;
+    return BST_OK;
+}
+
+int bst_output_key(bst_ctx *ctx, const char *path, char *key, size_t size)
+{
+    if (!ctx || !path || !key || size == 0)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "output key: NULL argument") : BST_EINVAL;
+    key[0] = '\0';
+    if (!*path)
+        return bsti_error(ctx, BST_EINVAL, "an empty output file name");
+    struct stat st;
+    int n;
+    if (stat(path, &st) == 0) {
+        n = snprintf(key, size, "F %llu:%llu", (unsigned long long)st.st_dev,
+                     (unsigned long long)st.st_ino);
+    } else if (errno != ENOENT) {
+        return bsti_error(ctx, BST_EIO, "%s: %s", path, strerror(errno));
+    } else {
+        /* not there yet: where the links lead, then that name in its directory */
+        char *target = follow_links(ctx, path);
+        if (!target)
+            return errno == ENOMEM ? BST_ENOMEM : bsti_error(ctx, BST_EIO, "%s: %s", path, strerror(errno));
+        char *slash = strrchr(target, '/');
+        const char *name = slash ? slash + 1 : target, *dir = slash ? target : ".";
+        if (slash == target)
+            dir = "/";
+        else if (slash)
+            *slash = '\0';
+        int e = !*name ? EISDIR : stat(dir, &st) != 0 ? errno : !S_ISDIR(st.st_mode) ? ENOTDIR : 0;
+        n = e ? 0 : snprintf(key, size, "N %llu:%llu/%s", (unsigned long long)st.st_dev,
+                             (unsigned long long)st.st_ino, name);
+        bsti_free(ctx, target);
+        if (e)
+            return bsti_error(ctx, BST_EIO, "%s: %s", path, strerror(e));
+    }
+    if (n < 0 || (size_t)n >= size) {
+        key[0] = '\0';
+        return bsti_error(ctx, BST_EINVAL, "%s: the output key needs %d bytes, %zu given", path,
+                          n + 1, size);
+    }
     return BST_OK;
 }
 

@@ -1,6 +1,7 @@
 # cli_hostile.sh - hostile and unlucky input, round two (issue #34): every command that reads a
 # BSDF file refuses one that mixes kinds of scattering data; compare refuses a bad table of
-# combine --incident with one line; names that are not UTF-8 leave outputs that read back; ...
+# combine --incident with one line; names that are not UTF-8 leave outputs that read back;
+# two outputs of one command that name one file are refused, however spelt; ...
 . "${BST_SRCDIR:-.}/tests/clitest.sh"
 B=$BSDFSTACK
 regress=$BST_SRCDIR/tests/fuzz/regress/xml
@@ -57,5 +58,41 @@ grep -q "<Name>x$(printf '\357\277\275\357\277\275\357\277\275')y</Name>" "$u/na
 printf '%s glass:clear-6mm\n' "$u/$bad-batch.xml" > "$u/b.batch"
 expect_status 0 "batch to a non-UTF-8 output name" -- "$B" batch -k 1 "$u/b.batch"
 expect_status 0 "info reads the batch output back" -- "$B" info "$u/$bad-batch.xml"
+
+# --- two outputs that name one file, however spelt, are refused before anything is written (one
+# result was silently lost, exit 0)
+a=$tmpdir/a
+mkdir "$a" || exit 99
+cd "$a" || exit 99
+printf 'a.xml glass:clear-6mm\n./a.xml glass:clear-6mm\n' > dot.batch
+expect_error "batch: a.xml and ./a.xml" "dot.batch:2: '\./a\.xml' is the file line 1 writes already" -- \
+    "$B" batch -k 1 dot.batch
+ln -s a.xml link.xml
+printf 'a.xml glass:clear-6mm\nlink.xml glass:clear-6mm\n' > link.batch
+expect_error "batch: a link to another line's output" "link.batch:2: 'link\.xml' is the file line 1" -- \
+    "$B" batch -k 1 link.batch
+printf 'a.xml glass:clear-6mm\nb.xml glass:clear-6mm\n' > two.batch
+expect_error "batch --summary an output" "two.batch:2: the output 'b\.xml' is the --summary file \./b\.xml" -- \
+    "$B" batch -k 1 --summary ./b.xml two.batch
+expect_error "batch --summary the batch file" "--summary \./two\.batch is the batch file two\.batch" -- \
+    "$B" batch -k 1 --summary ./two.batch two.batch
+printf 'self.batch glass:clear-6mm\n' > self.batch
+expect_error "batch: an output that is the batch file" "self.batch:1: the output 'self\.batch' is the batch file" -- \
+    "$B" batch -k 1 self.batch
+[ ! -e a.xml ] && [ ! -e b.xml ] && grep -q glass two.batch && grep -q glass self.batch &&
+    pass "nothing written, the batch files intact" || fail "written: $(ls)"
+expect_error "combine --absorptance through a link to -o" "--absorptance link\.xml and -o a\.xml name the same file" -- \
+    "$B" combine -k 1 --absorptance link.xml -o a.xml glass:clear-6mm
+expect_error "combine --absorptance ./a.tsv -o a.tsv" "name the same file" -- \
+    "$B" combine -k 1 --absorptance ./a.tsv -o a.tsv glass:clear-6mm
+"$B" combine -k 1 glass:clear-6mm -o sys.xml 2>/dev/null || fail "combine sys.xml"
+expect_error "plot --tsv X -o X" "--tsv \./c\.svg and -o c\.svg name the same file" -- \
+    "$B" plot --curve --tsv ./c.svg -o c.svg sys.xml
+expect_error "plot --tsv - -o -" "both write to standard output" -- "$B" plot --curve --tsv - -o - sys.xml
+[ ! -e a.xml ] && [ ! -e a.tsv ] && [ ! -e c.svg ] && pass "no output from a refused command" ||
+    fail "written: $(ls)"
+expect_status 0 "--absorptance and -o two files" -- \
+    "$B" combine -k 1 --absorptance a.tsv -o b.xml glass:clear-6mm
+cd - > /dev/null || exit 99
 
 finish

@@ -1529,6 +1529,58 @@ START_TEST(test_write_path_kinds)
 }
 END_TEST
 
+/* bst_output_key tells paths apart by the file they write, not their spelling: one key for a.xml,
+ * ./a.xml, sub/../a.xml, a relative and an absolute symbolic link to it and a hard link, whether
+ * the file is there yet or not; another for b.xml; no key (BST_EIO) under a missing directory, and
+ * BST_EINVAL for a buffer too small. */
+START_TEST(test_output_key)
+{
+    char dir[] = "/tmp/bst_key_XXXXXX", cwd[4096], path[8][400];
+    ck_assert_ptr_nonnull(mkdtemp(dir));
+    ck_assert_ptr_nonnull(getcwd(cwd, sizeof cwd));
+    ck_assert_int_eq(chdir(dir), 0);
+    ck_assert_int_eq(mkdir("sub", 0700), 0);
+    ck_assert_int_eq(symlink("a.xml", "rel.xml"), 0);
+    snprintf(path[0], sizeof path[0], "%s/a.xml", dir);
+    ck_assert_int_eq(symlink(path[0], "abs.xml"), 0);
+    ck_assert_int_eq(symlink("../rel.xml", "sub/chain.xml"), 0);
+    static const char *const names[] = {"a.xml", "./a.xml", "sub/../a.xml", "rel.xml", "abs.xml",
+                                        "sub/chain.xml", "sub/./../a.xml"};
+    const size_t nn = sizeof names / sizeof names[0];
+    char key[BST_OUTPUT_KEY_MAX], first[BST_OUTPUT_KEY_MAX], other[BST_OUTPUT_KEY_MAX];
+    for (int there = 0; there < 2; there++) {
+        if (there) {
+            FILE *fp = fopen("a.xml", "w");
+            ck_assert_ptr_nonnull(fp);
+            fclose(fp);
+            ck_assert_int_eq(link("a.xml", "hard.xml"), 0);
+        }
+        ck_assert_int_eq(bst_output_key(ctx, path[0], first, sizeof first), BST_OK);
+        for (size_t i = 0; i < nn + (size_t)there; i++) {
+            const char *p = i < nn ? names[i] : "hard.xml";
+            ck_assert_msg(bst_output_key(ctx, p, key, sizeof key) == BST_OK, "%s: %s", p,
+                          bst_ctx_message(ctx));
+            ck_assert_msg(strcmp(key, first) == 0, "%s (%s): key '%s', a.xml's '%s'",
+                          p, there ? "there" : "not yet", key, first);
+        }
+        ck_assert_int_eq(bst_output_key(ctx, "b.xml", other, sizeof other), BST_OK);
+        ck_assert_str_ne(other, first);
+        ck_assert_int_eq(bst_output_key(ctx, "sub/a.xml", other, sizeof other), BST_OK);
+        ck_assert_str_ne(other, first);
+    }
+    ck_assert_int_eq(bst_output_key(ctx, "nowhere/a.xml", key, sizeof key), BST_EIO);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "nowhere/a.xml"));
+    ck_assert_int_eq(bst_output_key(ctx, "a.xml", key, 4), BST_EINVAL);
+    ck_assert_int_eq(bst_output_key(ctx, "", key, sizeof key), BST_EINVAL);
+    static const char *const made[] = {"sub/chain.xml", "abs.xml", "rel.xml", "hard.xml", "a.xml"};
+    for (size_t i = 0; i < sizeof made / sizeof made[0]; i++)
+        ck_assert_int_eq(unlink(made[i]), 0);
+    ck_assert_int_eq(rmdir("sub"), 0);
+    ck_assert_int_eq(chdir(cwd), 0);
+    ck_assert_int_eq(rmdir(dir), 0);
+}
+END_TEST
+
 /* Every allocation of the writer failing in turn: BST_ENOMEM each time, nothing leaked. */
 START_TEST(test_write_alloc_failures)
 {
@@ -1571,6 +1623,7 @@ static Suite *suite(void)
     tcase_add_checked_fixture(tc, setup, teardown);
     tcase_add_test(tc, test_format);
     tcase_add_test(tc, test_write_path_kinds);
+    tcase_add_test(tc, test_output_key);
     tcase_add_test(tc, test_examples_rank4);
     tcase_add_test(tc, test_examples_rank3);
     tcase_add_test(tc, test_examples_read_back);

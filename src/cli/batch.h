@@ -52,6 +52,11 @@ struct batch {
  * CLI_USAGE after a usage error, -1 after --help was printed (exit 0). */
 int batch_options(int argc, char **argv, struct batch *b, int *jobs, const char **summary,
                   const char *mpi_help);
+/* Every file the batch writes is a different one, compared by what the paths name (cli_out_key),
+ * not by their spelling: the outputs of bf's lines, --summary (NULL: none), and none of them the
+ * batch file at path itself.  CLI_OK, or one error line naming the two (exit status 1). */
+int batch_check_outputs(const char *sub, const char *path, const struct batch_file *bf,
+                        const char *summary);
 /* Seconds since t0 (CLOCK_MONOTONIC). */
 double batch_since(const struct timespec *t0);
 /* "batch-key: fnv1a64 HEX" of line sl into key[0..size-1]. */

@@ -299,6 +299,8 @@ static int run(int argc, char **argv, int rank, int size)
         rc = (text = slurp(sub, b.path, &len)) ? CLI_OK : CLI_FAIL;
     if (rank == 0 && rc == CLI_OK)
         rc = parse_text(sub, b.path, text, len, &bf, 1);
+    if (rank == 0 && rc == CLI_OK)
+        rc = batch_check_outputs(sub, b.path, &bf, summary);
     if (rank == 0 && rc == CLI_OK && !(structure = calloc(bf.nspecs, sizeof *structure)))
         rc = cli_fail(sub, "out of memory");
     if (rank == 0 && rc == CLI_OK)

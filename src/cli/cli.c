@@ -132,6 +132,32 @@ int cli_out_open(struct cli_out *o, const char *sub, const char *path)
     return CLI_OK;
 }
 
+char *cli_out_key(const char *path)
+{
+    if (strcmp(path, "-") == 0)
+        return strdup("-");
+    char key[BST_OUTPUT_KEY_MAX];
+    bst_ctx *ctx = bst_ctx_new();
+    if (!ctx)
+        return NULL;
+    int found = bst_output_key(ctx, path, key, sizeof key) == BST_OK;
+    bst_ctx_free(ctx);
+    if (found)
+        return strdup(key);
+    char *p = malloc(strlen(path) + 3);
+    if (p)
+        strcpy(p, "P "), strcpy(p + 2, path);
+    return p;
+}
+
+int cli_out_same(const char *a, const char *b)
+{
+    char *ka = cli_out_key(a), *kb = cli_out_key(b);
+    int same = ka && kb ? strcmp(ka, kb) == 0 : -1;
+    free(ka), free(kb);
+    return same;
+}
+
 int cli_out_flush(struct cli_out *o, const char *sub)
 {
     if (o->fp == stdout)

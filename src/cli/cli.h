@@ -75,6 +75,13 @@ int cli_out_commit(struct cli_out *o, const char *sub);
 int cli_out_fail_ctx(struct cli_out *o, const char *sub, bst_ctx *ctx);
 /* Remove the temporary (on an error path). Safe to call after commit or on a zeroed struct. */
 void cli_out_abort(struct cli_out *o);
+/* Which file an output path writes, as a string to compare (malloc'd; NULL when out of memory):
+ * "-" for standard output, else bst_output_key's (file or directory identity), else, where the
+ * path names nothing that can be found (its write will fail and say why), the path itself.
+ * Outputs of one command are compared by these, never by their spelling. */
+char *cli_out_key(const char *path);
+/* 1 when paths a and b write one file (cli_out_key), 0 when not, -1 when out of memory. */
+int cli_out_same(const char *a, const char *b);
 
 /* Standard output's write errors: "bsdfstack SUB: error writing to standard output: REASON",
  * printed once per run however many writes fail.  cli_stdout_failed reports errno e of a write that just

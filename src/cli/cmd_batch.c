@@ -60,7 +60,9 @@ static const char help[] =
     "basis for the whole batch (-k, --klems; else the finest tensor-tree order among the batch's\n"
     "files; with no tree the Klems basis of the first Klems file; with panes only k = 5), and\n"
     "kept until the end.  The whole file and every layer are checked before the first stack is\n"
-    "combined.  A stack that fails is reported with its line number and the others go on; the\n"
+    "combined, and so are the outputs: two that name one file however spelt (a.xml, ./a.xml, a\n"
+    "link to it), or --summary or an output naming another output or FILE, are an error.  A\n"
+    "stack that fails is reported with its line number and the others go on; the\n"
     "exit status is then 1.  Each system is written as `combine -o OUT` writes it (a regular file\n"
     "atomically; its metadata names the layers, the batch line and its batch-key), and one line\n"
     "per stack on standard output gives OUT, the front T and R at normal incidence of the first\n"
@@ -558,6 +560,65 @@ int batch_options(int argc, char **argv, struct batch *b, int *jobs, const char 
     return CLI_OK;
 }
 
+/* One file the batch writes or reads, for batch_check_outputs: its key and who names it. */
+struct named_file {
+    char *key;
+    size_t who; /* a line's index, or one of: */
+};
+#define WHO_SUMMARY ((size_t)-1)
+#define WHO_BATCH ((size_t)-2)
+
+static int by_key(const void *a, const void *b)
+{
+    const struct named_file *x = a, *y = b;
+    int c = strcmp(x->key, y->key);
+    return c ? c : x->who < y->who ? -1 : x->who > y->who; /* lines first, in file order */
+}
+
+int batch_check_outputs(const char *sub, const char *path, const struct batch_file *bf,
+                        const char *summary)
+{
+    size_t n = 0;
+    struct named_file *f = malloc((bf->nlines + 2) * sizeof *f);
+    int rc = f ? CLI_OK : cli_fail(sub, "out of memory");
+    for (size_t i = 0; rc == CLI_OK && i < bf->nlines + 2; i++) {
+        size_t who = i < bf->nlines ? i : i == bf->nlines ? WHO_SUMMARY : WHO_BATCH;
+        const char *p = who == WHO_SUMMARY ? summary : who == WHO_BATCH ? path : bf->lines[i].out;
+        if (!p || (who == WHO_BATCH && strcmp(p, "-") == 0)) /* no summary; the batch on stdin */
+            continue;
+        if (!(f[n].key = cli_out_key(p)))
+            rc = cli_fail(sub, "out of memory");
+        else
+            f[n++].who = who;
+    }
+    if (rc == CLI_OK)
+        qsort(f, n, sizeof *f, by_key);
+    /* of the pairs that name one file, the one whose second name comes first in the file */
+    size_t first = n;
+    for (size_t i = 1; rc == CLI_OK && i < n; i++)
+        if (strcmp(f[i - 1].key, f[i].key) == 0 && (first == n || f[i].who < f[first].who))
+            first = i;
+    if (rc == CLI_OK && first < n) {
+        const struct named_file *a = &f[first - 1], *b = &f[first];
+        if (a->who == WHO_BATCH) /* then b is the summary: who sorts WHO_BATCH before it */
+            rc = cli_fail(sub, "--summary %s is the batch file %s", summary, path);
+        else if (b->who == WHO_BATCH)
+            rc = cli_fail(sub, "%s:%zu: the output '%s' is the batch file itself", path,
+                          bf->lines[a->who].lineno, bf->lines[a->who].out);
+        else if (b->who == WHO_SUMMARY)
+            rc = cli_fail(sub, "%s:%zu: the output '%s' is the --summary file %s", path,
+                          bf->lines[a->who].lineno, bf->lines[a->who].out, summary);
+        else
+            rc = cli_fail(sub, "%s:%zu: '%s' is the file line %zu writes already ('%s')", path,
+                          bf->lines[b->who].lineno, bf->lines[b->who].out, bf->lines[a->who].lineno,
+                          bf->lines[a->who].out);
+    }
+    for (size_t i = 0; i < n; i++)
+        free(f[i].key);
+    free(f);
+    return rc;
+}
+
 int cmd_batch(int argc, char **argv)
 {
     const char *sub = "batch";
@@ -571,6 +632,8 @@ int cmd_batch(int argc, char **argv)
         return free(b.argv), rc < 0 ? CLI_OK : rc;
     struct batch_file bf;
     rc = parse_file(sub, b.path, &bf);
+    if (rc == CLI_OK)
+        rc = batch_check_outputs(sub, b.path, &bf, summary);
     b.lines = bf.lines, b.nlines = bf.nlines, b.specs = bf.specs, b.nspecs = bf.nspecs;
     bst_ctx *ctx = rc == CLI_OK ? cli_ctx_new(sub) : NULL;
     if (rc == CLI_OK && !ctx)

@@ -674,10 +674,12 @@ int cmd_combine(int argc, char **argv)
         free(dirs), free(fine);
         return rc;
     }
+    int same = 0;
     if ((ndirs || dirfile) && abspath)
         rc = cli_usage(sub, "--incident and --absorptance do not go together");
-    else if (abspath && strcmp(abspath, outpath) == 0)
-        rc = cli_usage(sub, "--absorptance and -o name the same file, %s", outpath);
+    else if (abspath && (same = cli_out_same(abspath, outpath)) != 0)
+        rc = same < 0 ? cli_fail(sub, "out of memory")
+                      : cli_usage(sub, "--absorptance %s and -o %s name the same file", abspath, outpath);
     if (rc == CLI_OK && dirfile)
         rc = read_directions(sub, dirfile, &dirs, &ndirs, &cap);
     if (rc != CLI_OK) {
