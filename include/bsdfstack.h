@@ -606,6 +606,14 @@ int bst_output_flush(bst_output *o);
  * permission): opening the path would then fail too. */
 #define BST_OUTPUT_KEY_MAX 320
 int bst_output_key(bst_ctx *ctx, const char *path, char *key, size_t size);
+/* The temporary o writes (renamed over the file by commit, removed by abort), NULL when o writes
+ * its path directly: for a program's signal handler, which may remove it (unlink) and die. */
+const char *bst_output_temporary(const bst_output *o);
+/* Remove the temporaries that writers of paths[0..n-1] left behind, killed before they committed
+ * or aborted: PATH.tmpXXXXXX beside the file each path's links lead to, when no writer holds it
+ * (a writer locks its temporary, flock, from creation to rename).  Each directory is read once.
+ * *removed (may be NULL): how many.  Paths that name nothing to look into are passed over. */
+int bst_output_clean(bst_ctx *ctx, size_t n, const char *const *paths, size_t *removed);
 int bst_output_commit(bst_output *o);
 void bst_output_abort(bst_output *o);
 

@@ -12,6 +12,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -1581,6 +1583,79 @@ START_TEST(test_output_key)
 }
 END_TEST
 
+/* bst_output_clean removes what a killed writer left (PATH.tmpXXXXXX, unlocked) beside the file
+ * each path's links lead to, and nothing else: not a temporary a writer holds (locked), not one of
+ * another file, not a name that only looks alike, not a link or a directory of that name.  A
+ * writer's own temporary is locked from the start, so a clean during a write leaves it. */
+static void touch(const char *path)
+{
+    FILE *fp = fopen(path, "w");
+    ck_assert_ptr_nonnull(fp);
+    fclose(fp);
+}
+
+START_TEST(test_output_clean)
+{
+    char dir[] = "/tmp/bst_clean_XXXXXX", cwd[4096];
+    ck_assert_ptr_nonnull(mkdtemp(dir));
+    ck_assert_ptr_nonnull(getcwd(cwd, sizeof cwd));
+    ck_assert_int_eq(chdir(dir), 0);
+    ck_assert_int_eq(mkdir("sub", 0700), 0);
+    ck_assert_int_eq(symlink("../a.xml", "sub/link.xml"), 0);
+    static const char *const stale[] = {"a.xml.tmpAb12Z9", "a.xml.tmpzzzzzz", "b.xml.tmp000000",
+                                        "sub/c.xml.tmpQwErTy"};
+    static const char *const kept[] = {"a.xml.tmpAb12Z", "a.xml.tmp-b12Z9", "a.xmltmpAb12Z9",
+                                       "x.xml.tmpAb12Z9", "sub/a.xml.tmpAb12Z9", "a.xml.tmpHELD00"};
+    for (size_t i = 0; i < sizeof stale / sizeof stale[0]; i++)
+        touch(stale[i]);
+    for (size_t i = 0; i < sizeof kept / sizeof kept[0]; i++)
+        touch(kept[i]);
+    ck_assert_int_eq(symlink("a.xml", "a.xml.tmpLINK00"), 0);
+    ck_assert_int_eq(mkdir("a.xml.tmpDIR000", 0700), 0);
+    int held = open("a.xml.tmpHELD00", O_RDONLY);
+    ck_assert_int_ge(held, 0);
+    ck_assert_int_eq(flock(held, LOCK_EX), 0); /* a writer still at work */
+    /* a.xml through a link in sub/, b.xml twice, c.xml in sub/, and paths with nothing to look at */
+    const char *paths[] = {"sub/link.xml", "b.xml", "./b.xml", "sub/c.xml", "nowhere/d.xml", "", NULL};
+    size_t removed = 99;
+    ck_assert_int_eq(bst_output_clean(ctx, sizeof paths / sizeof paths[0], paths, &removed), BST_OK);
+    ck_assert_uint_eq(removed, sizeof stale / sizeof stale[0]);
+    struct stat st;
+    for (size_t i = 0; i < sizeof stale / sizeof stale[0]; i++)
+        ck_assert_msg(lstat(stale[i], &st) != 0, "%s left", stale[i]);
+    for (size_t i = 0; i < sizeof kept / sizeof kept[0]; i++)
+        ck_assert_msg(lstat(kept[i], &st) == 0, "%s removed", kept[i]);
+    ck_assert_int_eq(lstat("a.xml.tmpLINK00", &st), 0);
+    ck_assert_int_eq(lstat("a.xml.tmpDIR000", &st), 0);
+    close(held); /* its writer killed: the next clean takes it */
+    ck_assert_int_eq(bst_output_clean(ctx, 1, paths, &removed), BST_OK);
+    ck_assert_uint_eq(removed, 1);
+    ck_assert_int_ne(lstat("a.xml.tmpHELD00", &st), 0);
+    /* a writer's temporary, locked from its creation: a clean in the middle of the write keeps
+     * it, and the write ends as it would have */
+    bst_output *o;
+    ck_assert_int_eq(bst_output_open(ctx, "a.xml", &o), BST_OK);
+    fputs("written\n", bst_output_file(o));
+    const char *tmp = bst_output_temporary(o);
+    ck_assert_ptr_nonnull(tmp);
+    ck_assert_int_eq(bst_output_clean(ctx, 1, paths, &removed), BST_OK);
+    ck_assert_uint_eq(removed, 0);
+    ck_assert_int_eq(stat(tmp, &st), 0);
+    ck_assert_int_eq(bst_output_commit(o), BST_OK);
+    ck_assert_int_eq(stat("a.xml", &st), 0);
+    ck_assert_int_eq(st.st_size, 8);
+    static const char *const made[] = {"a.xml.tmpAb12Z", "a.xml.tmp-b12Z9", "a.xmltmpAb12Z9",
+                                       "x.xml.tmpAb12Z9", "sub/a.xml.tmpAb12Z9", "a.xml.tmpLINK00",
+                                       "sub/link.xml", "a.xml"};
+    for (size_t i = 0; i < sizeof made / sizeof made[0]; i++)
+        ck_assert_msg(unlink(made[i]) == 0, "%s", made[i]);
+    ck_assert_int_eq(rmdir("a.xml.tmpDIR000"), 0);
+    ck_assert_int_eq(rmdir("sub"), 0);
+    ck_assert_int_eq(chdir(cwd), 0);
+    ck_assert_int_eq(rmdir(dir), 0);
+}
+END_TEST
+
 /* Every allocation of the writer failing in turn: BST_ENOMEM each time, nothing leaked. */
 START_TEST(test_write_alloc_failures)
 {
@@ -1624,6 +1699,7 @@ static Suite *suite(void)
     tcase_add_test(tc, test_format);
     tcase_add_test(tc, test_write_path_kinds);
     tcase_add_test(tc, test_output_key);
+    tcase_add_test(tc, test_output_clean);
     tcase_add_test(tc, test_examples_rank4);
     tcase_add_test(tc, test_examples_rank3);
     tcase_add_test(tc, test_examples_read_back);

@@ -57,6 +57,11 @@ int batch_options(int argc, char **argv, struct batch *b, int *jobs, const char 
  * batch file at path itself.  CLI_OK, or one error line naming the two (exit status 1). */
 int batch_check_outputs(const char *sub, const char *path, const struct batch_file *bf,
                         const char *summary);
+/* Remove the temporaries (OUT.tmpXXXXXX) that writers of lines[0..n-1]'s outputs left behind,
+ * killed (bst_output_clean), saying how many on stderr: --resume, and a worker that died.  CLI_OK
+ * or one error line (out of memory). */
+int batch_clean_temporaries(bst_ctx *ctx, const struct batch *b, const struct batch_line *lines,
+                            size_t n);
 /* Seconds since t0 (CLOCK_MONOTONIC). */
 double batch_since(const struct timespec *t0);
 /* "batch-key: fnv1a64 HEX" of line sl into key[0..size-1]. */

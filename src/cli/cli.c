@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include "cli.h"
+#include "interrupt.h"
 
 static void vreport(const char *sub, const char *fmt, va_list ap)
 {
@@ -129,6 +130,7 @@ int cli_out_open(struct cli_out *o, const char *sub, const char *path)
         bst_output_open(o->ctx, path, &o->out) < 0)
         return out_fail(o, sub);
     o->fp = bst_output_file(o->out);
+    o->held = cli_interrupt_hold(bst_output_temporary(o->out)) + 1; /* a signal removes it */
     return CLI_OK;
 }
 
@@ -193,6 +195,7 @@ int cli_out_fail_ctx(struct cli_out *o, const char *sub, bst_ctx *ctx)
 void cli_out_abort(struct cli_out *o)
 {
     bst_output_abort(o->out);
+    cli_interrupt_release(o->held - 1); /* renamed into place or removed by now */
     bst_ctx_free(o->ctx);
     free(o->path);
     memset(o, 0, sizeof *o);

@@ -61,6 +61,7 @@ struct cli_out {
     bst_output *out; /* NULL for standard output */
     bst_ctx *ctx;    /* out's messages */
     char *path;      /* as given, for messages; NULL for standard output */
+    int held;        /* the temporary's slot for a signal (interrupt.h) + 1; 0: none */
 };
 /* Open path for writing; CLI_OK, or one error line printed and nothing left behind. */
 int cli_out_open(struct cli_out *o, const char *sub, const char *path);

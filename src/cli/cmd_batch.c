@@ -40,6 +40,7 @@
 #include <unistd.h>
 
 #include "batch.h"
+#include "interrupt.h"
 
 #ifdef HAVE_OPENBLAS_SET_NUM_THREADS
 void openblas_set_num_threads(int num_threads); /* OpenBLAS's cblas.h */
@@ -71,13 +72,15 @@ static const char help[] =
     "\n"
     "  -j, --jobs N      combine N stacks at once, in N processes sharing the loaded layers,\n"
     "                    each with max(1, cores / N) OpenBLAS threads (default 1); standard\n"
-    "                    output's lines then come in the order the stacks end\n"
+    "                    output's lines then come in the order the stacks end; a signal to\n"
+    "                    the batch (INT, TERM, HUP) is passed on, and workers die with it\n"
     "      --summary FILE  one tab-separated row per stack: line, output, status (ok, failed,\n"
     "                    skipped), seconds, peak_rss_kib (the peak resident memory of the process\n"
     "                    that combined it, so far), T_normal and R_normal (front, at normal\n"
     "                    incidence, CHANNEL=VALUE per channel), warnings\n"
     "      --resume      skip a stack whose OUT exists, is complete and holds the batch-key of\n"
-    "                    the same line, layer files (size, time) and options\n"
+    "                    the same line, layer files (size, time) and options; first remove\n"
+    "                    the temporaries (OUT.tmpXXXXXX) a killed writer left\n"
     "\n"
     "Other options: as for `bsdfstack combine`.\n"
     "Over the ranks of an MPI job (bsdfstack-mpi, built when configure finds MPI):\n"
@@ -346,6 +349,23 @@ static void work(bst_ctx *ctx, const struct batch *b, struct shared *sh)
     }
 }
 
+int batch_clean_temporaries(bst_ctx *ctx, const struct batch *b, const struct batch_line *lines,
+                            size_t n)
+{
+    const char **paths = malloc((n ? n : 1) * sizeof *paths);
+    if (!paths)
+        return cli_fail(b->sub, "out of memory");
+    for (size_t i = 0; i < n; i++)
+        paths[i] = lines[i].out;
+    size_t removed = 0;
+    int rc = bst_output_clean(ctx, n, paths, &removed) < 0 ? cli_fail_ctx(b->sub, NULL, ctx) : CLI_OK;
+    free(paths);
+    if (removed)
+        fprintf(stderr, "bsdfstack %s: removed %zu temporar%s that a killed writer left beside %s\n",
+                b->sub, removed, removed == 1 ? "y" : "ies", n == 1 ? lines[0].out : "the outputs");
+    return rc;
+}
+
 /* The CPUs this process may run on. */
 int batch_cores(void)
 {
@@ -364,8 +384,10 @@ static void run_all(bst_ctx *ctx, struct batch *b, struct shared *sh, int jobs)
         work(ctx, b, sh);
         return;
     }
-    pid_t *pid = calloc((size_t)jobs, sizeof *pid);
-    int started = 0;
+    pid_t *pid = calloc((size_t)jobs, sizeof *pid), parent = getpid();
+    static volatile int started; /* read by the signal handler, which passes a signal on */
+    started = 0;
+    cli_interrupt_workers(pid, &started);
     fflush(NULL); /* nothing buffered is written twice */
     while (pid && started < jobs) {
         pid_t p = fork();
@@ -375,6 +397,7 @@ static void run_all(bst_ctx *ctx, struct batch *b, struct shared *sh, int jobs)
             break;
         }
         if (p == 0) {
+            cli_interrupt_worker_started(parent); /* dies with the batch, even of SIGKILL */
 #ifdef HAVE_OPENBLAS_SET_NUM_THREADS
             /* OPENBLAS_NUM_THREADS, when set, wins (as under bsdfstack-mpi): the last bit of some
                products follows the thread count, so equal counts give byte-identical files */
@@ -392,6 +415,7 @@ static void run_all(bst_ctx *ctx, struct batch *b, struct shared *sh, int jobs)
         pid[started++] = p;
     }
     if (started == 0) {
+        cli_interrupt_workers(NULL, NULL);
         b->progress = isatty(STDERR_FILENO);
         work(ctx, b, sh);
         free(pid);
@@ -412,6 +436,9 @@ static void run_all(bst_ctx *ctx, struct batch *b, struct shared *sh, int jobs)
             continue;
         }
         left--;
+        for (int w = 0; w < started; w++)
+            if (pid[w] == p)
+                pid[w] = 0; /* reaped: its number may be another process's now */
         for (size_t i = 0; i < b->nlines; i++) {
             struct stack_result *r = &sh->res[i];
             if (r->worker != p || atomic_load(&r->state) != ST_RUNNING)
@@ -423,6 +450,7 @@ static void run_all(bst_ctx *ctx, struct batch *b, struct shared *sh, int jobs)
                 snprintf(how, sizeof how, "exit status %d", WEXITSTATUS(status));
             cli_fail(b->sub, "%s:%zu: the worker combining this stack ended by %s", b->path,
                      b->lines[i].lineno, how);
+            batch_clean_temporaries(ctx, b, &b->lines[i], 1); /* killed: it may have left one */
             atomic_store(&r->state, ST_FAILED);
             atomic_fetch_add(&sh->failed, 1);
             atomic_fetch_add(&sh->done, 1);
@@ -430,6 +458,7 @@ static void run_all(bst_ctx *ctx, struct batch *b, struct shared *sh, int jobs)
     }
     if (tty)
         progress(b, sh, 1);
+    cli_interrupt_workers(NULL, NULL);
     free(pid);
 }
 
@@ -644,6 +673,8 @@ int cmd_batch(int argc, char **argv)
     if (rc == CLI_OK)
         rc = cli_layers_load(&b.all, ctx, sub, b.nspecs, b.specs, &b.args.basis, b.args.channels, 0,
                              b.args.so.precision);
+    if (rc == CLI_OK && b.resume) /* what a killed run left behind */
+        rc = batch_clean_temporaries(ctx, &b, b.lines, b.nlines);
     struct cli_out sum;
     memset(&sum, 0, sizeof sum);
     if (rc == CLI_OK && summary)
