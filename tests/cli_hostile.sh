@@ -1,9 +1,11 @@
 # cli_hostile.sh - hostile and unlucky input, round two (issue #34): every command that reads a
 # BSDF file refuses one that mixes kinds of scattering data; compare refuses a bad table of
 # combine --incident with one line; names that are not UTF-8 leave outputs that read back;
-# two outputs of one command that name one file are refused, however spelt; ...
+# two outputs of one command that name one file are refused, however spelt; a NUL byte in a
+# line of a text input is an error, not the end of the line; ...
 . "${BST_SRCDIR:-.}/tests/clitest.sh"
 B=$BSDFSTACK
+from() { local f=$1; shift; "$@" < "$f"; } # for expect_error: a command reading FILE
 regress=$BST_SRCDIR/tests/fuzz/regress/xml
 d=$tmpdir/o
 mkdir "$d" || exit 99
@@ -93,6 +95,34 @@ expect_error "plot --tsv - -o -" "both write to standard output" -- "$B" plot --
     fail "written: $(ls)"
 expect_status 0 "--absorptance and -o two files" -- \
     "$B" combine -k 1 --absorptance a.tsv -o b.xml glass:clear-6mm
+cd - > /dev/null || exit 99
+
+# --- a NUL byte in a line of any text input is refused, naming the line and column (the rest of
+# the line was dropped: a one-pane stack written and reported ok)
+z=$tmpdir/z
+mkdir "$z" || exit 99
+cd "$z" || exit 99
+printf '# two panes\nz.xml glass:clear-6mm\000 glass:clear-6mm\n' > nul.batch
+expect_error "batch: a NUL byte" "nul\.batch:2: a NUL byte at column 22" -- "$B" batch -k 1 nul.batch
+[ ! -e z.xml ] && pass "batch: nothing written" || fail "batch wrote z.xml"
+printf '0 0\n10 0\000 junk\n' > nul.dirs
+expect_error "combine --incident-file: a NUL byte" "nul\.dirs:2: a NUL byte at column 5" -- \
+    "$B" combine -k 1 --incident-file nul.dirs glass:clear-6mm -o z.tsv
+{ head -c 100000 /dev/zero | tr '\000' 1; printf ' 0\n5 5\n'; } > long.dirs
+expect_error "combine --incident-file: a 100 kB line is line 1" "long\.dirs:1: give THETA PHI" -- \
+    "$B" combine -k 1 --incident-file long.dirs glass:clear-6mm -o z.tsv
+printf '0 0\n' | "$B" combine -k 1 --incident-file - glass:clear-6mm -o ok.tsv 2> /dev/null ||
+    fail "combine --incident"
+sed '3s/$/X/' ok.tsv | tr X '\000' > nul.tsv
+expect_error "compare: a NUL byte in a table" "nul\.tsv:3: a NUL byte" -- "$B" compare nul.tsv ok.tsv
+expect_error "plot: a NUL byte in a table" "nul\.tsv:3: a NUL byte" -- "$B" plot -o z.png nul.tsv
+"$B" combine -k 1 glass:clear-6mm -o q.xml 2> /dev/null || fail "combine q.xml"
+printf '0 0 -1 0.1 0.1 1\000 junk\n' > nul.query
+expect_error "query: a NUL byte on standard input" "standard input:1: a NUL byte at column 17" -- \
+    from nul.query "$B" query q.xml
+mkdir cat && printf 'description two channels\nVisible d=6mm,n=1.52,tn=0.890\000\nSolar d=6mm,n=1.52,tn=0.790\n' > cat/nul.glass
+expect_error "glass: a NUL byte in a catalogue file" "nul\.glass: line 2 holds a NUL byte" -- \
+    env BSDFSTACK_GLASS_DIR="$z/cat" "$B" glass nul
 cd - > /dev/null || exit 99
 
 finish

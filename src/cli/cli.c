@@ -267,6 +267,20 @@ void cli_blas_setup(void)
     cli_blas_rest();
 }
 
+ssize_t cli_read_line(const char *sub, const char *name, long ln, char **buf, size_t *cap, FILE *fp)
+{
+    ssize_t len = getline(buf, cap, fp);
+    if (len < 0)
+        return -1;
+    const char *nul = memchr(*buf, '\0', (size_t)len);
+    if (nul) {
+        cli_fail(sub, "%s:%ld: a NUL byte at column %zu: not a text line", name, ln,
+                 (size_t)(nul - *buf) + 1);
+        return -2;
+    }
+    return len;
+}
+
 int cli_parse_double(const char *s, double *out)
 {
     char *end;

@@ -5,6 +5,7 @@
 #define BST_CLI_H
 
 #include <stdio.h>
+#include <sys/types.h>
 #include "bsdfstack.h"
 
 /* Exit statuses of the program. */
@@ -101,6 +102,11 @@ void cli_blas_rest(void);
 /* At the start: OpenBLAS's workers to spin about 0.3 ms after a job instead of 0.1 s, unless the
  * user's OPENBLAS_THREAD_TIMEOUT says otherwise (cli.c), then cli_blas_rest. */
 void cli_blas_setup(void);
+
+/* One line of a text input (getline: any length, into *buf, its newline kept): its length, -1 at
+ * the end of the input (or a read error: ferror says), or -2 after one error line "NAME:LN: a NUL
+ * byte at column C" (what followed a NUL would be dropped unseen by string functions). */
+ssize_t cli_read_line(const char *sub, const char *name, long ln, char **buf, size_t *cap, FILE *fp);
 
 /* Parse a double / int option value strictly (the whole string, finite). 0 on success. */
 int cli_parse_double(const char *s, double *out);

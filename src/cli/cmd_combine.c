@@ -284,11 +284,18 @@ static int read_directions(const char *sub, const char *path, double (**dirs)[2]
     FILE *fp = strcmp(path, "-") == 0 ? stdin : fopen(path, "r");
     if (!fp)
         return cli_fail(sub, "%s: cannot open: %s", path, strerror(errno));
-    char line[256];
+    const char *name = fp == stdin ? "standard input" : path;
+    char *line = NULL;
+    size_t size = 0;
+    ssize_t got;
     int rc = CLI_OK;
-    for (long ln = 1; rc == CLI_OK && fgets(line, sizeof line, fp); ln++) {
+    for (long ln = 1; rc == CLI_OK && (got = cli_read_line(sub, name, ln, &line, &size, fp)) != -1; ln++) {
+        if (got < 0) {
+            rc = CLI_FAIL;
+            break;
+        }
         char *p = line + strspn(line, " \t");
-        if (*p == '#' || *p == '\n' || *p == '\0')
+        if (*p == '#' || *p == '\n' || *p == '\r' || *p == '\0')
             continue;
         double t, f;
         char extra[2];
@@ -315,10 +322,10 @@ static int read_directions(const char *sub, const char *path, double (**dirs)[2]
         (*dirs)[*n][0] = t, (*dirs)[(*n)++][1] = f;
     }
     if (rc == CLI_OK && ferror(fp))
-        rc = cli_fail(sub, "%s: read error: %s", fp == stdin ? "standard input" : path,
-                      strerror(errno ? errno : EIO));
+        rc = cli_fail(sub, "%s: read error: %s", name, strerror(errno ? errno : EIO));
     if (rc == CLI_OK && *n == 0)
         rc = cli_fail(sub, "%s: no directions", path);
+    free(line);
     if (fp != stdin)
         fclose(fp);
     return rc;

@@ -106,10 +106,16 @@ static int check_directions(const char *sub, const char *path, const struct cli_
     FILE *fp = fopen(path, "r");
     if (!fp)
         return cli_fail(sub, "%s: cannot open: %s", path, strerror(errno));
-    char line[LINE_MAX_TSV];
+    char *line = NULL;
+    size_t size = 0;
     struct row r;
     int rc = CLI_OK;
-    for (long ln = 1; rc == CLI_OK && fgets(line, sizeof line, fp); ln++) {
+    ssize_t got;
+    for (long ln = 1; rc == CLI_OK && (got = cli_read_line(sub, path, ln, &line, &size, fp)) != -1; ln++) {
+        if (got < 0) {
+            rc = CLI_FAIL;
+            break;
+        }
         if (ln == 1 || line[0] == '\n' || line[0] == '#')
             continue;
         if (parse_row(line, &r) != 0)
@@ -136,6 +142,7 @@ static int check_directions(const char *sub, const char *path, const struct cli_
             }
         }
     }
+    free(line);
     fclose(fp);
     return rc;
 }
@@ -146,16 +153,24 @@ int cli_tsv_read(const char *sub, bst_ctx *ctx, const char *path, struct cli_tsv
     FILE *fp = fopen(path, "r");
     if (!fp)
         return cli_fail(sub, "%s: cannot open: %s", path, strerror(errno));
-    char line[LINE_MAX_TSV];
+    char *line = NULL;
+    size_t size = 0;
     struct row r;
     size_t cap = 0, fill = 0, bcap = 0; /* fill: rows of the open (last) column */
     int rc = CLI_OK;
     long ln = 1;
-    if (!fgets(line, sizeof line, fp) || strncmp(line, CLI_TSV_HEADER, sizeof CLI_TSV_HEADER - 1) != 0)
+    ssize_t got = cli_read_line(sub, path, ln, &line, &size, fp);
+    if (got == -2)
+        rc = CLI_FAIL;
+    else if (got < 0 || strncmp(line, CLI_TSV_HEADER, sizeof CLI_TSV_HEADER - 1) != 0)
         rc = cli_fail(sub, "%s: not a TSV of combine --incident (its first line is not the header)", path);
     /* columns in the order written: rows of one column are consecutive, patch_out 0, 1, ... */
-    while (rc == CLI_OK && fgets(line, sizeof line, fp)) {
+    while (rc == CLI_OK && (got = cli_read_line(sub, path, ln + 1, &line, &size, fp)) != -1) {
         ln++;
+        if (got < 0) {
+            rc = CLI_FAIL;
+            break;
+        }
         if (line[0] == '\n' || line[0] == '#')
             continue;
         if (parse_row(line, &r) != 0) {
@@ -231,6 +246,7 @@ int cli_tsv_read(const char *sub, bst_ctx *ctx, const char *path, struct cli_tsv
     if (rc == CLI_OK && !(t->basis = cli_tsv_basis_of(ctx, t->n)))
         rc = cli_fail(sub, "%s: %zu exit patches per column: no basis has that many (4^k for "
                       "Shirley-Chiu, 145, 77 or 41 for Klems)", path, t->n);
+    free(line);
     fclose(fp);
     if (rc == CLI_OK)
         rc = check_directions(sub, path, t);
