@@ -209,7 +209,9 @@ int bst_basis_order(const bst_basis *b);
 const char *bst_basis_name(const bst_basis *b);
 /* Projected solid angle of every patch (sr), length bst_basis_size. */
 const double *bst_basis_lambda(const bst_basis *b);
-/* Patch of a direction (only dir[0], dir[1] are used; |(x, y)| <= 1). */
+/* Patch of a direction (only dir[0], dir[1] are used; |(x, y)| <= 1, a longer (x, y) taken at
+ * the rim).  A direction whose x or y is not finite has none: bst_basis_size(b) is returned, which
+ * every function taking a patch refuses (BST_EINVAL). */
 size_t bst_basis_patch(const bst_basis *b, const double dir[3]);
 /* Centre direction of a patch: unit vector with z >= 0. */
 void bst_basis_center(const bst_basis *b, size_t patch, double dir[3]);
@@ -691,7 +693,8 @@ void bst_sun_position(const bst_sun_site *site, int jd, double st, double *altit
  * window_azimuth (as the sun's: 0 = the window faces south, 90 = west): its propagation direction
  * (theta, phi) in this header's frame (+Z into the room, Y up, X to the right seen from the room),
  * as combine's --incident takes it.  Returns 1 when the sun is in front of the window and above
- * the horizon (theta < 90), else 0 (theta, phi still set). */
+ * the horizon (theta < 90), else 0 (theta, phi still set); 0 also for an angle that is not
+ * finite. */
 int bst_sun_incident(double altitude, double azimuth, double window_azimuth, double *theta,
                      double *phi);
 /* The sun positions of a year in front of the window: every `step_min` minutes of standard time

@@ -51,22 +51,12 @@ import warnings
 import numpy as np
 
 from . import _lib
-from ._lib import lib, text, cstr, cstr_array, COMPS
+from ._lib import lib, text, cstr, cstr_array, COMPS, Error
 
 __version__ = text(lib.bst_version())
 
 __all__ = ["Error", "LibraryWarning", "BSDF", "Stack", "Glass", "Comparison", "load", "glass",
            "combine", "columns", "Columns", "compare", "version", "library_path"]
-
-
-class Error(Exception):
-    """An error of libbsdfstack (its message; .status is the bst_status code, 0 for errors found
-    by this package before any library call)."""
-
-    def __init__(self, message, status=0):
-        super().__init__(message)
-        self.status = status
-        self.message = message
 
 
 class LibraryWarning(UserWarning):
@@ -212,7 +202,12 @@ def _precision(p):
 
 def _direction(theta, phi):
     """The unit vector of a propagation direction (theta, phi) in degrees, nudged off cell
-    boundaries onto the +x, +y side as the program's info and compare do."""
+    boundaries onto the +x, +y side as the program's info and compare do.  As the program's
+    --incident: finite, 0 <= theta < 90 (NaN gave patch 2^63 and garbage), else Error."""
+    theta, phi = float(theta), float(phi)
+    if not (math.isfinite(theta) and math.isfinite(phi) and 0.0 <= theta < 90.0):
+        raise Error("direction (%r, %r): give theta and phi in degrees, finite, 0 <= theta < 90"
+                    % (theta, phi))
     t, p = math.radians(theta), math.radians(phi)
     return (ctypes.c_double * 3)(math.sin(t) * math.cos(p) + 1e-9, math.sin(t) * math.sin(p) + 1e-9,
                                  math.cos(t))

@@ -42,6 +42,41 @@ def test_mixed_kinds(name):
     assert str(e.value) in cli_error("info", path)
 
 
+BAD_DIRECTIONS = [(float("nan"), 0), (0, float("nan")), (float("inf"), 0), (0, float("-inf")),
+                  (90, 0), (-1, 0)]
+
+
+@pytest.mark.parametrize("theta,phi", BAD_DIRECTIONS)
+def test_direction_not_finite_or_out_of_range(pane, theta, phi):
+    """Every call taking a direction refuses NaN, infinity and theta outside [0, 90) as the
+    program's --incident does (NaN was patch 2^63, inf a value of some patch)."""
+    s = bsdfstack.combine([pane], k=2)
+    calls = [lambda: s.patch(theta, phi), lambda: s.hemispherical("Tf", theta, phi),
+             lambda: s.hemispherical("Tf", [0, theta], [0, phi]),
+             lambda: bsdfstack.columns([pane], [(theta, phi)], k=2),
+             lambda: bsdfstack.compare(pane, pane, k=2, incident=[(theta, phi)])]
+    for call in calls:
+        with pytest.raises(bsdfstack.Error, match="0 <= theta < 90"):
+            call()
+
+
+def test_nul_in_a_name(tmp_path, pane):
+    """A path or name with a NUL inside is refused, not cut at the NUL (load read a.xml for
+    'a.xml\\0b')."""
+    good = tmp_path / "a.xml"
+    s = bsdfstack.combine([pane], k=1)
+    s.write(good)
+    for bad in (str(good) + "\0b", os.fsencode(good) + b"\0b"):
+        with pytest.raises(bsdfstack.Error, match="NUL"):
+            bsdfstack.load(bad)
+        with pytest.raises(bsdfstack.Error, match="NUL"):
+            s.write(bad)
+    with pytest.raises(bsdfstack.Error, match="NUL"):
+        bsdfstack.glass("clear-6mm\0x")
+    with pytest.raises(bsdfstack.Error, match="NUL"):
+        s.hemispherical("Tf", channel="Visible\0x")
+
+
 def test_unknown_glass():
     with pytest.raises(bsdfstack.Error) as e:
         bsdfstack.glass("no-such-pane")
