@@ -2,7 +2,7 @@
 # BSDF file refuses one that mixes kinds of scattering data; compare refuses a bad table of
 # combine --incident with one line; names that are not UTF-8 leave outputs that read back;
 # two outputs of one command that name one file are refused, however spelt; a NUL byte in a
-# line of a text input is an error, not the end of the line; ...
+# line of a text input is an error, not the end of the line; --resume does not wait on a FIFO; ...
 . "${BST_SRCDIR:-.}/tests/clitest.sh"
 B=$BSDFSTACK
 from() { local f=$1; shift; "$@" < "$f"; } # for expect_error: a command reading FILE
@@ -124,5 +124,18 @@ mkdir cat && printf 'description two channels\nVisible d=6mm,n=1.52,tn=0.890\000
 expect_error "glass: a NUL byte in a catalogue file" "nul\.glass: line 2 holds a NUL byte" -- \
     env BSDFSTACK_GLASS_DIR="$z/cat" "$B" glass nul
 cd - > /dev/null || exit 99
+
+# --- --resume with an output that is a FIFO: the up-to-date check does not open it to read (it
+# waited for a writer for ever); the stack is written into the FIFO again
+f=$tmpdir/f
+mkdir "$f" || exit 99
+mkfifo "$f/out.fifo"
+printf '%s glass:clear-6mm\n' "$f/out.fifo" > "$f/fifo.batch"
+timeout 70 cat "$f/out.fifo" > "$f/read.xml" &  # bounded: a failing check must not hang here
+reader=$!
+expect_status 0 "batch --resume, a FIFO output: no hang" -- timeout 60 "$B" batch -k 1 --resume "$f/fifo.batch"
+wait "$reader"
+grep -q '</WindowElement>' "$f/read.xml" && pass "the stack went through the FIFO" || fail "FIFO got $(wc -c < "$f/read.xml") bytes"
+[ -p "$f/out.fifo" ] && pass "the FIFO is still a FIFO" || fail "out.fifo replaced"
 
 finish

@@ -66,7 +66,8 @@ int batch_clean_temporaries(bst_ctx *ctx, const struct batch *b, const struct ba
 double batch_since(const struct timespec *t0);
 /* "batch-key: fnv1a64 HEX" of line sl into key[0..size-1]. */
 void batch_key(const struct batch *b, const struct batch_line *sl, char *key, size_t size);
-/* Whether path is complete and holds key_text (--resume may skip its stack). */
+/* Whether path is a regular file, complete, holding key_text (--resume may skip its stack); a
+ * FIFO or device is never read (opened without waiting, then passed over). */
 int batch_up_to_date(const char *path, const char *key_text);
 /* Combine and write one stack, or skip it (--resume); ST_OK, ST_SKIPPED, or ST_FAILED after one
  * error line naming FILE:LINE.  The result goes to r.  The layers b->all.layers[sl->layer[i]]

@@ -23,6 +23,7 @@
 #include <config.h>
 
 #include <errno.h>
+#include <fcntl.h>
 #include <getopt.h>
 #include <inttypes.h>
 #include <math.h>
@@ -78,7 +79,7 @@ static const char help[] =
     "                    skipped), seconds, peak_rss_kib (the peak resident memory of the process\n"
     "                    that combined it, so far), T_normal and R_normal (front, at normal\n"
     "                    incidence, CHANNEL=VALUE per channel), warnings\n"
-    "      --resume      skip a stack whose OUT exists, is complete and holds the batch-key of\n"
+    "      --resume      skip a stack whose OUT is a regular file, complete, with the batch-key of\n"
     "                    the same line, layer files (size, time) and options; first remove\n"
     "                    the temporaries (OUT.tmpXXXXXX) a killed writer left\n"
     "\n"
@@ -167,9 +168,17 @@ void batch_key(const struct batch *b, const struct batch_line *sl, char *key, si
 int batch_up_to_date(const char *path, const char *key_text)
 {
     static const char last[] = "</WindowElement>\n";
-    FILE *fp = fopen(path, "rb");
-    if (!fp)
+    /* only a regular file can be complete: a FIFO, a terminal or another device is written
+     * again, and is never read here (opening a FIFO to read waited for a writer for ever) */
+    int fd = open(path, O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
+    struct stat st;
+    if (fd < 0)
         return 0;
+    FILE *fp = fstat(fd, &st) == 0 && S_ISREG(st.st_mode) ? fdopen(fd, "rb") : NULL;
+    if (!fp) {
+        close(fd);
+        return 0;
+    }
     char *head = malloc(65536), tail[sizeof last];
     size_t n = head ? fread(head, 1, 65535, fp) : 0;
     int ok = 0;
