@@ -2,7 +2,8 @@
 # BSDF file refuses one that mixes kinds of scattering data; compare refuses a bad table of
 # combine --incident with one line; names that are not UTF-8 leave outputs that read back;
 # two outputs of one command that name one file are refused, however spelt; a NUL byte in a
-# line of a text input is an error, not the end of the line; --resume does not wait on a FIFO; ...
+# line of a text input is an error, not the end of the line; --resume does not wait on a FIFO;
+# a malformed SOURCE_DATE_EPOCH is an error before any work; ...
 . "${BST_SRCDIR:-.}/tests/clitest.sh"
 B=$BSDFSTACK
 from() { local f=$1; shift; "$@" < "$f"; } # for expect_error: a command reading FILE
@@ -137,5 +138,25 @@ expect_status 0 "batch --resume, a FIFO output: no hang" -- timeout 60 "$B" batc
 wait "$reader"
 grep -q '</WindowElement>' "$f/read.xml" && pass "the stack went through the FIFO" || fail "FIFO got $(wc -c < "$f/read.xml") bytes"
 [ -p "$f/out.fifo" ] && pass "the FIFO is still a FIFO" || fail "out.fifo replaced"
+
+# --- a malformed SOURCE_DATE_EPOCH is an error, before the work (the current date was written)
+e=$tmpdir/e
+mkdir "$e" || exit 99
+printf '%s glass:clear-6mm\n' "$e/b.xml" > "$e/e.batch"
+"$B" combine -k 1 glass:clear-6mm -o "$e/in.xml" 2> /dev/null || fail "combine in.xml"
+for v in -1 abc 1e20 99999999999999999999 ' 5' 253402300800; do
+    expect_error "combine, SOURCE_DATE_EPOCH='$v'" "SOURCE_DATE_EPOCH '$v' is not a whole number of seconds" -- \
+        env SOURCE_DATE_EPOCH="$v" "$B" combine -k 1 glass:clear-6mm -o "$e/a.xml"
+done
+expect_error "convert, SOURCE_DATE_EPOCH=abc" "SOURCE_DATE_EPOCH 'abc'" -- \
+    env SOURCE_DATE_EPOCH=abc "$B" convert -k 1 "$e/in.xml" -o "$e/a.xml"
+expect_error "batch, SOURCE_DATE_EPOCH=abc" "SOURCE_DATE_EPOCH 'abc'" -- \
+    env SOURCE_DATE_EPOCH=abc "$B" batch -k 1 "$e/e.batch"
+[ ! -e "$e/a.xml" ] && [ ! -e "$e/b.xml" ] && pass "nothing written" || fail "written: $(ls "$e")"
+expect_status 0 "SOURCE_DATE_EPOCH=253402300799" -- \
+    env SOURCE_DATE_EPOCH=253402300799 "$B" combine -k 1 glass:clear-6mm -o "$e/a.xml"
+grep -q "on 9999-12-31T23:59:59Z" "$e/a.xml" && pass "the last date written" || fail "date: $(grep -m1 ' on ' "$e/a.xml")"
+expect_status 0 "SOURCE_DATE_EPOCH empty: the current date" -- \
+    env SOURCE_DATE_EPOCH= "$B" combine -k 1 glass:clear-6mm -o "$e/a.xml"
 
 finish

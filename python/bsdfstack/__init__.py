@@ -456,13 +456,20 @@ class BSDF:
         return None
 
 
+_LAST_SOURCE_DATE = 253402300799  # 9999-12-31T23:59:59Z, as the program
+
+
 def _epoch_date():
-    """$SOURCE_DATE_EPOCH as an ISO 8601 UTC date, as the program reads it; None when unset."""
+    """$SOURCE_DATE_EPOCH as an ISO 8601 UTC date, as the program reads it; None when unset or
+    empty.  A malformed value is an Error, as the program's (reproducible-builds.org asks it)."""
     epoch = os.environ.get("SOURCE_DATE_EPOCH", "")
-    if epoch.isdigit():
+    if not epoch:
+        return None
+    if epoch.isascii() and epoch.isdigit() and int(epoch) <= _LAST_SOURCE_DATE:
         import time
         return time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(int(epoch)))
-    return None
+    raise Error("SOURCE_DATE_EPOCH %r is not a whole number of seconds since 1970 (0 to %d): unset "
+                "it or give one" % (epoch, _LAST_SOURCE_DATE))
 
 
 # ------------------------------------------------------------------------- sources of layers

@@ -77,6 +77,17 @@ def test_nul_in_a_name(tmp_path, pane):
         s.hemispherical("Tf", channel="Visible\0x")
 
 
+@pytest.mark.parametrize("epoch", ["-1", "abc", "1e20", "253402300800", "\u00b2"])
+def test_malformed_source_date_epoch(tmp_path, pane, monkeypatch, epoch):
+    """A malformed SOURCE_DATE_EPOCH is an Error, with the program's words (it was ignored)."""
+    s = bsdfstack.combine([pane], k=1)
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", epoch)
+    with pytest.raises(bsdfstack.Error, match="SOURCE_DATE_EPOCH") as e:
+        s.write(tmp_path / "a.xml")   # the program's words (tests/cli_hostile.sh checks its)
+    assert not (tmp_path / "a.xml").exists()
+    assert "is not a whole number of seconds since 1970" in str(e.value)
+
+
 def test_unknown_glass():
     with pytest.raises(bsdfstack.Error) as e:
         bsdfstack.glass("no-such-pane")

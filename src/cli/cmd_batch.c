@@ -595,7 +595,9 @@ int batch_options(int argc, char **argv, struct batch *b, int *jobs, const char 
     if (argc - optind != 1)
         return cli_usage(sub, argc - optind < 1 ? "no batch file given" : "one batch file expected");
     b->path = argv[optind];
-    return CLI_OK;
+    char early[64];
+    const char *epoch_date; /* a malformed SOURCE_DATE_EPOCH fails before the first stack */
+    return cli_source_date(sub, early, sizeof early, &epoch_date);
 }
 
 /* One file the batch writes or reads, for batch_check_outputs: its key and who names it. */

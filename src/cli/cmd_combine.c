@@ -644,6 +644,10 @@ int cmd_combine(int argc, char **argv)
     else if (varres && (kc ? kc : DEFAULT_COARSE_K) >= args.basis.k)
         rc = cli_usage(sub, "--coarse-k %d must be below -k %d", kc ? kc : DEFAULT_COARSE_K,
                        args.basis.k);
+    char early[64];
+    const char *epoch_date;
+    if (rc == CLI_OK) /* a malformed SOURCE_DATE_EPOCH fails before the work, not after it */
+        rc = cli_source_date(sub, early, sizeof early, &epoch_date);
     if (rc != CLI_OK) {
         free(dirs), free(fine);
         return rc;

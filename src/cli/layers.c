@@ -14,6 +14,7 @@
 #include "layers.h"
 
 #define MAX_CH 16
+#define LAST_SOURCE_DATE 253402300799LL /* 9999-12-31T23:59:59Z: the date keeps four digits */
 
 /* Split "a,b,c" into at most max names (pointers into a copy the caller frees). */
 static size_t split(char *s, const char **out, size_t max)
@@ -534,9 +535,10 @@ static int write_any(bst_ctx *ctx, const char *sub, const bst_layer *l, const bs
     wo.reduce_pct = reduce;
     wo.description = desc;
     char date[64];
-    wo.date = cli_source_date(date, sizeof date);
     struct cli_out out;
-    int rc = cli_out_open(&out, sub, path);
+    int rc = cli_source_date(sub, date, sizeof date, &wo.date);
+    if (rc == CLI_OK)
+        rc = cli_out_open(&out, sub, path);
     if (rc == CLI_OK) {
         int st = v ? bst_bsdf_write_varres(ctx, l, v, out.fp, &wo) : bst_bsdf_write(ctx, l, out.fp, &wo);
         if (st < 0) {
@@ -549,20 +551,27 @@ static int write_any(bst_ctx *ctx, const char *sub, const bst_layer *l, const bs
     return rc;
 }
 
-const char *cli_source_date(char *buf, size_t size)
+int cli_source_date(const char *sub, char *buf, size_t size, const char **date)
 {
+    *date = NULL;
     const char *epoch = getenv("SOURCE_DATE_EPOCH");
     if (!epoch || !*epoch)
-        return NULL;
+        return CLI_OK;
     char *end;
     errno = 0;
     long long secs = strtoll(epoch, &end, 10);
     time_t t = (time_t)secs;
     struct tm tm;
-    if (*end == '\0' && errno == 0 && secs >= 0 && gmtime_r(&t, &tm) &&
-        strftime(buf, size, "%Y-%m-%dT%H:%M:%SZ", &tm))
-        return buf;
-    return NULL;
+    if (epoch[0] >= '0' && epoch[0] <= '9' && *end == '\0' && errno == 0 &&
+        secs <= LAST_SOURCE_DATE && gmtime_r(&t, &tm) && strftime(buf, size, "%Y-%m-%dT%H:%M:%SZ", &tm)) {
+        *date = buf;
+        return CLI_OK;
+    }
+    char shown[64];
+    snprintf(shown, sizeof shown, "%s", epoch); /* cut, so that the reason is seen */
+    return cli_fail(sub, "SOURCE_DATE_EPOCH '%s'%s is not a whole number of seconds since 1970 "
+                    "(0 to %lld): unset it or give one", shown, strlen(epoch) >= sizeof shown ? "..." : "",
+                    (long long)LAST_SOURCE_DATE);
 }
 
 int cli_write_layer(bst_ctx *ctx, const char *sub, const bst_layer *l, const char *path,
