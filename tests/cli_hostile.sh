@@ -3,7 +3,7 @@
 # combine --incident with one line; names that are not UTF-8 leave outputs that read back;
 # two outputs of one command that name one file are refused, however spelt; a NUL byte in a
 # line of a text input is an error, not the end of the line; --resume does not wait on a FIFO;
-# a malformed SOURCE_DATE_EPOCH is an error before any work; ...
+# a malformed SOURCE_DATE_EPOCH is an error before any work; convert warns of zeros it writes; ...
 . "${BST_SRCDIR:-.}/tests/clitest.sh"
 B=$BSDFSTACK
 from() { local f=$1; shift; "$@" < "$f"; } # for expect_error: a command reading FILE
@@ -158,5 +158,15 @@ expect_status 0 "SOURCE_DATE_EPOCH=253402300799" -- \
 grep -q "on 9999-12-31T23:59:59Z" "$e/a.xml" && pass "the last date written" || fail "date: $(grep -m1 ' on ' "$e/a.xml")"
 expect_status 0 "SOURCE_DATE_EPOCH empty: the current date" -- \
     env SOURCE_DATE_EPOCH= "$B" combine -k 1 glass:clear-6mm -o "$e/a.xml"
+
+# --- convert warns when it writes a component the file lacks as zeros, as combine does (it wrote
+# them without a word); a transmission given by reciprocity is no news
+tf_only=$BST_SRCDIR/tests/fuzz/corpus/xml/k1_4d_TF.xml
+expect_status 0 "convert a file of Tf only" -- "$B" convert -k 1 "$tf_only" -o "$e/tf.xml"
+grep -q "warning: .*k1_4d_TF.xml: not in the file, written as zero: Visible Rf, Visible Rb" "$tmpdir/err" &&
+    [ "$(wc -l < "$tmpdir/err")" -eq 1 ] && pass "convert names the zeros it writes" ||
+    fail "convert stderr: $(cat "$tmpdir/err")"
+"$B" convert -k 1 "$e/tf.xml" -o "$e/tf2.xml" 2> "$e/err2" && [ ! -s "$e/err2" ] &&
+    pass "convert of a complete file says nothing" || fail "convert tf.xml: $(cat "$e/err2")"
 
 finish

@@ -200,6 +200,8 @@ int cmd_convert(int argc, char **argv)
     }
     if (verbose.on)
         cli_warn_ctx(sub, NULL, st, ctx);
+    else if (st == BST_WDATA) /* a component taken as zero is written as zeros: say so, as combine */
+        cli_warn_zero_components(sub, in, b, 0, "written", ctx);
     else
         cli_warn_bsdf(sub, in, b);
     bst_ctx_clear(ctx);

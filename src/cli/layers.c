@@ -210,11 +210,8 @@ void cli_layers_free(struct cli_layers *set)
     memset(set, 0, sizeof *set);
 }
 
-/* The reader completes what a file leaves out (BST_WDATA): a transmission from the other side's by
- * reciprocity, as every TensorTree4 file expects (silently here), anything else as zero, which
- * changes the physics of a stack: that is worth a warning. */
-static void warn_zero_components(const char *sub, const char *path, const bst_bsdf *b, unsigned comps,
-                                 bst_ctx *ctx)
+void cli_warn_zero_components(const char *sub, const char *path, const bst_bsdf *b, unsigned comps,
+                              const char *how, bst_ctx *ctx)
 {
     char note[256] = "";
     for (size_t ch = 0; ch < bst_bsdf_nchannels(b); ch++)
@@ -227,7 +224,8 @@ static void warn_zero_components(const char *sub, const char *path, const bst_bs
                      bst_comp_name((bst_comp)c));
         }
     if (note[0])
-        fprintf(stderr, "bsdfstack %s: warning: %s: not in the file, taken as zero: %s\n", sub, path, note);
+        fprintf(stderr, "bsdfstack %s: warning: %s: not in the file, %s as zero: %s\n", sub, path, how,
+                note);
     cli_warn_bsdf(sub, path, b);
     bst_ctx_clear(ctx);
 }
@@ -256,7 +254,7 @@ static int read_one(bst_ctx *ctx, const char *sub, const char *what, const char 
     else if (quiet)
         bst_ctx_clear(ctx);
     else if (st == BST_WDATA)
-        warn_zero_components(sub, path, *file, ro->comps, ctx);
+        cli_warn_zero_components(sub, path, *file, ro->comps, "taken", ctx);
     else
         cli_warn_ctx(sub, what, st, ctx);
     free(path);

@@ -107,6 +107,14 @@ int cli_layer_load(bst_ctx *ctx, const char *sub, const char *what, const char *
                    const bst_basis *basis, const struct cli_basis_choice *choice,
                    const char *channels, bst_precision prec, bst_layer **layer, bst_glass **pane);
 
+/* The reader completes what a file leaves out (BST_WDATA): a transmission from the other side's by
+ * reciprocity, as every TensorTree4 file expects (silently here), anything else as zero, which
+ * changes the physics: "warning: PATH: not in the file, HOW as zero: CHANNEL COMP, ..." (combine:
+ * "taken", convert: "written"), then the reader's other notes (cli_warn_bsdf); ctx cleared.  The
+ * components outside comps (BST_COMP_BIT mask, 0 = all) are not named. */
+void cli_warn_zero_components(const char *sub, const char *path, const bst_bsdf *b, unsigned comps,
+                              const char *how, bst_ctx *ctx);
+
 /* SOURCE_DATE_EPOCH (reproducible-builds.org) as the written header's date, so that two runs can
  * give byte-identical files: *date = buf holding it, or NULL (unset or empty: the current date).
  * A value that is not a whole number of seconds from 0 to the end of year 9999 is an error, as the
