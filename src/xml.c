@@ -556,7 +556,19 @@ struct source {
     bst_ctx *ctx;
     double size, done;
     int err;
+    int utf32; /* the text began as UTF-32 does: refused (libxml2 said "Document is empty") */
 };
+
+/* 1 when the first four bytes are UTF-32's: a byte-order mark, or '<' in four bytes. */
+static int looks_utf32(const unsigned char *p)
+{
+    static const unsigned char sig[4][4] = {{0, 0, 0xFE, 0xFF}, {0xFF, 0xFE, 0, 0}, {0, 0, 0, '<'},
+                                            {'<', 0, 0, 0}};
+    for (int i = 0; i < 4; i++)
+        if (memcmp(p, sig[i], 4) == 0)
+            return 1;
+    return 0;
+}
 
 static int source_read(void *opaque, char *buf, int len)
 {
@@ -564,6 +576,10 @@ static int source_read(void *opaque, char *buf, int len)
     size_t n = fread(buf, 1, (size_t)len, s->fp);
     if (n == 0 && ferror(s->fp)) {
         s->err = errno ? errno : EIO;
+        return -1;
+    }
+    if (s->done == 0 && n >= 4 && looks_utf32((const unsigned char *)buf)) {
+        s->utf32 = 1;
         return -1;
     }
     s->done += (double)n;
@@ -587,7 +603,10 @@ int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_bsdf_read_opts *opts
     struct stat st;
     int known = fstat(fileno(fp), &st) == 0;
     double size = known && st.st_size > 0 ? (double)st.st_size : 1.0;
-    int empty = known && S_ISREG(st.st_mode) && st.st_size == 0;
+    if (known && S_ISDIR(st.st_mode)) { /* opened, but no read gives anything */
+        fclose(fp);
+        return bsti_error(ctx, BST_EIO, "%s: a directory, not a BSDF XML file", path);
+    }
     struct reader r = {.ctx = ctx, .path = path, .opts = opts, .comp = -1, .kind = -1};
     r.b = bsti_calloc(ctx, 1, sizeof *r.b);
     if (!r.b) {
@@ -611,14 +630,19 @@ int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_bsdf_read_opts *opts
     xmlGenericErrorFunc saved_fn = xmlGenericError;
     void *saved_ctx = xmlGenericErrorContext;
     xmlSetGenericErrorFunc(NULL, silent);
-    if (empty) {
-        r.status = bsti_error(ctx, BST_EFORMAT, "%s: the file is empty", path);
-    } else if (!(r.pctxt = xmlCreateIOParserCtxt(&sax, &r, source_read, NULL, &src,
+    if (!(r.pctxt = xmlCreateIOParserCtxt(&sax, &r, source_read, NULL, &src,
                                                   XML_CHAR_ENCODING_NONE)) || !r.b->path) {
         r.status = bsti_error(ctx, BST_ENOMEM, "%s: out of memory starting the XML parser", path);
     } else {
         xmlCtxtUseOptions(r.pctxt, XML_PARSE_HUGE | XML_PARSE_NONET);
         int e = xmlParseDocument(r.pctxt);
+        /* what libxml2 calls "Document is empty" or an encoding error, said as it is; emptiness
+         * as read, not as stat says it (a /proc file has size 0 and text) */
+        if (src.utf32)
+            r.status = bsti_error(ctx, BST_EFORMAT, "%s: UTF-32 text; BSDF XML is read in UTF-8 or "
+                                  "UTF-16 (iconv -f UTF-32 -t UTF-8 converts it)", path);
+        else if (src.done == 0 && !src.err)
+            r.status = bsti_error(ctx, BST_EFORMAT, "%s: the file is empty", path);
         if (r.status >= 0 && src.err)
             r.status = bsti_error(ctx, BST_EIO, "%s: read error: %s", path, strerror(src.err));
         if (r.status >= 0 && (e || !r.pctxt->wellFormed))

@@ -3,7 +3,8 @@
 # combine --incident with one line; names that are not UTF-8 leave outputs that read back;
 # two outputs of one command that name one file are refused, however spelt; a NUL byte in a
 # line of a text input is an error, not the end of the line; --resume does not wait on a FIFO;
-# a malformed SOURCE_DATE_EPOCH is an error before any work; convert warns of zeros it writes; ...
+# a malformed SOURCE_DATE_EPOCH is an error before any work; convert warns of zeros it writes;
+# errors say what a file is, and keep their reason however long the path.
 . "${BST_SRCDIR:-.}/tests/clitest.sh"
 B=$BSDFSTACK
 from() { local f=$1; shift; "$@" < "$f"; } # for expect_error: a command reading FILE
@@ -168,5 +169,21 @@ grep -q "warning: .*k1_4d_TF.xml: not in the file, written as zero: Visible Rf, 
     fail "convert stderr: $(cat "$tmpdir/err")"
 "$B" convert -k 1 "$e/tf.xml" -o "$e/tf2.xml" 2> "$e/err2" && [ ! -s "$e/err2" ] &&
     pass "convert of a complete file says nothing" || fail "convert tf.xml: $(cat "$e/err2")"
+
+# --- errors say what is wrong: a directory, UTF-32 text, a /proc file (not "Document is empty"
+# or "the file is empty"); a path of 1000 characters keeps the reason at the end of the line
+m=$tmpdir/m
+mkdir "$m" || exit 99
+expect_error "info on a directory" "$m: a directory, not a BSDF XML file" -- "$B" info "$m"
+expect_error "combine with a directory as a layer" "a directory, not a BSDF XML file" -- \
+    "$B" combine -k 1 "$m" -o "$m/x.xml"
+printf '\000\000\376\377\000\000\000<\000\000\000?' > "$m/u32.xml"
+expect_error "info on UTF-32 text" "u32\.xml: UTF-32 text" -- "$B" info "$m/u32.xml"
+expect_error "info on a /proc file" "/proc/self/status: line 1: malformed XML" -- "$B" info /proc/self/status
+long=$m
+for part in 1 2 3 4 5 6; do long=$long/$(printf "%0200d" "$part"); done
+long=$long/layer.xml
+expect_error "a path of $((${#long})) characters" "^bsdfstack info: $m/0+1/.*\.\.\..*/layer\.xml: cannot open: No such file or directory$" -- \
+    "$B" info "$long"
 
 finish

@@ -655,6 +655,38 @@ START_TEST(test_mixed_kinds)
 }
 END_TEST
 
+/* What a file is, said as it is (each read "malformed XML: Document is empty", "the file is
+ * empty" or an encoder error before): a directory, UTF-32 text with or without a byte-order mark,
+ * a /proc file (size 0, yet text: malformed, not empty), an empty file. */
+START_TEST(test_what_a_file_is)
+{
+    char dir[] = "/tmp/bst_dir_XXXXXX";
+    ck_assert_ptr_nonnull(mkdtemp(dir));
+    bst_bsdf *b = (bst_bsdf *)1;
+    ck_assert_int_eq(bst_bsdf_read(ctx, dir, NULL, &b), BST_EIO);
+    ck_assert_ptr_null(b);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "a directory, not a BSDF XML file"));
+    rmdir(dir);
+    /* "<?xml" in UTF-32: big-endian with a mark, little-endian with one, both without */
+    static const unsigned char u32[4][12] = {
+        {0, 0, 0xFE, 0xFF, 0, 0, 0, '<', 0, 0, 0, '?'}, {0xFF, 0xFE, 0, 0, '<', 0, 0, 0, '?', 0, 0, 0},
+        {0, 0, 0, '<', 0, 0, 0, '?', 0, 0, 0, 'x'}, {'<', 0, 0, 0, '?', 0, 0, 0, 'x', 0, 0, 0}};
+    for (int i = 0; i < 4; i++) {
+        const char *p = write_tmp((const char *)u32[i], sizeof u32[i]);
+        ck_assert_int_eq(bst_bsdf_read(ctx, p, NULL, &b), BST_EFORMAT);
+        ck_assert_msg(strstr(bst_ctx_message(ctx), "UTF-32 text"), "case %d: %s", i, bst_ctx_message(ctx));
+        unlink(p);
+    }
+    ck_assert_int_lt(bst_bsdf_read(ctx, "/proc/self/status", NULL, &b), 0);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "malformed XML"));
+    ck_assert_ptr_null(strstr(bst_ctx_message(ctx), "empty"));
+    const char *p = write_tmp("", 0);
+    ck_assert_int_eq(bst_bsdf_read(ctx, p, NULL, &b), BST_EFORMAT);
+    ck_assert_str_eq(strstr(bst_ctx_message(ctx), ": the file is empty"), ": the file is empty");
+    unlink(p);
+}
+END_TEST
+
 /* A largest-allocation guard: refuses any block over `limit` bytes and records the largest asked. */
 typedef struct { size_t limit, largest; } cap_alloc;
 static void *cap_malloc(size_t n, void *opaque)
@@ -945,6 +977,7 @@ static Suite *xml_suite(void)
     tcase_add_test(tc, test_to_layer_single);
     tcase_add_test(tc, test_bad_files);
     tcase_add_test(tc, test_mixed_kinds);
+    tcase_add_test(tc, test_what_a_file_is);
     tcase_add_test(tc, test_klems_huge_basis);
     tcase_add_test(tc, test_internal_dtd);
     tcase_add_test(tc, test_read_notes);
