@@ -186,4 +186,13 @@ long=$long/layer.xml
 expect_error "a path of $((${#long})) characters" "^bsdfstack info: $m/0+1/.*\.\.\..*/layer\.xml: cannot open: No such file or directory$" -- \
     "$B" info "$long"
 
+# --- query warns of negative Klems values read as 0, as info does (it said nothing)
+sed '0,/^0.1, /s//-0.1, /' "$BST_SRCDIR/tests/fuzz/corpus/xml/klems_tiny_2ch.xml" > "$m/neg.xml"
+printf '0 0 1 0 0 -1\n' > "$m/q.txt"
+expect_status 0 "query a Klems file with a negative value" -- from "$m/q.txt" "$B" query "$m/neg.xml"
+grep -q "warning: .*neg\.xml: 1 negative value read as 0" "$tmpdir/err" && pass "query says so" ||
+    fail "query stderr: $(cat "$tmpdir/err")"
+expect_status 0 "info on it" -- "$B" info "$m/neg.xml"
+grep -q "1 negative value read as 0" "$tmpdir/err" && pass "as info says" || fail "info stderr: $(cat "$tmpdir/err")"
+
 finish

@@ -67,7 +67,10 @@ int cmd_query(int argc, char **argv)
         bst_ctx_free(ctx);
         return rc;
     }
-    bst_ctx_clear(ctx); /* completion notes are for combine -v; query answers as libBSDF does */
+    /* completion notes are for combine -v, query answers as libBSDF does; but values read other
+     * than the file states (negatives read as 0, a tree averaged) are said, as info says them */
+    cli_warn_bsdf(sub, path, b);
+    bst_ctx_clear(ctx);
     size_t ch = 0;
     if (channel) {
         size_t i = 0;
