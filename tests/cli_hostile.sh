@@ -195,4 +195,13 @@ grep -q "warning: .*neg\.xml: 1 negative value read as 0" "$tmpdir/err" && pass 
 expect_status 0 "info on it" -- "$B" info "$m/neg.xml"
 grep -q "1 negative value read as 0" "$tmpdir/err" && pass "as info says" || fail "info stderr: $(cat "$tmpdir/err")"
 
+# --- a spectral pane of many rows warns before its layer's long evaluation (it took 98 s for 10^5
+# rows at k = 5 without a word); the catalogue's panes do not
+awk 'BEGIN { for (i = 0; i < 6000; i++) printf "%.8f 0.8 0.8 0.08 0.08\n", 0.3 + 2.2 * i / 5999 }' > "$m/many.txt"
+expect_status 0 "combine a pane of 6000 wavelengths" -- "$B" combine -k 1 "glass:$m/many.txt" -o "$m/many.xml"
+grep -q "warning: glass:.*many\.txt: 6000 wavelengths: the pane is evaluated at each of them" "$tmpdir/err" &&
+    pass "it warns of the cost" || fail "stderr: $(cat "$tmpdir/err")"
+expect_status 0 "combine a catalogue pane" -- "$B" combine -k 1 glass:nfrc-102 -o "$m/cat.xml"
+! grep -q "wavelengths" "$tmpdir/err" && pass "a catalogue pane does not warn" || fail "stderr: $(cat "$tmpdir/err")"
+
 finish
