@@ -98,14 +98,12 @@ bst_basis *cli_tsv_basis_of(bst_ctx *ctx, size_t n)
     return NULL;
 }
 
-/* The second pass over the file cli_tsv_read read into t: every exit direction at the centre of
- * its patch of t->basis, every column's incidence in its patch_in.  Opens and closes the file
- * itself, so that no FILE outlives one pass (a failed first pass once closed it twice). */
-static int check_directions(const char *sub, const char *path, const struct cli_tsv *t)
+/* The second pass over fp (path), which cli_tsv_read read into t, from its start: every exit
+ * direction at the centre of its patch of t->basis, every column's incidence in its patch_in. */
+static int check_directions(const char *sub, const char *path, FILE *fp, const struct cli_tsv *t)
 {
-    FILE *fp = fopen(path, "r");
-    if (!fp)
-        return cli_fail(sub, "%s: cannot open: %s", path, strerror(errno));
+    if (fseek(fp, 0, SEEK_SET) != 0)
+        return cli_fail(sub, "%s: cannot read it a second time: %s", path, strerror(errno));
     char *line = NULL;
     size_t size = 0;
     struct row r;
@@ -143,7 +141,6 @@ static int check_directions(const char *sub, const char *path, const struct cli_
         }
     }
     free(line);
-    fclose(fp);
     return rc;
 }
 
@@ -247,9 +244,10 @@ int cli_tsv_read(const char *sub, bst_ctx *ctx, const char *path, struct cli_tsv
         rc = cli_fail(sub, "%s: %zu exit patches per column: no basis has that many (4^k for "
                       "Shirley-Chiu, 145, 77 or 41 for Klems)", path, t->n);
     free(line);
-    fclose(fp);
+    /* one FILE, closed once whatever failed (a failed first pass closed it twice: SIGABRT) */
     if (rc == CLI_OK)
-        rc = check_directions(sub, path, t);
+        rc = check_directions(sub, path, fp, t);
+    fclose(fp);
     if (rc != CLI_OK)
         cli_tsv_free(t);
     return rc;
