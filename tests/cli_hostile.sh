@@ -62,6 +62,14 @@ grep -q "<Name>x$(printf '\357\277\275\357\277\275\357\277\275')y</Name>" "$u/na
 printf '%s glass:clear-6mm\n' "$u/$bad-batch.xml" > "$u/b.batch"
 expect_status 0 "batch to a non-UTF-8 output name" -- "$B" batch -k 1 "$u/b.batch"
 expect_status 0 "info reads the batch output back" -- "$B" info "$u/$bad-batch.xml"
+# a figure names the file in its legend or title: cairo takes UTF-8 only (it failed as "out of
+# memory drawing the chart"); such bytes are drawn as '?'
+for fmt in svg png pdf; do
+    expect_status 0 "plot --curve --format $fmt of a non-UTF-8 file name" -- \
+        "$B" plot --curve --format "$fmt" -o "$u/curve.$fmt" "$u/$bad.xml"
+done
+expect_status 0 "plot (a map) of a non-UTF-8 file name" -- "$B" plot --format svg -o "$u/map.svg" "$u/$bad.xml"
+tail -c 10 "$u/map.svg" | grep -q '</svg>' && pass "the map is a whole SVG" || fail "map.svg: $(tail -c 100 "$u/map.svg")"
 
 # --- two outputs that name one file, however spelt, are refused before anything is written (one
 # result was silently lost, exit 0)
