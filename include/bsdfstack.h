@@ -209,7 +209,9 @@ int bst_basis_order(const bst_basis *b);
 const char *bst_basis_name(const bst_basis *b);
 /* Projected solid angle of every patch (sr), length bst_basis_size. */
 const double *bst_basis_lambda(const bst_basis *b);
-/* Patch of a direction (only dir[0], dir[1] are used; |(x, y)| <= 1). */
+/* Patch of a direction (only dir[0], dir[1] are used; |(x, y)| <= 1, a longer (x, y) taken at
+ * the rim).  A direction whose x or y is not finite has none: bst_basis_size(b) is returned, which
+ * every function taking a patch refuses (BST_EINVAL). */
 size_t bst_basis_patch(const bst_basis *b, const double dir[3]);
 /* Centre direction of a patch: unit vector with z >= 0. */
 void bst_basis_center(const bst_basis *b, size_t patch, double dir[3]);
@@ -432,7 +434,9 @@ typedef struct {
 
 /* Read a file (opts NULL = defaults); BST_WDATA when it is read other than it states: a missing
  * component completed (a transmission by reciprocity, a reflection as zero), a tree of depth
- * BST_K_MAX + 1 read at BST_K_MAX (deeper ones are refused), negative values read as 0. */
+ * BST_K_MAX + 1 read at BST_K_MAX (deeper ones are refused), negative values read as 0.  A file
+ * holds one kind of data (its bst_file_kind): one mixing Klems and tree blocks, or trees of both
+ * ranks, is BST_EFORMAT, whichever channels and components opts asks for. */
 int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_bsdf_read_opts *opts, bst_bsdf **out);
 void bst_bsdf_free(bst_bsdf *b);
 bst_file_kind bst_bsdf_kind(const bst_bsdf *b);
@@ -608,6 +612,22 @@ FILE *bst_output_file(const bst_output *o);
 const char *bst_output_path(const bst_output *o);
 /* Flush and check for a write error so far (the object stays open). */
 int bst_output_flush(bst_output *o);
+/* Which file path writes, as a key (text, into key[0..size-1]; BST_OUTPUT_KEY_MAX is enough for a
+ * name of up to 255 bytes): two paths with one key write one file, however they are spelt (a.xml,
+ * ./a.xml, d/../a.xml, a symbolic link or hard link to it).  An existing file is known by its
+ * device and inode, through any links; a file not there yet by those of the directory it will be
+ * created in, and its name.  BST_EIO (no key) when neither can be found (a missing directory, no
+ * permission): opening the path would then fail too. */
+#define BST_OUTPUT_KEY_MAX 320
+int bst_output_key(bst_ctx *ctx, const char *path, char *key, size_t size);
+/* The temporary o writes (renamed over the file by commit, removed by abort), NULL when o writes
+ * its path directly: for a program's signal handler, which may remove it (unlink) and die. */
+const char *bst_output_temporary(const bst_output *o);
+/* Remove the temporaries that writers of paths[0..n-1] left behind, killed before they committed
+ * or aborted: PATH.tmpXXXXXX beside the file each path's links lead to, when no writer holds it
+ * (a writer locks its temporary, flock, from creation to rename).  Each directory is read once.
+ * *removed (may be NULL): how many.  Paths that name nothing to look into are passed over. */
+int bst_output_clean(bst_ctx *ctx, size_t n, const char *const *paths, size_t *removed);
 int bst_output_commit(bst_output *o);
 void bst_output_abort(bst_output *o);
 
@@ -685,7 +705,8 @@ void bst_sun_position(const bst_sun_site *site, int jd, double st, double *altit
  * window_azimuth (as the sun's: 0 = the window faces south, 90 = west): its propagation direction
  * (theta, phi) in this header's frame (+Z into the room, Y up, X to the right seen from the room),
  * as combine's --incident takes it.  Returns 1 when the sun is in front of the window and above
- * the horizon (theta < 90), else 0 (theta, phi still set). */
+ * the horizon (theta < 90), else 0 (theta, phi still set); 0 also for an angle that is not
+ * finite. */
 int bst_sun_incident(double altitude, double azimuth, double window_azimuth, double *theta,
                      double *phi);
 /* The sun positions of a year in front of the window: every `step_min` minutes of standard time

@@ -204,6 +204,8 @@ static size_t klems_band(const bst_basis *b, double theta)
 size_t bst_basis_patch(const bst_basis *b, const double dir[3])
 {
     double x = dir[0], y = dir[1];
+    if (!isfinite(x) || !isfinite(y))
+        return b->n; /* no patch: every entry taking a patch refuses one past the last */
     if (b->kind == BST_BASIS_SHIRLEY_CHIU) {
         double sx, sy;
         bsti_sc_disk_to_square(x, y, &sx, &sy);

@@ -134,14 +134,36 @@ int bsti_ctx_workers(const bst_ctx *ctx, size_t jobs)
     return n > 1 ? (int)n : 1;
 }
 
+/* Messages put the reason last ("PATH: line N: what is wrong"), so one longer than ctx->msg
+ * (a path of a thousand characters) loses its middle, not its end: the first third and the rest
+ * from the end, joined by "...".  Texts beyond this many bytes lose what follows as well. */
+#define MSG_FORMAT_MAX (16 * BSTI_MSG_MAX)
+
+static void put_message(bst_ctx *ctx, const char *text, size_t len)
+{
+    size_t room = sizeof ctx->msg - 1;
+    if (len <= room) {
+        memcpy(ctx->msg, text, len);
+        ctx->msg[len] = '\0';
+        return;
+    }
+    size_t head = room / 3, tail = room - head - 3;
+    memcpy(ctx->msg, text, head);
+    memcpy(ctx->msg + head, "...", 3);
+    memcpy(ctx->msg + head + 3, text + len - tail, tail);
+    ctx->msg[room] = '\0';
+}
+
 int bsti_error(bst_ctx *ctx, int status, const char *fmt, ...)
 {
     if (!ctx)
         return status;
+    char text[MSG_FORMAT_MAX];
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(ctx->msg, sizeof ctx->msg, fmt, ap);
+    int n = vsnprintf(text, sizeof text, fmt, ap);
     va_end(ap);
+    put_message(ctx, text, n < 0 ? 0 : (size_t)n < sizeof text ? (size_t)n : sizeof text - 1);
     ctx->status = status;
     return status;
 }
@@ -150,14 +172,14 @@ void bsti_error_prefix(bst_ctx *ctx, const char *fmt, ...)
 {
     if (!ctx)
         return;
-    char prefix[BSTI_MSG_MAX], old[BSTI_MSG_MAX];
+    char text[MSG_FORMAT_MAX];
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(prefix, sizeof prefix, fmt, ap);
+    int n = vsnprintf(text, sizeof text - BSTI_MSG_MAX - 2, fmt, ap);
     va_end(ap);
-    memcpy(old, ctx->msg, sizeof old);
-    int n = (int)strnlen(prefix, BSTI_MSG_MAX / 2);
-    snprintf(ctx->msg, sizeof ctx->msg, "%.*s: %.*s", n, prefix, BSTI_MSG_MAX - n - 3, old);
+    size_t len = n < 0 ? 0 : (size_t)n < sizeof text - BSTI_MSG_MAX - 2 ? (size_t)n : sizeof text - BSTI_MSG_MAX - 3;
+    len += (size_t)snprintf(text + len, sizeof text - len, ": %s", ctx->msg);
+    put_message(ctx, text, len); /* the end of the old message, its reason, stays */
 }
 
 int bsti_size_mul(size_t a, size_t b, size_t *out)

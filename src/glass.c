@@ -17,8 +17,12 @@
  * digit.  This is the incoherent slab with two identical interfaces and bulk absorption.
  * Thickness and wavelength enter only through T0 and R0 (an inline pane given by its extinction
  * coefficient K and thickness d has tau0 = exp(-K d)).  Special cases as WCE: theta = 0 gives the
- * measured values, T0 = 0 a bare interface with rho0 = R0 (T = 0), rho0 = 0 or T0 = 1 no angular
- * dependence, theta = 90 deg T = 0 and R = 1; where rounding makes T + R > 1 the larger gives way.
+ * measured values, T0 = 0 a bare interface with rho0 = R0 (T = 0), T0 = 1 no angular dependence,
+ * theta = 90 deg T = 0 and R = 1; where rounding makes T + R > 1 the larger gives way.  One case
+ * differs from WCE on purpose: WCE takes rho0 = 0 (R0 = 0) as angle-independent, which made the
+ * model jump at R0 = 0 (R0 = 1e-300 gave T = T0^(1/cos theta), R0 = 0 gave T0 at every angle);
+ * here R0 = 0 is the limit R0 -> 0+, n = 1 and tau0 = T0, continuous (an absorbing pane without
+ * reflection still has a path that grows as 1 / cos theta).  No measured glass has R0 = 0.
  *
  * A channel is a weighted sum of the model over nodes (struct bsti_glass_channel in glass.h): one
  * node for a band given by its normal-incidence values, the wavelengths of a band's grid with their
@@ -63,8 +67,8 @@ int bsti_glass_side_init(struct bsti_glass_side *s, double t0, double r0)
         else
             s->tau0 = 2.0 * t0 / (S - d), omt = -d * (1.0 - d / (S + 2.0 * t0)) / (S - d);
     }
-    if (s->rho0 == 0.0) /* no interface: no angular dependence (bsti_glass_side_optics) */
-        s->tau0 = 0.0, omt = 1.0;
+    /* R0 = 0 (rho0 = 0) needs no case of its own: the formulas give n = 1 and tau0 = T0, the
+     * limit of R0 -> 0+, so T = T0^(1 / cos theta) follows the longer path and R = 0 */
     double sr = sqrt(s->rho0);
     s->n = (1.0 + sr) * (1.0 + sr) / omr;
     if (s->tau0 == 0.0)
@@ -87,7 +91,7 @@ static void side_optics_cs(const struct bsti_glass_side *s, double theta, double
         *t = 0.0, *r = 1.0;
         return;
     }
-    if (s->t0 > 0.0 && (s->rho0 == 0.0 || s->t0 == 1.0)) { /* no angular dependence */
+    if (s->t0 == 1.0) { /* nothing absorbed or reflected: no angular dependence */
         *t = s->t0, *r = s->r0;
         return;
     }

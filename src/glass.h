@@ -89,8 +89,11 @@ int bsti_glass_channel_commit(bst_ctx *ctx, bst_glass *g, int rc);
 
 /* fgets for the line-based glass files (catalogues, data tables): 1 with the next line in buf, 0 at
  * the end of the file, -1 when the line does not fit (len - 1 characters and its newline), which
- * callers report rather than read its tail as a line of its own. */
+ * callers report rather than read its tail as a line of its own, -2 when it holds a NUL byte (the
+ * string would end there, and the rest of the line go unread). */
 int bsti_glass_read_line(FILE *fp, char *buf, size_t len);
+/* The error for line lineno of path that bsti_glass_read_line refused (got < 0) in a buffer of len. */
+int bsti_glass_line_error(bst_ctx *ctx, const char *path, int lineno, int got, size_t len);
 
 #define BSTI_GLASS_BAND_LIST "Visible, Solar, CIE-X, CIE-Y, CIE-Z"
 struct bsti_glass_band;

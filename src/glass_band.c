@@ -40,16 +40,33 @@
 
 int bsti_glass_read_line(FILE *fp, char *buf, size_t len)
 {
-    if (!fgets(buf, (int)len, fp))
+    size_t n = 0;
+    int c = EOF, nul = 0;
+    while (n + 1 < len && (c = getc(fp)) != EOF) {
+        nul |= c == '\0';
+        buf[n++] = (char)c;
+        if (c == '\n')
+            break;
+    }
+    buf[n] = '\0';
+    if (n == 0)
         return 0;
-    size_t n = strlen(buf);
-    if (n + 1 < len || buf[n - 1] == '\n')
-        return 1;
-    int c = getc(fp); /* a full buffer: the line goes on unless the file ends here */
-    if (c == EOF)
-        return 1;
-    ungetc(c, fp);
-    return -1;
+    if (n + 1 == len && buf[n - 1] != '\n') {
+        int d = getc(fp); /* a full buffer: the line goes on unless the file ends here */
+        if (d != EOF) {
+            ungetc(d, fp);
+            return -1;
+        }
+    }
+    return nul ? -2 : 1;
+}
+
+int bsti_glass_line_error(bst_ctx *ctx, const char *path, int lineno, int got, size_t len)
+{
+    if (got == -1)
+        return bsti_error(ctx, BST_EFORMAT, "%s: line %d is longer than %zu characters", path,
+                          lineno, len - 2);
+    return bsti_error(ctx, BST_EFORMAT, "%s: line %d holds a NUL byte", path, lineno);
 }
 
 /* Numeric rows of a whitespace-separated table with at least ncol columns (more are ignored).
@@ -70,8 +87,7 @@ static int read_table(bst_ctx *ctx, const char *path, int ncol, int unit, double
     while (rc >= 0 && (got = bsti_glass_read_line(fp, line, sizeof line)) != 0) {
         lineno++;
         if (got < 0) {
-            rc = bsti_error(ctx, BST_EFORMAT, "%s: line %d is longer than %zu characters", path,
-                            lineno, sizeof line - 2);
+            rc = bsti_glass_line_error(ctx, path, lineno, got, sizeof line);
             break;
         }
         char *p = line, *end;

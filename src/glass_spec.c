@@ -248,8 +248,7 @@ static int read_catalogue(bst_ctx *ctx, bst_glass *g, const char *path, const ch
     while (rc >= 0 && (got = bsti_glass_read_line(fp, line, sizeof line)) != 0) {
         lineno++;
         if (got < 0) {
-            rc = bsti_error(ctx, BST_EFORMAT, "%s: line %d is longer than %zu characters", path,
-                            lineno, sizeof line - 2);
+            rc = bsti_glass_line_error(ctx, path, lineno, got, sizeof line);
             break;
         }
         char *s = line;

@@ -7,20 +7,32 @@
  *                                    a new one gets 0666 & ~umask as fopen would give it
  *   a symbolic link (chain)          the same beside the file the links lead to: the links stay
  *   a device, FIFO or socket         opened and written directly, no temporary
- *   a directory                      an error */
+ *   a directory                      an error
+ *
+ * A temporary is PATH.tmpXXXXXX (mkstemp) beside the file renamed over, and its writer holds an
+ * exclusive flock on it until it is renamed or removed, so that bst_output_clean can tell the
+ * temporaries of writers that were killed (no lock: removed) from those being written (locked).
+ *
+ * Two paths write one file when bst_output_key gives them one key: the file's identity (device
+ * and inode, through any links), or, for a file not there yet, the identity of the directory it
+ * will be created in and its name there.  Names are compared as bytes. */
 #include <config.h>
 
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include "ctx.h"
 
 #define OUTPUT_MAX_LINKS 40 /* symbolic links followed before giving up (ELOOP), as Linux does */
+#define OUTPUT_TMP_SUFFIX ".tmpXXXXXX"
+#define OUTPUT_TMP_TRIES 8  /* temporaries made again when a cleaner took one before its lock */
 
 struct bst_output {
     bst_ctx *ctx;
@@ -109,13 +121,30 @@ static int open_temporary(bst_output *o, const struct stat *old)
     size_t n = strlen(o->target);
     if (!(o->tmp = bsti_malloc(o->ctx, n + 16)))
         return BST_ENOMEM;
-    snprintf(o->tmp, n + 16, "%s.tmpXXXXXX", o->target); /* same directory: rename() is atomic */
-    int fd = mkstemp(o->tmp);
+    /* same directory: rename() is atomic.  Locked, and still ours under that name once locked:
+     * a bst_output_clean that saw it before the lock holds it, removes it, and it is made again.
+     * A file system without flock (ENOLCK, EOPNOTSUPP) leaves it unlocked. */
+    int fd = -1, err = 0;
+    for (int tries = 0; fd < 0 && tries < OUTPUT_TMP_TRIES; tries++) {
+        snprintf(o->tmp, n + 16, "%s" OUTPUT_TMP_SUFFIX, o->target);
+        if ((fd = mkstemp(o->tmp)) < 0) {
+            err = errno;
+            break;
+        }
+        struct stat mine, named;
+        int locked = flock(fd, LOCK_EX | LOCK_NB) == 0;
+        if (!locked && errno != EWOULDBLOCK)
+            break;
+        if (locked && fstat(fd, &mine) == 0 && stat(o->tmp, &named) == 0 &&
+            mine.st_dev == named.st_dev && mine.st_ino == named.st_ino)
+            break;
+        close(fd); /* the cleaner's now, which removes it */
+        fd = -1, err = EAGAIN;
+    }
     if (fd < 0) {
-        int e = errno;
         bsti_free(o->ctx, o->tmp);
         o->tmp = NULL;
-        return bsti_error(o->ctx, BST_EIO, "%s: cannot create output file: %s", o->path, strerror(e));
+        return bsti_error(o->ctx, BST_EIO, "%s: cannot create output file: %s", o->path, strerror(err));
     }
     if (old) {
         /* best effort: only root may give the file away; chown before chmod, which it may clear */
@@ -169,7 +198,163 @@ int bst_output_open(bst_ctx *ctx, const char *path, bst_output **out)
     return BST_OK;
 }
 
+/* ------------------------------------------------------------------ temporaries left behind */
+
+/* An output for bst_output_clean: the directory its temporaries go in, by identity, and the name
+ * of the file renamed over (a pointer into target, the path its links lead to). */
+struct clean_item {
+    dev_t dev;
+    ino_t ino;
+    char *target;
+    const char *dir, *name;
+};
+
+static int by_dir_name(const void *a, const void *b)
+{
+    const struct clean_item *x = a, *y = b;
+    if (x->dev != y->dev)
+        return x->dev < y->dev ? -1 : 1;
+    if (x->ino != y->ino)
+        return x->ino < y->ino ? -1 : 1;
+    return strcmp(x->name, y->name);
+}
+
+/* The name of the file whose temporary entry is (NAME.tmpXXXXXX, X from mkstemp's letters and
+ * digits), cut in place into buf; NULL when entry is no temporary. */
+static const char *temporary_of(const char *entry, char *buf, size_t size)
+{
+    size_t n = strlen(entry), k = sizeof OUTPUT_TMP_SUFFIX - 1;
+    if (n <= k || n >= size || strncmp(entry + n - k, OUTPUT_TMP_SUFFIX, 4) != 0)
+        return NULL;
+    for (size_t i = n - 6; i < n; i++) {
+        char c = entry[i];
+        if (!((c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9')))
+            return NULL;
+    }
+    memcpy(buf, entry, n - k);
+    buf[n - k] = '\0';
+    return buf;
+}
+
+/* Remove the temporary entry of directory dfd when no writer holds its lock; 1 when removed. */
+static int remove_unlocked(int dfd, const char *entry)
+{
+    int fd = openat(dfd, entry, O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0 && errno == EACCES)
+        fd = openat(dfd, entry, O_WRONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0)
+        return 0;
+    struct stat held, named;
+    int gone = fstat(fd, &held) == 0 && S_ISREG(held.st_mode) && flock(fd, LOCK_EX | LOCK_NB) == 0 &&
+               fstatat(dfd, entry, &named, AT_SYMLINK_NOFOLLOW) == 0 && held.st_dev == named.st_dev &&
+               held.st_ino == named.st_ino && unlinkat(dfd, entry, 0) == 0;
+    close(fd);
+    return gone;
+}
+
+int bst_output_clean(bst_ctx *ctx, size_t n, const char *const *paths, size_t *removed)
+{
+    if (removed)
+        *removed = 0;
+    if (!ctx || (n && !paths))
+        return ctx ? bsti_error(ctx, BST_EINVAL, "output clean: NULL argument") : BST_EINVAL;
+    struct clean_item *it = n ? bsti_alloc_array(ctx, n, sizeof *it) : NULL;
+    if (n && !it)
+        return BST_ENOMEM;
+    size_t m = 0;
+    int rc = BST_OK;
+    for (size_t i = 0; i < n && rc == BST_OK; i++) {
+        if (!paths[i] || !*paths[i])
+            continue;
+        char *target = follow_links(ctx, paths[i]);
+        if (!target) {
+            rc = errno == ENOMEM ? BST_ENOMEM : BST_OK; /* a loop of links: never written */
+            continue;
+        }
+        char *slash = strrchr(target, '/');
+        struct clean_item c = {.target = target, .dir = ".", .name = target};
+        if (slash) {
+            c.name = slash + 1;
+            c.dir = slash == target ? "/" : target;
+            *slash = '\0';
+        }
+        struct stat st;
+        if (!*c.name || stat(c.dir, &st) != 0 || !S_ISDIR(st.st_mode)) {
+            bsti_free(ctx, target); /* nothing to look into: its write fails and says why */
+            continue;
+        }
+        c.dev = st.st_dev, c.ino = st.st_ino;
+        it[m++] = c;
+    }
+    if (rc == BST_OK)
+        qsort(it, m, sizeof *it, by_dir_name);
+    /* each directory read once; its temporaries looked up among the names that go in it */
+    for (size_t g = 0, end; rc == BST_OK && g < m; g = end) {
+        for (end = g + 1; end < m && it[end].dev == it[g].dev && it[end].ino == it[g].ino; end++)
+            ;
+        DIR *d = opendir(it[g].dir);
+        if (!d)
+            continue;
+        struct dirent *de;
+        char base[512];
+        while ((de = readdir(d))) {
+            struct clean_item key = {.dev = it[g].dev, .ino = it[g].ino};
+            if (!(key.name = temporary_of(de->d_name, base, sizeof base)) ||
+                !bsearch(&key, it + g, end - g, sizeof *it, by_dir_name))
+                continue;
+            if (remove_unlocked(dirfd(d), de->d_name) && removed)
+                (*removed)++;
+        }
+        closedir(d);
+    }
+    for (size_t i = 0; i < m; i++)
+        bsti_free(ctx, it[i].target);
+    bsti_free(ctx, it);
+    return rc;
+}
+
+int bst_output_key(bst_ctx *ctx, const char *path, char *key, size_t size)
+{
+    if (!ctx || !path || !key || size == 0)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "output key: NULL argument") : BST_EINVAL;
+    key[0] = '\0';
+    if (!*path)
+        return bsti_error(ctx, BST_EINVAL, "an empty output file name");
+    struct stat st;
+    int n;
+    if (stat(path, &st) == 0) {
+        n = snprintf(key, size, "F %llu:%llu", (unsigned long long)st.st_dev,
+                     (unsigned long long)st.st_ino);
+    } else if (errno != ENOENT) {
+        return bsti_error(ctx, BST_EIO, "%s: %s", path, strerror(errno));
+    } else {
+        /* not there yet: where the links lead, then that name in its directory */
+        char *target = follow_links(ctx, path);
+        if (!target)
+            return errno == ENOMEM ? BST_ENOMEM : bsti_error(ctx, BST_EIO, "%s: %s", path, strerror(errno));
+        char *slash = strrchr(target, '/');
+        const char *name = slash ? slash + 1 : target, *dir = slash ? target : ".";
+        if (slash == target)
+            dir = "/";
+        else if (slash)
+            *slash = '\0';
+        int e = !*name ? EISDIR : stat(dir, &st) != 0 ? errno : !S_ISDIR(st.st_mode) ? ENOTDIR : 0;
+        n = e ? 0 : snprintf(key, size, "N %llu:%llu/%s", (unsigned long long)st.st_dev,
+                             (unsigned long long)st.st_ino, name);
+        bsti_free(ctx, target);
+        if (e)
+            return bsti_error(ctx, BST_EIO, "%s: %s", path, strerror(e));
+    }
+    if (n < 0 || (size_t)n >= size) {
+        key[0] = '\0';
+        return bsti_error(ctx, BST_EINVAL, "%s: the output key needs %d bytes, %zu given", path,
+                          n + 1, size);
+    }
+    return BST_OK;
+}
+
 FILE *bst_output_file(const bst_output *o) { return o ? o->fp : NULL; }
+const char *bst_output_temporary(const bst_output *o) { return o ? o->tmp : NULL; }
 const char *bst_output_path(const bst_output *o) { return o ? o->path : NULL; }
 
 int bst_output_flush(bst_output *o)

@@ -68,6 +68,8 @@ struct reader {
     int ntok;
     size_t negatives; /* Klems values below 0, read as 0 */
     int layers;       /* <Layer> elements seen */
+    int kind;         /* bst_file_kind of the first <ScatteringData>, -1 before it */
+    char kind_structure[TEXT_MAX]; /* the <IncidentDataStructure> that set it */
 };
 
 static const char *parent(struct reader *r, int up)
@@ -142,10 +144,43 @@ static int channel_index(struct reader *r, const char *name)
     return (int)b->nch++;
 }
 
+/* The file kind an <IncidentDataStructure> gives its blocks, -1 for an unknown one. */
+static int structure_kind(const char *structure)
+{
+    if (strcmp(structure, "TensorTree3") == 0)
+        return BST_FILE_TT3;
+    if (strcmp(structure, "TensorTree4") == 0)
+        return BST_FILE_TT4;
+    if (strcmp(structure, "Columns") == 0 || strcmp(structure, "Rows") == 0)
+        return BST_FILE_KLEMS;
+    return -1;
+}
+
+/* A file is of one kind: every block, read or skipped, has the structure kind of the first (a
+ * bst_bsdf holds Klems matrices or trees of one rank, never a mixture, and every caller relies
+ * on that).  Columns and Rows are both Klems. */
+static int same_kind(struct reader *r)
+{
+    int kind = structure_kind(r->structure);
+    if (kind < 0)
+        return BST_OK; /* start_data says what is wrong with it */
+    if (r->kind < 0) {
+        r->kind = kind;
+        snprintf(r->kind_structure, sizeof r->kind_structure, "%s", r->structure);
+        return BST_OK;
+    }
+    if (kind != r->kind)
+        return fail(r, BST_EFORMAT, "a %s block after %s blocks: a file holds one kind of "
+                    "scattering data (give each kind its own file)", r->structure, r->kind_structure);
+    return BST_OK;
+}
+
 static void start_data(struct reader *r)
 {
     r->in_data = 1;
     r->skip = 0;
+    if (same_kind(r) < 0)
+        return;
     if (r->comp < 0) {
         fail(r, BST_EFORMAT, "<ScatteringData> before its <WavelengthDataDirection>");
         return;
@@ -521,7 +556,19 @@ struct source {
     bst_ctx *ctx;
     double size, done;
     int err;
+    int utf32; /* the text began as UTF-32 does: refused (libxml2 said "Document is empty") */
 };
+
+/* 1 when the first four bytes are UTF-32's: a byte-order mark, or '<' in four bytes. */
+static int looks_utf32(const unsigned char *p)
+{
+    static const unsigned char sig[4][4] = {{0, 0, 0xFE, 0xFF}, {0xFF, 0xFE, 0, 0}, {0, 0, 0, '<'},
+                                            {'<', 0, 0, 0}};
+    for (int i = 0; i < 4; i++)
+        if (memcmp(p, sig[i], 4) == 0)
+            return 1;
+    return 0;
+}
 
 static int source_read(void *opaque, char *buf, int len)
 {
@@ -529,6 +576,10 @@ static int source_read(void *opaque, char *buf, int len)
     size_t n = fread(buf, 1, (size_t)len, s->fp);
     if (n == 0 && ferror(s->fp)) {
         s->err = errno ? errno : EIO;
+        return -1;
+    }
+    if (s->done == 0 && n >= 4 && looks_utf32((const unsigned char *)buf)) {
+        s->utf32 = 1;
         return -1;
     }
     s->done += (double)n;
@@ -552,8 +603,11 @@ int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_bsdf_read_opts *opts
     struct stat st;
     int known = fstat(fileno(fp), &st) == 0;
     double size = known && st.st_size > 0 ? (double)st.st_size : 1.0;
-    int empty = known && S_ISREG(st.st_mode) && st.st_size == 0;
-    struct reader r = {.ctx = ctx, .path = path, .opts = opts, .comp = -1};
+    if (known && S_ISDIR(st.st_mode)) { /* opened, but no read gives anything */
+        fclose(fp);
+        return bsti_error(ctx, BST_EIO, "%s: a directory, not a BSDF XML file", path);
+    }
+    struct reader r = {.ctx = ctx, .path = path, .opts = opts, .comp = -1, .kind = -1};
     r.b = bsti_calloc(ctx, 1, sizeof *r.b);
     if (!r.b) {
         fclose(fp);
@@ -576,14 +630,19 @@ int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_bsdf_read_opts *opts
     xmlGenericErrorFunc saved_fn = xmlGenericError;
     void *saved_ctx = xmlGenericErrorContext;
     xmlSetGenericErrorFunc(NULL, silent);
-    if (empty) {
-        r.status = bsti_error(ctx, BST_EFORMAT, "%s: the file is empty", path);
-    } else if (!(r.pctxt = xmlCreateIOParserCtxt(&sax, &r, source_read, NULL, &src,
+    if (!(r.pctxt = xmlCreateIOParserCtxt(&sax, &r, source_read, NULL, &src,
                                                   XML_CHAR_ENCODING_NONE)) || !r.b->path) {
         r.status = bsti_error(ctx, BST_ENOMEM, "%s: out of memory starting the XML parser", path);
     } else {
         xmlCtxtUseOptions(r.pctxt, XML_PARSE_HUGE | XML_PARSE_NONET);
         int e = xmlParseDocument(r.pctxt);
+        /* what libxml2 calls "Document is empty" or an encoding error, said as it is; emptiness
+         * as read, not as stat says it (a /proc file has size 0 and text) */
+        if (src.utf32)
+            r.status = bsti_error(ctx, BST_EFORMAT, "%s: UTF-32 text; BSDF XML is read in UTF-8 or "
+                                  "UTF-16 (iconv -f UTF-32 -t UTF-8 converts it)", path);
+        else if (src.done == 0 && !src.err)
+            r.status = bsti_error(ctx, BST_EFORMAT, "%s: the file is empty", path);
         if (r.status >= 0 && src.err)
             r.status = bsti_error(ctx, BST_EIO, "%s: read error: %s", path, strerror(src.err));
         if (r.status >= 0 && (e || !r.pctxt->wellFormed))
@@ -603,10 +662,8 @@ int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_bsdf_read_opts *opts
     bst_bsdf *b = r.b;
     int rc = r.status;
     if (rc >= 0) {
-        if (strncmp(r.structure, "TensorTree", 10) == 0)
-            b->kind = r.structure[10] == '3' ? BST_FILE_TT3 : BST_FILE_TT4;
-        else
-            b->kind = BST_FILE_KLEMS;
+        /* the kind of the blocks read, not of the last <IncidentDataStructure> seen */
+        b->kind = r.kind < 0 ? BST_FILE_KLEMS : (bst_file_kind)r.kind;
         if (b->nch == 0 && opts && opts->nchannels) {
             char names[256] = "";
             for (size_t i = 0; i < opts->nchannels; i++) {

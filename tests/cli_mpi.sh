@@ -117,6 +117,12 @@ st=$?
 printf 'd.xml glass:clear-6mm\nlonely.xml\n' > bad.txt
 run_mpi 2 bad.txt > out 2> err
 [ "$(grep -c 'bad.txt:2: no layers' err)" -eq 1 ] && pass "a bad line: one error line" || fail "bad line: $(cat err)"
+printf 'd.xml glass:clear-6mm\n./d.xml glass:clear-6mm\n' > alias.txt
+run_mpi 2 alias.txt > out 2> err
+st=$?
+[ "$st" -eq 1 ] && [ "$(grep -c "alias.txt:2: './d.xml' is the file line 1 writes already" err)" -eq 1 ] &&
+    [ ! -f d.xml ] && pass "two outputs that are one file: one error line, nothing written" ||
+    fail "aliased outputs: exit $st, $(cat err)"
 run_mpi 2 --help > out 2> err
 [ "$(grep -c '^Usage: mpirun -n N bsdfstack-mpi' out)" -eq 1 ] && pass "--help printed once" || fail "--help: $(cat out)"
 cd .. || exit 99

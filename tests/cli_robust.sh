@@ -49,7 +49,7 @@ if [ -n "$null" ]; then
         pane --absorptance "$d/b.tsv" -o "$full"
     [ ! -e "$d/b.tsv" ] && pass "a failed -o leaves no absorptance file" || fail "b.tsv written"
     expect_error "convert -o a full device" "$full: .*No space left" -- \
-        "$B" convert "$ref/examples/k1_4d_TF.xml" -o "$full"
+        "$B" convert "$f" -o "$full"  # a whole pane: no warning of zeros written beside the error
     expect_error "plot -o a full device" "$full: .*No space left" -- \
         "$B" plot --size 64 --format svg -o "$full" "$ref/examples/k1_4d_TF.xml"
     printf '%s glass:clear-6mm\n' "$full" > "$d/full.batch"
@@ -149,7 +149,7 @@ printf '0 0 -1 0 0 1\n' > "$d/dirs"
 stdout_error "query" query from "$d/dirs" "$B" query "$f"
 expect_error "combine -o - > /dev/full" "standard output: .*No space left on device" -- to_full pane -o -
 expect_error "convert -o - > /dev/full" "standard output: .*No space left on device" -- \
-    to_full "$B" convert "$ref/examples/k1_4d_TF.xml" -o -
+    to_full "$B" convert "$f" -o -
 # (plot -o - prints its summary on stderr: the error is the one line after it)
 expect_status 1 "plot -o - > /dev/full" -- to_full "$B" plot --size 64 --format svg -o - "$ref/examples/k1_4d_TF.xml"
 [ "$(grep -c 'error' "$tmpdir/err")" -eq 1 ] && grep -q "^bsdfstack plot: error writing to standard output: No space left on device" "$tmpdir/err" \

@@ -181,6 +181,39 @@ START_TEST(test_klems_example)
 }
 END_TEST
 
+/* A direction whose x or y is not finite has no patch: bst_basis_patch gives the basis's size (it
+ * computed (size_t)NaN, undefined, 2^63 on x86-64), which a function taking a patch refuses;
+ * directions beyond the unit disk still give a patch of the basis. */
+START_TEST(test_patch_not_finite)
+{
+    bst_basis *bases[2];
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 3, &bases[0]), BST_OK);
+    ck_assert_int_eq(bst_basis_new_klems(ctx, "full", &bases[1]), BST_OK);
+    const double bad[] = {NAN, INFINITY, -INFINITY};
+    for (int k = 0; k < 2; k++) {
+        const bst_basis *b = bases[k];
+        size_t n = bst_basis_size(b);
+        for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+            double dx[3] = {bad[i], 0.1, 0.9}, dy[3] = {0.1, bad[i], 0.9}, dz[3] = {0.1, 0.2, bad[i]};
+            ck_assert_uint_eq(bst_basis_patch(b, dx), n);
+            ck_assert_uint_eq(bst_basis_patch(b, dy), n);
+            ck_assert_uint_lt(bst_basis_patch(b, dz), n); /* z is not used */
+        }
+        double far[3] = {3.0, -4.0, 0.0};
+        ck_assert_uint_lt(bst_basis_patch(b, far), n);
+        double nan_dir[3] = {NAN, 0, 1};
+        bst_layer *l;
+        const char *names[] = {"Visible"};
+        ck_assert_int_eq(bst_layer_new(ctx, b, 1, names, &l), BST_OK);
+        double ga;
+        ck_assert_int_eq(bst_metrics_accordance(ctx, l, l, 0, BST_TF, bst_basis_patch(b, nan_dir), &ga,
+                                                NULL, NULL), BST_EINVAL);
+        bst_layer_free(l);
+    }
+    bst_basis_free(bases[0]), bst_basis_free(bases[1]);
+}
+END_TEST
+
 static Suite *basis_suite(void)
 {
     Suite *s = suite_create("basis");
@@ -191,6 +224,7 @@ static Suite *basis_suite(void)
     tcase_add_test(tc, test_sc_patches);
     tcase_add_loop_test(tc, test_klems_against_wce, 0, 3);
     tcase_add_test(tc, test_klems_example);
+    tcase_add_test(tc, test_patch_not_finite);
     suite_add_tcase(s, tc);
     return s;
 }

@@ -26,6 +26,37 @@ START_TEST(test_messages)
 }
 END_TEST
 
+/* A message longer than the context holds (a path of thousands of characters) loses its middle,
+ * never its end, where the reason is; a prefix added to a long message does the same. */
+START_TEST(test_long_messages)
+{
+    bst_ctx *ctx = bst_ctx_new();
+    char path[4000];
+    for (size_t i = 0; i < sizeof path - 1; i++)
+        path[i] = (char)('a' + i % 26);
+    path[sizeof path - 1] = '\0';
+    for (size_t len = BSTI_MSG_MAX - 40; len < sizeof path; len += 997) {
+        path[len] = '\0';
+        bsti_error(ctx, BST_EIO, "%s: cannot open: No such file or directory", path);
+        const char *m = bst_ctx_message(ctx);
+        size_t n = strlen(m);
+        ck_assert_uint_lt(n, BSTI_MSG_MAX);
+        ck_assert_uint_gt(n, 100);
+        ck_assert_str_eq(m + n - 38, "cannot open: No such file or directory"); /* the reason kept */
+        ck_assert_int_eq(strncmp(m, path, 100), 0); /* the path's start kept */
+        ck_assert_int_eq(strstr(m, "...") != NULL, len + 40 >= BSTI_MSG_MAX);
+        bsti_error_prefix(ctx, "layer 2 (%s)", path);
+        m = bst_ctx_message(ctx);
+        n = strlen(m);
+        ck_assert_uint_lt(n, BSTI_MSG_MAX);
+        ck_assert_str_eq(m + n - 38, "cannot open: No such file or directory");
+        ck_assert_int_eq(strncmp(m, "layer 2 (", 9), 0);
+        path[len] = (char)('a' + len % 26);
+    }
+    bst_ctx_free(ctx);
+}
+END_TEST
+
 START_TEST(test_strerror)
 {
     int codes[] = {BST_OK, BST_EINVAL, BST_ENOMEM, BST_ESIZE, BST_EIO, BST_EFORMAT, BST_EBASIS,
@@ -71,6 +102,7 @@ static Suite *ctx_suite(void)
     Suite *s = suite_create("ctx");
     TCase *tc = tcase_create("core");
     tcase_add_test(tc, test_messages);
+    tcase_add_test(tc, test_long_messages);
     tcase_add_test(tc, test_strerror);
     tcase_add_test(tc, test_allocator);
     tcase_add_test(tc, test_size_mul);

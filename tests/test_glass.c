@@ -461,6 +461,43 @@ START_TEST(test_slab)
 }
 END_TEST
 
+/* The model is continuous at R0 = 0: R0 = 0 is the limit R0 -> 0+ (n = 1, tau0 = T0), T(theta)
+ * = T0^(1/cos theta) and R = 0 (the path through an absorbing pane of index 1), and R0 = 1e-300
+ * (at every angle), 1e-12 and 1e-6 (to 80 degrees) approach it as sqrt(R0) (R0 = 0 was
+ * angle-independent, R0 = 1e-300 not); T0 = 1 stays angle-independent. */
+START_TEST(test_no_reflection_limit)
+{
+    const double t0s[] = {0.05, 0.5, 0.9, 1.0};
+    for (size_t i = 0; i < sizeof t0s / sizeof t0s[0]; i++) {
+        char spec[128];
+        snprintf(spec, sizeof spec, "t0=%g,r0=0", t0s[i]);
+        bst_glass *g0 = parse(spec);
+        double nn, tau0;
+        ck_assert_int_eq(bst_glass_slab(g0, 0, 0.5, 0, &nn, &tau0), BST_OK);
+        ck_assert_double_eq(nn, 1.0);
+        tu_assert_close(tau0, t0s[i], 1e-15, 0);
+        const double near[] = {1e-300, 1e-12, 1e-6}; /* n - 1 ~ 2 sqrt(R0): T moves as sqrt(R0) */
+        for (double a = 0; a < 90; a += 2.5) {
+            double t, r;
+            ck_assert_int_eq(bst_glass_optics(g0, 0, deg(a), &t, NULL, &r, NULL), BST_OK);
+            tu_assert_close(t, pow(t0s[i], 1 / cos(deg(a))), 1e-11, 1e-300); /* the exponent amplifies log(T0)'s rounding */
+            ck_assert(r >= 0 && r <= 1e-15); /* 0 up to rounding of cos theta' = cos theta */
+            for (size_t j = 0; j < 3 && t0s[i] < 1 && (j == 0 || a <= 80); j++) { /* grazing: more sensitive */
+                snprintf(spec, sizeof spec, "t0=%g,r0=%g", t0s[i], near[j]);
+                bst_glass *g = parse(spec);
+                double tn, rn;
+                ck_assert_int_eq(bst_glass_optics(g, 0, deg(a), &tn, NULL, &rn, NULL), BST_OK);
+                double gap = fmax(1e-15, 100 * sqrt(near[j]));
+                ck_assert_msg(fabs(tn - t) <= gap && rn <= gap,
+                              "%s at %g deg: T %.17g vs %.17g at R0 = 0, R %g", spec, a, tn, t, rn);
+                bst_glass_free(g);
+            }
+        }
+        bst_glass_free(g0);
+    }
+}
+END_TEST
+
 /* Specs by tn: T(0) = tn, R(0) = rho (1 + tau tn), n recovered; tn at the non-absorbing limit gives
  * R(0) = 2 rho / (1 + rho) and T + R = 1 at every angle. */
 START_TEST(test_tn_spec)
@@ -1010,6 +1047,7 @@ static Suite *glass_suite(void)
     tcase_add_checked_fixture(tc, setup, teardown);
     tcase_set_timeout(tc, 120);
     tcase_add_test(tc, test_wce_mono);
+    tcase_add_test(tc, test_no_reflection_limit);
     tcase_add_test(tc, test_wce_per_wavelength);
     tcase_add_test(tc, test_wce_band_averages);
     tcase_add_test(tc, test_wce_klems_diagonal);

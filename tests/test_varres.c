@@ -104,6 +104,13 @@ START_TEST(test_sun_window)
     /* behind the window, or below the horizon: not in front */
     ck_assert_int_eq(bst_sun_incident(30, 180, 0, &t, &p), 0);
     ck_assert_int_eq(bst_sun_incident(-5, 0, 0, &t, &p), 0);
+    /* an angle that is not finite: not in front either (never a direction to combine) */
+    const double not_finite[] = {NAN, INFINITY, -INFINITY};
+    for (int i = 0; i < 3; i++) {
+        ck_assert_int_eq(bst_sun_incident(not_finite[i], 0, 0, &t, &p), 0);
+        ck_assert_int_eq(bst_sun_incident(30, not_finite[i], 0, &t, &p), 0);
+        ck_assert_int_eq(bst_sun_incident(30, 0, not_finite[i], &t, &p), 0);
+    }
     /* a year at 40 N, hourly, south window: every direction in front, about half the daylight
      * hours (4380 a year) */
     bst_sun_site site = {40, 105, 105};

@@ -12,6 +12,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -1312,6 +1314,61 @@ START_TEST(test_channels_metadata)
 }
 END_TEST
 
+/* Names and paths are bytes, the file is declared UTF-8: a sequence that is not the UTF-8 of an
+ * XML character (a stray byte, overlong, a surrogate, U+FFFE, beyond U+10FFFF, cut off at the end)
+ * is written as U+FFFD per byte, wherever the text goes (comment, element, channel name), so that
+ * the file reads back (it did not); valid multi-byte characters are kept as they are. */
+START_TEST(test_non_utf8_text)
+{
+    static const char *const bad[] = {"a\xff" "b", "a\xc0\xaf" "b", "a\xed\xa0\x80" "b",
+                                      "a\xef\xbf\xbe" "b", "a\xf4\x90\x80\x80" "b", "a\xe2\x82"};
+    static const char *const good = "caf\xc3\xa9 \xe2\x82\xac \xf0\x9f\x98\x80 \xed\x9f\xbf";
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        const char *names[] = {bad[i]};
+        bst_basis *bs;
+        ck_assert_int_eq(bst_basis_new_sc(ctx, 1, &bs), BST_OK);
+        bst_layer *l;
+        ck_assert_int_eq(bst_layer_new(ctx, bs, 1, names, &l), BST_OK);
+        double diag[4] = {0.5, 0.5, 0.5, 0.5};
+        bst_mat *m;
+        ck_assert_int_eq(bst_mat_new_diag(ctx, 4, diag, &m), BST_OK);
+        ck_assert_int_eq(bst_layer_set(ctx, l, 0, BST_TF, m), BST_OK);
+        ck_assert_int_eq(bst_layer_set_name(ctx, l, bad[i]), BST_OK);
+        bst_bsdf_write_opts o;
+        bst_bsdf_write_opts_init(&o);
+        const char *layers[] = {bad[i], good};
+        o.nlayers = 2, o.layers = layers;
+        o.command = bad[i], o.description = bad[i], o.manufacturer = bad[i];
+        o.date = "2026-01-02T03:04:05Z";
+        const char *path = tmp_path("utf8");
+        write_ok(l, path, &o);
+        xmlDocPtr doc = xmlReadFile(path, NULL, XML_PARSE_NONET);
+        ck_assert_msg(doc != NULL, "case %zu: not well-formed XML", i);
+        xmlFreeDoc(doc);
+        bst_bsdf *b = read_ok(path);
+        size_t want = strlen(bad[i]) - 1 - (bad[i][strlen(bad[i]) - 1] == 'b'); /* replaced bytes */
+        char expect[64] = "a";
+        for (size_t k = 0; k < want; k++)
+            strcat(expect, "\xef\xbf\xbd");
+        if (bad[i][strlen(bad[i]) - 1] == 'b')
+            strcat(expect, "b");
+        ck_assert_str_eq(bst_bsdf_channel(b, 0), expect);
+        bst_bsdf_free(b);
+        FILE *fp = fopen(path, "rb");
+        static char text[1 << 16];
+        size_t len = fread(text, 1, sizeof text - 1, fp);
+        fclose(fp);
+        text[len] = '\0';
+        ck_assert_msg(strstr(text, good), "case %zu: valid UTF-8 not kept", i);
+        char named[96];
+        snprintf(named, sizeof named, "<Name>%s</Name>", expect);
+        ck_assert_msg(strstr(text, named), "case %zu: no %s", i, named);
+        unlink(path);
+        bst_layer_free(l), bst_basis_free(bs);
+    }
+}
+END_TEST
+
 /* Entries of a directory other than . and .. */
 static int count_entries(const char *dir)
 {
@@ -1492,6 +1549,131 @@ START_TEST(test_write_path_kinds)
 }
 END_TEST
 
+/* bst_output_key tells paths apart by the file they write, not their spelling: one key for a.xml,
+ * ./a.xml, sub/../a.xml, a relative and an absolute symbolic link to it and a hard link, whether
+ * the file is there yet or not; another for b.xml; no key (BST_EIO) under a missing directory, and
+ * BST_EINVAL for a buffer too small. */
+START_TEST(test_output_key)
+{
+    char dir[] = "/tmp/bst_key_XXXXXX", cwd[4096], path[8][400];
+    ck_assert_ptr_nonnull(mkdtemp(dir));
+    ck_assert_ptr_nonnull(getcwd(cwd, sizeof cwd));
+    ck_assert_int_eq(chdir(dir), 0);
+    ck_assert_int_eq(mkdir("sub", 0700), 0);
+    ck_assert_int_eq(symlink("a.xml", "rel.xml"), 0);
+    snprintf(path[0], sizeof path[0], "%s/a.xml", dir);
+    ck_assert_int_eq(symlink(path[0], "abs.xml"), 0);
+    ck_assert_int_eq(symlink("../rel.xml", "sub/chain.xml"), 0);
+    static const char *const names[] = {"a.xml", "./a.xml", "sub/../a.xml", "rel.xml", "abs.xml",
+                                        "sub/chain.xml", "sub/./../a.xml"};
+    const size_t nn = sizeof names / sizeof names[0];
+    char key[BST_OUTPUT_KEY_MAX], first[BST_OUTPUT_KEY_MAX], other[BST_OUTPUT_KEY_MAX];
+    for (int there = 0; there < 2; there++) {
+        if (there) {
+            FILE *fp = fopen("a.xml", "w");
+            ck_assert_ptr_nonnull(fp);
+            fclose(fp);
+            ck_assert_int_eq(link("a.xml", "hard.xml"), 0);
+        }
+        ck_assert_int_eq(bst_output_key(ctx, path[0], first, sizeof first), BST_OK);
+        for (size_t i = 0; i < nn + (size_t)there; i++) {
+            const char *p = i < nn ? names[i] : "hard.xml";
+            ck_assert_msg(bst_output_key(ctx, p, key, sizeof key) == BST_OK, "%s: %s", p,
+                          bst_ctx_message(ctx));
+            ck_assert_msg(strcmp(key, first) == 0, "%s (%s): key '%s', a.xml's '%s'",
+                          p, there ? "there" : "not yet", key, first);
+        }
+        ck_assert_int_eq(bst_output_key(ctx, "b.xml", other, sizeof other), BST_OK);
+        ck_assert_str_ne(other, first);
+        ck_assert_int_eq(bst_output_key(ctx, "sub/a.xml", other, sizeof other), BST_OK);
+        ck_assert_str_ne(other, first);
+    }
+    ck_assert_int_eq(bst_output_key(ctx, "nowhere/a.xml", key, sizeof key), BST_EIO);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "nowhere/a.xml"));
+    ck_assert_int_eq(bst_output_key(ctx, "a.xml", key, 4), BST_EINVAL);
+    ck_assert_int_eq(bst_output_key(ctx, "", key, sizeof key), BST_EINVAL);
+    static const char *const made[] = {"sub/chain.xml", "abs.xml", "rel.xml", "hard.xml", "a.xml"};
+    for (size_t i = 0; i < sizeof made / sizeof made[0]; i++)
+        ck_assert_int_eq(unlink(made[i]), 0);
+    ck_assert_int_eq(rmdir("sub"), 0);
+    ck_assert_int_eq(chdir(cwd), 0);
+    ck_assert_int_eq(rmdir(dir), 0);
+}
+END_TEST
+
+/* bst_output_clean removes what a killed writer left (PATH.tmpXXXXXX, unlocked) beside the file
+ * each path's links lead to, and nothing else: not a temporary a writer holds (locked), not one of
+ * another file, not a name that only looks alike, not a link or a directory of that name.  A
+ * writer's own temporary is locked from the start, so a clean during a write leaves it. */
+static void touch(const char *path)
+{
+    FILE *fp = fopen(path, "w");
+    ck_assert_ptr_nonnull(fp);
+    fclose(fp);
+}
+
+START_TEST(test_output_clean)
+{
+    char dir[] = "/tmp/bst_clean_XXXXXX", cwd[4096];
+    ck_assert_ptr_nonnull(mkdtemp(dir));
+    ck_assert_ptr_nonnull(getcwd(cwd, sizeof cwd));
+    ck_assert_int_eq(chdir(dir), 0);
+    ck_assert_int_eq(mkdir("sub", 0700), 0);
+    ck_assert_int_eq(symlink("../a.xml", "sub/link.xml"), 0);
+    static const char *const stale[] = {"a.xml.tmpAb12Z9", "a.xml.tmpzzzzzz", "b.xml.tmp000000",
+                                        "sub/c.xml.tmpQwErTy"};
+    static const char *const kept[] = {"a.xml.tmpAb12Z", "a.xml.tmp-b12Z9", "a.xmltmpAb12Z9",
+                                       "x.xml.tmpAb12Z9", "sub/a.xml.tmpAb12Z9", "a.xml.tmpHELD00"};
+    for (size_t i = 0; i < sizeof stale / sizeof stale[0]; i++)
+        touch(stale[i]);
+    for (size_t i = 0; i < sizeof kept / sizeof kept[0]; i++)
+        touch(kept[i]);
+    ck_assert_int_eq(symlink("a.xml", "a.xml.tmpLINK00"), 0);
+    ck_assert_int_eq(mkdir("a.xml.tmpDIR000", 0700), 0);
+    int held = open("a.xml.tmpHELD00", O_RDONLY);
+    ck_assert_int_ge(held, 0);
+    ck_assert_int_eq(flock(held, LOCK_EX), 0); /* a writer still at work */
+    /* a.xml through a link in sub/, b.xml twice, c.xml in sub/, and paths with nothing to look at */
+    const char *paths[] = {"sub/link.xml", "b.xml", "./b.xml", "sub/c.xml", "nowhere/d.xml", "", NULL};
+    size_t removed = 99;
+    ck_assert_int_eq(bst_output_clean(ctx, sizeof paths / sizeof paths[0], paths, &removed), BST_OK);
+    ck_assert_uint_eq(removed, sizeof stale / sizeof stale[0]);
+    struct stat st;
+    for (size_t i = 0; i < sizeof stale / sizeof stale[0]; i++)
+        ck_assert_msg(lstat(stale[i], &st) != 0, "%s left", stale[i]);
+    for (size_t i = 0; i < sizeof kept / sizeof kept[0]; i++)
+        ck_assert_msg(lstat(kept[i], &st) == 0, "%s removed", kept[i]);
+    ck_assert_int_eq(lstat("a.xml.tmpLINK00", &st), 0);
+    ck_assert_int_eq(lstat("a.xml.tmpDIR000", &st), 0);
+    close(held); /* its writer killed: the next clean takes it */
+    ck_assert_int_eq(bst_output_clean(ctx, 1, paths, &removed), BST_OK);
+    ck_assert_uint_eq(removed, 1);
+    ck_assert_int_ne(lstat("a.xml.tmpHELD00", &st), 0);
+    /* a writer's temporary, locked from its creation: a clean in the middle of the write keeps
+     * it, and the write ends as it would have */
+    bst_output *o;
+    ck_assert_int_eq(bst_output_open(ctx, "a.xml", &o), BST_OK);
+    fputs("written\n", bst_output_file(o));
+    const char *tmp = bst_output_temporary(o);
+    ck_assert_ptr_nonnull(tmp);
+    ck_assert_int_eq(bst_output_clean(ctx, 1, paths, &removed), BST_OK);
+    ck_assert_uint_eq(removed, 0);
+    ck_assert_int_eq(stat(tmp, &st), 0);
+    ck_assert_int_eq(bst_output_commit(o), BST_OK);
+    ck_assert_int_eq(stat("a.xml", &st), 0);
+    ck_assert_int_eq(st.st_size, 8);
+    static const char *const made[] = {"a.xml.tmpAb12Z", "a.xml.tmp-b12Z9", "a.xmltmpAb12Z9",
+                                       "x.xml.tmpAb12Z9", "sub/a.xml.tmpAb12Z9", "a.xml.tmpLINK00",
+                                       "sub/link.xml", "a.xml"};
+    for (size_t i = 0; i < sizeof made / sizeof made[0]; i++)
+        ck_assert_msg(unlink(made[i]) == 0, "%s", made[i]);
+    ck_assert_int_eq(rmdir("a.xml.tmpDIR000"), 0);
+    ck_assert_int_eq(rmdir("sub"), 0);
+    ck_assert_int_eq(chdir(cwd), 0);
+    ck_assert_int_eq(rmdir(dir), 0);
+}
+END_TEST
+
 /* Every allocation of the writer failing in turn: BST_ENOMEM each time, nothing leaked. */
 START_TEST(test_write_alloc_failures)
 {
@@ -1534,6 +1716,8 @@ static Suite *suite(void)
     tcase_add_checked_fixture(tc, setup, teardown);
     tcase_add_test(tc, test_format);
     tcase_add_test(tc, test_write_path_kinds);
+    tcase_add_test(tc, test_output_key);
+    tcase_add_test(tc, test_output_clean);
     tcase_add_test(tc, test_examples_rank4);
     tcase_add_test(tc, test_examples_rank3);
     tcase_add_test(tc, test_examples_read_back);
@@ -1558,6 +1742,7 @@ static Suite *suite(void)
     tcase_add_loop_test(tc, test_reference_klems, 0, 4);
     tcase_add_test(tc, test_rank3_auto);
     tcase_add_test(tc, test_channels_metadata);
+    tcase_add_test(tc, test_non_utf8_text);
     tcase_add_test(tc, test_reduced_round_trip);
     tcase_add_test(tc, test_write_errors);
     tcase_add_test(tc, test_write_alloc_failures);

@@ -581,6 +581,112 @@ START_TEST(test_bad_files)
 }
 END_TEST
 
+/* A file holds one kind of scattering data: a Klems block and a tree block, or trees of both
+ * ranks, in one file are refused with one line naming the file, whichever comes first and
+ * whichever channel is asked for (a mixed bst_bsdf crashed every caller: a NULL matrix or a NULL
+ * overlap table); Columns and Rows mix, and an <IncidentDataStructure> that no data follows does
+ * not change the kind of the blocks read. */
+#define MIX_HEAD "<?xml version=\"1.0\"?>\n<WindowElement xmlns=\"http://windows.lbl.gov\"><Optical><Layer>" \
+    "<DataDefinition><AngleBasis><AngleBasisName>Tiny</AngleBasisName>"                               \
+    "<AngleBasisBlock><nPhis>1</nPhis><ThetaBounds><LowerTheta>0</LowerTheta><UpperTheta>45"           \
+    "</UpperTheta></ThetaBounds></AngleBasisBlock><AngleBasisBlock><nPhis>3</nPhis><ThetaBounds>"      \
+    "<LowerTheta>45</LowerTheta><UpperTheta>90</UpperTheta></ThetaBounds></AngleBasisBlock>"           \
+    "</AngleBasis></DataDefinition>"
+#define MIX_BLOCK "<WavelengthData><Wavelength unit=\"Integral\">%s</Wavelength><WavelengthDataBlock>"    \
+    "<IncidentDataStructure>%s</IncidentDataStructure><WavelengthDataDirection>%s"                     \
+    "</WavelengthDataDirection><AngleBasis>%s</AngleBasis><ScatteringData>%s</ScatteringData>"        \
+    "</WavelengthDataBlock></WavelengthData>"
+#define MIX_TAIL "%s</Layer></Optical></WindowElement>\n"
+
+START_TEST(test_mixed_kinds)
+{
+    static const char klems16[] = "0.1 0.1 0.1 0.1 0.1 0.1 0.1 0.1 0.1 0.1 0.1 0.1 0.1 0.1 0.1 0.1";
+    static const char tt4[] = "{ 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 }", tt3[] = "{ 1 2 3 4 5 6 7 8 }";
+    static const struct {
+        const char *s1, *b1, *d1, *s2, *b2, *d2, *tail, *expect; /* expect NULL: read, kind below */
+        bst_file_kind kind;
+    } mix[] = {
+        {"Columns", "Tiny", klems16, "TensorTree4", "LBNL/Shirley-Chiu", tt4, "",
+         "a TensorTree4 block after Columns blocks", 0},
+        {"TensorTree4", "LBNL/Shirley-Chiu", tt4, "Rows", "Tiny", klems16, "",
+         "a Rows block after TensorTree4 blocks", 0},
+        {"TensorTree3", "LBNL/Shirley-Chiu", tt3, "TensorTree4", "LBNL/Shirley-Chiu", tt4, "",
+         "a TensorTree4 block after TensorTree3 blocks", 0},
+        {"Columns", "Tiny", klems16, "Rows", "Tiny", klems16, "", NULL, BST_FILE_KLEMS},
+        {"Columns", "Tiny", klems16, "Columns", "Tiny", klems16,
+         "<DataDefinition><IncidentDataStructure>TensorTree3</IncidentDataStructure></DataDefinition>",
+         NULL, BST_FILE_KLEMS},
+        {"TensorTree3", "LBNL/Shirley-Chiu", tt3, "TensorTree3", "LBNL/Shirley-Chiu", tt3,
+         "<DataDefinition><IncidentDataStructure>Columns</IncidentDataStructure></DataDefinition>",
+         NULL, BST_FILE_TT3},
+    };
+    static const char *const only_first[] = {"Visible"};
+    const bst_bsdf_read_opts first = {.channels = only_first, .nchannels = 1};
+    char buf[4096];
+    for (size_t i = 0; i < sizeof mix / sizeof mix[0]; i++) {
+        int n = snprintf(buf, sizeof buf, MIX_HEAD MIX_BLOCK MIX_BLOCK MIX_TAIL, "Visible", mix[i].s1,
+                         "Transmission Front", mix[i].b1, mix[i].d1, "Solar", mix[i].s2,
+                         "Transmission Back", mix[i].b2, mix[i].d2, mix[i].tail);
+        ck_assert_int_lt(n, (int)sizeof buf);
+        const char *p = write_tmp(buf, (size_t)n);
+        for (int opt = 0; opt < 2; opt++) {
+            bst_bsdf *b = (bst_bsdf *)1;
+            int rc = bst_bsdf_read(ctx, p, opt ? &first : NULL, &b);
+            const char *msg = bst_ctx_message(ctx);
+            if (mix[i].expect) {
+                ck_assert_msg(rc == BST_EFORMAT, "case %zu/%d: status %d (%s)", i, opt, rc, msg);
+                ck_assert_ptr_null(b);
+                ck_assert_msg(strstr(msg, p) && strstr(msg, mix[i].expect), "case %zu: '%s' lacks '%s'",
+                              i, msg, mix[i].expect);
+                ck_assert_ptr_null(strchr(msg, '\n'));
+                continue;
+            }
+            ck_assert_msg(rc >= 0, "case %zu/%d: %s", i, opt, msg);
+            ck_assert_int_eq(bst_bsdf_kind(b), mix[i].kind);
+            double v = -1, in[3] = {0.1, 0.2, -0.9}, out[3] = {0.3, -0.1, 0.8};
+            for (size_t ch = 0; ch < bst_bsdf_nchannels(b); ch++) {
+                ck_assert_int_eq(bst_bsdf_eval(ctx, b, ch, in, out, &v), BST_OK);
+                ck_assert(v > 0);
+            }
+            bst_bsdf_free(b);
+        }
+        unlink(p);
+    }
+}
+END_TEST
+
+/* What a file is, said as it is (each read "malformed XML: Document is empty", "the file is
+ * empty" or an encoder error before): a directory, UTF-32 text with or without a byte-order mark,
+ * a /proc file (size 0, yet text: malformed, not empty), an empty file. */
+START_TEST(test_what_a_file_is)
+{
+    char dir[] = "/tmp/bst_dir_XXXXXX";
+    ck_assert_ptr_nonnull(mkdtemp(dir));
+    bst_bsdf *b = (bst_bsdf *)1;
+    ck_assert_int_eq(bst_bsdf_read(ctx, dir, NULL, &b), BST_EIO);
+    ck_assert_ptr_null(b);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "a directory, not a BSDF XML file"));
+    rmdir(dir);
+    /* "<?xml" in UTF-32: big-endian with a mark, little-endian with one, both without */
+    static const unsigned char u32[4][12] = {
+        {0, 0, 0xFE, 0xFF, 0, 0, 0, '<', 0, 0, 0, '?'}, {0xFF, 0xFE, 0, 0, '<', 0, 0, 0, '?', 0, 0, 0},
+        {0, 0, 0, '<', 0, 0, 0, '?', 0, 0, 0, 'x'}, {'<', 0, 0, 0, '?', 0, 0, 0, 'x', 0, 0, 0}};
+    for (int i = 0; i < 4; i++) {
+        const char *p = write_tmp((const char *)u32[i], sizeof u32[i]);
+        ck_assert_int_eq(bst_bsdf_read(ctx, p, NULL, &b), BST_EFORMAT);
+        ck_assert_msg(strstr(bst_ctx_message(ctx), "UTF-32 text"), "case %d: %s", i, bst_ctx_message(ctx));
+        unlink(p);
+    }
+    ck_assert_int_lt(bst_bsdf_read(ctx, "/proc/self/status", NULL, &b), 0);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "malformed XML"));
+    ck_assert_ptr_null(strstr(bst_ctx_message(ctx), "empty"));
+    const char *p = write_tmp("", 0);
+    ck_assert_int_eq(bst_bsdf_read(ctx, p, NULL, &b), BST_EFORMAT);
+    ck_assert_str_eq(strstr(bst_ctx_message(ctx), ": the file is empty"), ": the file is empty");
+    unlink(p);
+}
+END_TEST
+
 /* A largest-allocation guard: refuses any block over `limit` bytes and records the largest asked. */
 typedef struct { size_t limit, largest; } cap_alloc;
 static void *cap_malloc(size_t n, void *opaque)
@@ -870,6 +976,8 @@ static Suite *xml_suite(void)
     tcase_add_test(tc, test_klems_resampling_energy);
     tcase_add_test(tc, test_to_layer_single);
     tcase_add_test(tc, test_bad_files);
+    tcase_add_test(tc, test_mixed_kinds);
+    tcase_add_test(tc, test_what_a_file_is);
     tcase_add_test(tc, test_klems_huge_basis);
     tcase_add_test(tc, test_internal_dtd);
     tcase_add_test(tc, test_read_notes);

@@ -51,22 +51,12 @@ import warnings
 import numpy as np
 
 from . import _lib
-from ._lib import lib, text, cstr, cstr_array, COMPS
+from ._lib import lib, text, cstr, cstr_array, COMPS, Error
 
 __version__ = text(lib.bst_version())
 
 __all__ = ["Error", "LibraryWarning", "BSDF", "Stack", "Glass", "Comparison", "load", "glass",
            "combine", "columns", "Columns", "compare", "version", "library_path"]
-
-
-class Error(Exception):
-    """An error of libbsdfstack (its message; .status is the bst_status code, 0 for errors found
-    by this package before any library call)."""
-
-    def __init__(self, message, status=0):
-        super().__init__(message)
-        self.status = status
-        self.message = message
 
 
 class LibraryWarning(UserWarning):
@@ -212,7 +202,12 @@ def _precision(p):
 
 def _direction(theta, phi):
     """The unit vector of a propagation direction (theta, phi) in degrees, nudged off cell
-    boundaries onto the +x, +y side as the program's info and compare do."""
+    boundaries onto the +x, +y side as the program's info and compare do.  As the program's
+    --incident: finite, 0 <= theta < 90 (NaN gave patch 2^63 and garbage), else Error."""
+    theta, phi = float(theta), float(phi)
+    if not (math.isfinite(theta) and math.isfinite(phi) and 0.0 <= theta < 90.0):
+        raise Error("direction (%r, %r): give theta and phi in degrees, finite, 0 <= theta < 90"
+                    % (theta, phi))
     t, p = math.radians(theta), math.radians(phi)
     return (ctypes.c_double * 3)(math.sin(t) * math.cos(p) + 1e-9, math.sin(t) * math.sin(p) + 1e-9,
                                  math.cos(t))
@@ -467,13 +462,20 @@ class BSDF:
         return None
 
 
+_LAST_SOURCE_DATE = 253402300799  # 9999-12-31T23:59:59Z, as the program
+
+
 def _epoch_date():
-    """$SOURCE_DATE_EPOCH as an ISO 8601 UTC date, as the program reads it; None when unset."""
+    """$SOURCE_DATE_EPOCH as an ISO 8601 UTC date, as the program reads it; None when unset or
+    empty.  A malformed value is an Error, as the program's (reproducible-builds.org asks it)."""
     epoch = os.environ.get("SOURCE_DATE_EPOCH", "")
-    if epoch.isdigit():
+    if not epoch:
+        return None
+    if epoch.isascii() and epoch.isdigit() and int(epoch) <= _LAST_SOURCE_DATE:
         import time
         return time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(int(epoch)))
-    return None
+    raise Error("SOURCE_DATE_EPOCH %r is not a whole number of seconds since 1970 (0 to %d): unset "
+                "it or give one" % (epoch, _LAST_SOURCE_DATE))
 
 
 # ------------------------------------------------------------------------- sources of layers

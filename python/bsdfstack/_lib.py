@@ -192,8 +192,28 @@ def text(b):
     return None if b is None else b.decode("utf-8", "replace")
 
 
+class Error(Exception):
+    """An error of libbsdfstack (its message; .status is the bst_status code, 0 for errors found
+    by this package before any library call).  bsdfstack.Error; defined here for cstr."""
+
+    def __init__(self, message, status=0):
+        super().__init__(message)
+        self.status = status
+        self.message = message
+
+
+Error.__module__ = "bsdfstack"
+
+
 def cstr(s):
-    return None if s is None else os.fsencode(s) if not isinstance(s, bytes) else s
+    """A str, bytes or path as the C string the library reads (file names in the file system's
+    encoding).  A NUL inside would end it there, unseen (a path cut short): Error instead."""
+    if s is None:
+        return None
+    b = os.fsencode(s) if not isinstance(s, bytes) else s
+    if b"\0" in b:
+        raise Error("%r holds a NUL character: the library would read only what comes before it" % (s,))
+    return b
 
 
 def cstr_array(names):

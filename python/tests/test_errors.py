@@ -6,7 +6,7 @@ import os
 import pytest
 
 import bsdfstack
-from conftest import ref, run_cli
+from conftest import SRCDIR, ref, run_cli
 
 
 def cli_error(*args):
@@ -30,6 +30,62 @@ def test_malformed_file(tmp_path):
         bsdfstack.load(path)
     assert e.value.status < 0 and str(e.value)
     assert str(e.value) in cli_error("info", path)
+
+
+@pytest.mark.parametrize("name", ["mixed-klems-then-tree.xml", "mixed-tree-then-klems.xml"])
+def test_mixed_kinds(name):
+    """A file mixing Klems and tensor-tree blocks is refused (the interpreter died of SIGSEGV)."""
+    path = os.path.join(SRCDIR, "tests", "fuzz", "regress", "xml", name)
+    with pytest.raises(bsdfstack.Error) as e:
+        bsdfstack.load(path)
+    assert e.value.status == -5 and "a file holds one kind" in str(e.value)   # BST_EFORMAT
+    assert str(e.value) in cli_error("info", path)
+
+
+BAD_DIRECTIONS = [(float("nan"), 0), (0, float("nan")), (float("inf"), 0), (0, float("-inf")),
+                  (90, 0), (-1, 0)]
+
+
+@pytest.mark.parametrize("theta,phi", BAD_DIRECTIONS)
+def test_direction_not_finite_or_out_of_range(pane, theta, phi):
+    """Every call taking a direction refuses NaN, infinity and theta outside [0, 90) as the
+    program's --incident does (NaN was patch 2^63, inf a value of some patch)."""
+    s = bsdfstack.combine([pane], k=2)
+    calls = [lambda: s.patch(theta, phi), lambda: s.hemispherical("Tf", theta, phi),
+             lambda: s.hemispherical("Tf", [0, theta], [0, phi]),
+             lambda: bsdfstack.columns([pane], [(theta, phi)], k=2),
+             lambda: bsdfstack.compare(pane, pane, k=2, incident=[(theta, phi)])]
+    for call in calls:
+        with pytest.raises(bsdfstack.Error, match="0 <= theta < 90"):
+            call()
+
+
+def test_nul_in_a_name(tmp_path, pane):
+    """A path or name with a NUL inside is refused, not cut at the NUL (load read a.xml for
+    'a.xml\\0b')."""
+    good = tmp_path / "a.xml"
+    s = bsdfstack.combine([pane], k=1)
+    s.write(good)
+    for bad in (str(good) + "\0b", os.fsencode(good) + b"\0b"):
+        with pytest.raises(bsdfstack.Error, match="NUL"):
+            bsdfstack.load(bad)
+        with pytest.raises(bsdfstack.Error, match="NUL"):
+            s.write(bad)
+    with pytest.raises(bsdfstack.Error, match="NUL"):
+        bsdfstack.glass("clear-6mm\0x")
+    with pytest.raises(bsdfstack.Error, match="NUL"):
+        s.hemispherical("Tf", channel="Visible\0x")
+
+
+@pytest.mark.parametrize("epoch", ["-1", "abc", "1e20", "253402300800", "\u00b2"])
+def test_malformed_source_date_epoch(tmp_path, pane, monkeypatch, epoch):
+    """A malformed SOURCE_DATE_EPOCH is an Error, with the program's words (it was ignored)."""
+    s = bsdfstack.combine([pane], k=1)
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", epoch)
+    with pytest.raises(bsdfstack.Error, match="SOURCE_DATE_EPOCH") as e:
+        s.write(tmp_path / "a.xml")   # the program's words (tests/cli_hostile.sh checks its)
+    assert not (tmp_path / "a.xml").exists()
+    assert "is not a whole number of seconds since 1970" in str(e.value)
 
 
 def test_unknown_glass():

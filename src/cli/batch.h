@@ -52,11 +52,22 @@ struct batch {
  * CLI_USAGE after a usage error, -1 after --help was printed (exit 0). */
 int batch_options(int argc, char **argv, struct batch *b, int *jobs, const char **summary,
                   const char *mpi_help);
+/* Every file the batch writes is a different one, compared by what the paths name (cli_out_key),
+ * not by their spelling: the outputs of bf's lines, --summary (NULL: none), and none of them the
+ * batch file at path itself.  CLI_OK, or one error line naming the two (exit status 1). */
+int batch_check_outputs(const char *sub, const char *path, const struct batch_file *bf,
+                        const char *summary);
+/* Remove the temporaries (OUT.tmpXXXXXX) that writers of lines[0..n-1]'s outputs left behind,
+ * killed (bst_output_clean), saying how many on stderr: --resume, and a worker that died.  CLI_OK
+ * or one error line (out of memory). */
+int batch_clean_temporaries(bst_ctx *ctx, const struct batch *b, const struct batch_line *lines,
+                            size_t n);
 /* Seconds since t0 (CLOCK_MONOTONIC). */
 double batch_since(const struct timespec *t0);
 /* "batch-key: fnv1a64 HEX" of line sl into key[0..size-1]. */
 void batch_key(const struct batch *b, const struct batch_line *sl, char *key, size_t size);
-/* Whether path is complete and holds key_text (--resume may skip its stack). */
+/* Whether path is a regular file, complete, holding key_text (--resume may skip its stack); a
+ * FIFO or device is never read (opened without waiting, then passed over). */
 int batch_up_to_date(const char *path, const char *key_text);
 /* Combine and write one stack, or skip it (--resume); ST_OK, ST_SKIPPED, or ST_FAILED after one
  * error line naming FILE:LINE.  The result goes to r.  The layers b->all.layers[sl->layer[i]]

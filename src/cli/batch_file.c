@@ -135,8 +135,16 @@ int batch_file_parse(FILE *fp, const char *path, struct batch_file *bf, char **e
     size_t bufsize = 0;
     struct name_index specs = {0}, outs = {0}; /* specs: index in bf->specs; outs: in bf->lines */
     int rc = 0;
-    while (rc == 0 && getline(&buf, &bufsize, fp) >= 0) {
+    ssize_t len;
+    while (rc == 0 && (len = getline(&buf, &bufsize, fp)) >= 0) {
         lineno++;
+        /* the words end at a NUL: what follows it would be dropped without a word */
+        char *nul = memchr(buf, '\0', (size_t)len);
+        if (nul) {
+            rc = failf(err, "%s:%zu: a NUL byte at column %zu: not a text line", path, lineno,
+                       (size_t)(nul - buf) + 1);
+            break;
+        }
         char *save = NULL, *w = strtok_r(buf, BATCH_BLANKS, &save);
         if (!w || w[0] == '#')
             continue;

@@ -24,7 +24,7 @@ struct batch_file {
 
 /* Read the stack lines of fp (named path in messages) into bf.  0 on success; -1 with one line
  * of text (no program name, no newline) in *err, to free: a line without layers, an output
- * written twice, no stacks at all, a read error, out of memory (*err NULL when even the message
+ * written twice, a NUL byte, no stacks at all, a read error, out of memory (*err NULL when even the message
  * could not be allocated).  bf holds whatever was read either way; release it with
  * batch_file_free. */
 int batch_file_parse(FILE *fp, const char *path, struct batch_file *bf, char **err);

@@ -36,6 +36,7 @@
 #include <unistd.h>
 
 #include "batch.h"
+#include "interrupt.h"
 
 #ifdef HAVE_OPENBLAS_SET_NUM_THREADS
 void openblas_set_num_threads(int num_threads); /* OpenBLAS's cblas.h */
@@ -300,6 +301,10 @@ static int run(int argc, char **argv, int rank, int size)
         rc = (text = slurp(sub, b.path, &len)) ? CLI_OK : CLI_FAIL;
     if (rank == 0 && rc == CLI_OK)
         rc = parse_text(sub, b.path, text, len, &bf, 1);
+    if (rank == 0 && rc == CLI_OK)
+        rc = batch_check_outputs(sub, b.path, &bf, summary);
+    if (rank == 0 && rc == CLI_OK && b.resume) /* what a killed run left behind */
+        rc = batch_clean_temporaries(ctx, &b, bf.lines, bf.nlines);
     if (rank == 0 && rc == CLI_OK && !(structure = calloc(bf.nspecs, sizeof *structure)))
         rc = cli_fail(sub, "out of memory");
     if (rank == 0 && rc == CLI_OK)
@@ -424,6 +429,7 @@ int main(int argc, char **argv)
         fprintf(stderr, "bsdfstack-mpi: MPI_Init failed\n");
         return CLI_FAIL;
     }
+    cli_interrupt_setup(); /* after MPI's own: mpirun passes SIGINT and SIGTERM on to the ranks */
     int rank = 0, size = 1;
     MPI_Comm_rank(MPI_COMM_WORLD, &rank);
     MPI_Comm_size(MPI_COMM_WORLD, &size);

@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include "cli.h"
+#include "interrupt.h"
 
 static void vreport(const char *sub, const char *fmt, va_list ap)
 {
@@ -129,7 +130,34 @@ int cli_out_open(struct cli_out *o, const char *sub, const char *path)
         bst_output_open(o->ctx, path, &o->out) < 0)
         return out_fail(o, sub);
     o->fp = bst_output_file(o->out);
+    o->held = cli_interrupt_hold(bst_output_temporary(o->out)) + 1; /* a signal removes it */
     return CLI_OK;
+}
+
+char *cli_out_key(const char *path)
+{
+    if (strcmp(path, "-") == 0)
+        return strdup("-");
+    char key[BST_OUTPUT_KEY_MAX];
+    bst_ctx *ctx = bst_ctx_new();
+    if (!ctx)
+        return NULL;
+    int found = bst_output_key(ctx, path, key, sizeof key) == BST_OK;
+    bst_ctx_free(ctx);
+    if (found)
+        return strdup(key);
+    char *p = malloc(strlen(path) + 3);
+    if (p)
+        strcpy(p, "P "), strcpy(p + 2, path);
+    return p;
+}
+
+int cli_out_same(const char *a, const char *b)
+{
+    char *ka = cli_out_key(a), *kb = cli_out_key(b);
+    int same = ka && kb ? strcmp(ka, kb) == 0 : -1;
+    free(ka), free(kb);
+    return same;
 }
 
 int cli_out_flush(struct cli_out *o, const char *sub)
@@ -167,6 +195,7 @@ int cli_out_fail_ctx(struct cli_out *o, const char *sub, bst_ctx *ctx)
 void cli_out_abort(struct cli_out *o)
 {
     bst_output_abort(o->out);
+    cli_interrupt_release(o->held - 1); /* renamed into place or removed by now */
     bst_ctx_free(o->ctx);
     free(o->path);
     memset(o, 0, sizeof *o);
@@ -236,6 +265,20 @@ void cli_blas_setup(void)
         setenv("OPENBLAS_THREAD_TIMEOUT", CLI_BLAS_SPIN, 0) == 0)
         openblas_read_env();
     cli_blas_rest();
+}
+
+ssize_t cli_read_line(const char *sub, const char *name, long ln, char **buf, size_t *cap, FILE *fp)
+{
+    ssize_t len = getline(buf, cap, fp);
+    if (len < 0)
+        return -1;
+    const char *nul = memchr(*buf, '\0', (size_t)len);
+    if (nul) {
+        cli_fail(sub, "%s:%ld: a NUL byte at column %zu: not a text line", name, ln,
+                 (size_t)(nul - *buf) + 1);
+        return -2;
+    }
+    return len;
 }
 
 int cli_parse_double(const char *s, double *out)

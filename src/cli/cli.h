@@ -5,6 +5,7 @@
 #define BST_CLI_H
 
 #include <stdio.h>
+#include <sys/types.h>
 #include "bsdfstack.h"
 
 /* Exit statuses of the program. */
@@ -61,6 +62,7 @@ struct cli_out {
     bst_output *out; /* NULL for standard output */
     bst_ctx *ctx;    /* out's messages */
     char *path;      /* as given, for messages; NULL for standard output */
+    int held;        /* the temporary's slot for a signal (interrupt.h) + 1; 0: none */
 };
 /* Open path for writing; CLI_OK, or one error line printed and nothing left behind. */
 int cli_out_open(struct cli_out *o, const char *sub, const char *path);
@@ -75,6 +77,13 @@ int cli_out_commit(struct cli_out *o, const char *sub);
 int cli_out_fail_ctx(struct cli_out *o, const char *sub, bst_ctx *ctx);
 /* Remove the temporary (on an error path). Safe to call after commit or on a zeroed struct. */
 void cli_out_abort(struct cli_out *o);
+/* Which file an output path writes, as a string to compare (malloc'd; NULL when out of memory):
+ * "-" for standard output, else bst_output_key's (file or directory identity), else, where the
+ * path names nothing that can be found (its write will fail and say why), the path itself.
+ * Outputs of one command are compared by these, never by their spelling. */
+char *cli_out_key(const char *path);
+/* 1 when paths a and b write one file (cli_out_key), 0 when not, -1 when out of memory. */
+int cli_out_same(const char *a, const char *b);
 
 /* Standard output's write errors: "bsdfstack SUB: error writing to standard output: REASON",
  * printed once per run however many writes fail.  cli_stdout_failed reports errno e of a write that just
@@ -93,6 +102,11 @@ void cli_blas_rest(void);
 /* At the start: OpenBLAS's workers to spin about 0.3 ms after a job instead of 0.1 s, unless the
  * user's OPENBLAS_THREAD_TIMEOUT says otherwise (cli.c), then cli_blas_rest. */
 void cli_blas_setup(void);
+
+/* One line of a text input (getline: any length, into *buf, its newline kept): its length, -1 at
+ * the end of the input (or a read error: ferror says), or -2 after one error line "NAME:LN: a NUL
+ * byte at column C" (what followed a NUL would be dropped unseen by string functions). */
+ssize_t cli_read_line(const char *sub, const char *name, long ln, char **buf, size_t *cap, FILE *fp);
 
 /* Parse a double / int option value strictly (the whole string, finite). 0 on success. */
 int cli_parse_double(const char *s, double *out);

@@ -23,6 +23,7 @@
 #include <config.h>
 
 #include <errno.h>
+#include <fcntl.h>
 #include <getopt.h>
 #include <inttypes.h>
 #include <math.h>
@@ -40,6 +41,7 @@
 #include <unistd.h>
 
 #include "batch.h"
+#include "interrupt.h"
 
 #ifdef HAVE_OPENBLAS_SET_NUM_THREADS
 void openblas_set_num_threads(int num_threads); /* OpenBLAS's cblas.h */
@@ -61,7 +63,9 @@ static const char help[] =
     "basis for the whole batch (-k, --klems; else the finest tensor-tree order among the batch's\n"
     "files; with no tree the Klems basis of the first Klems file; with panes only k = 5), and\n"
     "kept until the end.  The whole file and every layer are checked before the first stack is\n"
-    "combined.  A stack that fails is reported with its line number and the others go on; the\n"
+    "combined, and so are the outputs: two that name one file however spelt (a.xml, ./a.xml, a\n"
+    "link to it), or --summary or an output naming another output or FILE, are an error.  A\n"
+    "stack that fails is reported with its line number and the others go on; the\n"
     "exit status is then 1.  Each system is written as `combine -o OUT` writes it (a regular file\n"
     "atomically; its metadata names the layers, the batch line and its batch-key), and one line\n"
     "per stack on standard output gives OUT, the front T and R at normal incidence of the first\n"
@@ -70,13 +74,15 @@ static const char help[] =
     "\n"
     "  -j, --jobs N      combine N stacks at once, in N processes sharing the loaded layers,\n"
     "                    each with max(1, cores / N) OpenBLAS threads (default 1); standard\n"
-    "                    output's lines then come in the order the stacks end\n"
+    "                    output's lines then come in the order the stacks end; a signal to\n"
+    "                    the batch (INT, TERM, HUP) is passed on, and workers die with it\n"
     "      --summary FILE  one tab-separated row per stack: line, output, status (ok, failed,\n"
     "                    skipped), seconds, peak_rss_kib (the peak resident memory of the process\n"
     "                    that combined it, so far), T_normal and R_normal (front, at normal\n"
     "                    incidence, CHANNEL=VALUE per channel), warnings\n"
-    "      --resume      skip a stack whose OUT exists, is complete and holds the batch-key of\n"
-    "                    the same line, layer files (size, time) and options\n"
+    "      --resume      skip a stack whose OUT is a regular file, complete, with the batch-key of\n"
+    "                    the same line, layer files (size, time) and options; first remove\n"
+    "                    the temporaries (OUT.tmpXXXXXX) a killed writer left\n"
     "\n"
     "Other options: as for `bsdfstack combine`.\n"
     "Over the ranks of an MPI job (bsdfstack-mpi, built when configure finds MPI):\n"
@@ -163,9 +169,17 @@ void batch_key(const struct batch *b, const struct batch_line *sl, char *key, si
 int batch_up_to_date(const char *path, const char *key_text)
 {
     static const char last[] = "</WindowElement>\n";
-    FILE *fp = fopen(path, "rb");
-    if (!fp)
+    /* only a regular file can be complete: a FIFO, a terminal or another device is written
+     * again, and is never read here (opening a FIFO to read waited for a writer for ever) */
+    int fd = open(path, O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
+    struct stat st;
+    if (fd < 0)
         return 0;
+    FILE *fp = fstat(fd, &st) == 0 && S_ISREG(st.st_mode) ? fdopen(fd, "rb") : NULL;
+    if (!fp) {
+        close(fd);
+        return 0;
+    }
     char *head = malloc(65536), tail[sizeof last];
     size_t n = head ? fread(head, 1, 65535, fp) : 0;
     int ok = 0;
@@ -345,6 +359,23 @@ static void work(bst_ctx *ctx, const struct batch *b, struct shared *sh)
     }
 }
 
+int batch_clean_temporaries(bst_ctx *ctx, const struct batch *b, const struct batch_line *lines,
+                            size_t n)
+{
+    const char **paths = malloc((n ? n : 1) * sizeof *paths);
+    if (!paths)
+        return cli_fail(b->sub, "out of memory");
+    for (size_t i = 0; i < n; i++)
+        paths[i] = lines[i].out;
+    size_t removed = 0;
+    int rc = bst_output_clean(ctx, n, paths, &removed) < 0 ? cli_fail_ctx(b->sub, NULL, ctx) : CLI_OK;
+    free(paths);
+    if (removed)
+        fprintf(stderr, "bsdfstack %s: removed %zu temporar%s that a killed writer left beside %s\n",
+                b->sub, removed, removed == 1 ? "y" : "ies", n == 1 ? lines[0].out : "the outputs");
+    return rc;
+}
+
 /* The CPUs this process may run on. */
 int batch_cores(void)
 {
@@ -363,8 +394,10 @@ static void run_all(bst_ctx *ctx, struct batch *b, struct shared *sh, int jobs)
         work(ctx, b, sh);
         return;
     }
-    pid_t *pid = calloc((size_t)jobs, sizeof *pid);
-    int started = 0;
+    pid_t *pid = calloc((size_t)jobs, sizeof *pid), parent = getpid();
+    static volatile int started; /* read by the signal handler, which passes a signal on */
+    started = 0;
+    cli_interrupt_workers(pid, &started);
     fflush(NULL); /* nothing buffered is written twice */
     while (pid && started < jobs) {
         pid_t p = fork();
@@ -374,6 +407,7 @@ static void run_all(bst_ctx *ctx, struct batch *b, struct shared *sh, int jobs)
             break;
         }
         if (p == 0) {
+            cli_interrupt_worker_started(parent); /* dies with the batch, even of SIGKILL */
 #ifdef HAVE_OPENBLAS_SET_NUM_THREADS
             /* OPENBLAS_NUM_THREADS, when set, wins (as under bsdfstack-mpi): the last bit of some
                products follows the thread count, so equal counts give byte-identical files */
@@ -391,6 +425,7 @@ static void run_all(bst_ctx *ctx, struct batch *b, struct shared *sh, int jobs)
         pid[started++] = p;
     }
     if (started == 0) {
+        cli_interrupt_workers(NULL, NULL);
         b->progress = isatty(STDERR_FILENO);
         work(ctx, b, sh);
         free(pid);
@@ -411,6 +446,9 @@ static void run_all(bst_ctx *ctx, struct batch *b, struct shared *sh, int jobs)
             continue;
         }
         left--;
+        for (int w = 0; w < started; w++)
+            if (pid[w] == p)
+                pid[w] = 0; /* reaped: its number may be another process's now */
         for (size_t i = 0; i < b->nlines; i++) {
             struct stack_result *r = &sh->res[i];
             if (r->worker != p || atomic_load(&r->state) != ST_RUNNING)
@@ -422,6 +460,7 @@ static void run_all(bst_ctx *ctx, struct batch *b, struct shared *sh, int jobs)
                 snprintf(how, sizeof how, "exit status %d", WEXITSTATUS(status));
             cli_fail(b->sub, "%s:%zu: the worker combining this stack ended by %s", b->path,
                      b->lines[i].lineno, how);
+            batch_clean_temporaries(ctx, b, &b->lines[i], 1); /* killed: it may have left one */
             atomic_store(&r->state, ST_FAILED);
             atomic_fetch_add(&sh->failed, 1);
             atomic_fetch_add(&sh->done, 1);
@@ -429,6 +468,7 @@ static void run_all(bst_ctx *ctx, struct batch *b, struct shared *sh, int jobs)
     }
     if (tty)
         progress(b, sh, 1);
+    cli_interrupt_workers(NULL, NULL);
     free(pid);
 }
 
@@ -556,7 +596,68 @@ int batch_options(int argc, char **argv, struct batch *b, int *jobs, const char 
     if (argc - optind != 1)
         return cli_usage(sub, argc - optind < 1 ? "no batch file given" : "one batch file expected");
     b->path = argv[optind];
-    return CLI_OK;
+    char early[64];
+    const char *epoch_date; /* a malformed SOURCE_DATE_EPOCH fails before the first stack */
+    return cli_source_date(sub, early, sizeof early, &epoch_date);
+}
+
+/* One file the batch writes or reads, for batch_check_outputs: its key and who names it. */
+struct named_file {
+    char *key;
+    size_t who; /* a line's index, or one of: */
+};
+#define WHO_SUMMARY ((size_t)-1)
+#define WHO_BATCH ((size_t)-2)
+
+static int by_key(const void *a, const void *b)
+{
+    const struct named_file *x = a, *y = b;
+    int c = strcmp(x->key, y->key);
+    return c ? c : x->who < y->who ? -1 : x->who > y->who; /* lines first, in file order */
+}
+
+int batch_check_outputs(const char *sub, const char *path, const struct batch_file *bf,
+                        const char *summary)
+{
+    size_t n = 0;
+    struct named_file *f = malloc((bf->nlines + 2) * sizeof *f);
+    int rc = f ? CLI_OK : cli_fail(sub, "out of memory");
+    for (size_t i = 0; rc == CLI_OK && i < bf->nlines + 2; i++) {
+        size_t who = i < bf->nlines ? i : i == bf->nlines ? WHO_SUMMARY : WHO_BATCH;
+        const char *p = who == WHO_SUMMARY ? summary : who == WHO_BATCH ? path : bf->lines[i].out;
+        if (!p || (who == WHO_BATCH && strcmp(p, "-") == 0)) /* no summary; the batch on stdin */
+            continue;
+        if (!(f[n].key = cli_out_key(p)))
+            rc = cli_fail(sub, "out of memory");
+        else
+            f[n++].who = who;
+    }
+    if (rc == CLI_OK)
+        qsort(f, n, sizeof *f, by_key);
+    /* of the pairs that name one file, the one whose second name comes first in the file */
+    size_t first = n;
+    for (size_t i = 1; rc == CLI_OK && i < n; i++)
+        if (strcmp(f[i - 1].key, f[i].key) == 0 && (first == n || f[i].who < f[first].who))
+            first = i;
+    if (rc == CLI_OK && first < n) {
+        const struct named_file *a = &f[first - 1], *b = &f[first];
+        if (a->who == WHO_BATCH) /* then b is the summary: who sorts WHO_BATCH before it */
+            rc = cli_fail(sub, "--summary %s is the batch file %s", summary, path);
+        else if (b->who == WHO_BATCH)
+            rc = cli_fail(sub, "%s:%zu: the output '%s' is the batch file itself", path,
+                          bf->lines[a->who].lineno, bf->lines[a->who].out);
+        else if (b->who == WHO_SUMMARY)
+            rc = cli_fail(sub, "%s:%zu: the output '%s' is the --summary file %s", path,
+                          bf->lines[a->who].lineno, bf->lines[a->who].out, summary);
+        else
+            rc = cli_fail(sub, "%s:%zu: '%s' is the file line %zu writes already ('%s')", path,
+                          bf->lines[b->who].lineno, bf->lines[b->who].out, bf->lines[a->who].lineno,
+                          bf->lines[a->who].out);
+    }
+    for (size_t i = 0; i < n; i++)
+        free(f[i].key);
+    free(f);
+    return rc;
 }
 
 int cmd_batch(int argc, char **argv)
@@ -572,6 +673,8 @@ int cmd_batch(int argc, char **argv)
         return free(b.argv), rc < 0 ? CLI_OK : rc;
     struct batch_file bf;
     rc = parse_file(sub, b.path, &bf);
+    if (rc == CLI_OK)
+        rc = batch_check_outputs(sub, b.path, &bf, summary);
     b.lines = bf.lines, b.nlines = bf.nlines, b.specs = bf.specs, b.nspecs = bf.nspecs;
     bst_ctx *ctx = rc == CLI_OK ? cli_ctx_new(sub) : NULL;
     if (rc == CLI_OK && !ctx)
@@ -582,6 +685,8 @@ int cmd_batch(int argc, char **argv)
     if (rc == CLI_OK)
         rc = cli_layers_load(&b.all, ctx, sub, b.nspecs, b.specs, &b.args.basis, b.args.channels, 0,
                              b.args.so.precision);
+    if (rc == CLI_OK && b.resume) /* what a killed run left behind */
+        rc = batch_clean_temporaries(ctx, &b, b.lines, b.nlines);
     struct cli_out sum;
     memset(&sum, 0, sizeof sum);
     if (rc == CLI_OK && summary)

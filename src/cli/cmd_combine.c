@@ -287,11 +287,18 @@ static int read_directions(const char *sub, const char *path, double (**dirs)[2]
     FILE *fp = strcmp(path, "-") == 0 ? stdin : fopen(path, "r");
     if (!fp)
         return cli_fail(sub, "%s: cannot open: %s", path, strerror(errno));
-    char line[256];
+    const char *name = fp == stdin ? "standard input" : path;
+    char *line = NULL;
+    size_t size = 0;
+    ssize_t got;
     int rc = CLI_OK;
-    for (long ln = 1; rc == CLI_OK && fgets(line, sizeof line, fp); ln++) {
+    for (long ln = 1; rc == CLI_OK && (got = cli_read_line(sub, name, ln, &line, &size, fp)) != -1; ln++) {
+        if (got < 0) {
+            rc = CLI_FAIL;
+            break;
+        }
         char *p = line + strspn(line, " \t");
-        if (*p == '#' || *p == '\n' || *p == '\0')
+        if (*p == '#' || *p == '\n' || *p == '\r' || *p == '\0')
             continue;
         double t, f;
         char extra[2];
@@ -318,10 +325,10 @@ static int read_directions(const char *sub, const char *path, double (**dirs)[2]
         (*dirs)[*n][0] = t, (*dirs)[(*n)++][1] = f;
     }
     if (rc == CLI_OK && ferror(fp))
-        rc = cli_fail(sub, "%s: read error: %s", fp == stdin ? "standard input" : path,
-                      strerror(errno ? errno : EIO));
+        rc = cli_fail(sub, "%s: read error: %s", name, strerror(errno ? errno : EIO));
     if (rc == CLI_OK && *n == 0)
         rc = cli_fail(sub, "%s: no directions", path);
+    free(line);
     if (fp != stdin)
         fclose(fp);
     return rc;
@@ -640,6 +647,10 @@ int cmd_combine(int argc, char **argv)
     else if (varres && (kc ? kc : DEFAULT_COARSE_K) >= args.basis.k)
         rc = cli_usage(sub, "--coarse-k %d must be below -k %d", kc ? kc : DEFAULT_COARSE_K,
                        args.basis.k);
+    char early[64];
+    const char *epoch_date;
+    if (rc == CLI_OK) /* a malformed SOURCE_DATE_EPOCH fails before the work, not after it */
+        rc = cli_source_date(sub, early, sizeof early, &epoch_date);
     if (rc != CLI_OK) {
         free(dirs), free(fine);
         return rc;
@@ -677,10 +688,12 @@ int cmd_combine(int argc, char **argv)
         free(dirs), free(fine);
         return rc;
     }
+    int same = 0;
     if ((ndirs || dirfile) && abspath)
         rc = cli_usage(sub, "--incident and --absorptance do not go together");
-    else if (abspath && strcmp(abspath, outpath) == 0)
-        rc = cli_usage(sub, "--absorptance and -o name the same file, %s", outpath);
+    else if (abspath && (same = cli_out_same(abspath, outpath)) != 0)
+        rc = same < 0 ? cli_fail(sub, "out of memory")
+                      : cli_usage(sub, "--absorptance %s and -o %s name the same file", abspath, outpath);
     if (rc == CLI_OK && dirfile)
         rc = read_directions(sub, dirfile, &dirs, &ndirs, &cap);
     if (rc != CLI_OK) {

@@ -163,6 +163,10 @@ int cmd_convert(int argc, char **argv)
         return cli_usage(sub, argc - optind < 1 ? "no input file given" : "one input file expected");
     if (!out)
         return cli_usage(sub, "no output file given (-o OUT, or -o - for standard output)");
+    char early[64];
+    const char *epoch_date;
+    if (cli_source_date(sub, early, sizeof early, &epoch_date) != CLI_OK) /* before the work */
+        return CLI_FAIL;
     int k = basis.k;
     const char *klems = basis.klems;
     if (reduce_set && no_reduce)
@@ -208,6 +212,8 @@ int cmd_convert(int argc, char **argv)
     }
     if (verbose.on)
         cli_warn_ctx(sub, NULL, st, ctx);
+    else if (st == BST_WDATA) /* a component taken as zero is written as zeros: say so, as combine */
+        cli_warn_zero_components(sub, in, b, 0, "written", ctx);
     else
         cli_warn_bsdf(sub, in, b);
     bst_ctx_clear(ctx);
@@ -277,9 +283,8 @@ write:;
     o.on_block = report;
     o.opaque = &verbose;
     char date[64];
-    o.date = cli_source_date(date, sizeof date);
     struct cli_out co;
-    if (cli_out_open(&co, sub, out) != CLI_OK) {
+    if (cli_source_date(sub, date, sizeof date, &o.date) != CLI_OK || cli_out_open(&co, sub, out) != CLI_OK) {
         rc = CLI_FAIL;
         goto done;
     }

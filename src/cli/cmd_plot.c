@@ -397,8 +397,13 @@ int cmd_plot(int argc, char **argv)
     if (m.format < 0 && (m.format = cli_draw_format_of_path(m.outpath)) < 0)
         return cli_usage(sub, "-o %s: name a .png, .svg or .pdf file, or give --format", m.outpath);
     if (curve) {
-        if (cv.tsvpath && strcmp(cv.tsvpath, "-") == 0 && strcmp(m.outpath, "-") == 0)
+        int same = cv.tsvpath ? cli_out_same(cv.tsvpath, m.outpath) : 0;
+        if (same < 0)
+            return cli_fail(sub, "out of memory");
+        if (same && strcmp(m.outpath, "-") == 0)
             return cli_usage(sub, "--tsv - and -o - would both write to standard output");
+        if (same)
+            return cli_usage(sub, "--tsv %s and -o %s name the same file", cv.tsvpath, m.outpath);
         cv.size = m.size ? m.size : 720;
         cv.format = m.format;
         cv.outpath = m.outpath;

@@ -67,7 +67,10 @@ int cmd_query(int argc, char **argv)
         bst_ctx_free(ctx);
         return rc;
     }
-    bst_ctx_clear(ctx); /* completion notes are for combine -v; query answers as libBSDF does */
+    /* completion notes are for combine -v, query answers as libBSDF does; but values read other
+     * than the file states (negatives read as 0, a tree averaged) are said, as info says them */
+    cli_warn_bsdf(sub, path, b);
+    bst_ctx_clear(ctx);
     size_t ch = 0;
     if (channel) {
         size_t i = 0;
@@ -80,11 +83,17 @@ int cmd_query(int argc, char **argv)
         }
         ch = i;
     }
-    char line[1024];
+    char *line = NULL;
+    size_t size = 0;
     long lineno = 0;
     int rc = CLI_OK;
-    while (rc == CLI_OK && fgets(line, sizeof line, stdin)) {
+    ssize_t got;
+    while (rc == CLI_OK && (got = cli_read_line(sub, "standard input", lineno + 1, &line, &size, stdin)) != -1) {
         lineno++;
+        if (got < 0) {
+            rc = CLI_FAIL;
+            break;
+        }
         char *s = line;
         while (*s == ' ' || *s == '\t')
             s++;
@@ -134,9 +143,10 @@ int cmd_query(int argc, char **argv)
             break;
         }
     }
-    /* fgets ends at a read error as at the end: a directory or a closed descriptor is no input */
+    /* getline ends at a read error as at the end: a directory or a closed descriptor is no input */
     if (rc == CLI_OK && ferror(stdin))
         rc = cli_fail(sub, "error reading standard input: %s", strerror(errno ? errno : EIO));
+    free(line);
     bst_bsdf_free(b);
     bst_ctx_free(ctx);
     return rc;

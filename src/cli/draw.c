@@ -36,6 +36,52 @@ const char *cli_draw_format_name(int format)
     return format >= 0 && format < 3 ? format_names[format] : "?";
 }
 
+/* Text that reaches a figure (file names in a legend or title) is bytes; cairo takes UTF-8 only,
+ * and a string that is not puts the drawing into an error state (it was reported as "out of
+ * memory").  Such bytes are drawn as '?'. */
+#define DRAW_TEXT_MAX 1024
+
+/* Bytes of the well-formed UTF-8 character at p (RFC 3629's table: no overlong form, surrogate
+ * or code point past U+10FFFF), or 0. */
+static size_t utf8_len(const unsigned char *p)
+{
+    if (p[0] < 0x80)
+        return 1;
+    if (p[0] < 0xC2 || p[0] > 0xF4)
+        return 0;
+    size_t n = p[0] < 0xE0 ? 2 : p[0] < 0xF0 ? 3 : 4;
+    unsigned lo = p[0] == 0xE0 ? 0xA0 : p[0] == 0xF0 ? 0x90 : 0x80;
+    unsigned hi = p[0] == 0xED ? 0x9F : p[0] == 0xF4 ? 0x8F : 0xBF;
+    if (p[1] < lo || p[1] > hi)
+        return 0;
+    for (size_t i = 2; i < n; i++)
+        if ((p[i] & 0xC0) != 0x80)
+            return 0;
+    return n;
+}
+
+/* s itself when it is UTF-8, else a copy in buf (DRAW_TEXT_MAX bytes, cut there) with '?' for
+ * each byte that is not. */
+static const char *drawable(const char *s, char *buf)
+{
+    const unsigned char *p = (const unsigned char *)s;
+    size_t n;
+    while (*p && (n = utf8_len(p)) > 0)
+        p += n;
+    if (!*p)
+        return s;
+    size_t o = 0;
+    for (p = (const unsigned char *)s; *p && o + 5 < DRAW_TEXT_MAX;) {
+        n = utf8_len(p);
+        if (n)
+            memcpy(buf + o, p, n), o += n, p += n;
+        else
+            buf[o++] = '?', p++;
+    }
+    buf[o] = '\0';
+    return buf;
+}
+
 /* cairo's stream callback.  A failed write is left to the stream's error flag, and cairo goes
  * on: the caller's flush of the stream then meets the error again and says why (ENOSPC, EPIPE),
  * as for any other output file.  Nothing once the figure is abandoned (a vector surface still
@@ -62,8 +108,9 @@ cairo_status_t cli_draw_begin(struct cli_draw *d, FILE *fp, int format, double w
         d->surface = cairo_pdf_surface_create_for_stream(write_stream, d, width, height);
     cairo_status_t st = cairo_surface_status(d->surface);
     if (st == CAIRO_STATUS_SUCCESS && format == CLI_DRAW_PDF) {
+        char buf[DRAW_TEXT_MAX];
         if (title)
-            cairo_pdf_surface_set_metadata(d->surface, CAIRO_PDF_METADATA_TITLE, title);
+            cairo_pdf_surface_set_metadata(d->surface, CAIRO_PDF_METADATA_TITLE, drawable(title, buf));
         cairo_pdf_surface_set_metadata(d->surface, CAIRO_PDF_METADATA_CREATOR, "bsdfstack " PACKAGE_VERSION);
     }
     if (st == CAIRO_STATUS_SUCCESS) {
@@ -113,8 +160,10 @@ void cli_draw_font(cairo_t *cr, double size)
     cairo_set_font_size(cr, size);
 }
 
-void cli_draw_text(cairo_t *cr, double x, double y, double align, double valign, const char *s)
+void cli_draw_text(cairo_t *cr, double x, double y, double align, double valign, const char *text)
 {
+    char buf[DRAW_TEXT_MAX];
+    const char *s = drawable(text, buf);
     cairo_text_extents_t te, digit;
     cairo_text_extents(cr, s, &te);
     cairo_text_extents(cr, "0", &digit); /* the height of digits and capitals */
@@ -123,8 +172,10 @@ void cli_draw_text(cairo_t *cr, double x, double y, double align, double valign,
     cairo_new_path(cr);
 }
 
-double cli_draw_text_width(cairo_t *cr, const char *s)
+double cli_draw_text_width(cairo_t *cr, const char *text)
 {
+    char buf[DRAW_TEXT_MAX];
+    const char *s = drawable(text, buf);
     cairo_text_extents_t te;
     cairo_text_extents(cr, s, &te);
     return te.x_advance;

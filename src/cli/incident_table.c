@@ -120,8 +120,12 @@ int cli_incident_column_read(const char *sub, const char *path, const char *chan
     ssize_t len;
     long ln = 0;
     unsigned comps_seen = 0;
-    while (rc == CLI_OK && (len = getline(&line, &cap, fp)) >= 0) {
+    while (rc == CLI_OK && (len = cli_read_line(sub, path, ln + 1, &line, &cap, fp)) != -1) {
         ln++;
+        if (len < 0) {
+            rc = CLI_FAIL;
+            break;
+        }
         if (len > 0 && line[len - 1] == '\n')
             line[--len] = '\0';
         if (len > 0 && line[len - 1] == '\r')

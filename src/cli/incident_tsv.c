@@ -98,22 +98,76 @@ bst_basis *cli_tsv_basis_of(bst_ctx *ctx, size_t n)
     return NULL;
 }
 
+/* The second pass over fp (path), which cli_tsv_read read into t, from its start: every exit
+ * direction at the centre of its patch of t->basis, every column's incidence in its patch_in. */
+static int check_directions(const char *sub, const char *path, FILE *fp, const struct cli_tsv *t)
+{
+    if (fseek(fp, 0, SEEK_SET) != 0)
+        return cli_fail(sub, "%s: cannot read it a second time: %s", path, strerror(errno));
+    char *line = NULL;
+    size_t size = 0;
+    struct row r;
+    int rc = CLI_OK;
+    ssize_t got;
+    for (long ln = 1; rc == CLI_OK && (got = cli_read_line(sub, path, ln, &line, &size, fp)) != -1; ln++) {
+        if (got < 0) {
+            rc = CLI_FAIL;
+            break;
+        }
+        if (ln == 1 || line[0] == '\n' || line[0] == '#')
+            continue;
+        if (parse_row(line, &r) != 0)
+            continue;
+        double d[3], e[3];
+        direction(r.theta_out, r.phi_out, d);
+        if (r.patch_out >= t->n)
+            continue;
+        bst_basis_center(t->basis, r.patch_out, e);
+        double dist = sqrt((d[0] - e[0]) * (d[0] - e[0]) + (d[1] - e[1]) * (d[1] - e[1]) + (d[2] - e[2]) * (d[2] - e[2]));
+        if (dist > DIR_TOL) {
+            rc = cli_fail(sub, "%s:%ld: exit direction (%g, %g) is not the centre of patch %zu of "
+                          "%s with %zu patches", path, ln, r.theta_out, r.phi_out, r.patch_out,
+                          bst_basis_name(t->basis), t->n);
+            break;
+        }
+        if (r.patch_out == 0) {
+            direction(r.theta, r.phi, d);
+            d[0] += 1e-9, d[1] += 1e-9; /* as combine: off cell boundaries to the +x, +y side */
+            if (bst_basis_patch(t->basis, d) != r.patch_in) {
+                rc = cli_fail(sub, "%s:%ld: incidence (%g, %g) does not lie in patch %zu", path, ln,
+                              r.theta, r.phi, r.patch_in);
+                break;
+            }
+        }
+    }
+    free(line);
+    return rc;
+}
+
 int cli_tsv_read(const char *sub, bst_ctx *ctx, const char *path, struct cli_tsv *t)
 {
     memset(t, 0, sizeof *t);
     FILE *fp = fopen(path, "r");
     if (!fp)
         return cli_fail(sub, "%s: cannot open: %s", path, strerror(errno));
-    char line[LINE_MAX_TSV];
+    char *line = NULL;
+    size_t size = 0;
     struct row r;
     size_t cap = 0, fill = 0, bcap = 0; /* fill: rows of the open (last) column */
     int rc = CLI_OK;
     long ln = 1;
-    if (!fgets(line, sizeof line, fp) || strncmp(line, CLI_TSV_HEADER, sizeof CLI_TSV_HEADER - 1) != 0)
+    ssize_t got = cli_read_line(sub, path, ln, &line, &size, fp);
+    if (got == -2)
+        rc = CLI_FAIL;
+    else if (got < 0 || strncmp(line, CLI_TSV_HEADER, sizeof CLI_TSV_HEADER - 1) != 0)
         rc = cli_fail(sub, "%s: not a TSV of combine --incident (its first line is not the header)", path);
     /* columns in the order written: rows of one column are consecutive, patch_out 0, 1, ... */
-    while (rc == CLI_OK && fgets(line, sizeof line, fp)) {
+    while (rc == CLI_OK && (got = cli_read_line(sub, path, ln + 1, &line, &size, fp)) != -1) {
         ln++;
+        if (got < 0) {
+            rc = CLI_FAIL;
+            break;
+        }
         if (line[0] == '\n' || line[0] == '#')
             continue;
         if (parse_row(line, &r) != 0) {
@@ -189,39 +243,11 @@ int cli_tsv_read(const char *sub, bst_ctx *ctx, const char *path, struct cli_tsv
     if (rc == CLI_OK && !(t->basis = cli_tsv_basis_of(ctx, t->n)))
         rc = cli_fail(sub, "%s: %zu exit patches per column: no basis has that many (4^k for "
                       "Shirley-Chiu, 145, 77 or 41 for Klems)", path, t->n);
+    free(line);
+    /* one FILE, closed once whatever failed (a failed first pass closed it twice: SIGABRT) */
+    if (rc == CLI_OK)
+        rc = check_directions(sub, path, fp, t);
     fclose(fp);
-    /* second pass: every exit direction at its patch centre, every incidence in its patch */
-    if (rc == CLI_OK && !(fp = fopen(path, "r")))
-        rc = cli_fail(sub, "%s: cannot open: %s", path, strerror(errno));
-    for (ln = 1; rc == CLI_OK && fgets(line, sizeof line, fp); ln++) {
-        if (ln == 1 || line[0] == '\n' || line[0] == '#')
-            continue;
-        if (parse_row(line, &r) != 0)
-            continue;
-        double d[3], e[3];
-        direction(r.theta_out, r.phi_out, d);
-        if (r.patch_out >= t->n)
-            continue;
-        bst_basis_center(t->basis, r.patch_out, e);
-        double dist = sqrt((d[0] - e[0]) * (d[0] - e[0]) + (d[1] - e[1]) * (d[1] - e[1]) + (d[2] - e[2]) * (d[2] - e[2]));
-        if (dist > DIR_TOL) {
-            rc = cli_fail(sub, "%s:%ld: exit direction (%g, %g) is not the centre of patch %zu of "
-                          "%s with %zu patches", path, ln, r.theta_out, r.phi_out, r.patch_out,
-                          bst_basis_name(t->basis), t->n);
-            break;
-        }
-        if (r.patch_out == 0) {
-            direction(r.theta, r.phi, d);
-            d[0] += 1e-9, d[1] += 1e-9; /* as combine: off cell boundaries to the +x, +y side */
-            if (bst_basis_patch(t->basis, d) != r.patch_in) {
-                rc = cli_fail(sub, "%s:%ld: incidence (%g, %g) does not lie in patch %zu", path, ln,
-                              r.theta, r.phi, r.patch_in);
-                break;
-            }
-        }
-    }
-    if (fp)
-        fclose(fp);
     if (rc != CLI_OK)
         cli_tsv_free(t);
     return rc;

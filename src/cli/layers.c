@@ -14,6 +14,11 @@
 #include "layers.h"
 
 #define MAX_CH 16
+/* A spectral pane's layer costs its wavelengths times the angles it averages over (about 0.5 ms a
+ * wavelength at k = 5 on one core, glass_layer.c): past this many, a warning says so first. */
+#define CLI_MANY_WAVELENGTHS 5000
+#define CLI_CATALOGUE_WAVELENGTHS 113 /* NFRC 102's data rows, for scale */
+#define LAST_SOURCE_DATE 253402300799LL /* 9999-12-31T23:59:59Z: the date keeps four digits */
 
 /* Split "a,b,c" into at most max names (pointers into a copy the caller frees). */
 static size_t split(char *s, const char **out, size_t max)
@@ -223,11 +228,8 @@ void cli_layers_free(struct cli_layers *set)
     memset(set, 0, sizeof *set);
 }
 
-/* The reader completes what a file leaves out (BST_WDATA): a transmission from the other side's by
- * reciprocity, as every TensorTree4 file expects (silently here), anything else as zero, which
- * changes the physics of a stack: that is worth a warning. */
-static void warn_zero_components(const char *sub, const char *path, const bst_bsdf *b, unsigned comps,
-                                 bst_ctx *ctx)
+void cli_warn_zero_components(const char *sub, const char *path, const bst_bsdf *b, unsigned comps,
+                              const char *how, bst_ctx *ctx)
 {
     char note[256] = "";
     for (size_t ch = 0; ch < bst_bsdf_nchannels(b); ch++)
@@ -240,7 +242,8 @@ static void warn_zero_components(const char *sub, const char *path, const bst_bs
                      bst_comp_name((bst_comp)c));
         }
     if (note[0])
-        fprintf(stderr, "bsdfstack %s: warning: %s: not in the file, taken as zero: %s\n", sub, path, note);
+        fprintf(stderr, "bsdfstack %s: warning: %s: not in the file, %s as zero: %s\n", sub, path, how,
+                note);
     cli_warn_bsdf(sub, path, b);
     bst_ctx_clear(ctx);
 }
@@ -269,7 +272,7 @@ static int read_one(bst_ctx *ctx, const char *sub, const char *what, const char 
     else if (quiet)
         bst_ctx_clear(ctx);
     else if (st == BST_WDATA)
-        warn_zero_components(sub, path, *file, ro->comps, ctx);
+        cli_warn_zero_components(sub, path, *file, ro->comps, "taken", ctx);
     else
         cli_warn_ctx(sub, what, st, ctx);
     free(path);
@@ -359,6 +362,13 @@ static int make_layer(bst_ctx *ctx, const char *sub, const char *what, const cha
             if (bst_glass_find_channel(g, chnames[c]) < 0 && bst_glass_nwavelengths(g) &&
                 is_band(chnames[c]))
                 st = bst_glass_add_channel(ctx, g, chnames[c]);
+        size_t nw = st >= 0 ? bst_glass_nwavelengths(g) : 0;
+        if (nw > CLI_MANY_WAVELENGTHS) /* the layer's cost grows with them: say so before */
+            fprintf(stderr, "bsdfstack %s: warning: %s: %zu wavelengths: the pane is evaluated at "
+                    "each of them at every angle its layer averages, %.0f times the work of a "
+                    "catalogue pane's %d; a coarser table is as good where the data are smooth\n",
+                    sub, what ? what : spec, nw, (double)nw / CLI_CATALOGUE_WAVELENGTHS,
+                    CLI_CATALOGUE_WAVELENGTHS);
         if (st >= 0)
             st = bst_glass_layer(ctx, g, basis, nch, nch ? chnames : NULL, at_centre, &l);
         /* a pane with spectral data can also be evaluated per wavelength */
@@ -549,9 +559,10 @@ static int write_any(bst_ctx *ctx, const char *sub, const bst_layer *l, const bs
     wo.reduce_tol = reduce->tol;
     wo.description = desc;
     char date[64];
-    wo.date = cli_source_date(date, sizeof date);
     struct cli_out out;
-    int rc = cli_out_open(&out, sub, path);
+    int rc = cli_source_date(sub, date, sizeof date, &wo.date);
+    if (rc == CLI_OK)
+        rc = cli_out_open(&out, sub, path);
     if (rc == CLI_OK) {
         int st = v ? bst_bsdf_write_varres(ctx, l, v, out.fp, &wo) : bst_bsdf_write(ctx, l, out.fp, &wo);
         if (st < 0) {
@@ -576,20 +587,27 @@ int cli_parse_reduce_tol(const char *sub, const char *arg, double *tol)
     return CLI_OK;
 }
 
-const char *cli_source_date(char *buf, size_t size)
+int cli_source_date(const char *sub, char *buf, size_t size, const char **date)
 {
+    *date = NULL;
     const char *epoch = getenv("SOURCE_DATE_EPOCH");
     if (!epoch || !*epoch)
-        return NULL;
+        return CLI_OK;
     char *end;
     errno = 0;
     long long secs = strtoll(epoch, &end, 10);
     time_t t = (time_t)secs;
     struct tm tm;
-    if (*end == '\0' && errno == 0 && secs >= 0 && gmtime_r(&t, &tm) &&
-        strftime(buf, size, "%Y-%m-%dT%H:%M:%SZ", &tm))
-        return buf;
-    return NULL;
+    if (epoch[0] >= '0' && epoch[0] <= '9' && *end == '\0' && errno == 0 &&
+        secs <= LAST_SOURCE_DATE && gmtime_r(&t, &tm) && strftime(buf, size, "%Y-%m-%dT%H:%M:%SZ", &tm)) {
+        *date = buf;
+        return CLI_OK;
+    }
+    char shown[64];
+    snprintf(shown, sizeof shown, "%s", epoch); /* cut, so that the reason is seen */
+    return cli_fail(sub, "SOURCE_DATE_EPOCH '%s'%s is not a whole number of seconds since 1970 "
+                    "(0 to %lld): unset it or give one", shown, strlen(epoch) >= sizeof shown ? "..." : "",
+                    (long long)LAST_SOURCE_DATE);
 }
 
 int cli_write_layer(bst_ctx *ctx, const char *sub, const bst_layer *l, const char *path,

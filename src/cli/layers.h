@@ -119,10 +119,20 @@ int cli_layer_load(bst_ctx *ctx, const char *sub, const char *what, const char *
                    const bst_basis *basis, const struct cli_basis_choice *choice,
                    const char *channels, bst_precision prec, bst_layer **layer, bst_glass **pane);
 
-/* SOURCE_DATE_EPOCH (reproducible-builds.org) as the written header's date, into buf, so that two
- * runs can give byte-identical files; NULL (the current date) unless it is a whole non-negative
- * number of seconds. */
-const char *cli_source_date(char *buf, size_t size);
+/* The reader completes what a file leaves out (BST_WDATA): a transmission from the other side's by
+ * reciprocity, as every TensorTree4 file expects (silently here), anything else as zero, which
+ * changes the physics: "warning: PATH: not in the file, HOW as zero: CHANNEL COMP, ..." (combine:
+ * "taken", convert: "written"), then the reader's other notes (cli_warn_bsdf); ctx cleared.  The
+ * components outside comps (BST_COMP_BIT mask, 0 = all) are not named. */
+void cli_warn_zero_components(const char *sub, const char *path, const bst_bsdf *b, unsigned comps,
+                              const char *how, bst_ctx *ctx);
+
+/* SOURCE_DATE_EPOCH (reproducible-builds.org) as the written header's date, so that two runs can
+ * give byte-identical files: *date = buf holding it, or NULL (unset or empty: the current date).
+ * A value that is not a whole number of seconds from 0 to the end of year 9999 is an error, as the
+ * specification asks (it was ignored): one line naming it, CLI_FAIL.  The commands that write
+ * XML call it before their work too, so that the error comes before the work. */
+int cli_source_date(const char *sub, char *buf, size_t size, const char **date);
 /* Write a layer as BSDF XML to path ("-" = stdout), atomically, reduced as reduce says. */
 int cli_write_layer(bst_ctx *ctx, const char *sub, const bst_layer *l, const char *path,
                     const struct cli_reduce *reduce, int argc, char **argv, const struct cli_layers *set);

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "cli.h"
+#include "interrupt.h"
 
 const struct cli_command cli_commands[] = {
     {"combine", cmd_combine, "combine layers (exterior first) into the system's BSDF XML"},
@@ -75,6 +76,7 @@ static int dispatch(int argc, char **argv, const char **sub)
 int main(int argc, char **argv)
 {
     cli_hold_std_fds();
+    cli_interrupt_setup(); /* a signal removes the temporaries of outputs being written */
     cli_blas_setup(); /* spinning from the library's start: reading comes first */
     const char *sub = NULL;
     int rc = dispatch(argc, argv, &sub);
