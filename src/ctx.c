@@ -12,8 +12,6 @@
 
 #include "ctx.h"
 
-_Thread_local double bsti_flops_done;
-
 static void *system_malloc(size_t size, void *opaque)
 {
     (void)opaque;

@@ -23,6 +23,7 @@ struct bst_ctx {
     void *progress_opaque;
     struct cholmod_common_struct *cholmod; /* started on first use, see bsti_cholmod */
     int threads;            /* bst_ctx_set_threads: 0 = one per CPU */
+    double flops;           /* bsti_flops_add's count */
 };
 
 /* Record status and a printf-style message in ctx and return status (so: return bsti_error(...)). */
@@ -60,14 +61,13 @@ void bsti_progress(bst_ctx *ctx, double fraction, const char *label);
  * BST_ENOMEM recorded if it cannot be started. */
 struct cholmod_common_struct *bsti_cholmod(bst_ctx *ctx);
 
-/* Floating-point operations this thread has asked of the dense kernels so far (bst_stack_step's
+/* Count floating-point operations asked of the dense kernels in ctx->flops (bst_stack_step's
  * flops): GEMM 2 m n k; LU (getrf) 2/3 n^3 - 1/2 n^2 + 5/6 n and the triangular solves (getrs)
  * (2 n^2 - n) per right-hand side, LAPACK Working Note 41's counts; a sparse by dense product
  * 2 nnz per column of the dense factor.  Not counted: O(n^2) element-wise work (scalings by Lambda
  * or a pane, sums, copies), the condition estimate (gecon, O(n^2)), sparse factorizations and
- * sparse by sparse products.  Per thread, so that concurrent stacks (spectral workers, batch)
- * count only their own. */
-extern _Thread_local double bsti_flops_done;
-static inline void bsti_flops_add(double flops) { bsti_flops_done += flops; }
+ * sparse by sparse products.  Per context, as a context is one thread's at a time (the spectral
+ * workers each have their own), so that concurrent stacks count only their own. */
+static inline void bsti_flops_add(bst_ctx *ctx, double flops) { ctx->flops += flops; }
 
 #endif

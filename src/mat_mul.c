@@ -78,7 +78,7 @@ static int mul_sparse_dense(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, do
         cholmod_dense Y = {.nrow = c->rows, .ncol = c->cols, .nzmax = c->rows * c->cols,
                            .d = c->rows, .x = c->dense, .xtype = CHOLMOD_REAL, .dtype = CHOLMOD_DOUBLE};
         double one[2] = {1, 0}, zero[2] = {0, 0};
-        bsti_flops_add(2.0 * (double)bst_mat_nnz(a) * (double)b->cols);
+        bsti_flops_add(ctx, 2.0 * (double)bst_mat_nnz(a) * (double)b->cols);
         if (b->cols > 0 && a->rows > 0 && !cholmod_l_sdmult(a->sp, 0, one, zero, &X, &Y, cc)) {
             bst_mat_free(c);
             return bsti_mat_cholmod_failed(ctx, "sdmult");
@@ -88,7 +88,7 @@ static int mul_sparse_dense(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, do
         const double *x = a->sp->x;
         const float *bd = b->dense;
         float *cd = c->dense;
-        bsti_flops_add(2.0 * (double)bst_mat_nnz(a) * (double)b->cols);
+        bsti_flops_add(ctx, 2.0 * (double)bst_mat_nnz(a) * (double)b->cols);
         for (size_t j = 0; j < b->cols; j++)
             for (size_t k = 0; k < a->cols; k++) {
                 float bkj = bd[j * b->rows + k];
@@ -114,7 +114,7 @@ static int mul_dense_sparse(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, do
     const SuiteSparse_long *p = b->sp->p, *ri = b->sp->i;
     const double *x = b->sp->x;
     size_t r = a->rows;
-    bsti_flops_add(2.0 * (double)bst_mat_nnz(b) * (double)r);
+    bsti_flops_add(ctx, 2.0 * (double)bst_mat_nnz(b) * (double)r);
     for (size_t j = 0; j < b->cols; j++)
         for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++) {
             size_t k = (size_t)ri[q];
@@ -145,7 +145,7 @@ static int mul_dense_dense(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, dou
     if (rc >= 0 && a->rows && b->cols && a->cols) {
         const bst_mat *A = ta ? ta : a, *B = tb ? tb : b;
         int m = (int)a->rows, n = (int)b->cols, k = (int)a->cols;
-        bsti_flops_add(2.0 * m * n * k);
+        bsti_flops_add(ctx, 2.0 * m * n * k);
         /* small products on one OpenBLAS thread (blas_threads.h): the same bits on any number of
          * cores, and no worker left spinning after a Klems stack */
         int big = m > n ? (m > k ? m : k) : (n > k ? n : k);

@@ -282,7 +282,7 @@ static int factor_new(bst_ctx *ctx, const bst_mat *a, bst_precision prec, struct
         if (n <= BSTI_LU_SERIAL_MAX && threads > 1)
             openblas_set_num_threads(1);
         double dn = (double)n;
-        bsti_flops_add(2.0 / 3.0 * dn * dn * dn - 0.5 * dn * dn + 5.0 / 6.0 * dn);
+        bsti_flops_add(ctx, 2.0 / 3.0 * dn * dn * dn - 0.5 * dn * dn + 5.0 / 6.0 * dn);
         if (prec == BST_DOUBLE) {
             info = LAPACKE_dgetrf_work(LAPACK_COL_MAJOR, N, N, f->lu, N, f->ipiv);
             if (info == 0)
@@ -314,7 +314,7 @@ static int dense_solve_in_place(struct factor *f, int trans, bst_mat *x)
     lapack_int N = (lapack_int)f->n, nrhs = (lapack_int)x->cols, info = 0;
     if (f->n && x->cols) {
         char t = trans ? 'T' : 'N';
-        bsti_flops_add((2.0 * (double)f->n - 1.0) * (double)f->n * (double)x->cols);
+        bsti_flops_add(f->ctx, (2.0 * (double)f->n - 1.0) * (double)f->n * (double)x->cols);
         int saved = bsti_blas_serial_begin(f->n);
         if (f->prec == BST_DOUBLE)
             info = LAPACKE_dgetrs_work(LAPACK_COL_MAJOR, t, N, nrhs, f->lu, N, f->ipiv, x->dense, N);

@@ -1,7 +1,6 @@
 /* spectral.c - stacks with spectral panes combined wavelength by wavelength and averaged afterwards,
  * as Windows-CalcEngine and WINDOW do for multi-layer systems.  Combining band-averaged panes is
- * not the same: the system's T is not linear in the panes' T and R (NFRC 102 / 103 at normal
- * incidence, solar: 0.652314 per wavelength vs 0.645986 from band averages).
+ * not the same: the system's T is not linear in the panes' T and R.
  *
  * The average of a system property over a band is linear in the per-wavelength system, so the
  * band's matrices are sum_k w_k M(lambda_k) with bst_glass_channel_weights' w.  Wavelengths of zero
@@ -10,33 +9,21 @@
  * weight (absorptance likewise).  The system is smooth in the panes' data and the mean cancels the
  * first-order term, so a group's error is about its weighted sum of squared deviations from the
  * mean, sum_k w_k (d_k - mean)^2 (d: every pane's normal-incidence Tf, Tb, Rf, Rb; the largest of
- * them), and the band's error about the sum of that over its groups: with the band's weights
- * summing to 1, the weighted mean square deviation of the data from their groups' means.  So the
- * groups are formed for that sum: walking the grid in order, a group extends while its share stays
- * within a budget b (and, with a dual-band layer, on the same side of the visible range's limits,
- * where the layer is constant), and b is the largest (bisection) for which the shares sum to at
- * most tol^2: tol is the weighted RMS deviation of the panes' data from their group means.  Where
- * the weights are small (solar UV and far IR) this joins data that differ much; where they are
- * large it joins only close ones.  Before 2026-11-25 a group extended while every datum stayed
- * within tol of its first wavelength's (the default 0.01): on NFRC 102 / the dual-band 2011-SA1 /
- * NFRC 103 (Klems full, Solar and Visible) that took 57 combinations; the RMS rule at 0.004 takes
- * 39 (5 Visible, 34 Solar) with errors within the old ones' bound: T, R and A move by at most
- * 5.1e-5 against tol = 0 on NFRC 102 + 2011-SA1 and NFRC 102 + 103 (test_wce.c), 3.9e-5 on the
- * three layers, Klems full, and 3.7e-5 at k = 5 (against 4.8e-5 and 4.5e-5 with the old rule;
- * bench/README.md).  Evaluating the panes at a group's weight-centroid wavelength instead of its
- * mean data errs far more (2.5e-3 in T at the old 0.01: the solar weights are uneven within a
- * group), so the mean data it is.  tol = 0 groups only wavelengths with equal data (the result
- * equals the ungrouped one to rounding), tol < 0 none (test_wce.c).
+ * them), and the band's error about the sum of that over its groups.  So the groups are formed for
+ * that sum: walking the grid in order, a group extends while its share stays within a budget b
+ * (and, with a dual-band layer, on the same side of the visible range's limits, where the layer is
+ * constant), and b is the largest (bisection) for which the shares sum to at most tol^2: tol is
+ * the weighted RMS deviation of the panes' data from their group means.  A group is evaluated at
+ * its mean data, not at a centroid wavelength.  tol = 0 groups only wavelengths with equal data
+ * (the result equals the ungrouped one to rounding), tol < 0 none.  (The rule's history and its
+ * measured errors: bench/README.md, "Spectral stacks with a shade"; test_wce.c checks them.)
+ *
  * What does not depend on the wavelength is built once, before the groups: the patch rule of the
  * panes (bsti_glass_rule: directions and weights), the dual-band layers (two one-channel layers in
  * their cheapest structures), the groups themselves; per group each pane's two slab sides are set
  * up once, not at each direction (glass_layer.c).  A group costs one combination: the absorptance
- * reads its partial stacks (bsti_stack_combine_absorptance, stack.c) instead of forming them again
- * and the flipped stack's, and a pair of components whose outer factor is a pane takes two left
- * solves with one factorization (stack.c, inward/outward); the groups run side by side, one worker
- * a core (below).  Per group, pane / dense shade / pane costs about 18.7 N^3 flops for the system
- * and O(N^2) for the absorptance, which reuses the combination's factorizations up to k = 5
- * (bench/README.md, "Spectral stacks with a shade").
+ * rides on it (bsti_stack_combine_absorptance, absorptance.c), and the groups run side by side,
+ * one worker a core, each with a context of its own (below).
  *
  * A band channel (Visible, Solar, CIE-X, CIE-Y, CIE-Z) missing from the first pane is added to it;
  * its wavelengths are the union of the layers' own ones, or the band's integration grid when that
@@ -63,6 +50,7 @@
 #include "ctx.h"
 #include "glass.h"
 #include "layer.h"
+#include "spectral_groups.h"
 #include "stack.h"
 
 static int cmp_double(const void *a, const void *b)
@@ -245,123 +233,6 @@ static void panes_at(size_t n, const bst_spectral_layer *layers, double um, doub
             d[4 * i] = d[4 * i + 1] = d[4 * i + 2] = d[4 * i + 3] = 0.0;
 }
 
-static int inside_visible(double um)
-{
-    return um >= BST_DUAL_BAND_LO && um <= BST_DUAL_BAND_HI;
-}
-
-/* One group of one channel: the wavelengths [first, end) of its grid (first after the previous
- * group, for progress), the side of the visible range, the summed weight, the panes' mean data
- * (4 n). */
-struct job {
-    size_t ch, first, end;
-    int inside;
-    double wsum;
-    const double *mean;
-};
-
-/* The group that starts at wavelength k0 (w[k0] > 0) of a channel's grid wl (nwl wavelengths,
- * weights w, the panes' normal-incidence data d[k * nq + q], nq = 4 n): its end (one past its last
- * wavelength), in mean[nq] the data averaged with the weights, in *wsum their sum and in *var the
- * largest over q of sum_k w_k (d_kq - mean_q)^2 (the group's share of the grouping's error, see
- * channel_groups).  The group extends while that stays within budget and, when the stack has a
- * dual-band layer (split), the wavelength is on wl[k0]'s side of the visible range's limits;
- * wavelengths of zero weight neither join nor end it; budget < 0: one wavelength.  Budget 0
- * joins only equal data (the weighted update below then changes nothing).  m2 and try are nq
- * values of work space. */
-static size_t group(size_t nq, const double *d, int split, const double *wl, const double *w,
-                    size_t nwl, size_t k0, double budget, double *mean, double *m2, double *try,
-                    double *wsum, double *var)
-{
-    for (size_t q = 0; q < nq; q++)
-        mean[q] = d[k0 * nq + q], m2[q] = 0.0;
-    *wsum = w[k0];
-    *var = 0.0;
-    size_t k = k0 + 1;
-    for (; budget >= 0 && k < nwl; k++) {
-        if (w[k] == 0.0)
-            continue;
-        if (split && inside_visible(wl[k]) != inside_visible(wl[k0]))
-            break;
-        /* the weighted mean and sum of squared deviations with wavelength k (West's update) */
-        double ws = *wsum + w[k], v = 0.0;
-        for (size_t q = 0; q < nq; q++) {
-            double delta = d[k * nq + q] - mean[q];
-            try[q] = m2[q] + w[k] * delta * (d[k * nq + q] - (mean[q] + w[k] / ws * delta));
-            v = fmax(v, try[q]);
-        }
-        if (v > budget)
-            break;
-        for (size_t q = 0; q < nq; q++) {
-            mean[q] += w[k] / ws * (d[k * nq + q] - mean[q]);
-            m2[q] = try[q];
-        }
-        *wsum = ws;
-        *var = v;
-    }
-    return k;
-}
-
-/* A channel's groups for a per-group budget: how many, and in *total the sum of their shares
- * (group's *var).  With jobs, each is written there (ch, first, end, side, weight) with its mean
- * data at means + (job index) nq.  ws: 3 nq values of work space. */
-static size_t channel_groups(size_t nq, const double *d, int split, const double *wl,
-                             const double *w, size_t nwl, double budget, size_t ch,
-                             struct job *jobs, double *means, double *ws, double *total)
-{
-    size_t count = 0;
-    *total = 0.0;
-    for (size_t k = 0, prev = 0; k < nwl; k++) {
-        if (w[k] == 0.0)
-            continue;
-        double wsum, var, *mean = jobs ? means + count * nq : ws + 2 * nq;
-        size_t end = group(nq, d, split, wl, w, nwl, k, budget, mean, ws, ws + nq, &wsum, &var);
-        if (jobs)
-            jobs[count] = (struct job){.ch = ch, .first = prev, .end = end,
-                                       .inside = inside_visible(wl[k]), .wsum = wsum, .mean = mean};
-        *total += var;
-        count++;
-        prev = end;
-        k = end - 1;
-    }
-    return count;
-}
-
-/* The budget's search (group_budget): bracketed upwards from tol^2 GROUP_BUDGET_LOW by factors of
- * 4, then GROUP_BUDGET_STEPS geometric bisections (a factor 4 to within 1 + 1e-12). */
-#define GROUP_BUDGET_LOW 1e-16
-#define GROUP_BUDGET_STEPS 40
-
-/* The per-group budget for tolerance tol (> 0): the largest (found by bisection, see above) for
- * which the channel's groups' shares sum to at most tol^2; 0 when none is (only equal data
- * grouped).  The greedy groups' sum need not grow monotonically with the budget: the bisection
- * keeps a budget whose sum was seen within tol^2, which is what the groups are then made with. */
-static double group_budget(size_t nq, const double *d, int split, const double *wl,
-                           const double *w, size_t nwl, double tol, double *ws)
-{
-    double total, lo = 0.0, hi = tol * tol;
-    channel_groups(nq, d, split, wl, w, nwl, hi, 0, NULL, NULL, ws, &total);
-    if (total <= tol * tol)
-        return hi;
-    for (double b = hi * GROUP_BUDGET_LOW; b < hi; b *= 4.0) { /* lo feasible, hi not */
-        channel_groups(nq, d, split, wl, w, nwl, b, 0, NULL, NULL, ws, &total);
-        if (total > tol * tol) {
-            hi = b;
-            break;
-        }
-        lo = b;
-    }
-    for (int it = 0; it < GROUP_BUDGET_STEPS && lo > 0.0; it++) {
-        double b = sqrt(lo * hi);
-        channel_groups(nq, d, split, wl, w, nwl, b, 0, NULL, NULL, ws, &total);
-        if (total <= tol * tol)
-            lo = b;
-        else
-            hi = b;
-    }
-    return lo;
-}
-
 /* Validates the layers; *first = the first pane (it gives the bands' weights). */
 static int check_layers(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers,
                         const bst_spectral_opts *so, bst_glass **first)
@@ -422,7 +293,7 @@ struct shared {
     const bst_stack_opts *opts;
     unsigned want;
     int want_abs;
-    const struct job *jobs;
+    const struct bsti_group *jobs;
     /* columns (bst_stack_columns_spectral_layers): ncols > 0, the system's Tf and Rf (or Tb and
      * Rb) columns cols of each group summed into acc's BST_TF and BST_RF slots */
     size_t ncols;
@@ -460,7 +331,7 @@ struct worker {
 /* Columns of one group's stack lay: iterated (bst_stack_columns) and summed with the group's
  * weight into the worker's BST_TF and BST_RF slots of the group's channel. */
 static int group_columns(bst_ctx *ctx, const struct shared *sh, const bst_layer **lay,
-                         struct worker *wk, const struct job *j)
+                         struct worker *wk, const struct bsti_group *j)
 {
     bst_columns_opts o = *sh->copts;
     bst_mat *m[2] = {NULL, NULL};
@@ -500,7 +371,7 @@ static void *work(void *arg)
     for (size_t g = wk->index; rc >= 0 && g < sh->njobs; g += sh->nworkers) {
         if (atomic_load(&((struct shared *)sh)->stop))
             break;
-        const struct job *j = &sh->jobs[g];
+        const struct bsti_group *j = &sh->jobs[g];
         for (size_t i = 0; i < n && rc >= 0; i++) {
             bst_layer_free(own[i]);
             own[i] = NULL;
@@ -612,7 +483,7 @@ static int spectral_run(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers
     size_t N = bst_basis_size(basis), nwl = 0, nall = 0, total = 0, njobs = 0, nw = 0;
     double *all = NULL, *w = NULL, *data = NULL, *means = NULL;
     struct dual *dual = bsti_calloc(ctx, n, sizeof *dual);
-    struct job *jobs = NULL;
+    struct bsti_group *jobs = NULL;
     struct worker *wk = NULL;
     bsti_glass_rule *rule = NULL;
     int split = 0; /* a dual-band layer changes at the visible range's limits */
@@ -651,9 +522,9 @@ static int spectral_run(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers
         if (rc < 0)
             break;
         double *ws = data + nwl * 4 * n, vsum;
-        double budget = so->tol > 0 ? group_budget(4 * n, data, split, wl, w, nwl, so->tol, ws)
+        double budget = so->tol > 0 ? bsti_spectral_group_budget(4 * n, data, split, wl, w, nwl, so->tol, ws)
                                     : so->tol;
-        njobs += channel_groups(4 * n, data, split, wl, w, nwl, budget, c, jobs + njobs,
+        njobs += bsti_spectral_groups(4 * n, data, split, wl, w, nwl, budget, c, jobs + njobs,
                                 means + njobs * 4 * n, ws, &vsum);
     }
     /* the workers and their sums */

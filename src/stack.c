@@ -23,7 +23,7 @@
  * (Tf, Rb) or (Rf, Tb) are needed, one factorization serves both through W = T2 (I - A)^-1 (a right
  * solve), or, when T2 is diagonal (a pane), through two left solves scaled by T2 (W's products
  * would be dense); when one is needed, a left solve with its own right-hand side is cheaper.  The
- * absorptance can ride on the combination (bsti_stack_combine_absorptance, at the end). */
+ * absorptance rides on the combination (absorptance.c: the combination keeps what it needs). */
 #include <config.h>
 
 #include <math.h>
@@ -110,14 +110,13 @@ struct combiner {
     double rcond; /* of the step's last inter-reflection solve (1 when none) */
     size_t step;
     const char *channel;
-    double flops_mark; /* bsti_flops_done when the component being formed began */
-    struct prefix *keep; /* the absorptance's: factorizations kept (keep_slot), else NULL */
+    double flops_mark; /* ctx->flops when the component being formed began */
+    struct bsti_prefix *keep; /* the absorptance's: factorizations kept (keep_slot), else NULL */
 };
 
-static bsti_factor **keep_slot(struct combiner *cb, const char *what);
-/* the names of a step's two solves (messages), by which keep_slot tells them apart */
-static const char towards_interior[] = "towards the interior";
-static const char towards_exterior[] = "towards the exterior";
+/* A step's two inter-reflections: of the light going inwards in the gap, and outwards. */
+enum gap { GAP_INWARD, GAP_OUTWARD };
+static bsti_factor **keep_slot(struct combiner *cb, enum gap g);
 
 /* Record a warning (or, in strict mode, turn it into an error). */
 static int note_warning(struct combiner *cb, int status)
@@ -309,9 +308,10 @@ static int solve_status(struct combiner *cb, int rc, const char *what)
 /* (I - A)^-1 B (LEFT) or B (I - A)^-1 (RIGHT).  A is a result of the step: a dense A becomes its
  * own LU factors, any other goes as soon as it is factored; a B read for the last time is solved
  * in its own storage when dense (bsti_solve_take).  cb->rcond receives the condition estimate (1
- * without a solve). */
+ * without a solve); what names the inter-reflection in messages; the factorization is handed out
+ * in *slot when slot is not NULL (keep_slot). */
 static struct term solve(struct combiner *cb, int side, struct term a, struct term b,
-                         const char *what)
+                         const char *what, bsti_factor **slot)
 {
     bst_mat *out = NULL;
     int rc = BST_OK;
@@ -325,7 +325,7 @@ static struct term solve(struct combiner *cb, int side, struct term a, struct te
             rc = copy(cb, b.m, &out);
     } else {
         rc = bsti_solve_take(cb->ctx, side, a.dies, b.m, b.dies, cb->opts->rcond_warn, &out,
-                             &cb->rcond, keep_slot(cb, what));
+                             &cb->rcond, slot);
     }
     rc = solve_status(cb, rc, what);
     return result(cb, rc, out);
@@ -334,7 +334,7 @@ static struct term solve(struct combiner *cb, int side, struct term a, struct te
 /* (I - A)^-1 B1 and (I - A)^-1 B2 with one factorization: the first returned, the second in *x2
  * (as solve() for the rest). */
 static struct term solve2(struct combiner *cb, struct term a, struct term b1, struct term b2,
-                          const char *what, struct term *x2)
+                          const char *what, bsti_factor **slot, struct term *x2)
 {
     bst_mat *out1 = NULL, *out2 = NULL;
     int rc = BST_OK;
@@ -343,16 +343,16 @@ static struct term solve2(struct combiner *cb, struct term a, struct term b1, st
                                                       * that needs no factorization first */
         struct term r1;
         if (!b1.m) {
-            r1 = solve(cb, LEFT, keep(a), b1, what);
-            *x2 = solve(cb, LEFT, a, b2, what);
+            r1 = solve(cb, LEFT, keep(a), b1, what, slot);
+            *x2 = solve(cb, LEFT, a, b2, what, slot);
         } else {
-            *x2 = solve(cb, LEFT, keep(a), b2, what);
-            r1 = solve(cb, LEFT, a, b1, what);
+            *x2 = solve(cb, LEFT, keep(a), b2, what, slot);
+            r1 = solve(cb, LEFT, a, b1, what, slot);
         }
         return r1;
     }
     rc = bsti_solve_take_left2(cb->ctx, a.dies, b1.m, b1.dies, b2.m, b2.dies,
-                               cb->opts->rcond_warn, &out1, &out2, &cb->rcond, keep_slot(cb, what));
+                               cb->opts->rcond_warn, &out1, &out2, &cb->rcond, slot);
     rc = solve_status(cb, rc, what);
     *x2 = result(cb, rc, out2);
     return result(cb, rc, out1);
@@ -362,8 +362,8 @@ static struct term solve2(struct combiner *cb, struct term a, struct term b1, st
 static void form(struct combiner *cb, struct part *s, bst_comp c, double t0, struct term t)
 {
     s->own[c] = t.dies;
-    double flops = bsti_flops_done - cb->flops_mark;
-    cb->flops_mark = bsti_flops_done;
+    double flops = cb->ctx->flops - cb->flops_mark;
+    cb->flops_mark = cb->ctx->flops;
     if (!cb->opts->on_step || cb->status < 0)
         return;
     bst_stack_step st = {
@@ -408,26 +408,27 @@ static struct term reflected_outwards(struct combiner *cb, struct part *v, struc
 static void inward(struct combiner *cb, struct part *u, struct part *v, unsigned want,
                    struct part *s)
 {
-    const char *what = towards_interior;
+    const char *what = "towards the interior";
+    bsti_factor **slot = keep_slot(cb, GAP_INWARD);
     double t0 = now_seconds();
-    cb->flops_mark = bsti_flops_done;
+    cb->flops_mark = cb->ctx->flops;
     struct term llrb1 = lam_both(cb, use(u, BST_RB));
     struct term a1 = mul(cb, want & BIT(BST_RB) ? keep(llrb1) : llrb1, use(v, BST_RF));
     if (want == BIT(BST_TF)) {
-        struct term x = solve(cb, LEFT, a1, lam_tf1(cb, u), what);
+        struct term x = solve(cb, LEFT, a1, lam_tf1(cb, u), what, slot);
         form(cb, s, BST_TF, t0, mul(cb, use(v, BST_TF), x));
     } else if (want == BIT(BST_RB)) {
-        struct term x = solve(cb, LEFT, a1, mul(cb, llrb1, use(v, BST_TB)), what);
+        struct term x = solve(cb, LEFT, a1, mul(cb, llrb1, use(v, BST_TB)), what, slot);
         form(cb, s, BST_RB, t0, add(cb, use(v, BST_RB), mul(cb, use(v, BST_TF), x)));
     } else if (v->m[BST_TF] && bst_mat_structure(v->m[BST_TF]) == BST_DIAG) {
         struct term x2, x1 = solve2(cb, a1, lam_tf1(cb, u),
-                                    mul(cb, llrb1, use(v, BST_TB)), what, &x2);
+                                    mul(cb, llrb1, use(v, BST_TB)), what, slot, &x2);
         struct term tf2 = use(v, BST_TF);
         form(cb, s, BST_RB, t0, add(cb, use(v, BST_RB), mul(cb, keep(tf2), x2)));
         t0 = now_seconds();
         form(cb, s, BST_TF, t0, mul(cb, tf2, x1));
     } else {
-        struct term w = solve(cb, RIGHT, a1, use(v, BST_TF), what);
+        struct term w = solve(cb, RIGHT, a1, use(v, BST_TF), what, slot);
         form(cb, s, BST_RB, t0,
              add(cb, use(v, BST_RB), mul(cb, keep(w), mul(cb, llrb1, use(v, BST_TB)))));
         t0 = now_seconds();
@@ -442,28 +443,29 @@ static void inward(struct combiner *cb, struct part *u, struct part *v, unsigned
 static void outward(struct combiner *cb, struct part *u, struct part *v, unsigned want,
                     struct part *s)
 {
-    const char *what = towards_exterior;
+    const char *what = "towards the exterior";
+    bsti_factor **slot = keep_slot(cb, GAP_OUTWARD);
     double t0 = now_seconds();
-    cb->flops_mark = bsti_flops_done;
+    cb->flops_mark = cb->ctx->flops;
     struct term a2 = reflected_outwards(cb, v, u, BST_RB);
     if (want == OUTWARD && u->m[BST_TB] && bst_mat_structure(u->m[BST_TB]) == BST_DIAG) {
         struct term x2, x1 = solve2(cb, a2, lam_times(cb, use(v, BST_TB)),
-                                    reflected_outwards(cb, v, u, BST_TF), what, &x2);
+                                    reflected_outwards(cb, v, u, BST_TF), what, slot, &x2);
         struct term tb1 = use(u, BST_TB);
         form(cb, s, BST_TB, t0, mul(cb, keep(tb1), x1));
         t0 = now_seconds();
         form(cb, s, BST_RF, t0, add(cb, use(u, BST_RF), mul(cb, tb1, x2)));
     } else if (want == OUTWARD) {
-        struct term w = solve(cb, RIGHT, a2, use(u, BST_TB), what);
+        struct term w = solve(cb, RIGHT, a2, use(u, BST_TB), what, slot);
         form(cb, s, BST_TB, t0, mul(cb, keep(w), lam_times(cb, use(v, BST_TB))));
         t0 = now_seconds();
         form(cb, s, BST_RF, t0,
              add(cb, use(u, BST_RF), mul(cb, w, reflected_outwards(cb, v, u, BST_TF))));
     } else if (want == BIT(BST_TB)) {
-        struct term x = solve(cb, LEFT, a2, lam_times(cb, use(v, BST_TB)), what);
+        struct term x = solve(cb, LEFT, a2, lam_times(cb, use(v, BST_TB)), what, slot);
         form(cb, s, BST_TB, t0, mul(cb, use(u, BST_TB), x));
     } else {
-        struct term x = solve(cb, LEFT, a2, reflected_outwards(cb, v, u, BST_TF), what);
+        struct term x = solve(cb, LEFT, a2, reflected_outwards(cb, v, u, BST_TF), what, slot);
         form(cb, s, BST_RF, t0, add(cb, use(u, BST_RF), mul(cb, use(u, BST_TB), x)));
     }
 }
@@ -501,113 +503,6 @@ static int combine_pair(struct combiner *cb, struct part *u, struct part *v, uns
     return BST_OK;
 }
 
-/* Angles of a patch centre, for messages. */
-static double patch_theta_deg(const bst_basis *b, size_t patch)
-{
-    double d[3];
-    bst_basis_center(b, patch, d);
-    return acos(fmin(1.0, fabs(d[2]))) * 180.0 / M_PI;
-}
-
-/* Warn (BST_WENERGY) when T + R of an input layer exceeds 1 + tol for some incident patch, on
- * either side; the message names the layer, side, patch and value of the worst case. */
-static int check_energy(struct combiner *cb, const bst_layer *l, size_t li, size_t ch)
-{
-    size_t n = bst_basis_size(l->basis);
-    double *t = bsti_alloc_array(cb->ctx, 2 * n, sizeof *t);
-    if (!t)
-        return BST_ENOMEM;
-    double *r = t + n;
-    int rc = BST_OK;
-    static const bst_comp sides[2][2] = {{BST_TF, BST_RF}, {BST_TB, BST_RB}};
-    for (int side = 0; side < 2 && rc == BST_OK; side++) {
-        if ((rc = bst_layer_hemispherical(cb->ctx, l, ch, sides[side][0], t)) < 0 ||
-            (rc = bst_layer_hemispherical(cb->ctx, l, ch, sides[side][1], r)) < 0)
-            break;
-        size_t worst = 0;
-        double wv = -1.0;
-        for (size_t j = 0; j < n && isfinite(wv); j++) /* a NaN compares false: test it first */
-            if (!isfinite(t[j] + r[j]) || t[j] + r[j] > wv)
-                wv = t[j] + r[j], worst = j;
-        if (!isfinite(wv)) {
-            rc = bsti_error(cb->ctx, BST_EINVAL, "layer %zu (%s), channel %s: non-finite values",
-                            li + 1, bst_layer_name(l), l->channels[ch]);
-        } else if (wv > 1.0 + cb->opts->energy_tol) {
-            bsti_error(cb->ctx, BST_WENERGY,
-                       "layer %zu (%s), channel %s: %s T + R = %.4g > 1 at incident patch %zu "
-                       "(theta %.1f deg)", li + 1, bst_layer_name(l), l->channels[ch],
-                       side ? "back" : "front", wv, worst, patch_theta_deg(l->basis, worst));
-            rc = note_warning(cb, BST_WENERGY);
-        }
-    }
-    bsti_free(cb->ctx, t);
-    return rc;
-}
-
-/* The system's energy, per incident patch and side, over the components formed: warn
- * (BST_WENERGY) when T + R exceeds 1 + tol or a hemispherical T or R falls below -tol (a result
- * that is not finite was refused before).  Inputs within tolerance can still give such a result:
- * layers that reflect nearly everything multiply their excess at every inter-reflection. */
-static int check_result(struct combiner *cb, const bst_layer *res, size_t ch)
-{
-    size_t n = bst_basis_size(res->basis);
-    double *h = bsti_alloc_array(cb->ctx, 2 * n, sizeof *h);
-    if (!h)
-        return BST_ENOMEM;
-    double *sum = h + n;
-    int rc = BST_OK;
-    double tol = cb->opts->energy_tol;
-    /* One warning tells: the first found, or the input's imbalance already reported. */
-    int warned = cb->warning >= BST_WENERGY;
-    static const bst_comp sides[2][2] = {{BST_TF, BST_RF}, {BST_TB, BST_RB}};
-    for (int side = 0; side < 2 && rc == BST_OK; side++) {
-        int formed = 0;
-        for (size_t j = 0; j < n; j++)
-            sum[j] = 0.0;
-        for (int k = 0; k < 2 && rc == BST_OK; k++) {
-            bst_comp c = sides[side][k];
-            const bst_mat *m = bst_layer_get(res, ch, c);
-            if (!m)
-                continue;
-            if ((rc = bst_layer_hemispherical(cb->ctx, res, ch, c, h)) < 0)
-                break;
-            formed++;
-            size_t worst = 0;
-            for (size_t j = 0; j < n; j++) {
-                sum[j] += h[j];
-                if (h[j] < h[worst])
-                    worst = j;
-            }
-            if (h[worst] < -tol && !warned) {
-                warned = 1;
-                bsti_error(cb->ctx, BST_WENERGY, "stack: the system's hemispherical %s, channel %s, "
-                           "is %.4g < 0 at incident patch %zu (theta %.1f deg): the inter-reflection "
-                           "of layers with T + R > 1", bst_comp_name(c), cb->channel, h[worst],
-                           worst, patch_theta_deg(res->basis, worst));
-                rc = note_warning(cb, BST_WENERGY);
-            }
-        }
-        if (rc != BST_OK || formed == 0)
-            break;
-        size_t worst = 0;
-        for (size_t j = 0; j < n; j++)
-            if (sum[j] > sum[worst])
-                worst = j;
-        if (sum[worst] > 1.0 + tol && !warned) {
-            warned = 1;
-            bsti_error(cb->ctx, BST_WENERGY, "stack: the system's %s, channel %s, is %.4g > 1 at "
-                       "incident patch %zu (theta %.1f deg): the layers' inter-reflection creates "
-                       "energy", formed == 2 ? (side ? "back T + R" : "front T + R")
-                       : bst_comp_name(bst_layer_get(res, ch, sides[side][0]) ? sides[side][0]
-                                                                                : sides[side][1]),
-                       cb->channel, sum[worst], worst, patch_theta_deg(res->basis, worst));
-            rc = note_warning(cb, BST_WENERGY);
-        }
-    }
-    bsti_free(cb->ctx, h);
-    return rc;
-}
-
 /* A component of an input layer in the form the combination works on: borrowed as it is (taken
  * from the layer, when `take` is the layer, to be freed at its last use), or a dense copy
  * (force_dense), or a float copy of a dense double matrix (single precision). */
@@ -634,25 +529,14 @@ static int prepare(struct combiner *cb, const bst_layer *l, bst_layer *take, siz
     return rc;
 }
 
-/* What combine() keeps of its partial stacks for the absorptance (bsti_stack_combine_absorptance):
- * of channel `name`, copies of the Tf and Rb of layers 0..k-1 in tf[k] and rb[k], k = 2..n-1 (a
- * zero component as a zero matrix). */
-struct prefix {
-    const char *name;
-    bst_mat **tf, **rb;
-    bsti_factor **fin, **fout; /* NULL, or step k's factorizations of I - A1 and I - A2 */
-};
-
-/* Where the solve of the step being formed keeps its factorization for the absorptance: step
- * k's inward one (I - L Rb_U L Rf_k, the gap's front incidence) in fin[k], the outward one
- * (I - L Rf_k L Rb_U) in fout[k]; NULL when nothing is kept.  (The step's two solves are told
- * apart by the name inward and outward give them, towards_interior and towards_exterior.) */
-static bsti_factor **keep_slot(struct combiner *cb, const char *what)
+/* Where the step being formed keeps the factorization of its inter-reflection g for the
+ * absorptance: step k's inward one (I - L Rb_U L Rf_k, the gap's front incidence) in fin[k], the
+ * outward one (I - L Rf_k L Rb_U) in fout[k]; NULL when nothing is kept. */
+static bsti_factor **keep_slot(struct combiner *cb, enum gap g)
 {
     if (!cb->keep || !cb->keep->fin)
         return NULL;
-    bsti_factor **slot = what == towards_interior ? &cb->keep->fin[cb->step]
-                                                                    : &cb->keep->fout[cb->step];
+    bsti_factor **slot = g == GAP_INWARD ? &cb->keep->fin[cb->step] : &cb->keep->fout[cb->step];
     bsti_factor_free(*slot); /* not expected: one solve a side and step */
     *slot = NULL;
     return slot;
@@ -665,11 +549,8 @@ static int copy_or_zero(bst_ctx *ctx, const bst_mat *m, size_t N, bst_mat **out)
              : bst_mat_new_zero(ctx, N, N, out);
 }
 
-/* The combination; with `take` (the same layers, writable) each input component is taken from
- * its layer when the combination reaches it and freed at its last use; with `keep`, the partial
- * stacks' Tf and Rb that it names are copied there as they are formed. */
-static int combine(bst_ctx *ctx, size_t n, const bst_layer *const *layers, bst_layer **take,
-                   const bst_stack_opts *opts_in, bst_layer **out, struct prefix *keep)
+int bsti_stack_combine_keep(bst_ctx *ctx, size_t n, const bst_layer *const *layers, bst_layer **take,
+                   const bst_stack_opts *opts_in, bst_layer **out, struct bsti_prefix *keep)
 {
     if (!ctx || !out)
         return BST_EINVAL;
@@ -729,7 +610,8 @@ static int combine(bst_ctx *ctx, size_t n, const bst_layer *const *layers, bst_l
         cb.channel = names[ch];
         cb.keep = keep && strcmp(names[ch], keep->name) == 0 ? keep : NULL;
         for (size_t i = 0; i < n && rc >= 0; i++)
-            rc = check_energy(&cb, layers[i], i, (size_t)bst_layer_find_channel(layers[i], names[ch]));
+            rc = note_warning(&cb, bsti_energy_check_layer(ctx, layers[i], i,
+                              (size_t)bst_layer_find_channel(layers[i], names[ch]), opts->energy_tol));
         if (rc < 0)
             break;
         struct part acc = {0}, lay = {0}, next;
@@ -779,7 +661,8 @@ static int combine(bst_ctx *ctx, size_t n, const bst_layer *const *layers, bst_l
         }
         part_clear(&acc);
         if (rc >= 0)
-            rc = check_result(&cb, res, ch);
+            rc = note_warning(&cb, bsti_energy_check_result(ctx, res, ch, opts->energy_tol,
+                                                            cb.warning >= BST_WENERGY));
     }
     if (rc >= 0 && cb.warning > 0) {
         rc = cb.warning; /* the message of the last warning is in ctx */
@@ -798,14 +681,14 @@ out:
 int bst_stack_combine(bst_ctx *ctx, size_t n, const bst_layer *const *layers,
                       const bst_stack_opts *opts, bst_layer **out)
 {
-    return combine(ctx, n, layers, NULL, opts, out, NULL);
+    return bsti_stack_combine_keep(ctx, n, layers, NULL, opts, out, NULL);
 }
 
 int bst_stack_combine_consume(bst_ctx *ctx, size_t n, bst_layer **layers,
                               const bst_stack_opts *opts, bst_layer **out)
 {
     if (!ctx || !out || !layers)
-        return combine(ctx, n, (const bst_layer *const *)layers, NULL, opts, out, NULL);
+        return bsti_stack_combine_keep(ctx, n, (const bst_layer *const *)layers, NULL, opts, out, NULL);
     *out = NULL; /* also when the list below cannot be allocated */
     /* A layer listed twice (one pane object for both panes) is borrowed where it occurs first and
      * taken only at its last occurrence, and freed once. */
@@ -818,7 +701,7 @@ int bst_stack_combine_consume(bst_ctx *ctx, size_t n, bst_layer **layers,
                 j++;
             take[i] = j == n ? layers[i] : NULL;
         }
-        rc = combine(ctx, n, (const bst_layer *const *)layers, take, opts, out, NULL);
+        rc = bsti_stack_combine_keep(ctx, n, (const bst_layer *const *)layers, take, opts, out, NULL);
     }
     for (size_t i = 0; i < n; i++) {
         int last = 1;
@@ -831,412 +714,4 @@ int bst_stack_combine_consume(bst_ctx *ctx, size_t n, bst_layer **layers,
         layers[i] = NULL;
     bsti_free(ctx, take);
     return rc;
-}
-
-/* ------------------------------------------------------------------ absorptance */
-
-/* Directional absorptance of one side of a layer: 1 - hemispherical (T + R) per incident patch. */
-static int side_absorptance(bst_ctx *ctx, const bst_layer *l, size_t ch, int back, double *a)
-{
-    size_t n = bst_basis_size(l->basis);
-    double *t = bsti_alloc_array(ctx, n, sizeof *t);
-    if (!t)
-        return BST_ENOMEM;
-    int rc = bst_layer_hemispherical(ctx, l, ch, back ? BST_TB : BST_TF, t);
-    if (rc >= 0)
-        rc = bst_layer_hemispherical(ctx, l, ch, back ? BST_RB : BST_RF, a);
-    for (size_t j = 0; rc >= 0 && j < n; j++)
-        a[j] = 1.0 - t[j] - a[j];
-    bsti_free(ctx, t);
-    return rc;
-}
-
-/* A 1 x N or 2 x N dense matrix from rows. */
-static int rows_matrix(bst_ctx *ctx, size_t nrows, const double *const *rows, size_t n, bst_mat **out)
-{
-    int rc = bst_mat_new_dense(ctx, nrows, n, BST_DOUBLE, out);
-    if (rc < 0)
-        return rc;
-    double *d = bst_mat_dense_data(*out);
-    for (size_t r = 0; r < nrows; r++)
-        for (size_t j = 0; j < n; j++)
-            d[j * nrows + r] = rows[r][j];
-    return BST_OK;
-}
-
-/* Front incidence only; back incidence is front incidence on the reversed stack. */
-static int absorptance_front(bst_ctx *ctx, size_t n, const bst_layer *const *layers, size_t ch_name_layer0,
-                             const bst_stack_opts *opts, double *abs)
-{
-    const bst_layer *l0 = layers[0];
-    const char *chname = l0->channels[ch_name_layer0];
-    size_t N = bst_basis_size(l0->basis);
-    const double *lam = bst_basis_lambda(l0->basis);
-    double *af = bsti_alloc_array(ctx, 2 * N, sizeof *af), *ab = af ? af + N : NULL;
-    int rc = af ? BST_OK : BST_ENOMEM;
-    /* layer 1's front sees the incident beam itself */
-    if (rc >= 0)
-        rc = side_absorptance(ctx, l0, ch_name_layer0, 0, abs);
-    for (size_t i = 1; rc >= 0 && i < n; i++)
-        memset(abs + i * N, 0, N * sizeof *abs);
-    /* gap k lies between U = layers 0..k-1 and V = layers k..n-1 */
-    for (size_t k = 1; rc >= 0 && k < n; k++) {
-        bst_stack_opts o = *opts;
-        o.on_step = NULL;
-        bst_layer *u = NULL, *v = NULL;
-        bst_mat *lrb = NULL, *lrf = NULL, *a = NULL, *bm = NULL, *y = NULL, *ltf = NULL, *res = NULL;
-        o.comps = BST_COMP_BIT(BST_TF) | BST_COMP_BIT(BST_RB);
-        rc = bst_stack_combine(ctx, k, layers, &o, &u);
-        if (rc >= 0) {
-            o.comps = BST_COMP_BIT(BST_RF);
-            rc = bst_stack_combine(ctx, n - k, layers + k, &o, &v);
-        }
-        size_t cu = 0, cv = 0, cl = 0, ck = 0;
-        if (rc >= 0) {
-            cu = (size_t)bst_layer_find_channel(u, chname);
-            cv = (size_t)bst_layer_find_channel(v, chname);
-            cl = (size_t)bst_layer_find_channel(layers[k - 1], chname);
-            ck = (size_t)bst_layer_find_channel(layers[k], chname);
-            /* alpha_b of layer k-1 (the back of U's last layer) and alpha_f of layer k */
-            rc = side_absorptance(ctx, layers[k - 1], cl, 1, ab);
-        }
-        if (rc >= 0)
-            rc = side_absorptance(ctx, layers[k], ck, 0, af);
-        /* rows: alpha_f(k)^T and alpha_b(k-1)^T L Rf_V; both multiply G = (I - A)^-1 L Tf_U */
-        if (rc >= 0)
-            rc = bst_mat_scale(ctx, lam, bst_layer_get(u, cu, BST_RB), NULL, &lrb);
-        if (rc >= 0)
-            rc = bst_mat_scale(ctx, lam, bst_layer_get(v, cv, BST_RF), NULL, &lrf);
-        if (rc >= 0)
-            rc = bst_mat_mul(ctx, lrb, lrf, 0.0, &a);
-        double *row2 = NULL;
-        if (rc >= 0 && !(row2 = bsti_calloc(ctx, N, sizeof *row2)))
-            rc = BST_ENOMEM;
-        if (rc >= 0) { /* alpha_b^T (L Rf_V): row2[j] = sum_i ab[i] (L Rf_V)(i, j) */
-            rc = bst_mat_col_weighted_sum(ctx, lrf, ab, row2);
-        }
-        if (rc >= 0) {
-            const double *rows[2] = {af, row2};
-            rc = rows_matrix(ctx, 2, rows, N, &bm);
-        }
-        double rcond;
-        if (rc >= 0) {
-            rc = bst_solve_right(ctx, a, bm, opts->rcond_warn, &y, &rcond);
-            if (rc == BST_WILLCOND)
-                rc = BST_OK; /* already reported by the combination */
-        }
-        if (rc >= 0)
-            rc = bst_mat_scale(ctx, lam, bst_layer_get(u, cu, BST_TF), NULL, &ltf);
-        if (rc >= 0)
-            rc = bst_mat_mul(ctx, y, ltf, 0.0, &res); /* 2 x N */
-        for (size_t j = 0; rc >= 0 && j < N; j++) {
-            abs[k * N + j] += bst_mat_get(res, 0, j);
-            abs[(k - 1) * N + j] += bst_mat_get(res, 1, j);
-        }
-        bsti_free(ctx, row2);
-        bst_mat_free(lrb), bst_mat_free(lrf), bst_mat_free(a), bst_mat_free(bm);
-        bst_mat_free(y), bst_mat_free(ltf), bst_mat_free(res);
-        bst_layer_free(u), bst_layer_free(v);
-    }
-    bsti_free(ctx, af);
-    return rc;
-}
-
-int bst_stack_absorptance(bst_ctx *ctx, size_t n, const bst_layer *const *layers, size_t ch,
-                          const bst_stack_opts *opts_in, double *abs_front, double *abs_back)
-{
-    if (!ctx || !layers || n == 0)
-        return ctx ? bsti_error(ctx, BST_EINVAL, "absorptance: no layers") : BST_EINVAL;
-    bst_stack_opts defaults;
-    bst_stack_opts_init(&defaults);
-    const bst_stack_opts *opts = opts_in ? opts_in : &defaults;
-    if (ch >= layers[0]->nchannels)
-        return bsti_error(ctx, BST_EINVAL, "absorptance: channel %zu of %zu", ch, layers[0]->nchannels);
-    for (size_t i = 1; i < n; i++)
-        if (bst_layer_find_channel(layers[i], layers[0]->channels[ch]) < 0)
-            return bsti_error(ctx, BST_ENOTFOUND, "absorptance: layer %zu has no channel %s", i + 1,
-                              layers[0]->channels[ch]);
-    int rc = BST_OK;
-    if (abs_front)
-        rc = absorptance_front(ctx, n, layers, ch, opts, abs_front);
-    if (rc < 0 || !abs_back)
-        return rc;
-    /* back incidence: the reversed stack (each layer flipped, order reversed), front incidence;
-     * its patch p is our mirror(p) (flip mirrors x), and its layer i is our layer n-1-i */
-    const bst_basis *b = layers[0]->basis;
-    size_t N = bst_basis_size(b);
-    bst_layer **rev = bsti_calloc(ctx, n, sizeof *rev);
-    double *tmp = bsti_alloc_array(ctx, n * N, sizeof *tmp);
-    if (!rev || !tmp)
-        rc = BST_ENOMEM;
-    for (size_t i = 0; rc >= 0 && i < n; i++)
-        rc = bst_layer_flip(ctx, layers[n - 1 - i], &rev[i]);
-    size_t chr = 0;
-    if (rc >= 0) {
-        chr = (size_t)bst_layer_find_channel(rev[0], layers[0]->channels[ch]);
-        rc = absorptance_front(ctx, n, (const bst_layer *const *)rev, chr, opts, tmp);
-    }
-    for (size_t j = 0; rc >= 0 && j < N; j++) {
-        size_t mj = bsti_basis_mirror_x(b, j);
-        for (size_t i = 0; i < n; i++)
-            abs_back[i * N + j] = tmp[(n - 1 - i) * N + mj];
-    }
-    for (size_t i = 0; rev && i < n; i++)
-        bst_layer_free(rev[i]);
-    bsti_free(ctx, rev);
-    bsti_free(ctx, tmp);
-    return rc;
-}
-
-/* ------------------------------------------------------------------ the system and its absorptance
- *
- * bst_stack_combine and bst_stack_absorptance each form partial stacks: the combination those of
- * layers 0..k-1 (U_k), the absorptance U_k again and those of layers k..n-1, and the back incidence
- * all of it once more on the flipped stack.  Here the combination keeps its U_k's Tf and Rb
- * (struct prefix) and the absorptance needs nothing else: no interior partial stack, only row
- * vectors carried through the gaps (an adjoint sweep, L = Lambda, alpha_f / alpha_b the layers'
- * side absorptances, columns = incident patches).  In gap k (between U_k and layer k) let h_k be
- * the light arriving at layer k's front and g_k that arriving at U_k's back; layer k absorbs
- * alpha_f(k)^T h_k + alpha_b(k)^T g_{k+1}, and
- *   g_k = L Rf_k h_k + L Tb_k g_{k+1}                     (layer k's front sends back)
- *   h_k = L Tf_U + L Rb_U g_k   (front incidence),   h_k = L Rb_U g_k   (back incidence)
- * (U = U_k; h_0 = I, g_n = 0 for front incidence; h_0 = 0, g_n = I for back incidence).  So
- *   front: h_k = M_k^-1 (L Tf_U + L Rb_U L Tb_k g_{k+1}),   M_k  = I - L Rb_U L Rf_k,
- *   back:  g_k = M'_k^-1 L Tb_k g_{k+1},                    M'_k = I - L Rf_k L Rb_U,
- * the matrices the combination's step k inverts (inward and outward).  A row c^T applied to g_k
- * (front) becomes (c^T L Rf_k) on h_k plus (c^T L Tb_k) on g_{k+1}, and a row d^T on h_k becomes,
- * with y^T = d^T M_k^-1 (one right solve), y^T L Tf_U (absorbed: done) plus y^T L Rb_U L Tb_k on
- * g_{k+1}: so one sweep from the exterior inwards carries every layer's row (n rows, N values
- * each) through every gap, each gap costing one factorization and products of n rows by N x N
- * matrices, O(n N^2); the rows left on g_n are zero.  Back incidence: a row r^T on g_k becomes
- * (r^T M'_k^-1) L Tb_k on g_{k+1}, layer k's alpha_f(k)^T L Rb_U joins on g_k, and the rows
- * reaching g_n = I are the absorptances.  The combination's step k factors M_k and M'_k itself:
- * up to BSTI_ABS_KEEP_MAX_N patches, in double, it hands the factorizations over (keep_slot) and
- * the sweeps cost O(n^2 N^2) in all; otherwise each gap factors both again.  The old scheme (each
- * gap's h from the interior partial stack V_k = layers k..n-1, formed here, and its own
- * factorizations) cost pane / dense shade / pane 7.3 N^3 flops against 2.7 N^3 when factoring
- * again and O(N^2) with the kept factorizations. */
-
-/* The combination's factorizations of each gap's two matrices are kept for the sweeps (one
- * factorization a gap and side fewer) up to this many patches (k = 5): 2 (n - 1) LU factors of
- * N x N doubles beside the partial stacks' copies; above it, and in single precision, the
- * sweeps factor them again. */
-#define BSTI_ABS_KEEP_MAX_N 1024
-
-/* A dense double matrix of nr rows (nr x N, column-major) from arr. */
-static int rows_new(bst_ctx *ctx, size_t nr, size_t N, const double *arr, bst_mat **out)
-{
-    int rc = bst_mat_new_dense(ctx, nr, N, BST_DOUBLE, out);
-    if (rc >= 0)
-        memcpy(bst_mat_dense_data(*out), arr, nr * N * sizeof *arr);
-    return rc;
-}
-
-/* out = (rows L) m for nr rows (nr x N column-major arrays; m NULL = zero). */
-static int rows_mul(bst_ctx *ctx, const double *lam, size_t nr, size_t N, const double *rows,
-                    const bst_mat *m, double *out)
-{
-    if (!m) {
-        memset(out, 0, nr * N * sizeof *out);
-        return BST_OK;
-    }
-    bst_mat *r = NULL, *res = NULL;
-    int rc = bst_mat_new_dense(ctx, nr, N, BST_DOUBLE, &r);
-    if (rc >= 0) {
-        double *d = bst_mat_dense_data(r);
-        for (size_t p = 0; p < N; p++)
-            for (size_t i = 0; i < nr; i++)
-                d[p * nr + i] = rows[p * nr + i] * lam[p];
-        rc = bst_mat_mul(ctx, r, m, 0.0, &res);
-    }
-    if (rc >= 0)
-        rc = bst_mat_to_dense_array(ctx, res, out);
-    bst_mat_free(r), bst_mat_free(res);
-    return rc;
-}
-
-/* out = rows (I - L x L y)^-1 for nr rows (x or y NULL: out = rows), with I - L x L y factored
- * here, or in f (the combination's, kept) when not NULL. */
-static int rows_solve(bst_ctx *ctx, const double *lam, size_t nr, size_t N, const double *rows,
-                      const bst_mat *x, const bst_mat *y, bsti_factor *f, double rcond_warn,
-                      double *out)
-{
-    if (!x || !y) {
-        memmove(out, rows, nr * N * sizeof *out);
-        return BST_OK;
-    }
-    bst_mat *lx = NULL, *ly = NULL, *a = NULL, *b = NULL, *sol = NULL;
-    double rcond;
-    if (f) {
-        int rc = rows_new(ctx, nr, N, rows, &b);
-        if (rc >= 0)
-            rc = bsti_factor_solve_right(ctx, f, b, &sol);
-        if (rc >= 0)
-            rc = bst_mat_to_dense_array(ctx, sol, out);
-        bst_mat_free(b), bst_mat_free(sol);
-        return rc;
-    }
-    int rc = bst_mat_scale(ctx, lam, x, NULL, &lx);
-    if (rc >= 0)
-        rc = bst_mat_scale(ctx, lam, y, NULL, &ly);
-    if (rc >= 0)
-        rc = bst_mat_mul(ctx, lx, ly, 0.0, &a);
-    bst_mat_free(lx), bst_mat_free(ly);
-    if (rc >= 0)
-        rc = rows_new(ctx, nr, N, rows, &b);
-    if (rc >= 0) {
-        rc = bst_solve_right(ctx, a, b, rcond_warn, &sol, &rcond);
-        if (rc == BST_WILLCOND)
-            rc = BST_OK; /* already reported by the combination */
-    }
-    if (rc >= 0)
-        rc = bst_mat_to_dense_array(ctx, sol, out);
-    bst_mat_free(a), bst_mat_free(b), bst_mat_free(sol);
-    return rc;
-}
-
-/* The gap sweeps above: abs_front and abs_back ([layer][patch], either NULL) from the layers' side
- * absorptances af, ab ([layer][patch]) and U_k's Tf and Rb (tf_u[k], rb_u[k], k = 1..n-1). */
-static int absorptance_sweeps(bst_ctx *ctx, size_t n, const bst_layer *const *layers,
-                              const char *chname, const bst_mat *const *tf_u,
-                              const bst_mat *const *rb_u, bsti_factor *const *fin,
-                              bsti_factor *const *fout, const double *af, const double *ab,
-                              double rcond_warn, double *abs_front, double *abs_back)
-{
-    size_t N = bst_basis_size(layers[0]->basis);
-    const double *lam = bst_basis_lambda(layers[0]->basis);
-    double *c = bsti_calloc(ctx, 4 * n * N, sizeof *c), *d = c ? c + n * N : NULL;
-    double *e = c ? d + n * N : NULL, *y = c ? e + n * N : NULL;
-    double *row = bsti_alloc_array(ctx, N, sizeof *row), *w = bsti_alloc_array(ctx, N, sizeof *w);
-    int rc = c && row && w ? BST_OK : BST_ENOMEM;
-    for (size_t p = 0; rc >= 0 && p < N; p++) /* rows on g_1: layer 0's back */
-        c[p * n] = ab[p];
-    if (rc >= 0 && abs_front) {
-        for (size_t i = 0; i < n * N; i++)
-            abs_front[i] = i < N ? af[i] : 0.0;
-        for (size_t k = 1; rc >= 0 && k < n; k++) {
-            size_t ck = (size_t)bst_layer_find_channel(layers[k], chname);
-            const bst_mat *rf = bst_layer_get(layers[k], ck, BST_RF);
-            const bst_mat *tb = bst_layer_get(layers[k], ck, BST_TB);
-            rc = rows_mul(ctx, lam, n, N, c, rf, d); /* rows on h_k */
-            if (rc >= 0 && k + 1 < n)
-                rc = rows_mul(ctx, lam, n, N, c, tb, e); /* and on g_{k+1} */
-            for (size_t p = 0; rc >= 0 && p < N; p++)
-                d[p * n + k] = af[k * N + p], e[p * n + k] = ab[k * N + p];
-            if (rc >= 0)
-                rc = rows_solve(ctx, lam, n, N, d, rb_u[k], rf, fin ? fin[k] : NULL, rcond_warn, y);
-            if (rc >= 0)
-                rc = rows_mul(ctx, lam, n, N, y, tf_u[k], d); /* absorbed */
-            for (size_t p = 0; rc >= 0 && p < N; p++)
-                for (size_t i = 0; i <= k; i++)
-                    abs_front[i * N + p] += d[p * n + i];
-            if (rc >= 0 && k + 1 < n) { /* what goes on to g_{k+1} */
-                rc = rows_mul(ctx, lam, n, N, y, rb_u[k], d);
-                if (rc >= 0)
-                    rc = rows_mul(ctx, lam, n, N, d, tb, c);
-                for (size_t i = 0; rc >= 0 && i < n * N; i++)
-                    c[i] += e[i];
-            }
-        }
-    }
-    if (rc >= 0 && abs_back) {
-        memset(c, 0, n * N * sizeof *c);
-        for (size_t p = 0; p < N; p++) /* rows on g_1 */
-            c[p * n] = ab[p];
-        for (size_t k = 1; rc >= 0 && k < n; k++) {
-            size_t ck = (size_t)bst_layer_find_channel(layers[k], chname);
-            const bst_mat *rf = bst_layer_get(layers[k], ck, BST_RF);
-            const bst_mat *tb = bst_layer_get(layers[k], ck, BST_TB);
-            for (size_t p = 0; p < N; p++) /* layer k's front: alpha_f(k)^T L Rb_U on g_k */
-                w[p] = af[k * N + p] * lam[p];
-            rc = rb_u[k] ? bst_mat_col_weighted_sum(ctx, rb_u[k], w, row) : BST_OK;
-            for (size_t p = 0; rc >= 0 && p < N; p++)
-                c[p * n + k] = rb_u[k] ? row[p] : 0.0;
-            if (rc >= 0)
-                rc = rows_solve(ctx, lam, n, N, c, rf, rb_u[k], fout ? fout[k] : NULL, rcond_warn,
-                                y);
-            if (rc >= 0)
-                rc = rows_mul(ctx, lam, n, N, y, tb, c); /* on g_{k+1}, with layer k's back */
-            for (size_t p = 0; rc >= 0 && p < N; p++)
-                c[p * n + k] += ab[k * N + p];
-        }
-        for (size_t i = 0; rc >= 0 && i < n; i++) /* g_n = I */
-            for (size_t p = 0; p < N; p++)
-                abs_back[i * N + p] = c[p * n + i];
-    }
-    bsti_free(ctx, c), bsti_free(ctx, row), bsti_free(ctx, w);
-    return rc;
-}
-
-int bsti_stack_combine_absorptance(bst_ctx *ctx, size_t n, const bst_layer *const *layers,
-                                   size_t ch, const bst_stack_opts *opts_in, bst_layer **out,
-                                   double *abs_front, double *abs_back)
-{
-    if (!ctx || !out)
-        return BST_EINVAL;
-    *out = NULL;
-    bst_stack_opts defaults;
-    bst_stack_opts_init(&defaults);
-    const bst_stack_opts *opts = opts_in ? opts_in : &defaults;
-    unsigned want = opts->comps ? opts->comps & BST_COMP_ALL : BST_COMP_ALL;
-    if (!abs_front && !abs_back)
-        return bst_stack_combine(ctx, n, layers, opts, out);
-    if (n == 0 || !layers || !layers[0] || ch >= layers[0]->nchannels || want != BST_COMP_ALL) {
-        /* the checks and messages of the two, or partial stacks the combination does not form */
-        int rc = bst_stack_combine(ctx, n, layers, opts, out), ra = BST_OK;
-        if (rc >= 0)
-            ra = bst_stack_absorptance(ctx, n, layers, ch, opts, abs_front, abs_back);
-        if (ra < 0) {
-            bst_layer_free(*out);
-            *out = NULL;
-            return ra;
-        }
-        return rc > ra ? rc : ra;
-    }
-    const char *chname = layers[0]->channels[ch];
-    for (size_t i = 1; i < n; i++)
-        if (layers[i] && bst_layer_find_channel(layers[i], chname) < 0)
-            return bsti_error(ctx, BST_ENOTFOUND, "absorptance: layer %zu has no channel %s",
-                              i + 1, chname);
-    size_t N = bst_basis_size(layers[0]->basis);
-    struct prefix keep = {.name = chname};
-    keep.tf = bsti_calloc(ctx, 2 * n, sizeof *keep.tf);
-    keep.rb = keep.tf ? keep.tf + n : NULL;
-    if (N <= BSTI_ABS_KEEP_MAX_N && opts->precision == BST_DOUBLE && keep.tf) {
-        keep.fin = bsti_calloc(ctx, 2 * n, sizeof *keep.fin); /* none kept: factored again */
-        keep.fout = keep.fin ? keep.fin + n : NULL;
-    }
-    double *alpha = bsti_alloc_array(ctx, 2 * n * N, sizeof *alpha); /* [side][layer][patch] */
-    bst_layer *sys = NULL;
-    int rc = keep.tf && alpha ? combine(ctx, n, layers, NULL, opts, &sys, &keep) : BST_ENOMEM;
-    int warn = rc > 0 ? rc : BST_OK;
-    for (size_t i = 0; rc >= 0 && i < n; i++) {
-        size_t c = (size_t)bst_layer_find_channel(layers[i], chname);
-        rc = side_absorptance(ctx, layers[i], c, 0, alpha + i * N);
-        if (rc >= 0)
-            rc = side_absorptance(ctx, layers[i], c, 1, alpha + (n + i) * N);
-    }
-    if (rc >= 0) { /* U_1 is layer 0 itself */
-        size_t c0 = (size_t)bst_layer_find_channel(layers[0], chname);
-        const bst_mat **tf = (const bst_mat **)keep.tf, **rb = (const bst_mat **)keep.rb;
-        if (n > 1)
-            tf[1] = bst_layer_get(layers[0], c0, BST_TF), rb[1] = bst_layer_get(layers[0], c0, BST_RB);
-        rc = absorptance_sweeps(ctx, n, layers, chname, tf, rb, keep.fin, keep.fout, alpha,
-                                alpha + n * N, opts->rcond_warn, abs_front, abs_back);
-        if (n > 1)
-            tf[1] = rb[1] = NULL; /* borrowed: not freed below */
-    }
-    for (size_t k = 0; keep.tf && k < n; k++)
-        bst_mat_free(keep.tf[k]), bst_mat_free(keep.rb[k]);
-    for (size_t k = 0; keep.fin && k < n; k++)
-        bsti_factor_free(keep.fin[k]), bsti_factor_free(keep.fout[k]);
-    bsti_free(ctx, keep.tf);
-    bsti_free(ctx, keep.fin);
-    bsti_free(ctx, alpha);
-    if (rc < 0) {
-        bst_layer_free(sys);
-        return rc;
-    }
-    *out = sys;
-    return warn;
 }
