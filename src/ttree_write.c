@@ -7,9 +7,10 @@
  *    constant, and m never decreases from a node to its parent, so "m <= threshold" selects whole
  *    subtrees and a node is merged only if everything below it would be.
  * 2. threshold: the pct-th percentile of m over the finest blocks (selection on a copy).
- * 3. emit: depth first; a node with m <= threshold becomes a one-value leaf (its average), a finest
- *    block above it a 2^D-value leaf, anything else a branch.  The error each leaf makes, against
- *    the value a reader will store (single precision), is summed on the way.
+ * 3. emit: depth first; a node with m <= threshold becomes a one-value leaf (its average) where
+ *    the bound on directional-hemispherical values allows it (bsti_reduce, ttree_bound.c), a
+ *    finest block above it a 2^D-value leaf, anything else a branch.  The error each leaf makes,
+ *    against the value a reader will store, is summed on the way.
  * The measure of a finest block is sd / (sqrt(mean) + floor); of a larger node, the largest of its
  * children's measures and of the same ratio over the children's means.  Without reduction (pct
  * < 0, threshold 0) only m = 0 counts, and every other node gets FLT_MIN.  Dividing by the root of
@@ -578,6 +579,34 @@ static int emit_all(const struct tw *w, int nthreads, struct eacc *top, bsti_sin
 
 /* ------------------------------------------------------------------ driver */
 
+/* w->thresh: the pct-th percentile of the measures of the nblocks finest blocks (of those touching
+ * a fine incident cell, with variable resolution). */
+static int threshold(struct tw *w, double pct, size_t nblocks)
+{
+    float *tmp = bsti_alloc_array(w->ctx, nblocks, sizeof *tmp);
+    size_t nsel = 0;
+    if (!tmp)
+        return BST_ENOMEM;
+    if (w->D == 4 && w->t->fine_in) { /* only the blocks touching fine incident cells */
+        size_t S = w->G / 2;
+        const unsigned char *f = w->t->fine_in;
+        for (size_t q = 0; q < nblocks; q++) {
+            size_t bx = q / (S * S * S), by = (q / (S * S)) % S;
+            if (f[2 * bx * w->G + 2 * by] | f[2 * bx * w->G + 2 * by + 1] |
+                f[(2 * bx + 1) * w->G + 2 * by] | f[(2 * bx + 1) * w->G + 2 * by + 1])
+                tmp[nsel++] = w->m[w->off[1] + q];
+        }
+    } else {
+        memcpy(tmp, w->m + w->off[1], nblocks * sizeof *tmp);
+        nsel = nblocks;
+    }
+    size_t rank = (size_t)floor(pct / 100.0 * (double)nsel);
+    if (rank > 0)
+        w->thresh = bsti_tw_select_kth(tmp, nsel, rank - 1);
+    bsti_free(w->ctx, tmp);
+    return BST_OK;
+}
+
 int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, bsti_sink *out,
                      bsti_tree_stats *stats)
 {
@@ -652,30 +681,8 @@ int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, b
     if (b.bad)
         rc = bsti_error(ctx, BST_EINVAL, "tensor tree: value %g is not finite in single precision",
                         b.badval);
-    /* threshold: the pct-th percentile of the finest blocks' measures (lossless: 0) */
-    if (rc == BST_OK && r->pct >= 0.0) {
-        float *tmp = bsti_alloc_array(ctx, nblocks, sizeof *tmp);
-        size_t nsel = 0;
-        if (!tmp) {
-            rc = BST_ENOMEM;
-        } else if (w.D == 4 && t->fine_in) { /* only the blocks touching fine incident cells */
-            size_t S = w.G / 2;
-            for (size_t q = 0; q < nblocks; q++) {
-                size_t bx = q / (S * S * S), by = (q / (S * S)) % S;
-                const unsigned char *f = t->fine_in;
-                if (f[2 * bx * w.G + 2 * by] | f[2 * bx * w.G + 2 * by + 1] |
-                    f[(2 * bx + 1) * w.G + 2 * by] | f[(2 * bx + 1) * w.G + 2 * by + 1])
-                    tmp[nsel++] = w.m[w.off[1] + q];
-            }
-        } else {
-            memcpy(tmp, w.m + w.off[1], nblocks * sizeof *tmp);
-            nsel = nblocks;
-        }
-        size_t rank = (size_t)floor(r->pct / 100.0 * (double)nsel);
-        if (tmp && rank > 0)
-            w.thresh = bsti_tw_select_kth(tmp, nsel, rank - 1);
-        bsti_free(ctx, tmp);
-    }
+    if (rc == BST_OK && r->pct >= 0.0)
+        rc = threshold(&w, r->pct, nblocks);
     if (rc == BST_OK) {
         st->threshold = w.thresh;
         st->blocks = nblocks;

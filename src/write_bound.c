@@ -231,3 +231,22 @@ void bsti_bounds_rings(int k, const double *col, double *ring)
             ring[x] = fmin(ring[x], col[ix * G + iy]);
         }
 }
+
+int bsti_bounds_write(bst_ctx *ctx, const bst_layer *l, const bst_varres *v, double tol,
+                      double rho, int *omit, bsti_bounds *b)
+{
+    if (v)
+        return bsti_bounds_varres(ctx, l, v, tol, rho, b);
+    size_t nch = bst_layer_nchannels(l);
+    int *omit_tf = bsti_alloc_array(ctx, nch + 1, sizeof *omit_tf);
+    if (!omit_tf)
+        return BST_ENOMEM;
+    for (size_t ch = 0; ch < nch; ch++)
+        omit_tf[ch] = omit[ch * BST_NCOMP + BST_TF] == 1;
+    int rc = bsti_bounds_layer(ctx, l, tol, rho, omit_tf, b);
+    for (size_t ch = 0; rc >= 0 && ch < nch; ch++)
+        if (omit[ch * BST_NCOMP + BST_TF] == 1 && !omit_tf[ch])
+            omit[ch * BST_NCOMP + BST_TF] = 0;
+    bsti_free(ctx, omit_tf);
+    return rc;
+}

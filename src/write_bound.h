@@ -45,6 +45,12 @@ int bsti_bounds_varres(bst_ctx *ctx, const bst_layer *coarse, const bst_varres *
  * (0: the shortest text of the float). */
 double bsti_bounds_rho(int digits);
 
+/* The one a writer takes: bsti_bounds_varres with v, else bsti_bounds_layer with omit's Tf flags
+ * (omit: nch BST_NCOMP, channel ch's component c at ch BST_NCOMP + c, 1 where it is left out as
+ * the other side's reciprocal; a Tf that must be written after all is set to 0 there). */
+int bsti_bounds_write(bst_ctx *ctx, const bst_layer *l, const bst_varres *v, double tol,
+                      double rho, int *omit, bsti_bounds *b);
+
 void bsti_bounds_free(bst_ctx *ctx, bsti_bounds *b);
 
 /* Budgets of the G/2 rank-3 incident indices (ix = G/2 - 1 - j for the square ring j of the

@@ -331,22 +331,11 @@ done:
  * its budget is written after all. */
 static int bounds(struct xw *w)
 {
-    int *omit_tf = bsti_alloc_array(w->ctx, w->nch + 1, sizeof *omit_tf);
     size_t G = (size_t)1 << w->k;
-    if (!omit_tf || (w->kind == BST_FILE_TT3 && !(w->ring = bsti_alloc_array(w->ctx, G / 2, sizeof *w->ring)))) {
-        bsti_free(w->ctx, omit_tf);
+    if (w->kind == BST_FILE_TT3 && !(w->ring = bsti_alloc_array(w->ctx, G / 2, sizeof *w->ring)))
         return BST_ENOMEM;
-    }
-    for (size_t ch = 0; ch < w->nch; ch++)
-        omit_tf[ch] = w->omit[ch * BST_NCOMP + BST_TF] == 1;
-    double tol = w->o->reduce_tol, rho = bsti_bounds_rho(w->digits);
-    int rc = w->v ? bsti_bounds_varres(w->ctx, w->l, w->v, tol, rho, &w->bounds)
-                  : bsti_bounds_layer(w->ctx, w->l, tol, rho, omit_tf, &w->bounds);
-    for (size_t ch = 0; rc >= 0 && ch < w->nch; ch++)
-        if (w->omit[ch * BST_NCOMP + BST_TF] == 1 && !omit_tf[ch])
-            w->omit[ch * BST_NCOMP + BST_TF] = 0;
-    bsti_free(w->ctx, omit_tf);
-    return rc;
+    return bsti_bounds_write(w->ctx, w->l, w->v, w->o->reduce_tol, bsti_bounds_rho(w->digits),
+                             w->omit, &w->bounds);
 }
 
 /* ------------------------------------------------------------------ the pieces of the file */
