@@ -471,6 +471,69 @@ int bst_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target, 
  * of the file, so BST_FLOAT keeps them exactly in half the memory. */
 int bst_bsdf_set_precision(bst_ctx *ctx, bst_bsdf *b, bst_precision prec);
 
+/* ----------------------------------------------------------------------------- plans: plan.c */
+
+/* The decisions a stack's combination takes, made here for every client (the program's combine,
+ * batch and MPI ranks, Python), each with a sentence saying why.
+ *
+ * The basis when none is asked: the finest tensor-tree order among the files (at most
+ * BST_K_MAX; a finer one only repeats their values), else the first Klems file's Klems basis,
+ * else the basis of the first layer given over one (a system already combined, say), else
+ * Shirley-Chiu k = 5.  files[i] is layer i's file or NULL (a pane; either array may be NULL),
+ * given[i] the basis of a layer given over one, or NULL.  k > 0 or klems ("full", "half",
+ * "quarter") is the basis asked.  The pick names the basis so that another process (an MPI rank)
+ * makes the same one with bst_plan_make_basis. */
+typedef struct {
+    int k;                  /* Shirley-Chiu order, 0 when not this */
+    const char *klems;      /* Klems basis name, or NULL */
+    long file;              /* the Klems file whose basis it is, -1 when not this */
+    long given;             /* the layer given over it, -1 when not this */
+    int finest;             /* the finest tree order among the files (0: none) */
+    char why[160];          /* which rule chose */
+    char note[320];         /* a warning worth printing before a combination, or "": every layer
+                               a rank-4 tree of an order below the k asked (their order's system
+                               repeated, at up to 64 times the time an order) */
+} bst_plan_basis;
+void bst_plan_pick_basis(size_t n, const bst_bsdf *const *files, const bst_basis *const *given,
+                         int k, const char *klems, bst_plan_basis *pick);
+int bst_plan_make_basis(bst_ctx *ctx, const bst_plan_basis *pick, const bst_bsdf *const *files,
+                        const bst_basis *const *given, bst_basis **out);
+
+/* The channels every layer holds, in layer 0's order, into names (room for layer 0's count): how
+ * many.  The names are the layers'. */
+size_t bst_plan_channels(size_t n, const bst_layer *const *layers, const char **names);
+/* 1 for a channel the per-wavelength combination averages over: Visible, Solar, CIE-X, CIE-Y,
+ * CIE-Z (any case). */
+int bst_plan_is_band(const char *name);
+
+/* A stack's layer as the spectral plan sees it: the layer over the stack's basis, the spectral
+ * pane it was made from (NULL: not a pane with spectral data, or reversed), and whether it was
+ * read from a file (one with Solar and Visible channels enters as WINDOW's dual-band material). */
+typedef struct {
+    const bst_layer *layer;
+    const bst_glass *pane;
+    int from_file;
+} bst_plan_layer;
+/* *spectral = 1 when the stack combines wavelength by wavelength (bst_stack_combine_spectral_layers:
+ * every layer a spectral pane or dual-band, every common channel a band, not per_channel), 0 when
+ * it combines band values per channel (bst_stack_combine); why (size bytes) says which and why,
+ * and which layers enter as dual-band; *warn (may be NULL) is 1 where the reason is one a user
+ * would not expect (a file layer with Solar but not Visible: --channels Solar).  BST_OK or an
+ * error. */
+int bst_plan_spectral(bst_ctx *ctx, size_t n, const bst_plan_layer *layers, int per_channel,
+                      char *why, size_t size, int *spectral, int *warn);
+
+/* Bytes a command needs at its peak, by the model bench/README.md checks against measured peaks:
+ * a component a file's layer holds is dense (N^2 values of the read precision) unless the file's
+ * values fill at most BST_SPARSE_MAX_FILL of its domain (specular trees: sparse, 16 bytes a
+ * value); on top of them a conversion needs one double grid, a combination (combining)
+ * 3 N^2 values of the work precision, whichever is more; for the rest (the program, its
+ * libraries, diagonal and sparse parts) 64 MiB and N^2 / 2 bytes.  comps: the components read
+ * (BST_COMP_BIT mask, 0 = all); *ndense (may be NULL): the dense components counted. */
+double bst_plan_memory(const bst_basis *basis, size_t n, const bst_bsdf *const *files,
+                       unsigned comps, bst_precision read, int combining, bst_precision work,
+                       size_t *ndense);
+
 /* --------------------------- BSDF XML writer: xml_write.c, ttree_write.c, ttree_rank3.c, sink.c */
 
 /* A layer as LBNL WindowElement BSDF XML (libBSDF, WINDOW, EnergyPlus): Klems matrices on a Klems

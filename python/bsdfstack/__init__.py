@@ -663,9 +663,6 @@ def _copy_layer(ctx, src, names, prec):
     return dst
 
 
-_BANDS = ("visible", "solar", "cie-x", "cie-y", "cie-z")
-
-
 class Glass(_Source):
     """A clear pane from a glass spec (bsdfstack-glass(5)): a catalogue name ("clear-6mm",
     "nfrc-102"), a path to spectral data, or an inline pane ("d=6mm,n=1.52,tn=0.89")."""
@@ -719,7 +716,7 @@ class Glass(_Source):
         pane is averaged over any band asked for, as the program does)."""
         g = self._g.ptr
         extra = [n for n in channels or () if lib.bst_glass_find_channel(g, cstr(n)) < 0 and
-                 lib.bst_glass_nwavelengths(g) and n.lower() in _BANDS]
+                 lib.bst_glass_nwavelengths(g) and lib.bst_plan_is_band(cstr(n))]
         if not extra:
             return self._g
         fresh = self._parse()
@@ -857,19 +854,23 @@ class Stack(BSDF):
 
 
 def _default_basis(ctx, sources):
-    """The program's rule: the finest tensor-tree order among the files, else the first Klems
-    file's basis, else the basis of a BSDF given over a fixed basis, else k = 5."""
-    files = [s for s in sources if isinstance(s, File)]
-    kmax = max([f.order for f in files] + [0])
-    if kmax:
-        return _Basis.make(ctx, min(kmax, _lib.BST_K_MAX))
-    for f in files:
-        if f.file_kind == "Klems":
-            return _Basis.copy(ctx, lib.bst_bsdf_klems_basis(f._bsdf))
-    for s in sources:
-        if isinstance(s, BSDF) and not isinstance(s, _Source):
-            return _Basis.copy(ctx, lib.bst_layer_basis(s._ptr))
-    return _Basis.make(ctx, 5)
+    """The library's basis rule (bst_plan_pick_basis, as the program's): the finest tensor-tree
+    order among the files, else the first Klems file's basis, else the basis of a BSDF given over
+    one, else k = 5."""
+    n = len(sources)
+    files = (ctypes.c_void_p * max(n, 1))()
+    given = (ctypes.c_void_p * max(n, 1))()
+    for i, src in enumerate(sources):
+        if isinstance(src, File):
+            files[i] = src._bsdf
+        elif isinstance(src, BSDF) and not isinstance(src, _Source):
+            given[i] = lib.bst_layer_basis(src._ptr)
+    pick = _lib.PlanBasis()
+    lib.bst_plan_pick_basis(n, files, given, 0, None, ctypes.byref(pick))
+    out = ctypes.c_void_p()
+    with ctx as c:
+        ctx.check(lib.bst_plan_make_basis(c, ctypes.byref(pick), files, given, ctypes.byref(out)))
+    return _Basis(out.value, ctx)
 
 
 def _on_basis(entry, basis, prec, channels, at_centre):
@@ -883,52 +884,38 @@ def _on_basis(entry, basis, prec, channels, at_centre):
     return entry._ptr, entry
 
 
-def _is_dual_band(entry, ptr):
-    """WINDOW's dual-band material: a layer that is not a pane with Solar and Visible channels
-    (the program's rule)."""
-    if isinstance(_source_of(entry), Glass):
-        return False
-    return (lib.bst_layer_find_channel(ptr, b"Solar") >= 0 and
-            lib.bst_layer_find_channel(ptr, b"Visible") >= 0)
-
-
 def _common_channels(ptrs):
-    first = ptrs[0]
-    names = []
-    for i in range(lib.bst_layer_nchannels(first)):
-        n = lib.bst_layer_channel(first, i)
-        if all(lib.bst_layer_find_channel(p, n) >= 0 for p in ptrs[1:]):
-            names.append(text(n))
-    return names
+    """The channels every layer holds, in the first's order (bst_plan_channels)."""
+    arr = (ctypes.c_void_p * len(ptrs))(*ptrs)
+    names = (ctypes.c_char_p * (lib.bst_layer_nchannels(ptrs[0]) + 1))()
+    m = lib.bst_plan_channels(len(ptrs), arr, names)
+    return [text(names[i]) for i in range(m)]
 
 
-def _spectral_plan(entries, ptrs, held, per_channel):
-    """Whether the stack combines wavelength by wavelength, the panes it does so with, and why
-    (the program's cli_spectral_plan, so that both give the same system)."""
+def _spectral_plan(ctx, entries, ptrs, held, per_channel):
+    """Whether the stack combines wavelength by wavelength, the panes it does so with, and why:
+    the library's plan (bst_plan_spectral), as the program's; a reason a user would not expect
+    (a layer with Solar but not Visible) is a LibraryWarning."""
     panes = []
     for e, h in zip(entries, held):
         pane = getattr(h, "_pane", None)
         spectral = (isinstance(e, Glass) and pane is not None and
                     lib.bst_glass_nwavelengths(pane.ptr) > 0)
         panes.append(pane if spectral else None)
-    plain = [i for i, (e, p) in enumerate(zip(entries, ptrs))
-             if panes[i] is None and not _is_dual_band(e, p)]
-    names = _common_channels(ptrs)
-    npanes = sum(p is not None for p in panes)
-    if per_channel:
-        return False, panes, "band values combined per channel (as asked, per_channel)"
-    if plain:
-        return False, panes, "band values combined per channel (layer %d, %s, %s)" % (
-            plain[0] + 1, entries[plain[0]].name, "has no spectral data" + (
-                " and no Solar and Visible channels" if npanes else ""))
-    if not npanes:
-        return False, panes, "band values combined per channel (no layer is a pane with " \
-                             "spectral data)"
-    bad = [n for n in names if n.lower() not in _BANDS]
-    if not names or bad:
-        return False, panes, "band values combined per channel (channel %s is not a spectral " \
-                             "band)" % (bad[0] if bad else "(none in common)")
-    return True, panes, "combined wavelength by wavelength, then averaged per channel"
+    pl = (_lib.PlanLayer * len(ptrs))()
+    for i, (e, p) in enumerate(zip(entries, ptrs)):
+        pl[i].layer = p
+        pl[i].pane = panes[i].ptr if panes[i] is not None else None
+        pl[i].from_file = int(not isinstance(_source_of(e), Glass))
+    why = ctypes.create_string_buffer(2048)
+    spectral, warn = ctypes.c_int(0), ctypes.c_int(0)
+    with ctx as c:
+        ctx.check(lib.bst_plan_spectral(c, len(ptrs), pl, int(bool(per_channel)), why, len(why),
+                                        ctypes.byref(spectral), ctypes.byref(warn)))
+    plan = text(why.value)
+    if warn.value:
+        warnings.warn(plan, LibraryWarning, stacklevel=4)
+    return bool(spectral.value), panes, plan
 
 
 class _Prepared:
@@ -952,8 +939,8 @@ class _Prepared:
             p, h = _on_basis(e, self.basis.ptr, self.prec, self.names, self.at_centre)
             self.ptrs.append(p)
             self.held.append(h)
-        self.spectral, self.panes, self.plan = _spectral_plan(self.entries, self.ptrs, self.held,
-                                                              per_channel)
+        self.spectral, self.panes, self.plan = _spectral_plan(self.ctx, self.entries, self.ptrs,
+                                                              self.held, per_channel)
 
     def spectral_layers(self):
         return _spectral_array(self.panes, self.ptrs)

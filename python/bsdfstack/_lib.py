@@ -12,8 +12,8 @@ import ctypes
 import ctypes.util
 import os
 
-from ctypes import (CFUNCTYPE, POINTER, Structure, c_char_p, c_double, c_int, c_size_t, c_uint,
-                    c_void_p)
+from ctypes import (CFUNCTYPE, POINTER, Structure, c_char, c_char_p, c_double, c_int, c_long,
+                    c_size_t, c_uint, c_void_p)
 
 try:
     from . import _config
@@ -58,6 +58,17 @@ class SpectralOpts(Structure):
 class SpectralLayer(Structure):
     """bst_spectral_layer: exactly one of pane and bands set."""
     _fields_ = [("pane", c_void_p), ("bands", c_void_p)]
+
+
+class PlanBasis(Structure):
+    """bst_plan_basis: the basis rule's pick."""
+    _fields_ = [("k", c_int), ("klems", c_char_p), ("file", c_long), ("given", c_long),
+                ("finest", c_int), ("why", c_char * 160), ("note", c_char * 320)]
+
+
+class PlanLayer(Structure):
+    """bst_plan_layer: a stack's layer as the spectral plan sees it."""
+    _fields_ = [("layer", c_void_p), ("pane", c_void_p), ("from_file", c_int)]
 
 
 class ColumnsOpts(Structure):
@@ -154,6 +165,14 @@ _PROTOTYPES = {
     "bst_bsdf_depth": (c_int, [c_void_p]),
     "bst_bsdf_negatives": (c_size_t, [c_void_p]),
     "bst_bsdf_klems_basis": (c_void_p, [c_void_p]),
+    "bst_plan_pick_basis": (None, [c_size_t, c_void_p, c_void_p, c_int, c_char_p,
+                                   POINTER(PlanBasis)]),
+    "bst_plan_make_basis": (c_int, [c_void_p, POINTER(PlanBasis), c_void_p, c_void_p,
+                                    POINTER(c_void_p)]),
+    "bst_plan_channels": (c_size_t, [c_size_t, c_void_p, POINTER(c_char_p)]),
+    "bst_plan_is_band": (c_int, [c_char_p]),
+    "bst_plan_spectral": (c_int, [c_void_p, c_size_t, POINTER(PlanLayer), c_int, c_char_p,
+                                  c_size_t, POINTER(c_int), POINTER(c_int)]),
     "bst_bsdf_nchannels": (c_size_t, [c_void_p]),
     "bst_bsdf_channel": (c_char_p, [c_void_p, c_size_t]),
     "bst_bsdf_stored": (c_int, [c_void_p, c_size_t, c_int]),

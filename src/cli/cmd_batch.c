@@ -270,7 +270,9 @@ int batch_run_stack(bst_ctx *ctx, const struct batch *b, const struct batch_line
                  "\nbatch: %s line %zu\n%s", b->path, sl->lineno, key);
     }
     char why[2048];
-    int spectral = rc == CLI_OK && cli_spectral_plan(&view, b->args.per_channel, why, sizeof why);
+    int spectral = rc == CLI_OK ? cli_spectral_plan(ctx, sub, &view, b->args.per_channel, why, sizeof why) : 0;
+    if (spectral < 0)
+        rc = CLI_FAIL;
     if (rc == CLI_OK)
         rc = cli_note_spectral(sub, &view, why, 0);
     if (rc == CLI_OK && spectral) {

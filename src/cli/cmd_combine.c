@@ -392,7 +392,9 @@ static int combine_varres(bst_ctx *ctx, const char *sub, struct cli_stack_args *
     double t0 = now_s();
     rc = cli_layers_load(&set, ctx, sub, nspecs, specs, &choice, args->channels, 0, args->so.precision);
     char why[2048];
-    int spectral = rc == CLI_OK && cli_spectral_plan(&set, args->per_channel, why, sizeof why);
+    int spectral = rc == CLI_OK ? cli_spectral_plan(ctx, sub, &set, args->per_channel, why, sizeof why) : 0;
+    if (spectral < 0)
+        rc = CLI_FAIL;
     if (rc == CLI_OK)
         rc = cli_note_spectral(sub, &set, why, verbose);
     if (rc == CLI_OK && spectral) { /* both parts per wavelength, grouped alike */
@@ -727,18 +729,23 @@ int cmd_combine(int argc, char **argv)
     double *abs[2] = {NULL, NULL};
     if (rc == CLI_OK && ndirs) {
         char why[2048];
-        int spectral = cli_spectral_plan(&set, args.per_channel, why, sizeof why);
-        if (verbose)
+        int spectral = cli_spectral_plan(ctx, sub, &set, args.per_channel, why, sizeof why);
+        if (spectral < 0)
+            rc = CLI_FAIL;
+        else if (verbose)
             fprintf(stderr, "bsdfstack %s: spectral: %s\n", sub, why);
-        rc = write_all_columns(ctx, sub, outpath, &set, spectral ? &args.sp : NULL, args.so.comps, ndirs,
-                               (const double (*)[2])dirs, verbose);
+        if (rc == CLI_OK)
+            rc = write_all_columns(ctx, sub, outpath, &set, spectral ? &args.sp : NULL, args.so.comps,
+                                   ndirs, (const double (*)[2])dirs, verbose);
         free(dirs);
         cli_layers_free(&set);
         bst_ctx_free(ctx);
         return rc;
     }
     char why[2048];
-    int spectral = rc == CLI_OK && cli_spectral_plan(&set, args.per_channel, why, sizeof why);
+    int spectral = rc == CLI_OK ? cli_spectral_plan(ctx, sub, &set, args.per_channel, why, sizeof why) : 0;
+    if (spectral < 0)
+        rc = CLI_FAIL;
     if (rc == CLI_OK && abspath) {
         size_t sz = bst_layer_nchannels(set.layers[0]) * set.n * bst_basis_size(set.basis);
         abs[0] = malloc(2 * sz * sizeof(double));

@@ -152,47 +152,12 @@ static double memory_available(void)
     return avail;
 }
 
-/* Bytes the work needs at its peak, by the model measured in bench/README.md: a component a
- * file's layer holds is dense (N^2 values of the read precision) unless the file's values fill
- * at most BST_SPARSE_MAX_FILL of its domain (specular trees: sparse, 16 bytes a value); on top of
- * them the conversion needs one double grid, a combination 3 N^2 values of the work precision
- * (a step with a dense partial system: I - A, factored in its own storage, and two right-hand
- * sides, solved in theirs; pane + diffuser + pane peaks at the four components and these three),
- * whichever is more; for the rest (the program and its libraries, OpenBLAS's buffers, diagonal
- * and sparse parts, per-patch arrays: 18 MiB at k = 5, 43-54 MiB at k = 6, about 100 MiB at
- * k = 7), 64 MiB and N^2 / 2 bytes. */
-static double memory_need(const bst_basis *basis, size_t n, bst_bsdf *const *files, unsigned comps,
-                          bst_precision prec, const struct cli_basis_choice *choice, size_t *ndense)
-{
-    double cells = (double)bst_basis_size(basis) * (double)bst_basis_size(basis);
-    size_t held = 0;
-    double sparse = 0; /* bytes of components that come out sparse (value and index each) */
-    for (size_t i = 0; i < n; i++) {
-        if (!files[i])
-            continue;
-        for (size_t ch = 0; ch < bst_bsdf_nchannels(files[i]); ch++)
-            for (int c = 0; c < BST_NCOMP; c++) {
-                double f = !comps || (comps & BST_COMP_BIT(c)) ? bst_bsdf_fill(files[i], ch, (bst_comp)c) : 0;
-                if (f > BST_SPARSE_MAX_FILL)
-                    held++;
-                else
-                    sparse += 16.0 * f * cells;
-            }
-    }
-    *ndense = held;
-    double need = 64.0 * 1048576.0 + 0.5 * cells + sparse;
-    if (held == 0)
-        return need;
-    double work = choice->combining ? 3.0 * (choice->work == BST_FLOAT ? 4.0 : 8.0) : 0.0;
-    need += cells * ((double)held * (prec == BST_FLOAT ? 4.0 : 8.0) + (work > 8.0 ? work : 8.0));
-    return need;
-}
-
 int cli_memory_check(const char *sub, const bst_basis *basis, size_t n, bst_bsdf *const *files,
                      unsigned comps, bst_precision prec, const struct cli_basis_choice *choice)
 {
     size_t held;
-    double need = memory_need(basis, n, files, comps, prec, choice, &held);
+    double need = bst_plan_memory(basis, n, (const bst_bsdf *const *)files, comps, prec,
+                                  choice->combining, choice->work, &held);
     double limit = choice->max_memory > 0 ? choice->max_memory : memory_available();
     if (limit <= 0 || need <= limit)
         return CLI_OK;
@@ -248,7 +213,6 @@ void cli_warn_zero_components(const char *sub, const char *path, const bst_bsdf 
     bst_ctx_clear(ctx);
 }
 
-static int is_band(const char *name);
 
 static int is_glass(const char *spec)
 {
@@ -286,54 +250,22 @@ static int read_all(bst_ctx *ctx, const char *sub, size_t n, char **specs,
                     const struct cli_basis_choice *choice, const bst_bsdf_read_opts *ro,
                     bst_precision prec, bst_bsdf **files, bst_basis **basis, struct cli_basis_pick *pick)
 {
-    int kmax = 0, rc = CLI_OK, all_tt4 = 1;
-    long klems_file = -1;
-    for (size_t i = 0; i < n && rc == CLI_OK; i++) {
-        if (is_glass(specs[i])) {
-            all_tt4 = 0;
-            continue;
-        }
-        rc = read_one(ctx, sub, NULL, specs[i], ro, 0, &files[i]);
-        if (rc == CLI_OK) {
-            if (bst_bsdf_order(files[i]) > kmax)
-                kmax = bst_bsdf_order(files[i]);
-            if (klems_file < 0 && bst_bsdf_kind(files[i]) == BST_FILE_KLEMS)
-                klems_file = (long)i;
-            all_tt4 &= bst_bsdf_kind(files[i]) == BST_FILE_TT4;
-        }
-    }
+    int rc = CLI_OK;
+    for (size_t i = 0; i < n && rc == CLI_OK; i++)
+        if (!is_glass(specs[i]))
+            rc = read_one(ctx, sub, NULL, specs[i], ro, 0, &files[i]);
     if (rc != CLI_OK)
         return rc;
-    /* Rank-4 trees are constant on the cells of their order, and the combination keeps that (a
-     * finer cell's projected solid angle is its parent's quarter, so every product and inverse
-     * of replicated matrices is replicated): above the finest layer's order the system is that
-     * order's, repeated. */
-    if (choice->combining && all_tt4 && n > 0 && !choice->klems && choice->k > kmax)
-        fprintf(stderr, "bsdfstack %s: warning: every layer is a rank-4 tensor tree of order %d or "
-                "less: -k %d gives their order-%d system, each patch's values repeated over its %d "
-                "finer patches, in up to %.0f times the time; use -k %d, or layers of order %d\n", sub,
-                kmax, choice->k, kmax, 1 << (2 * (choice->k - kmax)), pow(64.0, choice->k - kmax), kmax,
-                choice->k);
+    bst_plan_basis plan; /* the library's rule (plan.c) */
+    bst_plan_pick_basis(n, (const bst_bsdf *const *)files, NULL, choice->k, choice->klems, &plan);
+    if (choice->combining && plan.note[0])
+        fprintf(stderr, "bsdfstack %s: warning: %s\n", sub, plan.note);
     memset(pick, 0, sizeof *pick);
-    pick->file = -1;
-    if (choice->klems)
-        snprintf(pick->klems, sizeof pick->klems, "%s", choice->klems);
-    else if (choice->k)
-        pick->k = choice->k;
-    else if (kmax)
-        pick->k = kmax > BST_K_MAX ? BST_K_MAX : kmax;
-    else if (klems_file >= 0)
-        pick->file = klems_file;
-    else
-        pick->k = 5;
-    int st;
-    if (pick->klems[0])
-        st = bst_basis_new_klems(ctx, pick->klems, basis);
-    else if (pick->k)
-        st = bst_basis_new_sc(ctx, pick->k, basis);
-    else
-        st = bst_basis_copy(ctx, bst_bsdf_klems_basis(files[klems_file]), basis);
-    if (st < 0)
+    pick->k = plan.k;
+    pick->file = plan.file;
+    if (plan.klems)
+        snprintf(pick->klems, sizeof pick->klems, "%s", plan.klems);
+    if (bst_plan_make_basis(ctx, &plan, (const bst_bsdf *const *)files, NULL, basis) < 0)
         return cli_fail_ctx(sub, NULL, ctx);
     return cli_memory_check(sub, *basis, n, files, ro->comps, prec, choice);
 }
@@ -360,7 +292,7 @@ static int make_layer(bst_ctx *ctx, const char *sub, const char *what, const cha
         /* a spectral pane is averaged over any further band asked for (CIE-X, ...) */
         for (size_t c = 0; st >= 0 && c < nch; c++)
             if (bst_glass_find_channel(g, chnames[c]) < 0 && bst_glass_nwavelengths(g) &&
-                is_band(chnames[c]))
+                bst_plan_is_band(chnames[c]))
                 st = bst_glass_add_channel(ctx, g, chnames[c]);
         size_t nw = st >= 0 ? bst_glass_nwavelengths(g) : 0;
         if (nw > CLI_MANY_WAVELENGTHS) /* the layer's cost grows with them: say so before */
@@ -623,102 +555,30 @@ int cli_write_varres(bst_ctx *ctx, const char *sub, const bst_layer *coarse, con
     return write_any(ctx, sub, coarse, v, path, reduce, argc, argv, set);
 }
 
-/* Channels the per-wavelength path can average over (bst_stack_combine_spectral_layers). */
-static int is_band(const char *name)
-{
-    static const char *const bands[] = {"Visible", "Solar", "CIE-X", "CIE-Y", "CIE-Z"};
-    for (size_t i = 0; i < sizeof bands / sizeof bands[0]; i++)
-        if (strcasecmp(name, bands[i]) == 0)
-            return 1;
-    return 0;
-}
-
-/* Layer 0's channels that every layer has, into names (set->n >= 1); how many. */
-static size_t common_channels(const struct cli_layers *set, const char **names)
-{
-    const bst_layer *l0 = set->layers[0];
-    size_t m = 0;
-    for (size_t c = 0; c < bst_layer_nchannels(l0); c++) {
-        size_t i = 1;
-        while (i < set->n && bst_layer_find_channel(set->layers[i], bst_layer_channel(l0, c)) >= 0)
-            i++;
-        if (i == set->n)
-            names[m++] = bst_layer_channel(l0, c);
-    }
-    return m;
-}
-
-/* A layer read from a file (not a pane: its name is not glass:...); one with Solar and Visible
- * channels enters a spectral stack as WINDOW's dual-band material. */
+/* A layer read from a file (not a pane: its name is not glass:...). */
 static int is_file_layer(const bst_layer *l)
 {
     const char *name = bst_layer_name(l);
     return !name || strncmp(name, "glass:", 6) != 0;
 }
 
-static int is_dual_band(const bst_layer *l)
+int cli_spectral_plan(bst_ctx *ctx, const char *sub, struct cli_layers *set, int per_channel,
+                      char *why, size_t size)
 {
-    return is_file_layer(l) && bst_layer_find_channel(l, "Solar") >= 0 &&
-           bst_layer_find_channel(l, "Visible") >= 0;
-}
-
-/* What cli_spectral_plan says of a file layer that has Solar but not Visible (--channels Solar
- * reads no more), and cli_note_spectral turns into a warning: WINDOW's dual-band rule needs both. */
-static const char solar_only[] = "has Solar but not Visible, which WINDOW's dual-band rule needs "
-                                 "beside it: name Visible in --channels too";
-
-int cli_spectral_plan(const struct cli_layers *set, int per_channel, char *why, size_t size)
-{
-    size_t first_plain = set->n, ndual = 0;
-    for (size_t i = 0; i < set->n; i++) {
-        if (set->panes[i])
-            continue;
-        if (is_dual_band(set->layers[i]))
-            ndual++;
-        else if (first_plain == set->n)
-            first_plain = i;
+    bst_plan_layer *pl = calloc(set->n + 1, sizeof *pl);
+    if (!pl) {
+        cli_fail(sub, "out of memory");
+        return -1;
     }
-    const char **names = malloc((bst_layer_nchannels(set->layers[0]) + 1) * sizeof *names);
-    size_t nch = names ? common_channels(set, names) : 0, bad = 0;
-    while (bad < nch && is_band(names[bad]))
-        bad++;
-    int spectral = 0;
-    if (per_channel)
-        snprintf(why, size, "band values combined per channel (as asked, --per-channel)");
-    else if (first_plain < set->n && set->npanes && is_file_layer(set->layers[first_plain]) &&
-             bst_layer_find_channel(set->layers[first_plain], "Solar") >= 0 &&
-             bst_layer_find_channel(set->layers[first_plain], "Visible") < 0)
-        snprintf(why, size, "band values combined per channel (layer %zu, %s, %s)", first_plain + 1,
-                 bst_layer_name(set->layers[first_plain]), solar_only);
-    else if (first_plain < set->n && set->npanes)
-        snprintf(why, size, "band values combined per channel (layer %zu, %s, has no spectral data "
-                 "and no Solar and Visible channels)", first_plain + 1,
-                 bst_layer_name(set->layers[first_plain]));
-    else if (first_plain < set->n)
-        snprintf(why, size, "band values combined per channel (layer %zu, %s, has no spectral "
-                 "data)", first_plain + 1, bst_layer_name(set->layers[first_plain]));
-    else if (!set->npanes)
-        snprintf(why, size, "band values combined per channel (no layer is a pane with spectral "
-                 "data)");
-    else if (nch == 0 || bad < nch)
-        snprintf(why, size, "band values combined per channel (channel %s is not a spectral band)",
-                 nch ? names[bad] : "(none in common)");
-    else
-        spectral = 1;
-    if (spectral) {
-        int len = snprintf(why, size, "combined wavelength by wavelength (union of the panes' "
-                           "measured wavelengths%s, or a band's integration grid where shorter), "
-                           "then averaged per channel", ndual ? " and the dual-band points 0.3, "
-                           "0.38 -+ 1e-6, 0.78 -+ 1e-6, 2.5 um" : "");
-        for (size_t i = 0; i < set->n && len > 0 && (size_t)len < size; i++)
-            if (!set->panes[i])
-                len += snprintf(why + len, size - (size_t)len, "; layer %zu, %s, as WINDOW's "
-                                "dual-band material (Visible inside 0.38..0.78 um, (Solar - %g "
-                                "Visible) / %g outside, clamped at 0)", i + 1,
-                                bst_layer_name(set->layers[i]), BST_DUAL_BAND_F,
-                                1.0 - BST_DUAL_BAND_F);
+    for (size_t i = 0; i < set->n; i++)
+        pl[i] = (bst_plan_layer){set->layers[i], set->panes[i], is_file_layer(set->layers[i])};
+    int spectral = 0, st = bst_plan_spectral(ctx, set->n, pl, per_channel, why, size, &spectral,
+                                             &set->plan_warn);
+    free(pl);
+    if (st < 0) {
+        cli_fail_ctx(sub, NULL, ctx);
+        return -1;
     }
-    free(names);
     return spectral;
 }
 
@@ -732,7 +592,7 @@ int cli_combine_spectral(bst_ctx *ctx, const char *sub, const struct cli_layers 
         free(names), free(l);
         return cli_fail(sub, "out of memory");
     }
-    size_t nch = common_channels(set, names);
+    size_t nch = bst_plan_channels(set->n, (const bst_layer *const *)set->layers, names);
     for (size_t i = 0; i < set->n; i++) {
         l[i].pane = set->panes[i];
         l[i].bands = set->panes[i] ? NULL : set->layers[i];
@@ -770,7 +630,7 @@ int cli_note_spectral(const char *sub, struct cli_layers *set, const char *why, 
 {
     if (verbose)
         fprintf(stderr, "bsdfstack %s: spectral: %s\n", sub, why);
-    else if (strstr(why, solar_only)) /* not what a user of --channels Solar expects: say so */
+    else if (set->plan_warn) /* not what a user of --channels Solar expects: say so */
         fprintf(stderr, "bsdfstack %s: warning: %s\n", sub, why);
     char *d = realloc(set->description, strlen(set->description) + strlen(why) + 12);
     if (!d)

@@ -38,6 +38,7 @@ struct cli_layers {
                           reversed), else NULL; all non-NULL: the stack can be combined per
                           wavelength (bst_stack_combine_spectral) */
     size_t npanes;     /* how many are non-NULL */
+    int plan_warn;     /* cli_spectral_plan's reason is one to warn of (bst_plan_spectral) */
 };
 
 /* Parse -k VALUE (opt 'k') or --klems[=WHICH] (opt 'K') into choice; CLI_OK or a usage error. */
@@ -142,10 +143,10 @@ int cli_write_varres(bst_ctx *ctx, const char *sub, const bst_layer *coarse, con
                      const struct cli_layers *set);
 
 /* Whether the stack is combined wavelength by wavelength (1) or by band values per channel (0),
- * and why, into why[0..size-1]: per wavelength when per_channel is 0, at least one layer is a
- * spectral pane, every other layer is a file with Solar and Visible channels (WINDOW's dual-band
- * material) and every channel in common is a spectral band. */
-int cli_spectral_plan(const struct cli_layers *set, int per_channel, char *why, size_t size);
+ * and why, into why[0..size-1], as bst_plan_spectral decides (set->plan_warn: a reason to warn
+ * of); -1 after an error line. */
+int cli_spectral_plan(bst_ctx *ctx, const char *sub, struct cli_layers *set, int per_channel,
+                      char *why, size_t size);
 /* The stack per wavelength (as cli_spectral_plan allows; channels: layer 1's that every layer
  * has), with per-layer absorptance into abs[0], abs[1] when they are not NULL. */
 int cli_combine_spectral(bst_ctx *ctx, const char *sub, const struct cli_layers *set,
@@ -156,7 +157,8 @@ int cli_combine_spectral(bst_ctx *ctx, const char *sub, const struct cli_layers 
 int cli_columns_spectral(bst_ctx *ctx, const char *sub, const struct cli_layers *set,
                          const bst_spectral_opts *sp, const char *channel, size_t ncols,
                          const size_t *cols, bst_columns_opts *o, bst_mat **tf, bst_mat **rf);
-/* Append "spectral: WHY" to set->description (the output's metadata); -v also prints it. */
+/* Append "spectral: WHY" to set->description (the output's metadata); -v also prints it, and so
+ * does set->plan_warn, as a warning. */
 int cli_note_spectral(const char *sub, struct cli_layers *set, const char *why, int verbose);
 
 #endif

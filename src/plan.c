@@ -1,0 +1,242 @@
+/* plan.c - the decisions a stack's combination takes, in one place for every client (the program's
+ * combine, batch and MPI ranks, Python): which basis when none is asked, which channels, whether
+ * spectral panes combine wavelength by wavelength or band values per channel (and why), and how
+ * much memory the work needs (bsdfstack.h, "plans").
+ *
+ * The basis rule: a rank-4 tree is constant on the cells of its order and the combination keeps
+ * that (a finer cell's projected solid angle is its parent's quarter, so every product and inverse
+ * of replicated matrices is replicated), so the finest order among the files holds all they say;
+ * above it the system is that order's, each value repeated, at up to 64 times the time an order.
+ *
+ * The spectral plan follows WINDOW and Windows-CalcEngine: a stack whose every layer is a pane with
+ * spectral data, or WINDOW's dual-band material (a file layer with Solar and Visible channels), is
+ * combined wavelength by wavelength and averaged per channel afterwards (spectral.c); anything else
+ * combines each channel's band values.
+ *
+ * The memory model is the one bench/README.md checks against measured peaks. */
+#include <config.h>
+
+#include <stdio.h>
+#include <string.h>
+#include <strings.h>
+
+#include "ctx.h"
+
+void bst_plan_pick_basis(size_t n, const bst_bsdf *const *files, const bst_basis *const *given,
+                         int k, const char *klems, bst_plan_basis *pick)
+{
+    memset(pick, 0, sizeof *pick);
+    pick->file = -1;
+    pick->given = -1;
+    int all_rank4 = n > 0;
+    long klems_file = -1, given_at = -1;
+    for (size_t i = 0; i < n; i++) {
+        const bst_bsdf *f = files ? files[i] : NULL;
+        all_rank4 &= f && bst_bsdf_kind(f) == BST_FILE_TT4;
+        if (!f) {
+            if (given && given[i] && given_at < 0)
+                given_at = (long)i;
+            continue;
+        }
+        if (bst_bsdf_order(f) > pick->finest)
+            pick->finest = bst_bsdf_order(f);
+        if (klems_file < 0 && bst_bsdf_kind(f) == BST_FILE_KLEMS)
+            klems_file = (long)i;
+    }
+    if (klems) {
+        pick->klems = klems;
+        snprintf(pick->why, sizeof pick->why, "the Klems %s basis, as asked", klems);
+    } else if (k > 0) {
+        pick->k = k;
+        snprintf(pick->why, sizeof pick->why, "Shirley-Chiu k = %d, as asked", k);
+        if (all_rank4 && k > pick->finest)
+            snprintf(pick->note, sizeof pick->note, "every layer is a rank-4 tensor tree of order "
+                     "%d or less: -k %d gives their order-%d system, each patch's values repeated "
+                     "over its %d finer patches, in up to %.0f times the time; use -k %d, or "
+                     "layers of order %d", pick->finest, k, pick->finest, 1 << (2 * (k - pick->finest)),
+                     (double)(1ull << (6 * (k - pick->finest))), pick->finest, k);
+    } else if (pick->finest) {
+        pick->k = pick->finest > BST_K_MAX ? BST_K_MAX : pick->finest;
+        snprintf(pick->why, sizeof pick->why, "Shirley-Chiu k = %d, the finest tree order among "
+                 "the files", pick->k);
+    } else if (klems_file >= 0) {
+        pick->file = klems_file;
+        snprintf(pick->why, sizeof pick->why, "the Klems basis of layer %ld, the first Klems file",
+                 klems_file + 1);
+    } else if (given_at >= 0) {
+        pick->given = given_at;
+        snprintf(pick->why, sizeof pick->why, "the basis of layer %ld, given over it", given_at + 1);
+    } else {
+        pick->k = 5;
+        snprintf(pick->why, sizeof pick->why, "Shirley-Chiu k = 5, the default (no layer is a file)");
+    }
+}
+
+int bst_plan_make_basis(bst_ctx *ctx, const bst_plan_basis *pick, const bst_bsdf *const *files,
+                        const bst_basis *const *given, bst_basis **out)
+{
+    if (!ctx || !pick || !out)
+        return BST_EINVAL;
+    *out = NULL;
+    if (pick->klems)
+        return bst_basis_new_klems(ctx, pick->klems, out);
+    if (pick->k)
+        return bst_basis_new_sc(ctx, pick->k, out);
+    if (pick->file >= 0 && files && files[pick->file] && bst_bsdf_klems_basis(files[pick->file]))
+        return bst_basis_copy(ctx, bst_bsdf_klems_basis(files[pick->file]), out);
+    if (pick->given >= 0 && given && given[pick->given])
+        return bst_basis_copy(ctx, given[pick->given], out);
+    return bsti_error(ctx, BST_EINVAL, "plan: the basis picked (layer %ld) is not there",
+                      pick->file >= 0 ? pick->file + 1 : pick->given + 1);
+}
+
+int bst_plan_is_band(const char *name)
+{
+    static const char *const bands[] = {"Visible", "Solar", "CIE-X", "CIE-Y", "CIE-Z"};
+    for (size_t i = 0; name && i < sizeof bands / sizeof bands[0]; i++)
+        if (strcasecmp(name, bands[i]) == 0)
+            return 1;
+    return 0;
+}
+
+size_t bst_plan_channels(size_t n, const bst_layer *const *layers, const char **names)
+{
+    if (n == 0 || !layers || !layers[0])
+        return 0;
+    size_t m = 0;
+    for (size_t c = 0; c < bst_layer_nchannels(layers[0]); c++) {
+        const char *name = bst_layer_channel(layers[0], c);
+        size_t i = 1;
+        while (i < n && layers[i] && bst_layer_find_channel(layers[i], name) >= 0)
+            i++;
+        if (i == n)
+            names[m++] = name;
+    }
+    return m;
+}
+
+/* A layer of a file with Solar and Visible: WINDOW's dual-band material in a spectral stack. */
+static int is_dual_band(const bst_plan_layer *l)
+{
+    return l->from_file && bst_layer_find_channel(l->layer, "Solar") >= 0 &&
+           bst_layer_find_channel(l->layer, "Visible") >= 0;
+}
+
+static int decide(size_t n, const bst_plan_layer *layers, int per_channel, size_t first_plain,
+                  size_t npanes, size_t ndual, size_t nch, const char *const *names, size_t bad,
+                  char *why, size_t size, int *warn);
+
+/* What bst_plan_spectral says of a file layer with Solar but no Visible (--channels Solar reads no
+ * more): *warn, as a user who asked for Solar alone does not expect it. */
+static const char solar_only[] = "has Solar but not Visible, which WINDOW's dual-band rule needs "
+                                 "beside it: name Visible in --channels too";
+
+int bst_plan_spectral(bst_ctx *ctx, size_t n, const bst_plan_layer *layers, int per_channel,
+                      char *why, size_t size, int *spectral, int *warn)
+{
+    size_t first_plain = n, ndual = 0, npanes = 0;
+    if (warn)
+        *warn = 0;
+    if (!ctx)
+        return BST_EINVAL;
+    if (!layers || n == 0 || !layers[0].layer || !why || size == 0 || !spectral)
+        return bsti_error(ctx, BST_EINVAL, "plan: no layers, or no room for the answer");
+    const bst_layer **ls = bsti_alloc_array(ctx, n, sizeof *ls);
+    const char **names = bsti_alloc_array(ctx, bst_layer_nchannels(layers[0].layer) + 1, sizeof *names);
+    if (!ls || !names) {
+        bsti_free(ctx, ls), bsti_free(ctx, names);
+        return BST_ENOMEM;
+    }
+    for (size_t i = 0; i < n; i++) {
+        ls[i] = layers[i].layer;
+        if (layers[i].pane)
+            npanes++;
+        else if (is_dual_band(&layers[i]))
+            ndual++;
+        else if (first_plain == n)
+            first_plain = i;
+    }
+    size_t nch = bst_plan_channels(n, ls, names), bad = 0;
+    while (bad < nch && bst_plan_is_band(names[bad]))
+        bad++;
+    *spectral = decide(n, layers, per_channel, first_plain, npanes, ndual, nch, names, bad, why,
+                       size, warn);
+    bsti_free(ctx, ls), bsti_free(ctx, names);
+    return BST_OK;
+}
+
+/* bst_plan_spectral's decision, with the stack's counts: the first layer that is neither a pane
+ * nor dual-band, the panes, the dual-band layers, the common channels and the first that is not
+ * a band. */
+static int decide(size_t n, const bst_plan_layer *layers, int per_channel, size_t first_plain,
+                  size_t npanes, size_t ndual, size_t nch, const char *const *names, size_t bad,
+                  char *why, size_t size, int *warn)
+{
+    const bst_plan_layer *p = first_plain < n ? &layers[first_plain] : NULL;
+    const char *pname = p ? bst_layer_name(p->layer) : "";
+    if (per_channel) {
+        snprintf(why, size, "band values combined per channel (as asked, --per-channel)");
+        return 0;
+    }
+    if (p && npanes && p->from_file && bst_layer_find_channel(p->layer, "Solar") >= 0 &&
+        bst_layer_find_channel(p->layer, "Visible") < 0) {
+        snprintf(why, size, "band values combined per channel (layer %zu, %s, %s)", first_plain + 1,
+                 pname, solar_only);
+        if (warn)
+            *warn = 1;
+        return 0;
+    }
+    if (p) {
+        snprintf(why, size, "band values combined per channel (layer %zu, %s, has no spectral data%s)",
+                 first_plain + 1, pname, npanes ? " and no Solar and Visible channels" : "");
+        return 0;
+    }
+    if (!npanes) {
+        snprintf(why, size, "band values combined per channel (no layer is a pane with spectral data)");
+        return 0;
+    }
+    if (nch == 0 || bad < nch) {
+        snprintf(why, size, "band values combined per channel (channel %s is not a spectral band)",
+                 nch ? names[bad] : "(none in common)");
+        return 0;
+    }
+    int len = snprintf(why, size, "combined wavelength by wavelength (union of the panes' measured "
+                       "wavelengths%s, or a band's integration grid where shorter), then averaged "
+                       "per channel", ndual ? " and the dual-band points 0.3, 0.38 -+ 1e-6, "
+                       "0.78 -+ 1e-6, 2.5 um" : "");
+    for (size_t i = 0; i < n && len > 0 && (size_t)len < size; i++)
+        if (!layers[i].pane)
+            len += snprintf(why + len, size - (size_t)len, "; layer %zu, %s, as WINDOW's dual-band "
+                            "material (Visible inside 0.38..0.78 um, (Solar - %g Visible) / %g "
+                            "outside, clamped at 0)", i + 1, bst_layer_name(layers[i].layer),
+                            BST_DUAL_BAND_F, 1.0 - BST_DUAL_BAND_F);
+    return 1;
+}
+
+double bst_plan_memory(const bst_basis *basis, size_t n, const bst_bsdf *const *files,
+                       unsigned comps, bst_precision read, int combining, bst_precision work,
+                       size_t *ndense)
+{
+    double cells = (double)bst_basis_size(basis) * (double)bst_basis_size(basis);
+    size_t held = 0;
+    double sparse = 0; /* bytes of components that come out sparse (value and index each) */
+    for (size_t i = 0; files && i < n; i++) {
+        if (!files[i])
+            continue;
+        for (size_t ch = 0; ch < bst_bsdf_nchannels(files[i]); ch++)
+            for (int c = 0; c < BST_NCOMP; c++) {
+                double f = !comps || (comps & BST_COMP_BIT(c)) ? bst_bsdf_fill(files[i], ch, (bst_comp)c) : 0;
+                if (f > BST_SPARSE_MAX_FILL)
+                    held++;
+                else
+                    sparse += 16.0 * f * cells;
+            }
+    }
+    if (ndense)
+        *ndense = held;
+    double need = 64.0 * 1048576.0 + 0.5 * cells + sparse;
+    if (held == 0)
+        return need;
+    double w = combining ? 3.0 * (work == BST_FLOAT ? 4.0 : 8.0) : 0.0;
+    return need + cells * ((double)held * (read == BST_FLOAT ? 4.0 : 8.0) + (w > 8.0 ? w : 8.0));
+}

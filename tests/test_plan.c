@@ -1,0 +1,190 @@
+/* test_plan.c - the stack's decisions (plan.c): the basis rule over files of every kind, the
+ * warning for a k above every rank-4 tree's order, the spectral plan's every branch with its
+ * reason, the common channels and bands, and the memory model against its closed form. */
+#include <config.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "testutil.h"
+
+static bst_ctx *ctx;
+static void setup(void) { ctx = bst_ctx_new(); }
+static void teardown(void) { bst_ctx_free(ctx); }
+
+static bst_bsdf *read_ref(const char *name)
+{
+    bst_bsdf *b;
+    int rc = bst_bsdf_read(ctx, tu_ref(name), NULL, &b);
+    ck_assert_msg(rc >= 0, "%s", bst_ctx_message(ctx));
+    return b;
+}
+
+START_TEST(test_basis_rule)
+{
+    bst_bsdf *tree6 = read_ref("L_glass_t4k6.xml"), *tree5 = read_ref("L_blind0_t4k5.xml");
+    bst_bsdf *klems = read_ref("L_blind0_t4k5_klems.xml"), *iso = read_ref("L_diffuser_t3k5.xml");
+    bst_plan_basis p;
+    /* the finest tree order among the files, whatever else the stack holds */
+    const bst_bsdf *a[4] = {NULL, tree5, klems, tree6};
+    bst_plan_pick_basis(4, a, NULL, 0, NULL, &p);
+    ck_assert_int_eq(p.k, 6);
+    ck_assert_int_eq(p.finest, 6);
+    ck_assert_ptr_nonnull(strstr(p.why, "finest tree order"));
+    ck_assert_str_eq(p.note, "");
+    /* else the first Klems file's basis */
+    const bst_bsdf *b[3] = {NULL, klems, NULL};
+    bst_plan_pick_basis(3, b, NULL, 0, NULL, &p);
+    ck_assert_int_eq(p.k, 0);
+    ck_assert_int_eq(p.file, 1);
+    bst_basis *basis;
+    ck_assert_int_eq(bst_plan_make_basis(ctx, &p, b, NULL, &basis), BST_OK);
+    ck_assert(bst_basis_equal(basis, bst_bsdf_klems_basis(klems)));
+    bst_basis_free(basis);
+    /* else a layer given over a basis, else k = 5 */
+    bst_basis *half;
+    ck_assert_int_eq(bst_basis_new_klems(ctx, "half", &half), BST_OK);
+    const bst_basis *given[3] = {NULL, NULL, half};
+    bst_plan_pick_basis(3, NULL, given, 0, NULL, &p);
+    ck_assert_int_eq(p.given, 2);
+    ck_assert_int_eq(bst_plan_make_basis(ctx, &p, NULL, given, &basis), BST_OK);
+    ck_assert(bst_basis_equal(basis, half));
+    bst_basis_free(basis);
+    bst_plan_pick_basis(2, NULL, NULL, 0, NULL, &p);
+    ck_assert_int_eq(p.k, 5);
+    ck_assert_ptr_nonnull(strstr(p.why, "default"));
+    /* asked: as asked; above every rank-4 tree's order, a note (none with a rank-3 tree) */
+    const bst_bsdf *r4[2] = {tree5, tree5}, *r3[2] = {tree5, iso};
+    bst_plan_pick_basis(2, r4, NULL, 7, NULL, &p);
+    ck_assert_int_eq(p.k, 7);
+    ck_assert_ptr_nonnull(strstr(p.note, "order 5 or less: -k 7 gives their order-5 system"));
+    ck_assert_ptr_nonnull(strstr(p.note, "16 finer patches, in up to 4096 times the time"));
+    bst_plan_pick_basis(2, r3, NULL, 7, NULL, &p);
+    ck_assert_str_eq(p.note, "");
+    bst_plan_pick_basis(2, r4, NULL, 0, "quarter", &p);
+    ck_assert_str_eq(p.klems, "quarter");
+    ck_assert_int_eq(bst_plan_make_basis(ctx, &p, r4, NULL, &basis), BST_OK);
+    ck_assert_uint_eq(bst_basis_size(basis), 41);
+    bst_basis_free(basis);
+    /* a pick that names a layer which is not there */
+    bst_plan_basis bad = p;
+    bad.klems = NULL, bad.k = 0, bad.file = 3, bad.given = -1;
+    ck_assert_int_eq(bst_plan_make_basis(ctx, &bad, r4, NULL, &basis), BST_EINVAL);
+    ck_assert_ptr_null(basis);
+    bst_basis_free(half);
+    bst_bsdf_free(tree6), bst_bsdf_free(tree5), bst_bsdf_free(klems), bst_bsdf_free(iso);
+}
+END_TEST
+
+/* An empty layer over k = 2 with the channels named (the plan reads channels only). */
+static bst_layer *layer_with(const char *const *names, size_t n)
+{
+    bst_basis *b;
+    bst_layer *l;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 2, &b), BST_OK);
+    ck_assert_int_eq(bst_layer_new(ctx, b, n, names, &l), BST_OK);
+    bst_basis_free(b);
+    return l;
+}
+
+START_TEST(test_spectral_plan)
+{
+    bst_glass *g;
+    ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-102", getenv("BSDFSTACK_GLASS_DIR"), &g), BST_OK);
+    static const char *const sv[] = {"Visible", "Solar"}, *v[] = {"Visible"}, *s[] = {"Solar"};
+    static const char *const vx[] = {"Visible", "Solar", "Other"};
+    bst_layer *pane = layer_with(sv, 2), *dual = layer_with(sv, 2), *vis = layer_with(v, 1);
+    bst_layer *sol = layer_with(s, 1), *odd = layer_with(vx, 3);
+    char why[1024];
+    int spectral, warn;
+    /* panes and a dual-band layer: per wavelength, the dual-band layer said so */
+    bst_plan_layer two[3] = {{pane, g, 0}, {dual, NULL, 1}, {pane, g, 0}};
+    ck_assert_int_eq(bst_plan_spectral(ctx, 3, two, 0, why, sizeof why, &spectral, &warn), BST_OK);
+    ck_assert_int_eq(spectral, 1);
+    ck_assert_int_eq(warn, 0);
+    ck_assert_ptr_nonnull(strstr(why, "layer 2, "));
+    ck_assert_ptr_nonnull(strstr(why, "as WINDOW's dual-band material"));
+    /* asked per channel */
+    ck_assert_int_eq(bst_plan_spectral(ctx, 3, two, 1, why, sizeof why, &spectral, &warn), BST_OK);
+    ck_assert_int_eq(spectral, 0);
+    ck_assert_ptr_nonnull(strstr(why, "as asked"));
+    /* a file layer with Visible only: no spectral data */
+    bst_plan_layer plain[2] = {{pane, g, 0}, {vis, NULL, 1}};
+    ck_assert_int_eq(bst_plan_spectral(ctx, 2, plain, 0, why, sizeof why, &spectral, &warn), BST_OK);
+    ck_assert_int_eq(spectral, 0);
+    ck_assert_int_eq(warn, 0);
+    ck_assert_ptr_nonnull(strstr(why, "layer 2, "));
+    ck_assert_ptr_nonnull(strstr(why, "no Solar and Visible channels"));
+    /* Solar without Visible: per channel, with a warning */
+    bst_plan_layer solar[2] = {{pane, g, 0}, {sol, NULL, 1}};
+    ck_assert_int_eq(bst_plan_spectral(ctx, 2, solar, 0, why, sizeof why, &spectral, &warn), BST_OK);
+    ck_assert_int_eq(spectral, 0);
+    ck_assert_int_eq(warn, 1);
+    ck_assert_ptr_nonnull(strstr(why, "name Visible in --channels too"));
+    /* no pane at all; a channel that is not a band */
+    bst_plan_layer none[1] = {{dual, NULL, 1}};
+    ck_assert_int_eq(bst_plan_spectral(ctx, 1, none, 0, why, sizeof why, &spectral, &warn), BST_OK);
+    ck_assert_int_eq(spectral, 0);
+    ck_assert_ptr_nonnull(strstr(why, "no layer is a pane"));
+    bst_plan_layer other[2] = {{odd, g, 0}, {odd, g, 0}};
+    ck_assert_int_eq(bst_plan_spectral(ctx, 2, other, 0, why, sizeof why, &spectral, &warn), BST_OK);
+    ck_assert_int_eq(spectral, 0);
+    ck_assert_ptr_nonnull(strstr(why, "channel Other is not a spectral band"));
+    ck_assert_int_eq(bst_plan_spectral(ctx, 0, two, 0, why, sizeof why, &spectral, &warn), BST_EINVAL);
+    /* channels in common, in layer 1's order; the bands */
+    const bst_layer *ls[3] = {odd, dual, pane};
+    const char *names[3];
+    ck_assert_uint_eq(bst_plan_channels(3, ls, names), 2);
+    ck_assert_str_eq(names[0], "Visible");
+    ck_assert_str_eq(names[1], "Solar");
+    ck_assert(bst_plan_is_band("cie-x") && bst_plan_is_band("SOLAR") && !bst_plan_is_band("Other"));
+    bst_layer_free(pane), bst_layer_free(dual), bst_layer_free(vis), bst_layer_free(sol);
+    bst_layer_free(odd);
+    bst_glass_free(g);
+}
+END_TEST
+
+/* The model's closed form (bsdfstack.h, bst_plan_memory) at k = 4 (N^2 = 65536 cells) with the
+ * rank-3 diffuser, whose four components fill their domains (dense), and panes. */
+START_TEST(test_memory)
+{
+    bst_bsdf *diff = read_ref("L_diffuser_t3k5.xml");
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 4, &b), BST_OK);
+    const bst_bsdf *f[2] = {NULL, diff};
+    double cells = 65536.0, base = 64.0 * 1048576.0 + 0.5 * cells;
+    size_t nd;
+    /* a rank-3 file fills its whole domain: four dense components */
+    double need = bst_plan_memory(b, 2, f, 0, BST_DOUBLE, 0, BST_DOUBLE, &nd);
+    ck_assert_uint_eq(nd, 4);
+    tu_assert_close(need, base + cells * (4 * 8.0 + 8.0), 1e-15, 1);
+    need = bst_plan_memory(b, 2, f, 0, BST_FLOAT, 1, BST_FLOAT, &nd);
+    tu_assert_close(need, base + cells * (4 * 4.0 + 12.0), 1e-15, 1);
+    need = bst_plan_memory(b, 2, f, BST_COMP_BIT(BST_TF), BST_DOUBLE, 1, BST_DOUBLE, &nd);
+    ck_assert_uint_eq(nd, 1);
+    tu_assert_close(need, base + cells * (8.0 + 24.0), 1e-15, 1);
+    /* panes only: the base */
+    const bst_bsdf *none[2] = {NULL, NULL};
+    tu_assert_close(bst_plan_memory(b, 2, none, 0, BST_DOUBLE, 1, BST_DOUBLE, &nd), base, 1e-15, 1);
+    ck_assert_uint_eq(nd, 0);
+    bst_basis_free(b);
+    bst_bsdf_free(diff);
+}
+END_TEST
+
+static Suite *suite(void)
+{
+    Suite *s = suite_create("plan");
+    TCase *tc = tcase_create("decisions");
+    tcase_add_checked_fixture(tc, setup, teardown);
+    tcase_set_timeout(tc, 120);
+    tcase_add_test(tc, test_basis_rule);
+    tcase_add_test(tc, test_spectral_plan);
+    tcase_add_test(tc, test_memory);
+    suite_add_tcase(s, tc);
+    return s;
+}
+
+int main(void) { return tu_run(suite()); }
