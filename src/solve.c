@@ -159,153 +159,178 @@ static int hager_inverse_norm(struct factor *f, double *est)
     return rc;
 }
 
+/* I - A of each structure factored into f (factor_new says how; the context, structure, order and
+ * *rcond = 1 set before). */
+static int factor_zero(bst_ctx *ctx, const bst_mat *a, bst_precision prec, struct factor *f,
+                       double *rcond, bst_mat **take)
+{
+    (void)ctx, (void)a, (void)prec, (void)rcond, (void)take;
+    f->anorm = 1.0;
+    return BST_OK;
+}
+
+static int factor_diag(bst_ctx *ctx, const bst_mat *a, bst_precision prec, struct factor *f,
+                       double *rcond, bst_mat **take)
+{
+    (void)prec, (void)take;
+    size_t n = a->rows;
+    if (!(f->d = bsti_alloc_array(ctx, n, sizeof *f->d)))
+        return BST_ENOMEM;
+    double dmin = INFINITY, dmax = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        f->d[i] = 1.0 - a->diag[i];
+        dmin = fmin(dmin, fabs(f->d[i]));
+        dmax = fmax(dmax, fabs(f->d[i]));
+    }
+    f->anorm = dmax;
+    if (n == 0)
+        return BST_OK;
+    *rcond = dmin / fmax(1.0, dmax);
+    if (!(dmin > 0.0) || !isfinite(dmax))
+        return bsti_error(ctx, BST_ESINGULAR, "I - A is singular (diagonal element %s)",
+                          isfinite(dmax) ? "1 - a = 0" : "not finite");
+    return BST_OK;
+}
+
+static int factor_sparse(bst_ctx *ctx, const bst_mat *a, bst_precision prec, struct factor *f,
+                         double *rcond, bst_mat **take)
+{
+    (void)prec, (void)take;
+    size_t n = a->rows;
+    cholmod_common *cc = bsti_cholmod(ctx);
+    if (!cc)
+        return BST_ENOMEM;
+    cholmod_sparse *id = cholmod_l_speye(n, n, CHOLMOD_REAL, cc);
+    double one[2] = {1, 0}, minus[2] = {-1, 0};
+    f->m = id ? cholmod_l_add(id, a->sp, one, minus, 1, 1, cc) : NULL;
+    cholmod_l_free_sparse(&id, cc);
+    if (!f->m)
+        return bsti_error(ctx, BST_ENOMEM, "out of memory (forming I - A)");
+    SuiteSparse_long *p = f->m->p, *ri = f->m->i;
+    double *x = f->m->x;
+    for (size_t j = 0; j < n; j++) {
+        double s = 0.0;
+        for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++)
+            s += fabs(x[q]);
+        f->anorm = isfinite(s) ? fmax(f->anorm, s) : s;
+        if (!isfinite(s))
+            break;
+    }
+    if (!isfinite(f->anorm))
+        return bsti_error(ctx, BST_ESINGULAR, "I - A has non-finite elements");
+    void *symbolic = NULL;
+    double info[UMFPACK_INFO];
+    int st = umfpack_dl_symbolic((SuiteSparse_long)n, (SuiteSparse_long)n, p, ri, x, &symbolic,
+                                 NULL, info);
+    if (st < 0)
+        return umfpack_failed(ctx, "symbolic", st);
+    if (info[UMFPACK_LNZ_ESTIMATE] + info[UMFPACK_UNZ_ESTIMATE] >
+        BSTI_SPARSE_LU_MAX_FILL * (double)n * (double)n) {
+        umfpack_dl_free_symbolic(&symbolic);
+        return BSTI_USE_DENSE;
+    }
+    st = umfpack_dl_numeric(p, ri, x, symbolic, &f->numeric, NULL, NULL);
+    umfpack_dl_free_symbolic(&symbolic);
+    if (st != UMFPACK_OK)
+        return umfpack_failed(ctx, "numeric", st);
+    f->w1 = bsti_alloc_array(ctx, n, sizeof *f->w1);
+    f->w2 = bsti_alloc_array(ctx, n, sizeof *f->w2);
+    if (!f->w1 || !f->w2)
+        return BST_ENOMEM;
+    double inv;
+    int rc = hager_inverse_norm(f, &inv);
+    if (rc < 0)
+        return rc;
+    *rcond = (inv > 0.0 && isfinite(inv)) ? 1.0 / (fmax(1.0, f->anorm) * inv) : 0.0;
+    if (*rcond == 0.0)
+        return bsti_error(ctx, BST_ESINGULAR, "I - A is singular to working precision");
+    return BST_OK;
+}
+
+static int factor_dense(bst_ctx *ctx, const bst_mat *a, bst_precision prec, struct factor *f,
+                        double *rcond, bst_mat **take)
+{
+    size_t n = a->rows;
+    f->prec = prec;
+    size_t es = prec == BST_DOUBLE ? sizeof(double) : sizeof(float);
+    if (!(f->ipiv = bsti_alloc_array(ctx, n ? n : 1, sizeof *f->ipiv)))
+        return BST_ENOMEM;
+    if (*take == a && a->prec == prec) { /* each element is read before it is overwritten */
+        f->lu_mat = *take;
+        f->lu = f->lu_mat->dense;
+        *take = NULL;
+    } else if (!(f->lu = bsti_alloc_array(ctx, n * n, es))) {
+        return BST_ENOMEM;
+    }
+    for (size_t j = 0; j < n; j++) {
+        double s = 0.0;
+        for (size_t i = 0; i < n; i++) {
+            double v = (i == j ? 1.0 : 0.0) - bsti_dense_get(a, i, j);
+            s += fabs(v); /* a NaN or infinity makes s non-finite */
+            if (prec == BST_DOUBLE)
+                ((double *)f->lu)[j * n + i] = v;
+            else
+                ((float *)f->lu)[j * n + i] = (float)v;
+        }
+        f->anorm = isfinite(s) ? fmax(f->anorm, s) : s;
+        if (!isfinite(s))
+            break;
+    }
+    if (!isfinite(f->anorm))
+        return bsti_error(ctx, BST_ESINGULAR, "I - A has non-finite elements");
+    if (n == 0)
+        return BST_OK;
+    lapack_int N = (lapack_int)n, info;
+    double scale = fmax(1.0, f->anorm);
+    /* OpenBLAS's threaded getrf spends small factorizations in thread hand-offs (N = 145: 60%
+     * of a Klems spectral stack's run in dgetrf_parallel): below BSTI_LU_SERIAL_MAX rows, one
+     * thread.  (OpenBLAS's thread count is process-wide: set back at once.) */
+    int threads = openblas_get_num_threads();
+    if (n <= BSTI_LU_SERIAL_MAX && threads > 1)
+        openblas_set_num_threads(1);
+    double dn = (double)n;
+    bsti_flops_add(ctx, 2.0 / 3.0 * dn * dn * dn - 0.5 * dn * dn + 5.0 / 6.0 * dn);
+    if (prec == BST_DOUBLE) {
+        info = LAPACKE_dgetrf_work(LAPACK_COL_MAJOR, N, N, f->lu, N, f->ipiv);
+        if (info == 0)
+            info = LAPACKE_dgecon(LAPACK_COL_MAJOR, '1', N, f->lu, N, scale, rcond);
+    } else {
+        float rc32 = 0.0f;
+        info = LAPACKE_sgetrf_work(LAPACK_COL_MAJOR, N, N, f->lu, N, f->ipiv);
+        if (info == 0)
+            info = LAPACKE_sgecon(LAPACK_COL_MAJOR, '1', N, f->lu, N, (float)scale, &rc32);
+        *rcond = rc32;
+    }
+    if (n <= BSTI_LU_SERIAL_MAX && threads > 1)
+        openblas_set_num_threads(threads);
+    if (info > 0 || *rcond == 0.0) {
+        *rcond = 0.0;
+        return bsti_error(ctx, BST_ESINGULAR, "I - A is singular (zero pivot %d)", (int)info);
+    }
+    if (info < 0)
+        return bsti_error(ctx, BST_EINTERNAL, "LAPACK getrf/gecon: argument %d", (int)-info);
+    return BST_OK;
+}
+
 /* Factor I - A; *rcond as documented at the top.  With *take = a (A given up by the caller) a
  * dense A in the factor's precision is overwritten by I - A and then its LU factors, and the factor
  * owns it (*take = NULL): no second N x N buffer. */
 static int factor_new(bst_ctx *ctx, const bst_mat *a, bst_precision prec, struct factor *f,
                       double *rcond, bst_mat **take)
 {
+    typedef int (*factor_fn)(bst_ctx *, const bst_mat *, bst_precision, struct factor *, double *,
+                             bst_mat **);
+    static const factor_fn by_structure[] = {
+        [BST_ZERO] = factor_zero, [BST_DIAG] = factor_diag, [BST_SPARSE] = factor_sparse,
+        [BST_DENSE] = factor_dense};
     memset(f, 0, sizeof *f);
     f->ctx = ctx;
     f->s = a->s;
     f->n = a->rows;
-    size_t n = a->rows;
     *rcond = 1.0;
-    switch (a->s) {
-    case BST_ZERO:
-        f->anorm = 1.0;
-        return BST_OK;
-    case BST_DIAG: {
-        if (!(f->d = bsti_alloc_array(ctx, n, sizeof *f->d)))
-            return BST_ENOMEM;
-        double dmin = INFINITY, dmax = 0.0;
-        for (size_t i = 0; i < n; i++) {
-            f->d[i] = 1.0 - a->diag[i];
-            dmin = fmin(dmin, fabs(f->d[i]));
-            dmax = fmax(dmax, fabs(f->d[i]));
-        }
-        f->anorm = dmax;
-        if (n == 0)
-            return BST_OK;
-        *rcond = dmin / fmax(1.0, dmax);
-        if (!(dmin > 0.0) || !isfinite(dmax))
-            return bsti_error(ctx, BST_ESINGULAR, "I - A is singular (diagonal element %s)",
-                              isfinite(dmax) ? "1 - a = 0" : "not finite");
-        return BST_OK;
-    }
-    case BST_SPARSE: {
-        cholmod_common *cc = bsti_cholmod(ctx);
-        if (!cc)
-            return BST_ENOMEM;
-        cholmod_sparse *id = cholmod_l_speye(n, n, CHOLMOD_REAL, cc);
-        double one[2] = {1, 0}, minus[2] = {-1, 0};
-        f->m = id ? cholmod_l_add(id, a->sp, one, minus, 1, 1, cc) : NULL;
-        cholmod_l_free_sparse(&id, cc);
-        if (!f->m)
-            return bsti_error(ctx, BST_ENOMEM, "out of memory (forming I - A)");
-        SuiteSparse_long *p = f->m->p, *ri = f->m->i;
-        double *x = f->m->x;
-        for (size_t j = 0; j < n; j++) {
-            double s = 0.0;
-            for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++)
-                s += fabs(x[q]);
-            f->anorm = isfinite(s) ? fmax(f->anorm, s) : s;
-            if (!isfinite(s))
-                break;
-        }
-        if (!isfinite(f->anorm))
-            return bsti_error(ctx, BST_ESINGULAR, "I - A has non-finite elements");
-        void *symbolic = NULL;
-        double info[UMFPACK_INFO];
-        int st = umfpack_dl_symbolic((SuiteSparse_long)n, (SuiteSparse_long)n, p, ri, x, &symbolic,
-                                     NULL, info);
-        if (st < 0)
-            return umfpack_failed(ctx, "symbolic", st);
-        if (info[UMFPACK_LNZ_ESTIMATE] + info[UMFPACK_UNZ_ESTIMATE] >
-            BSTI_SPARSE_LU_MAX_FILL * (double)n * (double)n) {
-            umfpack_dl_free_symbolic(&symbolic);
-            return BSTI_USE_DENSE;
-        }
-        st = umfpack_dl_numeric(p, ri, x, symbolic, &f->numeric, NULL, NULL);
-        umfpack_dl_free_symbolic(&symbolic);
-        if (st != UMFPACK_OK)
-            return umfpack_failed(ctx, "numeric", st);
-        f->w1 = bsti_alloc_array(ctx, n, sizeof *f->w1);
-        f->w2 = bsti_alloc_array(ctx, n, sizeof *f->w2);
-        if (!f->w1 || !f->w2)
-            return BST_ENOMEM;
-        double inv;
-        int rc = hager_inverse_norm(f, &inv);
-        if (rc < 0)
-            return rc;
-        *rcond = (inv > 0.0 && isfinite(inv)) ? 1.0 / (fmax(1.0, f->anorm) * inv) : 0.0;
-        if (*rcond == 0.0)
-            return bsti_error(ctx, BST_ESINGULAR, "I - A is singular to working precision");
-        return BST_OK;
-    }
-    case BST_DENSE: {
-        f->prec = prec;
-        size_t es = prec == BST_DOUBLE ? sizeof(double) : sizeof(float);
-        if (!(f->ipiv = bsti_alloc_array(ctx, n ? n : 1, sizeof *f->ipiv)))
-            return BST_ENOMEM;
-        if (*take == a && a->prec == prec) { /* each element is read before it is overwritten */
-            f->lu_mat = *take;
-            f->lu = f->lu_mat->dense;
-            *take = NULL;
-        } else if (!(f->lu = bsti_alloc_array(ctx, n * n, es))) {
-            return BST_ENOMEM;
-        }
-        for (size_t j = 0; j < n; j++) {
-            double s = 0.0;
-            for (size_t i = 0; i < n; i++) {
-                double v = (i == j ? 1.0 : 0.0) - bsti_dense_get(a, i, j);
-                s += fabs(v); /* a NaN or infinity makes s non-finite */
-                if (prec == BST_DOUBLE)
-                    ((double *)f->lu)[j * n + i] = v;
-                else
-                    ((float *)f->lu)[j * n + i] = (float)v;
-            }
-            f->anorm = isfinite(s) ? fmax(f->anorm, s) : s;
-            if (!isfinite(s))
-                break;
-        }
-        if (!isfinite(f->anorm))
-            return bsti_error(ctx, BST_ESINGULAR, "I - A has non-finite elements");
-        if (n == 0)
-            return BST_OK;
-        lapack_int N = (lapack_int)n, info;
-        double scale = fmax(1.0, f->anorm);
-        /* OpenBLAS's threaded getrf spends small factorizations in thread hand-offs (N = 145: 60%
-         * of a Klems spectral stack's run in dgetrf_parallel): below BSTI_LU_SERIAL_MAX rows, one
-         * thread.  (OpenBLAS's thread count is process-wide: set back at once.) */
-        int threads = openblas_get_num_threads();
-        if (n <= BSTI_LU_SERIAL_MAX && threads > 1)
-            openblas_set_num_threads(1);
-        double dn = (double)n;
-        bsti_flops_add(ctx, 2.0 / 3.0 * dn * dn * dn - 0.5 * dn * dn + 5.0 / 6.0 * dn);
-        if (prec == BST_DOUBLE) {
-            info = LAPACKE_dgetrf_work(LAPACK_COL_MAJOR, N, N, f->lu, N, f->ipiv);
-            if (info == 0)
-                info = LAPACKE_dgecon(LAPACK_COL_MAJOR, '1', N, f->lu, N, scale, rcond);
-        } else {
-            float rc32 = 0.0f;
-            info = LAPACKE_sgetrf_work(LAPACK_COL_MAJOR, N, N, f->lu, N, f->ipiv);
-            if (info == 0)
-                info = LAPACKE_sgecon(LAPACK_COL_MAJOR, '1', N, f->lu, N, (float)scale, &rc32);
-            *rcond = rc32;
-        }
-        if (n <= BSTI_LU_SERIAL_MAX && threads > 1)
-            openblas_set_num_threads(threads);
-        if (info > 0 || *rcond == 0.0) {
-            *rcond = 0.0;
-            return bsti_error(ctx, BST_ESINGULAR, "I - A is singular (zero pivot %d)", (int)info);
-        }
-        if (info < 0)
-            return bsti_error(ctx, BST_EINTERNAL, "LAPACK getrf/gecon: argument %d", (int)-info);
-        return BST_OK;
-    }
-    }
-    return bsti_error(ctx, BST_EINVAL, "solve: unknown structure");
+    if ((unsigned)a->s >= sizeof by_structure / sizeof by_structure[0] || !by_structure[a->s])
+        return bsti_error(ctx, BST_EINVAL, "solve: unknown structure");
+    return by_structure[a->s](ctx, a, prec, f, rcond, take);
 }
 
 /* x := M^-1 x or M^-T x with the dense factorization; x is dense in the factor's precision. */
