@@ -195,8 +195,9 @@ void bst_glass_free(bst_glass *g)
     for (size_t i = 0; i < BSTI_GLASS_MAX_CH; i++)
         channel_clear(ctx, &g->ch[i]);
     bsti_free(ctx, g->description), bsti_free(ctx, g->where);
-    const char **meta[] = {&g->meta.source, &g->meta.path, &g->meta.type, &g->meta.product_name, &g->meta.manufacturer, &g->meta.coating_name,
-                           &g->meta.coated_side, &g->meta.wavelength_units};
+    const char **meta[] = {&g->meta.source,       &g->meta.path,         &g->meta.type,
+                           &g->meta.product_name, &g->meta.manufacturer, &g->meta.coating_name,
+                           &g->meta.coated_side,  &g->meta.wavelength_units};
     for (size_t i = 0; i < sizeof meta / sizeof meta[0]; i++)
         if (*meta[i] && *meta[i] != meta_none)
             bsti_free(ctx, (char *)*meta[i]);

@@ -58,36 +58,38 @@ static json_t *member(json_t *obj, const char *key)
     return json_is_null(v) ? NULL : v;
 }
 
-/* A number obj.key (at: obj's path for messages): NaN when absent and not required. */
-static int get_number(const struct jr *jr, json_t *obj, const char *at, const char *key,
-                      int required, double *x)
+/* obj.key as a number or a string (at: obj's path for messages); *v NULL when it is absent and
+ * not required. */
+static int field(const struct jr *jr, json_t *obj, const char *at, const char *key, int required,
+                 int number, json_t **v)
 {
-    json_t *v = member(obj, key);
-    *x = NAN;
-    if (!v && !required)
-        return BST_OK;
-    if (!v)
-        return jerr(jr, BST_EFORMAT, "%s%s%s: missing (a number)", at, *at ? "." : "", key);
-    if (!json_is_number(v))
-        return jerr(jr, BST_EFORMAT, "%s%s%s is not a number", at, *at ? "." : "", key);
-    *x = json_number_value(v);
+    const char *what = number ? "a number" : "a string", *dot = *at ? "." : "";
+    *v = member(obj, key);
+    if (!*v)
+        return required ? jerr(jr, BST_EFORMAT, "%s%s%s: missing (%s)", at, dot, key, what) : BST_OK;
+    if (number ? !json_is_number(*v) : !json_is_string(*v))
+        return jerr(jr, BST_EFORMAT, "%s%s%s is not %s", at, dot, key, what);
     return BST_OK;
 }
 
-/* A string obj.key (owned by the tree), "" when absent and not required. */
+/* A number obj.key: NaN when absent and not required. */
+static int get_number(const struct jr *jr, json_t *obj, const char *at, const char *key,
+                      int required, double *x)
+{
+    json_t *v;
+    int rc = field(jr, obj, at, key, required, 1, &v);
+    *x = v && rc >= 0 ? json_number_value(v) : NAN;
+    return rc;
+}
+
+/* A string obj.key (owned by the tree): "" when absent and not required. */
 static int get_string(const struct jr *jr, json_t *obj, const char *at, const char *key,
                       int required, const char **s)
 {
-    json_t *v = member(obj, key);
-    *s = "";
-    if (!v && !required)
-        return BST_OK;
-    if (!v)
-        return jerr(jr, BST_EFORMAT, "%s%s%s: missing (a string)", at, *at ? "." : "", key);
-    if (!json_is_string(v))
-        return jerr(jr, BST_EFORMAT, "%s%s%s is not a string", at, *at ? "." : "", key);
-    *s = json_string_value(v);
-    return BST_OK;
+    json_t *v;
+    int rc = field(jr, obj, at, key, required, 0, &v);
+    *s = v && rc >= 0 ? json_string_value(v) : "";
+    return rc;
 }
 
 /* Read a record; the root must be an IGSDB v1 product. */

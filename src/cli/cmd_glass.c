@@ -112,24 +112,29 @@ static void describe_source(const bst_glass *g)
         const char *fmt, *text;
         double x;
     } f[] = {
-        {0, "product %s", m->product_name, NAN},     {0, "manufacturer %s", m->manufacturer, NAN},
+        {0, "product %s", m->product_name, NAN},
+        {0, "manufacturer %s", m->manufacturer, NAN},
         {0, "NFRC ID %.0f", NULL, m->nfrc_id >= 0 ? (double)m->nfrc_id : NAN},
-        {1, "thickness %g mm", NULL, m->thickness_mm}, {1, "coating %s", m->coating_name, NAN},
-        {1, "coated side %s", m->coated_side, NAN},   {2, "emissivity front %g", NULL, m->emissivity_front},
-        {2, "back %g", NULL, m->emissivity_back},     {2, "conductivity %g W/(m K)", NULL, m->conductivity},
+        {1, "thickness %g mm", NULL, m->thickness_mm},
+        {1, "coating %s", m->coating_name, NAN},
+        {1, "coated side %s", m->coated_side, NAN},
+        {2, "emissivity front %g", NULL, m->emissivity_front},
+        {2, "back %g", NULL, m->emissivity_back},
+        {2, "conductivity %g W/(m K)", NULL, m->conductivity},
         {2, "IR transmittance %g", NULL, m->ir_transmittance},
     };
     for (size_t i = 0; i < sizeof f / sizeof f[0]; i++) {
         int k = f[i].line;
-        if (f[i].text ? !*f[i].text : isnan(f[i].x))
+        char *p = buf[k] + len[k];
+        size_t room = sizeof buf[k] - len[k];
+        if ((f[i].text ? !*f[i].text : isnan(f[i].x)) || room < 3)
             continue;
-        len[k] += (size_t)snprintf(buf[k] + len[k], sizeof buf[k] - len[k], "%s", len[k] ? "; " : "# ");
-        if (len[k] < sizeof buf[k]) {
-            if (f[i].text)
-                len[k] += (size_t)snprintf(buf[k] + len[k], sizeof buf[k] - len[k], f[i].fmt, f[i].text);
-            else
-                len[k] += (size_t)snprintf(buf[k] + len[k], sizeof buf[k] - len[k], f[i].fmt, f[i].x);
-        }
+        int w = snprintf(p, room, "%s", len[k] ? "; " : "# ");
+        if (f[i].text)
+            w += snprintf(p + w, room - (size_t)w, f[i].fmt, f[i].text);
+        else
+            w += snprintf(p + w, room - (size_t)w, f[i].fmt, f[i].x);
+        len[k] = (size_t)w < room ? len[k] + (size_t)w : sizeof buf[k] - 1;
     }
     for (int k = 0; k < 3; k++)
         if (len[k])
