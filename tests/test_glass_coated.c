@@ -21,6 +21,7 @@
 
 #include "ctx.h"
 #include "glass.h"
+#include "testglass.h"
 #include "testutil.h"
 
 /* WCE's own tests compare with 1e-6 absolute. */
@@ -35,15 +36,7 @@ static bst_ctx *ctx;
 static void setup(void) { ctx = bst_ctx_new(); }
 static void teardown(void) { bst_ctx_free(ctx); }
 
-static const char *dir(void) { return getenv("BSDFSTACK_GLASS_DIR"); }
-
-static bst_glass *parse(const char *spec)
-{
-    bst_glass *g = NULL;
-    int rc = bst_glass_parse(ctx, spec, dir(), &g);
-    ck_assert_msg(rc == BST_OK, "%s: %s", spec, bst_ctx_message(ctx));
-    return g;
-}
+static bst_glass *parse(const char *spec) { return tg_parse(ctx, spec); }
 
 static double deg(double d) { return d * M_PI / 180; }
 
@@ -311,14 +304,16 @@ END_TEST
 
 /* ------------------------------------------------------------------ which model */
 
+/* Material types and the model WINDOW gives them (-1: a type it does not know). */
+static const struct {
+    const char *type;
+    int model;
+} types[] = {{"Monolithic", 0},     {"interlayer", 0}, {"Coated", 1}, {"Applied Film", 1},
+             {"applied-film", 1},   {"LAMINATE", 1},   {"Film", 1},   {"electrochromic", 1},
+             {"Thermochromic", 1},  {"Tinted", -1},    {"", -1},      {"  ", -1}};
+
 START_TEST(test_model_choice)
 {
-    static const struct {
-        const char *type;
-        int model; /* -1: unknown */
-    } types[] = {{"Monolithic", 0}, {"interlayer", 0},   {"Coated", 1},     {"Applied Film", 1},
-                 {"applied-film", 1}, {"LAMINATE", 1},   {"Film", 1},       {"electrochromic", 1},
-                 {"Thermochromic", 1}, {"Tinted", -1},   {"", -1},          {"  ", -1}};
     for (size_t i = 0; i < sizeof types / sizeof types[0]; i++) {
         bst_glass_model m = (bst_glass_model)7;
         int rc = bst_glass_model_for_type(types[i].type, &m);
@@ -352,7 +347,7 @@ START_TEST(test_model_choice)
                                       "nfrc-102,model=coated,model=uncoated", "nfrc-102,model="};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         bst_glass *g = (bst_glass *)1;
-        ck_assert_int_lt(bst_glass_parse(ctx, bad[i], dir(), &g), 0);
+        ck_assert_int_lt(bst_glass_parse(ctx, bad[i], NULL, &g), 0);
         ck_assert_ptr_null(g);
         ck_assert_msg(strstr(bst_ctx_message(ctx), "model") || strstr(bst_ctx_message(ctx), "empty"),
                       "%s: %s", bad[i], bst_ctx_message(ctx));
@@ -415,29 +410,12 @@ START_TEST(test_coated_layer)
 }
 END_TEST
 
-static Suite *coated_suite(void)
-{
-    Suite *s = suite_create("glass_coated");
-    TCase *tc = tcase_create("coated");
-    tcase_add_checked_fixture(tc, setup, teardown);
-    tcase_set_timeout(tc, 60);
-    tcase_add_test(tc, test_quartics);
-    tcase_add_test(tc, test_normal_incidence);
-    tcase_add_test(tc, test_grazing);
-    tcase_add_test(tc, test_switch);
-    tcase_add_test(tc, test_bounds);
-    tcase_add_test(tc, test_wce_table);
-    tcase_add_test(tc, test_wce_1042_values);
-    tcase_add_test(tc, test_wce_1042_angular);
-    tcase_add_test(tc, test_wce_1042_103_flipped);
-    tcase_add_test(tc, test_model_choice);
-    tcase_add_test(tc, test_uncoated_unchanged);
-    tcase_add_test(tc, test_coated_layer);
-    suite_add_tcase(s, tc);
-    return s;
-}
-
 int main(void)
 {
-    return tu_run(coated_suite());
+    const TTest *const tests[] = {test_quartics, test_normal_incidence, test_grazing, test_switch,
+                                  test_bounds, test_wce_table, test_wce_1042_values,
+                                  test_wce_1042_angular, test_wce_1042_103_flipped,
+                                  test_model_choice, test_uncoated_unchanged, test_coated_layer};
+    return tu_run(tg_suite("glass_coated", setup, teardown, 60, tests,
+                           sizeof tests / sizeof tests[0]));
 }

@@ -16,28 +16,14 @@
 #include "testglass.h"
 #include "testutil.h"
 
-static bst_ctx *ctx;
-static struct tg_rows rows;
-static void setup(void)
-{
-    ctx = bst_ctx_new();
-    tg_rows_read(&rows);
-    tg_scratch();
-}
-static void teardown(void)
-{
-    tg_scratch_remove();
-    tg_rows_free(&rows);
-    bst_ctx_free(ctx);
-}
+/* The fixture (tg_setup): tg_ctx, NFRC 102's rows tg_nfrc102, a scratch directory. */
 
 /* A glazing record of NFRC 102 (the fields IGSDB's record of it has, values of our own where not
  * the optics): subtype, unit_system ("" to leave it out), wavelengths in nm if nm. */
 static const char *write_glazing(const char *name, const char *subtype, const char *units, int nm)
 {
-    const char *path = tg_path(name);
-    FILE *fp = fopen(path, "w");
-    ck_assert_ptr_nonnull(fp);
+    const char *path;
+    FILE *fp = tg_create(name, &path);
     fprintf(fp, "{\"product_id\": 363, \"name\": \"Generic Clear Glass\", \"product_name\": null,\n"
                 " \"nfrc_id\": 102, \"type\": \"glazing\", \"subtype\": \"%s\",\n"
                 " \"manufacturer_name\": \"Generic\", \"coating_name\": \"N/A\",\n"
@@ -47,8 +33,8 @@ static const char *write_glazing(const char *name, const char *subtype, const ch
                 "   \"conductivity\": 1.0, \"permeability_factor\": null},\n"
                 " \"spectral_data\": {\"spectral_data\": [\n",
             subtype, *units ? "\"unit_system\": \"" : "", units, *units ? "\"," : "");
-    for (size_t k = 0; k < rows.n; k++) {
-        char (*v)[24] = rows.v[k];
+    for (size_t k = 0; k < tg_nfrc102.n; k++) {
+        char (*v)[24] = tg_nfrc102.v[k];
         ck_assert_str_eq(v[1], v[2]); /* one T for both sides, as IGSDB v1 records have */
         char wl[32];
         if (nm)
@@ -56,7 +42,7 @@ static const char *write_glazing(const char *name, const char *subtype, const ch
         else
             snprintf(wl, sizeof wl, "%s", v[0]);
         fprintf(fp, "   {\"T\": %s, \"Rb\": %s, \"Rf\": %s, \"wavelength\": %s}%s\n", v[1], v[4], v[3],
-                wl, k + 1 < rows.n ? "," : "");
+                wl, k + 1 < tg_nfrc102.n ? "," : "");
     }
     fprintf(fp, " ]}}\n");
     fclose(fp);
@@ -65,11 +51,11 @@ static const char *write_glazing(const char *name, const char *subtype, const ch
 
 START_TEST(test_glazing)
 {
-    bst_glass *table = tg_parse(ctx, tu_ref("wce/data/spectral_NFRC_102.tsv"));
+    bst_glass *table = tg_parse(tg_ctx, tu_ref("wce/data/spectral_NFRC_102.tsv"));
     const char *path = write_glazing("363.json", "monolithic", "SI", 0);
-    bst_glass *g = tg_parse(ctx, path);
+    bst_glass *g = tg_parse(tg_ctx, path);
     tg_same_pane(g, table);
-    tg_same_stack(ctx, g, table);
+    tg_same_stack(tg_ctx, g, table);
     const bst_glass_meta *m = bst_glass_metadata(g);
     ck_assert_str_eq(m->source, "igsdb");
     ck_assert_str_eq(m->path, path);
@@ -86,7 +72,7 @@ START_TEST(test_glazing)
     /* a coated subtype: WINDOW's coated model; unit_system may be left out */
     static const char *const coated[] = {"coated", "laminate", "applied-film"};
     for (int i = 0; i < 3; i++) {
-        g = tg_parse(ctx, write_glazing("c.json", coated[i], "", 0));
+        g = tg_parse(tg_ctx, write_glazing("c.json", coated[i], "", 0));
         ck_assert_int_eq(bst_glass_get_model(g), BST_GLASS_COATED);
         bst_glass_free(g);
     }
@@ -109,15 +95,13 @@ static const char material[] =
 /* A shading record of subtype with geometry (the text inside the braces). */
 static const char *write_shade(const char *name, const char *subtype, const char *geometry)
 {
-    const char *path = tg_path(name);
-    FILE *fp = fopen(path, "w");
-    ck_assert_ptr_nonnull(fp);
-    fprintf(fp, "{\"product_id\": 9100, \"name\": \"made-up %s\", \"type\": \"shading\",\n"
-                " \"subtype\": \"%s\", \"manufacturer_name\": \"nobody\",\n"
-                " \"measured_data\": {\"permeability_factor\": 0.12}, \"spectral_data\": null,\n"
-                " \"composition\": [{\"child_product\": %s,\n"
-                "   \"extra_data\": {\"geometry\": {%s}}}]}\n",
-            subtype, subtype, material, geometry);
+    const char *path;
+    FILE *fp = tg_create(name, &path);
+    static const char record[] =
+        "{\"product_id\": 9100, \"name\": \"made-up %s\", \"type\": \"shading\", \"subtype\": \"%s\",\n"
+        " \"manufacturer_name\": \"nobody\", \"measured_data\": {\"permeability_factor\": 0.12},\n"
+        " \"composition\": [{\"child_product\": %s, \"extra_data\": {\"geometry\": {%s}}}]}\n";
+    fprintf(fp, record, subtype, subtype, material, geometry);
     fclose(fp);
     return path;
 }
@@ -138,7 +122,7 @@ START_TEST(test_shades)
         snprintf(name, sizeof name, "shade%d.json", k);
         const char *path = write_shade(name, kinds[k], geo[k]);
         bst_shade *s;
-        ck_assert_msg(bst_shade_read_igsdb(ctx, path, &s) == BST_OK, "%s", bst_ctx_message(ctx));
+        ck_assert_msg(bst_shade_read_igsdb(tg_ctx, path, &s) == BST_OK, "%s", bst_ctx_message(tg_ctx));
         ck_assert_int_eq(s->kind, k);
         ck_assert_str_eq(bst_shade_kind_name(s->kind), kinds[k]);
         ck_assert_int_eq(s->product_id, 9100);
@@ -167,38 +151,38 @@ START_TEST(test_shades)
         bst_shade_free(s);
         /* as a pane: one line, no layer */
         bst_glass *g = (bst_glass *)1;
-        ck_assert_int_eq(bst_glass_parse(ctx, path, NULL, &g), BST_ENOTIMPL);
+        ck_assert_int_eq(bst_glass_parse(tg_ctx, path, NULL, &g), BST_ENOTIMPL);
         ck_assert_ptr_null(g);
-        ck_assert(strstr(bst_ctx_message(ctx), "geometric shade layers are not implemented yet"));
-        ck_assert(strstr(bst_ctx_message(ctx), kinds[k]) && !strchr(bst_ctx_message(ctx), '\n'));
+        ck_assert(strstr(bst_ctx_message(tg_ctx), "geometric shade layers are not implemented yet"));
+        ck_assert(strstr(bst_ctx_message(tg_ctx), kinds[k]) && !strchr(bst_ctx_message(tg_ctx), '\n'));
     }
     bst_shade_free(NULL);
     bst_shade *s = (bst_shade *)1;
-    ck_assert_int_eq(bst_shade_read_igsdb(ctx, write_glazing("g.json", "monolithic", "SI", 0), &s),
+    ck_assert_int_eq(bst_shade_read_igsdb(tg_ctx, write_glazing("g.json", "monolithic", "SI", 0), &s),
                      BST_EFORMAT);
     ck_assert_ptr_null(s);
-    ck_assert(strstr(bst_ctx_message(ctx), "not a shading product (a pane"));
+    ck_assert(strstr(bst_ctx_message(tg_ctx), "not a shading product (a pane"));
 }
 END_TEST
 
 /* A file of the given text, refused as a pane (and as a shade) with expect in its one line. */
 static void refused_text(const char *text, const char *expect, int as_shade)
 {
-    FILE *fp = fopen(tg_path("bad.json"), "w");
-    ck_assert_ptr_nonnull(fp);
+    const char *path;
+    FILE *fp = tg_create("bad.json", &path);
     fputs(text, fp);
     fclose(fp);
     char want[400]; /* ":..." follows the file's name; other expectations stand alone */
     snprintf(want, sizeof want, "%s%s", *expect == ':' ? tg_path("bad.json") : "", expect);
     if (!as_shade) {
-        tg_refused(ctx, tg_path("bad.json"), want);
+        tg_refused(tg_ctx, tg_path("bad.json"), want);
         return;
     }
     bst_shade *s = (bst_shade *)1;
-    ck_assert_int_lt(bst_shade_read_igsdb(ctx, tg_path("bad.json"), &s), 0);
+    ck_assert_int_lt(bst_shade_read_igsdb(tg_ctx, tg_path("bad.json"), &s), 0);
     ck_assert_ptr_null(s);
-    ck_assert_msg(strstr(bst_ctx_message(ctx), want), "message '%s' lacks '%s'",
-                  bst_ctx_message(ctx), want);
+    ck_assert_msg(strstr(bst_ctx_message(tg_ctx), want), "message '%s' lacks '%s'",
+                  bst_ctx_message(tg_ctx), want);
 }
 
 /* A shading record whose geometry is geo, refused with expect. */
@@ -224,10 +208,11 @@ START_TEST(test_malformed)
     refused_text("{\"product_id\": 1, \"product_id\": 2, \"type\": \"glazing\"}", ":1:", 0);
     refused_text("{\"product_id\": 1, \"type\": \"glazing\" /* a comment */}", ":1:", 0);
     /* and the same record well formed is read */
-    FILE *fp = fopen(tg_path("ok.json"), "w");
+    const char *path;
+    FILE *fp = tg_create("ok.json", &path);
     fputs(HEAD "\"spectral_data\": " ROWS "}", fp);
     fclose(fp);
-    bst_glass_free(tg_parse(ctx, tg_path("ok.json")));
+    bst_glass_free(tg_parse(tg_ctx, path));
 }
 END_TEST
 
@@ -275,7 +260,7 @@ START_TEST(test_wrong_units)
     const char *nm = write_glazing("nm.json", "monolithic", "SI", 1);
     char want[300];
     snprintf(want, sizeof want, "%s: spectral_data.spectral_data[0]: wavelength 300 um is not in", nm);
-    tg_refused(ctx, nm, want);
+    tg_refused(tg_ctx, nm, want);
     /* impossible geometry in the record's units (mm, degrees) */
     refused_shade("venetian", "\"slat_width\": 16, \"slat_spacing\": 12, \"slat_curvature\": 5, "
                   "\"number_segments\": 5", ".slat_curvature = 5 mm: a slat's radius is 0 (flat)");
@@ -294,59 +279,31 @@ START_TEST(test_wrong_units)
 END_TEST
 
 /* Every allocation of reading a record may fail: an error, never a leak. */
+static int read_shade(bst_ctx *c, void *path)
+{
+    bst_shade *s = (bst_shade *)1;
+    int rc = bst_shade_read_igsdb(c, path, &s);
+    if (rc < 0)
+        ck_assert_ptr_null(s);
+    else
+        bst_shade_free(s);
+    return rc;
+}
+
 START_TEST(test_alloc_failure)
 {
-    char paths[2][256]; /* tg_path's buffer is reused */
-    snprintf(paths[0], sizeof paths[0], "%s", write_glazing("a.json", "coated", "SI", 0));
-    snprintf(paths[1], sizeof paths[1], "%s", write_shade("s.json", "venetian", venetian));
-    for (int p = 0; p < 2; p++) {
-        int ok = 0;
-        for (long n = 1; n < 400 && !ok; n++) {
-            tu_alloc a = {n, 0, 0};
-            bst_ctx *c = bst_ctx_new();
-            ck_assert_int_eq(bst_ctx_set_allocator(c, tu_alloc_malloc, tu_alloc_free, &a), BST_OK);
-            int rc;
-            if (p == 0) {
-                bst_glass *g = (bst_glass *)1;
-                rc = bst_glass_parse(c, paths[p], getenv("BSDFSTACK_GLASS_DIR"), &g);
-                if (rc >= 0)
-                    bst_glass_free(g);
-            } else {
-                bst_shade *s = (bst_shade *)1;
-                rc = bst_shade_read_igsdb(c, paths[p], &s);
-                if (rc >= 0)
-                    bst_shade_free(s);
-                else
-                    ck_assert_ptr_null(s);
-            }
-            ck_assert_msg(rc == BST_OK || rc == BST_ENOMEM, "allocation %ld: %s", n,
-                          bst_ctx_message(c));
-            ok = rc == BST_OK;
-            ck_assert_msg(a.live == 0, "%ld blocks leaked after failing allocation %ld", a.live, n);
-            bst_ctx_free(c);
-        }
-        ck_assert(ok);
-    }
+    char path[2][256]; /* tg_path's buffer is reused */
+    snprintf(path[0], sizeof path[0], "%s", write_glazing("a.json", "coated", "SI", 0));
+    snprintf(path[1], sizeof path[1], "%s", write_shade("s.json", "venetian", venetian));
+    tg_alloc_sweep("a glazing record", 400, tg_read_pane, path[0]);
+    tg_alloc_sweep("a shading record", 400, read_shade, path[1]);
 }
 END_TEST
 
-static Suite *json_suite(void)
-{
-    Suite *s = suite_create("glass_json");
-    TCase *tc = tcase_create("json");
-    tcase_add_checked_fixture(tc, setup, teardown);
-    tcase_set_timeout(tc, 120);
-    tcase_add_test(tc, test_glazing);
-    tcase_add_test(tc, test_shades);
-    tcase_add_test(tc, test_malformed);
-    tcase_add_test(tc, test_missing_fields);
-    tcase_add_test(tc, test_wrong_units);
-    tcase_add_test(tc, test_alloc_failure);
-    suite_add_tcase(s, tc);
-    return s;
-}
-
 int main(void)
 {
-    return tu_run(json_suite());
+    const TTest *const tests[] = {test_glazing, test_shades, test_malformed, test_missing_fields,
+                                  test_wrong_units, test_alloc_failure};
+    return tu_run(tg_suite("glass_json", tg_setup, tg_teardown, 120, tests,
+                           sizeof tests / sizeof tests[0]));
 }

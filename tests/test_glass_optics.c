@@ -18,20 +18,7 @@
 #include "testglass.h"
 #include "testutil.h"
 
-static bst_ctx *ctx;
-static struct tg_rows rows;
-static void setup(void)
-{
-    ctx = bst_ctx_new();
-    tg_rows_read(&rows);
-    tg_scratch();
-}
-static void teardown(void)
-{
-    tg_scratch_remove();
-    tg_rows_free(&rows);
-    bst_ctx_free(ctx);
-}
+/* The fixture (tg_setup): tg_ctx, NFRC 102's rows tg_nfrc102, a scratch directory. */
 
 /* The header of IGDB's file for NFRC 102 in outline, with a line of our own that means nothing
  * to bsdfstack. */
@@ -54,12 +41,11 @@ static const char header[] = "{ Units, Wavelength Units } SI %s\n"
 /* NFRC 102 as an Optics file: ncol 4 or 9, wavelengths in nm or um, line ends "\n" or "\r\n". */
 static const char *write_optics(const char *name, int ncol, int nm, const char *type, const char *eol)
 {
-    const char *path = tg_path(name);
-    FILE *fp = fopen(path, "w");
-    ck_assert_ptr_nonnull(fp);
+    const char *path;
+    FILE *fp = tg_create(name, &path);
     fprintf(fp, header, nm ? "Nanometers" : "Microns", type);
-    for (size_t k = 0; k < rows.n; k++) {
-        char (*v)[24] = rows.v[k];
+    for (size_t k = 0; k < tg_nfrc102.n; k++) {
+        char (*v)[24] = tg_nfrc102.v[k];
         char wl[32];
         if (nm) /* the same decimal number, shifted: 0.305 -> 305 */
             snprintf(wl, sizeof wl, "%.6g", atof(v[0]) * 1000);
@@ -78,16 +64,16 @@ static const char *write_optics(const char *name, int ncol, int nm, const char *
 /* Both layouts and both units are the table's pane and stack. */
 START_TEST(test_same_as_table)
 {
-    bst_glass *table = tg_parse(ctx, tu_ref("wce/data/spectral_NFRC_102.tsv"));
+    bst_glass *table = tg_parse(tg_ctx, tu_ref("wce/data/spectral_NFRC_102.tsv"));
     ck_assert_str_eq(bst_glass_metadata(table)->source, "table");
     for (int v = 0; v < 4; v++) {
         char name[32];
         snprintf(name, sizeof name, "CLEAR_3_%d.DAT", v);
         const char *path = write_optics(name, v & 1 ? 9 : 4, v >> 1, "Monolithic", v ? "\n" : "\r\n");
-        bst_glass *g = tg_parse(ctx, path);
+        bst_glass *g = tg_parse(tg_ctx, path);
         tg_same_pane(g, table);
         if (v == 0 || v == 3)
-            tg_same_stack(ctx, g, table);
+            tg_same_stack(tg_ctx, g, table);
         const bst_glass_meta *m = bst_glass_metadata(g);
         ck_assert_str_eq(m->source, "optics");
         ck_assert_str_eq(m->path, path);
@@ -119,14 +105,14 @@ START_TEST(test_type_and_model)
              {"Applied Film", BST_GLASS_COATED}, {"Interlayer", BST_GLASS_UNCOATED}};
     for (size_t i = 0; i < sizeof t / sizeof t[0]; i++) {
         const char *path = write_optics("TYPED.DAT", 4, 0, t[i].type, "\n");
-        bst_glass *g = tg_parse(ctx, path);
+        bst_glass *g = tg_parse(tg_ctx, path);
         ck_assert_int_eq(bst_glass_get_model(g), t[i].model);
         ck_assert_str_eq(bst_glass_metadata(g)->model_from, "type");
         ck_assert_str_eq(bst_glass_metadata(g)->type, t[i].type);
         char spec[300];
         snprintf(spec, sizeof spec, "%s,model=%s", path,
                  t[i].model == BST_GLASS_COATED ? "uncoated" : "coated");
-        bst_glass *h = tg_parse(ctx, spec);
+        bst_glass *h = tg_parse(tg_ctx, spec);
         ck_assert_int_ne(bst_glass_get_model(h), t[i].model);
         ck_assert_str_eq(bst_glass_metadata(h)->model_from, "spec");
         /* the coated pane per wavelength is the correlation's */
@@ -139,10 +125,10 @@ START_TEST(test_type_and_model)
         bst_glass_free(g), bst_glass_free(h);
     }
     const char *path = write_optics("TINTED.DAT", 4, 0, "Tinted", "\n");
-    tg_refused(ctx, path, "material type 'Tinted'");
+    tg_refused(tg_ctx, path, "material type 'Tinted'");
     char spec[300];
     snprintf(spec, sizeof spec, "%s,model=coated", path);
-    bst_glass *g = tg_parse(ctx, spec);
+    bst_glass *g = tg_parse(tg_ctx, spec);
     ck_assert_str_eq(bst_glass_metadata(g)->type, "Tinted");
     bst_glass_free(g);
 }
@@ -160,18 +146,18 @@ START_TEST(test_catalogue)
                                        "type Laminate\nmodel uncoated\nVisible t0=0.8,r0=0.08\n",
                                        "model shiny\nVisible t0=0.8,r0=0.08\n"};
     for (int i = 0; i < 4; i++) {
-        FILE *fp = fopen(tg_path("p.glass"), "w");
-        ck_assert_ptr_nonnull(fp);
+        const char *path;
+        FILE *fp = tg_create("p.glass", &path);
         fputs(pane[i], fp);
         fclose(fp);
         bst_glass *g = NULL;
-        int rc = bst_glass_parse(ctx, "p", tg_dir(), &g);
+        int rc = bst_glass_parse(tg_ctx, "p", tg_dir(), &g);
         if (i == 3) {
             ck_assert_int_lt(rc, 0);
-            ck_assert(strstr(bst_ctx_message(ctx), "p.glass: line 1: model 'shiny'"));
+            ck_assert(strstr(bst_ctx_message(tg_ctx), "p.glass: line 1: model 'shiny'"));
             continue;
         }
-        ck_assert_msg(rc == BST_OK, "%s", bst_ctx_message(ctx));
+        ck_assert_msg(rc == BST_OK, "%s", bst_ctx_message(tg_ctx));
         const bst_glass_meta *m = bst_glass_metadata(g);
         ck_assert_str_eq(m->source, "catalogue");
         ck_assert(strstr(m->path, "p.glass"));
@@ -188,13 +174,13 @@ END_TEST
 /* An Optics file of the given body (after a units line) and what its refusal must say. */
 static void refused_body(const char *body, const char *expect)
 {
-    FILE *fp = fopen(tg_path("BAD.DAT"), "w");
-    ck_assert_ptr_nonnull(fp);
+    const char *path;
+    FILE *fp = tg_create("BAD.DAT", &path);
     fprintf(fp, "%s", body);
     fclose(fp);
     char want[300];
     snprintf(want, sizeof want, "%s%s", tg_path("BAD.DAT"), expect);
-    tg_refused(ctx, tg_path("BAD.DAT"), want);
+    tg_refused(tg_ctx, tg_path("BAD.DAT"), want);
 }
 
 START_TEST(test_bad_files)
@@ -222,55 +208,29 @@ START_TEST(test_bad_files)
     refused_body("{ Units, Wavelength Units } SI Nanometers\n{ Type: Coated }\n", ": 0 data rows");
 #undef U
     /* a file that is no pane's data at all */
-    FILE *fp = fopen(tg_path("NUL.DAT"), "w");
+    const char *path;
+    FILE *fp = tg_create("NUL.DAT", &path);
     fputs("{ Units, Wavelength Units } SI Microns\n0.3 0.8", fp);
     fputc('\0', fp);
     fputs(" 0.08 0.08\n", fp);
     fclose(fp);
-    tg_refused(ctx, tg_path("NUL.DAT"), "line 2 holds a NUL byte");
+    tg_refused(tg_ctx, tg_path("NUL.DAT"), "line 2 holds a NUL byte");
 }
 END_TEST
 
 /* Every allocation of reading an Optics file may fail: an error, never a leak or a crash. */
 START_TEST(test_alloc_failure)
 {
-    const char *path = write_optics("CLEAR_3.DAT", 9, 1, "Coated", "\r\n");
-    int ok = 0;
-    for (long n = 1; n < 400 && !ok; n++) {
-        tu_alloc a = {n, 0, 0};
-        bst_ctx *c = bst_ctx_new();
-        ck_assert_int_eq(bst_ctx_set_allocator(c, tu_alloc_malloc, tu_alloc_free, &a), BST_OK);
-        bst_glass *g = (bst_glass *)1;
-        int rc = bst_glass_parse(c, path, getenv("BSDFSTACK_GLASS_DIR"), &g);
-        ck_assert_msg(rc == BST_OK || rc == BST_ENOMEM, "allocation %ld: %s", n, bst_ctx_message(c));
-        if (rc < 0)
-            ck_assert_ptr_null(g);
-        ok = rc == BST_OK;
-        if (ok)
-            bst_glass_free(g);
-        ck_assert_msg(a.live == 0, "%ld blocks leaked after failing allocation %ld", a.live, n);
-        bst_ctx_free(c);
-    }
-    ck_assert(ok);
+    char path[256];
+    snprintf(path, sizeof path, "%s", write_optics("CLEAR_3.DAT", 9, 1, "Coated", "\r\n"));
+    tg_alloc_sweep("an Optics file", 400, tg_read_pane, path);
 }
 END_TEST
 
-static Suite *optics_suite(void)
-{
-    Suite *s = suite_create("glass_optics");
-    TCase *tc = tcase_create("optics");
-    tcase_add_checked_fixture(tc, setup, teardown);
-    tcase_set_timeout(tc, 120);
-    tcase_add_test(tc, test_same_as_table);
-    tcase_add_test(tc, test_type_and_model);
-    tcase_add_test(tc, test_catalogue);
-    tcase_add_test(tc, test_bad_files);
-    tcase_add_test(tc, test_alloc_failure);
-    suite_add_tcase(s, tc);
-    return s;
-}
-
 int main(void)
 {
-    return tu_run(optics_suite());
+    const TTest *const tests[] = {test_same_as_table, test_type_and_model, test_catalogue,
+                                  test_bad_files, test_alloc_failure};
+    return tu_run(tg_suite("glass_optics", tg_setup, tg_teardown, 120, tests,
+                           sizeof tests / sizeof tests[0]));
 }

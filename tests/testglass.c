@@ -41,6 +41,23 @@ void tg_rows_free(struct tg_rows *r)
 
 static char scratch[64];
 
+bst_ctx *tg_ctx;
+struct tg_rows tg_nfrc102;
+
+void tg_setup(void)
+{
+    tg_ctx = bst_ctx_new();
+    tg_rows_read(&tg_nfrc102);
+    tg_scratch();
+}
+
+void tg_teardown(void)
+{
+    tg_scratch_remove();
+    tg_rows_free(&tg_nfrc102);
+    bst_ctx_free(tg_ctx);
+}
+
 const char *tg_scratch(void)
 {
     strcpy(scratch, "/tmp/bst_glass_XXXXXX");
@@ -59,6 +76,14 @@ void tg_scratch_remove(void)
 }
 
 const char *tg_dir(void) { return scratch; }
+
+FILE *tg_create(const char *name, const char **path)
+{
+    *path = tg_path(name);
+    FILE *fp = fopen(*path, "w");
+    ck_assert_msg(fp != NULL, "cannot write %s", *path);
+    return fp;
+}
 
 const char *tg_path(const char *name)
 {
@@ -139,4 +164,46 @@ void tg_refused(bst_ctx *ctx, const char *spec, const char *expect)
     const char *m = bst_ctx_message(ctx);
     ck_assert_msg(strstr(m, expect), "'%s': message '%s' lacks '%s'", spec, m, expect);
     ck_assert_msg(!strchr(m, '\n'), "'%s': message of several lines: %s", spec, m);
+}
+
+void tg_alloc_sweep(const char *what, long max, int (*step)(bst_ctx *c, void *arg), void *arg)
+{
+    int ok = 0;
+    for (long n = 1; n <= max && !ok; n++) {
+        tu_alloc a = {n, 0, 0};
+        bst_ctx *c = bst_ctx_new();
+        ck_assert_int_eq(bst_ctx_set_allocator(c, tu_alloc_malloc, tu_alloc_free, &a), BST_OK);
+        int rc = step(c, arg);
+        ck_assert_msg(rc == BST_OK || rc == BST_ENOMEM, "%s, allocation %ld: %d %s", what, n, rc,
+                      bst_ctx_message(c));
+        ok = rc == BST_OK;
+        ck_assert_msg(a.live == 0, "%s: %ld blocks leaked after failing allocation %ld", what,
+                      a.live, n);
+        bst_ctx_free(c);
+    }
+    ck_assert_msg(ok, "%s never succeeded", what);
+}
+
+Suite *tg_suite(const char *name, void (*setup)(void), void (*teardown)(void), int timeout,
+                const TTest *const *tests, size_t n)
+{
+    Suite *s = suite_create(name);
+    TCase *tc = tcase_create(name);
+    tcase_add_checked_fixture(tc, setup, teardown);
+    tcase_set_timeout(tc, timeout);
+    for (size_t i = 0; i < n; i++)
+        tcase_add_test(tc, tests[i]);
+    suite_add_tcase(s, tc);
+    return s;
+}
+
+int tg_read_pane(bst_ctx *c, void *spec)
+{
+    bst_glass *g = (bst_glass *)1;
+    int rc = bst_glass_parse(c, spec, getenv("BSDFSTACK_GLASS_DIR"), &g);
+    if (rc < 0)
+        ck_assert_ptr_null(g);
+    else
+        bst_glass_free(g);
+    return rc;
 }

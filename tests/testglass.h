@@ -4,7 +4,9 @@
 #ifndef BST_TESTGLASS_H
 #define BST_TESTGLASS_H
 
+#include <check.h>
 #include <stddef.h>
+#include <stdio.h>
 #include "bsdfstack.h"
 
 /* NFRC 102's rows from ../shared/reference/wce/data/spectral_NFRC_102.tsv, each value as the text
@@ -16,11 +18,19 @@ struct tg_rows {
 void tg_rows_read(struct tg_rows *r);
 void tg_rows_free(struct tg_rows *r);
 
-/* A fresh scratch directory (removed by tg_scratch_remove) and the path of a file in it. */
+/* The file-format suites' fixture: a context, NFRC 102's rows and a scratch directory. */
+extern bst_ctx *tg_ctx;
+extern struct tg_rows tg_nfrc102;
+void tg_setup(void);
+void tg_teardown(void);
+
+/* A fresh scratch directory (removed by tg_scratch_remove), the path of a file in it (a buffer
+ * the next call reuses), and a new file there opened for writing (*path: tg_path's). */
 const char *tg_scratch(void);
 void tg_scratch_remove(void);
 const char *tg_path(const char *name);
 const char *tg_dir(void);
+FILE *tg_create(const char *name, const char **path);
 
 /* The pane of a spec; fails the test on error. */
 bst_glass *tg_parse(bst_ctx *ctx, const char *spec);
@@ -32,5 +42,17 @@ void tg_same_pane(const bst_glass *a, const bst_glass *b);
 void tg_same_stack(bst_ctx *ctx, bst_glass *a, bst_glass *b);
 /* spec is refused with one line that holds expect; nothing is returned. */
 void tg_refused(bst_ctx *ctx, const char *spec, const char *expect);
+
+/* step(c, arg) with a context whose n-th allocation fails, n = 1, 2, ... until it succeeds (at
+ * most max tries): every run ends in BST_OK or BST_ENOMEM and leaks nothing; step frees what it
+ * made.  what names the case in messages. */
+void tg_alloc_sweep(const char *what, long max, int (*step)(bst_ctx *c, void *arg), void *arg);
+
+/* A tg_alloc_sweep step: the pane of the spec (a char *) read and freed. */
+int tg_read_pane(bst_ctx *c, void *spec);
+
+/* A suite of one test case with a fixture and a timeout (seconds). */
+Suite *tg_suite(const char *name, void (*setup)(void), void (*teardown)(void), int timeout,
+                const TTest *const *tests, size_t n);
 
 #endif
