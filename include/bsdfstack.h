@@ -690,6 +690,9 @@ int bst_glass_layer_at(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis,
  * file that names its material type takes the model WINDOW takes for that type
  * (bst_glass_model_for_type); "model=" in the spec or bst_glass_set_model overrides it. */
 typedef enum { BST_GLASS_UNCOATED = 0, BST_GLASS_COATED = 1 } bst_glass_model;
+/* The coated model follows its "clear" reference glass where a side's normal-incidence T0 exceeds
+ * this, else its "bronze" one (WINDOW's switch, a fixed part of the model). */
+#define BST_GLASS_COATED_CLEAR_T0 0.645
 bst_glass_model bst_glass_get_model(const bst_glass *g);
 int bst_glass_set_model(bst_ctx *ctx, bst_glass *g, bst_glass_model model);
 /* The model WINDOW takes for a material type (Monolithic, Interlayer: uncoated; Coated, Film,

@@ -100,10 +100,8 @@ int bsti_glass_channel_commit(bst_ctx *ctx, bst_glass *g, int rc);
 
 /* ------------------------------------------------------------------ coated glass (glass_coated.c) */
 
-/* WINDOW's coated correlations take the "clear" reference glass's polynomials where the side's
- * normal-incidence T0 exceeds this, else the "bronze" glass's (WCE CAngularPropertiesCoated). */
-#define BSTI_GLASS_COATED_CLEAR_T0 0.645
-/* T and R at cos(theta) = c (0..1) of a coated side with normal-incidence t0, r0, without the
+/* T and R at cos(theta) = c (0..1) of a coated side with normal-incidence t0, r0 (the reference
+ * glass by BST_GLASS_COATED_CLEAR_T0), without the
  * special case theta = 0 (which gives t0, r0: bsti_glass_side_optics). */
 void bsti_glass_coated_optics(double t0, double r0, double c, double *t, double *r);
 /* The polynomials' values at c: the transmittance ratio T / T0 and the reflectance one, before
@@ -140,6 +138,16 @@ int bsti_glass_row_check(bst_ctx *ctx, const char *where, double prev_um, double
 int bsti_glass_data_reserve(bst_ctx *ctx, struct bsti_glass_data *d, size_t *cap, size_t need);
 
 /* ------------------------------------------------------------------ files (glass_optics.c, _json.c) */
+
+/* What the file readers take as plausible, to refuse a value in the wrong unit rather than keep
+ * it: a pane's thickness up to BSTI_GLASS_MAX_THICKNESS_MM (mm; metres read as mm pass, but
+ * micrometres do not), a conductivity up to BSTI_GLASS_MAX_CONDUCTIVITY W/(m K) (above any metal),
+ * a shade's lengths up to BSTI_SHADE_MAX_LENGTH_MM (mm), its slats cut into at most
+ * BSTI_SHADE_MAX_SEGMENTS segments. */
+#define BSTI_GLASS_MAX_THICKNESS_MM 1000.0
+#define BSTI_GLASS_MAX_CONDUCTIVITY 1e4
+#define BSTI_SHADE_MAX_LENGTH_MM 1e4
+#define BSTI_SHADE_MAX_SEGMENTS 1000
 
 /* Which format a pane's data file is, from its first characters: an IGSDB record starts with '{'
  * (or '[') and then '"' or a line break, an Optics file with '{' and a field name on that line,

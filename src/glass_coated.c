@@ -6,7 +6,7 @@
  * fitted by a quartic in c = cos(theta) (LBNL Windows-CalcEngine, CAngularPropertiesCoated; the
  * facts below were read there, the code is bsdfstack's own).  Per side, per wavelength or band,
  * from T0 and R0 at normal incidence:
- *   reference  = clear if T0 > 0.645 (BSTI_GLASS_COATED_CLEAR_T0), else bronze
+ *   reference  = clear if T0 > 0.645 (BST_GLASS_COATED_CLEAR_T0), else bronze
  *   tau(c)     = sum_i a_i c^i,  rho_t(c) = sum_i b_i c^i        (the reference's quartics)
  *   T(theta)   = T0 tau(c)
  *   R(theta)   = R0 (1 - rho) + rho,  rho = rho_t(c) - tau(c)  (R0 plus the share rho of 1 - R0)
@@ -61,7 +61,7 @@ static double clip01(double x)
 void bsti_glass_coated_optics(double t0, double r0, double c, double *t, double *r)
 {
     double tau, rho_t;
-    bsti_glass_coated_poly(!(t0 > BSTI_GLASS_COATED_CLEAR_T0), c, &tau, &rho_t);
+    bsti_glass_coated_poly(!(t0 > BST_GLASS_COATED_CLEAR_T0), c, &tau, &rho_t);
     double rho = rho_t - tau;
     double tt = clip01(t0 * tau), rr = clip01(r0 * (1.0 - rho) + rho);
     if (tt + rr > 1.0) { /* the larger gives way */

@@ -170,7 +170,7 @@ static int read_measured(const struct jr *jr, json_t *rec, const char *at, doubl
         (rc = get_number(jr, m, md, "emissivity_back", 0, eb)) < 0 ||
         (rc = get_number(jr, m, md, "tir_front", 0, tir)) < 0)
         return rc;
-    if (!isnan(*thickness) && !(*thickness > 0.0 && *thickness < 1000.0))
+    if (!isnan(*thickness) && !(*thickness > 0.0 && *thickness <= BSTI_GLASS_MAX_THICKNESS_MM))
         return jerr(jr, BST_EFORMAT, "%s.thickness = %g is not a thickness in mm", md, *thickness);
     return BST_OK;
 }
@@ -296,7 +296,7 @@ static int read_material(const struct jr *jr, json_t *mat, const char *at, bst_s
 static int get_length(const struct jr *jr, json_t *g, const char *at, const char *key, double *x)
 {
     int rc = get_number(jr, g, at, key, 1, x);
-    if (rc >= 0 && !(*x > 0.0 && *x < 1e4))
+    if (rc >= 0 && !(*x > 0.0 && *x <= BSTI_SHADE_MAX_LENGTH_MM))
         rc = jerr(jr, BST_EFORMAT, "%s.%s = %g is not a length in mm (> 0)", at, key, *x);
     return rc;
 }
@@ -320,8 +320,9 @@ static int read_venetian(const struct jr *jr, json_t *g, const char *at, bst_sha
     if (!(*tilt >= -90.0 && *tilt <= 90.0))
         return jerr(jr, BST_EFORMAT, "%s.slat_tilt = %g is not an angle in -90..90 degrees", at,
                     *tilt);
-    if (!(segs >= 1 && segs <= 1000 && segs == floor(segs)))
-        return jerr(jr, BST_EFORMAT, "%s.number_segments = %g is not a count in 1..1000", at, segs);
+    if (!(segs >= 1 && segs <= BSTI_SHADE_MAX_SEGMENTS && segs == floor(segs)))
+        return jerr(jr, BST_EFORMAT, "%s.number_segments = %g is not a count in 1..%d", at, segs,
+                    BSTI_SHADE_MAX_SEGMENTS);
     s->geometry.venetian.number_segments = (int)segs;
     return BST_OK;
 }

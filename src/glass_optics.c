@@ -19,6 +19,7 @@
 
 #include <ctype.h>
 #include <errno.h>
+#include <limits.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -185,7 +186,7 @@ static int header_line(bst_ctx *ctx, bst_glass *g, struct optics_state *st, char
             double id;
             if (!*value || strcasecmp(value, "N/A") == 0)
                 return BST_OK;
-            if (one_number(value, NULL, &id) < 0 || id != floor(id) || !(id >= 0 && id < 1e9))
+            if (one_number(value, NULL, &id) < 0 || id != floor(id) || !(id >= 0 && id < (double)LONG_MAX))
                 return optics_error(ctx, st, "NFRC ID '%s' is not a number", value);
             g->meta.nfrc_id = (long)id;
         }
@@ -196,8 +197,8 @@ static int header_line(bst_ctx *ctx, bst_glass *g, struct optics_state *st, char
         double *x;
         double lo, hi;
     } nums[] = {
-        {"Thickness", NULL, &g->meta.thickness_mm, 0.0, 1000.0},
-        {"Conductivity", NULL, &g->meta.conductivity, 0.0, 1e4},
+        {"Thickness", NULL, &g->meta.thickness_mm, 0.0, BSTI_GLASS_MAX_THICKNESS_MM},
+        {"Conductivity", NULL, &g->meta.conductivity, 0.0, BSTI_GLASS_MAX_CONDUCTIVITY},
         {"IR Transmittance", "TIR=", &g->meta.ir_transmittance, 0.0, 1.0},
     };
     for (size_t i = 0; i < sizeof nums / sizeof nums[0]; i++)

@@ -35,6 +35,11 @@ for layout in "4 0" "9 0" "4 1" "9 1"; do
         || fail "Optics file ($1 columns, nm=$2): table differs from the TSV's"
     i=$((i + 1))
 done
+# a bare file name in the working directory, where the catalogue has no pane of that name
+expect_status 0 "glass: a file name without a /" -- sh -c "cd '$tmpdir' && '$B' glass CLEAR_3_0.DAT"
+table "$tmpdir/out" | cmp -s - "$tmpdir/tsv.tab" && pass "CLEAR_3_0.DAT read from the working directory" \
+    || fail "a bare file name: $(head -2 "$tmpdir/out")"
+expect_status 0 "glass: the last Optics file again" -- "$B" glass "$tmpdir/CLEAR_3_3.DAT"
 grep -q "^# source: optics $tmpdir/CLEAR_3_3.DAT$" "$tmpdir/out" && pass "source line" \
     || fail "source line: $(grep '^# source' "$tmpdir/out")"
 grep -q "^# model: uncoated (.*from the type Monolithic)" "$tmpdir/out" && pass "model line" \

@@ -116,7 +116,7 @@ END_TEST
 /* The switch: T0 > 0.645 takes the clear glass's quartics, T0 = 0.645 the bronze one's. */
 START_TEST(test_switch)
 {
-    double t, r, at = BSTI_GLASS_COATED_CLEAR_T0;
+    double t, r, at = BST_GLASS_COATED_CLEAR_T0;
     ck_assert(at == 0.645);
     bsti_glass_coated_optics(at, 0.1, 0.5, &t, &r);
     tu_assert_close(t, at * tau_half[1], CLOSED_TOL, 1);

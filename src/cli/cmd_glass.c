@@ -156,9 +156,9 @@ static void describe(const bst_glass *g, size_t nch, const size_t *idx)
     for (size_t c = 0; c < nch; c++) {
         double nf, tf, nb, tb, t0f, t0b;
         if (!nw && coated && bst_glass_optics(g, idx[c], 0.0, &t0f, &t0b, NULL, NULL) >= 0)
-            printf("# %s: reference glass %s (front), %s (back): clear where T0 > 0.645\n",
-                   bst_glass_channel(g, idx[c]), t0f > 0.645 ? "clear" : "bronze",
-                   t0b > 0.645 ? "clear" : "bronze");
+            printf("# %s: reference glass %s (front), %s (back): clear where T0 > %g\n",
+                   bst_glass_channel(g, idx[c]), t0f > BST_GLASS_COATED_CLEAR_T0 ? "clear" : "bronze",
+                   t0b > BST_GLASS_COATED_CLEAR_T0 ? "clear" : "bronze", BST_GLASS_COATED_CLEAR_T0);
         else if (!nw && bst_glass_slab(g, idx[c], NAN, 0, &nf, &tf) >= 0 &&
                  bst_glass_slab(g, idx[c], NAN, 1, &nb, &tb) >= 0)
             printf("# %s: n %.4f, tau0 %.4f (front); n %.4f, tau0 %.4f (back)\n",
