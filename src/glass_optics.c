@@ -212,7 +212,7 @@ static int header_line(bst_ctx *ctx, bst_glass *g, struct optics_state *st, char
             *nums[i].x = x;
             return BST_OK;
         }
-    if (strcasecmp(key, "Units, Wavelength Units") == 0)
+    if (strncasecmp(key, "Units", 5) == 0) /* "Units, Wavelength Units", however spaced */
         return header_units(ctx, g, st, rest);
     if (strncasecmp(key, "Emissivity", 10) == 0)
         return header_emissivity(ctx, g, st, key, rest);
