@@ -1,8 +1,12 @@
-/* glass_spec.c - what "glass:SPEC" names: a catalogue pane, a spectral data file or an inline pane.
+/* glass_spec.c - what "glass:SPEC" names: a catalogue pane, a spectral data file or an inline pane,
+ * and which angular model the pane follows.
  *
  * Specs (bsdfstack.h, bsdfstack-glass(5)): NAME is the catalogue file NAME.glass in the catalogue
- * directory; PATH (a '/' or a .tsv ending) a spectral data file averaged over Visible and Solar;
- * "key=value,..." an inline pane applied to Visible and Solar alike.  Inline keys: d (thickness, a
+ * directory; FILE (a '/' or a .tsv ending, or a file that exists where the catalogue has no such
+ * pane) a spectral data file in any of its formats (glass_band.c, glass_optics.c, glass_json.c)
+ * averaged over Visible and Solar; "key=value,..." an inline pane applied to Visible and Solar
+ * alike.  Any of them may carry ",model=uncoated|coated", which overrides the model the file's or
+ * catalogue's material type gives (settle_model).  Inline keys: d (thickness, a
  * length: 6mm, 0.006m, 0.6cm, 0.25in, bare = mm), n (index), tn (normal-incidence T of a slab
  * of index n), k (extinction coefficient, 1/m: tau0 = exp(-k d)), t0, r0 (= r0f), r0b
  * (normal-incidence T and R).  Everything ends as normal-incidence T0 and R0 per side, the input
@@ -257,7 +261,6 @@ static int read_catalogue(bst_ctx *ctx, bst_glass *g, const char *path, const ch
         return bsti_error(ctx, BST_ENOTFOUND, "glass:%s: no such pane in the catalogue (%s), no "
                           "such file, and not a key=value description; list the catalogue with "
                           "'bsdfstack glass --list'", name, dir);
-
     char line[1024];
     int lineno = 0, got;
     while (rc >= 0 && (got = bsti_glass_read_line(fp, line, sizeof line)) != 0) {
