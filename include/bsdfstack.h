@@ -58,6 +58,7 @@ enum bst_status {
     BST_ESINGULAR = -7,  /* (I - A) is singular to working precision */
     BST_ENOTFOUND = -8,  /* a named item (layer, component, channel) does not exist */
     BST_EINTERNAL = -9,  /* a library routine (BLAS, LAPACK, SuiteSparse) failed unexpectedly */
+    BST_ENOTIMPL = -10,  /* valid input that this version cannot model yet (e.g. a geometric shade) */
     BST_WILLCOND = 1,    /* warning: ill-conditioned solve, see the returned rcond */
     BST_WENERGY = 2,     /* warning: energy imbalance beyond tolerance in an input */
     BST_WDATA = 3        /* warning: input data repaired or completed (e.g. reciprocity used) */
@@ -694,10 +695,12 @@ int bst_output_clean(bst_ctx *ctx, size_t n, const char *const *paths, size_t *r
 int bst_output_commit(bst_output *o);
 void bst_output_abort(bst_output *o);
 
-/* ------------------- analytic glass: glass.c, glass_spec.c (specs), glass_band.c, glass_layer.c */
+/* ------------------- analytic glass: glass.c, glass_spec.c (specs), glass_band.c, glass_layer.c,
+ *                     glass_coated.c (coated model), glass_optics.c and glass_json.c (files) */
 
-/* A clear (uncoated) pane fixed per side and channel by its normal-incidence T0 and R0, as
- * Windows-CalcEngine treats uncoated glass; specs ("glass:SPEC") and the model: bsdfstack-glass(5).
+/* A pane fixed per side and channel by its normal-incidence T0 and R0, whose angular behaviour
+ * follows Windows-CalcEngine's model for uncoated glass or WINDOW's for coated glass (below);
+ * specs ("glass:SPEC"), files and the models: bsdfstack-glass(5).
  * (bst_glass is declared with the stacks, for bst_stack_combine_spectral.) */
 /* The catalogue directory used when none is given: the installed one, or the source tree's
  * layers/glass when this library runs from its build tree (not installed). */
@@ -744,6 +747,91 @@ int bst_glass_layer_from_spec(bst_ctx *ctx, const char *spec, const char *catalo
 /* A spectral pane at one wavelength (um) as a one-channel layer ("Spectral"). */
 int bst_glass_layer_at(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, double lambda_um,
                        int at_centre, bst_layer **out);
+
+/* The angular model of a pane's sides (bsdfstack-glass(5), MODEL): the uncoated slab (glass.c) or
+ * WINDOW's correlations for coated glass, laminates and films (glass_coated.c).  A pane read from a
+ * file that names its material type takes the model WINDOW takes for that type
+ * (bst_glass_model_for_type); "model=" in the spec or bst_glass_set_model overrides it. */
+typedef enum { BST_GLASS_UNCOATED = 0, BST_GLASS_COATED = 1 } bst_glass_model;
+/* The coated model follows its "clear" reference glass where a side's normal-incidence T0 exceeds
+ * this, else its "bronze" one (WINDOW's switch, a fixed part of the model). */
+#define BST_GLASS_COATED_CLEAR_T0 0.645
+bst_glass_model bst_glass_get_model(const bst_glass *g);
+int bst_glass_set_model(bst_ctx *ctx, bst_glass *g, bst_glass_model model);
+/* The model WINDOW takes for a material type (Monolithic, Interlayer: uncoated; Coated, Film,
+ * Applied Film, Laminate, Electrochromic, Thermochromic: coated; case, blanks, '-' and '_' are not
+ * significant): 0 and *model set, or BST_ENOTFOUND for a type it does not know. */
+int bst_glass_model_for_type(const char *type, bst_glass_model *model);
+/* Model names as specs write them ("uncoated", "coated"). */
+const char *bst_glass_model_name(bst_glass_model model);
+
+/* Where a pane comes from and what its file says of it.  Strings are "" and numbers NaN (nfrc_id
+ * -1) where the source gives nothing; all are owned by the pane.  Thickness in millimetres,
+ * conductivity in W/(m K); emissivities and IR transmittance are kept for the record, not used. */
+typedef struct {
+    const char *source;       /* "catalogue", "table" (bsdfstack's spectral TSV), "optics" (Optics /
+                                 IGDB text file), "igsdb" (IGSDB JSON record) or "inline" */
+    const char *path;         /* the file read (catalogue: the .glass file), "" inline */
+    const char *type;         /* material type as the source names it ("" none) */
+    const char *model_from;   /* why the pane has its model: "type", "spec" (model=), "catalogue"
+                                 (a model line), "set" (bst_glass_set_model) or "default" */
+    const char *product_name, *manufacturer, *coating_name, *coated_side;
+    const char *wavelength_units; /* as the file declares them ("" none: micrometres) */
+    long nfrc_id;
+    double thickness_mm, conductivity, emissivity_front, emissivity_back, ir_transmittance;
+} bst_glass_meta;
+const bst_glass_meta *bst_glass_metadata(const bst_glass *g);
+
+/* ------------------------------------------------------ IGSDB shading products: glass_json.c */
+
+/* A shading product of the International Glazing and Shading Database (an IGSDB JSON record of
+ * type "shading"): its material and its geometry, read and validated, for a geometric shade model
+ * to turn into a layer.  bsdfstack does not model geometric shades yet: glass: specs refuse these
+ * records (BST_ENOTIMPL).  Lengths in millimetres, angles in degrees, wavelengths in micrometres.
+ * IGSDB v1 field names are given beside each member. */
+typedef enum { BST_SHADE_VENETIAN, BST_SHADE_WOVEN, BST_SHADE_PERFORATED } bst_shade_kind;
+typedef enum { BST_PERFORATION_CIRCULAR, BST_PERFORATION_RECTANGULAR,
+               BST_PERFORATION_SQUARE } bst_perforation;
+/* Normal-incidence values of one band: {Tf, Tb, Rf, Rb}; NaN where the record gives none. */
+typedef struct {
+    double specular[4], diffuse[4];
+} bst_shade_band;
+typedef struct {
+    bst_ctx *ctx;                   /* the context that allocated it (bst_shade_free) */
+    char *name, *manufacturer;      /* name, manufacturer_name */
+    long product_id;                /* product_id */
+    bst_shade_kind kind;            /* subtype: venetian, woven, perforated-screen */
+    double permeability;            /* measured_data.permeability_factor (openness), NaN none */
+    struct {                        /* composition[0].child_product */
+        char *name;
+        double thickness_mm, conductivity, emissivity_front, emissivity_back, ir_transmittance;
+        size_t n;                   /* spectral_data.spectral_data rows (0: none) */
+        double *wl, *tf, *tb, *rf, *rb; /* T (both sides), Rf, Rb per wavelength */
+        int has_dual_band;          /* spectral_data.dual_band_values present */
+        bst_shade_band solar, visible; /* *_sol_*, *_vis_* */
+    } material;
+    union {                         /* composition[0].extra_data.geometry */
+        struct {
+            double slat_width, slat_spacing; /* slat_width, slat_spacing (> 0) */
+            double slat_curvature;           /* slat_curvature: radius, 0 = flat (else >= width/2) */
+            double slat_tilt;                /* slat_tilt, -90..90 */
+            int number_segments;             /* number_segments (>= 1) */
+        } venetian;
+        struct {
+            double thread_diameter, thread_spacing, shade_thickness; /* diameter <= spacing */
+        } woven;
+        struct {
+            bst_perforation type;            /* perforation_type */
+            double spacing_x, spacing_y;     /* spacing_x, spacing_y */
+            double dimension_x, dimension_y; /* circular: dimension_x is the diameter */
+        } perforated;
+    } geometry;
+} bst_shade;
+/* Read one IGSDB v1 shading record (a JSON file); every error names the file and the field. */
+int bst_shade_read_igsdb(bst_ctx *ctx, const char *path, bst_shade **out);
+void bst_shade_free(bst_shade *s);
+/* "venetian", "woven", "perforated-screen". */
+const char *bst_shade_kind_name(bst_shade_kind kind);
 
 /* ---------------------------------------------------------------------- sun positions: sun.c */
 

@@ -37,6 +37,7 @@ const char *bst_strerror(int status)
     case BST_ESINGULAR: return "singular matrix";
     case BST_ENOTFOUND: return "not found";
     case BST_EINTERNAL: return "internal error in a numerical library";
+    case BST_ENOTIMPL: return "not implemented yet";
     case BST_WILLCOND: return "ill-conditioned solve";
     case BST_WENERGY: return "energy imbalance";
     case BST_WDATA: return "input data completed or repaired";

@@ -24,6 +24,9 @@
  * here R0 = 0 is the limit R0 -> 0+, n = 1 and tau0 = T0, continuous (an absorbing pane without
  * reflection still has a path that grows as 1 / cos theta).  No measured glass has R0 = 0.
  *
+ * A side marked coated follows WINDOW's correlations for coated glass instead (glass_coated.c),
+ * with the same special case at theta = 0; the slab values are still derived, and unused.
+ *
  * A channel is a weighted sum of the model over nodes (struct bsti_glass_channel in glass.h): one
  * node for a band given by its normal-incidence values, the wavelengths of a band's grid with their
  * weights for a spectral pane (glass_band.c).  Angles in radians, wavelengths in micrometres. */
@@ -53,7 +56,7 @@ int bsti_glass_side_init(struct bsti_glass_side *s, double t0, double r0)
 {
     if (!(t0 >= 0.0 && r0 >= 0.0 && r0 < 1.0 && t0 <= 1.0))
         return -1;
-    s->t0 = t0, s->r0 = r0;
+    s->t0 = t0, s->r0 = r0, s->coated = 0;
     double u = 1.0 - r0, d = (t0 - u) * (t0 + u), S = hypot(2.0 * t0, d), den = 2.0 + d + S;
     double omr, omt; /* 1 - rho0, 1 - tau0 */
     if (t0 == 0.0) { /* opaque: a bare interface of reflectance R0 */
@@ -85,6 +88,10 @@ static void side_optics_cs(const struct bsti_glass_side *s, double theta, double
 {
     if (theta <= 0.0) {
         *t = s->t0, *r = s->r0;
+        return;
+    }
+    if (s->coated) {
+        bsti_glass_coated_optics(s->t0, s->r0, theta >= M_PI / 2 || ci <= 0.0 ? 0.0 : ci, t, r);
         return;
     }
     if (theta >= M_PI / 2 || ci <= 0.0) {
@@ -132,6 +139,41 @@ void bsti_glass_side_optics(const struct bsti_glass_side *s, double theta, doubl
 
 /* ------------------------------------------------------------------ the pane object */
 
+/* What an unset metadata string points to (never freed). */
+static const char meta_none[] = "";
+
+bst_glass *bsti_glass_new(bst_ctx *ctx)
+{
+    bst_glass *g = bsti_calloc(ctx, 1, sizeof *g);
+    if (!g)
+        return NULL;
+    g->ctx = ctx;
+    bst_glass_meta *m = &g->meta;
+    m->source = m->path = m->type = m->product_name = m->manufacturer = meta_none;
+    m->coating_name = m->coated_side = m->wavelength_units = meta_none;
+    m->model_from = "default"; /* always one of the literals of bst_glass_meta, never freed */
+    m->nfrc_id = -1;
+    m->thickness_mm = m->conductivity = m->emissivity_front = m->emissivity_back = NAN;
+    m->ir_transmittance = NAN;
+    return g;
+}
+
+int bsti_glass_meta_set(bst_glass *g, const char **field, const char *text)
+{
+    char *copy = bsti_strdup(g->ctx, text ? text : "");
+    if (!copy)
+        return BST_ENOMEM;
+    if (*field && *field != meta_none)
+        bsti_free(g->ctx, (char *)*field);
+    *field = copy;
+    return BST_OK;
+}
+
+const bst_glass_meta *bst_glass_metadata(const bst_glass *g)
+{
+    return g ? &g->meta : NULL;
+}
+
 static void spectrum_free(bst_ctx *ctx, struct bsti_glass_spectrum *t)
 {
     bsti_free(ctx, t->x), bsti_free(ctx, t->y);
@@ -153,6 +195,12 @@ void bst_glass_free(bst_glass *g)
     for (size_t i = 0; i < BSTI_GLASS_MAX_CH; i++)
         channel_clear(ctx, &g->ch[i]);
     bsti_free(ctx, g->description), bsti_free(ctx, g->where);
+    const char **meta[] = {&g->meta.source,       &g->meta.path,         &g->meta.type,
+                           &g->meta.product_name, &g->meta.manufacturer, &g->meta.coating_name,
+                           &g->meta.coated_side,  &g->meta.wavelength_units};
+    for (size_t i = 0; i < sizeof meta / sizeof meta[0]; i++)
+        if (*meta[i] && *meta[i] != meta_none)
+            bsti_free(ctx, (char *)*meta[i]);
     bsti_free(ctx, g->data.wl), bsti_free(ctx, g->data.tf), bsti_free(ctx, g->data.tb);
     bsti_free(ctx, g->data.rf), bsti_free(ctx, g->data.rb);
     spectrum_free(ctx, &g->solar), spectrum_free(ctx, &g->d65), spectrum_free(ctx, &g->v);
@@ -278,7 +326,8 @@ int bst_glass_optics_spectral(const bst_glass *g, double lambda, double theta, d
     double t0f, t0b, r0f, r0b, t, r;
     struct bsti_glass_side f, b;
     bsti_glass_data_at(&g->data, lambda, &t0f, &t0b, &r0f, &r0b);
-    if (bsti_glass_side_init(&f, t0f, r0f) || bsti_glass_side_init(&b, t0b, r0b))
+    if (bsti_glass_side_model(&f, t0f, r0f, g->model) ||
+        bsti_glass_side_model(&b, t0b, r0b, g->model))
         return BST_EINVAL;
     bsti_glass_side_optics(&f, theta, &t, &r);
     if (tf)
@@ -295,7 +344,7 @@ int bst_glass_optics_spectral(const bst_glass *g, double lambda, double theta, d
 
 int bst_glass_slab(const bst_glass *g, size_t ch, double lambda, int back, double *n, double *tau0)
 {
-    if (!g || ch >= g->nch)
+    if (!g || ch >= g->nch || g->model != BST_GLASS_UNCOATED) /* a coated side is no slab */
         return BST_EINVAL;
     struct bsti_glass_side s;
     if (g->data.n) {

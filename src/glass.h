@@ -1,6 +1,9 @@
 /* glass.h - internal side of the analytic glass module, shared by its files:
  *   glass.c        the slab model (Fresnel, a slab with bulk absorption), the pane object and its
  *                  evaluation at an angle, per channel or per wavelength;
+ *   glass_coated.c WINDOW's angular model of coated glass, and which model a material type takes;
+ *   glass_optics.c Optics / IGDB text files of a pane's spectral data;
+ *   glass_json.c   IGSDB JSON records: a glazing product's data, a shading product (bst_shade);
  *   glass_band.c   spectral panes: their data tables, the band spectra and the CIE fits, band
  *                  channels and their wavelength weights;
  *   glass_spec.c   specifications ("glass:NAME|PATH|key=value") and catalogue files;
@@ -30,6 +33,7 @@ struct bsti_glass_side {
     double tau0;    /* single-pass internal transmittance at normal incidence */
     double ltau0;   /* log(tau0) from 1 - tau0 (-inf when tau0 = 0): keeps a near-mirror's
                        1 - tau^(1 / cos t) exact through expm1 */
+    int coated;     /* 1: WINDOW's coated correlations from t0, r0 (glass_coated.c), not the slab */
 };
 
 /* Measured normal-incidence spectrum of a pane (wavelength in um). */
@@ -64,13 +68,22 @@ struct bst_glass {
     struct bsti_glass_channel ch[BSTI_GLASS_MAX_CH];
     char *description;
     char *where;                       /* "glass:SPEC", for messages */
+    bst_glass_model model;             /* of every side of every channel (bst_glass_set_model) */
+    bst_glass_meta meta;               /* its strings owned here (bsti_glass_meta_set) */
     struct bsti_glass_data data;       /* spectral panes only (data.n > 0) */
     struct bsti_glass_spectrum solar, d65, v, photopic; /* spectra of the bands, spectral panes */
 };
 
 /* The slab of one side from its normal-incidence T0 and R0 (steps 1-3 of the model in glass.c);
- * -1 when no slab has these values. */
+ * -1 when no slab has these values.  The side is uncoated; bsti_glass_side_model makes it follow
+ * the model given (a coated side keeps its slab values, which only bst_glass_slab would show). */
 int bsti_glass_side_init(struct bsti_glass_side *s, double t0, double r0);
+int bsti_glass_side_model(struct bsti_glass_side *s, double t0, double r0, bst_glass_model m);
+/* A new pane with empty metadata (NULL when out of memory). */
+bst_glass *bsti_glass_new(bst_ctx *ctx);
+/* Set one of the pane's metadata strings (g->meta.FIELD, not model_from) to a copy of text
+ * (NULL = ""), freeing the old. */
+int bsti_glass_meta_set(bst_glass *g, const char **field, const char *text);
 /* T and R of one side at theta (radians, 0..pi/2). */
 void bsti_glass_side_optics(const struct bsti_glass_side *s, double theta, double *t, double *r);
 /* y(xq) by linear interpolation in increasing x[0..n-1], constant outside the range. */
@@ -84,6 +97,19 @@ void bsti_glass_data_at(const struct bsti_glass_data *d, double um, double *tf, 
 int bsti_glass_channel_new(bst_ctx *ctx, bst_glass *g, const char *where, const char *name,
                            size_t nk);
 int bsti_glass_channel_commit(bst_ctx *ctx, bst_glass *g, int rc);
+
+/* ------------------------------------------------------------------ coated glass (glass_coated.c) */
+
+/* T and R at cos(theta) = c (0..1) of a coated side with normal-incidence t0, r0 (the reference
+ * glass by BST_GLASS_COATED_CLEAR_T0), without the
+ * special case theta = 0 (which gives t0, r0: bsti_glass_side_optics). */
+void bsti_glass_coated_optics(double t0, double r0, double c, double *t, double *r);
+/* The polynomials' values at c: the transmittance ratio T / T0 and the reflectance one, before
+ * T and R are formed and clipped; bronze = 1 for the bronze glass's (for the tests). */
+void bsti_glass_coated_poly(int bronze, double c, double *tau, double *rho);
+/* Give every side of g (and the channels added later) the model; from: g->meta.model_from, one of
+ * the literals listed there (kept, not copied). */
+int bsti_glass_apply_model(bst_glass *g, bst_glass_model model, const char *from);
 
 /* ------------------------------------------------------------------ spectral bands (glass_band.c) */
 
@@ -99,9 +125,40 @@ int bsti_glass_line_error(bst_ctx *ctx, const char *path, int lineno, int got, s
 struct bsti_glass_band;
 /* The band of that name (case-insensitive), NULL if none. */
 const struct bsti_glass_band *bsti_glass_find_band(const char *name);
-/* Read a pane's spectral data file (wavelength, Tf, Tb, Rf, Rb) into g->data and the band spectra
- * from the catalogue directory dir. */
+/* Read a pane's spectral data file into g->data, in whichever of its formats it is (bsdfstack's
+ * table: wavelength, Tf, Tb, Rf, Rb; an Optics / IGDB text file; an IGSDB JSON record), and the
+ * band spectra from the catalogue directory dir.  g->meta says what was read. */
 int bsti_glass_load_spectral(bst_ctx *ctx, bst_glass *g, const char *path, const char *dir);
+/* One row of spectral data as every file format must give it: a wavelength in um that is plausible
+ * (a file in nanometres read as micrometres is not) and above prev_um, and v = {Tf, Tb, Rf, Rb}
+ * each in [0, 1] with T + R <= 1 per side (to rounding) and R < 1.  where names the row. */
+int bsti_glass_row_check(bst_ctx *ctx, const char *where, double prev_um, double um,
+                         const double v[4]);
+/* Room for need rows in d's five columns, whose capacity is *cap (d->n rows kept). */
+int bsti_glass_data_reserve(bst_ctx *ctx, struct bsti_glass_data *d, size_t *cap, size_t need);
+
+/* ------------------------------------------------------------------ files (glass_optics.c, _json.c) */
+
+/* What the file readers take as plausible, to refuse a value in the wrong unit rather than keep
+ * it: a pane's thickness up to BSTI_GLASS_MAX_THICKNESS_MM (mm; metres read as mm pass, but
+ * micrometres do not), a conductivity up to BSTI_GLASS_MAX_CONDUCTIVITY W/(m K) (above any metal),
+ * a shade's lengths up to BSTI_SHADE_MAX_LENGTH_MM (mm), its slats cut into at most
+ * BSTI_SHADE_MAX_SEGMENTS segments. */
+#define BSTI_GLASS_MAX_THICKNESS_MM 1000.0
+#define BSTI_GLASS_MAX_CONDUCTIVITY 1e4
+#define BSTI_SHADE_MAX_LENGTH_MM 1e4
+#define BSTI_SHADE_MAX_SEGMENTS 1000
+
+/* Which format a pane's data file is, from its first characters: an IGSDB record starts with '{'
+ * (or '[') and then '"' or a line break, an Optics file with '{' and a field name on that line,
+ * anything else is bsdfstack's table.  An error when it cannot be opened. */
+enum bsti_glass_format { BSTI_GLASS_TABLE, BSTI_GLASS_OPTICS, BSTI_GLASS_IGSDB };
+int bsti_glass_sniff(bst_ctx *ctx, const char *path, enum bsti_glass_format *fmt);
+/* An Optics / IGDB text file into g->data and g->meta (type, product, thickness, ...). */
+int bsti_glass_read_optics(bst_ctx *ctx, bst_glass *g, const char *path);
+/* An IGSDB JSON record: a glazing product into g->data and g->meta; a shading product is read and
+ * validated as bst_shade_read_igsdb does and refused with BST_ENOTIMPL. */
+int bsti_glass_read_igsdb(bst_ctx *ctx, bst_glass *g, const char *path);
 /* Add band b as a channel of spectral pane g (where: for messages); complete or absent. */
 int bsti_glass_add_band(bst_ctx *ctx, bst_glass *g, const char *where,
                         const struct bsti_glass_band *b);

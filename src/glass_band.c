@@ -166,8 +166,8 @@ static int read_spectrum(bst_ctx *ctx, const char *dir, const char *file, int nc
     return rc;
 }
 
-/* The pane's measured data and the spectra of the bands, which live in the catalogue directory. */
-int bsti_glass_load_spectral(bst_ctx *ctx, bst_glass *g, const char *path, const char *dir)
+/* bsdfstack's own table of a pane's data: wavelength (um), Tf, Tb, Rf, Rb. */
+static int read_pane_table(bst_ctx *ctx, bst_glass *g, const char *path)
 {
     double *cols[5];
     int rc = read_table(ctx, path, 5, 1, cols, &g->data.n);
@@ -185,6 +185,69 @@ int bsti_glass_load_spectral(bst_ctx *ctx, bst_glass *g, const char *path, const
             return bsti_error(ctx, BST_EFORMAT, "%s: at %g um no uncoated pane has these T and R",
                               path, d->wl[k]);
     }
+    if ((rc = bsti_glass_meta_set(g, &g->meta.source, "table")) < 0)
+        return rc;
+    return bsti_glass_meta_set(g, &g->meta.path, path);
+}
+
+int bsti_glass_row_check(bst_ctx *ctx, const char *where, double prev_um, double um,
+                         const double v[4])
+{
+    static const char *const name[4] = {"Tf", "Tb", "Rf", "Rb"};
+    if (!(um >= WL_MIN_UM && um <= WL_MAX_UM))
+        return bsti_error(ctx, BST_EFORMAT, "%s: wavelength %g um is not in %g..%g um (the file's "
+                          "wavelength unit?)", where, um, WL_MIN_UM, WL_MAX_UM);
+    if (!(um > prev_um))
+        return bsti_error(ctx, BST_EFORMAT, "%s: wavelengths must increase (%g um after %g um)",
+                          where, um, prev_um);
+    for (int i = 0; i < 4; i++)
+        if (!(v[i] >= 0.0 && v[i] <= 1.0))
+            return bsti_error(ctx, BST_EFORMAT, "%s: %s = %g is not a value in [0, 1]", where,
+                              name[i], v[i]);
+    if (v[0] + v[2] > 1.0 + DATA_SUM_TOL || v[1] + v[3] > 1.0 + DATA_SUM_TOL)
+        return bsti_error(ctx, BST_EFORMAT, "%s: T + R exceeds 1 (Tf %g Rf %g, Tb %g Rb %g)",
+                          where, v[0], v[2], v[1], v[3]);
+    if (v[2] >= 1.0 || v[3] >= 1.0)
+        return bsti_error(ctx, BST_EFORMAT, "%s: R = 1: a perfect mirror is no pane", where);
+    return BST_OK;
+}
+
+int bsti_glass_data_reserve(bst_ctx *ctx, struct bsti_glass_data *d, size_t *cap, size_t need)
+{
+    if (need <= *cap)
+        return BST_OK;
+    size_t nc = *cap ? *cap : 128;
+    while (nc < need)
+        nc *= 2;
+    double **col[5] = {&d->wl, &d->tf, &d->tb, &d->rf, &d->rb};
+    for (int c = 0; c < 5; c++) {
+        double *q = bsti_alloc_array(ctx, nc, sizeof *q);
+        if (!q)
+            return BST_ENOMEM; /* the columns grown so far are d's, freed with it */
+        if (*col[c])
+            memcpy(q, *col[c], d->n * sizeof *q);
+        bsti_free(ctx, *col[c]);
+        *col[c] = q;
+    }
+    *cap = nc;
+    return BST_OK;
+}
+
+/* The pane's measured data, in whichever format the file is, and the spectra of the bands, which
+ * live in the catalogue directory. */
+int bsti_glass_load_spectral(bst_ctx *ctx, bst_glass *g, const char *path, const char *dir)
+{
+    enum bsti_glass_format fmt;
+    int rc = bsti_glass_sniff(ctx, path, &fmt);
+    if (rc < 0)
+        return rc;
+    switch (fmt) {
+    case BSTI_GLASS_OPTICS: rc = bsti_glass_read_optics(ctx, g, path); break;
+    case BSTI_GLASS_IGSDB: rc = bsti_glass_read_igsdb(ctx, g, path); break;
+    default: rc = read_pane_table(ctx, g, path); break;
+    }
+    if (rc < 0)
+        return rc;
     if ((rc = read_spectrum(ctx, dir, "solar_ASTM_E891_87_Table1.tsv", 2, &g->solar)) < 0 ||
         (rc = read_spectrum(ctx, dir, "photopic_source_D65.tsv", 2, &g->d65)) < 0 ||
         (rc = read_spectrum(ctx, dir, "photopic_detector_V.tsv", 2, &g->v)) < 0 ||
@@ -309,8 +372,8 @@ static int fill_band(bst_ctx *ctx, bst_glass *g, const char *where,
     for (size_t k = 0; k < m; k++) {
         double tf, tb, rf, rb;
         bsti_glass_data_at(d, own[k], &tf, &tb, &rf, &rb);
-        if (bsti_glass_side_init(&c->front[k], tf, rf) ||
-            bsti_glass_side_init(&c->back[k], tb, rb))
+        if (bsti_glass_side_model(&c->front[k], tf, rf, g->model) ||
+            bsti_glass_side_model(&c->back[k], tb, rb, g->model))
             return bsti_error(ctx, BST_EFORMAT, "%s: at %g um no uncoated pane has T0 = %g and "
                               "R0 = %g", where, own[k], tf, rf);
     }

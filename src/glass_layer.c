@@ -394,7 +394,8 @@ int bsti_glass_layer_data(bst_ctx *ctx, const bst_glass *g, const bst_basis *bas
     if (rule->n != bst_basis_size(basis))
         return bsti_error(ctx, BST_EINVAL, "glass layer: the patch rule is for another basis");
     struct bsti_glass_side sides[2];
-    if (bsti_glass_side_init(&sides[0], d[0], d[2]) || bsti_glass_side_init(&sides[1], d[1], d[3]))
+    if (bsti_glass_side_model(&sides[0], d[0], d[2], g->model) ||
+        bsti_glass_side_model(&sides[1], d[1], d[3], g->model))
         return bsti_error(ctx, BST_EINVAL, "%s: no slab has Tf %g, Tb %g, Rf %g, Rb %g at normal "
                           "incidence", g->where, d[0], d[1], d[2], d[3]);
     static const size_t zero = 0;

@@ -1,8 +1,12 @@
-/* glass_spec.c - what "glass:SPEC" names: a catalogue pane, a spectral data file or an inline pane.
+/* glass_spec.c - what "glass:SPEC" names: a catalogue pane, a spectral data file or an inline pane,
+ * and which angular model the pane follows.
  *
  * Specs (bsdfstack.h, bsdfstack-glass(5)): NAME is the catalogue file NAME.glass in the catalogue
- * directory; PATH (a '/' or a .tsv ending) a spectral data file averaged over Visible and Solar;
- * "key=value,..." an inline pane applied to Visible and Solar alike.  Inline keys: d (thickness, a
+ * directory; FILE (a '/' or a .tsv ending, or a file that exists where the catalogue has no such
+ * pane) a spectral data file in any of its formats (glass_band.c, glass_optics.c, glass_json.c)
+ * averaged over Visible and Solar; "key=value,..." an inline pane applied to Visible and Solar
+ * alike.  Any of them may carry ",model=uncoated|coated", which overrides the model the file's or
+ * catalogue's material type gives (settle_model).  Inline keys: d (thickness, a
  * length: 6mm, 0.006m, 0.6cm, 0.25in, bare = mm), n (index), tn (normal-incidence T of a slab
  * of index n), k (extinction coefficient, 1/m: tau0 = exp(-k d)), t0, r0 (= r0f), r0b
  * (normal-incidence T and R).  Everything ends as normal-incidence T0 and R0 per side, the input
@@ -233,18 +237,32 @@ static int add_spectral(bst_ctx *ctx, bst_glass *g, const char *where, const cha
     return rc;
 }
 
-/* A catalogue file (bsdfstack-glass(5)): '#' comments; "description TEXT"; "spectral FILE
- * [BAND...]" (FILE relative to the catalogue directory); "CHANNEL key=value,...". */
-static int read_catalogue(bst_ctx *ctx, bst_glass *g, const char *path, const char *name,
-                          const char *dir)
+/* "uncoated" or "coated" -> *m; -1 for anything else. */
+static int parse_model(const char *v, bst_glass_model *m)
 {
+    if (strcmp(v, "uncoated") == 0)
+        *m = BST_GLASS_UNCOATED;
+    else if (strcmp(v, "coated") == 0)
+        *m = BST_GLASS_COATED;
+    else
+        return -1;
+    return 0;
+}
+
+/* A catalogue file (bsdfstack-glass(5)): '#' comments; "description TEXT"; "spectral FILE
+ * [BAND...]" (FILE relative to the catalogue directory); "type TYPE"; "model MODEL" (*model, -1
+ * when the file gives none); "CHANNEL key=value,...". */
+static int read_catalogue(bst_ctx *ctx, bst_glass *g, const char *path, const char *name,
+                          const char *dir, int *model)
+{
+    int rc = BST_OK;
     FILE *fp = fopen(path, "r");
     if (!fp)
-        return bsti_error(ctx, BST_ENOTFOUND, "glass:%s: no such pane in the catalogue (%s) and "
-                          "not a key=value description; list the catalogue with "
+        return bsti_error(ctx, BST_ENOTFOUND, "glass:%s: no such pane in the catalogue (%s), no "
+                          "such file, and not a key=value description; list the catalogue with "
                           "'bsdfstack glass --list'", name, dir);
     char line[1024];
-    int lineno = 0, rc = BST_OK, got;
+    int lineno = 0, got;
     while (rc >= 0 && (got = bsti_glass_read_line(fp, line, sizeof line)) != 0) {
         lineno++;
         if (got < 0) {
@@ -274,6 +292,13 @@ static int read_catalogue(bst_ctx *ctx, bst_glass *g, const char *path, const ch
                 rc = BST_ENOMEM;
         } else if (!*rest) {
             rc = bsti_error(ctx, BST_EINVAL, "%s: '%s' without parameters", where, s);
+        } else if (strcmp(s, "type") == 0) {
+            rc = bsti_glass_meta_set(g, &g->meta.type, rest);
+        } else if (strcmp(s, "model") == 0) {
+            bst_glass_model m = BST_GLASS_UNCOATED;
+            if (parse_model(rest, &m) < 0)
+                rc = bsti_error(ctx, BST_EINVAL, "%s: model '%s' (uncoated or coated)", where, rest);
+            *model = (int)m;
         } else if (strcmp(s, "spectral") == 0) {
             char *names = rest;
             while (*names && !isspace((unsigned char)*names))
@@ -294,7 +319,79 @@ static int read_catalogue(bst_ctx *ctx, bst_glass *g, const char *path, const ch
     fclose(fp);
     if (rc >= 0 && g->nch == 0)
         rc = bsti_error(ctx, BST_EFORMAT, "%s: no channel defined", path);
+    /* the catalogue is the source, whatever data file it names */
+    if (rc >= 0)
+        rc = bsti_glass_meta_set(g, &g->meta.source, "catalogue");
+    if (rc >= 0)
+        rc = bsti_glass_meta_set(g, &g->meta.path, path);
     return rc;
+}
+
+/* Take the items "model=MODEL" out of a spec's comma-separated list (in place): *model stays -1
+ * when there is none. */
+static int take_model(bst_ctx *ctx, const char *where, char *spec, int *model)
+{
+    char *out = spec, *item = spec;
+    while (item) {
+        char *comma = strchr(item, ',');
+        size_t len = comma ? (size_t)(comma - item) : strlen(item);
+        if (len >= 6 && strncmp(item, "model=", 6) == 0) {
+            char v[16];
+            bst_glass_model m;
+            snprintf(v, sizeof v, "%.*s", (int)(len - 6 < sizeof v - 1 ? len - 6 : sizeof v - 1),
+                     item + 6);
+            if (*model >= 0)
+                return bsti_error(ctx, BST_EINVAL, "%s: model given twice", where);
+            if (len - 6 >= sizeof v - 1 || parse_model(v, &m) < 0)
+                return bsti_error(ctx, BST_EINVAL, "%s: model=%.*s (uncoated or coated)", where,
+                                  (int)(len - 6), item + 6);
+            *model = (int)m;
+        } else {
+            if (out != spec)
+                *out++ = ',';
+            memmove(out, item, len);
+            out += len;
+        }
+        item = comma ? comma + 1 : NULL;
+    }
+    *out = '\0';
+    return BST_OK;
+}
+
+/* The pane's model, once everything is read: model= in the spec, else the catalogue's model line,
+ * else the type its file or catalogue names (as WINDOW chooses), else uncoated. */
+static int settle_model(bst_ctx *ctx, bst_glass *g, int spec_model, int cat_model)
+{
+    bst_glass_model m = BST_GLASS_UNCOATED;
+    if (spec_model >= 0)
+        return bsti_glass_apply_model(g, (bst_glass_model)spec_model, "spec");
+    if (cat_model >= 0)
+        return bsti_glass_apply_model(g, (bst_glass_model)cat_model, "catalogue");
+    if (!*g->meta.type)
+        return bsti_glass_apply_model(g, m, "default");
+    if (bst_glass_model_for_type(g->meta.type, &m) < 0)
+        return bsti_error(ctx, BST_EFORMAT, "%s: material type '%s' is none of Monolithic, "
+                          "Interlayer (uncoated), Coated, Film, Applied Film, Laminate, "
+                          "Electrochromic, Thermochromic (coated): give model=uncoated or "
+                          "model=coated", g->where, g->meta.type);
+    return bsti_glass_apply_model(g, m, "type");
+}
+
+/* Whether a spec that is not key=value names a data file rather than a catalogue pane: a path
+ * (a '/', a .tsv ending), a name with characters no catalogue name has, or a file that exists
+ * where no catalogue pane of that name does. */
+static int names_file(const char *spec, const char *dir)
+{
+    size_t sl = strlen(spec);
+    if (strchr(spec, '/') || (sl > 4 && strcmp(spec + sl - 4, ".tsv") == 0))
+        return 1;
+    for (const char *c = spec; *c; c++)
+        if (!(isalnum((unsigned char)*c) || *c == '-' || *c == '_' || *c == '.'))
+            return access(spec, R_OK) == 0;
+    char path[1200];
+    if ((size_t)snprintf(path, sizeof path, "%s/%s.glass", dir, spec) >= sizeof path)
+        return 0;
+    return access(path, F_OK) != 0 && access(spec, R_OK) == 0;
 }
 
 int bst_glass_parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, bst_glass **out)
@@ -302,55 +399,61 @@ int bst_glass_parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, b
     if (!ctx || !spec || !out)
         return ctx ? bsti_error(ctx, BST_EINVAL, "glass: NULL argument") : BST_EINVAL;
     *out = NULL;
-    if (!*spec)
-        return bsti_error(ctx, BST_EINVAL, "glass: empty specification (glass:NAME, glass:PATH "
-                          "or glass:d=6mm,n=1.52,tn=0.89)");
-    bst_glass *g = bsti_calloc(ctx, 1, sizeof *g);
+    bst_glass *g = bsti_glass_new(ctx);
     if (!g)
         return BST_ENOMEM;
-    g->ctx = ctx;
-    int rc;
-    char where[600];
+    int rc = BST_OK, spec_model = -1, cat_model = -1;
+    char where[600], *body = NULL;
     snprintf(where, sizeof where, "glass:%s", spec);
-    if (!(g->where = bsti_strdup(ctx, where))) {
-        bst_glass_free(g);
-        return BST_ENOMEM;
-    }
-    size_t sl = strlen(spec);
+    if (!(g->where = bsti_strdup(ctx, where)) || !(body = bsti_strdup(ctx, spec)))
+        rc = BST_ENOMEM;
+    if (rc >= 0)
+        rc = take_model(ctx, where, body, &spec_model);
+    if (rc >= 0 && !*body)
+        rc = bsti_error(ctx, BST_EINVAL, "glass: empty specification (glass:NAME, glass:PATH "
+                        "or glass:d=6mm,n=1.52,tn=0.89)");
     const char *dir = catalogue_dir ? catalogue_dir : bst_glass_catalogue_dir();
-    /* key=value,... starts with a key; PATH (a '/' or a .tsv ending); else a catalogue NAME */
+    /* key=value,... starts with a key; else a data file or a catalogue NAME */
     size_t kl = 0;
-    while (isalnum((unsigned char)spec[kl]))
+    while (rc >= 0 && isalnum((unsigned char)body[kl]))
         kl++;
-    int is_inline = kl > 0 && spec[kl] == '=' && isalpha((unsigned char)spec[0]);
-    if (!is_inline && (strchr(spec, '/') || (sl > 4 && strcmp(spec + sl - 4, ".tsv") == 0))) {
-        char none[1] = "";
-        rc = add_spectral(ctx, g, where, spec, dir, none);
-        if (rc >= 0 && !(g->description = bsti_strdup(ctx, spec)))
-            rc = BST_ENOMEM;
+    int is_inline = rc >= 0 && kl > 0 && body[kl] == '=' && isalpha((unsigned char)body[0]);
+    if (rc < 0) {
+        /* nothing more */
     } else if (is_inline) {
-        rc = add_inline(ctx, g, where, "Visible", spec);
+        rc = add_inline(ctx, g, where, "Visible", body);
         if (rc >= 0)
-            rc = add_inline(ctx, g, where, "Solar", spec);
-        if (rc >= 0 && !(g->description = bsti_strdup(ctx, spec)))
+            rc = add_inline(ctx, g, where, "Solar", body);
+        if (rc >= 0 && (!(g->description = bsti_strdup(ctx, body)) ||
+                        bsti_glass_meta_set(g, &g->meta.source, "inline") < 0))
+            rc = BST_ENOMEM;
+    } else if (names_file(body, dir)) {
+        char none[1] = "", desc[800];
+        rc = add_spectral(ctx, g, where, body, dir, none);
+        /* the product's name where the file gives one */
+        snprintf(desc, sizeof desc, "%s%s%s%s", g->meta.product_name,
+                 *g->meta.product_name ? " (" : "", body, *g->meta.product_name ? ")" : "");
+        if (rc >= 0 && !(g->description = bsti_strdup(ctx, desc)))
             rc = BST_ENOMEM;
     } else {
-        rc = BST_OK;
-        for (const char *c = spec; *c && rc >= 0; c++)
+        for (const char *c = body; *c && rc >= 0; c++)
             if (!(isalnum((unsigned char)*c) || *c == '-' || *c == '_' || *c == '.'))
                 rc = bsti_error(ctx, BST_EINVAL, "%s: a catalogue name has letters, digits, '-', "
                                 "'_' and '.' only", where);
         if (rc >= 0) {
             char path[1200];
-            if ((size_t)snprintf(path, sizeof path, "%s/%s.glass", dir, spec) >= sizeof path)
+            if ((size_t)snprintf(path, sizeof path, "%s/%s.glass", dir, body) >= sizeof path)
                 rc = bsti_error(ctx, BST_EINVAL, "%s: the catalogue file's path is longer than %zu "
                                 "characters", where, sizeof path - 1);
             else
-                rc = read_catalogue(ctx, g, path, spec, dir);
+                rc = read_catalogue(ctx, g, path, body, dir, &cat_model);
         }
-        if (rc >= 0 && !g->description && !(g->description = bsti_strdup(ctx, spec)))
+        if (rc >= 0 && !g->description && !(g->description = bsti_strdup(ctx, body)))
             rc = BST_ENOMEM;
     }
+    if (rc >= 0)
+        rc = settle_model(ctx, g, spec_model, cat_model);
+    bsti_free(ctx, body);
     if (rc < 0) {
         bst_glass_free(g);
         return rc;

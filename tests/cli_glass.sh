@@ -26,7 +26,8 @@ rows_ok() {
 }
 
 expect_status 0 "glass --list" -- "$BSDFSTACK" glass --list
-for p in clear-3mm clear-4mm clear-6mm clear-8mm clear-10mm clear-12mm lowiron-6mm nfrc-102 nfrc-103; do
+for p in clear-3mm clear-4mm clear-6mm clear-8mm clear-10mm clear-12mm lowiron-6mm nfrc-102 nfrc-103 \
+    lowe-6mm solarcontrol-6mm laminated-6.4mm; do
     grep -q "^$p " "$tmpdir/out" || fail "catalogue lists $p"
 done
 sort -c "$tmpdir/out" 2>/dev/null && pass "catalogue sorted" || fail "catalogue not sorted"

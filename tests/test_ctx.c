@@ -60,8 +60,8 @@ END_TEST
 START_TEST(test_strerror)
 {
     int codes[] = {BST_OK, BST_EINVAL, BST_ENOMEM, BST_ESIZE, BST_EIO, BST_EFORMAT, BST_EBASIS,
-                   BST_ESINGULAR, BST_ENOTFOUND, BST_EINTERNAL, BST_WILLCOND, BST_WENERGY,
-                   BST_WDATA};
+                   BST_ESINGULAR, BST_ENOTFOUND, BST_EINTERNAL, BST_ENOTIMPL, BST_WILLCOND,
+                   BST_WENERGY, BST_WDATA};
     for (size_t i = 0; i < sizeof codes / sizeof codes[0]; i++)
         for (size_t j = 0; j < i; j++)
             ck_assert_str_ne(bst_strerror(codes[i]), bst_strerror(codes[j]));

@@ -664,8 +664,10 @@ def _copy_layer(ctx, src, names, prec):
 
 
 class Glass(_Source):
-    """A clear pane from a glass spec (bsdfstack-glass(5)): a catalogue name ("clear-6mm",
-    "nfrc-102"), a path to spectral data, or an inline pane ("d=6mm,n=1.52,tn=0.89")."""
+    """A pane from a glass spec (bsdfstack-glass(5)): a catalogue name ("clear-6mm",
+    "nfrc-102"), a spectral data file (bsdfstack's table, an Optics file, an IGSDB record), or an
+    inline pane ("d=6mm,n=1.52,tn=0.89"); ",model=coated" or ",model=uncoated" after any of them
+    chooses the angular model."""
 
     def __init__(self, spec, catalogue=None):
         _Source.__init__(self)
@@ -759,7 +761,8 @@ def load(path, channels=None, only=None, progress=None):
 
 
 def glass(spec, catalogue=None):
-    """A clear pane: glass("clear-6mm"), glass("nfrc-102"), glass("d=6mm,n=1.52,tn=0.89").
+    """A pane: glass("clear-6mm"), glass("nfrc-102"), glass("d=6mm,n=1.52,tn=0.89"),
+    glass("CLEAR_6.DAT"), glass("lowe-6mm,model=uncoated").
     catalogue: the directory of .glass files (default $BSDFSTACK_GLASS_DIR, else the
     library's)."""
     return Glass(spec, catalogue)

@@ -148,6 +148,9 @@ static uint64_t line_key(const struct batch *b, const struct batch_line *sl)
         if (len < sizeof file) {
             memcpy(file, spec, len);
             file[len] = '\0';
+            char *model = strstr(file, ",model="); /* a pane's model option follows its file */
+            if (model && stat(file, &st) != 0)
+                *model = '\0';
             if (stat(file, &st) == 0) {
                 int64_t v[3] = {(int64_t)st.st_size, (int64_t)st.st_mtim.tv_sec, (int64_t)st.st_mtim.tv_nsec};
                 h = fnv1a(h, v, sizeof v);

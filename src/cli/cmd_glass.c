@@ -1,5 +1,6 @@
-/* cmd_glass.c - `bsdfstack glass SPEC`: a clear pane's Tf, Tb, Rf, Rb and absorptances against the
- * incidence angle, per channel; `--list` lists the catalogue.  The catalogue directory is
+/* cmd_glass.c - `bsdfstack glass SPEC`: a pane's Tf, Tb, Rf, Rb and absorptances against the
+ * incidence angle, per channel, after # lines that say where the pane comes from, its angular model
+ * and why, and its file's metadata; `--list` lists the catalogue.  The catalogue directory is
  * $BSDFSTACK_GLASS_DIR, else bst_glass_catalogue_dir(). */
 #include <config.h>
 
@@ -14,16 +15,22 @@
 static const char help[] =
     "Usage: bsdfstack glass [--channels NAMES] SPEC\n"
     "       bsdfstack glass --list\n"
-    "Prints, for every channel of a clear pane, Tf, Tb, Rf, Rb and the absorptances Af = 1 - Tf - Rf\n"
-    "and Ab = 1 - Tb - Rb against the incidence angle theta = 0..85 degrees in 5 degree steps, 89,\n"
-    "89.9 and 90 (tab-separated; lines starting with # describe the pane).\n"
+    "Prints, for every channel of a pane, Tf, Tb, Rf, Rb and the absorptances Af = 1 - Tf - Rf and\n"
+    "Ab = 1 - Tb - Rb against the incidence angle theta = 0..85 degrees in 5 degree steps, 89,\n"
+    "89.9 and 90 (tab-separated; lines starting with # describe the pane: where it comes from, its\n"
+    "angular model and why, and what its file says of it).\n"
     "\n"
-    "SPEC (optionally prefixed by glass:):\n"
+    "SPEC (optionally prefixed by glass:, optionally followed by ,model=uncoated|coated):\n"
     "  NAME                      a pane of the catalogue (see --list, bsdfstack-glass(5))\n"
-    "  PATH                      normal-incidence spectral data (wavelength in um, Tf, Tb, Rf, Rb)\n"
+    "  FILE                      normal-incidence spectral data: bsdfstack's table (wavelength in\n"
+    "                            um, Tf, Tb, Rf, Rb), an Optics / IGDB text file (CLEAR_6.DAT) or\n"
+    "                            an IGSDB JSON record\n"
     "  d=6mm,n=1.52,tn=0.89      thickness, refractive index, normal-incidence transmittance\n"
     "  d=6mm,n=1.52,k=25/m       thickness, refractive index, extinction coefficient\n"
     "  t0=0.834,r0=0.0747[,r0b=0.08]  normal-incidence transmittance and reflectance(s)\n"
+    "model=coated takes WINDOW's angular model for coated glass, model=uncoated the uncoated\n"
+    "slab's; without it a file's material type decides as WINDOW does (Monolithic: uncoated;\n"
+    "Coated, Laminate, Applied Film, ...: coated), else the pane is uncoated.\n"
     "\n"
     "Options:\n"
     "  --channels NAMES   only these channels, in this order (e.g. Solar,CIE-X); a pane with\n"
@@ -68,10 +75,10 @@ static int list_catalogue(const char *sub, bst_ctx *ctx, const char *dir)
         bst_glass *g;
         if (rc == CLI_OK) {
             if (bst_glass_parse(ctx, names[i], dir, &g) >= 0) {
-                printf("%-14s %s\n", names[i], bst_glass_description(g));
+                printf("%-17s %s\n", names[i], bst_glass_description(g));
                 bst_glass_free(g);
             } else {
-                printf("%-14s (unreadable: %s)\n", names[i], bst_ctx_message(ctx));
+                printf("%-17s (unreadable: %s)\n", names[i], bst_ctx_message(ctx));
             }
         }
         free(names[i]);
@@ -80,18 +87,80 @@ static int list_catalogue(const char *sub, bst_ctx *ctx, const char *dir)
     return rc;
 }
 
-/* Describe the slab behind each channel in # lines. */
+/* Where the pane comes from, its angular model and why, and what its file says of it. */
+static void describe_source(const bst_glass *g)
+{
+    const bst_glass_meta *m = bst_glass_metadata(g);
+    bst_glass_model model = bst_glass_get_model(g);
+    printf("# source: %s%s%s\n", m->source, *m->path ? " " : "", m->path);
+    printf("# model: %s (%s", bst_glass_model_name(model),
+           model == BST_GLASS_COATED ? "WINDOW's correlations for coated glass"
+                                     : "Windows-CalcEngine's uncoated slab");
+    if (strcmp(m->model_from, "type") == 0)
+        printf("; from the type %s)\n", m->type);
+    else if (strcmp(m->model_from, "spec") == 0)
+        printf("; model= in the spec%s%s)\n", *m->type ? ", type " : "", m->type);
+    else if (strcmp(m->model_from, "catalogue") == 0)
+        printf("; the catalogue's model line)\n");
+    else
+        printf("; no type given)\n");
+    /* what the file says, in lines of the fields it gives */
+    char buf[3][600];
+    size_t len[3] = {0, 0, 0};
+    const struct {
+        int line;
+        const char *fmt, *text;
+        double x;
+    } f[] = {
+        {0, "product %s", m->product_name, NAN},
+        {0, "manufacturer %s", m->manufacturer, NAN},
+        {0, "NFRC ID %.0f", NULL, m->nfrc_id >= 0 ? (double)m->nfrc_id : NAN},
+        {1, "thickness %g mm", NULL, m->thickness_mm},
+        {1, "coating %s", m->coating_name, NAN},
+        {1, "coated side %s", m->coated_side, NAN},
+        {2, "emissivity front %g", NULL, m->emissivity_front},
+        {2, "back %g", NULL, m->emissivity_back},
+        {2, "conductivity %g W/(m K)", NULL, m->conductivity},
+        {2, "IR transmittance %g", NULL, m->ir_transmittance},
+    };
+    for (size_t i = 0; i < sizeof f / sizeof f[0]; i++) {
+        int k = f[i].line;
+        char *p = buf[k] + len[k];
+        size_t room = sizeof buf[k] - len[k];
+        if ((f[i].text ? !*f[i].text : isnan(f[i].x)) || room < 3)
+            continue;
+        int w = snprintf(p, room, "%s", len[k] ? "; " : "# ");
+        if (f[i].text)
+            w += snprintf(p + w, room - (size_t)w, f[i].fmt, f[i].text);
+        else
+            w += snprintf(p + w, room - (size_t)w, f[i].fmt, f[i].x);
+        len[k] = (size_t)w < room ? len[k] + (size_t)w : sizeof buf[k] - 1;
+    }
+    for (int k = 0; k < 3; k++)
+        if (len[k])
+            printf("%s%s\n", buf[k], k == 2 ? " (kept, not used)" : "");
+}
+
+/* Describe the pane and the slab (or the coated model's reference glass) behind each channel in
+ * # lines. */
 static void describe(const bst_glass *g, size_t nch, const size_t *idx)
 {
     printf("# %s\n", bst_glass_description(g));
+    describe_source(g);
+    int coated = bst_glass_get_model(g) == BST_GLASS_COATED;
     size_t nw = bst_glass_nwavelengths(g);
     if (nw)
-        printf("# spectral data: %zu wavelengths, %g..%g um; per wavelength n and tau0 follow from "
-               "the data\n", nw, bst_glass_wavelength(g, 0), bst_glass_wavelength(g, nw - 1));
+        printf("# spectral data: %zu wavelengths, %g..%g um; per wavelength %s\n", nw,
+               bst_glass_wavelength(g, 0), bst_glass_wavelength(g, nw - 1),
+               coated ? "the correlations scale the data" : "n and tau0 follow from the data");
     for (size_t c = 0; c < nch; c++) {
-        double nf, tf, nb, tb;
-        if (!nw && bst_glass_slab(g, idx[c], NAN, 0, &nf, &tf) >= 0 &&
-            bst_glass_slab(g, idx[c], NAN, 1, &nb, &tb) >= 0)
+        double nf, tf, nb, tb, t0f, t0b;
+        if (!nw && coated && bst_glass_optics(g, idx[c], 0.0, &t0f, &t0b, NULL, NULL) >= 0)
+            printf("# %s: reference glass %s (front), %s (back): clear where T0 > %g\n",
+                   bst_glass_channel(g, idx[c]), t0f > BST_GLASS_COATED_CLEAR_T0 ? "clear" : "bronze",
+                   t0b > BST_GLASS_COATED_CLEAR_T0 ? "clear" : "bronze", BST_GLASS_COATED_CLEAR_T0);
+        else if (!nw && bst_glass_slab(g, idx[c], NAN, 0, &nf, &tf) >= 0 &&
+                 bst_glass_slab(g, idx[c], NAN, 1, &nb, &tb) >= 0)
             printf("# %s: n %.4f, tau0 %.4f (front); n %.4f, tau0 %.4f (back)\n",
                    bst_glass_channel(g, idx[c]), nf, tf, nb, tb);
     }

@@ -11,7 +11,7 @@
 const struct cli_command cli_commands[] = {
     {"combine", cmd_combine, "combine layers (exterior first) into the system's BSDF XML"},
     {"convert", cmd_convert, "write a BSDF file as a tensor tree or Klems matrices, resampled if asked"},
-    {"glass", cmd_glass, "print a clear pane's T, R and absorptance against angle"},
+    {"glass", cmd_glass, "print a pane's T, R and absorptance against angle"},
     {"info", cmd_info, "summarize a BSDF file: basis, channels, hemispherical T and R, balance"},
     {"batch", cmd_batch, "combine many stacks listed in a file, each layer loaded once"},
     {"compare", cmd_compare, "how far two BSDFs agree: accordance and hemispherical values"},

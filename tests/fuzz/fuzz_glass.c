@@ -1,13 +1,15 @@
 /* fuzz_glass.c - libFuzzer target: glass specifications and catalogue files (glass_spec.c, with
- * glass_band.c for spectral data tables and glass.c for the slab model), then the pane's optics
- * and a small layer of it (glass_layer.c).
+ * glass_band.c for spectral data tables, glass_optics.c and glass_json.c for Optics files and IGSDB
+ * records, glass.c and glass_coated.c for the models), then the pane's optics and a small layer
+ * of it (glass_layer.c).
  *
  * Input, two modes:
  *   - one line (no '\n'): a specification, what follows "glass:" (d=6mm,n=1.52,tn=0.89; clear-6mm;
  *     a data file), parsed against the shipped catalogue ($BSDFSTACK_GLASS_DIR, else the source
  *     tree's layers/glass);
  *   - several lines: a catalogue file, read as pane "fuzz" of a scratch catalogue directory; text
- *     after a line "%%" becomes that directory's data.tsv, which "spectral data.tsv" reads.  The
+ *     after a line "%%" becomes that directory's data.tsv, which "spectral data.tsv" reads (in
+ *     whichever format its first characters say: a table, an Optics file, an IGSDB record).  The
  *     directory links the shipped band spectra and NFRC data tables.
  * Inputs naming dev/, proc/, sys/ or fd/ are skipped: a spec or catalogue may name any file, and
  * reading /dev/zero is not the parser's concern.  Seeds: corpus/glass, dictionary glass.dict. */
