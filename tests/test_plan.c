@@ -89,6 +89,17 @@ static bst_layer *layer_with(const char *const *names, size_t n)
     return l;
 }
 
+/* bst_plan_spectral on layers: the decision and warning wanted, and both texts in its reason. */
+static void expect_plan(size_t n, const bst_plan_layer *l, int per_channel, int want, int want_warn,
+                        const char *text1, const char *text2)
+{
+    char why[1024];
+    int spectral = -1, warn = -1;
+    ck_assert_int_eq(bst_plan_spectral(ctx, n, l, per_channel, why, sizeof why, &spectral, &warn), BST_OK);
+    ck_assert_msg(spectral == want && warn == want_warn, "%d, warn %d: %s", spectral, warn, why);
+    ck_assert_msg(strstr(why, text1) && strstr(why, text2), "%s", why);
+}
+
 START_TEST(test_spectral_plan)
 {
     bst_glass *g;
@@ -97,41 +108,23 @@ START_TEST(test_spectral_plan)
     static const char *const vx[] = {"Visible", "Solar", "Other"};
     bst_layer *pane = layer_with(sv, 2), *dual = layer_with(sv, 2), *vis = layer_with(v, 1);
     bst_layer *sol = layer_with(s, 1), *odd = layer_with(vx, 3);
-    char why[1024];
-    int spectral, warn;
     /* panes and a dual-band layer: per wavelength, the dual-band layer said so */
     bst_plan_layer two[3] = {{pane, g, 0}, {dual, NULL, 1}, {pane, g, 0}};
-    ck_assert_int_eq(bst_plan_spectral(ctx, 3, two, 0, why, sizeof why, &spectral, &warn), BST_OK);
-    ck_assert_int_eq(spectral, 1);
-    ck_assert_int_eq(warn, 0);
-    ck_assert_ptr_nonnull(strstr(why, "layer 2, "));
-    ck_assert_ptr_nonnull(strstr(why, "as WINDOW's dual-band material"));
-    /* asked per channel */
-    ck_assert_int_eq(bst_plan_spectral(ctx, 3, two, 1, why, sizeof why, &spectral, &warn), BST_OK);
-    ck_assert_int_eq(spectral, 0);
-    ck_assert_ptr_nonnull(strstr(why, "as asked"));
+    expect_plan(3, two, 0, 1, 0, "layer 2, ", "as WINDOW's dual-band material");
+    expect_plan(3, two, 1, 0, 0, "as asked", ""); /* asked per channel */
     /* a file layer with Visible only: no spectral data */
     bst_plan_layer plain[2] = {{pane, g, 0}, {vis, NULL, 1}};
-    ck_assert_int_eq(bst_plan_spectral(ctx, 2, plain, 0, why, sizeof why, &spectral, &warn), BST_OK);
-    ck_assert_int_eq(spectral, 0);
-    ck_assert_int_eq(warn, 0);
-    ck_assert_ptr_nonnull(strstr(why, "layer 2, "));
-    ck_assert_ptr_nonnull(strstr(why, "no Solar and Visible channels"));
+    expect_plan(2, plain, 0, 0, 0, "layer 2, ", "no Solar and Visible channels");
     /* Solar without Visible: per channel, with a warning */
     bst_plan_layer solar[2] = {{pane, g, 0}, {sol, NULL, 1}};
-    ck_assert_int_eq(bst_plan_spectral(ctx, 2, solar, 0, why, sizeof why, &spectral, &warn), BST_OK);
-    ck_assert_int_eq(spectral, 0);
-    ck_assert_int_eq(warn, 1);
-    ck_assert_ptr_nonnull(strstr(why, "name Visible in --channels too"));
+    expect_plan(2, solar, 0, 0, 1, "name Visible in --channels too", "");
     /* no pane at all; a channel that is not a band */
     bst_plan_layer none[1] = {{dual, NULL, 1}};
-    ck_assert_int_eq(bst_plan_spectral(ctx, 1, none, 0, why, sizeof why, &spectral, &warn), BST_OK);
-    ck_assert_int_eq(spectral, 0);
-    ck_assert_ptr_nonnull(strstr(why, "no layer is a pane"));
+    expect_plan(1, none, 0, 0, 0, "no layer is a pane", "");
     bst_plan_layer other[2] = {{odd, g, 0}, {odd, g, 0}};
-    ck_assert_int_eq(bst_plan_spectral(ctx, 2, other, 0, why, sizeof why, &spectral, &warn), BST_OK);
-    ck_assert_int_eq(spectral, 0);
-    ck_assert_ptr_nonnull(strstr(why, "channel Other is not a spectral band"));
+    expect_plan(2, other, 0, 0, 0, "channel Other is not a spectral band", "");
+    char why[64];
+    int spectral, warn;
     ck_assert_int_eq(bst_plan_spectral(ctx, 0, two, 0, why, sizeof why, &spectral, &warn), BST_EINVAL);
     /* channels in common, in layer 1's order; the bands */
     const bst_layer *ls[3] = {odd, dual, pane};
