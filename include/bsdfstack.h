@@ -483,7 +483,8 @@ int bst_bsdf_set_precision(bst_ctx *ctx, bst_bsdf *b, bst_precision prec);
  * Shirley-Chiu k = 5.  files[i] is layer i's file or NULL (a pane; either array may be NULL),
  * given[i] the basis of a layer given over one, or NULL.  k > 0 or klems ("full", "half",
  * "quarter") is the basis asked.  The pick names the basis so that another process (an MPI rank)
- * makes the same one with bst_plan_make_basis. */
+ * makes the same one with bst_plan_make_basis (from the same n files and given bases; a pick
+ * naming a layer that is not among them is refused). */
 typedef struct {
     int k;                  /* Shirley-Chiu order, 0 when not this */
     const char *klems;      /* Klems basis name, or NULL */
@@ -497,8 +498,8 @@ typedef struct {
 } bst_plan_basis;
 void bst_plan_pick_basis(size_t n, const bst_bsdf *const *files, const bst_basis *const *given,
                          int k, const char *klems, bst_plan_basis *pick);
-int bst_plan_make_basis(bst_ctx *ctx, const bst_plan_basis *pick, const bst_bsdf *const *files,
-                        const bst_basis *const *given, bst_basis **out);
+int bst_plan_make_basis(bst_ctx *ctx, const bst_plan_basis *pick, size_t n,
+                        const bst_bsdf *const *files, const bst_basis *const *given, bst_basis **out);
 
 /* The channels every layer holds, in layer 0's order, into names (room for layer 0's count): how
  * many.  The names are the layers'. */

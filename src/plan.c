@@ -72,8 +72,8 @@ void bst_plan_pick_basis(size_t n, const bst_bsdf *const *files, const bst_basis
     }
 }
 
-int bst_plan_make_basis(bst_ctx *ctx, const bst_plan_basis *pick, const bst_bsdf *const *files,
-                        const bst_basis *const *given, bst_basis **out)
+int bst_plan_make_basis(bst_ctx *ctx, const bst_plan_basis *pick, size_t n,
+                        const bst_bsdf *const *files, const bst_basis *const *given, bst_basis **out)
 {
     if (!ctx || !pick || !out)
         return BST_EINVAL;
@@ -82,9 +82,10 @@ int bst_plan_make_basis(bst_ctx *ctx, const bst_plan_basis *pick, const bst_bsdf
         return bst_basis_new_klems(ctx, pick->klems, out);
     if (pick->k)
         return bst_basis_new_sc(ctx, pick->k, out);
-    if (pick->file >= 0 && files && files[pick->file] && bst_bsdf_klems_basis(files[pick->file]))
+    if (pick->file >= 0 && (size_t)pick->file < n && files && files[pick->file] &&
+        bst_bsdf_klems_basis(files[pick->file]))
         return bst_basis_copy(ctx, bst_bsdf_klems_basis(files[pick->file]), out);
-    if (pick->given >= 0 && given && given[pick->given])
+    if (pick->given >= 0 && (size_t)pick->given < n && given && given[pick->given])
         return bst_basis_copy(ctx, given[pick->given], out);
     return bsti_error(ctx, BST_EINVAL, "plan: the basis picked (layer %ld) is not there",
                       pick->file >= 0 ? pick->file + 1 : pick->given + 1);

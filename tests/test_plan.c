@@ -40,7 +40,7 @@ START_TEST(test_basis_rule)
     ck_assert_int_eq(p.k, 0);
     ck_assert_int_eq(p.file, 1);
     bst_basis *basis;
-    ck_assert_int_eq(bst_plan_make_basis(ctx, &p, b, NULL, &basis), BST_OK);
+    ck_assert_int_eq(bst_plan_make_basis(ctx, &p, 3, b, NULL, &basis), BST_OK);
     ck_assert(bst_basis_equal(basis, bst_bsdf_klems_basis(klems)));
     bst_basis_free(basis);
     /* else a layer given over a basis, else k = 5 */
@@ -49,7 +49,7 @@ START_TEST(test_basis_rule)
     const bst_basis *given[3] = {NULL, NULL, half};
     bst_plan_pick_basis(3, NULL, given, 0, NULL, &p);
     ck_assert_int_eq(p.given, 2);
-    ck_assert_int_eq(bst_plan_make_basis(ctx, &p, NULL, given, &basis), BST_OK);
+    ck_assert_int_eq(bst_plan_make_basis(ctx, &p, 3, NULL, given, &basis), BST_OK);
     ck_assert(bst_basis_equal(basis, half));
     bst_basis_free(basis);
     bst_plan_pick_basis(2, NULL, NULL, 0, NULL, &p);
@@ -65,13 +65,13 @@ START_TEST(test_basis_rule)
     ck_assert_str_eq(p.note, "");
     bst_plan_pick_basis(2, r4, NULL, 0, "quarter", &p);
     ck_assert_str_eq(p.klems, "quarter");
-    ck_assert_int_eq(bst_plan_make_basis(ctx, &p, r4, NULL, &basis), BST_OK);
+    ck_assert_int_eq(bst_plan_make_basis(ctx, &p, 2, r4, NULL, &basis), BST_OK);
     ck_assert_uint_eq(bst_basis_size(basis), 41);
     bst_basis_free(basis);
     /* a pick that names a layer which is not there */
     bst_plan_basis bad = p;
     bad.klems = NULL, bad.k = 0, bad.file = 3, bad.given = -1;
-    ck_assert_int_eq(bst_plan_make_basis(ctx, &bad, r4, NULL, &basis), BST_EINVAL);
+    ck_assert_int_eq(bst_plan_make_basis(ctx, &bad, 2, r4, NULL, &basis), BST_EINVAL);
     ck_assert_ptr_null(basis);
     bst_basis_free(half);
     bst_bsdf_free(tree6), bst_bsdf_free(tree5), bst_bsdf_free(klems), bst_bsdf_free(iso);

@@ -872,7 +872,7 @@ def _default_basis(ctx, sources):
     lib.bst_plan_pick_basis(n, files, given, 0, None, ctypes.byref(pick))
     out = ctypes.c_void_p()
     with ctx as c:
-        ctx.check(lib.bst_plan_make_basis(c, ctypes.byref(pick), files, given, ctypes.byref(out)))
+        ctx.check(lib.bst_plan_make_basis(c, ctypes.byref(pick), n, files, given, ctypes.byref(out)))
     return _Basis(out.value, ctx)
 
 

@@ -167,7 +167,7 @@ _PROTOTYPES = {
     "bst_bsdf_klems_basis": (c_void_p, [c_void_p]),
     "bst_plan_pick_basis": (None, [c_size_t, c_void_p, c_void_p, c_int, c_char_p,
                                    POINTER(PlanBasis)]),
-    "bst_plan_make_basis": (c_int, [c_void_p, POINTER(PlanBasis), c_void_p, c_void_p,
+    "bst_plan_make_basis": (c_int, [c_void_p, POINTER(PlanBasis), c_size_t, c_void_p, c_void_p,
                                     POINTER(c_void_p)]),
     "bst_plan_channels": (c_size_t, [c_size_t, c_void_p, POINTER(c_char_p)]),
     "bst_plan_is_band": (c_int, [c_char_p]),

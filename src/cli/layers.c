@@ -117,7 +117,7 @@ static int read_all(bst_ctx *ctx, const char *sub, size_t n, char **specs,
     pick->file = plan.file;
     if (plan.klems)
         snprintf(pick->klems, sizeof pick->klems, "%s", plan.klems);
-    if (bst_plan_make_basis(ctx, &plan, (const bst_bsdf *const *)files, NULL, basis) < 0)
+    if (bst_plan_make_basis(ctx, &plan, n, (const bst_bsdf *const *)files, NULL, basis) < 0)
         return cli_fail_ctx(sub, NULL, ctx);
     return cli_memory_check(sub, *basis, n, files, ro->comps, prec, choice);
 }
