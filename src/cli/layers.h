@@ -39,6 +39,7 @@ struct cli_layers {
                           wavelength (bst_stack_combine_spectral) */
     size_t npanes;     /* how many are non-NULL */
     int plan_warn;     /* cli_spectral_plan's reason is one to warn of (bst_plan_spectral) */
+    int spectral;      /* cli_combine_run combined it per wavelength */
 };
 
 /* Parse -k VALUE (opt 'k') or --klems[=WHICH] (opt 'K') into choice; CLI_OK or a usage error. */
@@ -160,5 +161,24 @@ int cli_columns_spectral(bst_ctx *ctx, const char *sub, const struct cli_layers 
 /* Append "spectral: WHY" to set->description (the output's metadata); -v also prints it, and so
  * does set->plan_warn, as a warning. */
 int cli_note_spectral(const char *sub, struct cli_layers *set, const char *why, int verbose);
+
+/* How cli_combine_run runs a stack. */
+struct cli_run_opts {
+    int verbose;         /* -v: print the plan's reason */
+    int consume;         /* the layers may be freed at their last use (bst_stack_combine_consume;
+                          * not with absorptance); set->layers[i] are NULL after */
+    double *abs[2];      /* per-layer absorptance, front and back incidence (channel x layer x
+                          * patch each), or NULL: not wanted */
+    void (*spectral_step)(const bst_stack_step *, void *); /* per wavelength: the steps' callback
+                          * (bst_stack_opts.on_step) instead of args->so's, or NULL */
+    char *warning;       /* the combination's warning text, when there is one, or NULL */
+    size_t warning_size;
+};
+/* The run step of combine and batch: plan (cli_spectral_plan, its reason noted in set's
+ * description), then combine per wavelength or per channel, absorptance beside it when asked.
+ * where: the stack's name in messages (a batch line) or NULL.  CLI_OK, or one error line printed
+ * and *sys NULL. */
+int cli_combine_run(bst_ctx *ctx, const char *sub, const char *where, struct cli_layers *set,
+                    const struct cli_stack_args *args, const struct cli_run_opts *ro, bst_layer **sys);
 
 #endif
