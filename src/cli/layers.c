@@ -276,27 +276,29 @@ int cli_layers_check(bst_ctx *ctx, const char *sub, size_t n, char **specs,
 int cli_basis_make(bst_ctx *ctx, const char *sub, const struct cli_basis_pick *pick, char **specs,
                    const char *channels, bst_precision prec, bst_basis **basis)
 {
-    int st;
     *basis = NULL;
-    if (pick->klems[0])
-        st = bst_basis_new_klems(ctx, pick->klems, basis);
-    else if (pick->k)
-        st = bst_basis_new_sc(ctx, pick->k, basis);
-    else {
+    bst_plan_basis plan = {.k = pick->k, .klems = pick->klems[0] ? pick->klems : NULL,
+                           .file = pick->file, .given = -1};
+    /* the plan's basis made as the picking process made it: only the named file is read */
+    size_t n = pick->file >= 0 ? (size_t)pick->file + 1 : 0;
+    bst_bsdf **files = n ? calloc(n, sizeof *files) : NULL;
+    int rc = n && !files ? cli_fail(sub, "out of memory") : CLI_OK;
+    if (rc == CLI_OK && n) {
         char *chcopy = channels ? strdup(channels) : NULL;
         const char *chnames[MAX_CH];
         size_t nch = chcopy ? split(chcopy, chnames, MAX_CH) : 0;
         bst_bsdf_read_opts ro = {.nchannels = nch, .channels = chnames, .precision = prec};
-        bst_bsdf *file = NULL;
-        int rc = channels && !chcopy ? cli_fail(sub, "out of memory")
-                                     : read_one(ctx, sub, NULL, specs[pick->file], &ro, 1, &file);
+        rc = channels && !chcopy ? cli_fail(sub, "out of memory")
+                                 : read_one(ctx, sub, NULL, specs[n - 1], &ro, 1, &files[n - 1]);
         free(chcopy);
-        if (rc != CLI_OK)
-            return rc;
-        st = bst_basis_copy(ctx, bst_bsdf_klems_basis(file), basis);
-        bst_bsdf_free(file);
     }
-    return st < 0 ? cli_fail_ctx(sub, NULL, ctx) : CLI_OK;
+    if (rc == CLI_OK && bst_plan_make_basis(ctx, &plan, n, (const bst_bsdf *const *)files, NULL,
+                                            basis) < 0)
+        rc = cli_fail_ctx(sub, NULL, ctx);
+    if (files)
+        bst_bsdf_free(files[n - 1]);
+    free(files);
+    return rc;
 }
 
 int cli_layer_load(bst_ctx *ctx, const char *sub, const char *what, const char *spec,
