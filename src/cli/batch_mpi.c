@@ -85,18 +85,17 @@ static void wait_quietly(MPI_Request *req, MPI_Status *status)
     }
 }
 
-/* A rank's cost estimate of line sl: the channels times, for each of the n - 1 steps, N^3 when
- * the partial system or the layer added is dense (every later step too: a dense partial stays
- * dense), N^2 for sparse, N for diagonal, N the basis's patches.  Only the order matters. */
-static double cost_of(const struct batch_line *sl, const int *structure, double n)
+/* A rank's cost estimate of line sl, by the plan's work model (bst_plan_work): the layers'
+ * structures over N patches.  Only the order matters. */
+static double cost_of(const struct batch_line *sl, const bst_structure *structure, size_t N)
 {
-    int s = structure[sl->layer[0]];
-    double cost = 0, unit[3] = {n, n * n, n * n * n};
-    for (size_t i = 1; i < sl->n; i++) {
-        if (structure[sl->layer[i]] > s)
-            s = structure[sl->layer[i]];
-        cost += unit[s];
-    }
+    bst_structure *s = malloc((sl->n + 1) * sizeof *s);
+    if (!s)
+        return 0.0; /* dealt out last: no harm */
+    for (size_t i = 0; i < sl->n; i++)
+        s[i] = structure[sl->layer[i]];
+    double cost = bst_plan_work(sl->n, s, N, NULL);
+    free(s);
     return cost;
 }
 
@@ -282,14 +281,14 @@ static void share_cpus(bst_ctx *ctx, int rank, int size)
 /* Rank 0: the lines to do, costliest first, dealt out to the other ranks; the summary and the
  * failures told.  The run's status. */
 static int lead(bst_ctx *ctx, struct batch *b, const struct cli_basis_pick *pick,
-                const int *structure, const char *summary, struct cli_out *sum, int size)
+                const bst_structure *structure, const char *summary, struct cli_out *sum, int size)
 {
     const char *sub = b->sub;
     int rc = CLI_OK;
     struct stack_result *res = calloc(b->nlines, sizeof *res);
     struct todo *todo = calloc(b->nlines, sizeof *todo);
     size_t ntodo = 0, done = 0, failed = 0, skipped = 0;
-    double n = pick->k ? pow(4.0, pick->k) : 145.0;
+    size_t N = pick->k ? (size_t)1 << (2 * pick->k) : 145;
     if (!res || !todo) {
         rc = cli_fail(sub, "out of memory");
         MPI_Abort(MPI_COMM_WORLD, CLI_FAIL);
@@ -304,7 +303,7 @@ static int lead(bst_ctx *ctx, struct batch *b, const struct cli_basis_pick *pick
             continue;
         }
         todo[ntodo].line = i;
-        todo[ntodo++].cost = cost_of(&b->lines[i], structure, n);
+        todo[ntodo++].cost = cost_of(&b->lines[i], structure, N);
     }
     qsort(todo, ntodo, sizeof *todo, by_cost);
     b->resume = 0; /* decided here, once */
@@ -356,7 +355,7 @@ static int run(int argc, char **argv, int rank, int size)
     struct batch_file bf;
     memset(&bf, 0, sizeof bf);
     struct cli_basis_pick pick = {.file = -1};
-    int *structure = NULL;
+    bst_structure *structure = NULL;
     bst_ctx *ctx = cli_ctx_new(sub);
     rc = ctx ? CLI_OK : CLI_FAIL;
     if (rank == 0 && rc == CLI_OK)

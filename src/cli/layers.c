@@ -232,7 +232,7 @@ out:
 
 int cli_layers_check(bst_ctx *ctx, const char *sub, size_t n, char **specs,
                      const struct cli_basis_choice *choice, const char *channels,
-                     bst_precision prec, struct cli_basis_pick *pick, int *structure)
+                     bst_precision prec, struct cli_basis_pick *pick, bst_structure *structure)
 {
     bst_bsdf **files = calloc(n, sizeof *files);
     char *chcopy = channels ? strdup(channels) : NULL;
@@ -253,7 +253,7 @@ int cli_layers_check(bst_ctx *ctx, const char *sub, size_t n, char **specs,
                 for (int c = 0; c < BST_NCOMP; c++)
                     if (bst_bsdf_fill(files[i], ch, (bst_comp)c) > fill)
                         fill = bst_bsdf_fill(files[i], ch, (bst_comp)c);
-            structure[i] = fill > BST_SPARSE_MAX_FILL ? CLI_DENSE : fill > 0 ? CLI_SPARSE : CLI_DIAGONAL;
+            structure[i] = fill > BST_SPARSE_MAX_FILL ? BST_DENSE : fill > 0 ? BST_SPARSE : BST_DIAG;
             continue;
         }
         /* a pane: made once here (cheap: one diagonal per component) so that its errors show now */
@@ -263,7 +263,7 @@ int cli_layers_check(bst_ctx *ctx, const char *sub, size_t n, char **specs,
                         &l, &pane);
         bst_layer_free(l);
         bst_glass_free(pane);
-        structure[i] = CLI_DIAGONAL;
+        structure[i] = BST_DIAG;
     }
     for (size_t i = 0; i < n; i++)
         bst_bsdf_free(files[i]);

@@ -102,16 +102,15 @@ struct cli_basis_pick {
     char klems[8]; /* "full", "half", "quarter", or "" */
     long file;     /* -1 when not this */
 };
-/* The structure a layer will have once loaded (glass: diagonal; a file: dense when a component
- * fills more than BST_SPARSE_MAX_FILL of its domain, as bst_bsdf_to_layer decides). */
-enum { CLI_DIAGONAL, CLI_SPARSE, CLI_DENSE };
 /* Check every spec as cli_layers_load would load it (all components), without resampling the
  * files: read each file, choose the basis (told in *pick), run the memory guard over all, make
- * each pane once; structure[i] gets the structure of layer i.  CLI_OK, or one error line
- * printed.  The reader's warnings are printed here. */
+ * each pane once; structure[i] gets the structure layer i will have once loaded (a pane
+ * diagonal; a file dense when a component fills more than BST_SPARSE_MAX_FILL of its domain, as
+ * bst_bsdf_to_layer decides).  CLI_OK, or one error line printed.  The reader's warnings are
+ * printed here. */
 int cli_layers_check(bst_ctx *ctx, const char *sub, size_t n, char **specs,
                      const struct cli_basis_choice *choice, const char *channels,
-                     bst_precision prec, struct cli_basis_pick *pick, int *structure);
+                     bst_precision prec, struct cli_basis_pick *pick, bst_structure *structure);
 /* The basis *pick names (specs: those it was picked from). */
 int cli_basis_make(bst_ctx *ctx, const char *sub, const struct cli_basis_pick *pick, char **specs,
                    const char *channels, bst_precision prec, bst_basis **basis);
