@@ -109,9 +109,9 @@ static int load(bst_ctx *ctx, const char *sub, struct combine_req *q, struct cli
     int rc = cli_layers_load(set, ctx, sub, q->nspecs, q->specs, &q->args.basis, q->args.channels,
                              0, q->args.so.precision);
     if (rc == CLI_OK && q->verbose) {
-        char what[96];
-        snprintf(what, sizeof what, "read %zu layer%s onto %zu patches", set->n,
-                 set->n == 1 ? "" : "s", bst_basis_size(set->basis));
+        char what[256];
+        snprintf(what, sizeof what, "read %zu layer%s onto %zu patches (%s)", set->n,
+                 set->n == 1 ? "" : "s", bst_basis_size(set->basis), set->basis_why);
         combine_phase(what, t0);
     }
     return rc;

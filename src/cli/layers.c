@@ -115,6 +115,7 @@ static int read_all(bst_ctx *ctx, const char *sub, size_t n, char **specs,
     memset(pick, 0, sizeof *pick);
     pick->k = plan.k;
     pick->file = plan.file;
+    snprintf(pick->why, sizeof pick->why, "%s", plan.why);
     if (plan.klems)
         snprintf(pick->klems, sizeof pick->klems, "%s", plan.klems);
     if (bst_plan_make_basis(ctx, &plan, n, (const bst_bsdf *const *)files, NULL, basis) < 0)
@@ -210,6 +211,7 @@ int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_
     struct cli_basis_pick pick;
     if ((rc = read_all(ctx, sub, n, specs, choice, &ro, prec, files, &set->basis, &pick)) != CLI_OK)
         goto out;
+    snprintf(set->basis_why, sizeof set->basis_why, "%s", pick.why);
     /* 3. every layer over that basis, reversed where asked */
     for (size_t i = 0; i < n && rc == CLI_OK; i++) {
         rc = make_layer(ctx, sub, specs[i], specs[i], files[i], set->basis, nch, chnames,

@@ -40,6 +40,7 @@ struct cli_layers {
     size_t npanes;     /* how many are non-NULL */
     int plan_warn;     /* cli_spectral_plan's reason is one to warn of (bst_plan_spectral) */
     int spectral;      /* cli_combine_run combined it per wavelength */
+    char basis_why[160]; /* the plan's reason for the basis (bst_plan_basis.why) */
 };
 
 /* Parse -k VALUE (opt 'k') or --klems[=WHICH] (opt 'K') into choice; CLI_OK or a usage error. */
@@ -101,6 +102,7 @@ struct cli_basis_pick {
     int k;         /* 0 when not this */
     char klems[8]; /* "full", "half", "quarter", or "" */
     long file;     /* -1 when not this */
+    char why[160]; /* the rule that chose (bst_plan_basis.why) */
 };
 /* Check every spec as cli_layers_load would load it (all components), without resampling the
  * files: read each file, choose the basis (told in *pick), run the memory guard over all, make
