@@ -106,7 +106,9 @@ typedef enum {
     BST_ZERO = 0,    /* no storage: every element is 0 */
     BST_DIAG = 1,    /* square, only the diagonal is stored: O(N) */
     BST_SPARSE = 2,  /* compressed sparse column (CHOLMOD), always double */
-    BST_DENSE = 3    /* column-major, double or float */
+    BST_DENSE = 3,   /* column-major, double or float */
+    BST_FACTORED = 4 /* D + U K V^T: a diagonal and a low-rank part over a coarse map (a tree of
+                        depth d read at a finer order is P M_d P^T exactly), double */
 } bst_structure;
 
 typedef enum { BST_DOUBLE = 0, BST_FLOAT = 1 } bst_precision;
@@ -283,6 +285,7 @@ typedef struct {
     double flops;           /* floating-point operations of its dense kernels (GEMM, LU, triangular
                                solves, sparse by dense products; LAPACK Working Note 41's counts),
                                O(N^2) element-wise work not counted; see bsdfstack-combine(1) */
+    size_t rank;            /* BST_FACTORED: the rank of the low-rank part, else 0 */
 } bst_stack_step;
 
 typedef struct {
@@ -539,7 +542,9 @@ double bst_plan_work(size_t n, const bst_structure *structure, size_t N, double 
  * a component a file's layer holds is dense (N^2 values of the read precision) unless the file's
  * values fill at most BST_SPARSE_MAX_FILL of its domain (specular trees: sparse, 16 bytes a
  * value); on top of them a conversion needs one double grid, a combination (combining)
- * 3 N^2 values of the work precision, whichever is more; for the rest (the program, its
+ * 3 N^2 values of the work precision, whichever is more; a rank-4 tree of depth d below the
+ * Shirley-Chiu order asked is held factored (BST_FACTORED): its 4^d x 4^d doubles, and a
+ * combination of such layers alone three of the largest; for the rest (the program, its
  * libraries, diagonal and sparse parts) 64 MiB and N^2 / 2 bytes.  comps: the components read
  * (BST_COMP_BIT mask, 0 = all); *ndense (may be NULL): the dense components counted. */
 double bst_plan_memory(const bst_basis *basis, size_t n, const bst_bsdf *const *files,

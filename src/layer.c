@@ -11,6 +11,7 @@
 #include "basis.h"
 #include "ctx.h"
 #include "layer.h"
+#include "mat.h"
 
 static const char *const comp_names[BST_NCOMP] = {"Tf", "Rf", "Tb", "Rb"};
 
@@ -190,6 +191,22 @@ static int mirror_x_permutation(bst_ctx *ctx, const bst_basis *b, bst_mat **out)
     return rc;
 }
 
+/* P M P for a FACTORED M and the mirror P, in M's factors (bsti_lr_permute); BST_ENOTFOUND when
+ * the map does not allow it. */
+static int mirror_factored(bst_ctx *ctx, const bst_basis *b, const bst_mat *m, bst_mat **out)
+{
+    size_t n = bst_basis_size(b);
+    size_t *perm = bsti_alloc_array(ctx, n, sizeof *perm);
+    if (!perm)
+        return BST_ENOMEM;
+    for (size_t j = 0; j < n; j++)
+        perm[j] = bsti_basis_mirror_x(b, j);
+    bsti_lr *lr;
+    int rc = bsti_lr_permute(ctx, m->lr, perm, &lr);
+    bsti_free(ctx, perm);
+    return rc < 0 ? rc : bsti_mat_from_lr(ctx, lr, out);
+}
+
 int bst_layer_flip(bst_ctx *ctx, const bst_layer *l, bst_layer **out)
 {
     if (!ctx || !l || !out)
@@ -210,12 +227,22 @@ int bst_layer_flip(bst_ctx *ctx, const bst_layer *l, bst_layer **out)
             if (!m)
                 continue;
             bst_mat *pm = NULL, *pmp = NULL, *res = NULL;
+            if (bst_mat_structure(m) == BST_FACTORED) { /* permuted in its factors */
+                rc = mirror_factored(ctx, l->basis, m, &res);
+                if (rc != BST_ENOTFOUND) {
+                    if (rc >= 0)
+                        rc = bst_layer_set(ctx, f, ch, (bst_comp)c, res);
+                    continue;
+                }
+                rc = BST_OK; /* a map the mirror does not keep: through the values, dense */
+            }
             rc = bst_mat_mul(ctx, p, m, 0.0, &pm);
             if (rc >= 0)
                 rc = bst_mat_mul(ctx, pm, p, 0.0, &pmp);
             bst_mat_free(pm);
             /* keep the input's structure: a permuted diagonal is diagonal again */
-            if (rc >= 0 && bst_mat_structure(pmp) != bst_mat_structure(m)) {
+            if (rc >= 0 && bst_mat_structure(pmp) != bst_mat_structure(m) &&
+                bst_mat_structure(m) != BST_FACTORED) {
                 rc = bst_mat_convert(ctx, pmp, bst_mat_structure(m), bst_mat_precision(m), &res);
                 bst_mat_free(pmp);
             } else {

@@ -8,6 +8,7 @@
 #include <config.h>
 
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include <cblas.h>
@@ -33,7 +34,7 @@ int bsti_lr_map_new(bst_ctx *ctx, size_t N, size_t r, size_t nnz, bsti_lr_map **
         bsti_lr_map_free(ctx, S);
         return BST_ENOMEM;
     }
-    S->N = N, S->r = r;
+    S->N = N, S->r = r, S->k = -1, S->d = -1, S->refs = 1, S->ctx = ctx;
     S->start[0] = 0, S->start[N] = nnz;
     *out = S;
     return BST_OK;
@@ -49,6 +50,8 @@ int bsti_lr_map_prolong(bst_ctx *ctx, int k, int d, bsti_lr_map **out)
     if (rc < 0)
         return rc;
     bsti_lr_map *S = *out;
+    S->k = k, S->d = d;
+    snprintf(S->tag, sizeof S->tag, "P");
     for (size_t x = 0; x < N; x++) {
         S->start[x] = x;
         S->col[x] = ((x / G) >> s) * g + ((x % G) >> s);
@@ -57,12 +60,37 @@ int bsti_lr_map_prolong(bst_ctx *ctx, int k, int d, bsti_lr_map **out)
     return BST_OK;
 }
 
+static void map_hold(const bsti_lr_map *S)
+{
+    __atomic_add_fetch(&((bsti_lr_map *)S)->refs, 1, __ATOMIC_RELAXED);
+}
+
+static void map_release(const bsti_lr_map *S)
+{
+    bsti_lr_map *m = (bsti_lr_map *)S;
+    if (!m || __atomic_sub_fetch(&m->refs, 1, __ATOMIC_ACQ_REL) != 0)
+        return;
+    bsti_free(m->ctx, m->start), bsti_free(m->ctx, m->col), bsti_free(m->ctx, m->w);
+    bsti_free(m->ctx, m);
+}
+
 void bsti_lr_map_free(bst_ctx *ctx, bsti_lr_map *S)
 {
-    if (!S)
-        return;
-    bsti_free(ctx, S->start), bsti_free(ctx, S->col), bsti_free(ctx, S->w);
-    bsti_free(ctx, S);
+    (void)ctx; /* freed through the context that made it, by the last holder */
+    map_release(S);
+}
+
+int bsti_lr_same_map(const bsti_lr *f, const bsti_lr *g)
+{
+    const bsti_lr_map *a = f->S, *b = g->S;
+    return a == b || (a->tag[0] && strcmp(a->tag, b->tag) == 0 && a->k == b->k && a->d == b->d &&
+                      a->N == b->N && a->r == b->r);
+}
+
+bsti_lr_map *bsti_lr_map_hold(bsti_lr_map *S)
+{
+    map_hold(S);
+    return S;
 }
 
 void bsti_lr_free(bst_ctx *ctx, bsti_lr *m)
@@ -70,6 +98,7 @@ void bsti_lr_free(bst_ctx *ctx, bsti_lr *m)
     if (!m)
         return;
     bsti_free(ctx, m->d), bsti_free(ctx, m->a), bsti_free(ctx, m->b), bsti_free(ctx, m->k);
+    map_release(m->S);
     bsti_free(ctx, m);
 }
 
@@ -83,6 +112,7 @@ static int lr_alloc(bst_ctx *ctx, const bsti_lr_map *S, size_t p, size_t q, int 
     if (!m)
         return BST_ENOMEM;
     *m = (bsti_lr){.S = S, .N = N, .r = r, .p = p, .q = q};
+    map_hold(S);
     int ok = (!with_d || (m->d = bsti_alloc_array(ctx, N, sizeof *m->d))) &&
              (m->a = bsti_alloc_array(ctx, p * N + 1, sizeof *m->a)) &&
              (m->b = bsti_alloc_array(ctx, q * N + 1, sizeof *m->b)) &&
@@ -195,7 +225,7 @@ static int lr_from_lists(bst_ctx *ctx, const bsti_lr_map *S, const struct lists 
 
 static int same_map(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g)
 {
-    if (f->S != g->S)
+    if (!bsti_lr_same_map(f, g))
         return bsti_error(ctx, BST_EINVAL, "factored matrices over different maps");
     return BST_OK;
 }
@@ -352,7 +382,7 @@ static int capacitance(bst_ctx *ctx, const bsti_lr *f, const double *einv, doubl
 
 /* y = F x (trans 0) or F^T x (trans 1) without forming F: the diagonal, then through S^T, K and S
  * for each pair of scalings; w holds (p + q) r values. */
-static void lr_apply(const bsti_lr *f, int trans, const double *x, double *y, double *w)
+void bsti_lr_apply(const bsti_lr *f, int trans, const double *x, double *y, double *w)
 {
     size_t N = f->N, r = f->r, pr = f->p * r, qr = f->q * r;
     const bsti_lr_map *S = f->S;
@@ -391,7 +421,7 @@ static int norm1_estimate(bst_ctx *ctx, const bsti_lr *f, int minus, double *est
     do {
         LAPACKE_dlacn2((lapack_int)N, v, x, isgn, est, &kase, isave);
         if (kase) {
-            lr_apply(f, kase == 2, x, y, w);
+            bsti_lr_apply(f, kase == 2, x, y, w);
             for (size_t i = 0; i < N; i++)
                 x[i] = minus ? x[i] - y[i] : y[i];
         }
@@ -485,4 +515,104 @@ void bsti_lr_to_dense(const bsti_lr *f, double *out)
                             out[y * N + x] += a[x] * S->w[ex] * kc[S->col[ex]] * wy;
                 }
         }
+}
+
+int bsti_lr_copy(bst_ctx *ctx, const bsti_lr *f, bsti_lr **out)
+{
+    return bsti_lr_scale(ctx, NULL, f, NULL, out);
+}
+
+int bsti_lr_transpose(bst_ctx *ctx, const bsti_lr *f, bsti_lr **out)
+{
+    size_t N = f->N, pr = f->p * f->r, qr = f->q * f->r;
+    int rc = lr_alloc(ctx, f->S, f->q, f->p, f->d != NULL, out);
+    if (rc < 0)
+        return rc;
+    bsti_lr *m = *out;
+    if (f->d)
+        memcpy(m->d, f->d, N * sizeof *m->d);
+    memcpy(m->a, f->b, f->q * N * sizeof *m->a);
+    memcpy(m->b, f->a, f->p * N * sizeof *m->b);
+    for (size_t j = 0; j < qr; j++)
+        for (size_t i = 0; i < pr; i++)
+            m->k[i * qr + j] = f->k[j * pr + i];
+    return BST_OK;
+}
+
+double bsti_lr_get(const bsti_lr *f, size_t x, size_t y)
+{
+    const bsti_lr_map *S = f->S;
+    size_t N = f->N, r = f->r, ld = f->p * r;
+    double v = f->d && x == y ? f->d[x] : 0.0;
+    for (size_t i = 0; i < f->p; i++)
+        for (size_t j = 0; j < f->q; j++) {
+            double s = 0.0;
+            for (size_t ex = S->start[x]; ex < S->start[x + 1]; ex++)
+                for (size_t ey = S->start[y]; ey < S->start[y + 1]; ey++)
+                    s += S->w[ex] * f->k[(j * r + S->col[ey]) * ld + i * r + S->col[ex]] * S->w[ey];
+            v += f->a[i * N + x] * s * f->b[j * N + y];
+        }
+    return v;
+}
+
+static int all_finite(const double *v, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        if (!isfinite(v[i]))
+            return 0;
+    return 1;
+}
+
+int bsti_lr_finite(const bsti_lr *f)
+{
+    size_t N = f->N;
+    return (!f->d || all_finite(f->d, N)) && all_finite(f->a, f->p * N) &&
+           all_finite(f->b, f->q * N) && all_finite(f->k, f->p * f->r * f->q * f->r);
+}
+
+size_t bsti_lr_stored(const bsti_lr *f)
+{
+    return (f->d ? f->N : 0) + (f->p + f->q) * f->N + f->p * f->r * f->q * f->r;
+}
+
+int bsti_lr_permute(bst_ctx *ctx, const bsti_lr *f, const size_t *perm, bsti_lr **out)
+{
+    const bsti_lr_map *S = f->S;
+    size_t N = f->N, r = f->r, pr = f->p * r, qr = f->q * r;
+    *out = NULL;
+    size_t *cp = bsti_alloc_array(ctx, r + 1, sizeof *cp);
+    if (!cp)
+        return BST_ENOMEM;
+    for (size_t c = 0; c < r; c++)
+        cp[c] = (size_t)-1;
+    int rc = BST_OK;
+    for (size_t x = 0; x < N && rc >= 0; x++) { /* cp[c(x)] = c(perm x), the same for every x */
+        size_t y = perm[x], ex = S->start[x], ey = S->start[y];
+        if (S->start[x + 1] - ex != 1 || S->start[y + 1] - ey != 1 || S->w[ex] != S->w[ey] ||
+            (cp[S->col[ex]] != (size_t)-1 && cp[S->col[ex]] != S->col[ey]))
+            rc = BST_ENOTFOUND;
+        else
+            cp[S->col[ex]] = S->col[ey];
+    }
+    if (rc >= 0)
+        rc = lr_alloc(ctx, S, f->p, f->q, f->d != NULL, out);
+    if (rc >= 0) {
+        bsti_lr *m = *out;
+        for (size_t x = 0; x < N; x++) {
+            if (m->d)
+                m->d[x] = f->d[perm[x]];
+            for (size_t i = 0; i < f->p; i++)
+                m->a[i * N + x] = f->a[i * N + perm[x]];
+            for (size_t j = 0; j < f->q; j++)
+                m->b[j * N + x] = f->b[j * N + perm[x]];
+        }
+        for (size_t j = 0; j < f->q; j++) /* K'_ij[u, v] = K_ij[cp u, cp v] */
+            for (size_t v = 0; v < r; v++)
+                for (size_t i = 0; i < f->p; i++)
+                    for (size_t u = 0; u < r; u++)
+                        m->k[(j * r + v) * pr + i * r + u] = f->k[(j * r + cp[v]) * pr + i * r + cp[u]];
+        (void)qr;
+    }
+    bsti_free(ctx, cp);
+    return rc;
 }

@@ -26,15 +26,23 @@
 
 #include "bsdfstack.h"
 
-/* The map S: row x's entries are col[start[x] .. start[x + 1] - 1] with weights w. */
+/* The map S: row x's entries are col[start[x] .. start[x + 1] - 1] with weights w.  Counted
+ * references: every matrix over it holds one (the maker's is given back by bsti_lr_map_free), the
+ * last frees it through the context that made it.  Two maps of the same tag and orders are one
+ * (prolongations "P" from d to k; Klems overlaps of basis tag on order k); an untagged map is
+ * only itself. */
 typedef struct {
     size_t N, r;
     size_t *start, *col;
     double *w;
+    int k, d;         /* a prolongation from order d to k; d = -1 for another map */
+    char tag[32];     /* "P", a Klems basis's name, or "" (untagged) */
+    long refs;        /* changed atomically (matrices of one stack live in several threads) */
+    bst_ctx *ctx;
 } bsti_lr_map;
 
 typedef struct {
-    const bsti_lr_map *S; /* borrowed: outlives the matrix */
+    const bsti_lr_map *S; /* one reference held */
     size_t N, r, p, q;
     double *d;            /* N values, or NULL: no diagonal part */
     double *a, *b;        /* p and q vectors of N values (a[i * N + x]) */
@@ -46,7 +54,28 @@ int bsti_lr_map_new(bst_ctx *ctx, size_t N, size_t r, size_t nnz, bsti_lr_map **
 /* The prolongation from Shirley-Chiu order d to order k >= d (basis.h's index x 2^k + y): row x
  * holds 1 at the coarse cell that contains fine cell x. */
 int bsti_lr_map_prolong(bst_ctx *ctx, int k, int d, bsti_lr_map **out);
+/* Give back the maker's reference (NULL-safe). */
 void bsti_lr_map_free(bst_ctx *ctx, bsti_lr_map *S);
+/* A map taken by one more holder (given back by bsti_lr_map_free). */
+bsti_lr_map *bsti_lr_map_hold(bsti_lr_map *S);
+/* Whether F and G lie over one map (the same object or the same prolongation). */
+int bsti_lr_same_map(const bsti_lr *f, const bsti_lr *g);
+/* A copy of F. */
+int bsti_lr_copy(bst_ctx *ctx, const bsti_lr *f, bsti_lr **out);
+/* F^T (the lists swapped, K transposed). */
+int bsti_lr_transpose(bst_ctx *ctx, const bsti_lr *f, bsti_lr **out);
+/* y = F x (trans 0) or F^T x (trans 1), N values each; work: (p + q) r values. */
+void bsti_lr_apply(const bsti_lr *f, int trans, const double *x, double *y, double *work);
+/* F'[x, y] = F[perm[x], perm[y]] for a permutation of the patches that maps the cells of each
+ * coarse cell onto those of one coarse cell (a mirror of the grid, for a prolongation; maps of
+ * one entry a row only): BST_ENOTFOUND, with no message, when it does not. */
+int bsti_lr_permute(bst_ctx *ctx, const bsti_lr *f, const size_t *perm, bsti_lr **out);
+/* Element (i, j). */
+double bsti_lr_get(const bsti_lr *f, size_t i, size_t j);
+/* Every stored value finite. */
+int bsti_lr_finite(const bsti_lr *f);
+/* Values stored: the diagonal, the scaling vectors and K. */
+size_t bsti_lr_stored(const bsti_lr *f);
 
 /* diag(d) + diag(a) S K S^T diag(b): d, a, b may be NULL (none, ones, ones); K r x r, copied. */
 int bsti_lr_new(bst_ctx *ctx, const bsti_lr_map *S, const double *d, const double *a,

@@ -45,7 +45,49 @@ void bst_mat_free(bst_mat *m)
     }
     bsti_free(ctx, m->diag);
     bsti_free(ctx, m->dense);
+    bsti_lr_free(ctx, m->lr);
     bsti_free(ctx, m);
+}
+
+int bsti_mat_from_lr(bst_ctx *ctx, bsti_lr *lr, bst_mat **out)
+{
+    int rc = bsti_mat_alloc(ctx, BST_FACTORED, BST_DOUBLE, lr->N, lr->N, out);
+    if (rc < 0) {
+        bsti_lr_free(ctx, lr);
+        return rc;
+    }
+    (*out)->lr = lr;
+    return BST_OK;
+}
+
+int bsti_mat_lr_of(bst_ctx *ctx, const bst_mat *m, const bsti_lr_map *S, bsti_lr **lr)
+{
+    *lr = NULL;
+    if (m->s == BST_FACTORED)
+        return bsti_lr_copy(ctx, m->lr, lr);
+    if ((m->s != BST_DIAG && m->s != BST_ZERO) || m->rows != S->N || m->cols != S->N)
+        return BST_ENOTFOUND;
+    return bsti_lr_new(ctx, S, m->s == BST_DIAG ? m->diag : NULL, NULL, NULL, NULL, lr);
+}
+
+size_t bsti_mat_rank(const bst_mat *m)
+{
+    if (!m || m->s != BST_FACTORED)
+        return 0;
+    return m->lr->r * (m->lr->p > m->lr->q ? m->lr->p : m->lr->q);
+}
+
+int bsti_mat_lr_settle(bst_ctx *ctx, bst_mat **m)
+{
+    if ((*m)->s != BST_FACTORED || (double)bsti_mat_rank(*m) < BSTI_LR_DENSE_SHARE * (double)(*m)->rows)
+        return BST_OK;
+    bst_mat *d;
+    int rc = bsti_mat_to_dense(ctx, *m, BST_DOUBLE, &d);
+    if (rc < 0)
+        return rc;
+    bst_mat_free(*m);
+    *m = d;
+    return BST_OK;
 }
 
 int bsti_mat_check_out(bst_ctx *ctx, bst_mat **out)
@@ -193,6 +235,7 @@ size_t bst_mat_nnz(const bst_mat *m)
     case BST_DIAG: return m->rows;
     case BST_SPARSE: return (size_t)((SuiteSparse_long *)m->sp->p)[m->cols];
     case BST_DENSE: return m->rows * m->cols;
+    case BST_FACTORED: return bsti_lr_stored(m->lr);
     default: return 0;
     }
 }
@@ -219,6 +262,7 @@ double bst_mat_get(const bst_mat *m, size_t i, size_t j)
         }
         return 0.0;
     }
+    case BST_FACTORED: return bsti_lr_get(m->lr, i, j);
     default: return 0.0;
     }
 }
@@ -253,6 +297,25 @@ int bsti_mat_to_dense(bst_ctx *ctx, const bst_mat *m, bst_precision prec, bst_ma
                 PUT((size_t)ri[k], j, x[k]);
         break;
     }
+    case BST_FACTORED:
+        if (dd) {
+            bsti_lr_to_dense(m->lr, dd);
+        } else { /* through a double copy, column by column (no N x N double array) */
+            double *x = bsti_calloc(ctx, 2 * r + (m->lr->p + m->lr->q) * m->lr->r + 1, sizeof *x);
+            if (!x) {
+                bst_mat_free(d);
+                return BST_ENOMEM;
+            }
+            for (size_t j = 0; j < m->cols; j++) {
+                x[j] = 1.0;
+                bsti_lr_apply(m->lr, 0, x, x + r, x + 2 * r);
+                x[j] = 0.0;
+                for (size_t i = 0; i < r; i++)
+                    df[j * r + i] = (float)x[r + i];
+            }
+            bsti_free(ctx, x);
+        }
+        break;
     case BST_DENSE:
         if (m->prec == prec)
             memcpy(d->dense, m->dense, r * m->cols * (prec == BST_DOUBLE ? sizeof(double) : sizeof(float)));
@@ -278,6 +341,14 @@ int bsti_mat_to_sparse(bst_ctx *ctx, const bst_mat *m, bst_mat **out)
     if (m->s == BST_SPARSE) {
         cholmod_sparse *c = cholmod_l_copy_sparse(m->sp, cc);
         return c ? bsti_mat_from_cholmod(ctx, c, out) : bsti_mat_cholmod_failed(ctx, "copy_sparse");
+    }
+    if (m->s == BST_FACTORED) { /* its values through a dense copy */
+        bst_mat *d;
+        int rc = bsti_mat_to_dense(ctx, m, BST_DOUBLE, &d);
+        if (rc >= 0)
+            rc = bsti_mat_to_sparse(ctx, d, out);
+        bst_mat_free(d);
+        return rc;
     }
     size_t nnz = 0;
     if (m->s == BST_DIAG)
@@ -352,6 +423,9 @@ static void census(const bst_mat *m, size_t *nnz, int *diag_only)
                         *diag_only = 0;
                 }
         break;
+    default: /* FACTORED is converted through its values before (bst_mat_convert) */
+        *nnz = m->rows * m->cols, *diag_only = 0;
+        break;
     }
 }
 
@@ -363,6 +437,21 @@ int bst_mat_convert(bst_ctx *ctx, const bst_mat *m, bst_structure s, bst_precisi
         return rc;
     if (!m)
         return bsti_error(ctx, BST_EINVAL, "convert: NULL matrix");
+    if (m->s == BST_FACTORED && s == BST_FACTORED) {
+        bsti_lr *lr;
+        return (rc = bsti_lr_copy(ctx, m->lr, &lr)) < 0 ? rc : bsti_mat_from_lr(ctx, lr, out);
+    }
+    if (s == BST_FACTORED)
+        return bsti_error(ctx, BST_EINVAL, "convert: a factored form is made from a layer's coarse "
+                          "information, not from values");
+    if (m->s == BST_FACTORED && s != BST_DENSE) { /* through its values */
+        bst_mat *d;
+        rc = bsti_mat_to_dense(ctx, m, BST_DOUBLE, &d);
+        if (rc >= 0)
+            rc = bst_mat_convert(ctx, d, s, prec, out);
+        bst_mat_free(d);
+        return rc;
+    }
     size_t nnz;
     int diag_only;
     switch (s) {
@@ -389,6 +478,7 @@ int bst_mat_convert(bst_ctx *ctx, const bst_mat *m, bst_structure s, bst_precisi
     }
     case BST_SPARSE: return bsti_mat_to_sparse(ctx, m, out);
     case BST_DENSE: return bsti_mat_to_dense(ctx, m, prec, out);
+    default: break;
     }
     return bsti_error(ctx, BST_EINVAL, "convert: unknown structure %d", (int)s);
 }
@@ -402,6 +492,8 @@ int bst_mat_compact(bst_ctx *ctx, const bst_mat *m, double sparse_max_fill, bst_
         return bsti_error(ctx, BST_EINVAL, "compact: NULL matrix");
     if (!(sparse_max_fill >= 0.0 && sparse_max_fill <= 1.0))
         return bsti_error(ctx, BST_EINVAL, "compact: fill fraction %g is not in [0, 1]", sparse_max_fill);
+    if (m->s == BST_FACTORED) /* already the structure of its information */
+        return bst_mat_convert(ctx, m, BST_FACTORED, BST_DOUBLE, out);
     size_t nnz;
     int diag_only;
     census(m, &nnz, &diag_only);
@@ -464,6 +556,10 @@ int bsti_mat_scale(bst_ctx *ctx, const double *dr, const bst_mat *a, const doubl
     case BST_DIAG: rc = bst_mat_new_diag(ctx, a->rows, a->diag, &c); break;
     case BST_SPARSE: rc = bsti_mat_to_sparse(ctx, a, &c); break;
     case BST_DENSE: rc = bsti_mat_to_dense(ctx, a, a->prec, &c); break;
+    case BST_FACTORED: {
+        bsti_lr *lr;
+        return (rc = bsti_lr_scale(ctx, dr, a->lr, dc, &lr)) < 0 ? rc : bsti_mat_from_lr(ctx, lr, out);
+    }
     default: return bsti_error(ctx, BST_EINVAL, "scale: unknown structure");
     }
     if (rc < 0)
@@ -508,6 +604,10 @@ int bst_mat_transpose(bst_ctx *ctx, const bst_mat *a, bst_mat **out)
     switch (a->s) {
     case BST_ZERO: return bst_mat_new_zero(ctx, a->cols, a->rows, out);
     case BST_DIAG: return bst_mat_new_diag(ctx, a->rows, a->diag, out);
+    case BST_FACTORED: {
+        bsti_lr *lr;
+        return (rc = bsti_lr_transpose(ctx, a->lr, &lr)) < 0 ? rc : bsti_mat_from_lr(ctx, lr, out);
+    }
     case BST_SPARSE: {
         cholmod_common *cc = bsti_cholmod(ctx);
         cholmod_sparse *t = cc ? cholmod_l_transpose(a->sp, 1, cc) : NULL;
@@ -580,6 +680,17 @@ int bst_mat_col_weighted_sum(bst_ctx *ctx, const bst_mat *m, const double *w, do
         return BST_EINVAL;
     if (!m || !out)
         return bsti_error(ctx, BST_EINVAL, "column sums: NULL argument");
+    if (m->s == BST_FACTORED) { /* out = F^T w, through the factors */
+        size_t n = m->rows;
+        double *x = bsti_alloc_array(ctx, n + (m->lr->p + m->lr->q) * m->lr->r + 1, sizeof *x);
+        if (!x)
+            return BST_ENOMEM;
+        for (size_t i = 0; i < n; i++)
+            x[i] = w ? w[i] : 1.0;
+        bsti_lr_apply(m->lr, 1, x, out, x + n);
+        bsti_free(ctx, x);
+        return BST_OK;
+    }
     for (size_t j = 0; j < m->cols; j++) {
         double s = 0.0;
         switch (m->s) {
@@ -596,6 +707,7 @@ int bst_mat_col_weighted_sum(bst_ctx *ctx, const bst_mat *m, const double *w, do
             for (size_t i = 0; i < m->rows; i++)
                 s += (w ? w[i] : 1.0) * bsti_dense_get(m, i, j);
             break;
+        default: break; /* FACTORED: above */
         }
         out[j] = s;
     }
@@ -611,6 +723,10 @@ int bst_mat_to_dense_array(bst_ctx *ctx, const bst_mat *m, double *out)
     size_t r = m->rows;
     if (m->s == BST_DENSE && m->prec == BST_DOUBLE) {
         memcpy(out, m->dense, r * m->cols * sizeof(double));
+        return BST_OK;
+    }
+    if (m->s == BST_FACTORED) {
+        bsti_lr_to_dense(m->lr, out);
         return BST_OK;
     }
     memset(out, 0, r * m->cols * sizeof(double));
@@ -649,6 +765,23 @@ int bst_mat_select_cols(bst_ctx *ctx, const bst_mat *m, size_t ncols, const size
             return bsti_error(ctx, BST_EINVAL, "select columns: column %zu of %zu", cols[k], m->cols);
     if (m->s == BST_ZERO)
         return bst_mat_new_zero(ctx, m->rows, ncols, out);
+    if (m->s == BST_FACTORED) { /* each column through the factors */
+        bst_mat *c;
+        size_t n = m->rows;
+        double *x = bsti_calloc(ctx, n + (m->lr->p + m->lr->q) * m->lr->r + 1, sizeof *x);
+        if (!x)
+            return BST_ENOMEM;
+        if ((rc = bst_mat_new_dense(ctx, n, ncols, BST_DOUBLE, &c)) >= 0)
+            for (size_t k = 0; k < ncols; k++) {
+                x[cols[k]] = 1.0;
+                bsti_lr_apply(m->lr, 0, x, (double *)c->dense + k * n, x + n);
+                x[cols[k]] = 0.0;
+            }
+        bsti_free(ctx, x);
+        if (rc >= 0)
+            *out = c;
+        return rc;
+    }
     if (m->s == BST_DENSE) {
         bst_mat *c;
         if ((rc = bst_mat_new_dense(ctx, m->rows, ncols, m->prec, &c)) < 0)
@@ -713,6 +846,7 @@ int bst_mat_all_finite(const bst_mat *m)
                                                 : (double)((const float *)m->dense)[k]))
                 return 0;
         return 1;
+    case BST_FACTORED: return bsti_lr_finite(m->lr);
     default: return 1;
     }
 }
@@ -735,6 +869,11 @@ double bst_mat_max_abs(const bst_mat *m)
         for (size_t k = 0; k < m->rows * m->cols; k++)
             v = fmax(v, fabs(m->prec == BST_DOUBLE ? ((const double *)m->dense)[k]
                                                    : (double)((const float *)m->dense)[k]));
+        break;
+    case BST_FACTORED:
+        for (size_t j = 0; j < m->cols; j++)
+            for (size_t i = 0; i < m->rows; i++)
+                v = fmax(v, fabs(bsti_lr_get(m->lr, i, j)));
         break;
     default: break;
     }

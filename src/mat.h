@@ -4,12 +4,14 @@
  * allocator owns dense and diagonal storage and whose CHOLMOD common owns sparse storage).
  * Structures: ZERO (no storage), DIAG (n doubles), SPARSE (cholmod_sparse, double, packed,
  * sorted, SuiteSparse_long indices), DENSE (column-major, leading dimension = rows, double or
- * float). */
+ * float), FACTORED (a bsti_lr, lowrank.h: D + U K V^T, double; operations that have no factored
+ * kernel expand it to dense, bsti_mat_expanded). */
 #ifndef BST_MAT_H
 #define BST_MAT_H
 
 #include <cholmod.h>
 #include "bsdfstack.h"
+#include "lowrank.h"
 
 struct bst_mat {
     bst_ctx *ctx;
@@ -19,7 +21,21 @@ struct bst_mat {
     double *diag;       /* DIAG */
     cholmod_sparse *sp; /* SPARSE */
     void *dense;        /* DENSE: double* or float* */
+    bsti_lr *lr;        /* FACTORED */
 };
+
+/* Wrap a factored matrix (ownership passes to the matrix, also on failure). */
+int bsti_mat_from_lr(bst_ctx *ctx, bsti_lr *lr, bst_mat **out);
+/* The factored form of m (FACTORED: a copy; DIAG or ZERO over map S: its diagonal alone) into *lr,
+ * or BST_ENOTFOUND for another structure. */
+int bsti_mat_lr_of(bst_ctx *ctx, const bst_mat *m, const bsti_lr_map *S, bsti_lr **lr);
+/* A FACTORED matrix whose low-rank part is as large as the matrix itself (BSTI_LR_DENSE_SHARE of
+ * N) becomes dense: the structure by cost (a product of two such costs about as much as GEMM on
+ * the dense ones and holds more); any other is kept.  *m is replaced, the old freed. */
+#define BSTI_LR_DENSE_SHARE 0.5
+int bsti_mat_lr_settle(bst_ctx *ctx, bst_mat **m);
+/* The rank of a FACTORED matrix's low-rank part (p r by q r: the larger), 0 for any other. */
+size_t bsti_mat_rank(const bst_mat *m);
 
 /* An empty matrix object of the given shape (no storage yet). */
 int bsti_mat_alloc(bst_ctx *ctx, bst_structure s, bst_precision prec, size_t rows, size_t cols,
@@ -92,6 +108,15 @@ void bsti_factor_free(bsti_factor *f);
 #define BSTI_TRANSPOSE_TILE 32
 /* m := m^T for a square DENSE m, in its own storage (the values of a transposed copy). */
 void bsti_mat_transpose_in_place(bst_mat *m);
+
+/* The FACTORED kernels (mat_lowrank.c): F G, F B and A F with B, A dense, alpha F + beta G. */
+int bsti_mul_lowrank(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out);
+int bsti_mul_lowrank_dense(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop,
+                           bst_mat **out);
+int bsti_mul_dense_lowrank(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop,
+                           bst_mat **out);
+int bsti_add_lowrank(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, const bst_mat *b,
+                     bst_mat **out);
 
 /* The generic product: both operands converted to dense, then GEMM (the tests' baseline). */
 int bsti_mat_mul_generic(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, bst_mat **out);

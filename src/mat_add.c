@@ -72,6 +72,8 @@ static int add_scaled(bst_ctx *ctx, double alpha, const bst_mat *a, double beta,
     }
     case BST_ZERO:
         return bst_mat_new_zero(ctx, a->rows, a->cols, out);
+    default: /* FACTORED has its own kernel (add_table) */
+        return bsti_mat_add_generic(ctx, alpha, a, 0.0, a, out);
     }
     *out = c;
     return BST_OK;
@@ -160,18 +162,26 @@ static int add_dense(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, 
             for (size_t i = 0; i < r; i++)
                 dense_add_at(c, j * r + i, beta * bsti_dense_get(b, i, j));
         break;
+    default: /* FACTORED never comes second (the table's normalization) */
+        for (size_t j = 0; j < b->cols; j++)
+            for (size_t i = 0; i < r; i++)
+                dense_add_at(c, j * r + i, beta * bst_mat_get(b, i, j));
+        break;
     }
     *out = c;
     return BST_OK;
 }
 
-/* add_table[structure of A][structure of B], A the denser after normalization (step 1). */
-static const add_kernel add_table[4][4] = {
-    /*              ZERO        DIAG           SPARSE      DENSE */
-    /* ZERO   */ {add_zero,   NULL,          NULL,       NULL},
-    /* DIAG   */ {add_scaled, add_diag_diag, NULL,       NULL},
-    /* SPARSE */ {add_scaled, add_sparse,    add_sparse, NULL},
-    /* DENSE  */ {add_scaled, add_dense,     add_dense,  add_dense},
+/* add_table[structure of A][structure of B], A the denser after normalization (step 1);
+ * FACTORED counts as the densest: with ZERO, DIAG or FACTORED it stays factored (mat_lowrank.c),
+ * with SPARSE or DENSE the sum is dense (NULL: the generic path). */
+static const add_kernel add_table[5][5] = {
+    /*                ZERO              DIAG              SPARSE      DENSE      FACTORED */
+    /* ZERO     */ {add_zero,         NULL,             NULL,       NULL,      NULL},
+    /* DIAG     */ {add_scaled,       add_diag_diag,    NULL,       NULL,      NULL},
+    /* SPARSE   */ {add_scaled,       add_sparse,       add_sparse, NULL,      NULL},
+    /* DENSE    */ {add_scaled,       add_dense,        add_dense,  add_dense, NULL},
+    /* FACTORED */ {bsti_add_lowrank, bsti_add_lowrank, NULL,       NULL,      bsti_add_lowrank},
 };
 
 int bsti_mat_add_generic(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, const bst_mat *b,

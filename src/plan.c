@@ -16,6 +16,8 @@
  * The memory model is the one bench/README.md checks against measured peaks. */
 #include <config.h>
 
+#include <math.h>
+
 #include <stdio.h>
 #include <string.h>
 #include <strings.h>
@@ -219,15 +221,24 @@ double bst_plan_memory(const bst_basis *basis, size_t n, const bst_bsdf *const *
                        size_t *ndense)
 {
     double cells = (double)bst_basis_size(basis) * (double)bst_basis_size(basis);
+    int k = bst_basis_kind_of(basis) == BST_BASIS_SHIRLEY_CHIU ? bst_basis_order(basis) : 0;
     size_t held = 0;
-    double sparse = 0; /* bytes of components that come out sparse (value and index each) */
+    double sparse = 0;   /* bytes of components that come out sparse (value and index each) */
+    double factored = 0; /* bytes of coarse matrices held factored, and the largest one */
+    double largest = 0;
     for (size_t i = 0; files && i < n; i++) {
         if (!files[i])
             continue;
+        int d = bst_bsdf_depth(files[i]);
+        /* a rank-4 tree coarser than k: its own order's matrix (resample.c, tree_is_factored) */
+        double coarse = bst_bsdf_kind(files[i]) == BST_FILE_TT4 && d >= 1 && d < k
+                            ? 8.0 * pow(4.0, 2.0 * d) : 0.0;
         for (size_t ch = 0; ch < bst_bsdf_nchannels(files[i]); ch++)
             for (int c = 0; c < BST_NCOMP; c++) {
                 double f = !comps || (comps & BST_COMP_BIT(c)) ? bst_bsdf_fill(files[i], ch, (bst_comp)c) : 0;
-                if (f > BST_SPARSE_MAX_FILL)
+                if (f > BST_SPARSE_MAX_FILL && coarse > 0)
+                    factored += coarse, largest = fmax(largest, coarse);
+                else if (f > BST_SPARSE_MAX_FILL)
                     held++;
                 else
                     sparse += 16.0 * f * cells;
@@ -235,9 +246,9 @@ double bst_plan_memory(const bst_basis *basis, size_t n, const bst_bsdf *const *
     }
     if (ndense)
         *ndense = held;
-    double need = 64.0 * 1048576.0 + 0.5 * cells + sparse;
-    if (held == 0)
-        return need;
+    double need = 64.0 * 1048576.0 + 0.5 * cells + sparse + factored;
+    if (held == 0) /* a factored combination works on coarse matrices: about three at a time */
+        return need + (combining ? 3.0 * largest : 0.0);
     double w = combining ? 3.0 * (work == BST_FLOAT ? 4.0 : 8.0) : 0.0;
     return need + cells * ((double)held * (read == BST_FLOAT ? 4.0 : 8.0) + (w > 8.0 ? w : 8.0));
 }

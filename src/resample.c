@@ -558,6 +558,41 @@ static void collect(void *opaque, size_t row, size_t col, double v)
     c->row[c->n] = row, c->col[c->n] = col, c->val[c->n++] = v;
 }
 
+/* A rank-4 tree of depth d below the grid's order k whose values fill its own order's matrix
+ * M_d (or its reciprocal's): exactly P M_d P^T, P the prolongation from d to k (lowrank.h), held
+ * factored at the size of its information (issue #31). */
+static int tree_factored(bst_ctx *ctx, const bsti_ttree *t, int k, int recip, int threads,
+                         bst_mat **out)
+{
+    int d = t->depth;
+    size_t r = (size_t)1 << (2 * d);
+    double *K = bsti_alloc_array(ctx, r * r, sizeof *K);
+    if (!K)
+        return BST_ENOMEM;
+    bsti_ttree_fill4(t, d, recip, BST_DOUBLE, K, threads);
+    bsti_lr_map *S = NULL;
+    bsti_lr *lr = NULL;
+    int rc = bsti_lr_map_prolong(ctx, k, d, &S);
+    if (rc >= 0)
+        rc = bsti_lr_new(ctx, S, NULL, NULL, K, NULL, &lr);
+    bsti_lr_map_free(ctx, S); /* the matrix holds its own reference */
+    bsti_free(ctx, K);
+    return rc < 0 ? rc : bsti_mat_from_lr(ctx, lr, out);
+}
+
+/* Whether a rank-4 tree goes factored onto order k: coarser than k, and dense at its own order
+ * (a sparse or diagonal tree stays sparse or diagonal at k, which costs less). */
+static int tree_is_factored(const bsti_ttree *t, int k)
+{
+    if (t->depth >= k || t->depth < 1)
+        return 0;
+    size_t r = (size_t)1 << (2 * t->depth), nnz;
+    int diag_only;
+    size_t sparse_max = (size_t)(BST_SPARSE_MAX_FILL * (double)r * (double)r);
+    bsti_ttree_census4(t, t->depth, sparse_max, &nnz, &diag_only);
+    return !diag_only && (double)nnz > BST_SPARSE_MAX_FILL * (double)r * (double)r;
+}
+
 /* A rank-4 tree (or its reciprocal) on the Shirley-Chiu grid of order k, straight into the
  * structure component_from_work would choose for its expansion (the census comes from the tree):
  * a dense matrix is filled in place in precision prec, with no N x N work copy between. */
@@ -607,6 +642,35 @@ static int tree_component(bst_ctx *ctx, const bsti_ttree *t, int k, int recip, b
     return rc;
 }
 
+/* A Klems file's overlaps with the grid of its plan as a map (M = W K W^T, bsti_klems_to_sc), or
+ * NULL when the Klems basis is not small beside the grid (its rank past BSTI_LR_DENSE_SHARE of
+ * N: dense costs less) or the target is not a Shirley-Chiu grid. */
+static int klems_map(bst_ctx *ctx, const struct plan *p, bsti_lr_map **out)
+{
+    *out = NULL;
+    const bsti_overlap *ov = p->in;
+    if (!ov || p->kfine || (double)ov->nk >= BSTI_LR_DENSE_SHARE * (double)ov->n)
+        return BST_OK;
+    int rc = bsti_lr_map_new(ctx, ov->n, ov->nk, ov->first[ov->n], out);
+    if (rc < 0)
+        return rc;
+    bsti_lr_map *S = *out;
+    memcpy(S->start, ov->first, (ov->n + 1) * sizeof *S->start);
+    memcpy(S->col, ov->patch, ov->first[ov->n] * sizeof *S->col);
+    memcpy(S->w, ov->w, ov->first[ov->n] * sizeof *S->w);
+    S->k = ov->k;
+    snprintf(S->tag, sizeof S->tag, "%s", bst_basis_name(p->b->klems));
+    return BST_OK;
+}
+
+/* A stored Klems matrix km over the map S: W K W^T, factored (issue #31). */
+static int klems_factored(bst_ctx *ctx, const bsti_lr_map *S, const double *km, bst_mat **out)
+{
+    bsti_lr *lr;
+    int rc = bsti_lr_new(ctx, S, NULL, NULL, km, NULL, &lr);
+    return rc < 0 ? rc : bsti_mat_from_lr(ctx, lr, out);
+}
+
 /* Dense components come out in the precision the file was read for (bst_bsdf_read_opts). */
 int bst_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target_in, bst_layer **out)
 {
@@ -639,6 +703,9 @@ int bsti_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target_
         rc = bst_layer_set_name(ctx, l, b->path);
     if (rc >= 0)
         rc = plan_make(ctx, b, target, &p);
+    bsti_lr_map *kmap = NULL; /* a Klems file on a fine grid: its components factored */
+    if (rc >= 0 && b->kind == BST_FILE_KLEMS && !p.direct)
+        rc = klems_map(ctx, &p, &kmap);
     for (size_t ch = 0; rc >= 0 && ch < b->nch; ch++)
         for (int c = 0; rc >= 0 && c < BST_NCOMP; c++) {
             bst_mat *m;
@@ -651,8 +718,13 @@ int bsti_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target_
             if (!bsti_bsdf_stored(b, ch, c))
                 from = other, recip = 1;
             const bsti_ttree *t = b->tree[ch][from];
-            if (target->kind == BST_BASIS_SHIRLEY_CHIU && t && t->dim == 4) {
+            if (target->kind == BST_BASIS_SHIRLEY_CHIU && t && t->dim == 4 &&
+                tree_is_factored(t, target->k)) {
+                rc = tree_factored(ctx, t, target->k, recip, threads, &m);
+            } else if (target->kind == BST_BASIS_SHIRLEY_CHIU && t && t->dim == 4) {
                 rc = tree_component(ctx, t, target->k, recip, b->prec, threads, &m);
+            } else if (kmap && !recip) {
+                rc = klems_factored(ctx, kmap, b->mat[ch][c], &m);
             } else {
                 /* the N x N work buffer only where a component goes through it */
                 if (!work && !(work = bsti_alloc_array(ctx, n * n, sizeof *work))) {
@@ -666,6 +738,7 @@ int bsti_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target_
                 rc = bst_layer_set(ctx, l, ch, (bst_comp)c, m);
         }
     plan_free(ctx, &p);
+    bsti_lr_map_free(ctx, kmap); /* the matrices hold their own references */
     bsti_free(ctx, work);
     bst_basis_free(native);
     if (rc < 0) {

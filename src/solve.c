@@ -5,7 +5,9 @@
  *   DIAG   - elementwise: X = diag(1 / (1 - a_i)) B, keeping B's structure;
  *   SPARSE - UMFPACK LU of the sparse I - A (umfpack_dl_*), one solve per column of B;
  *   DENSE  - LAPACK getrf, then getrs on all columns at once (single precision when A or B is a
- *            dense float matrix).
+ *            dense float matrix);
+ *   FACTORED - (I - A)^-1 itself, factored again, by the Woodbury identity (lowrank.c: the dense
+ *            work has the coarse information's size), then a product with B (mat_lowrank.c).
  * The right solve works on transposes: Y^T = (I - A)^-T B^T, with the transposed solve of the same
  * factorization (UMFPACK_At, getrs 'T').
  *
@@ -64,6 +66,7 @@ struct factor {
     bst_mat *lu_mat;        /* DENSE: the matrix A whose storage holds lu, when it was taken */
     lapack_int *ipiv;
     double *w1, *w2;        /* SPARSE: vectors of n */
+    bst_mat *inv;           /* FACTORED: (I - A)^-1, FACTORED */
 };
 
 static void factor_free(struct factor *f)
@@ -81,6 +84,7 @@ static void factor_free(struct factor *f)
     bsti_free(ctx, f->ipiv);
     bsti_free(ctx, f->w1);
     bsti_free(ctx, f->w2);
+    bst_mat_free(f->inv);
     memset(f, 0, sizeof *f);
 }
 
@@ -312,6 +316,19 @@ static int factor_dense(bst_ctx *ctx, const bst_mat *a, bst_precision prec, stru
     return BST_OK;
 }
 
+/* I - A factored as its inverse (lowrank.c), *rcond its estimate; the inverse's rank is A's. */
+static int factor_lowrank(bst_ctx *ctx, const bst_mat *a, bst_precision prec, struct factor *f,
+                          double *rcond, bst_mat **take)
+{
+    (void)prec, (void)take;
+    bsti_lr *inv;
+    int rc = bsti_lr_inverse(ctx, a->lr, &inv, rcond);
+    if (rc >= 0)
+        rc = bsti_mat_from_lr(ctx, inv, &f->inv);
+    f->anorm = 1.0;
+    return rc;
+}
+
 /* Factor I - A; *rcond as documented at the top.  With *take = a (A given up by the caller) a
  * dense A in the factor's precision is overwritten by I - A and then its LU factors, and the factor
  * owns it (*take = NULL): no second N x N buffer. */
@@ -322,7 +339,7 @@ static int factor_new(bst_ctx *ctx, const bst_mat *a, bst_precision prec, struct
                              bst_mat **);
     static const factor_fn by_structure[] = {
         [BST_ZERO] = factor_zero, [BST_DIAG] = factor_diag, [BST_SPARSE] = factor_sparse,
-        [BST_DENSE] = factor_dense};
+        [BST_DENSE] = factor_dense, [BST_FACTORED] = factor_lowrank};
     memset(f, 0, sizeof *f);
     f->ctx = ctx;
     f->s = a->s;
@@ -368,6 +385,14 @@ static int factor_solve(struct factor *f, int trans, const bst_mat *b, bst_mat *
             inv[i] = 1.0 / f->d[i]; /* transposing a diagonal changes nothing */
         rc = bst_mat_scale(ctx, inv, b, NULL, out);
         bsti_free(ctx, inv);
+        return rc;
+    }
+    if (f->s == BST_FACTORED) { /* X = Z B or Z^T B with Z = (I - A)^-1 */
+        bst_mat *zt = NULL;
+        if (trans && (rc = bst_mat_transpose(ctx, f->inv, &zt)) < 0)
+            return rc;
+        rc = bst_mat_mul(ctx, trans ? zt : f->inv, b, 0.0, out);
+        bst_mat_free(zt);
         return rc;
     }
     if (f->s == BST_DENSE) {

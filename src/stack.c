@@ -375,6 +375,7 @@ static void form(struct combiner *cb, struct part *s, bst_comp c, double t0, str
         .seconds = now_seconds() - t0,
         .rcond = cb->rcond,
         .flops = flops,
+        .rank = bsti_mat_rank(t.m),
     };
     cb->opts->on_step(&st, cb->opts->opaque);
 }

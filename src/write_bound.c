@@ -27,6 +27,14 @@ static void sums(const bst_mat *m, size_t nr, size_t n, double *col, double *row
             if (row)
                 row[i] = col[i];
         }
+    } else if (m->s == BST_FACTORED) { /* element by element through the factors */
+        for (size_t i = 0; i < n; i++)
+            for (size_t o = 0; o < nr; o++) {
+                double v = fmax(bst_mat_get(m, o, i), 0.0);
+                col[i] += v;
+                if (row)
+                    row[o] += v;
+            }
     } else if (m->s == BST_SPARSE) {
         const SuiteSparse_long *p = m->sp->p, *ri = m->sp->i;
         const double *x = m->sp->x;

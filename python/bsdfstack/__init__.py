@@ -388,8 +388,8 @@ class BSDF:
         A dense component comes back as a read-only view on the library's own column-major
         buffer (no copy; float32 or float64 as stored): the array's base holds this object, so
         the view stays valid as long as the array lives, even after every other reference to
-        this object is gone.  A diagonal, sparse or zero component comes back as a dense
-        float64 copy (N x N).  An absent component raises Error."""
+        this object is gone.  A diagonal, sparse, factored or zero component comes back as a
+        dense float64 copy (N x N).  An absent component raises Error."""
         ch, c, m = self._component(comp, channel)
         rows, cols = lib.bst_mat_rows(m), lib.bst_mat_cols(m)
         if lib.bst_mat_structure(m) == _lib.BST_DENSE:
@@ -403,9 +403,10 @@ class BSDF:
         return out
 
     def structure(self, comp, channel=None):
-        """How the library stores a component: "zero", "diagonal", "sparse" or "dense"."""
+        """How the library stores a component: "zero", "diagonal", "sparse", "dense" or "factored"
+        (a coarse tree read at a finer order: its coarse matrix and the prolongation)."""
         m = self._component(comp, channel)[2]
-        return ("zero", "diagonal", "sparse", "dense")[lib.bst_mat_structure(m)]
+        return ("zero", "diagonal", "sparse", "dense", "factored")[lib.bst_mat_structure(m)]
 
     def hemispherical(self, comp, theta=None, phi=None, channel=None):
         """Directional-hemispherical value of comp (T for Tf/Tb, R for Rf/Rb): sum over the

@@ -35,12 +35,16 @@ static void verbose_step(const bst_stack_step *s, void *opaque)
 {
     (void)opaque;
     steps_flops += s->flops;
-    static const char *const names[] = {"zero", "diagonal", "sparse", "dense"};
+    static const char *const names[] = {"zero", "diagonal", "sparse", "dense", "factored"};
     struct rusage ru;
     getrusage(RUSAGE_SELF, &ru);
-    fprintf(stderr, "bsdfstack combine: layers 1-%zu %s %s: %s, %zu stored, %.3f s, %.3g GFLOP, "
+    char rank[32] = "";
+    if (s->structure == BST_FACTORED)
+        snprintf(rank, sizeof rank, " rank %zu", s->rank);
+    fprintf(stderr, "bsdfstack combine: layers 1-%zu %s %s: %s%s, %zu stored, %.3f s, %.3g GFLOP, "
             "rcond %.3g, peak RSS %.1f MiB\n", s->step + 1, s->channel, bst_comp_name(s->comp),
-            names[s->structure], s->nnz, s->seconds, s->flops * 1e-9, s->rcond, ru.ru_maxrss / 1024.0);
+            names[s->structure], rank, s->nnz, s->seconds, s->flops * 1e-9, s->rcond,
+            ru.ru_maxrss / 1024.0);
 }
 
 double combine_now(void)

@@ -1,0 +1,146 @@
+/* mat_lowrank.c - the FACTORED structure's kernels of the product and sum tables (mat_mul.c,
+ * mat_add.c): the algebra of lowrank.c on bst_mat, and the products with a dense operand that
+ * never form the factored one's N x N values.
+ *
+ *   F G (both FACTORED over one map)  bsti_lr_mul, then settled (a rank past half of N: dense)
+ *   F B, B dense                       D B + U (K (V^T B)): O(nnz(S) m (p + q) + p q r^2 m)
+ *   A F, A dense                       A D + ((A U) K) V^T: the same cost on A's rows
+ *   alpha F + beta G, G ZERO, DIAG or FACTORED over F's map: bsti_lr_add (the diagonal taken as a
+ *                                      factored matrix of no rank)
+ * Anything else (another map, a sparse operand) goes the generic dense way.  A float dense
+ * operand makes a float result, as everywhere in mat.c; the factors are double. */
+#include <config.h>
+
+#include <string.h>
+
+#include <cblas.h>
+
+#include "ctx.h"
+#include "mat.h"
+
+/* The result as a matrix, FACTORED unless its rank makes dense cheaper. */
+static int settled(bst_ctx *ctx, int rc, bsti_lr *lr, bst_mat **out)
+{
+    if (rc < 0)
+        return rc;
+    if ((rc = bsti_mat_from_lr(ctx, lr, out)) < 0)
+        return rc;
+    if ((rc = bsti_mat_lr_settle(ctx, out)) < 0) {
+        bst_mat_free(*out);
+        *out = NULL;
+    }
+    return rc;
+}
+
+int bsti_mul_lowrank(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
+{
+    (void)drop;
+    if (!bsti_lr_same_map(a->lr, b->lr))
+        return bsti_mat_mul_generic(ctx, a, b, out);
+    bsti_lr *lr;
+    int rc = bsti_lr_mul(ctx, a->lr, b->lr, &lr);
+    return settled(ctx, rc, lr, out);
+}
+
+/* A dense operand in double: itself, or a double copy (*copy, to be freed). */
+static int as_double(bst_ctx *ctx, const bst_mat *m, const bst_mat **d, bst_mat **copy)
+{
+    *copy = NULL;
+    *d = m;
+    if (m->prec == BST_DOUBLE)
+        return BST_OK;
+    int rc = bsti_mat_to_dense(ctx, m, BST_DOUBLE, copy);
+    *d = *copy;
+    return rc;
+}
+
+/* The double result c given the precision prec of the dense operand (float: converted). */
+static int in_precision(bst_ctx *ctx, bst_mat *c, bst_precision prec, bst_mat **out)
+{
+    if (prec == BST_DOUBLE) {
+        *out = c;
+        return BST_OK;
+    }
+    int rc = bsti_mat_to_dense(ctx, c, BST_FLOAT, out);
+    bst_mat_free(c);
+    return rc;
+}
+
+/* C = F B, F FACTORED (N x N), B dense (N x m). */
+int bsti_mul_lowrank_dense(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop,
+                           bst_mat **out)
+{
+    (void)drop;
+    const bsti_lr *f = a->lr;
+    const bsti_lr_map *S = f->S;
+    size_t N = f->N, m = b->cols, r = f->r, pr = f->p * r, qr = f->q * r;
+    const bst_mat *bd;
+    bst_mat *bcopy, *c = NULL;
+    int rc = as_double(ctx, b, &bd, &bcopy);
+    double *w = rc >= 0 ? bsti_calloc(ctx, (qr + pr) * m + 1, sizeof *w) : NULL;
+    if (rc >= 0 && !w)
+        rc = BST_ENOMEM;
+    if (rc >= 0)
+        rc = bst_mat_new_dense(ctx, N, m, BST_DOUBLE, &c);
+    if (rc >= 0) {
+        const double *B = bd->dense;
+        double *C = c->dense, *vb = w, *t = w + qr * m;
+        for (size_t col = 0; col < m; col++) {
+            for (size_t x = 0; x < N; x++)
+                C[col * N + x] = f->d ? f->d[x] * B[col * N + x] : 0.0;
+            for (size_t j = 0; j < f->q; j++) /* V^T B: S^T (b_j .* B) */
+                for (size_t x = 0; x < N; x++)
+                    for (size_t e = S->start[x]; e < S->start[x + 1]; e++)
+                        vb[col * qr + j * r + S->col[e]] += S->w[e] * f->b[j * N + x] * B[col * N + x];
+        }
+        if (pr && qr && m) {
+            cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)pr, (int)m, (int)qr, 1.0,
+                        f->k, (int)pr, vb, (int)qr, 0.0, t, (int)pr);
+            bsti_flops_add(ctx, 2.0 * (double)pr * (double)qr * (double)m);
+        }
+        for (size_t col = 0; col < m; col++) /* C += U T */
+            for (size_t i = 0; i < f->p; i++)
+                for (size_t x = 0; x < N; x++)
+                    for (size_t e = S->start[x]; e < S->start[x + 1]; e++)
+                        C[col * N + x] += f->a[i * N + x] * S->w[e] * t[col * pr + i * r + S->col[e]];
+    }
+    bsti_free(ctx, w);
+    if (rc >= 0)
+        rc = in_precision(ctx, c, b->prec, out);
+    else
+        bst_mat_free(c);
+    bst_mat_free(bcopy);
+    return rc;
+}
+
+/* C = A F, A dense (n x N), F FACTORED: the transpose of F^T A^T. */
+int bsti_mul_dense_lowrank(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop,
+                           bst_mat **out)
+{
+    bst_mat *at = NULL, *ft = NULL, *ct = NULL;
+    int rc = bst_mat_transpose(ctx, a, &at);
+    if (rc >= 0)
+        rc = bst_mat_transpose(ctx, b, &ft);
+    if (rc >= 0)
+        rc = bsti_mul_lowrank_dense(ctx, ft, at, drop, &ct);
+    bst_mat_free(at), bst_mat_free(ft);
+    if (rc >= 0)
+        rc = bst_mat_transpose(ctx, ct, out);
+    bst_mat_free(ct);
+    return rc;
+}
+
+int bsti_add_lowrank(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, const bst_mat *b,
+                     bst_mat **out)
+{
+    bsti_lr *lb = NULL, *lr = NULL;
+    int rc = bsti_mat_lr_of(ctx, b, a->lr->S, &lb);
+    if (rc == BST_ENOTFOUND || (rc >= 0 && !bsti_lr_same_map(a->lr, lb))) {
+        bsti_lr_free(ctx, lb);
+        return bsti_mat_add_generic(ctx, alpha, a, beta, b, out);
+    }
+    if (rc >= 0)
+        rc = bsti_lr_add(ctx, alpha, a->lr, beta, lb, &lr);
+    bsti_lr_free(ctx, lb);
+    return settled(ctx, rc, lr, out);
+}

@@ -1,0 +1,30 @@
+# cli_factored.sh - layers held factored (issue #31) end to end: a depth-3 tree at k = 5 goes
+# factored (-v says so, with its rank), writes the system --dense writes (compare: no
+# directional-hemispherical difference, GA 100), with less memory; per channel and per
+# wavelength alike; a reversed factored layer too.
+. "${BST_SRCDIR:-.}/tests/clitest.sh"
+ref=${BST_REFDIR:?}
+B=$BSDFSTACK
+
+expect_status 0 "a depth-3 TensorTree4" -- "$B" convert -k 3 --rank 4 --no-reduce -o "$tmpdir/d3.xml" \
+    "$ref/L_blind0_t4k5.xml"
+# the closing table of compare: every |hem A - hem B| 0.000000, every GA least 100.000
+same() {
+    awk '/^  comp  \|hem A - hem B\|/ {on = 1; next} on && NF >= 9 { n++; if ($2 + 0 > 1e-6 || $9 + 0 < 99.9995) bad++ }
+         END { exit !(n == 4 && bad == 0) }' "$tmpdir/out"
+}
+for stack in "glass:clear-6mm $tmpdir/d3.xml glass:clear-6mm" "glass:nfrc-102 $tmpdir/d3.xml^ glass:nfrc-103"; do
+    expect_status 0 "combine factored: $stack" -- "$B" combine -v -k 5 --no-reduce -o "$tmpdir/f.xml" $stack
+    grep -q "layers 1-2 Visible Tf: factored rank 64" "$tmpdir/err" && pass "-v: factored, rank 64" ||
+        fail "-v does not say factored: $(head -5 "$tmpdir/err")"
+    f_peak=$(awk '/: combined, / { sub(/.*peak RSS /, ""); print $1 + 0 }' "$tmpdir/err")
+    expect_status 0 "combine --dense" -- "$B" combine -v --dense -k 5 --no-reduce -o "$tmpdir/d.xml" $stack
+    d_peak=$(awk '/: combined, / { sub(/.*peak RSS /, ""); print $1 + 0 }' "$tmpdir/err")
+    expect_status 0 "compare" -- "$B" compare "$tmpdir/f.xml" "$tmpdir/d.xml"
+    same && pass "the same system as --dense" || fail "factored and --dense differ: $(tail -6 "$tmpdir/out")"
+    # the dense path holds the shade's four 1024 x 1024 components and the combination's work
+    awk -v f="$f_peak" -v d="$d_peak" 'BEGIN { exit !(f > 0 && d > f + 40) }' &&
+        pass "peak RSS while combining: factored $f_peak MiB, dense $d_peak MiB" ||
+        fail "peak RSS: factored $f_peak MiB, dense $d_peak MiB"
+done
+finish

@@ -1,0 +1,226 @@
+/* test_factored.c - layers held factored (issue #31): a rank-4 tree of depth d read at k > d is
+ * P M_d P^T, and stacks of such layers with panes, dense layers and reversed layers combine to
+ * what the dense path (force_dense, the old baseline) gives, every component, both precisions
+ * (1e-10 relative in double, 1e-5 in single); the steps say they ran factored; absorptance and
+ * the iterated columns agree too.  The coarse trees are made here from the reference blinds
+ * (read at k = 3 or 4, written as TensorTree4 files of that depth). */
+#include <config.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "mat.h"
+#include "testutil.h"
+
+static bst_ctx *ctx;
+static char coarse3[64], coarse4[64]; /* blind0 at depth 3, blind45 at depth 4 */
+
+/* The reference file read at order k and written as a TensorTree4 of that depth (every value). */
+static void make_coarse(const char *ref, int k, char *path)
+{
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, k, &b), BST_OK);
+    bst_layer *l = tu_layer(ctx, ref, b);
+    snprintf(path, 64, "/tmp/bst_factored_XXXXXX");
+    int fd = mkstemp(path);
+    ck_assert_int_ge(fd, 0);
+    close(fd);
+    bst_bsdf_write_opts o;
+    bst_bsdf_write_opts_init(&o);
+    o.rank = BST_RANK_4;
+    o.reduce_pct = -1.0;
+    o.digits = 0;
+    ck_assert_int_eq(bst_bsdf_write_path(ctx, l, path, &o), BST_OK);
+    bst_layer_free(l);
+    bst_basis_free(b);
+}
+
+static void setup(void)
+{
+    ctx = bst_ctx_new();
+    make_coarse("L_blind0_t4k5.xml", 3, coarse3);
+    make_coarse("L_blind45_t4k5.xml", 4, coarse4);
+}
+
+static void teardown(void)
+{
+    unlink(coarse3), unlink(coarse4);
+    bst_ctx_free(ctx);
+}
+
+static bst_layer *file_layer(const char *path, const bst_basis *b)
+{
+    bst_bsdf *f;
+    ck_assert_int_ge(bst_bsdf_read(ctx, path, NULL, &f), 0);
+    bst_layer *l;
+    ck_assert_int_eq(bst_bsdf_to_layer(ctx, f, b, &l), BST_OK);
+    bst_bsdf_free(f);
+    return l;
+}
+
+static int factored_steps;
+static void count_factored(const bst_stack_step *s, void *opaque)
+{
+    (void)opaque;
+    factored_steps += s->structure == BST_FACTORED;
+}
+
+/* max |a - b| / max |b| of two matrices' values. */
+static double rel_diff(const bst_mat *a, const bst_mat *b)
+{
+    size_t n = bst_mat_rows(b) * bst_mat_cols(b);
+    double *x = malloc(n * sizeof *x), *y = malloc(n * sizeof *y), d = 0, m = 0;
+    ck_assert_int_eq(bst_mat_to_dense_array(ctx, a, x), BST_OK);
+    ck_assert_int_eq(bst_mat_to_dense_array(ctx, b, y), BST_OK);
+    for (size_t i = 0; i < n; i++)
+        d = fmax(d, fabs(x[i] - y[i])), m = fmax(m, fabs(y[i]));
+    free(x), free(y);
+    return m > 0 ? d / m : d;
+}
+
+/* The stacks (exterior first): 'g' a pane, '3' blind0 at depth 3, '4' blind45 at depth 4, 'D' the
+ * blind at its own depth 5 (dense at k = 5), 'K' a Klems diffuser; '^' after one: reversed. */
+static const char *const stacks[] = {"g3", "3g", "g3g", "g4^g3", "gDg3", "g3^Kg", "34^"};
+#define NSTACKS (sizeof stacks / sizeof stacks[0])
+
+static size_t build(const char *spec, const bst_basis *b, bst_layer **layers)
+{
+    size_t n = 0;
+    for (const char *c = spec; *c; c++) {
+        if (*c == '^') {
+            bst_layer *f;
+            ck_assert_int_eq(bst_layer_flip(ctx, layers[n - 1], &f), BST_OK);
+            bst_layer_free(layers[n - 1]);
+            layers[n - 1] = f;
+            continue;
+        }
+        layers[n++] = *c == 'g'   ? tu_layer(ctx, "glass:clear-6mm", b)
+                      : *c == '3' ? file_layer(coarse3, b)
+                      : *c == '4' ? file_layer(coarse4, b)
+                      : *c == 'D' ? tu_layer(ctx, "L_blind0_t4k5.xml", b)
+                                  : tu_layer(ctx, "L_diffuser_t3k5_klems.xml", b);
+    }
+    return n;
+}
+
+START_TEST(test_layers)
+{
+    /* read at k = 5, depth 3: factored, rank 64, the values of the order-5 expansion */
+    bst_basis *b5;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 5, &b5), BST_OK);
+    bst_layer *l = file_layer(coarse3, b5);
+    for (int c = 0; c < BST_NCOMP; c++) {
+        const bst_mat *m = bst_layer_get(l, 0, (bst_comp)c);
+        ck_assert_int_eq(bst_mat_structure(m), BST_FACTORED);
+        ck_assert_uint_eq(bsti_mat_rank(m), 64);
+        /* every fine cell holds its coarse cell's value */
+        bst_basis *b3;
+        ck_assert_int_eq(bst_basis_new_sc(ctx, 3, &b3), BST_OK);
+        bst_layer *c3 = file_layer(coarse3, b3);
+        const bst_mat *m3 = bst_layer_get(c3, 0, (bst_comp)c);
+        for (size_t y = 0; y < 1024; y += 37)
+            for (size_t x = 0; x < 1024; x += 5) {
+                size_t px = ((x / 32) >> 2) * 8 + ((x % 32) >> 2), py = ((y / 32) >> 2) * 8 + ((y % 32) >> 2);
+                ck_assert_double_eq(bst_mat_get(m, x, y), bst_mat_get(m3, px, py));
+            }
+        bst_layer_free(c3);
+        bst_basis_free(b3);
+    }
+    bst_layer_free(l);
+    bst_basis_free(b5);
+}
+END_TEST
+
+START_TEST(test_stacks)
+{
+    const char *spec = stacks[_i % NSTACKS];
+    bst_precision prec = _i < (int)NSTACKS ? BST_DOUBLE : BST_FLOAT;
+    double tol = prec == BST_DOUBLE ? 1e-10 : 1e-5;
+    bst_basis *b5;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 5, &b5), BST_OK);
+    bst_layer *layers[8];
+    size_t n = build(spec, b5, layers);
+    bst_stack_opts o;
+    bst_stack_opts_init(&o);
+    o.precision = prec;
+    o.on_step = count_factored;
+    factored_steps = 0;
+    bst_layer *fact, *dense;
+    ck_assert_int_ge(bst_stack_combine(ctx, n, (const bst_layer *const *)layers, &o, &fact), 0);
+    if (strcmp(spec, "g3") == 0 || strcmp(spec, "g3g") == 0 || strcmp(spec, "3g") == 0)
+        ck_assert_int_gt(factored_steps, 0);
+    o.force_dense = 1;
+    ck_assert_int_ge(bst_stack_combine(ctx, n, (const bst_layer *const *)layers, &o, &dense), 0);
+    for (int c = 0; c < BST_NCOMP; c++) {
+        double d = rel_diff(bst_layer_get(fact, 0, (bst_comp)c), bst_layer_get(dense, 0, (bst_comp)c));
+        ck_assert_msg(d < tol, "%s %s %s: %g", spec, prec == BST_DOUBLE ? "double" : "single",
+                      bst_comp_name((bst_comp)c), d);
+    }
+    /* absorptance (double): the same per layer and incident patch */
+    if (prec == BST_DOUBLE) {
+        size_t N = 1024;
+        double *af = malloc(4 * n * N * sizeof *af), *ad = af + 2 * n * N;
+        o.force_dense = 0;
+        ck_assert_int_ge(bst_stack_absorptance(ctx, n, (const bst_layer *const *)layers, 0, &o, af,
+                                               af + n * N), 0);
+        o.force_dense = 1;
+        ck_assert_int_ge(bst_stack_absorptance(ctx, n, (const bst_layer *const *)layers, 0, &o, ad,
+                                               ad + n * N), 0);
+        for (size_t q = 0; q < 2 * n * N; q++)
+            ck_assert_msg(fabs(af[q] - ad[q]) < 1e-10, "%s absorptance %zu: %g vs %g", spec, q,
+                          af[q], ad[q]);
+        free(af);
+    }
+    bst_layer_free(fact), bst_layer_free(dense);
+    for (size_t i = 0; i < n; i++)
+        bst_layer_free(layers[i]);
+    bst_basis_free(b5);
+}
+END_TEST
+
+/* The iterated columns (combine --incident) of a factored stack: those of the whole system. */
+START_TEST(test_columns)
+{
+    bst_basis *b5;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 5, &b5), BST_OK);
+    bst_layer *layers[8];
+    size_t n = build("g3g", b5, layers);
+    bst_layer *sys;
+    ck_assert_int_ge(bst_stack_combine(ctx, n, (const bst_layer *const *)layers, NULL, &sys), 0);
+    size_t cols[3] = {5, 300, 777};
+    bst_columns_opts co;
+    bst_columns_opts_init(&co);
+    co.tol = 1e-13;
+    bst_mat *tf, *rf, *want;
+    ck_assert_int_ge(bst_stack_columns(ctx, n, (const bst_layer *const *)layers, NULL, 3, cols, &co,
+                                       &tf, &rf), 0);
+    ck_assert_int_eq(bst_mat_select_cols(ctx, bst_layer_get(sys, 0, BST_TF), 3, cols, &want), BST_OK);
+    ck_assert_msg(rel_diff(tf, want) < 1e-9, "Tf columns: %g", rel_diff(tf, want));
+    bst_mat_free(want);
+    ck_assert_int_eq(bst_mat_select_cols(ctx, bst_layer_get(sys, 0, BST_RF), 3, cols, &want), BST_OK);
+    ck_assert_msg(rel_diff(rf, want) < 1e-9, "Rf columns: %g", rel_diff(rf, want));
+    bst_mat_free(want), bst_mat_free(tf), bst_mat_free(rf);
+    bst_layer_free(sys);
+    for (size_t i = 0; i < n; i++)
+        bst_layer_free(layers[i]);
+    bst_basis_free(b5);
+}
+END_TEST
+
+static Suite *suite(void)
+{
+    Suite *s = suite_create("factored");
+    TCase *tc = tcase_create("stacks");
+    tcase_add_unchecked_fixture(tc, setup, teardown); /* the coarse files once */
+    tcase_set_timeout(tc, 300);
+    tcase_add_test(tc, test_layers);
+    tcase_add_loop_test(tc, test_stacks, 0, (int)(2 * NSTACKS));
+    tcase_add_test(tc, test_columns);
+    suite_add_tcase(s, tc);
+    return s;
+}
+
+int main(void) { return tu_run(suite()); }
