@@ -263,9 +263,14 @@ static int view_run(const char *sub, int nfiles, char **paths, const struct view
     if (rc == CLI_OK)
         rc = cli_out_commit(&out, sub);
     cli_out_abort(&out);
-    if (rc == CLI_OK && strcmp(o->outpath ? o->outpath : outpath, "-") != 0)
-        printf("%s: %zu file%s over %s%s\n", o->outpath ? o->outpath : outpath, v.nfiles,
-               v.nfiles > 1 ? "s" : "", bst_basis_name(basis), v.note ? "; the page says why not finer" : "");
+    if (rc == CLI_OK && strcmp(o->outpath ? o->outpath : outpath, "-") != 0) {
+        char k[32] = "";
+        if (bst_basis_order(basis))
+            snprintf(k, sizeof k, " k = %d", bst_basis_order(basis));
+        printf("%s: %zu file%s over %s%s, %zu incident patch%s%s\n", o->outpath ? o->outpath : outpath,
+               v.nfiles, v.nfiles > 1 ? "s" : "", bst_basis_name(basis), k, v.ncols, v.ncols > 1 ? "es" : "",
+               v.note && !o->nincident ? " (coarser than the files': the page says why)" : "");
+    }
     for (size_t f = 0; v.files && f < v.nfiles; f++)
         bst_layer_free(v.files[f].l), bst_bsdf_free(v.files[f].b);
     free(v.files), free(v.channels), free(cols), free(outpath);
