@@ -108,7 +108,13 @@ xz -dc "$ref/L_blind0_t4k6.xml.xz" > "$tmpdir/b6.xml" || fail "xz"
     fail "view --incident of a k = 6 file"
 check_view "k = 6, chosen directions" "$tmpdir/b6.html" "$tmpdir/b6.xml" 30 90 Tf
 check_view "k = 6, chosen directions" "$tmpdir/b6.html" "$tmpdir/b6.xml" 45 0 Tf
-echo "info: drawing the k = 6 column took $(sed -n 's/.*data-draw-ms="\([^"]*\)".*/\1/p' "$tmpdir/dom") ms"
+# k = 7: the chosen columns evaluated from the file, without its whole layer (a pane, written fast)
+"$B" combine -k 7 -o "$tmpdir/g7.xml" glass:clear-6mm > /dev/null 2>&1 || fail "combine -k 7"
+"$B" view --incident 30,90 --incident 45,0 -o "$tmpdir/g7.html" "$tmpdir/g7.xml" > "$tmpdir/out" 2>&1 &&
+    grep -q 'k = 7, 2 incident patches' "$tmpdir/out" && pass "view --incident of a k = 7 file" ||
+    fail "view --incident of a k = 7 file: $(cat "$tmpdir/out")"
+check_view "k = 7, chosen directions" "$tmpdir/g7.html" "$tmpdir/g7.xml" 30 90 Tf
+check_view "k = 7, chosen directions" "$tmpdir/g7.html" "$tmpdir/g7.xml" 45 0 Rb
 # beyond --max-size: coarser, and the page says so
 "$B" view --max-size 8M -o "$tmpdir/coarse.html" "$ref/L_blind45_t4k5.xml" > /dev/null 2>&1 &&
     grep -q '"basis":{"kind":"sc","k":4' "$tmpdir/coarse.html" && grep -q 'coarser than the files' "$tmpdir/coarse.html" &&

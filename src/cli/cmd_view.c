@@ -157,6 +157,62 @@ static int load_layers(bst_ctx *ctx, const char *sub, struct cli_view *v, const 
     return rc;
 }
 
+/* One column of component c of file b, channel ch (the file's index), as libBSDF evaluates it at
+ * the patches' centres: incident patch j of the propagation direction, exit patches i. */
+static int eval_column(bst_ctx *ctx, const bst_bsdf *b, size_t ch, bst_comp c, const bst_basis *basis,
+                       size_t j, double *col)
+{
+    double in[3], out[3];
+    int front = c == BST_TF || c == BST_RF, exit_sign = c == BST_TF || c == BST_RB ? 1 : -1;
+    bst_basis_center(basis, j, in); /* towards the source: the propagation direction reversed */
+    in[0] = -in[0], in[1] = -in[1], in[2] = front ? -in[2] : in[2];
+    for (size_t i = 0; i < bst_basis_size(basis); i++) {
+        bst_basis_center(basis, i, out);
+        out[2] *= exit_sign;
+        if (bst_bsdf_eval(ctx, b, ch, in, out, &col[i]) < 0)
+            return -1;
+    }
+    return 0;
+}
+
+/* The embedded columns of every file at the finest order (k = 7: a whole component is 2^28
+ * values) without the whole layers: each component a sparse matrix holding those columns alone,
+ * evaluated at the cells' centres (a rank-4 tree's cells' own values). */
+static int eval_layers(bst_ctx *ctx, const char *sub, struct cli_view *v)
+{
+    size_t n = bst_basis_size(v->basis), nc = v->ncols;
+    size_t *row = malloc(n * nc * sizeof *row), *colj = malloc(n * nc * sizeof *colj);
+    double *val = malloc(n * nc * sizeof *val);
+    int rc = row && colj && val ? CLI_OK : cli_fail(sub, "out of memory");
+    for (size_t f = 0; f < v->nfiles && rc == CLI_OK; f++) {
+        struct cli_view_file *vf = &v->files[f];
+        if (bst_layer_new(ctx, v->basis, v->nchannels, v->channels, &vf->l) < 0) {
+            rc = cli_fail_ctx(sub, vf->path, ctx);
+            break;
+        }
+        for (size_t ch = 0; ch < v->nchannels && rc == CLI_OK; ch++) {
+            size_t fc = 0;
+            while (strcmp(bst_bsdf_channel(vf->b, fc), v->channels[ch]))
+                fc++;
+            for (int c = 0; c < BST_NCOMP && rc == CLI_OK; c++) {
+                if (bst_bsdf_fill(vf->b, fc, (bst_comp)c) <= 0)
+                    continue;
+                for (size_t q = 0; q < nc; q++)
+                    if (eval_column(ctx, vf->b, fc, (bst_comp)c, v->basis, v->cols[q], val + q * n) < 0)
+                        rc = cli_fail_ctx(sub, vf->path, ctx), q = nc;
+                for (size_t q = 0; q < n * nc; q++)
+                    row[q] = q % n, colj[q] = v->cols[q / n];
+                bst_mat *m = NULL;
+                if (rc == CLI_OK && (bst_mat_new_sparse(ctx, n, n, n * nc, row, colj, val, &m) < 0 ||
+                                     bst_layer_set(ctx, vf->l, ch, (bst_comp)c, m) < 0))
+                    rc = cli_fail_ctx(sub, vf->path, ctx);
+            }
+        }
+    }
+    free(row), free(colj), free(val);
+    return rc;
+}
+
 static const char *mib(char buf[32], double bytes)
 {
     snprintf(buf, 32, "%.3g MB", bytes / 1048576);
@@ -202,7 +258,8 @@ static int choose_and_load(bst_ctx *ctx, const char *sub, struct cli_view *v, co
         v->basis = *basis, v->cols = *cols;
         if (!v->cols)
             v->ncols = bst_basis_size(*basis);
-        if (load_layers(ctx, sub, v, *basis, o->max_memory) != CLI_OK)
+        if (o->nincident && k == BST_K_MAX ? eval_layers(ctx, sub, v) != CLI_OK
+                                           : load_layers(ctx, sub, v, *basis, o->max_memory) != CLI_OK)
             return CLI_FAIL;
         double size = cli_view_data_size(v);
         if (size <= o->max_size)

@@ -144,7 +144,7 @@ double cli_view_data_size(const struct cli_view *v)
                 if (!m || bst_mat_structure(m) == BST_ZERO)
                     continue;
                 /* a sparse one's selected columns hold at most its nnz */
-                bytes += is_sparse(m) ? 4 * (nc + 1) + 6.0 * (double)bst_mat_nnz(m) * fmin(1, nc / n) : 4 * n * nc;
+                bytes += is_sparse(m) ? 4 * (nc + 1) + 6.0 * (double)bst_mat_nnz(m) : 4 * n * nc;
             }
         }
     return bytes * 4 / 3;
