@@ -43,7 +43,8 @@ static const char help[] =
     "                     1024)\n"
     "  --incident T,P     embed only the incident patches of these propagation directions\n"
     "                     (degrees; repeat the option), at the files' own resolution: the way to\n"
-    "                     look at a k = 7 file\n"
+    "                     look at a k = 7 file (whose columns are then evaluated at the cells'\n"
+    "                     centres, as libBSDF does, without the whole layer)\n"
     "  --max-memory SIZE  refuse files whose layers would need more memory (default: the memory\n"
     "                     available now), as info does\n";
 
@@ -220,7 +221,8 @@ static const char *mib(char buf[32], double bytes)
 }
 
 /* The incident patches of --incident (repeats once), over basis; info's rule on boundaries. */
-static int pick_columns(const char *sub, const struct view_opts *o, const bst_basis *basis, size_t **cols, size_t *n)
+static int pick_columns(const char *sub, const struct view_opts *o, const bst_basis *basis, size_t **cols,
+                        size_t *n)
 {
     if (!(*cols = malloc(o->nincident * sizeof **cols)))
         return cli_fail(sub, "out of memory");
@@ -266,8 +268,8 @@ static int choose_and_load(bst_ctx *ctx, const char *sub, struct cli_view *v, co
             break;
         if (klems || o->nincident || k == 1)
             return cli_fail(sub, "%s: the page's data would take %s%s, more than --max-size %s",
-                            v->files[0].path, mib(a, size), klems ? " (Klems)" : o->nincident ? "" : " at k = 1",
-                            mib(b, o->max_size));
+                            v->files[0].path, mib(a, size),
+                            klems ? " (Klems)" : o->nincident ? "" : " at k = 1", mib(b, o->max_size));
         free_layers(v);
         bst_basis_free(*basis), *basis = NULL;
     }

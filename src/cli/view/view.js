@@ -21,6 +21,9 @@
     const DECADES = 4;           /* the log scale spans this far below the peak, as plot's */
     const NUDGE = 1e-9;          /* boundary rule: +x, +y side, as info's table */
     const $ = (id) => document.getElementById(id);
+    /* x, y of the direction theta, phi (degrees) */
+    const planar = (theta, phi) => [Math.sin(theta * DEG) * Math.cos(phi * DEG),
+                                    Math.sin(theta * DEG) * Math.sin(phi * DEG)];
 
     /* ------------------------------------------------------------ data */
 
@@ -164,7 +167,7 @@
     /* The embedded column of a propagation direction (theta, phi in degrees): its patch's, or
      * with chosen columns the nearest of them. */
     function columnOf(theta, phi) {
-        const x = Math.sin(theta * DEG) * Math.cos(phi * DEG), y = Math.sin(theta * DEG) * Math.sin(phi * DEG);
+        const [x, y] = planar(theta, phi);
         const p = basis.patch(x + NUDGE, y + NUDGE);
         if (!cols)
             return p;
@@ -224,7 +227,8 @@
     /* A scale: log over DECADES below the peak (plot's default), or linear lo..hi. */
     function logScale(peak) {
         const hi = peak > 0 ? peak : 1, lo = hi * Math.pow(10, -DECADES);
-        return { log: true, lo, hi, t: (v) => v <= lo ? 0 : (Math.log10(v) - Math.log10(lo)) / (Math.log10(hi) - Math.log10(lo)) };
+        const span = Math.log10(hi) - Math.log10(lo);
+        return { log: true, lo, hi, t: (v) => v <= lo ? 0 : (Math.log10(v) - Math.log10(lo)) / span };
     }
     const linearScale = (lo, hi) => ({ log: false, lo, hi, t: (v) => (v - lo) / (hi - lo) });
 
@@ -346,7 +350,7 @@
                 const c = basis.center(p);
                 g.fillRect(cx + r * c[0] - 2, cy - r * c[1] - 2, 4, 4);
             }
-        const x = Math.sin(state.theta * DEG) * Math.cos(state.phi * DEG), y = Math.sin(state.theta * DEG) * Math.sin(state.phi * DEG);
+        const [x, y] = planar(state.theta, state.phi);
         g.fillStyle = "#e01b24";
         g.beginPath();
         g.arc(cx + r * x, cy - r * y, 5, 0, 2 * Math.PI);
@@ -383,11 +387,12 @@
             component(f, c, state.comp);
         const t0 = performance.now();
         const inc = direction(cols ? cols[jc] : jc), front = state.comp[1] === "f";
-        const mark = [Math.sin(state.theta * DEG) * Math.cos(state.phi * DEG), Math.sin(state.theta * DEG) * Math.sin(state.phi * DEG)];
+        const mark = planar(state.theta, state.phi);
         drawIncidence(jc);
         $("what").textContent = state.comp + ", channel " + state.channel + ", incidence (\u03b8, \u03c6) = (" +
             state.theta.toFixed(1) + ", " + state.phi.toFixed(1) + ")\u00b0, incident patch " + (cols ? cols[jc] : jc) +
-            " centred at (" + inc[0].toFixed(1) + ", " + inc[1].toFixed(1) + ")\u00b0, " + (front ? "front" : "back") + " side";
+            " centred at (" + inc[0].toFixed(1) + ", " + inc[1].toFixed(1) + ")\u00b0, " +
+            (front ? "front" : "back") + " side";
         const res = [];
         for (let f = 0; f < D.files.length; f++) {
             const m = component(f, c, state.comp), col = column(m, jc).slice();
@@ -407,8 +412,10 @@
             p.append(D.files[f].name + ": hemispherical ",
                      Object.assign(document.createElement("output"), { id: "hem-" + f, textContent: fmt(res[f].hem) }),
                      ", first file minus this ",
-                     Object.assign(document.createElement("output"), { id: "hemdiff-" + f, textContent: fmt(res[0].hem - res[f].hem) }),
-                     ", peak " + res[f].peak.toPrecision(4) + " 1/sr at (" + res[f].dir[0].toFixed(1) + ", " + res[f].dir[1].toFixed(1) + ")\u00b0");
+                     Object.assign(document.createElement("output"),
+                                   { id: "hemdiff-" + f, textContent: fmt(res[0].hem - res[f].hem) }),
+                     ", peak " + res[f].peak.toPrecision(4) + " 1/sr at (" + res[f].dir[0].toFixed(1) + ", " +
+                     res[f].dir[1].toFixed(1) + ")\u00b0");
             others.append(p);
         }
         const maps = $("maps");
@@ -420,10 +427,12 @@
                 for (let i = 0; i < N; i++)
                     la[i] = a[i] + b[i] > 0 ? 100 * (1 - Math.abs(a[i] - b[i]) / (a[i] + b[i])) : 100;
                 drawMap(figure(shown++, "Local accordance LA (%) of " + D.files[0].name + " and " + name + ", " +
-                               state.comp + ", " + state.channel + " (Grobe 2017, eq. 8)"), la, linearScale(0, 100), mark);
+                               state.comp + ", " + state.channel + " (Grobe 2017, eq. 8)"),
+                        la, linearScale(0, 100), mark);
             } else {
                 drawMap(figure(shown++, name + ": " + state.comp + ", " + state.channel + ", BSDF (1/sr), log scale " +
-                               DECADES + " decades below the peak; hemispherical " + fmt(r.hem) + (r.absent ? " (component absent: zero)" : "")),
+                               DECADES + " decades below the peak; hemispherical " + fmt(r.hem) +
+                               (r.absent ? " (component absent: zero)" : "")),
                         r.col, logScale(r.peak), mark);
             }
         }
@@ -431,7 +440,8 @@
             maps.lastChild.remove();
         document.body.dataset.drawMs = (performance.now() - t0).toFixed(1);
         const rect = maps.firstChild.firstChild.getBoundingClientRect();
-        $("mapdisk").textContent = (rect.left + scrollX + PAD + MAP / 2) + " " + (rect.top + scrollY + PAD + MAP / 2) + " " + MAP / 2;
+        $("mapdisk").textContent = (rect.left + scrollX + PAD + MAP / 2) + " " +
+            (rect.top + scrollY + PAD + MAP / 2) + " " + MAP / 2;
         drawCurves(c, front);
         writeHash();
     }
@@ -516,11 +526,16 @@
             $("mode").disabled = true;
         const cv = $("incdisk");
         let dragging = false;
-        cv.addEventListener("pointerdown", (ev) => { dragging = true; cv.setPointerCapture(ev.pointerId); pointer(ev); });
+        cv.addEventListener("pointerdown", (ev) => {
+            dragging = true;
+            cv.setPointerCapture(ev.pointerId);
+            pointer(ev);
+        });
         cv.addEventListener("pointermove", (ev) => { if (dragging) pointer(ev); });
         cv.addEventListener("pointerup", () => { dragging = false; });
         cv.addEventListener("keydown", (ev) => {
-            const step = ev.shiftKey ? 5 : 1, keys = { ArrowUp: [step, 0], ArrowDown: [-step, 0], ArrowRight: [0, step], ArrowLeft: [0, -step] };
+            const step = ev.shiftKey ? 5 : 1;
+            const keys = { ArrowUp: [step, 0], ArrowDown: [-step, 0], ArrowRight: [0, step], ArrowLeft: [0, -step] };
             const k = keys[ev.key];
             if (k) {
                 ev.preventDefault();
