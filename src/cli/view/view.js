@@ -356,6 +356,7 @@
         g.arc(cx + r * x, cy - r * y, 5, 0, 2 * Math.PI);
         g.fill();
         const d = direction(cols ? cols[jc] : jc);
+        cv.setAttribute("aria-valuenow", state.theta.toFixed(1));
         cv.setAttribute("aria-valuetext", "theta " + state.theta.toFixed(1) + " degrees, phi " + state.phi.toFixed(1) +
                         " degrees; incident patch centre theta " + d[0].toFixed(1) + ", phi " + d[1].toFixed(1));
     }
