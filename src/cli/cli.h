@@ -28,6 +28,7 @@ int cmd_info(int argc, char **argv);
 int cmd_compare(int argc, char **argv);
 int cmd_batch(int argc, char **argv);
 int cmd_plot(int argc, char **argv);
+int cmd_view(int argc, char **argv);
 
 /* "bsdfstack SUB: message" on stderr, one line.  Returns CLI_FAIL. */
 int cli_fail(const char *sub, const char *fmt, ...)

@@ -16,6 +16,7 @@ const struct cli_command cli_commands[] = {
     {"batch", cmd_batch, "combine many stacks listed in a file, each layer loaded once"},
     {"compare", cmd_compare, "how far two BSDFs agree: accordance and hemispherical values"},
     {"plot", cmd_plot, "draw scattered light for one incidence, or T and R against angle (PNG, SVG, PDF)"},
+    {"view", cmd_view, "write an interactive HTML page showing BSDF files (one file, no network)"},
     {"query", cmd_query, "evaluate a BSDF file at pairs of directions, as RADIANCE does"},
     {"version", cmd_version, "print the program and library versions"},
     {NULL, NULL, NULL}
