@@ -200,3 +200,28 @@ def test_spectral_columns_follow_the_spectral_system(tmp_path):
     assert rel_max(c.t["Solar"][:, 1], bands.matrix("Tf", "Solar")[:, j]) > 1e-3
     with pytest.raises(bsdfstack.Error, match="no incident directions"):
         bsdfstack.columns(stack, [], k=3)
+
+
+def test_glass_model_source_metadata(tmp_path):
+    """A pane's model, source and metadata as `bsdfstack glass` prints them: the catalogue's
+    coated pane, model= overriding it, and an Optics file whose type picks the model."""
+    lowe = bsdfstack.glass("lowe-6mm")
+    assert (lowe.model, lowe.source) == ("coated", "catalogue")
+    assert (lowe.metadata["model_from"], lowe.metadata["type"]) == ("type", "Coated")
+    assert lowe.metadata["path"].endswith("lowe-6mm.glass")
+    assert bsdfstack.glass("lowe-6mm,model=uncoated").model == "uncoated"
+    assert bsdfstack.glass("lowe-6mm,model=uncoated").metadata["model_from"] == "spec"
+    inline = bsdfstack.glass("t0=0.8,r0=0.08")
+    assert (inline.model, inline.source, inline.metadata) == ("uncoated", "inline",
+                                                              {"source": "inline", "model_from": "default"})
+    f = tmp_path / "COATED_4.DAT"
+    f.write_text("{ Units, Wavelength Units } SI Nanometers\n{ Thickness } 4.1\n"
+                 "{ Product Name: Made-up low-e }\n{ NFRC ID: 9999 }\n{ Type: Coated }\n"
+                 "{ Coated Side: Back }\n{ Emissivity, front back } Emis= 0.84 0.04\n"
+                 "300 0.1 0.2 0.3\n400 0.7 0.1 0.1\n800 0.6 0.2 0.3\n2500 0.1 0.4 0.5\n")
+    g = bsdfstack.glass(str(f))
+    assert (g.model, g.source) == ("coated", "optics")
+    assert g.metadata == {"source": "optics", "path": str(f), "type": "Coated", "model_from": "type",
+                          "product_name": "Made-up low-e", "coated_side": "Back",
+                          "wavelength_units": "Nanometers", "nfrc_id": 9999, "thickness_mm": 4.1,
+                          "emissivity_front": 0.84, "emissivity_back": 0.04}
