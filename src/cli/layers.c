@@ -127,7 +127,7 @@ static int read_all(bst_ctx *ctx, const char *sub, size_t n, char **specs,
  * goes to *pane (else NULL).  Errors name `what`. */
 static int make_layer(bst_ctx *ctx, const char *sub, const char *what, const char *spec,
                       bst_bsdf *file, const bst_basis *basis, size_t nch, const char **chnames,
-                      int at_centre, bst_layer **out, bst_glass **pane)
+                      int at_centre, bst_layer **out, bst_glass **pane, char **note)
 {
     size_t len = strlen(spec);
     int flip = len && spec[len - 1] == '^', st;
@@ -155,6 +155,14 @@ static int make_layer(bst_ctx *ctx, const char *sub, const char *what, const cha
                     CLI_CATALOGUE_WAVELENGTHS);
         if (st >= 0)
             st = bst_glass_layer(ctx, g, basis, nch, nch ? chnames : NULL, at_centre, &l);
+        if (st >= 0 && note) { /* the pane's model, source and metadata, for the output's header */
+            char buf[1024];
+            cli_glass_summary(g, buf, sizeof buf);
+            if (!(*note = strdup(buf))) {
+                bst_layer_free(l), bst_glass_free(g), free(gspec);
+                return cli_fail(sub, "out of memory");
+            }
+        }
         /* a pane with spectral data can also be evaluated per wavelength */
         if (st >= 0 && !flip && bst_glass_nwavelengths(g) > 0)
             *pane = g;
@@ -177,6 +185,20 @@ static int make_layer(bst_ctx *ctx, const char *sub, const char *what, const cha
     }
     bst_layer_set_name(ctx, l, spec);
     *out = l;
+    return CLI_OK;
+}
+
+/* "\nlayer N SPEC: NOTE" appended to set->description: a pane's model, source and metadata in
+ * the output's header, where `info` finds them. */
+static int note_pane(const char *sub, struct cli_layers *set, size_t i, const char *spec,
+                     const char *note)
+{
+    size_t len = strlen(set->description), more = strlen(spec) + strlen(note) + 48;
+    char *d = realloc(set->description, len + more);
+    if (!d)
+        return cli_fail(sub, "out of memory");
+    snprintf(d + len, more, "\nlayer %zu %s: %s", i + 1, spec, note);
+    set->description = d;
     return CLI_OK;
 }
 
@@ -212,13 +234,17 @@ int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_
         goto out;
     /* 3. every layer over that basis, reversed where asked */
     for (size_t i = 0; i < n && rc == CLI_OK; i++) {
+        char *note = NULL;
         rc = make_layer(ctx, sub, specs[i], specs[i], files[i], set->basis, nch, chnames,
-                        choice->at_centre, &set->layers[i], &set->panes[i]);
+                        choice->at_centre, &set->layers[i], &set->panes[i], &note);
         files[i] = NULL;
         if (rc == CLI_OK) {
             set->npanes += set->panes[i] != NULL;
             set->n++;
         }
+        if (rc == CLI_OK && note)
+            rc = note_pane(sub, set, i, specs[i], note);
+        free(note);
     }
 out:
     for (size_t i = 0; files && i < n; i++)
@@ -260,7 +286,7 @@ int cli_layers_check(bst_ctx *ctx, const char *sub, size_t n, char **specs,
         bst_layer *l = NULL;
         bst_glass *pane = NULL;
         rc = make_layer(ctx, sub, specs[i], specs[i], NULL, basis, nch, chnames, choice->at_centre,
-                        &l, &pane);
+                        &l, &pane, NULL);
         bst_layer_free(l);
         bst_glass_free(pane);
         structure[i] = CLI_DIAGONAL;
@@ -314,7 +340,8 @@ int cli_layer_load(bst_ctx *ctx, const char *sub, const char *what, const char *
     if (rc == CLI_OK && !is_glass(spec))
         rc = read_one(ctx, sub, what, spec, &ro, 1, &file);
     if (rc == CLI_OK)
-        rc = make_layer(ctx, sub, what, spec, file, basis, nch, chnames, choice->at_centre, layer, pane);
+        rc = make_layer(ctx, sub, what, spec, file, basis, nch, chnames, choice->at_centre, layer,
+                        pane, NULL);
     free(chcopy);
     return rc;
 }
