@@ -4,6 +4,7 @@
  *   glass_coated.c WINDOW's angular model of coated glass, and which model a material type takes;
  *   glass_optics.c Optics / IGDB text files of a pane's spectral data;
  *   glass_json.c   IGSDB JSON records: a glazing product's data, a shading product (bst_shade);
+ *   glass_json2.c  IGSDB v2 glazing records (glass_json.c tells v1 from v2);
  *   glass_band.c   spectral panes: their data tables, the band spectra and the CIE fits, band
  *                  channels and their wavelength weights;
  *   glass_spec.c   specifications ("glass:NAME|PATH|key=value") and catalogue files;
@@ -159,6 +160,10 @@ int bsti_glass_read_optics(bst_ctx *ctx, bst_glass *g, const char *path);
 /* An IGSDB JSON record: a glazing product into g->data and g->meta; a shading product is read and
  * validated as bst_shade_read_igsdb does and refused with BST_ENOTIMPL. */
 int bsti_glass_read_igsdb(bst_ctx *ctx, bst_glass *g, const char *path);
+/* An IGSDB v2 glazing record (root, a jansson json_t *) into g->data and g->meta (glass_json2.c);
+ * path names the file in messages. */
+struct json_t;
+int bsti_glass_read_glazing_v2(bst_ctx *ctx, const char *path, bst_glass *g, struct json_t *root);
 /* Add band b as a channel of spectral pane g (where: for messages); complete or absent. */
 int bsti_glass_add_band(bst_ctx *ctx, bst_glass *g, const char *where,
                         const struct bsti_glass_band *b);
