@@ -37,7 +37,10 @@ void cli_layers_free(struct cli_layers *set)
         bst_layer_free(set->layers[i]);
         if (set->panes)
             bst_glass_free(set->panes[i]);
+        if (set->notes)
+            free(set->notes[i]);
     }
+    free(set->notes);
     free(set->layers);
     free(set->panes);
     bst_basis_free(set->basis);
@@ -188,17 +191,20 @@ static int make_layer(bst_ctx *ctx, const char *sub, const char *what, const cha
     return CLI_OK;
 }
 
-/* "\nlayer N SPEC: NOTE" appended to set->description: a pane's model, source and metadata in
- * the output's header, where `info` finds them. */
-static int note_pane(const char *sub, struct cli_layers *set, size_t i, const char *spec,
-                     const char *note)
+int cli_note_panes(const char *sub, char **description, const struct cli_layers *all, size_t n,
+                   const size_t *idx, char *const *specs)
 {
-    size_t len = strlen(set->description), more = strlen(spec) + strlen(note) + 48;
-    char *d = realloc(set->description, len + more);
-    if (!d)
-        return cli_fail(sub, "out of memory");
-    snprintf(d + len, more, "\nlayer %zu %s: %s", i + 1, spec, note);
-    set->description = d;
+    for (size_t j = 0; all->notes && j < n; j++) {
+        const char *note = all->notes[idx ? idx[j] : j], *spec = specs[idx ? idx[j] : j];
+        if (!note)
+            continue;
+        size_t len = strlen(*description), more = strlen(spec) + strlen(note) + 48;
+        char *d = realloc(*description, len + more);
+        if (!d)
+            return cli_fail(sub, "out of memory");
+        snprintf(d + len, more, "\nlayer %zu %s: %s", j + 1, spec, note);
+        *description = d;
+    }
     return CLI_OK;
 }
 
@@ -209,6 +215,7 @@ int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_
     memset(set, 0, sizeof *set);
     set->layers = calloc(n, sizeof *set->layers);
     set->panes = calloc(n, sizeof *set->panes);
+    set->notes = calloc(n, sizeof *set->notes);
     bst_bsdf **files = calloc(n, sizeof *files);
     char *chcopy = channels ? strdup(channels) : NULL;
     const char *chnames[MAX_CH];
@@ -218,7 +225,8 @@ int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_
         desc_len += strlen(specs[i]) + 4;
     set->description = malloc(desc_len);
     int rc = CLI_OK;
-    if (!set->layers || !set->panes || !files || !set->description || (channels && !chcopy)) {
+    if (!set->layers || !set->panes || !set->notes || !files || !set->description ||
+        (channels && !chcopy)) {
         rc = cli_fail(sub, "out of memory");
         goto out;
     }
@@ -234,18 +242,16 @@ int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_
         goto out;
     /* 3. every layer over that basis, reversed where asked */
     for (size_t i = 0; i < n && rc == CLI_OK; i++) {
-        char *note = NULL;
         rc = make_layer(ctx, sub, specs[i], specs[i], files[i], set->basis, nch, chnames,
-                        choice->at_centre, &set->layers[i], &set->panes[i], &note);
+                        choice->at_centre, &set->layers[i], &set->panes[i], &set->notes[i]);
         files[i] = NULL;
         if (rc == CLI_OK) {
             set->npanes += set->panes[i] != NULL;
             set->n++;
         }
-        if (rc == CLI_OK && note)
-            rc = note_pane(sub, set, i, specs[i], note);
-        free(note);
     }
+    if (rc == CLI_OK)
+        rc = cli_note_panes(sub, &set->description, set, n, NULL, specs);
 out:
     for (size_t i = 0; files && i < n; i++)
         bst_bsdf_free(files[i]);
@@ -327,7 +333,8 @@ int cli_basis_make(bst_ctx *ctx, const char *sub, const struct cli_basis_pick *p
 
 int cli_layer_load(bst_ctx *ctx, const char *sub, const char *what, const char *spec,
                    const bst_basis *basis, const struct cli_basis_choice *choice,
-                   const char *channels, bst_precision prec, bst_layer **layer, bst_glass **pane)
+                   const char *channels, bst_precision prec, bst_layer **layer, bst_glass **pane,
+                   char **note)
 {
     char *chcopy = channels ? strdup(channels) : NULL;
     const char *chnames[MAX_CH];
@@ -341,7 +348,7 @@ int cli_layer_load(bst_ctx *ctx, const char *sub, const char *what, const char *
         rc = read_one(ctx, sub, what, spec, &ro, 1, &file);
     if (rc == CLI_OK)
         rc = make_layer(ctx, sub, what, spec, file, basis, nch, chnames, choice->at_centre, layer,
-                        pane, NULL);
+                        pane, note);
     free(chcopy);
     return rc;
 }
