@@ -135,6 +135,11 @@ expect_error "malformed JSON" "bad.json:2:[0-9]+: not valid JSON" -- "$B" combin
 [ -e "$tmpdir/bad.xml" ] && fail "malformed JSON left an output file" || pass "no output file"
 optics 4 0 Monolithic | sed '20s/.*/0.5 0.8 0.08/' > "$tmpdir/BAD.DAT"
 expect_error "bad Optics row" "BAD.DAT:20: 3 numbers: a data row has 4" -- "$B" glass "$tmpdir/BAD.DAT"
+# a hazy product (9 columns with a diffuse part): refused at its row, not read as specular
+optics 9 0 Monolithic | awk 'NR == 30 { $3 = "0.02" } { print }' > "$tmpdir/HAZY.DAT"
+expect_error "a hazy Optics row" "HAZY.DAT:30: diffuse part Tf_dif = 0.02: a pane is specular" \
+    -- "$B" combine -k 2 -o "$tmpdir/hazy.xml" "glass:$tmpdir/HAZY.DAT" glass:clear-6mm
+[ -e "$tmpdir/hazy.xml" ] && fail "a hazy pane left an output file" || pass "no output file"
 optics 4 0 Tinted > "$tmpdir/TINT.DAT"
 expect_error "a type WINDOW does not know" "material type 'Tinted'.*give model=uncoated or model=coated" -- "$B" glass "$tmpdir/TINT.DAT"
 expect_error "a bad model" "model=shiny \\(uncoated or coated\\)" -- "$B" glass "clear-6mm,model=shiny"
