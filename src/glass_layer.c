@@ -24,6 +24,8 @@
  * 2560 directions; a thread starts in ~0.05 ms; Klems full's 9 rings x 32 = 288 stay on one).  Per-wavelength layers (spectral.c's workers,
  * already parallel), table lookups and a context with its own allocator stay on one. */
 #define BSTI_GLASS_PAR_MIN 1024
+/* Threads an angular table uses at most (the context's count, bsti_ctx_workers, caps it). */
+#define BSTI_GLASS_THREADS_MAX BST_THREADS_MAX
 
 /* What a layer is evaluated from: channel ch of pane g, or (sides != NULL) the two slab sides of
  * one wavelength, front and back, set up once from its normal-incidence T and R rather than at
@@ -44,16 +46,55 @@ static void optics_at(const struct source *s, size_t ch, double theta, double p[
     }
 }
 
-/* The angular table of channel ch.  It costs its angles times the channel's wavelengths (a
- * spectral pane's data rows for Solar): seconds for 10^4 rows, so it reports its progress as the
+/* A share of an angular table: the angles first, first + step, ... (each angle's value is the
+ * same sum whichever thread takes it, so the table is the same to the bit on any number of
+ * threads).  The share of index 0 runs on the caller's thread and reports the progress as the
  * part [base, base + span] of the layer's (span 0: none). */
+struct table_part {
+    bst_ctx *ctx;
+    const struct source *s;
+    size_t ch, first, step;
+    double *t, base, span;
+};
+
+static void *table_run(void *arg)
+{
+    const struct table_part *p = arg;
+    size_t count = 0;
+    for (size_t a = p->first; a <= BST_GLASS_TABLE_STEPS; a += p->step) {
+        optics_at(p->s, p->ch, (double)a / BST_GLASS_TABLE_STEPS * (M_PI / 2), &p->t[4 * a]);
+        if (p->first == 0 && p->span > 0 && ++count % 256 == 0)
+            bsti_progress(p->ctx, p->base + p->span * (double)a / BST_GLASS_TABLE_STEPS,
+                          "glass layer");
+    }
+    return NULL;
+}
+
+/* The angular table of channel ch.  It costs its angles times the channel's wavelengths (a
+ * spectral pane's data rows for Solar: 10^5 rows are 9 10^8 evaluations of the model), so it runs
+ * on the context's threads (bst_ctx_set_threads) once the channel has more than
+ * BSTI_GLASS_TABLE_PAR_NODES wavelengths, and reports its progress. */
+#define BSTI_GLASS_TABLE_PAR_NODES 1000
 static double *table_at(bst_ctx *ctx, const struct source *s, size_t ch, double base, double span)
 {
     double *t = bsti_alloc_array(ctx, 4 * (size_t)(BST_GLASS_TABLE_STEPS + 1), sizeof *t);
-    for (size_t a = 0; t && a <= BST_GLASS_TABLE_STEPS; a++) {
-        optics_at(s, ch, (double)a / BST_GLASS_TABLE_STEPS * (M_PI / 2), &t[4 * a]);
-        if (span > 0 && a % 256 == 255)
-            bsti_progress(ctx, base + span * (double)a / BST_GLASS_TABLE_STEPS, "glass layer");
+    if (!t)
+        return NULL;
+    size_t nk = s->sides ? 1 : s->g->ch[ch].nk;
+    int nw = nk > BSTI_GLASS_TABLE_PAR_NODES ? bsti_ctx_workers(ctx, BSTI_GLASS_THREADS_MAX) : 1;
+    struct table_part part[BSTI_GLASS_THREADS_MAX];
+    pthread_t tid[BSTI_GLASS_THREADS_MAX];
+    int started[BSTI_GLASS_THREADS_MAX] = {0};
+    for (int i = 0; i < nw; i++)
+        part[i] = (struct table_part){ctx, s, ch, (size_t)i, (size_t)nw, t, base, span};
+    for (int i = 1; i < nw; i++)
+        started[i] = pthread_create(&tid[i], NULL, table_run, &part[i]) == 0;
+    table_run(&part[0]);
+    for (int i = 1; i < nw; i++) {
+        if (started[i])
+            pthread_join(tid[i], NULL);
+        else /* the thread did not start: its share here */
+            table_run(&part[i]);
     }
     return t;
 }
