@@ -164,6 +164,7 @@ bst_glass *bsti_glass_new(bst_ctx *ctx)
     m->nfrc_id = -1;
     m->thickness_mm = m->conductivity = m->emissivity_front = m->emissivity_back = NAN;
     m->ir_transmittance = NAN;
+    g->layer_rows = BST_GLASS_LAYER_ROWS;
     return g;
 }
 
@@ -237,12 +238,8 @@ const char *bst_glass_description(const bst_glass *g)
     return g && g->description ? g->description : "";
 }
 
-int bst_glass_optics(const bst_glass *g, size_t ch, double theta, double *tf, double *tb,
-                     double *rf, double *rb)
+void bsti_glass_channel_optics(const struct bsti_glass_channel *c, double theta, double v[4])
 {
-    if (!g || ch >= g->nch || !(theta >= 0.0 && theta <= M_PI / 2 + 1e-12))
-        return BST_EINVAL;
-    const struct bsti_glass_channel *c = &g->ch[ch];
     double st = 0, stb = 0, sf = 0, sb = 0, ci = cos(theta), si = sin(theta);
     for (size_t k = 0; k < c->nk; k++) {
         double t1, r1, t2, r2;
@@ -257,14 +254,34 @@ int bst_glass_optics(const bst_glass *g, size_t ch, double theta, double *tf, do
         sf = 1.0 - st;
     if (stb + sb > 1.0)
         sb = 1.0 - stb;
+    v[0] = st, v[1] = stb, v[2] = sf, v[3] = sb;
+}
+
+int bst_glass_optics(const bst_glass *g, size_t ch, double theta, double *tf, double *tb,
+                     double *rf, double *rb)
+{
+    if (!g || ch >= g->nch || !(theta >= 0.0 && theta <= M_PI / 2 + 1e-12))
+        return BST_EINVAL;
+    double v[4];
+    bsti_glass_channel_optics(&g->ch[ch], theta, v);
     if (tf)
-        *tf = st;
+        *tf = v[0];
     if (tb)
-        *tb = stb;
+        *tb = v[1];
     if (rf)
-        *rf = sf;
+        *rf = v[2];
     if (rb)
-        *rb = sb;
+        *rb = v[3];
+    return BST_OK;
+}
+
+int bst_glass_set_layer_rows(bst_ctx *ctx, bst_glass *g, size_t max)
+{
+    if (!ctx || !g)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "glass: NULL argument") : BST_EINVAL;
+    if (max == 1)
+        return bsti_error(ctx, BST_EINVAL, "%s: layer rows 1 (0 = all, else at least 2)", g->where);
+    g->layer_rows = max;
     return BST_OK;
 }
 

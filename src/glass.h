@@ -73,6 +73,7 @@ struct bst_glass {
     bst_glass_meta meta;               /* its strings owned here (bsti_glass_meta_set) */
     struct bsti_glass_data data;       /* spectral panes only (data.n > 0) */
     struct bsti_glass_spectrum solar, d65, v, photopic; /* spectra of the bands, spectral panes */
+    size_t layer_rows;                 /* bst_glass_set_layer_rows (0: all) */
 };
 
 /* The slab of one side from its normal-incidence T0 and R0 (steps 1-3 of the model in glass.c);
@@ -85,6 +86,9 @@ bst_glass *bsti_glass_new(bst_ctx *ctx);
 /* Set one of the pane's metadata strings (g->meta.FIELD, not model_from) to a copy of text
  * (NULL = ""), freeing the old. */
 int bsti_glass_meta_set(bst_glass *g, const char **field, const char *text);
+/* Tf, Tb, Rf, Rb of channel c at theta into v: the nodes' weighted sums, rows of weight 0 passed
+ * over, T + R <= 1 kept (bst_glass_optics). */
+void bsti_glass_channel_optics(const struct bsti_glass_channel *c, double theta, double v[4]);
 /* T and R of one side at theta (radians, 0..pi/2). */
 void bsti_glass_side_optics(const struct bsti_glass_side *s, double theta, double *t, double *r);
 /* y(xq) by linear interpolation in increasing x[0..n-1], constant outside the range. */

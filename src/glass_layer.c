@@ -13,6 +13,7 @@
 #include <math.h>
 #include <pthread.h>
 #include <stdlib.h>
+#include <string.h>
 #include <unistd.h>
 
 #include "basis.h"
@@ -27,12 +28,14 @@
 /* Threads an angular table uses at most (the context's count, bsti_ctx_workers, caps it). */
 #define BSTI_GLASS_THREADS_MAX BST_THREADS_MAX
 
-/* What a layer is evaluated from: channel ch of pane g, or (sides != NULL) the two slab sides of
- * one wavelength, front and back, set up once from its normal-incidence T and R rather than at
- * every one of the directions a patch average visits. */
+/* What a layer is evaluated from: channel ch of pane g (chan: its nodes, or the groups of them
+ * that stand for its wavelengths past g->layer_rows, group_channel; NULL: g->ch[ch]), or
+ * (sides != NULL) the two slab sides of one wavelength, front and back, set up once from its
+ * normal-incidence T and R rather than at every one of the directions a patch average visits. */
 struct source {
     const bst_glass *g;
     const struct bsti_glass_side *sides;
+    const struct bsti_glass_channel *chan;
 };
 
 /* Tf, Tb, Rf, Rb of the source (channel ch unless it is one wavelength's sides) at theta. */
@@ -42,8 +45,114 @@ static void optics_at(const struct source *s, size_t ch, double theta, double p[
         bsti_glass_side_optics(&s->sides[0], theta, &p[0], &p[2]);
         bsti_glass_side_optics(&s->sides[1], theta, &p[1], &p[3]);
     } else {
-        bst_glass_optics(s->g, ch, theta, &p[0], &p[1], &p[2], &p[3]);
+        bsti_glass_channel_optics(s->chan ? s->chan : &s->g->ch[ch], theta, p);
     }
+}
+
+/* Angles (degrees) at which a grouping is checked against the sum over every wavelength, and how
+ * far apart they may be (T, R absolute): BSTI_GLASS_GROUP_TOL, below the table's own error in a
+ * patch value (BST_GLASS_TABLE_ERR).  A patch value averages the pane over angles, so it moves by
+ * about as much as the pane does at these. */
+static const double group_check_deg[] = {0, 30, 50, 60, 70, 80, 85, 89};
+#define BSTI_GLASS_GROUP_TOL 1e-8
+
+/* Channel c's wavelengths of weight in G groups of adjacent ones, of (nearly) equal count, each
+ * with the group's summed weight and the slab of its weighted mean normal-incidence T and R per
+ * side, into out (w, front, back, nk = G: allocated here).  -1 (nothing kept) when a mean has no
+ * slab, BST_ENOMEM. */
+static int make_groups(bst_ctx *ctx, const bst_glass *g, const struct bsti_glass_channel *c,
+                       size_t rows, size_t G, struct bsti_glass_channel *out)
+{
+    memset(out, 0, sizeof *out);
+    out->w = bsti_alloc_array(ctx, G, sizeof *out->w);
+    out->front = bsti_alloc_array(ctx, G, sizeof *out->front);
+    out->back = bsti_alloc_array(ctx, G, sizeof *out->back);
+    int rc = out->w && out->front && out->back ? BST_OK : BST_ENOMEM;
+    size_t k = 0, seen = 0; /* c's node, and how many of weight came before it */
+    for (size_t j = 0; j < G && rc == BST_OK; j++) {
+        size_t end = (j + 1) * rows / G; /* group j: the wavelengths of weight seen .. end - 1 */
+        double s[5] = {0, 0, 0, 0, 0}; /* weight; weighted Tf, Rf, Tb, Rb */
+        for (; seen < end; k++) {
+            double w = c->w[k];
+            if (w == 0.0)
+                continue;
+            s[0] += w, s[1] += w * c->front[k].t0, s[2] += w * c->front[k].r0;
+            s[3] += w * c->back[k].t0, s[4] += w * c->back[k].r0;
+            seen++;
+        }
+        out->w[j] = s[0];
+        if (bsti_glass_side_model(&out->front[j], s[1] / s[0], s[2] / s[0], g->model) ||
+            bsti_glass_side_model(&out->back[j], s[3] / s[0], s[4] / s[0], g->model))
+            rc = -1;
+    }
+    if (rc != BST_OK) {
+        bsti_free(ctx, out->w), bsti_free(ctx, out->front), bsti_free(ctx, out->back);
+        return rc;
+    }
+    out->nk = G;
+    return BST_OK;
+}
+
+/* The nodes channel ch's layer sums when it has more wavelengths of weight than g->layer_rows
+ * (bst_glass_set_layer_rows): groups of adjacent ones (make_groups), g->layer_rows of them, twice
+ * as many, ... the first grouping whose T and R agree with the sum over every wavelength within
+ * BSTI_GLASS_GROUP_TOL at the checked angles (smooth data: the first; noisy data may need every
+ * wavelength).  *made = 0 (out untouched) when the channel is within the bound or no grouping
+ * agrees; free with free_groups. */
+static int group_channel(bst_ctx *ctx, const bst_glass *g, size_t ch,
+                         struct bsti_glass_channel *out, int *made)
+{
+    const struct bsti_glass_channel *c = &g->ch[ch];
+    enum { NA = sizeof group_check_deg / sizeof group_check_deg[0] };
+    double every[NA][4];
+    size_t rows = 0;
+    *made = 0;
+    for (size_t k = 0; k < c->nk; k++)
+        rows += c->w[k] != 0.0;
+    if (!g->layer_rows || rows <= g->layer_rows)
+        return BST_OK;
+    for (size_t a = 0; a < NA; a++)
+        bsti_glass_channel_optics(c, group_check_deg[a] * (M_PI / 180), every[a]);
+    for (size_t G = g->layer_rows; G < rows; G = G < rows / 2 ? 2 * G : rows) {
+        int rc = make_groups(ctx, g, c, rows, G, out);
+        if (rc == BST_ENOMEM)
+            return rc;
+        if (rc < 0) /* a mean without a slab: every wavelength */
+            return BST_OK;
+        double worst = 0, v[4];
+        for (size_t a = 0; a < NA; a++) {
+            bsti_glass_channel_optics(out, group_check_deg[a] * (M_PI / 180), v);
+            for (int i = 0; i < 4; i++)
+                worst = fmax(worst, fabs(v[i] - every[a][i]));
+        }
+        if (worst <= BSTI_GLASS_GROUP_TOL) {
+            *made = 1;
+            return BST_OK;
+        }
+        bsti_free(ctx, out->w), bsti_free(ctx, out->front), bsti_free(ctx, out->back);
+    }
+    return BST_OK;
+}
+
+size_t bst_glass_layer_nodes(const bst_glass *g, size_t ch, size_t *rows)
+{
+    size_t n = 0;
+    for (size_t k = 0; g && ch < g->nch && k < g->ch[ch].nk; k++)
+        n += g->ch[ch].w[k] != 0.0;
+    if (rows)
+        *rows = n;
+    struct bsti_glass_channel groups;
+    int made = 0;
+    if (g && ch < g->nch && group_channel(g->ctx, g, ch, &groups, &made) >= 0 && made) {
+        n = groups.nk;
+        bsti_free(g->ctx, groups.w), bsti_free(g->ctx, groups.front), bsti_free(g->ctx, groups.back);
+    }
+    return n;
+}
+
+static void free_groups(bst_ctx *ctx, struct bsti_glass_channel *c)
+{
+    bsti_free(ctx, c->w), bsti_free(ctx, c->front), bsti_free(ctx, c->back);
 }
 
 /* A share of an angular table: the angles first, first + step, ... (each angle's value is the
@@ -80,7 +189,7 @@ static double *table_at(bst_ctx *ctx, const struct source *s, size_t ch, double 
     double *t = bsti_alloc_array(ctx, 4 * (size_t)(BST_GLASS_TABLE_STEPS + 1), sizeof *t);
     if (!t)
         return NULL;
-    size_t nk = s->sides ? 1 : s->g->ch[ch].nk;
+    size_t nk = s->sides ? 1 : s->chan ? s->chan->nk : s->g->ch[ch].nk;
     int nw = nk > BSTI_GLASS_TABLE_PAR_NODES ? bsti_ctx_workers(ctx, BSTI_GLASS_THREADS_MAX) : 1;
     struct table_part part[BSTI_GLASS_THREADS_MAX];
     pthread_t tid[BSTI_GLASS_THREADS_MAX];
@@ -101,7 +210,7 @@ static double *table_at(bst_ctx *ctx, const struct source *s, size_t ch, double 
 
 double *bsti_glass_table(bst_ctx *ctx, const bst_glass *g, size_t ch)
 {
-    const struct source s = {g, NULL};
+    const struct source s = {g, NULL, NULL};
     return table_at(ctx, &s, ch, 0.0, 0.0);
 }
 
@@ -356,12 +465,20 @@ static int build_layer(bst_ctx *ctx, const struct source *src, const bst_basis *
               sysconf(_SC_NPROCESSORS_ONLN) > 1 && default_allocator(ctx);
     for (size_t c = 0; c < nc && rc >= 0; c++) {
         double *tab = NULL;
+        struct bsti_glass_channel groups;
+        int grouped = 0;
+        struct source sc = *src; /* this channel's nodes, or their groups */
+        if (!src->sides && (rc = group_channel(ctx, src->g, idx[c], &groups, &grouped)) < 0)
+            break;
+        sc.chan = grouped ? &groups : NULL;
         if (r->np > 1 && !exact && r->ndistinct > BST_GLASS_TABLE_STEPS + 1 &&
-            !(tab = table_at(ctx, src, idx[c], (double)c / (double)nc, 1.0 / (double)nc))) {
+            !(tab = table_at(ctx, &sc, idx[c], (double)c / (double)nc, 1.0 / (double)nc))) {
             rc = BST_ENOMEM;
+            if (grouped)
+                free_groups(ctx, &groups);
             break;
         }
-        struct part part[2] = {{src, r, idx[c], tab, lam, v, 0, 1}, {src, r, idx[c], tab, lam, v, 0, 1}};
+        struct part part[2] = {{&sc, r, idx[c], tab, lam, v, 0, 1}, {&sc, r, idx[c], tab, lam, v, 0, 1}};
         pthread_t helper;
         int two = par && !tab;
         if (two) /* every other representative patch on a second thread */
@@ -377,6 +494,8 @@ static int build_layer(bst_ctx *ctx, const struct source *src, const bst_basis *
                 for (int k = 0; k < 4; k++)
                     v[(size_t)k * n + j] = v[(size_t)k * n + r->rep[j]];
         bsti_free(ctx, tab);
+        if (grouped)
+            free_groups(ctx, &groups);
         for (int k = 0; k < BST_NCOMP && rc >= 0; k++) {
             bst_mat *m;
             rc = bst_mat_new_diag(ctx, n, v + (size_t)k * n, &m);
@@ -420,7 +539,7 @@ int bsti_glass_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, s
     int rc = bsti_glass_rule_new(ctx, basis, at_centre, samples, &r);
     if (rc < 0)
         return rc;
-    const struct source src = {g, NULL};
+    const struct source src = {g, NULL, NULL};
     rc = build_layer(ctx, &src, basis, r, nc, idx, names, exact, out);
     bsti_glass_rule_free(ctx, r);
     return rc;
@@ -441,7 +560,7 @@ int bsti_glass_layer_data(bst_ctx *ctx, const bst_glass *g, const bst_basis *bas
                           "incidence", g->where, d[0], d[1], d[2], d[3]);
     static const size_t zero = 0;
     static const char *const name[] = {"Spectral"};
-    const struct source src = {g, sides};
+    const struct source src = {g, sides, NULL};
     return build_layer(ctx, &src, basis, rule, 1, &zero, name, 0, out);
 }
 

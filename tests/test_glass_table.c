@@ -6,6 +6,10 @@
  *    expm1 taken apart.  Every table entry agrees to 1e-12 relative, on a pane of 3000 rows with
  *    transparent, absorbing and opaque (T0 = 0) wavelengths and rows beyond the Solar band.
  *  - One thread and several give the same table and the same layer, to the bit.
+ *  - Past BST_GLASS_LAYER_ROWS wavelengths: smooth data are summed in that many groups of adjacent
+ *    wavelengths, and the layer's patch values (Lambda x value) stay within 2e-8 of the sum over
+ *    every row (bst_glass_set_layer_rows(0), the spec's rows=all); noisy data, where groups would
+ *    not agree, are summed row by row, the same layer to the bit; the bound's errors.
  * A layer's patch value is a positive combination of table entries (bsti_glass_table_optics and
  * the patch rule), so its agreement with the reference follows from the table's. */
 #include <config.h>
@@ -171,9 +175,78 @@ START_TEST(test_threads_same_bits)
 }
 END_TEST
 
+/* A pane of rows rows over 0.3..2.5 um: smooth, or with noise of +-0.02 in T and +-0.01 in R
+ * (seeded), as a high-resolution measurement may carry. */
+static bst_glass *many_rows(const char *name, int rows, int noisy)
+{
+    const char *path;
+    FILE *fp = tg_create(name, &path);
+    tu_rng rng;
+    tu_rng_seed(&rng, 34);
+    for (int i = 0; i < rows; i++) {
+        double um = 0.3 + 2.2 * i / (rows - 1), x = (um - 0.3) / 2.2;
+        double t = 0.45 + 0.25 * sin(15.4 * x), r = 0.07 + 0.02 * cos(11.0 * x);
+        if (noisy)
+            t += 0.04 * (tu_rng_uniform(&rng) - 0.5), r += 0.02 * (tu_rng_uniform(&rng) - 0.5);
+        fprintf(fp, "%.8f %.6f %.6f %.6f %.6f\n", um, t, t - 0.01, r, r + 0.01);
+    }
+    fclose(fp);
+    return tg_parse(tg_ctx, path);
+}
+
+/* The largest |Lambda (a - b)| over the patch values of two layers over b. */
+static double layer_gap(const bst_layer *a, const bst_layer *b, const bst_basis *basis)
+{
+    const double *lam = bst_basis_lambda(basis);
+    double worst = 0;
+    for (size_t ch = 0; ch < bst_layer_nchannels(a); ch++)
+        for (int c = 0; c < BST_NCOMP; c++)
+            for (size_t j = 0; j < bst_basis_size(basis); j++)
+                worst = fmax(worst, lam[j] * fabs(bst_mat_get(bst_layer_get(a, ch, (bst_comp)c), j, j) -
+                                                  bst_mat_get(bst_layer_get(b, ch, (bst_comp)c), j, j)));
+    return worst;
+}
+
+START_TEST(test_rows_bound)
+{
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(tg_ctx, 4, &b), BST_OK);
+    for (int noisy = 0; noisy < 2; noisy++) {
+        bst_glass *g = many_rows(noisy ? "noisy.txt" : "smooth.txt", 12000, noisy);
+        size_t solar = (size_t)bst_glass_find_channel(g, "Solar"), rows;
+        size_t nodes = bst_glass_layer_nodes(g, solar, &rows);
+        ck_assert_uint_eq(rows, 11999); /* the solar source is 0 at 0.3 um */
+        ck_assert_uint_eq(nodes, noisy ? rows : BST_GLASS_LAYER_ROWS);
+        bst_layer *grouped, *every;
+        ck_assert_int_eq(bst_glass_layer(tg_ctx, g, b, 0, NULL, 0, &grouped), BST_OK);
+        ck_assert_int_eq(bst_glass_set_layer_rows(tg_ctx, g, 0), BST_OK);
+        ck_assert_uint_eq(bst_glass_layer_nodes(g, solar, NULL), rows);
+        ck_assert_int_eq(bst_glass_layer(tg_ctx, g, b, 0, NULL, 0, &every), BST_OK);
+        double gap = layer_gap(grouped, every, b);
+        printf("%s 12000 rows, k = 4: %zu nodes, patch values within %.3g of every row's\n",
+               noisy ? "noisy" : "smooth", nodes, gap);
+        if (noisy)
+            ck_assert(gap == 0.0);
+        else
+            ck_assert_msg(gap > 0.0 && gap <= 2e-8, "grouped layer %.3g from every row's", gap);
+        bst_layer_free(grouped), bst_layer_free(every);
+        bst_glass_free(g);
+    }
+    bst_basis_free(b);
+    /* the bound's values: rows=all in a spec is 0, 1 is refused (a group needs two rows) */
+    bst_glass *g = tg_parse(tg_ctx, "clear-6mm,rows=all");
+    ck_assert_int_eq(bst_glass_set_layer_rows(tg_ctx, g, 1), BST_EINVAL);
+    ck_assert_int_eq(bst_glass_set_layer_rows(tg_ctx, g, 2), BST_OK);
+    bst_glass_free(g);
+    tg_refused(tg_ctx, "clear-6mm,rows=1", "rows=1 (all, or a count of at least 2)");
+    tg_refused(tg_ctx, "clear-6mm,rows=12x", "rows=12x (all, or a count of at least 2)");
+    tg_refused(tg_ctx, "clear-6mm,rows=all,rows=9", "rows given twice");
+}
+END_TEST
+
 int main(void)
 {
-    const TTest *const tests[] = {test_table_as_before, test_threads_same_bits};
+    const TTest *const tests[] = {test_table_as_before, test_threads_same_bits, test_rows_bound};
     return tu_run(tg_suite("glass_table", tg_setup, tg_teardown, 300, tests,
                            sizeof tests / sizeof tests[0]));
 }

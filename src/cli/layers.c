@@ -128,6 +128,37 @@ static int read_all(bst_ctx *ctx, const char *sub, size_t n, char **specs,
 /* Step 3 for one spec: its layer over basis from the file read (file, freed here) or from the
  * glass: spec, reversed where it ends in ^, named by the spec; a spectral pane not reversed also
  * goes to *pane (else NULL).  Errors name `what`. */
+/* A spectral pane of many rows: one line before its layer is built, saying which channels sum the
+ * model over groups of adjacent wavelengths (bst_glass_layer_nodes) and how many, or, when every
+ * wavelength is summed (rows=all, or no grouping agreed), what that costs. */
+static void warn_rows(const char *sub, const char *what, const bst_glass *g, size_t nch,
+                      const char **chnames)
+{
+    char grouped[512] = "";
+    size_t len = 0, most = 0, nodes = 0;
+    for (size_t c = 0; c < (nch ? nch : bst_glass_nchannels(g)); c++) {
+        int ch = nch ? bst_glass_find_channel(g, chnames[c]) : (int)c;
+        size_t rows, n = ch >= 0 ? bst_glass_layer_nodes(g, (size_t)ch, &rows) : 0;
+        most = ch >= 0 && rows > most ? rows : most;
+        if (ch >= 0 && n < rows && len < sizeof grouped - 64) {
+            len += (size_t)snprintf(grouped + len, sizeof grouped - len, "%s%s's %zu", len ? ", " : "",
+                                    bst_glass_channel(g, (size_t)ch), rows);
+            nodes = n;
+        }
+    }
+    if (len)
+        fprintf(stderr, "bsdfstack %s: warning: %s: its layer sums the model over %zu groups of "
+                "adjacent wavelengths (each at their weighted mean data) instead of %s wavelengths "
+                "one by one; rows=all after the file name takes each, at %.0f times a catalogue "
+                "pane's cost\n", sub, what, nodes, grouped, (double)most / CLI_CATALOGUE_WAVELENGTHS);
+    else if (most > CLI_MANY_WAVELENGTHS) /* the cost grows with them: say so before */
+        fprintf(stderr, "bsdfstack %s: warning: %s: %zu wavelengths: the pane is evaluated at "
+                "each of them at every angle its layer averages (rows=all, or data too uneven for "
+                "groups of adjacent wavelengths to agree), %.0f times the work of a catalogue "
+                "pane's %d\n", sub, what, most,
+                (double)most / CLI_CATALOGUE_WAVELENGTHS, CLI_CATALOGUE_WAVELENGTHS);
+}
+
 static int make_layer(bst_ctx *ctx, const char *sub, const char *what, const char *spec,
                       bst_bsdf *file, const bst_basis *basis, size_t nch, const char **chnames,
                       int at_centre, bst_layer **out, bst_glass **pane, char **note)
@@ -149,13 +180,8 @@ static int make_layer(bst_ctx *ctx, const char *sub, const char *what, const cha
             if (bst_glass_find_channel(g, chnames[c]) < 0 && bst_glass_nwavelengths(g) &&
                 bst_plan_is_band(chnames[c]))
                 st = bst_glass_add_channel(ctx, g, chnames[c]);
-        size_t nw = st >= 0 ? bst_glass_nwavelengths(g) : 0;
-        if (nw > CLI_MANY_WAVELENGTHS) /* the layer's cost grows with them: say so before */
-            fprintf(stderr, "bsdfstack %s: warning: %s: %zu wavelengths: the pane is evaluated at "
-                    "each of them at every angle its layer averages, %.0f times the work of a "
-                    "catalogue pane's %d; a coarser table is as good where the data are smooth\n",
-                    sub, what ? what : spec, nw, (double)nw / CLI_CATALOGUE_WAVELENGTHS,
-                    CLI_CATALOGUE_WAVELENGTHS);
+        if (st >= 0)
+            warn_rows(sub, what ? what : spec, g, nch, chnames);
         if (st >= 0)
             st = bst_glass_layer(ctx, g, basis, nch, nch ? chnames : NULL, at_centre, &l);
         if (st >= 0 && note) { /* the pane's model, source and metadata, for the output's header */
