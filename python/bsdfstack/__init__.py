@@ -759,8 +759,25 @@ class Glass(_Source):
             self._ctx.check(lib.bst_glass_add_channel(self._ctx.ptr, fresh.ptr, cstr(n)))
         return fresh
 
+    def _warn_groups(self, pane, channels):
+        """A LibraryWarning, as the program's line, when a channel of many wavelengths is summed
+        in groups of adjacent ones (bst_glass_layer_nodes; ",rows=all" in the spec sums each)."""
+        g = pane.ptr
+        for i in range(lib.bst_glass_nchannels(g)):
+            name = text(lib.bst_glass_channel(g, i))
+            if channels and name not in channels:
+                continue
+            rows = ctypes.c_size_t()
+            nodes = lib.bst_glass_layer_nodes(g, i, ctypes.byref(rows))
+            if nodes < rows.value:
+                warnings.warn("%s: its layer sums the model over %d groups of adjacent wavelengths "
+                              "(each at their weighted mean data) instead of %s's %d wavelengths "
+                              "one by one; rows=all after the file name takes each"
+                              % (self.name, nodes, name, rows.value), LibraryWarning, stacklevel=4)
+
     def _make(self, basis, prec, channels, at_centre):
         pane = self._pane_for(channels)
+        self._warn_groups(pane, channels)
         out = ctypes.c_void_p()
         names = cstr_array(channels or ())
         self._ctx.check(lib.bst_glass_layer(self._ctx.ptr, pane.ptr, basis,

@@ -200,6 +200,7 @@ _PROTOTYPES = {
     "bst_glass_get_model": (c_int, [c_void_p]),
     "bst_glass_model_name": (c_char_p, [c_int]),
     "bst_glass_metadata": (POINTER(GlassMeta), [c_void_p]),
+    "bst_glass_layer_nodes": (c_size_t, [c_void_p, c_size_t, size_p]),
     "bst_glass_layer": (c_int, [c_void_p, c_void_p, c_void_p, c_size_t, POINTER(c_char_p), c_int,
                                 POINTER(c_void_p)]),
 }
