@@ -116,6 +116,13 @@ grep -q "^layers    glass:$tmpdir/LOWE.DAT,model=uncoated, glass:lowe-6mm$" "$tm
     grep -q "^ *layer 1 glass:$tmpdir/LOWE.DAT,model=uncoated: uncoated model (model= in the spec, type Coated); source optics $tmpdir/LOWE.DAT; product Generic Clear Glass; NFRC ID 102; thickness 3.048 mm; coated side Neither; emissivity front 0.84; back 0.84$" "$tmpdir/out" &&
     grep -q "^ *layer 2 glass:lowe-6mm: coated model (from the type Coated); source catalogue .*lowe-6mm.glass$" "$tmpdir/out" &&
     pass "info lists the layers and each pane's model and source" || fail "info on two.xml: $(head -6 "$tmpdir/out")"
+# a FIFO: read once by the reader, never opened again for its header (that would wait for ever)
+if mkfifo "$tmpdir/fifo" 2>/dev/null; then
+    cat "$tmpdir/two.xml" > "$tmpdir/fifo" &
+    expect_status 0 "info on a FIFO" -- timeout 60 "$B" info "$tmpdir/fifo"
+    ! grep -q "^layers" "$tmpdir/out" && pass "a FIFO's header is not read again" || fail "FIFO: $(head -3 "$tmpdir/out")"
+    wait
+fi
 expect_status 0 "info on a file not written with panes" -- "$B" info "$tmpdir/tsv.xml"
 grep -q "^layers    glass:$data, glass:nfrc-103$" "$tmpdir/out" && pass "its layers" || fail "tsv.xml: $(head -4 "$tmpdir/out")"
 expect_error "info on a pane that is not there" "no-such-pane" -- "$B" info glass:no-such-pane

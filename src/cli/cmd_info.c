@@ -3,10 +3,13 @@
  * --reference, how far its T and R are from another BSDF's at every incident patch. */
 #include <config.h>
 
+#include <fcntl.h>
 #include <getopt.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include "cli.h"
 #include "layers.h"
@@ -36,13 +39,19 @@ static const char help[] =
 
 /* The layers a file written by bsdfstack records in its header comment ("layers (exterior first):
  * ..." and one "layer N SPEC: ..." line per pane), printed as "layers    ..." lines; nothing for
- * other files.  Only the comment before the root element is looked at. */
+ * other files.  Only the comment before the root element is looked at, and only in a regular file:
+ * a FIFO or a device the reader has drained would wait for a writer for ever. */
 #define INFO_HEADER_MAX 65536
 static void print_recorded_layers(const char *path)
 {
-    FILE *fp = fopen(path, "r");
-    if (!fp)
+    int fd = open(path, O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
+    struct stat st;
+    FILE *fp = fd >= 0 && fstat(fd, &st) == 0 && S_ISREG(st.st_mode) ? fdopen(fd, "r") : NULL;
+    if (!fp) {
+        if (fd >= 0)
+            close(fd);
         return;
+    }
     char line[4096];
     int in = 0, ours = 0;
     long read = 0;
