@@ -6,8 +6,11 @@
  * uniform in projected solid angle, with a quadrature rule over bst_basis_sample's (u, v) square
  * (patch_rule); the pane being isotropic, patches with the same incidence angles share one
  * evaluation (patch_representatives), and the hundreds of directions per patch are evaluated
- * through an angular table of the model (glass.h: BST_GLASS_TABLE_STEPS, its error bound), or on
- * two threads where they are many and exact (BSTI_GLASS_PAR_MIN). */
+ * through an angular table of the model (glass.h: BST_GLASS_TABLE_STEPS, its error bound; its
+ * angles on the context's threads), or on two threads where they are many and exact
+ * (BSTI_GLASS_PAR_MIN).  Each evaluation sums the model over the channel's wavelengths; past
+ * BST_GLASS_LAYER_ROWS of them, over groups of adjacent ones where that agrees with every
+ * wavelength's sum (group_channel), so that a file of 10^5 rows costs what one of 5000 does. */
 #include <config.h>
 
 #include <math.h>
@@ -58,8 +61,8 @@ static const double group_check_deg[] = {0, 30, 50, 60, 70, 80, 85, 89};
 
 /* Channel c's wavelengths of weight in G groups of adjacent ones, of (nearly) equal count, each
  * with the group's summed weight and the slab of its weighted mean normal-incidence T and R per
- * side, into out (w, front, back, nk = G: allocated here).  -1 (nothing kept) when a mean has no
- * slab, BST_ENOMEM. */
+ * side, into out (w, front, back, nk = G: allocated here).  BST_EINVAL (nothing kept, no message)
+ * when a mean has no slab, BST_ENOMEM. */
 static int make_groups(bst_ctx *ctx, const bst_glass *g, const struct bsti_glass_channel *c,
                        size_t rows, size_t G, struct bsti_glass_channel *out)
 {
@@ -83,7 +86,7 @@ static int make_groups(bst_ctx *ctx, const bst_glass *g, const struct bsti_glass
         out->w[j] = s[0];
         if (bsti_glass_side_model(&out->front[j], s[1] / s[0], s[2] / s[0], g->model) ||
             bsti_glass_side_model(&out->back[j], s[3] / s[0], s[4] / s[0], g->model))
-            rc = -1;
+            rc = BST_EINVAL;
     }
     if (rc != BST_OK) {
         bsti_free(ctx, out->w), bsti_free(ctx, out->front), bsti_free(ctx, out->back);
