@@ -67,8 +67,9 @@ void cli_glass_summary(const bst_glass *g, char *buf, size_t size)
     const bst_glass_meta *m = bst_glass_metadata(g);
     char why[200];
     model_reason(m, why, sizeof why);
-    int w = snprintf(buf, size, "%s model (%s); source %s%s%s", bst_glass_model_name(bst_glass_get_model(g)),
-                     why, m->source, *m->path ? " " : "", m->path);
+    int w = snprintf(buf, size, "%s model (%s); source %s%s%s",
+                     bst_glass_model_name(bst_glass_get_model(g)), why, m->source,
+                     *m->path ? " " : "", m->path);
     size_t len = w < 0 ? 0 : (size_t)w < size ? (size_t)w : size - 1;
     for (int k = 0; k < 3 && size - len > 3; k++) {
         size_t before = len;
