@@ -6,9 +6,10 @@
  * Fields read (bsdfstack-glass(5), "IGSDB records"): product_id, type ("glazing" or "shading"),
  * subtype (glazing: the material type that picks the angular model; shading: venetian, woven,
  * perforated-screen), name, product_name, manufacturer_name, nfrc_id, coating_name, coated_side,
- * unit_system (SI, when given), measured_data {thickness (mm), conductivity, emissivity_front,
- * emissivity_back, tir_front, permeability_factor}, spectral_data {spectral_data: [{wavelength
- * (um), T, Rf, Rb}], dual_band_values}; a shading product's composition[0] {child_product: its
+ * unit_system (SI, when given), measured_data {is_specular (false: refused, a diffusing product),
+ * thickness (mm), conductivity, emissivity_front, emissivity_back, tir_front,
+ * permeability_factor}, spectral_data {spectral_data: [{wavelength (um), T, Rf, Rb}],
+ * dual_band_values}; a shading product's composition[0] {child_product: its
  * material, a record of the same shape; extra_data.geometry}.  JSON null is the same as absent.
  * Other fields are ignored.  Every error is one line naming the file and the field.
  *
@@ -193,6 +194,12 @@ static int read_glazing(const struct jr *jr, bst_glass *g, json_t *root)
     if (id && !json_is_integer(id))
         return jerr(jr, BST_EFORMAT, "nfrc_id is not an integer");
     m->nfrc_id = id ? (long)json_integer_value(id) : -1;
+    json_t *specular = member(member(root, "measured_data"), "is_specular");
+    if (specular && !json_is_boolean(specular))
+        return jerr(jr, BST_EFORMAT, "measured_data.is_specular is not true or false");
+    if (json_is_false(specular)) /* its rows hold direct and diffuse light as one */
+        return jerr(jr, BST_EFORMAT, "measured_data.is_specular is false: a diffusing glazing "
+                    "product (a pane is specular, and hazy products are not modelled)");
     if ((rc = read_measured(jr, root, "", &m->thickness_mm, &m->conductivity,
                             &m->emissivity_front, &m->emissivity_back, &m->ir_transmittance)) < 0)
         return rc;

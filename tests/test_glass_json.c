@@ -238,6 +238,10 @@ START_TEST(test_missing_fields)
                  "\"Rb\": 0.08, \"wavelength\": 0.3}, {}]}}",
                  ": spectral_data.spectral_data[0].T is not a number", 0);
     refused_text(HEAD "\"nfrc_id\": 1.5, \"spectral_data\": " ROWS "}", ": nfrc_id is not an integer", 0);
+    refused_text(HEAD "\"measured_data\": {\"is_specular\": false}, \"spectral_data\": " ROWS "}",
+                 ": measured_data.is_specular is false: a diffusing glazing product", 0);
+    refused_text(HEAD "\"measured_data\": {\"is_specular\": \"yes\"}, \"spectral_data\": " ROWS "}",
+                 ": measured_data.is_specular is not true or false", 0);
     refused_text(HEAD "\"measured_data\": {\"thickness\": -3}, \"spectral_data\": " ROWS "}",
                  ": measured_data.thickness = -3 is not a thickness", 0);
     char shade[600];
