@@ -92,10 +92,11 @@ typedef void (*bst_progress_fn)(double fraction, const char *label, void *opaque
 void bst_ctx_set_progress(bst_ctx *ctx, bst_progress_fn fn, void *opaque);
 
 /* Threads the library may use for work that splits without changing a result (today: writing
- * tensor trees, whose text is the same bytes with any count, and laying a rank-3 tree onto a grid
- * as it is read, the same values with any count): 0 (the default) = one per online
- * CPU, up to BST_THREADS_MAX; 1 = none besides the caller's; n > 1 = up to n.  A context with a
- * custom allocator always works on the caller's thread alone.  BST_EINVAL when n < 0. */
+ * tensor trees, whose text is the same bytes with any count, laying a rank-3 tree onto a grid
+ * as it is read, and a spectral pane's angular table, the same values with any count): 0 (the
+ * default) = one per online CPU, up to BST_THREADS_MAX; 1 = none besides the caller's; n > 1 = up
+ * to n.  A context with a custom allocator always works on the caller's thread alone.  BST_EINVAL
+ * when n < 0. */
 #define BST_THREADS_MAX 8
 int bst_ctx_set_threads(bst_ctx *ctx, int n);
 int bst_ctx_threads(const bst_ctx *ctx);
@@ -742,6 +743,17 @@ size_t bst_glass_nwavelengths(const bst_glass *g);
 double bst_glass_wavelength(const bst_glass *g, size_t i);
 int bst_glass_optics_spectral(const bst_glass *g, double lambda_um, double theta, double *tf,
                               double *tb, double *rf, double *rb);
+/* A layer of a spectral pane sums the model over a channel's wavelengths at every angle it
+ * averages (up to 9001 angles per channel): a file of 10^5 rows was 9 10^8 evaluations.  Past
+ * BST_GLASS_LAYER_ROWS wavelengths of weight in a channel, its layer sums over that many groups of
+ * adjacent wavelengths instead, each evaluated at its weighted mean data (as combining per
+ * wavelength evaluates a group); up to it, every wavelength as before.  The change this makes to a
+ * layer's patch values and its cost: bsdfstack-glass(5).  bst_glass_set_layer_rows changes the
+ * bound (0: every wavelength, whatever the cost; 1 is refused); bst_glass_layer_nodes tells how
+ * many nodes a layer of channel ch sums (*rows: the wavelengths of weight, may be NULL). */
+#define BST_GLASS_LAYER_ROWS 5000
+int bst_glass_set_layer_rows(bst_ctx *ctx, bst_glass *g, size_t max);
+size_t bst_glass_layer_nodes(const bst_glass *g, size_t ch, size_t *rows);
 /* Add a band channel (Visible, Solar, CIE-X, CIE-Y, CIE-Z) to a spectral pane (see glass_band.c). */
 int bst_glass_add_channel(bst_ctx *ctx, bst_glass *g, const char *name);
 /* The integration grid (um) of a band channel, NULL for other channels. */

@@ -103,8 +103,17 @@ static void side_optics_cs(const struct bsti_glass_side *s, double theta, double
         return;
     }
     double n = s->n, st = si / n, ct = sqrt((1.0 - st) * (1.0 + st));
-    /* tau = tau0^(1 / cos t) and 1 - tau from log(tau0): a near-mirror's 1 - tau is ~T0 */
-    double e = s->ltau0 / ct, tau = exp(e), omt = -expm1(e);
+    /* tau = tau0^(1 / cos t) and 1 - tau from log(tau0): a near-mirror's 1 - tau is ~T0.  One
+     * exponential, not two (it was half of a spectral layer's time): below tau = 1/2, exp gives
+     * tau and 1 - tau loses nothing; above, expm1 gives 1 - tau and 1 + expm1 loses nothing.
+     * Both agree with exp and expm1 taken apart to a few ulp (test_glass_speed). */
+    double e = s->ltau0 / ct, tau, omt;
+    if (e < -M_LN2) {
+        tau = exp(e), omt = 1.0 - tau;
+    } else {
+        double m = expm1(e);
+        tau = 1.0 + m, omt = -m;
+    }
     /* Fresnel r = ((a - b) / (a + b))^2, (a, b) = (cos i, n cos t) for s, (n cos i, cos t) for p.
      * Its complement 1 - r = 4 a b / (a + b)^2 and 1 - tau r = (1 - tau) + tau (1 - r) are formed
      * without cancellation: towards 90 degrees r -> 1 and the textbook form 1 - tau^2 r^2 of a
@@ -155,6 +164,7 @@ bst_glass *bsti_glass_new(bst_ctx *ctx)
     m->nfrc_id = -1;
     m->thickness_mm = m->conductivity = m->emissivity_front = m->emissivity_back = NAN;
     m->ir_transmittance = NAN;
+    g->layer_rows = BST_GLASS_LAYER_ROWS;
     return g;
 }
 
@@ -228,15 +238,13 @@ const char *bst_glass_description(const bst_glass *g)
     return g && g->description ? g->description : "";
 }
 
-int bst_glass_optics(const bst_glass *g, size_t ch, double theta, double *tf, double *tb,
-                     double *rf, double *rb)
+void bsti_glass_channel_optics(const struct bsti_glass_channel *c, double theta, double v[4])
 {
-    if (!g || ch >= g->nch || !(theta >= 0.0 && theta <= M_PI / 2 + 1e-12))
-        return BST_EINVAL;
-    const struct bsti_glass_channel *c = &g->ch[ch];
     double st = 0, stb = 0, sf = 0, sb = 0, ci = cos(theta), si = sin(theta);
     for (size_t k = 0; k < c->nk; k++) {
         double t1, r1, t2, r2;
+        if (c->w[k] == 0.0) /* outside the band (a spectral pane's rows beyond 2.5 um): adds 0 */
+            continue;
         side_optics_cs(&c->front[k], theta, ci, si, &t1, &r1);
         side_optics_cs(&c->back[k], theta, ci, si, &t2, &r2);
         st += c->w[k] * t1, sf += c->w[k] * r1, stb += c->w[k] * t2, sb += c->w[k] * r2;
@@ -246,14 +254,34 @@ int bst_glass_optics(const bst_glass *g, size_t ch, double theta, double *tf, do
         sf = 1.0 - st;
     if (stb + sb > 1.0)
         sb = 1.0 - stb;
+    v[0] = st, v[1] = stb, v[2] = sf, v[3] = sb;
+}
+
+int bst_glass_optics(const bst_glass *g, size_t ch, double theta, double *tf, double *tb,
+                     double *rf, double *rb)
+{
+    if (!g || ch >= g->nch || !(theta >= 0.0 && theta <= M_PI / 2 + 1e-12))
+        return BST_EINVAL;
+    double v[4];
+    bsti_glass_channel_optics(&g->ch[ch], theta, v);
     if (tf)
-        *tf = st;
+        *tf = v[0];
     if (tb)
-        *tb = stb;
+        *tb = v[1];
     if (rf)
-        *rf = sf;
+        *rf = v[2];
     if (rb)
-        *rb = sb;
+        *rb = v[3];
+    return BST_OK;
+}
+
+int bst_glass_set_layer_rows(bst_ctx *ctx, bst_glass *g, size_t max)
+{
+    if (!ctx || !g)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "glass: NULL argument") : BST_EINVAL;
+    if (max == 1)
+        return bsti_error(ctx, BST_EINVAL, "%s: layer rows 1 (0 = all, else at least 2)", g->where);
+    g->layer_rows = max;
     return BST_OK;
 }
 

@@ -4,6 +4,7 @@
  *   glass_coated.c WINDOW's angular model of coated glass, and which model a material type takes;
  *   glass_optics.c Optics / IGDB text files of a pane's spectral data;
  *   glass_json.c   IGSDB JSON records: a glazing product's data, a shading product (bst_shade);
+ *   glass_json2.c  IGSDB v2 glazing records (glass_json.c tells v1 from v2);
  *   glass_band.c   spectral panes: their data tables, the band spectra and the CIE fits, band
  *                  channels and their wavelength weights;
  *   glass_spec.c   specifications ("glass:NAME|PATH|key=value") and catalogue files;
@@ -72,6 +73,7 @@ struct bst_glass {
     bst_glass_meta meta;               /* its strings owned here (bsti_glass_meta_set) */
     struct bsti_glass_data data;       /* spectral panes only (data.n > 0) */
     struct bsti_glass_spectrum solar, d65, v, photopic; /* spectra of the bands, spectral panes */
+    size_t layer_rows;                 /* bst_glass_set_layer_rows (0: all) */
 };
 
 /* The slab of one side from its normal-incidence T0 and R0 (steps 1-3 of the model in glass.c);
@@ -84,6 +86,9 @@ bst_glass *bsti_glass_new(bst_ctx *ctx);
 /* Set one of the pane's metadata strings (g->meta.FIELD, not model_from) to a copy of text
  * (NULL = ""), freeing the old. */
 int bsti_glass_meta_set(bst_glass *g, const char **field, const char *text);
+/* Tf, Tb, Rf, Rb of channel c at theta into v: the nodes' weighted sums, rows of weight 0 passed
+ * over, T + R <= 1 kept (bst_glass_optics). */
+void bsti_glass_channel_optics(const struct bsti_glass_channel *c, double theta, double v[4]);
 /* T and R of one side at theta (radians, 0..pi/2). */
 void bsti_glass_side_optics(const struct bsti_glass_side *s, double theta, double *t, double *r);
 /* y(xq) by linear interpolation in increasing x[0..n-1], constant outside the range. */
@@ -159,6 +164,10 @@ int bsti_glass_read_optics(bst_ctx *ctx, bst_glass *g, const char *path);
 /* An IGSDB JSON record: a glazing product into g->data and g->meta; a shading product is read and
  * validated as bst_shade_read_igsdb does and refused with BST_ENOTIMPL. */
 int bsti_glass_read_igsdb(bst_ctx *ctx, bst_glass *g, const char *path);
+/* An IGSDB v2 glazing record (root, a jansson json_t *) into g->data and g->meta (glass_json2.c);
+ * path names the file in messages. */
+struct json_t;
+int bsti_glass_read_glazing_v2(bst_ctx *ctx, const char *path, bst_glass *g, struct json_t *root);
 /* Add band b as a channel of spectral pane g (where: for messages); complete or absent. */
 int bsti_glass_add_band(bst_ctx *ctx, bst_glass *g, const char *where,
                         const struct bsti_glass_band *b);

@@ -1,13 +1,15 @@
 /* glass_json.c - IGSDB JSON product records (the International Glazing and Shading Database's API,
  * v1: igsdb.lbl.gov/api/v1/products/ID): a glazing product becomes a pane's spectral data and
- * metadata, a shading product a bst_shade (its material and geometry, validated).
+ * metadata, a shading product a bst_shade (its material and geometry, validated).  A v2 record
+ * (physical_properties, no product_id) of a glazing product is read by glass_json2.c.
  *
  * Fields read (bsdfstack-glass(5), "IGSDB records"): product_id, type ("glazing" or "shading"),
  * subtype (glazing: the material type that picks the angular model; shading: venetian, woven,
  * perforated-screen), name, product_name, manufacturer_name, nfrc_id, coating_name, coated_side,
- * unit_system (SI, when given), measured_data {thickness (mm), conductivity, emissivity_front,
- * emissivity_back, tir_front, permeability_factor}, spectral_data {spectral_data: [{wavelength
- * (um), T, Rf, Rb}], dual_band_values}; a shading product's composition[0] {child_product: its
+ * unit_system (SI, when given), measured_data {is_specular (false: refused, a diffusing product),
+ * thickness (mm), conductivity, emissivity_front, emissivity_back, tir_front,
+ * permeability_factor}, spectral_data {spectral_data: [{wavelength (um), T, Rf, Rb}],
+ * dual_band_values}; a shading product's composition[0] {child_product: its
  * material, a record of the same shape; extra_data.geometry}.  JSON null is the same as absent.
  * Other fields are ignored.  Every error is one line naming the file and the field.
  *
@@ -92,7 +94,7 @@ static int get_string(const struct jr *jr, json_t *obj, const char *at, const ch
     return rc;
 }
 
-/* Read a record; the root must be an IGSDB v1 product. */
+/* Read a record; the root must be an IGSDB product, v1 (product_id) or v2 (physical_properties). */
 static int load(const struct jr *jr, json_t **root, const char **type)
 {
     json_error_t e;
@@ -108,11 +110,10 @@ static int load(const struct jr *jr, json_t **root, const char **type)
                     json_array_size(*root));
     if (!json_is_object(*root))
         return jerr(jr, BST_EFORMAT, "not an IGSDB product record (a JSON object)");
-    if (!json_object_get(*root, "product_id"))
+    if (!json_object_get(*root, "product_id") && !json_object_get(*root, "physical_properties"))
         return jerr(jr, BST_EFORMAT, json_object_get(*root, "id")
-                    ? "an IGSDB v2 record (\"id\", no \"product_id\"): bsdfstack reads v1 records "
-                      "(igsdb.lbl.gov/api/v1/products/ID)"
-                    : "no product_id: not an IGSDB v1 product record");
+                    ? "an IGSDB v2 record without physical_properties: not a product record"
+                    : "no product_id (v1) or physical_properties (v2): not an IGSDB product record");
     const char *units;
     int rc = get_string(jr, *root, "", "type", 1, type);
     if (rc >= 0)
@@ -193,6 +194,12 @@ static int read_glazing(const struct jr *jr, bst_glass *g, json_t *root)
     if (id && !json_is_integer(id))
         return jerr(jr, BST_EFORMAT, "nfrc_id is not an integer");
     m->nfrc_id = id ? (long)json_integer_value(id) : -1;
+    json_t *specular = member(member(root, "measured_data"), "is_specular");
+    if (specular && !json_is_boolean(specular))
+        return jerr(jr, BST_EFORMAT, "measured_data.is_specular is not true or false");
+    if (json_is_false(specular)) /* its rows hold direct and diffuse light as one */
+        return jerr(jr, BST_EFORMAT, "measured_data.is_specular is false: a diffusing glazing "
+                    "product (a pane is specular, and hazy products are not modelled)");
     if ((rc = read_measured(jr, root, "", &m->thickness_mm, &m->conductivity,
                             &m->emissivity_front, &m->emissivity_back, &m->ir_transmittance)) < 0)
         return rc;
@@ -438,7 +445,10 @@ int bst_shade_read_igsdb(bst_ctx *ctx, const char *path, bst_shade **out)
     json_t *root;
     const char *type;
     int rc = load(&jr, &root, &type);
-    if (rc >= 0 && strcmp(type, "shading") != 0)
+    if (rc >= 0 && !json_object_get(root, "product_id"))
+        rc = jerr(&jr, BST_EFORMAT, "an IGSDB v2 record: shading products are read from their v1 "
+                  "record (igsdb.lbl.gov/api/v1/products/ID)");
+    else if (rc >= 0 && strcmp(type, "shading") != 0)
         rc = jerr(&jr, BST_EFORMAT, "type \"%s\": not a shading product%s", type,
                   strcmp(type, "glazing") == 0 ? " (a pane: read it as glass:FILE)" : "");
     bst_shade *s = NULL;
@@ -461,7 +471,14 @@ int bsti_glass_read_igsdb(bst_ctx *ctx, bst_glass *g, const char *path)
     json_t *root;
     const char *type;
     int rc = load(&jr, &root, &type);
-    if (rc >= 0 && strcmp(type, "glazing") == 0) {
+    int v2 = rc >= 0 && !json_object_get(root, "product_id");
+    if (v2 && strcasecmp(type, "glazing") == 0) {
+        rc = bsti_glass_read_glazing_v2(jr.ctx, jr.path, g, root);
+    } else if (v2) {
+        rc = jerr(&jr, strcasecmp(type, "shading") == 0 ? BST_ENOTIMPL : BST_EFORMAT,
+                  "type \"%s\" in an IGSDB v2 record: bsdfstack reads v2 glazing records (a pane); "
+                  "a shading product is read from its v1 record", type);
+    } else if (rc >= 0 && strcmp(type, "glazing") == 0) {
         rc = read_glazing(&jr, g, root);
     } else if (rc >= 0 && strcmp(type, "shading") == 0) {
         bst_shade *s = shade_new(ctx);

@@ -6,13 +6,17 @@
  * uniform in projected solid angle, with a quadrature rule over bst_basis_sample's (u, v) square
  * (patch_rule); the pane being isotropic, patches with the same incidence angles share one
  * evaluation (patch_representatives), and the hundreds of directions per patch are evaluated
- * through an angular table of the model (glass.h: BST_GLASS_TABLE_STEPS, its error bound), or on
- * two threads where they are many and exact (BSTI_GLASS_PAR_MIN). */
+ * through an angular table of the model (glass.h: BST_GLASS_TABLE_STEPS, its error bound; its
+ * angles on the context's threads), or on two threads where they are many and exact
+ * (BSTI_GLASS_PAR_MIN).  Each evaluation sums the model over the channel's wavelengths; past
+ * BST_GLASS_LAYER_ROWS of them, over groups of adjacent ones where that agrees with every
+ * wavelength's sum (group_channel), so that a file of 10^5 rows costs what one of 5000 does. */
 #include <config.h>
 
 #include <math.h>
 #include <pthread.h>
 #include <stdlib.h>
+#include <string.h>
 #include <unistd.h>
 
 #include "basis.h"
@@ -24,13 +28,17 @@
  * 2560 directions; a thread starts in ~0.05 ms; Klems full's 9 rings x 32 = 288 stay on one).  Per-wavelength layers (spectral.c's workers,
  * already parallel), table lookups and a context with its own allocator stay on one. */
 #define BSTI_GLASS_PAR_MIN 1024
+/* Threads an angular table uses at most (the context's count, bsti_ctx_workers, caps it). */
+#define BSTI_GLASS_THREADS_MAX BST_THREADS_MAX
 
-/* What a layer is evaluated from: channel ch of pane g, or (sides != NULL) the two slab sides of
- * one wavelength, front and back, set up once from its normal-incidence T and R rather than at
- * every one of the directions a patch average visits. */
+/* What a layer is evaluated from: channel ch of pane g (chan: its nodes, or the groups of them
+ * that stand for its wavelengths past g->layer_rows, group_channel; NULL: g->ch[ch]), or
+ * (sides != NULL) the two slab sides of one wavelength, front and back, set up once from its
+ * normal-incidence T and R rather than at every one of the directions a patch average visits. */
 struct source {
     const bst_glass *g;
     const struct bsti_glass_side *sides;
+    const struct bsti_glass_channel *chan;
 };
 
 /* Tf, Tb, Rf, Rb of the source (channel ch unless it is one wavelength's sides) at theta. */
@@ -40,27 +48,172 @@ static void optics_at(const struct source *s, size_t ch, double theta, double p[
         bsti_glass_side_optics(&s->sides[0], theta, &p[0], &p[2]);
         bsti_glass_side_optics(&s->sides[1], theta, &p[1], &p[3]);
     } else {
-        bst_glass_optics(s->g, ch, theta, &p[0], &p[1], &p[2], &p[3]);
+        bsti_glass_channel_optics(s->chan ? s->chan : &s->g->ch[ch], theta, p);
     }
 }
 
-/* The angular table of channel ch.  It costs its angles times the channel's wavelengths (a
- * spectral pane's data rows for Solar): seconds for 10^4 rows, so it reports its progress as the
+/* Angles (degrees) at which a grouping is checked against the sum over every wavelength, and how
+ * far apart they may be (T, R absolute): BSTI_GLASS_GROUP_TOL, below the table's own error in a
+ * patch value (BST_GLASS_TABLE_ERR).  A patch value averages the pane over angles, so it moves by
+ * about as much as the pane does at these. */
+static const double group_check_deg[] = {0, 30, 50, 60, 70, 80, 85, 89};
+#define BSTI_GLASS_GROUP_TOL 1e-8
+
+/* Channel c's wavelengths of weight in G groups of adjacent ones, of (nearly) equal count, each
+ * with the group's summed weight and the slab of its weighted mean normal-incidence T and R per
+ * side, into out (w, front, back, nk = G: allocated here).  BST_EINVAL (nothing kept, no message)
+ * when a mean has no slab, BST_ENOMEM. */
+static int make_groups(bst_ctx *ctx, const bst_glass *g, const struct bsti_glass_channel *c,
+                       size_t rows, size_t G, struct bsti_glass_channel *out)
+{
+    memset(out, 0, sizeof *out);
+    out->w = bsti_alloc_array(ctx, G, sizeof *out->w);
+    out->front = bsti_alloc_array(ctx, G, sizeof *out->front);
+    out->back = bsti_alloc_array(ctx, G, sizeof *out->back);
+    int rc = out->w && out->front && out->back ? BST_OK : BST_ENOMEM;
+    size_t k = 0, seen = 0; /* c's node, and how many of weight came before it */
+    for (size_t j = 0; j < G && rc == BST_OK; j++) {
+        size_t end = (j + 1) * rows / G; /* group j: the wavelengths of weight seen .. end - 1 */
+        double s[5] = {0, 0, 0, 0, 0}; /* weight; weighted Tf, Rf, Tb, Rb */
+        for (; seen < end; k++) {
+            double w = c->w[k];
+            if (w == 0.0)
+                continue;
+            s[0] += w, s[1] += w * c->front[k].t0, s[2] += w * c->front[k].r0;
+            s[3] += w * c->back[k].t0, s[4] += w * c->back[k].r0;
+            seen++;
+        }
+        out->w[j] = s[0];
+        if (bsti_glass_side_model(&out->front[j], s[1] / s[0], s[2] / s[0], g->model) ||
+            bsti_glass_side_model(&out->back[j], s[3] / s[0], s[4] / s[0], g->model))
+            rc = BST_EINVAL;
+    }
+    if (rc != BST_OK) {
+        bsti_free(ctx, out->w), bsti_free(ctx, out->front), bsti_free(ctx, out->back);
+        return rc;
+    }
+    out->nk = G;
+    return BST_OK;
+}
+
+/* The nodes channel ch's layer sums when it has more wavelengths of weight than g->layer_rows
+ * (bst_glass_set_layer_rows): groups of adjacent ones (make_groups), g->layer_rows of them, twice
+ * as many, ... the first grouping whose T and R agree with the sum over every wavelength within
+ * BSTI_GLASS_GROUP_TOL at the checked angles (smooth data: the first; noisy data may need every
+ * wavelength).  *made = 0 (out untouched) when the channel is within the bound or no grouping
+ * agrees; free with free_groups. */
+static int group_channel(bst_ctx *ctx, const bst_glass *g, size_t ch,
+                         struct bsti_glass_channel *out, int *made)
+{
+    const struct bsti_glass_channel *c = &g->ch[ch];
+    enum { NA = sizeof group_check_deg / sizeof group_check_deg[0] };
+    double every[NA][4];
+    size_t rows = 0;
+    *made = 0;
+    for (size_t k = 0; k < c->nk; k++)
+        rows += c->w[k] != 0.0;
+    if (!g->layer_rows || rows <= g->layer_rows)
+        return BST_OK;
+    for (size_t a = 0; a < NA; a++)
+        bsti_glass_channel_optics(c, group_check_deg[a] * (M_PI / 180), every[a]);
+    for (size_t G = g->layer_rows; G < rows; G = G < rows / 2 ? 2 * G : rows) {
+        int rc = make_groups(ctx, g, c, rows, G, out);
+        if (rc == BST_ENOMEM)
+            return rc;
+        if (rc < 0) /* a mean without a slab: every wavelength */
+            return BST_OK;
+        double worst = 0, v[4];
+        for (size_t a = 0; a < NA; a++) {
+            bsti_glass_channel_optics(out, group_check_deg[a] * (M_PI / 180), v);
+            for (int i = 0; i < 4; i++)
+                worst = fmax(worst, fabs(v[i] - every[a][i]));
+        }
+        if (worst <= BSTI_GLASS_GROUP_TOL) {
+            *made = 1;
+            return BST_OK;
+        }
+        bsti_free(ctx, out->w), bsti_free(ctx, out->front), bsti_free(ctx, out->back);
+    }
+    return BST_OK;
+}
+
+size_t bst_glass_layer_nodes(const bst_glass *g, size_t ch, size_t *rows)
+{
+    size_t n = 0;
+    for (size_t k = 0; g && ch < g->nch && k < g->ch[ch].nk; k++)
+        n += g->ch[ch].w[k] != 0.0;
+    if (rows)
+        *rows = n;
+    struct bsti_glass_channel groups;
+    int made = 0;
+    if (g && ch < g->nch && group_channel(g->ctx, g, ch, &groups, &made) >= 0 && made) {
+        n = groups.nk;
+        bsti_free(g->ctx, groups.w), bsti_free(g->ctx, groups.front), bsti_free(g->ctx, groups.back);
+    }
+    return n;
+}
+
+static void free_groups(bst_ctx *ctx, struct bsti_glass_channel *c)
+{
+    bsti_free(ctx, c->w), bsti_free(ctx, c->front), bsti_free(ctx, c->back);
+}
+
+/* A share of an angular table: the angles first, first + step, ... (each angle's value is the
+ * same sum whichever thread takes it, so the table is the same to the bit on any number of
+ * threads).  The share of index 0 runs on the caller's thread and reports the progress as the
  * part [base, base + span] of the layer's (span 0: none). */
+struct table_part {
+    bst_ctx *ctx;
+    const struct source *s;
+    size_t ch, first, step;
+    double *t, base, span;
+};
+
+static void *table_run(void *arg)
+{
+    const struct table_part *p = arg;
+    size_t count = 0;
+    for (size_t a = p->first; a <= BST_GLASS_TABLE_STEPS; a += p->step) {
+        optics_at(p->s, p->ch, (double)a / BST_GLASS_TABLE_STEPS * (M_PI / 2), &p->t[4 * a]);
+        if (p->first == 0 && p->span > 0 && ++count % 256 == 0)
+            bsti_progress(p->ctx, p->base + p->span * (double)a / BST_GLASS_TABLE_STEPS,
+                          "glass layer");
+    }
+    return NULL;
+}
+
+/* The angular table of channel ch.  It costs its angles times the channel's wavelengths (a
+ * spectral pane's data rows for Solar: 10^5 rows are 9 10^8 evaluations of the model), so it runs
+ * on the context's threads (bst_ctx_set_threads) once the channel has more than
+ * BSTI_GLASS_TABLE_PAR_NODES wavelengths, and reports its progress. */
+#define BSTI_GLASS_TABLE_PAR_NODES 1000
 static double *table_at(bst_ctx *ctx, const struct source *s, size_t ch, double base, double span)
 {
     double *t = bsti_alloc_array(ctx, 4 * (size_t)(BST_GLASS_TABLE_STEPS + 1), sizeof *t);
-    for (size_t a = 0; t && a <= BST_GLASS_TABLE_STEPS; a++) {
-        optics_at(s, ch, (double)a / BST_GLASS_TABLE_STEPS * (M_PI / 2), &t[4 * a]);
-        if (span > 0 && a % 256 == 255)
-            bsti_progress(ctx, base + span * (double)a / BST_GLASS_TABLE_STEPS, "glass layer");
+    if (!t)
+        return NULL;
+    size_t nk = s->sides ? 1 : s->chan ? s->chan->nk : s->g->ch[ch].nk;
+    int nw = nk > BSTI_GLASS_TABLE_PAR_NODES ? bsti_ctx_workers(ctx, BSTI_GLASS_THREADS_MAX) : 1;
+    struct table_part part[BSTI_GLASS_THREADS_MAX];
+    pthread_t tid[BSTI_GLASS_THREADS_MAX];
+    int started[BSTI_GLASS_THREADS_MAX] = {0};
+    for (int i = 0; i < nw; i++)
+        part[i] = (struct table_part){ctx, s, ch, (size_t)i, (size_t)nw, t, base, span};
+    for (int i = 1; i < nw; i++)
+        started[i] = pthread_create(&tid[i], NULL, table_run, &part[i]) == 0;
+    table_run(&part[0]);
+    for (int i = 1; i < nw; i++) {
+        if (started[i])
+            pthread_join(tid[i], NULL);
+        else /* the thread did not start: its share here */
+            table_run(&part[i]);
     }
     return t;
 }
 
 double *bsti_glass_table(bst_ctx *ctx, const bst_glass *g, size_t ch)
 {
-    const struct source s = {g, NULL};
+    const struct source s = {g, NULL, NULL};
     return table_at(ctx, &s, ch, 0.0, 0.0);
 }
 
@@ -315,12 +468,20 @@ static int build_layer(bst_ctx *ctx, const struct source *src, const bst_basis *
               sysconf(_SC_NPROCESSORS_ONLN) > 1 && default_allocator(ctx);
     for (size_t c = 0; c < nc && rc >= 0; c++) {
         double *tab = NULL;
+        struct bsti_glass_channel groups;
+        int grouped = 0;
+        struct source sc = *src; /* this channel's nodes, or their groups */
+        if (!src->sides && (rc = group_channel(ctx, src->g, idx[c], &groups, &grouped)) < 0)
+            break;
+        sc.chan = grouped ? &groups : NULL;
         if (r->np > 1 && !exact && r->ndistinct > BST_GLASS_TABLE_STEPS + 1 &&
-            !(tab = table_at(ctx, src, idx[c], (double)c / (double)nc, 1.0 / (double)nc))) {
+            !(tab = table_at(ctx, &sc, idx[c], (double)c / (double)nc, 1.0 / (double)nc))) {
             rc = BST_ENOMEM;
+            if (grouped)
+                free_groups(ctx, &groups);
             break;
         }
-        struct part part[2] = {{src, r, idx[c], tab, lam, v, 0, 1}, {src, r, idx[c], tab, lam, v, 0, 1}};
+        struct part part[2] = {{&sc, r, idx[c], tab, lam, v, 0, 1}, {&sc, r, idx[c], tab, lam, v, 0, 1}};
         pthread_t helper;
         int two = par && !tab;
         if (two) /* every other representative patch on a second thread */
@@ -336,6 +497,8 @@ static int build_layer(bst_ctx *ctx, const struct source *src, const bst_basis *
                 for (int k = 0; k < 4; k++)
                     v[(size_t)k * n + j] = v[(size_t)k * n + r->rep[j]];
         bsti_free(ctx, tab);
+        if (grouped)
+            free_groups(ctx, &groups);
         for (int k = 0; k < BST_NCOMP && rc >= 0; k++) {
             bst_mat *m;
             rc = bst_mat_new_diag(ctx, n, v + (size_t)k * n, &m);
@@ -379,7 +542,7 @@ int bsti_glass_layer(bst_ctx *ctx, const bst_glass *g, const bst_basis *basis, s
     int rc = bsti_glass_rule_new(ctx, basis, at_centre, samples, &r);
     if (rc < 0)
         return rc;
-    const struct source src = {g, NULL};
+    const struct source src = {g, NULL, NULL};
     rc = build_layer(ctx, &src, basis, r, nc, idx, names, exact, out);
     bsti_glass_rule_free(ctx, r);
     return rc;
@@ -400,7 +563,7 @@ int bsti_glass_layer_data(bst_ctx *ctx, const bst_glass *g, const bst_basis *bas
                           "incidence", g->where, d[0], d[1], d[2], d[3]);
     static const size_t zero = 0;
     static const char *const name[] = {"Spectral"};
-    const struct source src = {g, sides};
+    const struct source src = {g, sides, NULL};
     return build_layer(ctx, &src, basis, rule, 1, &zero, name, 0, out);
 }
 

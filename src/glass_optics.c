@@ -256,7 +256,8 @@ static int data_row(bst_ctx *ctx, bst_glass *g, struct optics_state *st, const c
         for (int i = 0; i < 4; i++) {
             if (x[2 + 2 * i] != 0.0)
                 return optics_error(ctx, st, "diffuse part %s_dif = %g: a pane is specular, and "
-                                    "hazy products (diffuse parts) are not modelled", part[i],
+                                    "hazy products (diffuse parts) are not modelled (the "
+                                    "product's BSDF file can be a layer instead)", part[i],
                                     x[2 + 2 * i]);
             v[i] = x[1 + 2 * i];
         }

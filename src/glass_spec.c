@@ -358,6 +358,39 @@ static int take_model(bst_ctx *ctx, const char *where, char *spec, int *model)
     return BST_OK;
 }
 
+/* Take the item "rows=all" or "rows=N" (N >= 2) out of a spec's list (in place) into *rows
+ * (bst_glass_set_layer_rows' bound, 0 = all); it stays as it was when there is none. */
+static int take_rows(bst_ctx *ctx, const char *where, char *spec, size_t *rows)
+{
+    char *out = spec, *item = spec;
+    int seen = 0;
+    while (item) {
+        char *comma = strchr(item, ',');
+        size_t len = comma ? (size_t)(comma - item) : strlen(item);
+        if (len >= 5 && strncmp(item, "rows=", 5) == 0) {
+            char v[24], *end = NULL;
+            snprintf(v, sizeof v, "%.*s", (int)(len - 5 < sizeof v - 1 ? len - 5 : sizeof v - 1),
+                     item + 5);
+            unsigned long long n = strcmp(v, "all") == 0 ? 0 : strtoull(v, &end, 10);
+            if (seen++)
+                return bsti_error(ctx, BST_EINVAL, "%s: rows given twice", where);
+            if (len - 5 >= sizeof v - 1 || (end && (end == v || *end || !isdigit((unsigned char)*v) ||
+                                                    n < 2 || n > (unsigned long long)SIZE_MAX)))
+                return bsti_error(ctx, BST_EINVAL, "%s: rows=%.*s (all, or a count of at least 2)",
+                                  where, (int)(len - 5), item + 5);
+            *rows = (size_t)n;
+        } else {
+            if (out != spec)
+                *out++ = ',';
+            memmove(out, item, len);
+            out += len;
+        }
+        item = comma ? comma + 1 : NULL;
+    }
+    *out = '\0';
+    return BST_OK;
+}
+
 /* The pane's model, once everything is read: model= in the spec, else the catalogue's model line,
  * else the type its file or catalogue names (as WINDOW chooses), else uncoated. */
 static int settle_model(bst_ctx *ctx, bst_glass *g, int spec_model, int cat_model)
@@ -409,6 +442,8 @@ int bst_glass_parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, b
         rc = BST_ENOMEM;
     if (rc >= 0)
         rc = take_model(ctx, where, body, &spec_model);
+    if (rc >= 0)
+        rc = take_rows(ctx, where, body, &g->layer_rows);
     if (rc >= 0 && !*body)
         rc = bsti_error(ctx, BST_EINVAL, "glass: empty specification (glass:NAME, glass:PATH "
                         "or glass:d=6mm,n=1.52,tn=0.89)");

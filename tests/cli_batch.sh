@@ -23,6 +23,11 @@ EOT
 expect_status 0 "batch of three stacks" -- "$B" batch -k 3 stacks.txt
 [ "$(grep -c '^[abc]\.xml	T 0\.[0-9]*	R 0\.[0-9]*	' out)" -eq 3 ] && pass "one summary line per stack" || fail "summary: $(cat out)"
 grep -q "batch: stacks.txt line 4" b.xml && pass "metadata names the batch line" || fail "metadata of b.xml"
+# each pane's model and source in the header, numbered within its stack, as combine records them
+expect_status 0 "info b.xml" -- "$B" info b.xml
+grep -q "^ *layer 1 glass:lowiron-6mm: uncoated model (.*); source catalogue .*lowiron-6mm.glass" out &&
+    grep -q "^ *layer 3 glass:clear-6mm: uncoated model" out && ! grep -q "^ *layer 2 " out &&
+    pass "info b.xml: the panes' lines" || fail "info b.xml: $(head -6 out)"
 # each output is what combine writes for the same stack
 for x in a b c; do
     layers=$(awk -v o="$x.xml" '$1 == o { $1 = ""; print }' stacks.txt)

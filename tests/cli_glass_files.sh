@@ -98,6 +98,36 @@ for p in lowe-6mm:Coated solarcontrol-6mm:Coated laminated-6.4mm:Laminate; do
         || fail "${p%%:*}: table"
 done
 
+# info: a pane's model, source and metadata; a combination lists its layers and its panes' models
+expect_status 0 "info glass:FILE (coated Optics file)" -- "$B" info "glass:$tmpdir/LOWE.DAT"
+grep -q "^ *model: coated (WINDOW's correlations for coated glass; from the type Coated)$" "$tmpdir/out" &&
+    grep -q "^ *source: optics $tmpdir/LOWE.DAT$" "$tmpdir/out" &&
+    grep -q "^ *product Generic Clear Glass; NFRC ID 102$" "$tmpdir/out" &&
+    grep -q "^ *emissivity front 0.84; back 0.84 (kept, not used)$" "$tmpdir/out" &&
+    grep -q "^spectral  " "$tmpdir/out" && pass "info glass:FILE: model, source, metadata" ||
+    fail "info glass:FILE: $(head -8 "$tmpdir/out")"
+"$B" glass "$tmpdir/LOWE.DAT" | awk -F'\t' '$2 == 45 && $1 == "Solar" { printf "%.4f %.4f\n", $3, $5 }' > "$tmpdir/g45"
+awk '/^Solar:/ { on = 1 } on && $1 == 45 { printf "%.4f %.4f\n", $2, $3; exit }' "$tmpdir/out" | cmp -s - "$tmpdir/g45" &&
+    pass "info glass:FILE: T and R at 45 degrees as bsdfstack glass" || fail "info's T, R at 45: $(cat "$tmpdir/g45")"
+expect_status 0 "combine: a coated Optics file and a catalogue pane" -- "$B" combine -k 2 \
+    -o "$tmpdir/two.xml" "glass:$tmpdir/LOWE.DAT,model=uncoated" glass:lowe-6mm
+expect_status 0 "info on the combination" -- "$B" info "$tmpdir/two.xml"
+grep -q "^layers    glass:$tmpdir/LOWE.DAT,model=uncoated, glass:lowe-6mm$" "$tmpdir/out" &&
+    grep -q "^ *layer 1 glass:$tmpdir/LOWE.DAT,model=uncoated: uncoated model (model= in the spec, type Coated); source optics $tmpdir/LOWE.DAT; product Generic Clear Glass; NFRC ID 102; thickness 3.048 mm; coated side Neither; emissivity front 0.84; back 0.84$" "$tmpdir/out" &&
+    grep -q "^ *layer 2 glass:lowe-6mm: coated model (from the type Coated); source catalogue .*lowe-6mm.glass$" "$tmpdir/out" &&
+    pass "info lists the layers and each pane's model and source" || fail "info on two.xml: $(head -6 "$tmpdir/out")"
+# a FIFO: read once by the reader, never opened again for its header (that would wait for ever)
+if mkfifo "$tmpdir/fifo" 2>/dev/null; then
+    cat "$tmpdir/two.xml" > "$tmpdir/fifo" &
+    expect_status 0 "info on a FIFO" -- timeout 60 "$B" info "$tmpdir/fifo"
+    ! grep -q "^layers" "$tmpdir/out" && pass "a FIFO's header is not read again" || fail "FIFO: $(head -3 "$tmpdir/out")"
+    wait
+fi
+expect_status 0 "info on a file not written with panes" -- "$B" info "$tmpdir/tsv.xml"
+grep -q "^layers    glass:$data, glass:nfrc-103$" "$tmpdir/out" && pass "its layers" || fail "tsv.xml: $(head -4 "$tmpdir/out")"
+expect_error "info on a pane that is not there" "no-such-pane" -- "$B" info glass:no-such-pane
+expect_status 2 "info --reference with a pane" -- "$B" info --reference "$tmpdir/two.xml" glass:lowe-6mm
+
 # refused: one line, exit 1, no output file
 printf '{"product_id": 9, "type": "shading", "subtype": "woven", "name": "made-up screen",
  "composition": [{"child_product": {"spectral_data": {"dual_band_values": {"Tf_sol_diffuse": 0.05}}},
@@ -112,6 +142,11 @@ expect_error "malformed JSON" "bad.json:2:[0-9]+: not valid JSON" -- "$B" combin
 [ -e "$tmpdir/bad.xml" ] && fail "malformed JSON left an output file" || pass "no output file"
 optics 4 0 Monolithic | sed '20s/.*/0.5 0.8 0.08/' > "$tmpdir/BAD.DAT"
 expect_error "bad Optics row" "BAD.DAT:20: 3 numbers: a data row has 4" -- "$B" glass "$tmpdir/BAD.DAT"
+# a hazy product (9 columns with a diffuse part): refused at its row, not read as specular
+optics 9 0 Monolithic | awk 'NR == 30 { $3 = "0.02" } { print }' > "$tmpdir/HAZY.DAT"
+expect_error "a hazy Optics row" "HAZY.DAT:30: diffuse part Tf_dif = 0.02: a pane is specular" \
+    -- "$B" combine -k 2 -o "$tmpdir/hazy.xml" "glass:$tmpdir/HAZY.DAT" glass:clear-6mm
+[ -e "$tmpdir/hazy.xml" ] && fail "a hazy pane left an output file" || pass "no output file"
 optics 4 0 Tinted > "$tmpdir/TINT.DAT"
 expect_error "a type WINDOW does not know" "material type 'Tinted'.*give model=uncoated or model=coated" -- "$B" glass "$tmpdir/TINT.DAT"
 expect_error "a bad model" "model=shiny \\(uncoated or coated\\)" -- "$B" glass "clear-6mm,model=shiny"

@@ -203,12 +203,18 @@ grep -q "warning: .*neg\.xml: 1 negative value read as 0" "$tmpdir/err" && pass 
 expect_status 0 "info on it" -- "$B" info "$m/neg.xml"
 grep -q "1 negative value read as 0" "$tmpdir/err" && pass "as info says" || fail "info stderr: $(cat "$tmpdir/err")"
 
-# --- a spectral pane of many rows warns before its layer's long evaluation (it took 98 s for 10^5
-# rows at k = 5 without a word); the catalogue's panes do not
+# --- a spectral pane of many rows (10^5 rows took 98 s at k = 5 without a word): past
+# BST_GLASS_LAYER_ROWS (5000) its layer sums groups of adjacent wavelengths, and says so in one
+# line (5999 of the 6000 rows weigh in Solar: the solar source is 0 at the first, 0.3 um); with rows=all
+# it sums each and warns of the cost; the catalogue's panes say nothing
 awk 'BEGIN { for (i = 0; i < 6000; i++) printf "%.8f 0.8 0.8 0.08 0.08\n", 0.3 + 2.2 * i / 5999 }' > "$m/many.txt"
 expect_status 0 "combine a pane of 6000 wavelengths" -- "$B" combine -k 1 "glass:$m/many.txt" -o "$m/many.xml"
-grep -q "warning: glass:.*many\.txt: 6000 wavelengths: the pane is evaluated at each of them" "$tmpdir/err" &&
-    pass "it warns of the cost" || fail "stderr: $(cat "$tmpdir/err")"
+grep -q "warning: glass:.*many\.txt: its layer sums the model over 5000 groups of adjacent wavelengths (each at their weighted mean data) instead of Solar's 5999 wavelengths one by one; rows=all" "$tmpdir/err" &&
+    [ "$(wc -l < "$tmpdir/err")" -eq 1 ] && pass "it says so in one line" || fail "stderr: $(cat "$tmpdir/err")"
+expect_status 0 "the same with rows=all" -- "$B" combine -k 1 "glass:$m/many.txt,rows=all" -o "$m/many.xml"
+grep -q "warning: glass:.*many\.txt,rows=all: 5999 wavelengths: the pane is evaluated at each of them" "$tmpdir/err" &&
+    pass "rows=all warns of the cost" || fail "stderr: $(cat "$tmpdir/err")"
+expect_error "rows=1" "rows=1 \\(all, or a count of at least 2\\)" -- "$B" combine -k 1 "glass:$m/many.txt,rows=1" -o "$m/many.xml"
 expect_status 0 "combine a catalogue pane" -- "$B" combine -k 1 glass:nfrc-102 -o "$m/cat.xml"
 ! grep -q "wavelengths" "$tmpdir/err" && pass "a catalogue pane does not warn" || fail "stderr: $(cat "$tmpdir/err")"
 

@@ -4,7 +4,9 @@
  *  - one shading record of each kind (venetian, woven, perforated-screen) is read into bst_shade
  *    with its material and geometry, and refused as a layer with one line (BST_ENOTIMPL);
  *  - malformed JSON, missing fields, wrong units, impossible geometry: one line each, naming the
- *    file and the field; allocation failure. */
+ *    file and the field; allocation failure;
+ *  - the same glazing record in IGSDB v2's shape (numbers as strings, angle blocks) gives the same
+ *    pane and stack; v2's refusals (diffusing, hazy rows, no normal-incidence block, shading). */
 #include <config.h>
 
 #include <math.h>
@@ -236,6 +238,10 @@ START_TEST(test_missing_fields)
                  "\"Rb\": 0.08, \"wavelength\": 0.3}, {}]}}",
                  ": spectral_data.spectral_data[0].T is not a number", 0);
     refused_text(HEAD "\"nfrc_id\": 1.5, \"spectral_data\": " ROWS "}", ": nfrc_id is not an integer", 0);
+    refused_text(HEAD "\"measured_data\": {\"is_specular\": false}, \"spectral_data\": " ROWS "}",
+                 ": measured_data.is_specular is false: a diffusing glazing product", 0);
+    refused_text(HEAD "\"measured_data\": {\"is_specular\": \"yes\"}, \"spectral_data\": " ROWS "}",
+                 ": measured_data.is_specular is not true or false", 0);
     refused_text(HEAD "\"measured_data\": {\"thickness\": -3}, \"spectral_data\": " ROWS "}",
                  ": measured_data.thickness = -3 is not a thickness", 0);
     char shade[600];
@@ -278,6 +284,111 @@ START_TEST(test_wrong_units)
 }
 END_TEST
 
+/* NFRC 102 as an IGSDB v2 glazing record (the shape of the database's v2 API: numbers mostly as
+ * strings, the data in physical_properties' angle blocks); extra: more fields, spliced into the
+ * physical_properties object; a block at 8 degrees that must be passed over comes first. */
+static const char *write_glazing_v2(const char *name, const char *subtype, const char *extra)
+{
+    const char *path;
+    FILE *fp = tg_create(name, &path);
+    fprintf(fp, "{\"id\": null, \"component_id\": \"made-up\", \"type\": \"GLAZING\",\n"
+                " \"subtype\": \"%s\", \"token\": \"generic-clear-3\", \"name\": \"Generic Clear Glass\",\n"
+                " \"nfrc_id\": 102, \"igdb_id\": 1, \"manufacturer_name\": \"Generic\",\n"
+                " \"coating_name\": null, \"coated_side\": \"NA\", \"emissivity_front\": 0.84,\n"
+                " \"emissivity_back\": null, \"tir_front\": 0.0, \"composition\": [],\n"
+                " \"material_bulk_properties\": {\"name\": \"GLASS\", \"conductivity\": \"1.0\"},\n"
+                " \"physical_properties\": {\"is_specular\": true, \"thickness\": 3.048,\n"
+                "  \"predefined_emissivity_front\": 0.5, \"predefined_emissivity_back\": 0.83,\n"
+                "  %s\n"
+                "  \"optical_properties\": {\"optical_data_type\": \"DISCRETE\", \"optical_data\": {\n"
+                "   \"number_incidence_angles\": 2, \"angle_blocks\": [\n"
+                "    {\"incidence_angle\": 8, \"wavelength_data\": []},\n"
+                "    {\"incidence_angle\": 0, \"num_wavelengths\": %zu, \"wavelength_data\": [\n",
+            subtype, extra, tg_nfrc102.n);
+    for (size_t k = 0; k < tg_nfrc102.n; k++) {
+        char (*v)[24] = tg_nfrc102.v[k];
+        fprintf(fp, "     {\"w\": \"%s\", \"specular\": {\"rb\": \"%s\", \"rf\": \"%s\", \"tb\": \"%s\", "
+                    "\"tf\": %s}%s}%s\n", v[0], v[4], v[3], v[2], v[1],
+                k ? "" : ", \"diffuse\": {\"tf\": \"0\", \"rf\": 0}", k + 1 < tg_nfrc102.n ? "," : "");
+    }
+    fprintf(fp, "    ]}]}}}}\n");
+    fclose(fp);
+    return path;
+}
+
+START_TEST(test_glazing_v2)
+{
+    bst_glass *table = tg_parse(tg_ctx, tu_ref("wce/data/spectral_NFRC_102.tsv"));
+    const char *path = write_glazing_v2("v2.json", "MONOLITHIC",
+                                        "\"bulk_properties_override\": null,");
+    bst_glass *g = tg_parse(tg_ctx, path);
+    tg_same_pane(g, table);
+    tg_same_stack(tg_ctx, g, table);
+    const bst_glass_meta *m = bst_glass_metadata(g);
+    ck_assert_str_eq(m->source, "igsdb");
+    ck_assert_str_eq(m->product_name, "Generic Clear Glass");
+    ck_assert_str_eq(m->manufacturer, "Generic");
+    ck_assert_str_eq(m->type, "MONOLITHIC");
+    ck_assert_str_eq(m->coated_side, "NA");
+    ck_assert_int_eq(m->nfrc_id, 102);
+    /* the record's own emissivity first, the predefined one where the record's is null */
+    ck_assert(m->thickness_mm == 3.048 && m->conductivity == 1 && m->ir_transmittance == 0);
+    ck_assert(m->emissivity_front == 0.84 && m->emissivity_back == 0.83);
+    ck_assert_int_eq(bst_glass_get_model(g), BST_GLASS_UNCOATED);
+    bst_glass_free(g);
+    g = tg_parse(tg_ctx, write_glazing_v2("v2c.json", "APPLIED_FILM",
+                                          "\"bulk_properties_override\": {\"conductivity\": \"0.9\"},"));
+    ck_assert_int_eq(bst_glass_get_model(g), BST_GLASS_COATED);
+    ck_assert(bst_glass_metadata(g)->conductivity == 0.9);
+    bst_glass_free(g);
+    bst_glass_free(table);
+}
+END_TEST
+
+/* A v2 record with text spliced in after its head, refused with expect. */
+static void refused_v2(const char *head, const char *expect)
+{
+    char text[2048];
+    snprintf(text, sizeof text, "{\"id\": 5, \"type\": \"GLAZING\", \"subtype\": \"MONOLITHIC\", %s}", head);
+    refused_text(text, expect, 0);
+}
+
+#define V2_BLOCK(rows) "\"optical_properties\": {\"optical_data\": {\"angle_blocks\": " \
+    "[{\"incidence_angle\": 0, \"wavelength_data\": [" rows "]}]}}"
+#define V2_ROW(w, dif) "{\"w\": " w ", \"specular\": {\"tf\": 0.8, \"tb\": 0.8, \"rf\": 0.08, " \
+    "\"rb\": 0.08}" dif "}"
+
+START_TEST(test_v2_refused)
+{
+    /* the same record is read when nothing is wrong */
+    const char *path;
+    FILE *fp = tg_create("ok2.json", &path);
+    fputs("{\"id\": 5, \"type\": \"glazing\", \"subtype\": \"monolithic\", \"physical_properties\": {"
+          V2_BLOCK(V2_ROW("0.3", "") ", " V2_ROW("\"2.5\"", "")) "}}", fp);
+    fclose(fp);
+    bst_glass_free(tg_parse(tg_ctx, path));
+    refused_v2("\"physical_properties\": {\"is_specular\": false}",
+               ": physical_properties.is_specular is false: a diffusing glazing product");
+    refused_v2("\"physical_properties\": {" V2_BLOCK(V2_ROW("0.3", ", \"diffuse\": {\"tf\": \"0.02\"}") ", "
+               V2_ROW("2.5", "")) "}", ".wavelength_data[0].diffuse.tf = 0.02: a pane is specular");
+    refused_v2("\"physical_properties\": {" V2_BLOCK(V2_ROW("\"0.3 um\"", "") ", " V2_ROW("2.5", "")) "}",
+               ".angle_blocks[0].wavelength_data[0].w is not a number");
+    refused_v2("\"physical_properties\": {" V2_BLOCK(V2_ROW("300", "") ", " V2_ROW("2500", "")) "}",
+               ".wavelength_data[0]: wavelength 300 um is not in");
+    refused_v2("\"physical_properties\": {\"optical_properties\": {\"optical_data\": {\"angle_blocks\": "
+               "[{\"incidence_angle\": 10, \"wavelength_data\": []}]}}}", ".angle_blocks: no block at incidence_angle 0");
+    refused_v2("\"physical_properties\": {\"thickness\": \"3.048\"}",
+               ": physical_properties.optical_properties.optical_data.angle_blocks: missing");
+    refused_v2("\"physical_properties\": {\"thickness\": 3048000, " V2_BLOCK(V2_ROW("0.3", "") ", "
+               V2_ROW("2.5", "")) "}", ": physical_properties.thickness = 3.048e+06 is not a thickness");
+    refused_v2("\"physical_properties\": 3", ": physical_properties is not an object");
+    refused_text("{\"id\": 5, \"type\": \"SHADING\", \"subtype\": \"VENETIAN\", \"physical_properties\": {}}",
+                 ": type \"SHADING\" in an IGSDB v2 record: bsdfstack reads v2 glazing records", 0);
+    refused_text("{\"id\": 5, \"type\": \"SHADING\", \"subtype\": \"VENETIAN\", \"physical_properties\": {}}",
+                 ": an IGSDB v2 record: shading products are read from their v1 record", 1);
+}
+END_TEST
+
 /* Every allocation of reading a record may fail: an error, never a leak. */
 static int read_shade(bst_ctx *c, void *path)
 {
@@ -297,13 +408,16 @@ START_TEST(test_alloc_failure)
     snprintf(path[1], sizeof path[1], "%s", write_shade("s.json", "venetian", venetian));
     tg_alloc_sweep("a glazing record", 400, tg_read_pane, path[0]);
     tg_alloc_sweep("a shading record", 400, read_shade, path[1]);
+    tg_alloc_sweep("a v2 glazing record", 400, tg_read_pane,
+                   write_glazing_v2("v2a.json", "COATED", ""));
 }
 END_TEST
 
 int main(void)
 {
     const TTest *const tests[] = {test_glazing, test_shades, test_malformed, test_missing_fields,
-                                  test_wrong_units, test_alloc_failure};
+                                  test_wrong_units, test_glazing_v2, test_v2_refused,
+                                  test_alloc_failure};
     return tu_run(tg_suite("glass_json", tg_setup, tg_teardown, 120, tests,
                            sizeof tests / sizeof tests[0]));
 }

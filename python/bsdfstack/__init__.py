@@ -705,6 +705,39 @@ class Glass(_Source):
         """Whether the pane has spectral data (a stack of such panes combines per wavelength)."""
         return lib.bst_glass_nwavelengths(self._g.ptr) > 0
 
+    @property
+    def model(self):
+        """The angular model: "uncoated" (the slab) or "coated" (WINDOW's correlations)."""
+        return text(lib.bst_glass_model_name(lib.bst_glass_get_model(self._g.ptr)))
+
+    @property
+    def source(self):
+        """Where the pane comes from: "catalogue", "table" (bsdfstack's spectral table),
+        "optics" (an Optics / IGDB text file), "igsdb" (an IGSDB JSON record) or "inline"."""
+        return text(lib.bst_glass_metadata(self._g.ptr).contents.source)
+
+    @property
+    def metadata(self):
+        """What the pane's source says of it, as bsdfstack-glass(5) lists it: a dict of the
+        fields given (source, path, type, model_from, product_name, manufacturer, coating_name,
+        coated_side, wavelength_units: str; nfrc_id: int; thickness_mm, conductivity,
+        emissivity_front, emissivity_back, ir_transmittance: float).  Fields the source does
+        not give are left out; source and model_from are always there."""
+        m = lib.bst_glass_metadata(self._g.ptr).contents
+        out = {}
+        for name, kind in _lib.GlassMeta._fields_:
+            v = getattr(m, name)
+            if kind is ctypes.c_char_p:
+                v = text(v)
+                if v or name in ("source", "model_from"):
+                    out[name] = v
+            elif name == "nfrc_id":
+                if v >= 0:
+                    out[name] = int(v)
+            elif v == v:  # NaN: not given
+                out[name] = float(v)
+        return out
+
     def __repr__(self):
         return "<bsdfstack.Glass %s: %s>" % (self.spec, self.description)
 
@@ -727,8 +760,25 @@ class Glass(_Source):
             self._ctx.check(lib.bst_glass_add_channel(self._ctx.ptr, fresh.ptr, cstr(n)))
         return fresh
 
+    def _warn_groups(self, pane, channels):
+        """A LibraryWarning, as the program's line, when a channel of many wavelengths is summed
+        in groups of adjacent ones (bst_glass_layer_nodes; ",rows=all" in the spec sums each)."""
+        g = pane.ptr
+        for i in range(lib.bst_glass_nchannels(g)):
+            name = text(lib.bst_glass_channel(g, i))
+            if channels and name not in channels:
+                continue
+            rows = ctypes.c_size_t()
+            nodes = lib.bst_glass_layer_nodes(g, i, ctypes.byref(rows))
+            if nodes < rows.value:
+                warnings.warn("%s: its layer sums the model over %d groups of adjacent wavelengths "
+                              "(each at their weighted mean data) instead of %s's %d wavelengths "
+                              "one by one; rows=all after the file name takes each"
+                              % (self.name, nodes, name, rows.value), LibraryWarning, stacklevel=4)
+
     def _make(self, basis, prec, channels, at_centre):
         pane = self._pane_for(channels)
+        self._warn_groups(pane, channels)
         out = ctypes.c_void_p()
         names = cstr_array(channels or ())
         self._ctx.check(lib.bst_glass_layer(self._ctx.ptr, pane.ptr, basis,

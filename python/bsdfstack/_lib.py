@@ -77,6 +77,16 @@ class ColumnsOpts(Structure):
                 ("residual", c_double)]
 
 
+class GlassMeta(Structure):
+    """bst_glass_meta: where a pane comes from and what its file says of it (owned by the pane)."""
+    _fields_ = [("source", c_char_p), ("path", c_char_p), ("type", c_char_p),
+                ("model_from", c_char_p), ("product_name", c_char_p), ("manufacturer", c_char_p),
+                ("coating_name", c_char_p), ("coated_side", c_char_p),
+                ("wavelength_units", c_char_p), ("nfrc_id", c_long), ("thickness_mm", c_double),
+                ("conductivity", c_double), ("emissivity_front", c_double),
+                ("emissivity_back", c_double), ("ir_transmittance", c_double)]
+
+
 class ReadOpts(Structure):
     """bst_bsdf_read_opts."""
     _fields_ = [("comps", c_uint), ("nchannels", c_size_t), ("channels", POINTER(c_char_p)),
@@ -187,6 +197,10 @@ _PROTOTYPES = {
     "bst_glass_description": (c_char_p, [c_void_p]),
     "bst_glass_nwavelengths": (c_size_t, [c_void_p]),
     "bst_glass_add_channel": (c_int, [c_void_p, c_void_p, c_char_p]),
+    "bst_glass_get_model": (c_int, [c_void_p]),
+    "bst_glass_model_name": (c_char_p, [c_int]),
+    "bst_glass_metadata": (POINTER(GlassMeta), [c_void_p]),
+    "bst_glass_layer_nodes": (c_size_t, [c_void_p, c_size_t, size_p]),
     "bst_glass_layer": (c_int, [c_void_p, c_void_p, c_void_p, c_size_t, POINTER(c_char_p), c_int,
                                 POINTER(c_void_p)]),
 }

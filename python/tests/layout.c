@@ -40,5 +40,13 @@ int main(void)
     FIELD(bst_bsdf_write_opts, command), FIELD(bst_bsdf_write_opts, description);
     FIELD(bst_bsdf_write_opts, date), FIELD(bst_bsdf_write_opts, on_block);
     FIELD(bst_bsdf_write_opts, opaque);
+    SIZE(bst_glass_meta);
+    FIELD(bst_glass_meta, source), FIELD(bst_glass_meta, path), FIELD(bst_glass_meta, type);
+    FIELD(bst_glass_meta, model_from), FIELD(bst_glass_meta, product_name);
+    FIELD(bst_glass_meta, manufacturer), FIELD(bst_glass_meta, coating_name);
+    FIELD(bst_glass_meta, coated_side), FIELD(bst_glass_meta, wavelength_units);
+    FIELD(bst_glass_meta, nfrc_id), FIELD(bst_glass_meta, thickness_mm);
+    FIELD(bst_glass_meta, conductivity), FIELD(bst_glass_meta, emissivity_front);
+    FIELD(bst_glass_meta, emissivity_back), FIELD(bst_glass_meta, ir_transmittance);
     return 0;
 }

@@ -3,6 +3,7 @@ convention (column = incident patch), closed forms (two clear panes), energy bal
 read back, layers reused across stacks, progress, and GA / LA against eq. 7 and 8 computed here
 from the matrices."""
 import gc
+import math
 
 import numpy as np
 import pytest
@@ -200,3 +201,49 @@ def test_spectral_columns_follow_the_spectral_system(tmp_path):
     assert rel_max(c.t["Solar"][:, 1], bands.matrix("Tf", "Solar")[:, j]) > 1e-3
     with pytest.raises(bsdfstack.Error, match="no incident directions"):
         bsdfstack.columns(stack, [], k=3)
+
+
+def test_glass_model_source_metadata(tmp_path):
+    """A pane's model, source and metadata as `bsdfstack glass` prints them: the catalogue's
+    coated pane, model= overriding it, and an Optics file whose type picks the model."""
+    lowe = bsdfstack.glass("lowe-6mm")
+    assert (lowe.model, lowe.source) == ("coated", "catalogue")
+    assert (lowe.metadata["model_from"], lowe.metadata["type"]) == ("type", "Coated")
+    assert lowe.metadata["path"].endswith("lowe-6mm.glass")
+    assert bsdfstack.glass("lowe-6mm,model=uncoated").model == "uncoated"
+    assert bsdfstack.glass("lowe-6mm,model=uncoated").metadata["model_from"] == "spec"
+    inline = bsdfstack.glass("t0=0.8,r0=0.08")
+    assert (inline.model, inline.source, inline.metadata) == ("uncoated", "inline",
+                                                              {"source": "inline", "model_from": "default"})
+    f = tmp_path / "COATED_4.DAT"
+    f.write_text("{ Units, Wavelength Units } SI Nanometers\n{ Thickness } 4.1\n"
+                 "{ Product Name: Made-up low-e }\n{ NFRC ID: 9999 }\n{ Type: Coated }\n"
+                 "{ Coated Side: Back }\n{ Emissivity, front back } Emis= 0.84 0.04\n"
+                 "300 0.1 0.2 0.3\n400 0.7 0.1 0.1\n800 0.6 0.2 0.3\n2500 0.1 0.4 0.5\n")
+    g = bsdfstack.glass(str(f))
+    assert (g.model, g.source) == ("coated", "optics")
+    assert g.metadata == {"source": "optics", "path": str(f), "type": "Coated", "model_from": "type",
+                          "product_name": "Made-up low-e", "coated_side": "Back",
+                          "wavelength_units": "Nanometers", "nfrc_id": 9999, "thickness_mm": 4.1,
+                          "emissivity_front": 0.84, "emissivity_back": 0.04}
+
+
+def test_glass_many_rows_grouped(tmp_path):
+    """A pane of 6000 rows: its Solar layer sums 5000 groups of adjacent wavelengths, with a
+    LibraryWarning that says so; ",rows=all" sums each, without it, and the two layers' patch
+    values (Lambda x value) agree within 1e-8 (bsdfstack-glass(5))."""
+    import warnings as w
+    f = tmp_path / "many.txt"
+    f.write_text("".join("%.8f %.6f %.6f %.6f %.6f\n" % (0.3 + 2.2 * i / 5999, t, t, r, r + 0.01)
+                         for i in range(6000)
+                         for t, r in [(0.45 + 0.25 * math.sin(15.4 * i / 5999),
+                                       0.07 + 0.02 * math.cos(11.0 * i / 5999))]))
+    with pytest.warns(bsdfstack.LibraryWarning, match="5000 groups of adjacent wavelengths"):
+        grouped = bsdfstack.glass(str(f)).layer(k=2, channels=["Solar"])
+    with w.catch_warnings():
+        w.simplefilter("error")
+        every = bsdfstack.glass(str(f) + ",rows=all").layer(k=2, channels=["Solar"])
+    lam = grouped.lambda_()
+    for c in ("Tf", "Rf", "Tb", "Rb"):
+        d = np.abs(np.diag(np.asarray(grouped.matrix(c))) - np.diag(np.asarray(every.matrix(c)))) * lam
+        assert 0 < d.max() <= 1e-8, (c, d.max())

@@ -13,7 +13,7 @@ from conftest import BUILDDIR
 STRUCTS = {"bst_stack_opts": _lib.StackOpts, "bst_spectral_opts": _lib.SpectralOpts,
            "bst_spectral_layer": _lib.SpectralLayer, "bst_columns_opts": _lib.ColumnsOpts,
            "bst_bsdf_read_opts": _lib.ReadOpts,
-           "bst_bsdf_write_opts": _lib.WriteOpts}
+           "bst_bsdf_write_opts": _lib.WriteOpts, "bst_glass_meta": _lib.GlassMeta}
 
 
 def test_structures_match_the_header():

@@ -126,7 +126,7 @@ static int run_line(bst_ctx *ctx, struct batch *b, size_t i, struct stack_result
         snprintf(what, sizeof what, "%s:%zu: %s", b->path, sl->lineno, b->specs[k]);
         if (cli_layer_load(ctx, b->sub, what, b->specs[k], b->all.basis, &b->args.basis,
                            b->args.channels, b->args.so.precision, &b->all.layers[k],
-                           &b->all.panes[k]) != CLI_OK) {
+                           &b->all.panes[k], &b->all.notes[k]) != CLI_OK) {
             bst_ctx_clear(ctx);
             return ST_FAILED;
         }
@@ -396,8 +396,9 @@ static int run(int argc, char **argv, int rank, int size)
     if (rc == CLI_OK) {
         b.all.layers = calloc(b.nspecs, sizeof *b.all.layers);
         b.all.panes = calloc(b.nspecs, sizeof *b.all.panes);
+        b.all.notes = calloc(b.nspecs, sizeof *b.all.notes);
         b.all.n = b.nspecs;
-        if (!b.all.layers || !b.all.panes)
+        if (!b.all.layers || !b.all.panes || !b.all.notes)
             rc = cli_fail(sub, "out of memory");
     }
     /* only ranks that combine stacks need the basis */
@@ -426,8 +427,9 @@ static int run(int argc, char **argv, int rank, int size)
     for (size_t i = 0; b.all.layers && i < b.nspecs; i++) {
         bst_layer_free(b.all.layers[i]);
         bst_glass_free(b.all.panes[i]);
+        free(b.all.notes[i]);
     }
-    free(b.all.layers), free(b.all.panes);
+    free(b.all.layers), free(b.all.panes), free(b.all.notes);
     bst_basis_free(b.all.basis);
     batch_file_free(&bf);
     free(structure);

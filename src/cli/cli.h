@@ -30,6 +30,13 @@ int cmd_batch(int argc, char **argv);
 int cmd_plot(int argc, char **argv);
 int cmd_view(int argc, char **argv);
 
+/* A pane's source, angular model and why, and what its file says of it (cmd_glass.c): as # lines
+ * of `bsdfstack glass` (each line starts with prefix), or as one line into buf[0..size-1]
+ * ("coated model (from the type Coated); source optics PATH; product ...; thickness ...") for
+ * `info` and the header of a file that combines the pane. */
+void cli_glass_describe(FILE *fp, const bst_glass *g, const char *prefix);
+void cli_glass_summary(const bst_glass *g, char *buf, size_t size);
+
 /* "bsdfstack SUB: message" on stderr, one line.  Returns CLI_FAIL. */
 int cli_fail(const char *sub, const char *fmt, ...)
 #if defined(__GNUC__)

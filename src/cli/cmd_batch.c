@@ -269,8 +269,16 @@ int batch_run_stack(bst_ctx *ctx, const struct batch *b, const struct batch_line
             view.panes[i] = b->all.panes[sl->layer[i]];
             view.npanes += view.panes[i] != NULL;
         }
-        snprintf(view.description + strlen(view.description), len - strlen(view.description),
-                 "\nbatch: %s line %zu\n%s", b->path, sl->lineno, key);
+    }
+    if (rc == CLI_OK)
+        rc = cli_note_panes(sub, &view.description, &b->all, sl->n, sl->layer, b->specs);
+    if (rc == CLI_OK) {
+        size_t used = strlen(view.description), room = used + strlen(b->path) + strlen(key) + 64;
+        char *d = realloc(view.description, room);
+        if (d)
+            snprintf(d + used, room - used, "\nbatch: %s line %zu\n%s", b->path, sl->lineno, key);
+        view.description = d ? d : view.description;
+        rc = d ? CLI_OK : cli_fail(sub, "out of memory");
     }
     struct cli_run_opts ro = {.warning = r->warnings, .warning_size = sizeof r->warnings};
     if (rc == CLI_OK)

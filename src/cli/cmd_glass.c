@@ -20,7 +20,8 @@ static const char help[] =
     "89.9 and 90 (tab-separated; lines starting with # describe the pane: where it comes from, its\n"
     "angular model and why, and what its file says of it).\n"
     "\n"
-    "SPEC (optionally prefixed by glass:, optionally followed by ,model=uncoated|coated):\n"
+    "SPEC (optionally prefixed by glass:, optionally followed by ,model=uncoated|coated and, for a\n"
+    "FILE, ,rows=all|N: its layers sum every wavelength, or group them past N instead of 5000):\n"
     "  NAME                      a pane of the catalogue (see --list, bsdfstack-glass(5))\n"
     "  FILE                      normal-incidence spectral data: bsdfstack's table (wavelength in\n"
     "                            um, Tf, Tb, Rf, Rb), an Optics / IGDB text file (CLEAR_6.DAT) or\n"
@@ -87,66 +88,12 @@ static int list_catalogue(const char *sub, bst_ctx *ctx, const char *dir)
     return rc;
 }
 
-/* Where the pane comes from, its angular model and why, and what its file says of it. */
-static void describe_source(const bst_glass *g)
-{
-    const bst_glass_meta *m = bst_glass_metadata(g);
-    bst_glass_model model = bst_glass_get_model(g);
-    printf("# source: %s%s%s\n", m->source, *m->path ? " " : "", m->path);
-    printf("# model: %s (%s", bst_glass_model_name(model),
-           model == BST_GLASS_COATED ? "WINDOW's correlations for coated glass"
-                                     : "Windows-CalcEngine's uncoated slab");
-    if (strcmp(m->model_from, "type") == 0)
-        printf("; from the type %s)\n", m->type);
-    else if (strcmp(m->model_from, "spec") == 0)
-        printf("; model= in the spec%s%s)\n", *m->type ? ", type " : "", m->type);
-    else if (strcmp(m->model_from, "catalogue") == 0)
-        printf("; the catalogue's model line)\n");
-    else
-        printf("; no type given)\n");
-    /* what the file says, in lines of the fields it gives */
-    char buf[3][600];
-    size_t len[3] = {0, 0, 0};
-    const struct {
-        int line;
-        const char *fmt, *text;
-        double x;
-    } f[] = {
-        {0, "product %s", m->product_name, NAN},
-        {0, "manufacturer %s", m->manufacturer, NAN},
-        {0, "NFRC ID %.0f", NULL, m->nfrc_id >= 0 ? (double)m->nfrc_id : NAN},
-        {1, "thickness %g mm", NULL, m->thickness_mm},
-        {1, "coating %s", m->coating_name, NAN},
-        {1, "coated side %s", m->coated_side, NAN},
-        {2, "emissivity front %g", NULL, m->emissivity_front},
-        {2, "back %g", NULL, m->emissivity_back},
-        {2, "conductivity %g W/(m K)", NULL, m->conductivity},
-        {2, "IR transmittance %g", NULL, m->ir_transmittance},
-    };
-    for (size_t i = 0; i < sizeof f / sizeof f[0]; i++) {
-        int k = f[i].line;
-        char *p = buf[k] + len[k];
-        size_t room = sizeof buf[k] - len[k];
-        if ((f[i].text ? !*f[i].text : isnan(f[i].x)) || room < 3)
-            continue;
-        int w = snprintf(p, room, "%s", len[k] ? "; " : "# ");
-        if (f[i].text)
-            w += snprintf(p + w, room - (size_t)w, f[i].fmt, f[i].text);
-        else
-            w += snprintf(p + w, room - (size_t)w, f[i].fmt, f[i].x);
-        len[k] = (size_t)w < room ? len[k] + (size_t)w : sizeof buf[k] - 1;
-    }
-    for (int k = 0; k < 3; k++)
-        if (len[k])
-            printf("%s%s\n", buf[k], k == 2 ? " (kept, not used)" : "");
-}
-
 /* Describe the pane and the slab (or the coated model's reference glass) behind each channel in
  * # lines. */
 static void describe(const bst_glass *g, size_t nch, const size_t *idx)
 {
     printf("# %s\n", bst_glass_description(g));
-    describe_source(g);
+    cli_glass_describe(stdout, g, "# ");
     int coated = bst_glass_get_model(g) == BST_GLASS_COATED;
     size_t nw = bst_glass_nwavelengths(g);
     if (nw)

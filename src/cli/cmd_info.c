@@ -3,16 +3,20 @@
  * --reference, how far its T and R are from another BSDF's at every incident patch. */
 #include <config.h>
 
+#include <fcntl.h>
 #include <getopt.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include "cli.h"
 #include "layers.h"
 
 static const char help[] =
     "Usage: bsdfstack info [--max-memory SIZE] [--reference REF] FILE\n"
+    "       bsdfstack info glass:SPEC\n"
     "Prints the basis and channels of a BSDF XML file, which components it stores, the\n"
     "directional-hemispherical transmittance T and reflectance R for front (exterior) and back\n"
     "incidence at theta = 0, 15, 30, 45, 60, 75 degrees (propagation azimuth 0 and 90), and the\n"
@@ -26,7 +30,88 @@ static const char help[] =
     "hemispherical value over every incident patch, where it is, and the least flux\n"
     "accordance FA (the share of the scattered flux placed alike, as `compare` prints it):\n"
     "what a reduced, resampled or converted file changed of the T and R users compute with\n"
-    "(REF: the same system written with --no-reduce, say).\n";
+    "(REF: the same system written with --no-reduce, say).\n"
+    "A file bsdfstack wrote lists its layers as its header records them, and for each pane its\n"
+    "angular model and why, its source and what its file says of it.\n"
+    "glass:SPEC (a pane, bsdfstack-glass(5)): its description, source, angular model and why,\n"
+    "metadata, channels, and T and R at the angles above (a pane is specular: its directional-\n"
+    "hemispherical values are the model's at that angle; `bsdfstack glass` prints more).\n";
+
+/* The layers a file written by bsdfstack records in its header comment ("layers (exterior first):
+ * ..." and one "layer N SPEC: ..." line per pane), printed as "layers    ..." lines; nothing for
+ * other files.  Only the comment before the root element is looked at, and only in a regular file:
+ * a FIFO or a device the reader has drained would wait for a writer for ever. */
+#define INFO_HEADER_MAX 65536
+static void print_recorded_layers(const char *path)
+{
+    int fd = open(path, O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
+    struct stat st;
+    FILE *fp = fd >= 0 && fstat(fd, &st) == 0 && S_ISREG(st.st_mode) ? fdopen(fd, "r") : NULL;
+    if (!fp) {
+        if (fd >= 0)
+            close(fd);
+        return;
+    }
+    char line[4096];
+    int in = 0, ours = 0;
+    long read = 0;
+    while (fgets(line, sizeof line, fp) && (read += (long)strlen(line)) < INFO_HEADER_MAX) {
+        if (!in && strstr(line, "<WindowElement"))
+            break;
+        if (!in) {
+            in = strstr(line, "<!--") != NULL;
+            continue;
+        }
+        if (strstr(line, "-->"))
+            break;
+        size_t len = strlen(line);
+        if (len && line[len - 1] != '\n') /* longer than line: its start, cut, and a newline */
+            line[len - 1] = '\n';
+        if (strncmp(line, "  Written by bsdfstack ", 23) == 0)
+            ours = 1;
+        else if (ours && strncmp(line, "  layers (exterior first): ", 27) == 0)
+            printf("layers    %s", line + 27); /* the specs, exterior first */
+        else if (ours && strncmp(line, "  layer ", 8) == 0)
+            printf("          %s", line + 2); /* "layer N SPEC: model, source, metadata" */
+    }
+    fclose(fp);
+}
+
+/* `info glass:SPEC`: what the pane is and where its model comes from, and its T and R by angle. */
+static int info_pane(const char *sub, const char *spec)
+{
+    bst_ctx *ctx = cli_ctx_new(sub);
+    if (!ctx)
+        return CLI_FAIL;
+    bst_glass *g = NULL;
+    if (bst_glass_parse(ctx, spec + 6, getenv("BSDFSTACK_GLASS_DIR"), &g) < 0) {
+        int rc = cli_fail_ctx(sub, NULL, ctx);
+        bst_ctx_free(ctx);
+        return rc;
+    }
+    printf("pane      %s\n", spec);
+    printf("          %s\n", bst_glass_description(g));
+    cli_glass_describe(stdout, g, "          ");
+    size_t nw = bst_glass_nwavelengths(g);
+    if (nw)
+        printf("spectral  %zu wavelengths, %g..%g um\n", nw, bst_glass_wavelength(g, 0),
+               bst_glass_wavelength(g, nw - 1));
+    for (size_t ch = 0; ch < bst_glass_nchannels(g); ch++)
+        printf("channel   %s: Tf Rf Tb Rb, diagonal in every basis (a specular pane)\n",
+               bst_glass_channel(g, ch));
+    for (size_t ch = 0; ch < bst_glass_nchannels(g); ch++) {
+        printf("\n%s: T and R of the pane at incidence theta\n", bst_glass_channel(g, ch));
+        printf("theta  T_front R_front  T_back  R_back\n");
+        for (int t = 0; t <= 75; t += 15) {
+            double tf, tb, rf, rb;
+            bst_glass_optics(g, ch, t * M_PI / 180, &tf, &tb, &rf, &rb);
+            printf("%5d %8.4f %7.4f %7.4f %7.4f\n", t, tf, rf, tb, rb);
+        }
+    }
+    bst_glass_free(g);
+    bst_ctx_free(ctx);
+    return CLI_OK;
+}
 
 /* The reciprocity line of channel ch of layer l, read from b (bst_metrics_reciprocity). */
 static void print_reciprocity(bst_ctx *ctx, const bst_bsdf *b, const bst_layer *l, size_t ch)
@@ -137,6 +222,11 @@ int cmd_info(int argc, char **argv)
     if (argc != 2 || argv[1][0] == '-')
         return cli_usage(sub, argc < 2 ? "no file given" : "one file expected");
     const char *path = argv[1];
+    if (strncmp(path, "glass:", 6) == 0) {
+        if (ref)
+            return cli_usage(sub, "--reference compares a BSDF file, not a pane");
+        return info_pane(sub, path);
+    }
     bst_ctx *ctx = cli_ctx_new(sub);
     if (!ctx)
         return CLI_FAIL;
@@ -170,6 +260,7 @@ int cmd_info(int argc, char **argv)
     else
         printf(", %s, %zu patches\n", bst_basis_name(bst_bsdf_klems_basis(b)),
                bst_basis_size(bst_bsdf_klems_basis(b)));
+    print_recorded_layers(path);
     for (size_t ch = 0; ch < bst_bsdf_nchannels(b); ch++) {
         printf("channel   %s:", bst_bsdf_channel(b, ch));
         for (int c = 0; c < BST_NCOMP; c++)

@@ -37,7 +37,10 @@ void cli_layers_free(struct cli_layers *set)
         bst_layer_free(set->layers[i]);
         if (set->panes)
             bst_glass_free(set->panes[i]);
+        if (set->notes)
+            free(set->notes[i]);
     }
+    free(set->notes);
     free(set->layers);
     free(set->panes);
     bst_basis_free(set->basis);
@@ -126,9 +129,40 @@ static int read_all(bst_ctx *ctx, const char *sub, size_t n, char **specs,
 /* Step 3 for one spec: its layer over basis from the file read (file, freed here) or from the
  * glass: spec, reversed where it ends in ^, named by the spec; a spectral pane not reversed also
  * goes to *pane (else NULL).  Errors name `what`. */
+/* A spectral pane of many rows: one line before its layer is built, saying which channels sum the
+ * model over groups of adjacent wavelengths (bst_glass_layer_nodes) and how many, or, when every
+ * wavelength is summed (rows=all, or no grouping agreed), what that costs. */
+static void warn_rows(const char *sub, const char *what, const bst_glass *g, size_t nch,
+                      const char **chnames)
+{
+    char grouped[512] = "";
+    size_t len = 0, most = 0, nodes = 0;
+    for (size_t c = 0; c < (nch ? nch : bst_glass_nchannels(g)); c++) {
+        int ch = nch ? bst_glass_find_channel(g, chnames[c]) : (int)c;
+        size_t rows, n = ch >= 0 ? bst_glass_layer_nodes(g, (size_t)ch, &rows) : 0;
+        most = ch >= 0 && rows > most ? rows : most;
+        if (ch >= 0 && n < rows && len < sizeof grouped - 64) {
+            len += (size_t)snprintf(grouped + len, sizeof grouped - len, "%s%s's %zu", len ? ", " : "",
+                                    bst_glass_channel(g, (size_t)ch), rows);
+            nodes = n;
+        }
+    }
+    if (len)
+        fprintf(stderr, "bsdfstack %s: warning: %s: its layer sums the model over %zu groups of "
+                "adjacent wavelengths (each at their weighted mean data) instead of %s wavelengths "
+                "one by one; rows=all after the file name takes each, at %.0f times a catalogue "
+                "pane's cost\n", sub, what, nodes, grouped, (double)most / CLI_CATALOGUE_WAVELENGTHS);
+    else if (most > CLI_MANY_WAVELENGTHS) /* the cost grows with them: say so before */
+        fprintf(stderr, "bsdfstack %s: warning: %s: %zu wavelengths: the pane is evaluated at "
+                "each of them at every angle its layer averages (rows=all, or data too uneven for "
+                "groups of adjacent wavelengths to agree), %.0f times the work of a catalogue "
+                "pane's %d\n", sub, what, most,
+                (double)most / CLI_CATALOGUE_WAVELENGTHS, CLI_CATALOGUE_WAVELENGTHS);
+}
+
 static int make_layer(bst_ctx *ctx, const char *sub, const char *what, const char *spec,
                       bst_bsdf *file, const bst_basis *basis, size_t nch, const char **chnames,
-                      int at_centre, bst_layer **out, bst_glass **pane)
+                      int at_centre, bst_layer **out, bst_glass **pane, char **note)
 {
     size_t len = strlen(spec);
     int flip = len && spec[len - 1] == '^', st;
@@ -147,15 +181,18 @@ static int make_layer(bst_ctx *ctx, const char *sub, const char *what, const cha
             if (bst_glass_find_channel(g, chnames[c]) < 0 && bst_glass_nwavelengths(g) &&
                 bst_plan_is_band(chnames[c]))
                 st = bst_glass_add_channel(ctx, g, chnames[c]);
-        size_t nw = st >= 0 ? bst_glass_nwavelengths(g) : 0;
-        if (nw > CLI_MANY_WAVELENGTHS) /* the layer's cost grows with them: say so before */
-            fprintf(stderr, "bsdfstack %s: warning: %s: %zu wavelengths: the pane is evaluated at "
-                    "each of them at every angle its layer averages, %.0f times the work of a "
-                    "catalogue pane's %d; a coarser table is as good where the data are smooth\n",
-                    sub, what ? what : spec, nw, (double)nw / CLI_CATALOGUE_WAVELENGTHS,
-                    CLI_CATALOGUE_WAVELENGTHS);
+        if (st >= 0)
+            warn_rows(sub, what ? what : spec, g, nch, chnames);
         if (st >= 0)
             st = bst_glass_layer(ctx, g, basis, nch, nch ? chnames : NULL, at_centre, &l);
+        if (st >= 0 && note) { /* the pane's model, source and metadata, for the output's header */
+            char buf[1024];
+            cli_glass_summary(g, buf, sizeof buf);
+            if (!(*note = strdup(buf))) {
+                bst_layer_free(l), bst_glass_free(g), free(gspec);
+                return cli_fail(sub, "out of memory");
+            }
+        }
         /* a pane with spectral data can also be evaluated per wavelength */
         if (st >= 0 && !flip && bst_glass_nwavelengths(g) > 0)
             *pane = g;
@@ -181,6 +218,23 @@ static int make_layer(bst_ctx *ctx, const char *sub, const char *what, const cha
     return CLI_OK;
 }
 
+int cli_note_panes(const char *sub, char **description, const struct cli_layers *all, size_t n,
+                   const size_t *idx, char *const *specs)
+{
+    for (size_t j = 0; all->notes && j < n; j++) {
+        const char *note = all->notes[idx ? idx[j] : j], *spec = specs[idx ? idx[j] : j];
+        if (!note)
+            continue;
+        size_t len = strlen(*description), more = strlen(spec) + strlen(note) + 48;
+        char *d = realloc(*description, len + more);
+        if (!d)
+            return cli_fail(sub, "out of memory");
+        snprintf(d + len, more, "\nlayer %zu %s: %s", j + 1, spec, note);
+        *description = d;
+    }
+    return CLI_OK;
+}
+
 int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_t n, char **specs,
                     const struct cli_basis_choice *choice, const char *channels,
                     unsigned comps, bst_precision prec)
@@ -188,6 +242,7 @@ int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_
     memset(set, 0, sizeof *set);
     set->layers = calloc(n, sizeof *set->layers);
     set->panes = calloc(n, sizeof *set->panes);
+    set->notes = calloc(n, sizeof *set->notes);
     bst_bsdf **files = calloc(n, sizeof *files);
     char *chcopy = channels ? strdup(channels) : NULL;
     const char *chnames[MAX_CH];
@@ -197,7 +252,8 @@ int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_
         desc_len += strlen(specs[i]) + 4;
     set->description = malloc(desc_len);
     int rc = CLI_OK;
-    if (!set->layers || !set->panes || !files || !set->description || (channels && !chcopy)) {
+    if (!set->layers || !set->panes || !set->notes || !files || !set->description ||
+        (channels && !chcopy)) {
         rc = cli_fail(sub, "out of memory");
         goto out;
     }
@@ -215,13 +271,15 @@ int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_
     /* 3. every layer over that basis, reversed where asked */
     for (size_t i = 0; i < n && rc == CLI_OK; i++) {
         rc = make_layer(ctx, sub, specs[i], specs[i], files[i], set->basis, nch, chnames,
-                        choice->at_centre, &set->layers[i], &set->panes[i]);
+                        choice->at_centre, &set->layers[i], &set->panes[i], &set->notes[i]);
         files[i] = NULL;
         if (rc == CLI_OK) {
             set->npanes += set->panes[i] != NULL;
             set->n++;
         }
     }
+    if (rc == CLI_OK)
+        rc = cli_note_panes(sub, &set->description, set, n, NULL, specs);
 out:
     for (size_t i = 0; files && i < n; i++)
         bst_bsdf_free(files[i]);
@@ -262,7 +320,7 @@ int cli_layers_check(bst_ctx *ctx, const char *sub, size_t n, char **specs,
         bst_layer *l = NULL;
         bst_glass *pane = NULL;
         rc = make_layer(ctx, sub, specs[i], specs[i], NULL, basis, nch, chnames, choice->at_centre,
-                        &l, &pane);
+                        &l, &pane, NULL);
         bst_layer_free(l);
         bst_glass_free(pane);
         structure[i] = BST_DIAG;
@@ -305,7 +363,8 @@ int cli_basis_make(bst_ctx *ctx, const char *sub, const struct cli_basis_pick *p
 
 int cli_layer_load(bst_ctx *ctx, const char *sub, const char *what, const char *spec,
                    const bst_basis *basis, const struct cli_basis_choice *choice,
-                   const char *channels, bst_precision prec, bst_layer **layer, bst_glass **pane)
+                   const char *channels, bst_precision prec, bst_layer **layer, bst_glass **pane,
+                   char **note)
 {
     char *chcopy = channels ? strdup(channels) : NULL;
     const char *chnames[MAX_CH];
@@ -318,7 +377,8 @@ int cli_layer_load(bst_ctx *ctx, const char *sub, const char *what, const char *
     if (rc == CLI_OK && !is_glass(spec))
         rc = read_one(ctx, sub, what, spec, &ro, 1, &file);
     if (rc == CLI_OK)
-        rc = make_layer(ctx, sub, what, spec, file, basis, nch, chnames, choice->at_centre, layer, pane);
+        rc = make_layer(ctx, sub, what, spec, file, basis, nch, chnames, choice->at_centre, layer,
+                        pane, note);
     free(chcopy);
     return rc;
 }

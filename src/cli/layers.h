@@ -38,6 +38,8 @@ struct cli_layers {
                           reversed), else NULL; all non-NULL: the stack can be combined per
                           wavelength (bst_stack_combine_spectral) */
     size_t npanes;     /* how many are non-NULL */
+    char **notes;      /* notes[i]: layer i's pane in one line (cli_glass_summary), recorded in
+                          the output's header; NULL for a file (and notes NULL: none kept) */
     int plan_warn;     /* cli_spectral_plan's reason is one to warn of (bst_plan_spectral) */
     int spectral;      /* cli_combine_run combined it per wavelength */
     char basis_why[160]; /* the plan's reason for the basis (bst_plan_basis.why) */
@@ -117,10 +119,16 @@ int cli_layers_check(bst_ctx *ctx, const char *sub, size_t n, char **specs,
 int cli_basis_make(bst_ctx *ctx, const char *sub, const struct cli_basis_pick *pick, char **specs,
                    const char *channels, bst_precision prec, bst_basis **basis);
 /* One spec's layer over basis, as cli_layers_load makes it (all components; the reader's
- * warnings are not printed again), and its spectral pane or NULL.  Errors name `what`. */
+ * warnings are not printed again), its spectral pane or NULL, and (note not NULL) a pane's line
+ * for the header or NULL.  Errors name `what`. */
 int cli_layer_load(bst_ctx *ctx, const char *sub, const char *what, const char *spec,
                    const bst_basis *basis, const struct cli_basis_choice *choice,
-                   const char *channels, bst_precision prec, bst_layer **layer, bst_glass **pane);
+                   const char *channels, bst_precision prec, bst_layer **layer, bst_glass **pane,
+                   char **note);
+/* Append to *description the header line of each pane among the n layers idx[0..n-1] of all
+ * ("\nlayer J SPEC: NOTE", J counted from 1 in this stack); CLI_OK or an error line. */
+int cli_note_panes(const char *sub, char **description, const struct cli_layers *all, size_t n,
+                   const size_t *idx, char *const *specs);
 
 /* The reader completes what a file leaves out (BST_WDATA): a transmission from the other side's by
  * reciprocity, as every TensorTree4 file expects (silently here), anything else as zero, which

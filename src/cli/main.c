@@ -12,7 +12,7 @@ const struct cli_command cli_commands[] = {
     {"combine", cmd_combine, "combine layers (exterior first) into the system's BSDF XML"},
     {"convert", cmd_convert, "write a BSDF file as a tensor tree or Klems matrices, resampled if asked"},
     {"glass", cmd_glass, "print a pane's T, R and absorptance against angle"},
-    {"info", cmd_info, "summarize a BSDF file: basis, channels, hemispherical T and R, balance"},
+    {"info", cmd_info, "summarize a BSDF file (basis, layers, T and R, balance) or a pane"},
     {"batch", cmd_batch, "combine many stacks listed in a file, each layer loaded once"},
     {"compare", cmd_compare, "how far two BSDFs agree: accordance and hemispherical values"},
     {"plot", cmd_plot, "draw scattered light for one incidence, or T and R against angle (PNG, SVG, PDF)"},
