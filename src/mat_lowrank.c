@@ -144,3 +144,46 @@ int bsti_add_lowrank(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, 
     bsti_lr_free(ctx, lb);
     return settled(ctx, rc, lr, out);
 }
+
+/* ------------------------------------------------------------------ the FACTORED object */
+
+int bsti_mat_from_lr(bst_ctx *ctx, bsti_lr *lr, bst_mat **out)
+{
+    int rc = bsti_mat_alloc(ctx, BST_FACTORED, BST_DOUBLE, lr->N, lr->N, out);
+    if (rc < 0) {
+        bsti_lr_free(ctx, lr);
+        return rc;
+    }
+    (*out)->lr = lr;
+    return BST_OK;
+}
+
+int bsti_mat_lr_of(bst_ctx *ctx, const bst_mat *m, const bsti_lr_map *S, bsti_lr **lr)
+{
+    *lr = NULL;
+    if (m->s == BST_FACTORED)
+        return bsti_lr_copy(ctx, m->lr, lr);
+    if ((m->s != BST_DIAG && m->s != BST_ZERO) || m->rows != S->N || m->cols != S->N)
+        return BST_ENOTFOUND;
+    return bsti_lr_new(ctx, S, m->s == BST_DIAG ? m->diag : NULL, NULL, NULL, NULL, lr);
+}
+
+size_t bsti_mat_rank(const bst_mat *m)
+{
+    if (!m || m->s != BST_FACTORED)
+        return 0;
+    return m->lr->r * (m->lr->p > m->lr->q ? m->lr->p : m->lr->q);
+}
+
+int bsti_mat_lr_settle(bst_ctx *ctx, bst_mat **m)
+{
+    if ((*m)->s != BST_FACTORED || (double)bsti_mat_rank(*m) < BSTI_LR_DENSE_SHARE * (double)(*m)->rows)
+        return BST_OK;
+    bst_mat *d;
+    int rc = bsti_mat_to_dense(ctx, *m, BST_DOUBLE, &d);
+    if (rc < 0)
+        return rc;
+    bst_mat_free(*m);
+    *m = d;
+    return BST_OK;
+}
