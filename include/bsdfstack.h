@@ -834,6 +834,46 @@ void bst_shade_free(bst_shade *s);
 /* "venetian", "woven", "perforated-screen". */
 const char *bst_shade_kind_name(bst_shade_kind kind);
 
+/* ------------------------------ venetian blinds: venetian_spec.c, venetian_trace.c, venetian_layer.c */
+
+/* A venetian blind from its geometry (bsdfstack-glass(5), "venetian:" specs).  Slats of zero
+ * thickness, flat, infinitely long along X (a vertical blind: along Y), stacked every `spacing`
+ * along Y (X).  The tilt is the slat's angle about its long axis: a slat's profile runs from its
+ * exterior edge to its interior edge along (0, sin tilt, cos tilt) in (x, y, z), so tilt 0 holds
+ * the slats horizontal (normal +-Y, the reference blind L_blind0) and a POSITIVE tilt puts the
+ * exterior edge LOWER than the interior edge (the reference blind L_blind45 is tilt = +45); a
+ * vertical blind takes X for Y (positive tilt: the exterior edge towards -X).  Each slat face
+ * reflects rs specularly (a mirror in the slat's plane; `roughness`, RADIANCE metal's rms slope,
+ * is parsed and kept but not modelled yet) and r_up / r_down diffusely (the face looking +Y at
+ * tilt 0, +X for a vertical blind, and the other), and transmits t diffusely.  The layer's
+ * unobstructed and mirrored light is followed exactly in the blind's profile plane (the X
+ * component of a direction survives every reflection) and averaged over each incident patch by
+ * samples x samples directions; the light the slats scatter diffusely is a radiosity exchange
+ * between `segments` strips per slat face (the diffuse part has rank 2 segments at most). */
+typedef struct {
+    double width, spacing;  /* m, > 0 */
+    double tilt;            /* degrees, -90..90 */
+    double curvature;       /* m, 0 = flat (the only shape modelled yet); else >= width / 2 */
+    int vertical;           /* slats along Y */
+    int segments;           /* strips per slat face for the radiosity, default BST_VENETIAN_SEGMENTS */
+    int samples;            /* incident directions per patch side, default BST_VENETIAN_SAMPLES */
+    double r_up, r_down, t; /* diffuse reflectances of the two faces, diffuse transmittance */
+    double rs, roughness;   /* specular reflectance, rms slope of its lobe (0: a mirror) */
+} bst_venetian;
+#define BST_VENETIAN_SEGMENTS 8
+#define BST_VENETIAN_SAMPLES 12
+/* The defaults: no geometry (width = spacing = NaN), tilt 0, flat, black slats. */
+void bst_venetian_init(bst_venetian *v);
+/* Parse "width=16mm,spacing=14.5mm,tilt=45,rs=0.765,r=0.085,..." (the text after "venetian:")
+ * into v (initialised here) and check it; every error names the key. */
+int bst_venetian_parse(bst_ctx *ctx, const char *spec, bst_venetian *v);
+/* The checks bst_venetian_parse makes, for a struct filled by hand. */
+int bst_venetian_check(bst_ctx *ctx, const bst_venetian *v);
+/* The blind as a layer over basis, every channel named (nchannels 0: "Visible" and "Solar") holding
+ * the same values. */
+int bst_venetian_layer(bst_ctx *ctx, const bst_venetian *v, const bst_basis *basis,
+                       size_t nchannels, const char *const *channels, bst_layer **out);
+
 /* ---------------------------------------------------------------------- sun positions: sun.c */
 
 /* The sun's position by RADIANCE's gensky/gendaylit formulas (src/gen/sun.c there: declination and

@@ -1,0 +1,276 @@
+/* test_venetian.c - venetian blinds from their geometry (bst_venetian, issue #32) against closed
+ * forms and against the ray-traced reference blinds of ../shared/reference (README: zero-thickness
+ * flat slats 16 mm wide every 14.5 mm, tilt 0 and 45 deg, RADIANCE metal 0.85, specularity 0.9,
+ * roughness 0.02, i.e. rs = 0.765 and r = 0.085):
+ * - black slats pass the geometric openness 1 - w |sin(phi - tilt)| / (s cos phi) of every profile
+ *   angle phi (as the patch's directions average it);
+ * - lossless mirror slats (rs = 1) conserve energy: T + R = 1 for every incident patch to 1e-12;
+ * - reciprocity of the transmissions (bst_metrics_reciprocity);
+ * - a tilt of +-90 deg with width >= spacing lets no light through directly;
+ * - the model of the reference blinds at k = 5: GA (Grobe 2017, eq. 7) at the paper's five
+ *   directions from both sides, and directional-hemispherical T and R of every incident patch up
+ *   to 70 deg against the ray-traced layers;
+ * - bad specs name their key. */
+#include <config.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "testutil.h"
+
+static bst_ctx *ctx;
+static void setup(void) { ctx = bst_ctx_new(); }
+static void teardown(void) { bst_ctx_free(ctx); }
+
+static bst_layer *blind(const char *spec, const bst_basis *b)
+{
+    bst_venetian v;
+    ck_assert_msg(bst_venetian_parse(ctx, spec, &v) == BST_OK, "%s: %s", spec, bst_ctx_message(ctx));
+    bst_layer *l = NULL;
+    ck_assert_msg(bst_venetian_layer(ctx, &v, b, 0, NULL, &l) == BST_OK, "%s: %s", spec,
+                  bst_ctx_message(ctx));
+    return l;
+}
+
+static bst_basis *sc(int k)
+{
+    bst_basis *b = NULL;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, k, &b), BST_OK);
+    return b;
+}
+
+/* Directional-hemispherical values of component c, channel 0, for every incident patch. */
+static double *hemi(const bst_layer *l, bst_comp c)
+{
+    size_t n = bst_basis_size(bst_layer_basis(l));
+    double *h = malloc(n * sizeof *h);
+    ck_assert_ptr_nonnull(h);
+    ck_assert_int_eq(bst_layer_hemispherical(ctx, l, 0, c, h), BST_OK);
+    return h;
+}
+
+/* The patch's mean over the same samples x samples directions as the layer of the openness. */
+static double openness(const bst_basis *b, size_t i, int ns, double w, double s, double tilt_deg)
+{
+    double sum = 0, t = tilt_deg * M_PI / 180;
+    for (int p = 0; p < ns; p++)
+        for (int q = 0; q < ns; q++) {
+            double d[3];
+            bst_basis_sample(b, i, (p + 0.5) / ns, (q + 0.5) / ns, d);
+            double phi = atan2(d[1], d[2]);
+            sum += fmax(0.0, 1.0 - w * fabs(sin(phi - t)) / (s * cos(phi)));
+        }
+    return sum / (ns * ns);
+}
+
+START_TEST(test_black_openness)
+{
+    static const double tilts[] = {0, 30, -60};
+    bst_basis *b = sc(4);
+    double tilt = tilts[_i];
+    char spec[128];
+    snprintf(spec, sizeof spec, "width=16mm,spacing=14.5mm,tilt=%g", tilt);
+    bst_layer *l = blind(spec, b);
+    double *tf = hemi(l, BST_TF), *tb = hemi(l, BST_TB), *rf = hemi(l, BST_RF);
+    double worst = 0;
+    for (size_t i = 0; i < bst_basis_size(b); i++) {
+        double o = openness(b, i, BST_VENETIAN_SAMPLES, 0.016, 0.0145, tilt);
+        worst = fmax(worst, fabs(tf[i] - o));
+        ck_assert_msg(fabs(tf[i] - o) < 1e-12, "tilt %g patch %zu: Tf %.15g, openness %.15g", tilt,
+                      i, tf[i], o);
+        ck_assert_msg(fabs(rf[i]) < 1e-15, "black slats reflect %g", rf[i]);
+        /* from the interior the slats' image is tilted the other way round */
+        double d[3];
+        bst_basis_center(b, i, d);
+        (void)tb;
+    }
+    printf("black slats, tilt %g: Tf - openness at most %.3g\n", tilt, worst);
+    free(tf), free(tb), free(rf);
+    bst_layer_free(l);
+    bst_basis_free(b);
+}
+END_TEST
+
+START_TEST(test_lossless_mirror)
+{
+    static const char *const specs[] = {"width=16mm,spacing=14.5mm,tilt=0,rs=1",
+                                        "width=16mm,spacing=14.5mm,tilt=45,rs=1",
+                                        "width=25mm,spacing=20mm,tilt=-70,rs=1,vertical"};
+    bst_basis *b = sc(4);
+    bst_layer *l = blind(specs[_i], b);
+    double *tf = hemi(l, BST_TF), *rf = hemi(l, BST_RF), *tb = hemi(l, BST_TB), *rb = hemi(l, BST_RB);
+    double worst = 0;
+    for (size_t i = 0; i < bst_basis_size(b); i++) {
+        worst = fmax(worst, fmax(fabs(tf[i] + rf[i] - 1), fabs(tb[i] + rb[i] - 1)));
+        ck_assert_msg(fabs(tf[i] + rf[i] - 1) < 1e-12 && fabs(tb[i] + rb[i] - 1) < 1e-12,
+                      "%s patch %zu: Tf + Rf = %.15g, Tb + Rb = %.15g", specs[_i], i, tf[i] + rf[i],
+                      tb[i] + rb[i]);
+    }
+    printf("%s: |T + R - 1| at most %.3g\n", specs[_i], worst);
+    free(tf), free(rf), free(tb), free(rb);
+    bst_layer_free(l);
+    bst_basis_free(b);
+}
+END_TEST
+
+/* Closed at +-90 deg when the slats overlap: no light passes without meeting a slat. */
+START_TEST(test_closed)
+{
+    static const char *const specs[] = {"width=16mm,spacing=14.5mm,tilt=90,rs=0.7",
+                                        "width=16mm,spacing=16mm,tilt=-90,rs=0.7",
+                                        "width=16mm,spacing=14.5mm,tilt=90,rs=0.7,vertical"};
+    bst_basis *b = sc(3);
+    bst_layer *l = blind(specs[_i], b);
+    double *tf = hemi(l, BST_TF), *tb = hemi(l, BST_TB), *rf = hemi(l, BST_RF);
+    for (size_t i = 0; i < bst_basis_size(b); i++) {
+        ck_assert_msg(tf[i] == 0.0 && tb[i] == 0.0, "%s: patch %zu passes %g / %g", specs[_i], i,
+                      tf[i], tb[i]);
+        ck_assert_msg(fabs(rf[i] - 0.7) < 1e-12, "%s: patch %zu reflects %g", specs[_i], i, rf[i]);
+    }
+    free(tf), free(tb), free(rf);
+    bst_layer_free(l);
+    bst_basis_free(b);
+}
+END_TEST
+
+START_TEST(test_reciprocity)
+{
+    static const char *const specs[] = {"width=16mm,spacing=14.5mm,tilt=45,rs=0.765",
+                                        "width=16mm,spacing=14.5mm,tilt=45,rs=0.765,r=0.085",
+                                        "width=16mm,spacing=14.5mm,tilt=20,rs=0.5,r-up=0.3,r-down=0.1,t=0.1"};
+    bst_basis *b = sc(4);
+    bst_layer *l = blind(specs[_i], b);
+    double err;
+    size_t i, o;
+    ck_assert_int_eq(bst_metrics_reciprocity(ctx, l, 0, &err, &i, &o), BST_OK);
+    printf("%s: reciprocity error %.3g (incident %zu, outgoing %zu)\n", specs[_i], err, i, o);
+    ck_assert_msg(err < 0.05, "%s: reciprocity error %g", specs[_i], err);
+    bst_layer_free(l);
+    bst_basis_free(b);
+}
+END_TEST
+
+static const double dirs[][2] = {{25, 90}, {45, 90}, {50, 90}, {45, 45}, {65, 90}};
+
+static size_t incident_patch(const bst_basis *b, double th, double ph)
+{
+    double d[3] = {sin(th * M_PI / 180) * cos(ph * M_PI / 180) + 1e-7,
+                   sin(th * M_PI / 180) * sin(ph * M_PI / 180) + 1e-7, cos(th * M_PI / 180)};
+    return bst_basis_patch(b, d);
+}
+
+/* The worst |model - reference| of directional-hemispherical component c over the incident patches
+ * whose centre lies within 70 deg of the normal, and where. */
+static double hemi_diff(const bst_layer *m, const bst_layer *ref, bst_comp c, size_t *where)
+{
+    const bst_basis *b = bst_layer_basis(m);
+    double *hm = hemi(m, c), *hr = hemi(ref, c), worst = 0;
+    for (size_t i = 0; i < bst_basis_size(b); i++) {
+        double d[3];
+        bst_basis_center(b, i, d);
+        if (d[2] < cos(70 * M_PI / 180))
+            continue;
+        if (fabs(hm[i] - hr[i]) > worst)
+            worst = fabs(hm[i] - hr[i]), *where = i;
+    }
+    free(hm), free(hr);
+    return worst;
+}
+
+START_TEST(test_reference_blinds)
+{
+    static const char *const specs[] = {
+        "width=16mm,spacing=14.5mm,tilt=0,rs=0.765,r=0.085,roughness=0.02",
+        "width=16mm,spacing=14.5mm,tilt=45,rs=0.765,r=0.085,roughness=0.02"};
+    static const char *const refs[] = {"L_blind0_t4k5.xml", "L_blind45_t4k5.xml"};
+    bst_basis *b = sc(5);
+    clock_t t0 = clock();
+    bst_layer *l = blind(specs[_i], b);
+    double secs = (double)(clock() - t0) / CLOCKS_PER_SEC;
+    bst_layer *ref = tu_layer(ctx, refs[_i], b);
+    printf("%s at k = 5: built in %.2f s CPU\n", specs[_i], secs);
+    double ga_min = 100;
+    for (int side = 0; side < 2; side++)
+        for (size_t k = 0; k < sizeof dirs / sizeof dirs[0]; k++) {
+            size_t j = incident_patch(b, dirs[k][0], dirs[k][1]);
+            double ga, fa;
+            bst_comp c = side ? BST_TB : BST_TF;
+            ck_assert_int_eq(bst_metrics_accordance(ctx, l, ref, 0, c, j, &ga, &fa, NULL), BST_OK);
+            printf("  %s (theta %g, phi %g): GA %.3f FA %.2f\n", side ? "Tb" : "Tf", dirs[k][0],
+                   dirs[k][1], ga, fa);
+            ga_min = fmin(ga_min, ga);
+        }
+    static const bst_comp comps[] = {BST_TF, BST_TB, BST_RF, BST_RB};
+    double dmax = 0;
+    for (int c = 0; c < 4; c++) {
+        size_t where = 0;
+        double d = hemi_diff(l, ref, comps[c], &where);
+        double dir[3];
+        bst_basis_center(b, where, dir);
+        printf("  %s: max |model - reference| %.4f at patch %zu (%.3f, %.3f)\n",
+               bst_comp_name(comps[c]), d, where, dir[0], dir[1]);
+        dmax = fmax(dmax, d);
+    }
+    printf("  GA at least %.3f, hemispherical differences at most %.4f\n", ga_min, dmax);
+    fflush(stdout);
+    bst_layer_free(l);
+    bst_layer_free(ref);
+    bst_basis_free(b);
+}
+END_TEST
+
+START_TEST(test_bad_specs)
+{
+    static const char *const bad[][2] = {
+        {"width=16mm,spacing=0", "spacing"},
+        {"width=16mm,spacing=-3mm", "spacing"},
+        {"width=16mm", "spacing"},
+        {"width=16mm,spacing=14.5mm,rs=1.2", "rs"},
+        {"width=16mm,spacing=14.5mm,r=0.5,t=0.6", "r-up"},
+        {"width=16mm,spacing=14.5mm,r-down=0.5,rs=0.6", "r-down"},
+        {"width=16mm,spacing=14.5mm,curvature=5mm", "curvature"},
+        {"width=16mm,spacing=14.5mm,colour=red", "colour"},
+        {"width=16mm,spacing=14.5mm,tilt=95", "tilt"},
+        {"width=16mm,spacing=14.5mm,segments=0", "segments"},
+        {"width=16furlongs,spacing=14.5mm", "width"},
+        {"width=16mm,spacing=14.5mm,r=0.1,r-up=0.2", "r-up"},
+        {"width=16mm,spacing=14.5mm,roughness=-1", "roughness"},
+    };
+    for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
+        bst_venetian v;
+        int rc = bst_venetian_parse(ctx, bad[k][0], &v);
+        ck_assert_msg(rc < 0, "%s accepted", bad[k][0]);
+        ck_assert_msg(strstr(bst_ctx_message(ctx), bad[k][1]) != NULL, "%s: '%s' does not name %s",
+                      bad[k][0], bst_ctx_message(ctx), bad[k][1]);
+    }
+    bst_venetian v;
+    ck_assert_int_eq(bst_venetian_parse(ctx, "width=0.63in,spacing=1.45cm,tilt=-30,vertical,"
+                                        "r-up=0.2,r-down=0.1,t=0.05,rs=0.5,segments=3", &v), BST_OK);
+    ck_assert(fabs(v.width - 0.016002) < 1e-12 && fabs(v.spacing - 0.0145) < 1e-12);
+    ck_assert(v.vertical == 1 && v.segments == 3 && v.tilt == -30 && v.r_up == 0.2 && v.r_down == 0.1);
+}
+END_TEST
+
+static Suite *venetian_suite(void)
+{
+    Suite *s = suite_create("venetian");
+    TCase *tc = tcase_create("venetian");
+    tcase_add_checked_fixture(tc, setup, teardown);
+    tcase_set_timeout(tc, 600);
+    tcase_add_test(tc, test_bad_specs);
+    tcase_add_loop_test(tc, test_black_openness, 0, 3);
+    tcase_add_loop_test(tc, test_lossless_mirror, 0, 3);
+    tcase_add_loop_test(tc, test_closed, 0, 3);
+    tcase_add_loop_test(tc, test_reciprocity, 0, 3);
+    tcase_add_loop_test(tc, test_reference_blinds, 0, 2);
+    suite_add_tcase(s, tc);
+    return s;
+}
+
+int main(void)
+{
+    return tu_run(venetian_suite());
+}
