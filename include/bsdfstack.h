@@ -844,24 +844,25 @@ const char *bst_shade_kind_name(bst_shade_kind kind);
  * exterior edge LOWER than the interior edge (the reference blind L_blind45 is tilt = +45); a
  * vertical blind takes X for Y (positive tilt: the exterior edge towards -X).  Each slat face
  * reflects rs specularly (a mirror in the slat's plane; `roughness`, RADIANCE metal's rms slope,
- * is parsed and kept but not modelled yet) and r_up / r_down diffusely (the face looking +Y at
+ * turns its facets as Ward's Gaussian lobe) and r_up / r_down diffusely (the face looking +Y at
  * tilt 0, +X for a vertical blind, and the other), and transmits t diffusely.  The layer's
  * unobstructed and mirrored light is followed exactly in the blind's profile plane (the X
  * component of a direction survives every reflection) and averaged over each incident patch by
- * samples x samples directions; the light the slats scatter diffusely is a radiosity exchange
- * between `segments` strips per slat face (the diffuse part has rank 2 segments at most). */
+ * samples^2 directions (a Halton set; a rough slat draws its facets from the same points); the
+ * light the slats scatter diffusely is a radiosity exchange between `segments` strips per slat
+ * face (the diffuse part has rank 2 segments at most). */
 typedef struct {
     double width, spacing;  /* m, > 0 */
     double tilt;            /* degrees, -90..90 */
     double curvature;       /* m, 0 = flat (the only shape modelled yet); else >= width / 2 */
     int vertical;           /* slats along Y */
     int segments;           /* strips per slat face for the radiosity, default BST_VENETIAN_SEGMENTS */
-    int samples;            /* incident directions per patch side, default BST_VENETIAN_SAMPLES */
+    int samples;            /* samples^2 directions per patch, default BST_VENETIAN_SAMPLES */
     double r_up, r_down, t; /* diffuse reflectances of the two faces, diffuse transmittance */
     double rs, roughness;   /* specular reflectance, rms slope of its lobe (0: a mirror) */
 } bst_venetian;
 #define BST_VENETIAN_SEGMENTS 8
-#define BST_VENETIAN_SAMPLES 12
+#define BST_VENETIAN_SAMPLES 32
 /* The defaults: no geometry (width = spacing = NaN), tilt 0, flat, black slats. */
 void bst_venetian_init(bst_venetian *v);
 /* Parse "width=16mm,spacing=14.5mm,tilt=45,rs=0.765,r=0.085,..." (the text after "venetian:")

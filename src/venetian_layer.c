@@ -30,8 +30,6 @@ struct trip {
 
 /* Profile-angle table of the hits and views: intervals over [-pi/2, pi/2] (0.04 deg each). */
 #define VN_TABLE 4096
-/* Points per direction of a rough slat's lobe (spread) */
-#define VN_LOBE 6
 
 struct build {
     bst_ctx *ctx;
@@ -39,7 +37,8 @@ struct build {
     const bst_venetian *v;
     bsti_vn_geom g;
     size_t n, ne;   /* patches, strips (2 segments) */
-    int nq;         /* directions per patch side */
+    size_t np;      /* quadrature points per patch: samples^2 */
+    double *pts;    /* np x 4: (u, v) of bst_basis_sample, and a 2-D Gaussian point for the lobe */
     struct trip tr[BST_NCOMP];
     double *dep[2]; /* ne x n first arrivals, column-major, incident from the exterior / interior */
     double *view[2];/* ne x n: column o = strips seen from outgoing patch o at the exterior /
@@ -161,59 +160,74 @@ static void reflect(const double d[3], const double n[3], double r[3])
 }
 
 /* Flux x leaving along d after `bounces` (mean) mirror bounces, odd or even in number, into the
- * column's accumulator, spread by the slats' roughness: RADIANCE's metal (Ward's lobe) tilts the
+ * column's accumulator, turned by the slats' roughness: RADIANCE's metal (Ward's lobe) tilts the
  * facet normals by slopes that are Gaussian with variance roughness^2 / 2 in each of two
  * directions; a path of n bounces is taken as one rough bounce of n times that variance (the
- * last; an even path's first by the flat face).  The Gaussian is integrated by VN_LOBE x VN_LOBE
- * points, one in each of equal-probability strata, so that the step functions of the patches
- * see it smoothly (each point its stratum's mean).  A point turned past the horizon counts as the unturned direction. */
+ * last; an even path's first by the flat face).  (g1, g2) is the point of the standard Gaussian
+ * this direction draws (quadrature point, see struct build).  A direction turned past the
+ * horizon counts unturned. */
 static void spread(struct build *B, const double d[3], int odd, double bounces, double x,
-                   struct column *col)
+                   const double g[2], struct column *col)
 {
-    /* the strata's conditional means (variance 0.919 of the Gaussian's) */
-    static const double z[VN_LOBE] = {-1.4991056436842602, -0.6824930043676464,
-                                      -0.2120550343566895, 0.2120550343566895,
-                                      0.6824930043676464, 1.4991056436842602};
     const double nA[3] = {0.0, B->g.nA[0], B->g.nA[1]}, t2[3] = {0.0, B->g.sb, B->g.cb};
-    double sigma = B->v->roughness * sqrt(fmax(bounces, 1.0) / 2), flat[3];
+    double sigma = B->v->roughness * sqrt(fmax(bounces, 1.0) / 2), flat[3], dir[3];
     if (odd)
         reflect(d, nA, flat);
     else
         memcpy(flat, d, sizeof flat);
-    int np = sigma > 0 && !B->g.sheet ? VN_LOBE : 1;
-    for (int p = 0; p < np; p++)
-        for (int q = 0; q < np; q++) {
-            double dir[3], nf[3], wgt = 1.0 / ((double)np * np);
-            if (np == 1) {
-                memcpy(dir, flat, sizeof dir);
-            } else {
-                double s1 = sigma * z[p], s2 = sigma * z[q], len = sqrt(1 + s1 * s1 + s2 * s2);
-                for (int k = 0; k < 3; k++) /* t1 = X, the slats' long axis */
-                    nf[k] = (nA[k] + s1 * (k == 0) + s2 * t2[k]) / len;
-                double once[3];
-                if (odd) {
-                    reflect(d, nf, dir);
-                } else {
-                    reflect(d, nA, once);
-                    reflect(once, nf, dir);
-                }
-                if ((dir[2] > 0) != (flat[2] > 0))
-                    memcpy(dir, flat, sizeof dir);
-            }
-            col_add(B, col, dir, flat[2] > 0, x * wgt);
+    memcpy(dir, flat, sizeof dir);
+    if (sigma > 0 && !B->g.sheet) {
+        double s1 = sigma * g[0], s2 = sigma * g[1], len = sqrt(1 + s1 * s1 + s2 * s2), nf[3], once[3];
+        for (int k = 0; k < 3; k++) /* t1 = X, the slats' long axis */
+            nf[k] = (nA[k] + s1 * (k == 0) + s2 * t2[k]) / len;
+        if (odd) {
+            reflect(d, nf, dir);
+        } else {
+            reflect(d, nA, once);
+            reflect(once, nf, dir);
         }
+        if ((dir[2] > 0) != (flat[2] > 0))
+            memcpy(dir, flat, sizeof dir);
+    }
+    col_add(B, col, dir, flat[2] > 0, x);
 }
+
+/* The quadrature points (struct build): the first np points of the Halton sequence in bases 2, 3,
+ * 5, 7, the last two turned into a standard 2-D Gaussian point (Box-Muller). */
+static int make_points(struct build *B)
+{
+    static const int base[4] = {2, 3, 5, 7};
+    B->pts = bsti_alloc_array(B->ctx, 4 * B->np, sizeof *B->pts);
+    if (!B->pts)
+        return BST_ENOMEM;
+    for (size_t k = 0; k < B->np; k++) {
+        double h[4];
+        for (int dim = 0; dim < 4; dim++) { /* radical inverse of k + 1 */
+            double f = 1.0, r = 0.0;
+            for (size_t i = k + 1; i > 0; i /= (size_t)base[dim]) {
+                f /= base[dim];
+                r += f * (double)(i % (size_t)base[dim]);
+            }
+            h[dim] = r;
+        }
+        double rad = sqrt(-2.0 * log(1.0 - h[2])); /* h < 1 */
+        B->pts[4 * k] = h[0], B->pts[4 * k + 1] = h[1];
+        B->pts[4 * k + 2] = rad * cos(2 * M_PI * h[3]), B->pts[4 * k + 3] = rad * sin(2 * M_PI * h[3]);
+    }
+    return BST_OK;
+}
+
 /* One incident patch i from side col->back: its column's entries and first arrivals. */
 static int incident_patch(struct build *B, struct column *col, double *row)
 {
-    const double wq = 1.0 / ((double)B->nq * B->nq);
+    const double wq = 1.0 / (double)B->np;
     const size_t nh = BSTI_VN_DEP + B->ne, i = col->i;
     double *dep = B->dep[col->back] + i * B->ne;
     col->n = 0;
-    for (int p = 0; p < B->nq; p++)
-        for (int q = 0; q < B->nq; q++) {
+    for (size_t p = 0; p < B->np; p++) {
+            const double *pt = B->pts + 4 * p;
             double s[3], d[3], f;
-            bst_basis_sample(B->b, i, (p + 0.5) / B->nq, (q + 0.5) / B->nq, s);
+            bst_basis_sample(B->b, i, pt[0], pt[1], s);
             if (col->back)
                 s[2] = -s[2];
             to_model(B, s, d);
@@ -226,9 +240,9 @@ static int incident_patch(struct build *B, struct column *col, double *row)
             col_add(B, col, d, !col->back, open * wq);
             double hit = (1.0 - open) * wq;
             if (row[BSTI_VN_EVEN] > 0)
-                spread(B, d, 0, row[BSTI_VN_EVEN_N] / row[BSTI_VN_EVEN], hit * row[BSTI_VN_EVEN], col);
+                spread(B, d, 0, row[BSTI_VN_EVEN_N] / row[BSTI_VN_EVEN], hit * row[BSTI_VN_EVEN], pt + 2, col);
             if (row[BSTI_VN_ODD] > 0)
-                spread(B, d, 1, row[BSTI_VN_ODD_N] / row[BSTI_VN_ODD], hit * row[BSTI_VN_ODD], col);
+                spread(B, d, 1, row[BSTI_VN_ODD_N] / row[BSTI_VN_ODD], hit * row[BSTI_VN_ODD], pt + 2, col);
             for (size_t e = 0; e < B->ne; e++)
                 dep[e] += hit * row[BSTI_VN_DEP + e];
         }
@@ -242,7 +256,7 @@ static int incident_patch(struct build *B, struct column *col, double *row)
 static int trace_incident(struct build *B)
 {
     struct column col = {0};
-    col.cap = (size_t)B->nq * (size_t)B->nq * (2 * VN_LOBE * VN_LOBE + 1) + 1; /* open + 2 lobes */
+    col.cap = 3 * B->np + 1; /* open, even, odd per direction */
     col.row = bsti_alloc_array(B->ctx, col.cap, sizeof *col.row);
     col.comp = bsti_alloc_array(B->ctx, col.cap, sizeof *col.comp);
     col.val = bsti_alloc_array(B->ctx, col.cap, sizeof *col.val);
@@ -262,13 +276,12 @@ static int trace_incident(struct build *B)
  * light travels along +Z: table side 0). */
 static void trace_views(struct build *B)
 {
-    double wq = 1.0 / ((double)B->nq * B->nq);
+    double wq = 1.0 / (double)B->np;
     for (int exit = 0; exit < 2; exit++)
         for (size_t o = 0; o < B->n; o++)
-            for (int p = 0; p < B->nq; p++)
-                for (int q = 0; q < B->nq; q++) {
+            for (size_t p = 0; p < B->np; p++) {
                     double s[3], d[3], f;
-                    bst_basis_sample(B->b, o, (p + 0.5) / B->nq, (q + 0.5) / B->nq, s);
+                    bst_basis_sample(B->b, o, B->pts[4 * p], B->pts[4 * p + 1], s);
                     if (!exit)
                         s[2] = -s[2];
                     to_model(B, s, d);
@@ -382,6 +395,7 @@ static void build_free(struct build *B)
         bsti_free(B->ctx, B->dep[s]), bsti_free(B->ctx, B->view[s]);
         bsti_free(B->ctx, B->hit[s]), bsti_free(B->ctx, B->see[s]);
     }
+    bsti_free(B->ctx, B->pts);
 }
 
 /* The four components of channel 0 into l, copies of them into every other channel. */
@@ -419,7 +433,7 @@ int bst_venetian_layer(bst_ctx *ctx, const bst_venetian *v, const bst_basis *bas
         nchannels = 2, channels = dual;
     struct build B;
     memset(&B, 0, sizeof B);
-    B.ctx = ctx, B.b = basis, B.v = v, B.nq = v->samples;
+    B.ctx = ctx, B.b = basis, B.v = v, B.np = (size_t)v->samples * (size_t)v->samples;
     bsti_vn_geom_init(&B.g, v);
     B.n = bst_basis_size(basis);
     B.ne = 2 * (size_t)v->segments;
@@ -434,6 +448,8 @@ int bst_venetian_layer(bst_ctx *ctx, const bst_venetian *v, const bst_basis *bas
         memset(B.view[0], 0, B.ne * B.n * sizeof(double)), memset(B.view[1], 0, B.ne * B.n * sizeof(double));
         rc = make_tables(&B);
     }
+    if (rc >= 0)
+        rc = make_points(&B);
     if (rc >= 0)
         rc = trace_incident(&B);
     if (rc >= 0) {
