@@ -176,7 +176,8 @@ int cmd_convert(int argc, char **argv)
     const char *in = argv[optind];
     size_t inlen = strlen(in);
     /* glass:SPEC and LAYER^ go through the shared loader (no rank-3 source then) */
-    int via_loader = strncmp(in, "glass:", 6) == 0 || (inlen && in[inlen - 1] == '^');
+    int via_loader = strncmp(in, "glass:", 6) == 0 || strncmp(in, "venetian:", 9) == 0 ||
+                     (inlen && in[inlen - 1] == '^');
 
     bst_ctx *ctx = cli_ctx_new(sub);
     if (!ctx)

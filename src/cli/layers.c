@@ -1,6 +1,6 @@
 /* layers.c - loading a stack's layers (layers.h): files read, the basis picked by the library's
- * rule (bst_plan_pick_basis), the memory guard, each layer made over the basis (glass: specs,
- * reversed layers), and the checks a batch makes before its first stack. */
+ * rule (bst_plan_pick_basis), the memory guard, each layer made over the basis (glass: and
+ * venetian: specs, reversed layers), and the checks a batch makes before its first stack. */
 #include <config.h>
 
 #include <errno.h>
@@ -71,6 +71,31 @@ static int is_glass(const char *spec)
     return strncmp(spec, "glass:", 6) == 0;
 }
 
+/* A blind from its geometry (bst_venetian_parse). */
+static int is_venetian(const char *spec)
+{
+    return strncmp(spec, "venetian:", 9) == 0;
+}
+
+/* A layer made from a spec rather than read from a file. */
+static int is_made(const char *spec)
+{
+    return is_glass(spec) || is_venetian(spec);
+}
+
+/* The venetian:SPEC layer over basis (the spec less its prefix and a trailing ^). */
+static int make_venetian(bst_ctx *ctx, const char *spec, size_t len, const bst_basis *basis,
+                         size_t nch, const char **chnames, bst_layer **l)
+{
+    char *vspec = strndup(spec + 9, len - 9);
+    bst_venetian v;
+    int st = vspec ? bst_venetian_parse(ctx, vspec, &v) : BST_ENOMEM;
+    if (st >= 0)
+        st = bst_venetian_layer(ctx, &v, basis, nch, nch ? chnames : NULL, l);
+    free(vspec);
+    return st;
+}
+
 /* Read the file a spec names (a trailing ^ dropped) into *file, printing the reader's warnings
  * unless quiet.  Messages name `what`, or the file when what is NULL. */
 static int read_one(bst_ctx *ctx, const char *sub, const char *what, const char *spec,
@@ -104,7 +129,7 @@ static int read_all(bst_ctx *ctx, const char *sub, size_t n, char **specs,
 {
     int rc = CLI_OK;
     for (size_t i = 0; i < n && rc == CLI_OK; i++)
-        if (!is_glass(specs[i]))
+        if (!is_made(specs[i]))
             rc = read_one(ctx, sub, NULL, specs[i], ro, 0, &files[i]);
     if (rc != CLI_OK)
         return rc;
@@ -137,6 +162,8 @@ static int make_layer(bst_ctx *ctx, const char *sub, const char *what, const cha
     if (file) {
         st = bst_bsdf_to_layer(ctx, file, basis, &l);
         bst_bsdf_free(file);
+    } else if (is_venetian(spec)) {
+        st = make_venetian(ctx, spec, len - (size_t)flip, basis, nch, chnames, &l);
     } else {
         char *gspec = strndup(spec + 6, len - 6 - (size_t)flip);
         bst_glass *g = NULL;
@@ -256,6 +283,20 @@ int cli_layers_check(bst_ctx *ctx, const char *sub, size_t n, char **specs,
             structure[i] = fill > BST_SPARSE_MAX_FILL ? CLI_DENSE : fill > 0 ? CLI_SPARSE : CLI_DIAGONAL;
             continue;
         }
+        if (is_venetian(specs[i])) { /* its errors show now; dense when its slats scatter diffusely */
+            char *vspec = strdup(specs[i] + 9);
+            size_t vl = vspec ? strlen(vspec) : 0;
+            if (vl && vspec[vl - 1] == '^')
+                vspec[vl - 1] = '\0';
+            bst_venetian v;
+            bst_venetian_init(&v);
+            int st = vspec ? bst_venetian_parse(ctx, vspec, &v) : BST_ENOMEM;
+            free(vspec);
+            if (st < 0)
+                rc = cli_fail_ctx(sub, specs[i], ctx);
+            structure[i] = v.r_up > 0 || v.r_down > 0 || v.t > 0 ? CLI_DENSE : CLI_SPARSE;
+            continue;
+        }
         /* a pane: made once here (cheap: one diagonal per component) so that its errors show now */
         bst_layer *l = NULL;
         bst_glass *pane = NULL;
@@ -311,7 +352,7 @@ int cli_layer_load(bst_ctx *ctx, const char *sub, const char *what, const char *
     int rc = channels && !chcopy ? cli_fail(sub, "out of memory") : CLI_OK;
     *layer = NULL;
     *pane = NULL;
-    if (rc == CLI_OK && !is_glass(spec))
+    if (rc == CLI_OK && !is_made(spec))
         rc = read_one(ctx, sub, what, spec, &ro, 1, &file);
     if (rc == CLI_OK)
         rc = make_layer(ctx, sub, what, spec, file, basis, nch, chnames, choice->at_centre, layer, pane);
