@@ -433,7 +433,11 @@ int bst_venetian_layer(bst_ctx *ctx, const bst_venetian *v, const bst_basis *bas
         nchannels = 2, channels = dual;
     struct build B;
     memset(&B, 0, sizeof B);
-    B.ctx = ctx, B.b = basis, B.v = v, B.np = (size_t)v->samples * (size_t)v->samples;
+    B.ctx = ctx, B.b = basis, B.v = v;
+    int nq = v->samples, k = bst_basis_order(basis); /* 0 for Klems */
+    if (!nq) /* automatic: about the same work at every order above 5 */
+        nq = k <= 5 ? BST_VENETIAN_SAMPLES : BST_VENETIAN_SAMPLES >> (k - 5);
+    B.np = (size_t)nq * (size_t)nq;
     bsti_vn_geom_init(&B.g, v);
     B.n = bst_basis_size(basis);
     B.ne = 2 * (size_t)v->segments;

@@ -25,7 +25,6 @@ void bst_venetian_init(bst_venetian *v)
     memset(v, 0, sizeof *v);
     v->width = v->spacing = NAN;
     v->segments = BST_VENETIAN_SEGMENTS;
-    v->samples = BST_VENETIAN_SAMPLES;
 }
 
 /* A number followed by one of the unit suffixes (NULL-terminated; "" = no suffix). */
@@ -94,7 +93,7 @@ static int set_key(bst_ctx *ctx, int k, const char *val, bst_venetian *v)
     } else if (k == K_SEG) {
         bad = parse_count(val, 1, VN_MAX_SEGMENTS, &v->segments);
     } else if (k == K_SAMPLES) {
-        bad = parse_count(val, 1, VN_MAX_SAMPLES, &v->samples);
+        bad = parse_count(val, 0, VN_MAX_SAMPLES, &v->samples);
     } else if (k == K_WIDTH || k == K_SPACING || k == K_CURV) {
         bad = parse_length(val, &x);
     } else {
@@ -102,7 +101,7 @@ static int set_key(bst_ctx *ctx, int k, const char *val, bst_venetian *v)
     }
     if (bad)
         return bsti_error(ctx, BST_EINVAL, "venetian: %s: '%s' is not %s", key_name[k], val,
-                          k == K_SEG ? "a count of 1 to 1000" : k == K_SAMPLES ? "a count of 1 to 64"
+                          k == K_SEG ? "a count of 1 to 1000" : k == K_SAMPLES ? "a count of 0 (automatic) to 64"
                           : k == K_VERT ? "0 or 1" : k <= K_CURV && k != K_TILT
                           ? "a length (16mm, 0.016m, 1.6cm, 0.63in)" : "a number");
     switch (k) {
@@ -184,8 +183,8 @@ int bst_venetian_check(bst_ctx *ctx, const bst_venetian *v)
     if (v->segments < 1 || v->segments > VN_MAX_SEGMENTS)
         return bsti_error(ctx, BST_EINVAL, "venetian: segments = %d is not 1 to %d", v->segments,
                           VN_MAX_SEGMENTS);
-    if (v->samples < 1 || v->samples > VN_MAX_SAMPLES)
-        return bsti_error(ctx, BST_EINVAL, "venetian: samples = %d is not 1 to %d", v->samples,
+    if (v->samples < 0 || v->samples > VN_MAX_SAMPLES)
+        return bsti_error(ctx, BST_EINVAL, "venetian: samples = %d is not 0 (automatic) to %d", v->samples,
                           VN_MAX_SAMPLES);
     int rc;
     if ((rc = check_unit(ctx, "r-up", v->r_up)) < 0 || (rc = check_unit(ctx, "r-down", v->r_down)) < 0 ||
