@@ -161,6 +161,49 @@ START_TEST(test_reciprocity)
 }
 END_TEST
 
+/* The radiosity between slat strips: lossless white slats (r = 1, or r + t = 1) conserve energy to
+ * the quadrature of the strips' exchange and views (measured 9e-4 at k = 4 with 32 x 32 directions
+ * a patch, 3e-3 with 8 x 8), and the segment count converges (white slats, tilt 45, k = 4, against 64 segments: 0.133 at 1 segment, 0.028 at
+ * 2, 0.0040 at 5, 0.0015 at 8, 0.0004 at 16; the reference blinds' r = 0.085: 0.015 at 1, 0.0002
+ * at 8). */
+static double *all_hemi(const char *spec, const bst_basis *b)
+{
+    bst_layer *l = blind(spec, b);
+    size_t n = bst_basis_size(b);
+    double *h = malloc(4 * n * sizeof *h);
+    ck_assert_ptr_nonnull(h);
+    for (int c = 0; c < 4; c++)
+        ck_assert_int_eq(bst_layer_hemispherical(ctx, l, 0, (bst_comp)c, h + c * n), BST_OK);
+    bst_layer_free(l);
+    return h;
+}
+
+START_TEST(test_radiosity)
+{
+    bst_basis *b = sc(4);
+    size_t n = bst_basis_size(b);
+    double *w = all_hemi("width=16mm,spacing=14.5mm,tilt=0,r=1", b), worst = 0;
+    double *wt = all_hemi("width=16mm,spacing=14.5mm,tilt=45,r=0.5,t=0.5", b);
+    for (size_t i = 0; i < n; i++)
+        for (int side = 0; side < 2; side++) {
+            double tr = side ? w[2 * n + i] + w[3 * n + i] : w[i] + w[n + i];
+            double trt = side ? wt[2 * n + i] + wt[3 * n + i] : wt[i] + wt[n + i];
+            worst = fmax(worst, fmax(fabs(tr - 1), fabs(trt - 1)));
+        }
+    printf("lossless diffuse slats: |T + R - 1| at most %.2g\n", worst);
+    ck_assert_msg(worst < 2e-3, "diffuse slats lose or make %g", worst);
+    double *s8 = all_hemi("width=16mm,spacing=14.5mm,tilt=45,r=0.7,t=0.1,samples=8", b);
+    double *s32 = all_hemi("width=16mm,spacing=14.5mm,tilt=45,r=0.7,t=0.1,samples=8,segments=32", b);
+    double d = 0;
+    for (size_t i = 0; i < 4 * n; i++)
+        d = fmax(d, fabs(s8[i] - s32[i]));
+    printf("8 segments against 32: %.2g\n", d);
+    ck_assert_msg(d < 2.5e-3, "8 segments differ from 32 by %g", d);
+    free(w), free(wt), free(s8), free(s32);
+    bst_basis_free(b);
+}
+END_TEST
+
 static const double dirs[][2] = {{25, 90}, {45, 90}, {50, 90}, {45, 45}, {65, 90}};
 
 static size_t incident_patch(const bst_basis *b, double th, double ph)
@@ -325,6 +368,7 @@ static Suite *venetian_suite(void)
     tcase_add_loop_test(tc, test_lossless_mirror, 0, 3);
     tcase_add_loop_test(tc, test_closed, 0, 3);
     tcase_add_loop_test(tc, test_reciprocity, 0, 3);
+    tcase_add_test(tc, test_radiosity);
     tcase_add_loop_test(tc, test_reference_blinds, 0, 2);
     suite_add_tcase(s, tc);
     return s;
