@@ -858,7 +858,7 @@ typedef struct {
     int vertical;           /* slats along Y */
     int segments;           /* strips per slat face for the radiosity, default BST_VENETIAN_SEGMENTS */
     int samples;            /* samples^2 directions per patch; 0 (default): BST_VENETIAN_SAMPLES
-                             * at k <= 5 and in Klems bases, halved with each order above */
+                             * at k <= 6 and in Klems bases, half of it at k = 7 */
     double r_up, r_down, t; /* diffuse reflectances of the two faces, diffuse transmittance */
     double rs, roughness;   /* specular reflectance, rms slope of its lobe (0: a mirror) */
 } bst_venetian;

@@ -435,8 +435,8 @@ int bst_venetian_layer(bst_ctx *ctx, const bst_venetian *v, const bst_basis *bas
     memset(&B, 0, sizeof B);
     B.ctx = ctx, B.b = basis, B.v = v;
     int nq = v->samples, k = bst_basis_order(basis); /* 0 for Klems */
-    if (!nq) /* automatic: about the same work at every order above 5 */
-        nq = k <= 5 ? BST_VENETIAN_SAMPLES : BST_VENETIAN_SAMPLES >> (k - 5);
+    if (!nq) /* automatic: k = 7 as much work as k = 6 (GA at k = 6 falls to 98.7 with 16) */
+        nq = k <= 6 ? BST_VENETIAN_SAMPLES : BST_VENETIAN_SAMPLES >> (k - 6);
     B.np = (size_t)nq * (size_t)nq;
     bsti_vn_geom_init(&B.g, v);
     B.n = bst_basis_size(basis);
