@@ -861,6 +861,8 @@ typedef struct {
                              * at k <= 6 and in Klems bases, half of it at k = 7 */
     double r_up, r_down, t; /* diffuse reflectances of the two faces, diffuse transmittance */
     double rs, roughness;   /* specular reflectance, rms slope of its lobe (0: a mirror) */
+    double solar[4];        /* r_up, r_down, t, rs of a channel named Solar (dual-band slats, spec
+                             * values "VISIBLE/SOLAR"); NaN (default): the values above */
 } bst_venetian;
 #define BST_VENETIAN_SEGMENTS 8
 #define BST_VENETIAN_SAMPLES 32
@@ -871,8 +873,8 @@ void bst_venetian_init(bst_venetian *v);
 int bst_venetian_parse(bst_ctx *ctx, const char *spec, bst_venetian *v);
 /* The checks bst_venetian_parse makes, for a struct filled by hand. */
 int bst_venetian_check(bst_ctx *ctx, const bst_venetian *v);
-/* The blind as a layer over basis, every channel named (nchannels 0: "Visible" and "Solar") holding
- * the same values. */
+/* The blind as a layer over basis with the channels named (nchannels 0: "Visible" and "Solar"):
+ * Solar from the solar values where given, every other channel from the others. */
 int bst_venetian_layer(bst_ctx *ctx, const bst_venetian *v, const bst_basis *basis,
                        size_t nchannels, const char *const *channels, bst_layer **out);
 

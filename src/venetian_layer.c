@@ -16,6 +16,7 @@
 
 #include <math.h>
 #include <string.h>
+#include <strings.h>
 
 #include <cblas.h>
 
@@ -398,24 +399,62 @@ static void build_free(struct build *B)
     bsti_free(B->ctx, B->pts);
 }
 
-/* The four components of channel 0 into l, copies of them into every other channel. */
-static int fill_layer(struct build *B, bst_layer *l, size_t nch)
+/* The four components into channels ch[0..nch) of l (the first its own, the others copies). */
+static int fill_layer(struct build *B, bst_layer *l, size_t nch, const size_t *ch)
 {
     int diffuse = B->v->r_up > 0 || B->v->r_down > 0 || B->v->t > 0, rc = BST_OK;
     for (int c = 0; c < BST_NCOMP && rc >= 0; c++) {
         bst_mat *m = NULL;
         rc = component(B, c, diffuse, &m);
-        for (size_t ch = 1; ch < nch && rc >= 0; ch++) {
+        for (size_t k = 1; k < nch && rc >= 0; k++) {
             bst_mat *copy;
             rc = bst_mat_convert(B->ctx, m, bst_mat_structure(m), BST_DOUBLE, &copy);
             if (rc >= 0)
-                rc = bst_layer_set(B->ctx, l, ch, (bst_comp)c, copy);
+                rc = bst_layer_set(B->ctx, l, ch[k], (bst_comp)c, copy);
         }
         if (rc >= 0)
-            rc = bst_layer_set(B->ctx, l, 0, (bst_comp)c, m);
+            rc = bst_layer_set(B->ctx, l, ch[0], (bst_comp)c, m);
         else
             bst_mat_free(m);
     }
+    return rc;
+}
+
+/* The blind of slat values v into channels ch[0..nch) of l. */
+static int make_band(bst_ctx *ctx, const bst_venetian *v, const bst_basis *basis, bst_layer *l,
+                     size_t nch, const size_t *ch)
+{
+    struct build B;
+    memset(&B, 0, sizeof B);
+    B.ctx = ctx, B.b = basis, B.v = v;
+    int rc = BST_OK, nq = v->samples, k = bst_basis_order(basis); /* 0 for Klems */
+    if (!nq) /* automatic: k = 7 as much work as k = 6 (GA at k = 6 falls to 98.7 with 16) */
+        nq = k <= 6 ? BST_VENETIAN_SAMPLES : BST_VENETIAN_SAMPLES >> (k - 6);
+    B.np = (size_t)nq * (size_t)nq;
+    bsti_vn_geom_init(&B.g, v);
+    B.n = bst_basis_size(basis);
+    B.ne = 2 * (size_t)v->segments;
+    for (int s = 0; s < 2; s++) {
+        B.dep[s] = bsti_alloc_array(ctx, B.ne * B.n, sizeof *B.dep[s]);
+        B.view[s] = bsti_alloc_array(ctx, B.ne * B.n, sizeof *B.view[s]);
+        if (!B.dep[s] || !B.view[s])
+            rc = BST_ENOMEM;
+        else
+            memset(B.dep[s], 0, B.ne * B.n * sizeof(double)), memset(B.view[s], 0, B.ne * B.n * sizeof(double));
+    }
+    if (rc >= 0)
+        rc = make_tables(&B);
+    if (rc >= 0)
+        rc = make_points(&B);
+    if (rc >= 0)
+        rc = trace_incident(&B);
+    if (rc >= 0) {
+        trace_views(&B);
+        rc = radiosity(&B);
+    }
+    if (rc >= 0)
+        rc = fill_layer(&B, l, nch, ch);
+    build_free(&B);
     return rc;
 }
 
@@ -431,41 +470,28 @@ int bst_venetian_layer(bst_ctx *ctx, const bst_venetian *v, const bst_basis *bas
     static const char *const dual[] = {"Visible", "Solar"};
     if (!nchannels)
         nchannels = 2, channels = dual;
-    struct build B;
-    memset(&B, 0, sizeof B);
-    B.ctx = ctx, B.b = basis, B.v = v;
-    int nq = v->samples, k = bst_basis_order(basis); /* 0 for Klems */
-    if (!nq) /* automatic: k = 7 as much work as k = 6 (GA at k = 6 falls to 98.7 with 16) */
-        nq = k <= 6 ? BST_VENETIAN_SAMPLES : BST_VENETIAN_SAMPLES >> (k - 6);
-    B.np = (size_t)nq * (size_t)nq;
-    bsti_vn_geom_init(&B.g, v);
-    B.n = bst_basis_size(basis);
-    B.ne = 2 * (size_t)v->segments;
-    for (int s = 0; s < 2; s++) {
-        B.dep[s] = bsti_alloc_array(ctx, B.ne * B.n, sizeof *B.dep[s]);
-        B.view[s] = bsti_alloc_array(ctx, B.ne * B.n, sizeof *B.view[s]);
-        if (!B.dep[s] || !B.view[s])
-            rc = BST_ENOMEM;
-    }
-    if (rc >= 0) {
-        memset(B.dep[0], 0, B.ne * B.n * sizeof(double)), memset(B.dep[1], 0, B.ne * B.n * sizeof(double));
-        memset(B.view[0], 0, B.ne * B.n * sizeof(double)), memset(B.view[1], 0, B.ne * B.n * sizeof(double));
-        rc = make_tables(&B);
-    }
-    if (rc >= 0)
-        rc = make_points(&B);
-    if (rc >= 0)
-        rc = trace_incident(&B);
-    if (rc >= 0) {
-        trace_views(&B);
-        rc = radiosity(&B);
-    }
+    /* the Solar channel's own slat values, where the spec gives them */
+    bst_venetian vs = *v;
+    double *sv[4] = {&vs.r_up, &vs.r_down, &vs.t, &vs.rs};
+    int differ = 0;
+    for (int k = 0; k < 4; k++)
+        if (!isnan(v->solar[k]) && v->solar[k] != *sv[k])
+            *sv[k] = v->solar[k], differ = 1;
+    size_t *ch = bsti_alloc_array(ctx, nchannels, sizeof *ch), nsol = 0, nvis = 0;
     bst_layer *l = NULL;
-    if (rc >= 0)
-        rc = bst_layer_new(ctx, basis, nchannels, channels, &l);
-    if (rc >= 0)
-        rc = fill_layer(&B, l, nchannels);
-    build_free(&B);
+    if (!ch)
+        return bsti_error(ctx, BST_ENOMEM, "venetian layer: out of memory");
+    for (size_t c = 0; c < nchannels; c++) /* Solar channels at the end of ch */
+        if (differ && strcasecmp(channels[c], "Solar") == 0)
+            ch[nchannels - 1 - nsol++] = c;
+        else
+            ch[nvis++] = c;
+    rc = bst_layer_new(ctx, basis, nchannels, channels, &l);
+    if (rc >= 0 && nvis)
+        rc = make_band(ctx, v, basis, l, nvis, ch);
+    if (rc >= 0 && nsol)
+        rc = make_band(ctx, &vs, basis, l, nsol, ch + nvis);
+    bsti_free(ctx, ch);
     if (rc < 0) {
         bst_layer_free(l);
         return rc == BST_ENOMEM ? bsti_error(ctx, rc, "venetian layer: out of memory") : rc;

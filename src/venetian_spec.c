@@ -3,7 +3,8 @@
  *
  * Keys: width, spacing, curvature (lengths as glass: takes them: 16mm, 0.016m, 1.6cm, 0.63in,
  * bare = mm), tilt (degrees), segments, samples (counts), vertical (a flag, or vertical=0|1),
- * r (both faces' diffuse reflectance), r-up, r-down, t, rs, roughness (numbers).  Every message
+ * r (both faces' diffuse reflectance), r-up, r-down, t, rs, roughness (numbers; the first five
+ * also as VISIBLE/SOLAR: the second for a channel named Solar, the first for any other).  Every message
  * names the key it is about, so that a script's user finds the mistake in a long spec. */
 #include <config.h>
 
@@ -24,6 +25,7 @@ void bst_venetian_init(bst_venetian *v)
         return;
     memset(v, 0, sizeof *v);
     v->width = v->spacing = NAN;
+    v->solar[0] = v->solar[1] = v->solar[2] = v->solar[3] = NAN;
     v->segments = BST_VENETIAN_SEGMENTS;
 }
 
@@ -96,6 +98,23 @@ static int set_key(bst_ctx *ctx, int k, const char *val, bst_venetian *v)
         bad = parse_count(val, 0, VN_MAX_SAMPLES, &v->samples);
     } else if (k == K_WIDTH || k == K_SPACING || k == K_CURV) {
         bad = parse_length(val, &x);
+    } else if (k >= K_R && k <= K_RS && strchr(val, '/')) { /* VISIBLE/SOLAR */
+        char two[64];
+        double y = NAN;
+        snprintf(two, sizeof two, "%s", val);
+        char *slash = strchr(two, '/');
+        *slash = '\0';
+        bad = parse_number(two, &x) || parse_number(slash + 1, &y);
+        if (!bad) {
+            if (k == K_R || k == K_RUP)
+                v->solar[0] = y;
+            if (k == K_R || k == K_RDOWN)
+                v->solar[1] = y;
+            if (k == K_T)
+                v->solar[2] = y;
+            if (k == K_RS)
+                v->solar[3] = y;
+        }
     } else {
         bad = parse_number(val, &x);
     }
@@ -103,7 +122,8 @@ static int set_key(bst_ctx *ctx, int k, const char *val, bst_venetian *v)
         return bsti_error(ctx, BST_EINVAL, "venetian: %s: '%s' is not %s", key_name[k], val,
                           k == K_SEG ? "a count of 1 to 1000" : k == K_SAMPLES ? "a count of 0 (automatic) to 64"
                           : k == K_VERT ? "0 or 1" : k <= K_CURV && k != K_TILT
-                          ? "a length (16mm, 0.016m, 1.6cm, 0.63in)" : "a number");
+                          ? "a length (16mm, 0.016m, 1.6cm, 0.63in)"
+                          : k >= K_R && k <= K_RS ? "a number or VISIBLE/SOLAR" : "a number");
     switch (k) {
     case K_WIDTH: v->width = x; break;
     case K_SPACING: v->spacing = x; break;
@@ -159,10 +179,10 @@ int bst_venetian_parse(bst_ctx *ctx, const char *spec, bst_venetian *v)
 }
 
 /* A reflectance or transmittance key's value must lie in [0, 1]. */
-static int check_unit(bst_ctx *ctx, const char *key, double x)
+static int check_unit(bst_ctx *ctx, const char *key, const char *sfx, double x)
 {
     if (!(x >= 0.0 && x <= 1.0))
-        return bsti_error(ctx, BST_EINVAL, "venetian: %s = %g is not between 0 and 1", key, x);
+        return bsti_error(ctx, BST_EINVAL, "venetian: %s%s = %g is not between 0 and 1", key, sfx, x);
     return BST_OK;
 }
 
@@ -186,14 +206,21 @@ int bst_venetian_check(bst_ctx *ctx, const bst_venetian *v)
     if (v->samples < 0 || v->samples > VN_MAX_SAMPLES)
         return bsti_error(ctx, BST_EINVAL, "venetian: samples = %d is not 0 (automatic) to %d", v->samples,
                           VN_MAX_SAMPLES);
-    int rc;
-    if ((rc = check_unit(ctx, "r-up", v->r_up)) < 0 || (rc = check_unit(ctx, "r-down", v->r_down)) < 0 ||
-        (rc = check_unit(ctx, "t", v->t)) < 0 || (rc = check_unit(ctx, "rs", v->rs)) < 0)
-        return rc;
-    double up = v->r_up + v->t + v->rs, down = v->r_down + v->t + v->rs;
-    if (up > 1.0 + 1e-12 || down > 1.0 + 1e-12)
-        return bsti_error(ctx, BST_EINVAL, "venetian: %s + t + rs = %g is above 1",
-                          up >= down ? "r-up" : "r-down", fmax(up, down));
+    for (int band = 0; band < 2; band++) { /* the values, then the Solar channel's */
+        double x[4] = {v->r_up, v->r_down, v->t, v->rs};
+        for (int k = 0; band && k < 4; k++)
+            if (!isnan(v->solar[k]))
+                x[k] = v->solar[k];
+        int rc;
+        const char *sfx = band ? " (Solar)" : "";
+        if ((rc = check_unit(ctx, "r-up", sfx, x[0])) < 0 || (rc = check_unit(ctx, "r-down", sfx, x[1])) < 0 ||
+            (rc = check_unit(ctx, "t", sfx, x[2])) < 0 || (rc = check_unit(ctx, "rs", sfx, x[3])) < 0)
+            return rc;
+        double up = x[0] + x[2] + x[3], down = x[1] + x[2] + x[3];
+        if (up > 1.0 + 1e-12 || down > 1.0 + 1e-12)
+            return bsti_error(ctx, BST_EINVAL, "venetian: %s + t + rs%s = %g is above 1",
+                              up >= down ? "r-up" : "r-down", sfx, fmax(up, down));
+    }
     if (!(v->roughness >= 0.0) || !isfinite(v->roughness))
         return bsti_error(ctx, BST_EINVAL, "venetian: roughness = %g is not a slope >= 0",
                           v->roughness);

@@ -363,6 +363,38 @@ START_TEST(test_s1_system)
 }
 END_TEST
 
+/* Dual-band slats: "VISIBLE/SOLAR" values give the Solar channel the layer of the second values and
+ * every other channel that of the first, exactly. */
+START_TEST(test_dual_band)
+{
+    bst_basis *b = sc(3);
+    bst_venetian v;
+    ck_assert_int_eq(bst_venetian_parse(ctx, "width=16mm,spacing=14.5mm,tilt=30,rs=0.765/0.7,"
+                                        "r=0.085/0.12,samples=4", &v), BST_OK);
+    static const char *const names[] = {"Solar", "Visible", "CIE-X"};
+    bst_layer *l = NULL;
+    ck_assert_int_eq(bst_venetian_layer(ctx, &v, b, 3, names, &l), BST_OK);
+    bst_layer *vis = blind("width=16mm,spacing=14.5mm,tilt=30,rs=0.765,r=0.085,samples=4", b);
+    bst_layer *sol = blind("width=16mm,spacing=14.5mm,tilt=30,rs=0.7,r=0.12,samples=4", b);
+    size_t n = bst_basis_size(b);
+    for (int c = 0; c < BST_NCOMP; c++)
+        for (size_t o = 0; o < n; o++)
+            for (size_t i = 0; i < n; i++) {
+                double s = bst_mat_get(bst_layer_get(l, 0, (bst_comp)c), o, i);
+                double x = bst_mat_get(bst_layer_get(l, 1, (bst_comp)c), o, i);
+                double y = bst_mat_get(bst_layer_get(l, 2, (bst_comp)c), o, i);
+                ck_assert(s == bst_mat_get(bst_layer_get(sol, 0, (bst_comp)c), o, i));
+                ck_assert(x == bst_mat_get(bst_layer_get(vis, 0, (bst_comp)c), o, i) && y == x);
+            }
+    ck_assert_int_lt(bst_venetian_parse(ctx, "width=16mm,spacing=14.5mm,rs=0.5/1.2", &v), 0);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "rs (Solar)"));
+    ck_assert_int_lt(bst_venetian_parse(ctx, "width=16mm,spacing=14.5mm,r=0.1/0.5,rs=0.6", &v), 0);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "(Solar)"));
+    bst_layer_free(l), bst_layer_free(vis), bst_layer_free(sol);
+    bst_basis_free(b);
+}
+END_TEST
+
 /* Every allocation of the layer's making fails in turn: BST_ENOMEM, no layer, nothing leaked. */
 START_TEST(test_alloc_failure)
 {
@@ -436,6 +468,7 @@ static Suite *venetian_suite(void)
     tcase_set_timeout(tc, 600);
     tcase_add_test(tc, test_bad_specs);
     tcase_add_test(tc, test_alloc_failure);
+    tcase_add_test(tc, test_dual_band);
     tcase_add_loop_test(tc, test_black_openness, 0, 3);
     tcase_add_loop_test(tc, test_lossless_mirror, 0, 4); /* the last in Klems full */
     tcase_add_loop_test(tc, test_closed, 0, 3);

@@ -294,7 +294,10 @@ int cli_layers_check(bst_ctx *ctx, const char *sub, size_t n, char **specs,
             free(vspec);
             if (st < 0)
                 rc = cli_fail_ctx(sub, specs[i], ctx);
-            structure[i] = v.r_up > 0 || v.r_down > 0 || v.t > 0 ? CLI_DENSE : CLI_SPARSE;
+            int diffuse = v.r_up > 0 || v.r_down > 0 || v.t > 0;
+            for (int k = 0; k < 3; k++)
+                diffuse |= v.solar[k] > 0; /* the Solar channel's r-up, r-down, t */
+            structure[i] = diffuse ? CLI_DENSE : CLI_SPARSE;
             continue;
         }
         /* a pane: made once here (cheap: one diagonal per component) so that its errors show now */
