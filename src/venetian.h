@@ -24,7 +24,12 @@
 #define BSTI_VN_EXCHANGE_POSITIONS 64
 /* The row of a hit: flux leaving along d (even bounces), the sum of bounces times that flux, the
  * same along the mirror image dm (odd bounces), then the arrivals on the 2 m strips. */
-enum { BSTI_VN_EVEN, BSTI_VN_EVEN_N, BSTI_VN_ODD, BSTI_VN_ODD_N, BSTI_VN_DEP };
+enum { BSTI_VN_EVEN, BSTI_VN_EVEN_N, BSTI_VN_ODD, BSTI_VN_ODD_N, BSTI_VN_EVEN_W, BSTI_VN_EVEN_D,
+       BSTI_VN_EVEN_D2, BSTI_VN_ODD_W, BSTI_VN_ODD_D, BSTI_VN_ODD_D2, BSTI_VN_DEP };
+/* Rough slats: rays traced per entry position with their own facet slopes, for the moments of
+ * their exits' turn in the profile plane (BSTI_VN_*_W, _D, _D2: flux, flux x turn, flux x turn^2,
+ * by the parity of the bounces). */
+#define BSTI_VN_ROUGH_RAYS 4
 
 typedef struct {
     double w, s;         /* slat width, spacing (m) */
@@ -43,8 +48,10 @@ void bsti_vn_geom_init(bsti_vn_geom *g, const bst_venetian *v);
 double bsti_vn_open(const bsti_vn_geom *g, double a, double b);
 
 /* What becomes of unit flux entering along (a, b) on the part of the opening that meets a slat
- * (whatever that part's size): row[BSTI_VN_EVEN ..] as enumerated above, 4 + 2 m values. */
-void bsti_vn_hit(const bsti_vn_geom *g, double a, double b, double *row);
+ * (whatever that part's size): row[BSTI_VN_EVEN ..] as enumerated above, BSTI_VN_DEP + 2 m values;
+ * sigma > 0 (rough slats, the deviation of a facet's slope in the profile plane) adds the moments
+ * of BSTI_VN_ROUGH_RAYS rays per entry position traced with their own facets. */
+void bsti_vn_hit(const bsti_vn_geom *g, double a, double b, double sigma, double *row);
 
 /* The strips as seen from the opening that light leaving along profile direction (a, b) crosses
  * (b > 0: the interior one): view[e] = the mean over that opening of rs^n for each n-th hit of

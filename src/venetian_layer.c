@@ -136,7 +136,7 @@ static int make_tables(struct build *B)
             /* the ends are grazing in the profile plane: just inside */
             double phi = fmin(fmax(((double)k / VN_TABLE - 0.5) * M_PI, -M_PI / 2 + 1e-9), M_PI / 2 - 1e-9);
             double a = sin(phi), b = side ? -cos(phi) : cos(phi);
-            bsti_vn_hit(&B->g, a, b, B->hit[side] + k * nh);
+            bsti_vn_hit(&B->g, a, b, B->v->roughness / sqrt(2.0), B->hit[side] + k * nh);
             bsti_vn_view(&B->g, a, b, B->see[side] + k * B->ne);
         }
     }
@@ -163,30 +163,32 @@ static void reflect(const double d[3], const double n[3], double r[3])
 /* Flux x leaving along d after `bounces` (mean) mirror bounces, odd or even in number, into the
  * column's accumulator, turned by the slats' roughness: RADIANCE's metal (Ward's lobe) tilts the
  * facet normals by slopes that are Gaussian with variance roughness^2 / 2 in each of two
- * directions; a path of n bounces is taken as one rough bounce of n times that variance (the
- * last; an even path's first by the flat face).  (g1, g2) is the point of the standard Gaussian
- * this direction draws (quadrature point, see struct build).  A direction turned past the
- * horizon counts unturned. */
+ * directions.  In the profile plane the turn is drawn from the mean and spread (mom: flux, flux x
+ * turn, flux x turn^2) of rays traced with their own rough facets (bsti_vn_hit), which carry the
+ * geometry's choice of which turned rays meet another slat; out of the plane, a path of n bounces
+ * is taken as one facet tilted along X with n times the variance.  (g1, g2) is the point of the
+ * standard Gaussian this direction draws (quadrature point, see struct build).  A direction turned
+ * past the horizon counts unturned. */
 static void spread(struct build *B, const double d[3], int odd, double bounces, double x,
-                   const double g[2], struct column *col)
+                   const double g[2], const double mom[3], struct column *col)
 {
-    const double nA[3] = {0.0, B->g.nA[0], B->g.nA[1]}, t2[3] = {0.0, B->g.sb, B->g.cb};
+    const double nA[3] = {0.0, B->g.nA[0], B->g.nA[1]};
     double sigma = B->v->roughness * sqrt(fmax(bounces, 1.0) / 2), flat[3], dir[3];
     if (odd)
         reflect(d, nA, flat);
     else
         memcpy(flat, d, sizeof flat);
     memcpy(dir, flat, sizeof dir);
-    if (sigma > 0 && !B->g.sheet) {
-        double s1 = sigma * g[0], s2 = sigma * g[1], len = sqrt(1 + s1 * s1 + s2 * s2), nf[3], once[3];
-        for (int k = 0; k < 3; k++) /* t1 = X, the slats' long axis */
-            nf[k] = (nA[k] + s1 * (k == 0) + s2 * t2[k]) / len;
-        if (odd) {
-            reflect(d, nf, dir);
-        } else {
-            reflect(d, nA, once);
-            reflect(once, nf, dir);
-        }
+    if (sigma > 0 && !B->g.sheet && mom[0] > 0) {
+        /* in the profile plane: the traced rough rays' mean turn and spread */
+        double mu = mom[1] / mom[0], sd = sqrt(fmax(mom[2] / mom[0] - mu * mu, 0.0));
+        double turn = mu + sd * g[1], r = hypot(flat[1], flat[2]), psi = atan2(flat[1], flat[2]) + turn;
+        double e[3] = {flat[0], r * sin(psi), r * cos(psi)}, once[3];
+        /* out of it: a flat bounce and one on a facet tilted along X */
+        double s1 = sigma * g[0], len = sqrt(1 + s1 * s1);
+        double nf[3] = {s1 / len, nA[1] / len, nA[2] / len};
+        reflect(e, nA, once);
+        reflect(once, nf, dir);
         if ((dir[2] > 0) != (flat[2] > 0))
             memcpy(dir, flat, sizeof dir);
     }
@@ -241,9 +243,9 @@ static int incident_patch(struct build *B, struct column *col, double *row)
             col_add(B, col, d, !col->back, open * wq);
             double hit = (1.0 - open) * wq;
             if (row[BSTI_VN_EVEN] > 0)
-                spread(B, d, 0, row[BSTI_VN_EVEN_N] / row[BSTI_VN_EVEN], hit * row[BSTI_VN_EVEN], pt + 2, col);
+                spread(B, d, 0, row[BSTI_VN_EVEN_N] / row[BSTI_VN_EVEN], hit * row[BSTI_VN_EVEN], pt + 2, row + BSTI_VN_EVEN_W, col);
             if (row[BSTI_VN_ODD] > 0)
-                spread(B, d, 1, row[BSTI_VN_ODD_N] / row[BSTI_VN_ODD], hit * row[BSTI_VN_ODD], pt + 2, col);
+                spread(B, d, 1, row[BSTI_VN_ODD_N] / row[BSTI_VN_ODD], hit * row[BSTI_VN_ODD], pt + 2, row + BSTI_VN_ODD_W, col);
             for (size_t e = 0; e < B->ne; e++)
                 dep[e] += hit * row[BSTI_VN_DEP + e];
         }

@@ -11,6 +11,7 @@
 #include <config.h>
 
 #include <math.h>
+#include <stdint.h>
 #include <string.h>
 
 #include "venetian.h"
@@ -33,11 +34,34 @@ void bsti_vn_geom_init(bsti_vn_geom *g, const bst_venetian *v)
     g->m = v->segments;
 }
 
+/* A uniform number in (0, 1) from a 64-bit key (splitmix64's finaliser): reproducible, and the
+ * numbers of different keys independent for our purpose. */
+static double hash_uniform(uint64_t x)
+{
+    x += 0x9e3779b97f4a7c15u;
+    x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9u;
+    x = (x ^ (x >> 27)) * 0x94d049bb133111ebu;
+    x ^= x >> 31;
+    return ((double)(x >> 11) + 0.5) / 9007199254740992.0;
+}
+
+/* The slope of a rough facet (in the profile plane, standard Gaussian) met at bounce j by ray
+ * `seed`: Box-Muller on two hashed numbers, the same for the same ray and bounce on every run. */
+static double facet_slope(unsigned long seed, long j)
+{
+    uint64_t key = ((uint64_t)seed << 24) ^ (uint64_t)j;
+    double u1 = hash_uniform(2 * key), u2 = hash_uniform(2 * key + 1);
+    return sqrt(-2.0 * log(u1)) * cos(2 * M_PI * u2);
+}
+
 /* Follow a profile ray from (y, z) along (a, b) with flux wgt until it leaves the channel: every
- * arrival on an element adds the flux then carried to dep[element].  Returns the number of
- * bounces; *left is the flux that leaves. */
+ * arrival on an element adds the flux then carried to dep[element].  sigma > 0: each bounce's
+ * facet is tilted in the profile plane by slope sigma facet_slope(seed, bounce) (a tilt that
+ * would send the ray into the slat is not taken).  Returns the number of bounces; *left is the
+ * flux that leaves, *ea, *eb its direction. */
 static long trace2(const bsti_vn_geom *g, double y, double z, double a, double b, double wgt,
-                   double *dep, double *left)
+                   double *dep, double *left, double sigma, unsigned long seed, double *ea,
+                   double *eb)
 {
     const double H = g->s * g->cb, min = wgt * BSTI_VN_MIN_FLUX; /* face B's distance from A */
     long n = 0;
@@ -55,6 +79,7 @@ static long trace2(const bsti_vn_geom *g, double y, double z, double a, double b
             lo = fmax((g->ze - z) / b, 0.0);
         if (lo <= lw || face < 0 || n >= BSTI_VN_MAX_BOUNCES || wgt <= min) {
             *left = wgt <= min ? 0.0 : wgt;
+            *ea = a, *eb = b;
             return n;
         }
         y += a * lw;
@@ -65,8 +90,16 @@ static long trace2(const bsti_vn_geom *g, double y, double z, double a, double b
         m = m < 0 ? 0 : m >= g->m ? g->m - 1 : m;
         dep[face * g->m + m] += wgt;
         wgt *= g->rs;
-        a -= 2 * dh * g->nA[0];
-        b -= 2 * dh * g->nA[1];
+        double na = g->nA[0], nb = g->nA[1];
+        if (sigma > 0) {
+            double sl = sigma * facet_slope(seed, n), len = sqrt(1 + sl * sl);
+            double ta = (na + sl * g->sb) / len, tb = (nb + sl * g->cb) / len, dt = a * ta + b * tb;
+            double ra = a - 2 * dt * ta, rb = b - 2 * dt * tb;
+            if ((ra * na + rb * nb > 0) == (face == 0)) /* away from the struck face */
+                na = ta, nb = tb, dh = dt;
+        }
+        a -= 2 * dh * na;
+        b -= 2 * dh * nb;
         n++;
     }
 }
@@ -97,8 +130,10 @@ double bsti_vn_open(const bsti_vn_geom *g, double a, double b)
     return fmax(0.0, g->s - fabs(delta)) / g->s;
 }
 
-void bsti_vn_hit(const bsti_vn_geom *g, double a, double b, double *row)
+void bsti_vn_hit(const bsti_vn_geom *g, double a, double b, double sigma, double *row)
 {
+    double dh = a * g->nA[0] + b * g->nA[1], psi = atan2(a, b);
+    double psi_m = atan2(a - 2 * dh * g->nA[0], b - 2 * dh * g->nA[1]);
     const int np = BSTI_VN_POSITIONS;
     memset(row, 0, (BSTI_VN_DEP + 2 * (size_t)g->m) * sizeof *row);
     if (g->sheet) { /* one mirror bounce */
@@ -112,11 +147,22 @@ void bsti_vn_hit(const bsti_vn_geom *g, double a, double b, double *row)
         lo = y0 + fmax(0.0, s - delta), hi = y0 + s;
     else
         lo = y0, hi = y0 + fmin(s, -delta);
+    double none[2000]; /* the rough rays' arrivals: not kept */
+    memset(none, 0, 2 * (size_t)g->m * sizeof *none);
     for (int k = 0; k < np; k++) {
         double y = lo + (hi - lo) * (k + 0.5) / np, left;
-        long n = trace2(g, y, z0, a, b, 1.0 / np, row + BSTI_VN_DEP, &left);
+        double ea, eb;
+        long n = trace2(g, y, z0, a, b, 1.0 / np, row + BSTI_VN_DEP, &left, 0.0, 0, &ea, &eb);
         row[n % 2 ? BSTI_VN_ODD : BSTI_VN_EVEN] += left;
         row[n % 2 ? BSTI_VN_ODD_N : BSTI_VN_EVEN_N] += left * (double)n;
+        for (unsigned long r = 0; sigma > 0 && r < BSTI_VN_ROUGH_RAYS; r++) {
+            /* the same entry with rough facets: how far its exit turns from d or dm in the plane */
+            n = trace2(g, y, z0, a, b, 1.0 / np / BSTI_VN_ROUGH_RAYS, none, &left, sigma,
+                       (unsigned long)k * BSTI_VN_ROUGH_RAYS + r, &ea, &eb);
+            double dev = remainder(atan2(ea, eb) - (n % 2 ? psi_m : psi), 2 * M_PI);
+            double *mom = row + (n % 2 ? BSTI_VN_ODD_W : BSTI_VN_EVEN_W);
+            mom[0] += left, mom[1] += left * dev, mom[2] += left * dev * dev;
+        }
     }
 }
 
@@ -130,9 +176,9 @@ void bsti_vn_view(const bsti_vn_geom *g, double a, double b, double *view)
         return;
     }
     /* traced back into the channel from the opening on the exit side */
-    double y0 = b > 0 ? g->w * g->sb : 0.0, z0 = b > 0 ? 0.0 : g->ze, left;
+    double y0 = b > 0 ? g->w * g->sb : 0.0, z0 = b > 0 ? 0.0 : g->ze, left, ea, eb;
     for (int k = 0; k < np; k++)
-        trace2(g, y0 + g->s * (k + 0.5) / np, z0, -a, -b, 1.0 / np, view, &left);
+        trace2(g, y0 + g->s * (k + 0.5) / np, z0, -a, -b, 1.0 / np, view, &left, 0.0, 0, &ea, &eb);
 }
 
 void bsti_vn_exchange(const bsti_vn_geom *g, double *gm)
@@ -154,8 +200,8 @@ void bsti_vn_exchange(const bsti_vn_geom *g, double *gm)
             for (int q = 0; q < np; q++) {
                 double sa = -1.0 + 2.0 * (q + 0.5) / np, ca = sqrt(1.0 - sa * sa);
                 double a = sign * ca * g->nA[0] + sa * g->sb, b = sign * ca * g->nA[1] + sa * g->cb;
-                double left;
-                trace2(g, y, z, a, b, 1.0 / ((double)np * np), col, &left);
+                double left, ea, eb;
+                trace2(g, y, z, a, b, 1.0 / ((double)np * np), col, &left, 0.0, 0, &ea, &eb);
             }
         }
         for (size_t e = 0; e < n; e++)

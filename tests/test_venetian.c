@@ -149,11 +149,15 @@ START_TEST(test_closed)
 }
 END_TEST
 
+/* Reciprocity of the transmissions (k = 4), relative to their largest value: the patches' sampled
+ * mirror images (5e-3 measured), the rough lobe's mean turn (1.4e-2; 3.8e-2 at k = 5 near the
+ * rim); the bar is 0.05. */
 START_TEST(test_reciprocity)
 {
     static const char *const specs[] = {"width=16mm,spacing=14.5mm,tilt=45,rs=0.765",
                                         "width=16mm,spacing=14.5mm,tilt=45,rs=0.765,r=0.085",
-                                        "width=16mm,spacing=14.5mm,tilt=20,rs=0.5,r-up=0.3,r-down=0.1,t=0.1"};
+                                        "width=16mm,spacing=14.5mm,tilt=20,rs=0.5,r-up=0.3,r-down=0.1,t=0.1",
+                                        "width=16mm,spacing=14.5mm,tilt=45,rs=0.765,roughness=0.02"};
     bst_basis *b = sc(4);
     bst_layer *l = blind(specs[_i], b);
     double err;
@@ -263,11 +267,10 @@ static double mirror_ga(const bst_layer *l, bst_comp c, size_t j)
 /* The issue's bars are GA >= 99 at the five directions from both sides and |dT|, |dR| <= 0.01 for
  * every incident patch up to 70 deg.  Where this model does not reach them the floor asserted is
  * the measured figure less a margin, named here so that it cannot pass unnoticed:
- * - L_blind45 Tb at (45, 90), (50, 90), (65, 90) and (45, 45): GA 94.85, 96.19, 96.32, 98.56.  The
- *   first three columns carry 2-5 % of the light, almost all of it diffuse, which the ray tracer
- *   resolves with a few rays a patch: the reference agrees with its own mirror image to GA 95.8,
- *   93.3 and 94.7 only.  (45, 45) is a real shortfall: the model's rough mirror lobe around the
- *   direct beam leans towards +Y where the ray-traced one leans towards -Y.
+ * - L_blind45 Tb at (45, 90), (50, 90) and (65, 90): GA 94.85, 96.19, 96.32.  These columns carry
+ *   2-5 % of the light, almost all of it diffuse, which the ray tracer resolves with a few rays a
+ *   patch: the reference agrees with its own mirror image to GA 95.8, 93.3 and 94.7 only.  (The
+ *   model's diffuse T there is 0.021 against the reference's 0.026 at (45, 90).)
  * - Hemispherical values: Tb, Rf, Rb within 0.0131, 0.0107, 0.0112 (L_blind0) and 0.0115, 0.0192,
  *   0.0162 (L_blind45), 2-22 patches a component beyond 0.01; Tf within 0.042 and 0.031 with
  *   200-300 patches beyond 0.01.  The reference's Tf is the reciprocal of its Tb (genBSDF stores
@@ -276,7 +279,7 @@ static double mirror_ga(const bst_layer *l, bst_comp c, size_t j)
  *   and 0.012 (the others). */
 static const double ga_floor[2][2][5] = {
     {{99, 99, 99, 99, 99}, {99, 99, 99, 99, 99}},
-    {{99, 99, 99, 99, 99}, {99, 94.3, 95.7, 98.0, 95.8}},
+    {{99, 99, 99, 99, 99}, {99, 94.3, 95.7, 99, 95.8}},
 };
 static const double hemi_max[2][4] = {{0.045, 0.014, 0.012, 0.012}, {0.035, 0.013, 0.020, 0.017}};
 #define HEMI_EXCESS_TF 0.022 /* beyond the reference's mirror scatter, Tf */
@@ -472,7 +475,7 @@ static Suite *venetian_suite(void)
     tcase_add_loop_test(tc, test_black_openness, 0, 3);
     tcase_add_loop_test(tc, test_lossless_mirror, 0, 4); /* the last in Klems full */
     tcase_add_loop_test(tc, test_closed, 0, 3);
-    tcase_add_loop_test(tc, test_reciprocity, 0, 3);
+    tcase_add_loop_test(tc, test_reciprocity, 0, 4);
     tcase_add_test(tc, test_radiosity);
     tcase_add_loop_test(tc, test_reference_blinds, 0, 2);
     tcase_add_test(tc, test_s1_system);
