@@ -14,6 +14,11 @@ expect_status 0 "glass + venetian + glass (k = 3)" -- \
 [ -s "$tmpdir/sys.xml" ] && pass "system written" || fail "no system file"
 expect_status 0 "a vertical blind, reversed, Klems" -- \
     "$BSDFSTACK" combine --klems -o "$tmpdir/vert.xml" "venetian:width=25mm,spacing=20mm,tilt=30,vertical,r=0.5^"
+expect_status 0 "dual-band slats beside a spectral pane" -- "$BSDFSTACK" combine -k 2 \
+    -o "$tmpdir/dual.xml" glass:nfrc-102 "venetian:width=16mm,spacing=14.5mm,rs=0.765/0.7,r=0.085/0.1"
+expect_status 0 "info on it" -- "$BSDFSTACK" info "$tmpdir/dual.xml"
+grep -q "^channel   Solar" "$tmpdir/out" && grep -q "^channel   Visible" "$tmpdir/out" \
+    && pass "Visible and Solar" || fail "channels: $(head -5 "$tmpdir/out")"
 if [ -r "$BST_REFDIR/L_blind0_t4k5.xml" ]; then
     expect_status 0 "compare with the ray-traced blind" -- "$BSDFSTACK" compare -k 5 \
         venetian:width=16mm,spacing=14.5mm,tilt=0,rs=0.765,r=0.085,roughness=0.02 \
@@ -38,4 +43,5 @@ bad curvature width=16mm,spacing=14.5mm,curvature=7mm
 bad colour width=16mm,spacing=14.5mm,colour=red
 bad width width=wide,spacing=14.5mm
 bad tilt width=16mm,spacing=14.5mm,tilt=120
+bad "rs \\(Solar\\)" width=16mm,spacing=14.5mm,rs=0.7/1.3
 finish
