@@ -525,6 +525,16 @@ typedef struct {
 int bst_plan_spectral(bst_ctx *ctx, size_t n, const bst_plan_layer *layers, int per_channel,
                       char *why, size_t size, int *spectral, int *warn);
 
+/* The work of a stack's steps, as the combination meets them: step i (i = 1..n-1) combines the
+ * system of layers 1..i with layer i + 1 (structure[j]: layer j's widest component, as loaded);
+ * the partial system takes the widest structure so far (products keep a dense operand dense).
+ * A step costs about N values of that structure per value: N for diagonal, N^2 for sparse (fill-in
+ * at most dense), N^3 for dense (factorization, solves and products: -v's GFLOP counts about 9 N^3
+ * a channel for a pane and a dense layer), none for zero.  work (may be NULL) gets step i's
+ * estimate at work[i - 1]; returns their sum.  An order of work, not a time: bsdfstack-mpi hands
+ * out the costliest stacks first by it. */
+double bst_plan_work(size_t n, const bst_structure *structure, size_t N, double *work);
+
 /* Bytes a command needs at its peak, by the model bench/README.md checks against measured peaks:
  * a component a file's layer holds is dense (N^2 values of the read precision) unless the file's
  * values fill at most BST_SPARSE_MAX_FILL of its domain (specular trees: sparse, 16 bytes a

@@ -94,6 +94,113 @@ static int update(bst_ctx *ctx, int rc, bst_mat *a, bst_mat *b, bst_mat **slot, 
     return rc;
 }
 
+/* The iteration's state: the layers as seen from the incident side, the gaps' light D_g, U_g
+ * (g = 1..G, G = n - 1) and their values of the previous sweep. */
+struct sweep {
+    bst_ctx *ctx;
+    const bst_layer *const *layers;
+    const int *ch;     /* each layer's index of the channel */
+    size_t n, G, N, ncols;
+    int back;          /* the stack seen from the back */
+    const double *lam;
+    bst_mat **D, **U;  /* D[g - 1], U[g - 1] */
+    double *old, *buf; /* 2 G N ncols values of the last sweep; N ncols of workspace */
+};
+
+/* Component c of layer i (1..n) as the light meets it: back incidence runs over the stack seen
+ * from the back, layers in reverse order with front and back components exchanged (patch indices
+ * need no change: they follow the propagation direction's x and y, which the other side's view
+ * shares). */
+static const bst_mat *comp(const struct sweep *w, size_t i, bst_comp c)
+{
+    static const bst_comp swapped[BST_NCOMP] = {[BST_TF] = BST_TB, [BST_RF] = BST_RB,
+                                                [BST_TB] = BST_TF, [BST_RB] = BST_RF};
+    size_t l = w->back ? w->n - i : i - 1;
+    return bst_layer_get(w->layers[l], (size_t)w->ch[l], w->back ? swapped[c] : c);
+}
+
+/* One Gauss-Seidel sweep, inwards then outwards (src: layer 1's Tf columns); the flux of the
+ * change is added to *change. */
+static int sweep_once(struct sweep *w, const bst_mat *src, double *change)
+{
+    bst_ctx *ctx = w->ctx;
+    size_t G = w->G, Nm = w->N * w->ncols;
+    int rc = BST_OK;
+    for (size_t g = 1; rc >= 0 && g <= G; g++) { /* inwards: D_g */
+        bst_mat *a = NULL, *b = NULL;
+        if (g == 1)
+            rc = src ? bst_mat_convert(ctx, src, bst_mat_structure(src), BST_DOUBLE, &a) : BST_OK;
+        else
+            rc = apply(ctx, comp(w, g, BST_TF), w->lam, w->D[g - 2], &a);
+        if (rc >= 0)
+            rc = apply(ctx, comp(w, g, BST_RB), w->lam, w->U[g - 1], &b);
+        rc = update(ctx, rc, a, b, &w->D[g - 1], w->old + (g - 1) * Nm, w->lam, w->N, w->ncols,
+                    w->buf, change);
+    }
+    for (size_t g = G; rc >= 0 && g >= 1; g--) { /* outwards: U_g */
+        bst_mat *a = NULL, *b = NULL;
+        rc = apply(ctx, comp(w, g + 1, BST_RF), w->lam, w->D[g - 1], &a);
+        if (rc >= 0 && g < G)
+            rc = apply(ctx, comp(w, g + 1, BST_TB), w->lam, w->U[g], &b);
+        rc = update(ctx, rc, a, b, &w->U[g - 1], w->old + (G + g - 1) * Nm, w->lam, w->N,
+                    w->ncols, w->buf, change);
+    }
+    return rc;
+}
+
+/* The system's columns from the converged gaps: Tf = Tf_n L D_{n-1}, Rf = Rf_1[:, cols] + Tb_1 L
+ * U_1; absent ones as zero matrices. */
+static int system_columns(struct sweep *w, const bst_mat *src, const size_t *cols, bst_mat **tf,
+                          bst_mat **rf)
+{
+    bst_ctx *ctx = w->ctx;
+    bst_mat *r1 = NULL;
+    int rc;
+    if (w->G == 0)
+        rc = src ? bst_mat_convert(ctx, src, bst_mat_structure(src), BST_DOUBLE, tf) : BST_OK;
+    else
+        rc = apply(ctx, comp(w, w->n, BST_TF), w->lam, w->D[w->G - 1], tf);
+    if (rc >= 0 && comp(w, 1, BST_RF))
+        rc = bst_mat_select_cols(ctx, comp(w, 1, BST_RF), w->ncols, cols, &r1);
+    if (rc >= 0) {
+        bst_mat *b = NULL;
+        if (w->G > 0)
+            rc = apply(ctx, comp(w, 1, BST_TB), w->lam, w->U[0], &b);
+        if (rc >= 0) {
+            rc = add_into(ctx, r1, b, rf);
+            r1 = NULL;
+        }
+    }
+    bst_mat_free(r1);
+    for (size_t q = 0; rc >= 0 && q < 2; q++) { /* absent results are zero matrices */
+        bst_mat **m = q ? rf : tf;
+        if (!*m)
+            rc = bst_mat_new_zero(ctx, w->N, w->ncols, m);
+    }
+    if (rc >= 0 && (!bst_mat_all_finite(*tf) || !bst_mat_all_finite(*rf))) /* products overflow */
+        rc = bsti_error(ctx, BST_EINVAL, "columns: the result overflows double: input values too "
+                        "large");
+    return rc;
+}
+
+/* The layers' channel indices into ch, checking bases, channels and the incident patches. */
+static int check_stack(bst_ctx *ctx, size_t n, const bst_layer *const *layers, const char *channel,
+                       size_t ncols, const size_t *cols, int *ch)
+{
+    const bst_basis *basis = bst_layer_basis(layers[0]);
+    size_t N = bst_basis_size(basis);
+    for (size_t i = 0; i < n; i++) {
+        if (!layers[i] || !bst_basis_equal(bst_layer_basis(layers[i]), basis))
+            return bsti_error(ctx, BST_EBASIS, "columns: layer %zu is missing or in another basis", i + 1);
+        if ((ch[i] = bst_layer_find_channel(layers[i], channel)) < 0)
+            return bsti_error(ctx, BST_ENOTFOUND, "columns: layer %zu has no channel %s", i + 1, channel);
+    }
+    for (size_t j = 0; j < ncols; j++)
+        if (cols[j] >= N)
+            return bsti_error(ctx, BST_EINVAL, "columns: incident patch %zu of %zu", cols[j], N);
+    return BST_OK;
+}
+
 int bst_stack_columns(bst_ctx *ctx, size_t n, const bst_layer *const *layers, const char *channel,
                       size_t ncols, const size_t *cols, bst_columns_opts *opts, bst_mat **tf,
                       bst_mat **rf)
@@ -110,113 +217,51 @@ int bst_stack_columns(bst_ctx *ctx, size_t n, const bst_layer *const *layers, co
         return bsti_error(ctx, BST_EINVAL, "columns: tolerance must be > 0 and max_iter >= 1");
     if (!layers[0])
         return bsti_error(ctx, BST_EINVAL, "columns: layer 1 is missing");
-    const bst_basis *basis = bst_layer_basis(layers[0]);
-    size_t N = bst_basis_size(basis);
+    size_t N = bst_basis_size(bst_layer_basis(layers[0])), G = n - 1;
     if (!channel)
         channel = bst_layer_channel(layers[0], 0);
     int *ch = bsti_alloc_array(ctx, n, sizeof *ch);
     if (!ch)
         return BST_ENOMEM; /* the allocator has said so in ctx */
-    for (size_t i = 0; i < n; i++) {
-        if (!layers[i] || !bst_basis_equal(bst_layer_basis(layers[i]), basis)) {
-            bsti_free(ctx, ch);
-            return bsti_error(ctx, BST_EBASIS, "columns: layer %zu is missing or in another basis", i + 1);
-        }
-        if ((ch[i] = bst_layer_find_channel(layers[i], channel)) < 0) {
-            bsti_free(ctx, ch);
-            return bsti_error(ctx, BST_ENOTFOUND, "columns: layer %zu has no channel %s", i + 1, channel);
-        }
-    }
-    for (size_t j = 0; j < ncols; j++)
-        if (cols[j] >= N) {
-            bsti_free(ctx, ch);
-            return bsti_error(ctx, BST_EINVAL, "columns: incident patch %zu of %zu", cols[j], N);
-        }
-    const double *lam = bst_basis_lambda(basis);
-    /* back incidence: the same iteration over the stack seen from the back, layers in reverse
-     * order with front and back components exchanged (patch indices need no change: they follow
-     * the propagation direction's x and y, which the other side's view shares) */
-    static const bst_comp swapped[BST_NCOMP] = {[BST_TF] = BST_TB, [BST_RF] = BST_RB, [BST_TB] = BST_TF,
-                                                [BST_RB] = BST_RF};
-    int back = opts->back != 0;
-#define LAYER(i) (back ? n - (i) : (i) - 1)
-#define COMP(i, c) bst_layer_get(layers[LAYER(i)], (size_t)ch[LAYER(i)], back ? swapped[c] : (bst_comp)(c))
-    size_t G = n - 1;
-    bst_mat **D = bsti_calloc(ctx, 2 * G + 1, sizeof *D), **U = D + G, *src = NULL, *r1 = NULL;
-    double *buf = bsti_alloc_array(ctx, N * ncols, sizeof *buf);
-    double *old = bsti_alloc_array(ctx, 2 * G * N * ncols + 1, sizeof *old);
-    int rc = D && buf && old ? BST_OK : BST_ENOMEM;
-    if (rc >= 0 && COMP(1, BST_TF))
-        rc = bst_mat_select_cols(ctx, COMP(1, BST_TF), ncols, cols, &src);
+    int rc = check_stack(ctx, n, layers, channel, ncols, cols, ch);
+    struct sweep w = {ctx, layers, ch, n, G, N, ncols, opts->back != 0,
+                      bst_basis_lambda(bst_layer_basis(layers[0])), NULL, NULL, NULL, NULL};
+    w.D = rc >= 0 ? bsti_calloc(ctx, 2 * G + 1, sizeof *w.D) : NULL;
+    w.U = w.D ? w.D + G : NULL;
+    w.buf = w.D ? bsti_alloc_array(ctx, N * ncols, sizeof *w.buf) : NULL;
+    w.old = w.buf ? bsti_alloc_array(ctx, 2 * G * N * ncols + 1, sizeof *w.old) : NULL;
+    if (rc >= 0 && !w.old)
+        rc = BST_ENOMEM;
+    bst_mat *src = NULL;
+    if (rc >= 0 && comp(&w, 1, BST_TF))
+        rc = bst_mat_select_cols(ctx, comp(&w, 1, BST_TF), ncols, cols, &src);
     /* a float layer makes float products, whose rounding a sweep cannot get below: stop there */
     double tol = opts->tol;
-    for (size_t i = 1; i <= n; i++)
+    for (size_t i = 1; rc >= 0 && i <= n; i++)
         for (int c = 0; c < BST_NCOMP; c++)
-            if (COMP(i, c) && bst_mat_precision(COMP(i, c)) == BST_FLOAT)
+            if (comp(&w, i, (bst_comp)c) && bst_mat_precision(comp(&w, i, (bst_comp)c)) == BST_FLOAT)
                 tol = fmax(tol, BST_COLUMNS_TOL_FLOAT);
     double in = 0.0, change = INFINITY;
     if (rc >= 0)
-        rc = flux(ctx, src, NULL, lam, N, ncols, buf, &in);
+        rc = flux(ctx, src, NULL, w.lam, N, ncols, w.buf, &in);
     if (rc >= 0)
-        memset(old, 0, 2 * G * N * ncols * sizeof *old);
+        memset(w.old, 0, 2 * G * N * ncols * sizeof *w.old);
     int it = 0;
     while (rc >= 0 && G > 0 && it < opts->max_iter && !(change <= tol * in)) {
         change = 0.0;
-        for (size_t g = 1; rc >= 0 && g <= G; g++) { /* inwards: D_g */
-            bst_mat *a = NULL, *b = NULL;
-            if (g == 1)
-                rc = src ? bst_mat_convert(ctx, src, bst_mat_structure(src), BST_DOUBLE, &a) : BST_OK;
-            else
-                rc = apply(ctx, COMP(g, BST_TF), lam, D[g - 2], &a);
-            if (rc >= 0)
-                rc = apply(ctx, COMP(g, BST_RB), lam, U[g - 1], &b);
-            rc = update(ctx, rc, a, b, &D[g - 1], old + (g - 1) * N * ncols, lam, N, ncols, buf, &change);
-        }
-        for (size_t g = G; rc >= 0 && g >= 1; g--) { /* outwards: U_g */
-            bst_mat *a = NULL, *b = NULL;
-            rc = apply(ctx, COMP(g + 1, BST_RF), lam, D[g - 1], &a);
-            if (rc >= 0 && g < G)
-                rc = apply(ctx, COMP(g + 1, BST_TB), lam, U[g], &b);
-            rc = update(ctx, rc, a, b, &U[g - 1], old + (G + g - 1) * N * ncols, lam, N, ncols, buf, &change);
-        }
+        rc = sweep_once(&w, src, &change);
         it++;
-        if (!isfinite(change))
+        if (rc >= 0 && !isfinite(change))
             rc = bsti_error(ctx, BST_EINVAL, "columns: the iteration produced a non-finite value");
     }
     opts->iterations = it;
     opts->residual = G == 0 || in == 0.0 ? 0.0 : change / in;
-    /* the system's columns */
-    if (rc >= 0) {
-        if (G == 0)
-            rc = src ? bst_mat_convert(ctx, src, bst_mat_structure(src), BST_DOUBLE, tf) : BST_OK;
-        else
-            rc = apply(ctx, COMP(n, BST_TF), lam, D[G - 1], tf);
-    }
-    if (rc >= 0 && COMP(1, BST_RF))
-        rc = bst_mat_select_cols(ctx, COMP(1, BST_RF), ncols, cols, &r1);
-    if (rc >= 0) {
-        bst_mat *b = NULL;
-        if (G > 0)
-            rc = apply(ctx, COMP(1, BST_TB), lam, U[0], &b);
-        if (rc >= 0) {
-            rc = add_into(ctx, r1, b, rf);
-            r1 = NULL;
-        }
-    }
-    for (size_t q = 0; rc >= 0 && q < 2; q++) { /* absent results are zero matrices */
-        bst_mat **m = q ? rf : tf;
-        if (!*m)
-            rc = bst_mat_new_zero(ctx, N, ncols, m);
-    }
-    if (rc >= 0 && (!bst_mat_all_finite(*tf) || !bst_mat_all_finite(*rf))) /* products overflow */
-        rc = bsti_error(ctx, BST_EINVAL, "columns: the result overflows double: input values too "
-                        "large");
-#undef COMP
-#undef LAYER
-    for (size_t g = 0; D && g < 2 * G; g++)
-        bst_mat_free(D[g]);
-    bsti_free(ctx, D), bsti_free(ctx, buf), bsti_free(ctx, old), bsti_free(ctx, ch);
-    bst_mat_free(src), bst_mat_free(r1);
+    if (rc >= 0)
+        rc = system_columns(&w, src, cols, tf, rf);
+    for (size_t g = 0; w.D && g < 2 * G; g++)
+        bst_mat_free(w.D[g]);
+    bsti_free(ctx, w.D), bsti_free(ctx, w.buf), bsti_free(ctx, w.old), bsti_free(ctx, ch);
+    bst_mat_free(src);
     if (rc < 0) {
         bst_mat_free(*tf), bst_mat_free(*rf);
         *tf = *rf = NULL;

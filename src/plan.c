@@ -241,3 +241,20 @@ double bst_plan_memory(const bst_basis *basis, size_t n, const bst_bsdf *const *
     double w = combining ? 3.0 * (work == BST_FLOAT ? 4.0 : 8.0) : 0.0;
     return need + cells * ((double)held * (read == BST_FLOAT ? 4.0 : 8.0) + (w > 8.0 ? w : 8.0));
 }
+
+double bst_plan_work(size_t n, const bst_structure *structure, size_t N, double *work)
+{
+    if (n == 0 || !structure)
+        return 0.0;
+    double dn = (double)N, unit[4] = {0.0, dn, dn * dn, dn * dn * dn}, sum = 0.0;
+    bst_structure s = structure[0];
+    for (size_t i = 1; i < n; i++) {
+        if (structure[i] > s)
+            s = structure[i];
+        double w = s >= BST_ZERO && s <= BST_DENSE ? unit[s] : unit[BST_DENSE];
+        if (work)
+            work[i - 1] = w;
+        sum += w;
+    }
+    return sum;
+}

@@ -428,16 +428,10 @@ static int factor_solve(struct factor *f, int trans, const bst_mat *b, bst_mat *
     return BST_OK;
 }
 
-static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a, size_t nb,
-                         const bst_mat *const *b, bst_mat **own_b, double rcond_warn,
-                         bst_mat **out, double *rcond_out, bsti_factor **keep)
+/* The operands' shapes and the threshold, at the public entry. */
+static int check_operands(bst_ctx *ctx, int right, const bst_mat *a, size_t nb,
+                          const bst_mat *const *b, double rcond_warn)
 {
-    if (keep)
-        *keep = NULL;
-    if (!ctx)
-        return BST_EINVAL;
-    if (rcond_out)
-        *rcond_out = 0.0;
     if (!a)
         return bsti_error(ctx, BST_EINVAL, "solve: NULL matrix");
     for (size_t q = 0; q < nb; q++)
@@ -451,6 +445,72 @@ static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **ow
                               a->cols, b[q]->rows, b[q]->cols);
     if (!(rcond_warn >= 0.0))
         return bsti_error(ctx, BST_EINVAL, "solve: warning threshold %g is not >= 0", rcond_warn);
+    return BST_OK;
+}
+
+/* One right-hand side b (bq: the same, owned and consumable, or NULL) through the factorization f
+ * into *out; last: f is not needed after this one (freed here as soon as it is dead). */
+static int solve_one(bst_ctx *ctx, struct factor *f, int right, const bst_mat *b, bst_mat *bq,
+                     int last, bst_mat **out)
+{
+    int rc;
+    int in_place = bq && f->s == BST_DENSE && bq->s == BST_DENSE && bq->prec == f->prec &&
+                   (!right || bq->rows == bq->cols);
+    if (in_place) {
+        *out = bq;
+        if (right)
+            bsti_mat_transpose_in_place(bq);
+        rc = dense_solve_in_place(f, right, bq);
+        if (right && last)
+            factor_free(f);
+        if (right)
+            bsti_mat_transpose_in_place(bq);
+        return rc;
+    }
+    if (!right) {
+        rc = factor_solve(f, 0, b, out);
+        bst_mat_free(bq);
+        return rc;
+    }
+    /* Y^T = (I - A)^-T B^T; each workspace freed as soon as it is dead, B^T solved in place when
+     * it is dense in the factor's precision */
+    bst_mat *bt = NULL, *xt = NULL;
+    rc = bst_mat_transpose(ctx, b, &bt);
+    bst_mat_free(bq);
+    if (rc >= 0 && f->s == BST_DENSE && bt->s == BST_DENSE && bt->prec == f->prec) {
+        rc = dense_solve_in_place(f, 1, bt);
+        xt = bt;
+        bt = NULL;
+    } else if (rc >= 0) {
+        rc = factor_solve(f, 1, bt, &xt);
+    }
+    bst_mat_free(bt);
+    if (last)
+        factor_free(f);
+    if (rc >= 0 && xt->s == BST_DENSE && xt->rows == xt->cols) {
+        bsti_mat_transpose_in_place(xt);
+        *out = xt;
+        xt = NULL;
+    } else if (rc >= 0) {
+        rc = bst_mat_transpose(ctx, xt, out);
+    }
+    bst_mat_free(xt);
+    return rc;
+}
+
+static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a, size_t nb,
+                         const bst_mat *const *b, bst_mat **own_b, double rcond_warn,
+                         bst_mat **out, double *rcond_out, bsti_factor **keep)
+{
+    if (keep)
+        *keep = NULL;
+    if (!ctx)
+        return BST_EINVAL;
+    if (rcond_out)
+        *rcond_out = 0.0;
+    int rc = check_operands(ctx, right, a, nb, b, rcond_warn);
+    if (rc < 0)
+        return rc;
     int b_float = 0;
     for (size_t q = 0; q < nb; q++)
         b_float |= b[q]->s == BST_DENSE && b[q]->prec == BST_FLOAT;
@@ -460,7 +520,7 @@ static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **ow
     double rcond;
     bst_mat *adense = NULL;
     int a_dense = a->s == BST_DENSE;
-    int rc = factor_new(ctx, a, prec, &f, &rcond, own_a);
+    rc = factor_new(ctx, a, prec, &f, &rcond, own_a);
     if (rc == BSTI_USE_DENSE) { /* workspace: a dense copy of A (n^2 doubles) */
         factor_free(&f);
         rc = bst_mat_convert(ctx, a, BST_DENSE, BST_DOUBLE, &adense);
@@ -477,51 +537,9 @@ static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **ow
         *rcond_out = rcond;
     for (size_t q = 0; q < nb && rc >= 0; q++) {
         bst_mat *bq = own_b ? own_b[q] : NULL;
-        int in_place = bq && f.s == BST_DENSE && bq->s == BST_DENSE && bq->prec == f.prec &&
-                       (!right || bq->rows == bq->cols);
-        if (in_place) {
-            out[q] = bq;
+        if (own_b)
             own_b[q] = NULL;
-            if (right)
-                bsti_mat_transpose_in_place(bq);
-            rc = dense_solve_in_place(&f, right, bq);
-            if (right && q + 1 == nb && !keep)
-                factor_free(&f);
-            if (right)
-                bsti_mat_transpose_in_place(bq);
-        } else if (right) { /* Y^T = (I - A)^-T B^T; each workspace freed as soon as it is dead,
-                             * B^T solved in place when it is dense in the factor's precision */
-            bst_mat *bt = NULL, *xt = NULL;
-            rc = bst_mat_transpose(ctx, b[q], &bt);
-            if (bq) {
-                bst_mat_free(bq);
-                own_b[q] = NULL;
-            }
-            if (rc >= 0 && f.s == BST_DENSE && bt->s == BST_DENSE && bt->prec == f.prec) {
-                rc = dense_solve_in_place(&f, 1, bt);
-                xt = bt;
-                bt = NULL;
-            } else if (rc >= 0) {
-                rc = factor_solve(&f, 1, bt, &xt);
-            }
-            bst_mat_free(bt);
-            if (q + 1 == nb && !keep)
-                factor_free(&f);
-            if (rc >= 0 && xt->s == BST_DENSE && xt->rows == xt->cols) {
-                bsti_mat_transpose_in_place(xt);
-                out[q] = xt;
-                xt = NULL;
-            } else if (rc >= 0) {
-                rc = bst_mat_transpose(ctx, xt, &out[q]);
-            }
-            bst_mat_free(xt);
-        } else {
-            rc = factor_solve(&f, 0, b[q], &out[q]);
-            if (bq) {
-                bst_mat_free(bq);
-                own_b[q] = NULL;
-            }
-        }
+        rc = solve_one(ctx, &f, right, b[q], bq, q + 1 == nb && !keep, &out[q]);
     }
     if (rc >= 0 && keep && f.s != BST_ZERO && (*keep = bsti_alloc_array(ctx, 1, sizeof **keep)))
         **keep = f; /* handed to the caller (bsti_factor_free) */

@@ -464,35 +464,19 @@ static int run_workers(bst_ctx *ctx, struct worker *wk, size_t nw)
  * asked) of the whole system's components (ncols == 0) or of its columns cols (copts: Tf and Rf
  * slots, or Tb and Rb with copts->back), and the absorptance; the highest warning or an error
  * (then nothing is left in sums). */
-static int spectral_run(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers,
-                        const bst_basis *basis, size_t nchannels, const char *const *channels,
-                        const bst_spectral_opts *so, const bst_stack_opts *opts_in, size_t ncols,
-                        const size_t *cols, bst_columns_opts *copts, bst_mat **sums,
-                        double *abs_front, double *abs_back)
+/* The groups of wavelengths of every channel (bsti_spectral_groups), each with the panes' mean
+ * data: *jobs and *means (4 n values a group), *njobs of them; *total: the channels' wavelengths
+ * (room allocated).  all: the union grid of nall wavelengths; split: a dual-band layer. */
+static int make_groups(bst_ctx *ctx, bst_glass *ref, size_t n, const bst_spectral_layer *layers,
+                       size_t nchannels, const char *const *channels, const double *all,
+                       size_t nall, const bst_spectral_opts *so, int split,
+                       struct bsti_group **jobs_out, double **means_out, size_t *njobs_out,
+                       size_t *total_out)
 {
-    bst_glass *ref;
-    int rc = check_layers(ctx, n, layers, so, &ref);
-    if (rc < 0)
-        return rc;
-    bst_stack_opts defaults;
-    bst_stack_opts_init(&defaults);
-    const bst_stack_opts *opts = opts_in ? opts_in : &defaults;
-    unsigned want = opts->comps ? opts->comps & BST_COMP_ALL : BST_COMP_ALL;
-    int want_abs = abs_front || abs_back;
-
-    size_t N = bst_basis_size(basis), nwl = 0, nall = 0, total = 0, njobs = 0, nw = 0;
-    double *all = NULL, *w = NULL, *data = NULL, *means = NULL;
-    struct dual *dual = bsti_calloc(ctx, n, sizeof *dual);
+    size_t nwl = 0, total = 0, njobs = 0;
+    double *w = NULL, *data = NULL, *means = NULL;
     struct bsti_group *jobs = NULL;
-    struct worker *wk = NULL;
-    bsti_glass_rule *rule = NULL;
-    int split = 0; /* a dual-band layer changes at the visible range's limits */
-    rc = dual ? union_grid(ctx, n, layers, &all, &nall) : BST_ENOMEM;
-    for (size_t i = 0; i < n && rc >= 0; i++)
-        if (layers[i].bands)
-            rc = dual_new(ctx, layers[i].bands, i, basis, so->dual_f, &dual[i]), split = 1;
-    if (rc >= 0)
-        rc = bsti_glass_rule_new(ctx, basis, so->at_centre, BST_GLASS_SAMPLES, &rule);
+    int rc = BST_OK;
     for (size_t c = 0; c < nchannels && rc >= 0; c++) {
         if (bst_glass_find_channel(ref, channels[c]) < 0)
             rc = bst_glass_add_channel(ctx, ref, channels[c]);
@@ -527,36 +511,17 @@ static int spectral_run(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers
         njobs += bsti_spectral_groups(4 * n, data, split, wl, w, nwl, budget, c, jobs + njobs,
                                 means + njobs * 4 * n, ws, &vsum);
     }
-    /* the workers and their sums */
-    struct shared sh = {.n = n, .N = N, .njobs = njobs, .total = total ? total : 1,
-                        .layers = layers, .dual = dual, .basis = basis, .rule = rule,
-                        .opts = opts, .want = want, .want_abs = want_abs, .jobs = jobs,
-                        .ncols = ncols, .cols = cols, .copts = copts,
-                        .on_step = opts->on_step, .opaque = opts->opaque};
-    bst_stack_opts wopts = *opts;
-    if (opts->on_step)
-        wopts.on_step = locked_step, wopts.opaque = &sh, sh.opts = &wopts;
-    atomic_init(&sh.stop, 0);
-    pthread_mutex_init(&sh.lock, NULL);
-    if (rc >= 0) {
-        sh.nworkers = nw = worker_count(ctx, N, njobs);
-        if (!(wk = bsti_calloc(ctx, nw, sizeof *wk)))
-            rc = BST_ENOMEM;
-    }
-    for (size_t t = 0; t < nw && rc >= 0; t++) {
-        wk[t].sh = &sh, wk[t].index = t;
-        wk[t].ctx = t ? bst_ctx_new() : ctx;
-        wk[t].acc = bsti_calloc(ctx, nchannels * BST_NCOMP, sizeof *wk[t].acc);
-        wk[t].abs = want_abs ? bsti_calloc(ctx, nchannels * 2 * n * N, sizeof *wk[t].abs) : NULL;
-        if (!wk[t].ctx)
-            rc = bsti_error(ctx, BST_ENOMEM, "out of memory (a worker's context)");
-        else if (!wk[t].acc || (want_abs && !wk[t].abs))
-            rc = BST_ENOMEM;
-    }
-    int warn = rc >= 0 ? run_workers(ctx, wk, nw) : BST_OK;
-    if (warn < 0)
-        rc = warn, warn = BST_OK;
-    /* the sums of the workers, in worker order, into the caller's context */
+    bsti_free(ctx, w), bsti_free(ctx, data);
+    *jobs_out = jobs, *means_out = means, *njobs_out = njobs, *total_out = total;
+    return rc;
+}
+
+/* The sums of the workers, in worker order, into the caller's context: sums[c * BST_NCOMP + m],
+ * and the absorptance when asked. */
+static int gather(bst_ctx *ctx, struct worker *wk, size_t nw, size_t nchannels, size_t n, size_t N,
+                  int want_abs, bst_mat **sums, double *abs_front, double *abs_back)
+{
+    int rc = BST_OK;
     for (size_t c = 0; c < nchannels && rc >= 0; c++) {
         for (int m = 0; m < BST_NCOMP && rc >= 0; m++) {
             bst_mat *sum = NULL;
@@ -586,6 +551,72 @@ static int spectral_run(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers
                 abs_back[c * n * N + i] = b;
         }
     }
+    return rc;
+}
+
+static int spectral_run(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers,
+                        const bst_basis *basis, size_t nchannels, const char *const *channels,
+                        const bst_spectral_opts *so, const bst_stack_opts *opts_in, size_t ncols,
+                        const size_t *cols, bst_columns_opts *copts, bst_mat **sums,
+                        double *abs_front, double *abs_back)
+{
+    bst_glass *ref;
+    int rc = check_layers(ctx, n, layers, so, &ref);
+    if (rc < 0)
+        return rc;
+    bst_stack_opts defaults;
+    bst_stack_opts_init(&defaults);
+    const bst_stack_opts *opts = opts_in ? opts_in : &defaults;
+    unsigned want = opts->comps ? opts->comps & BST_COMP_ALL : BST_COMP_ALL;
+    int want_abs = abs_front || abs_back;
+
+    size_t N = bst_basis_size(basis), nall = 0, total = 0, njobs = 0, nw = 0;
+    double *all = NULL, *means = NULL;
+    struct dual *dual = bsti_calloc(ctx, n, sizeof *dual);
+    struct bsti_group *jobs = NULL;
+    struct worker *wk = NULL;
+    bsti_glass_rule *rule = NULL;
+    int split = 0; /* a dual-band layer changes at the visible range's limits */
+    rc = dual ? union_grid(ctx, n, layers, &all, &nall) : BST_ENOMEM;
+    for (size_t i = 0; i < n && rc >= 0; i++)
+        if (layers[i].bands)
+            rc = dual_new(ctx, layers[i].bands, i, basis, so->dual_f, &dual[i]), split = 1;
+    if (rc >= 0)
+        rc = bsti_glass_rule_new(ctx, basis, so->at_centre, BST_GLASS_SAMPLES, &rule);
+    if (rc >= 0)
+        rc = make_groups(ctx, ref, n, layers, nchannels, channels, all, nall, so, split, &jobs,
+                         &means, &njobs, &total);
+    /* the workers and their sums */
+    struct shared sh = {.n = n, .N = N, .njobs = njobs, .total = total ? total : 1,
+                        .layers = layers, .dual = dual, .basis = basis, .rule = rule,
+                        .opts = opts, .want = want, .want_abs = want_abs, .jobs = jobs,
+                        .ncols = ncols, .cols = cols, .copts = copts,
+                        .on_step = opts->on_step, .opaque = opts->opaque};
+    bst_stack_opts wopts = *opts;
+    if (opts->on_step)
+        wopts.on_step = locked_step, wopts.opaque = &sh, sh.opts = &wopts;
+    atomic_init(&sh.stop, 0);
+    pthread_mutex_init(&sh.lock, NULL);
+    if (rc >= 0) {
+        sh.nworkers = nw = worker_count(ctx, N, njobs);
+        if (!(wk = bsti_calloc(ctx, nw, sizeof *wk)))
+            rc = BST_ENOMEM;
+    }
+    for (size_t t = 0; t < nw && rc >= 0; t++) {
+        wk[t].sh = &sh, wk[t].index = t;
+        wk[t].ctx = t ? bst_ctx_new() : ctx;
+        wk[t].acc = bsti_calloc(ctx, nchannels * BST_NCOMP, sizeof *wk[t].acc);
+        wk[t].abs = want_abs ? bsti_calloc(ctx, nchannels * 2 * n * N, sizeof *wk[t].abs) : NULL;
+        if (!wk[t].ctx)
+            rc = bsti_error(ctx, BST_ENOMEM, "out of memory (a worker's context)");
+        else if (!wk[t].acc || (want_abs && !wk[t].abs))
+            rc = BST_ENOMEM;
+    }
+    int warn = rc >= 0 ? run_workers(ctx, wk, nw) : BST_OK;
+    if (warn < 0)
+        rc = warn, warn = BST_OK;
+    if (rc >= 0)
+        rc = gather(ctx, wk, nw, nchannels, n, N, want_abs, sums, abs_front, abs_back);
     for (size_t t = 0; copts && wk && t < nw; t++) {
         copts->iterations = wk[t].iterations > copts->iterations ? wk[t].iterations : copts->iterations;
         copts->residual = fmax(copts->residual, wk[t].residual);
@@ -600,7 +631,7 @@ static int spectral_run(bst_ctx *ctx, size_t n, const bst_spectral_layer *layers
     for (size_t i = 0; dual && i < n; i++)
         dual_free(&dual[i]);
     bsti_free(ctx, dual), bsti_free(ctx, jobs), bsti_free(ctx, means), bsti_free(ctx, wk);
-    bsti_free(ctx, all), bsti_free(ctx, w), bsti_free(ctx, data);
+    bsti_free(ctx, all);
     bsti_glass_rule_free(ctx, rule);
     pthread_mutex_destroy(&sh.lock);
     if (rc < 0) {

@@ -549,6 +549,100 @@ static int copy_or_zero(bst_ctx *ctx, const bst_mat *m, size_t N, bst_mat **out)
              : bst_mat_new_zero(ctx, N, N, out);
 }
 
+/* The layers at the public entry: none NULL, one basis. */
+static int check_layers(bst_ctx *ctx, size_t n, const bst_layer *const *layers)
+{
+    for (size_t i = 0; i < n; i++) {
+        if (!layers[i])
+            return bsti_error(ctx, BST_EINVAL, "stack: layer %zu is NULL", i + 1);
+        if (!bst_basis_equal(layers[i]->basis, layers[0]->basis))
+            return bsti_error(ctx, BST_EBASIS,
+                              "stack: layer %zu (%s) is in basis %s (%zu patches), layer 1 in %s "
+                              "(%zu patches): resample to one basis first", i + 1,
+                              bst_layer_name(layers[i]), bst_basis_name(layers[i]->basis),
+                              bst_basis_size(layers[i]->basis), bst_basis_name(layers[0]->basis),
+                              bst_basis_size(layers[0]->basis));
+    }
+    return BST_OK;
+}
+
+/* Hand the wanted components of the whole stack (acc) to channel ch of res: copies where still
+ * borrowed, zero matrices where a component vanished. */
+static int hand_over(struct combiner *cb, struct part *acc, unsigned want, bst_layer *res,
+                     size_t ch)
+{
+    bst_ctx *ctx = cb->ctx;
+    size_t N = bst_basis_size(res->basis);
+    int rc = BST_OK;
+    for (int c = 0; c < BST_NCOMP && rc >= 0; c++) {
+        if (!(want & BIT(c)))
+            continue;
+        bst_mat *m = acc->own[c];
+        acc->own[c] = NULL;
+        if (!m && acc->m[c])
+            rc = bst_mat_convert(ctx, acc->m[c], bst_mat_structure(acc->m[c]),
+                                 bst_mat_precision(acc->m[c]), &m);
+        else if (!m)
+            rc = bst_mat_new_zero(ctx, N, N, &m);
+        if (rc >= 0 && !bst_mat_all_finite(m)) { /* finite inputs whose products overflow */
+            rc = bsti_error(ctx, BST_EINVAL, "layers 1-%zu, channel %s: %s overflows %s: input "
+                            "values too large", cb->n, cb->channel, bst_comp_name((bst_comp)c),
+                            bst_mat_precision(m) == BST_FLOAT ? "float" : "double");
+            bst_mat_free(m);
+        } else if (rc >= 0) {
+            rc = bst_layer_set(ctx, res, ch, (bst_comp)c, m);
+        }
+    }
+    return rc;
+}
+
+/* The stack in channel ch of res (cb->channel): layer by layer, each step combining the stack so
+ * far with the next layer; need_s[k] / need_l[k]: the components needed of the partial stack of
+ * layers 0..k and of layer k. */
+static int combine_channel(struct combiner *cb, const bst_layer *const *layers, bst_layer **take,
+                           const unsigned *need_s, const unsigned *need_l, unsigned want,
+                           bst_layer *res, size_t ch, size_t nch)
+{
+    bst_ctx *ctx = cb->ctx;
+    size_t n = cb->n;
+    int rc = BST_OK;
+    for (size_t i = 0; i < n && rc >= 0; i++)
+        rc = note_warning(cb, bsti_energy_check_layer(ctx, layers[i], i,
+                          (size_t)bst_layer_find_channel(layers[i], cb->channel), cb->opts->energy_tol));
+    struct part acc = {0}, lay = {0}, next;
+    size_t ch0 = (size_t)bst_layer_find_channel(layers[0], cb->channel);
+    for (int c = 0; c < BST_NCOMP && rc >= 0; c++)
+        if (need_l[0] & BIT(c))
+            rc = prepare(cb, layers[0], take ? take[0] : NULL, ch0, &acc, (bst_comp)c);
+    for (size_t k = 1; k < n && rc >= 0; k++) {
+        size_t chk = (size_t)bst_layer_find_channel(layers[k], cb->channel);
+        for (int c = 0; c < BST_NCOMP && rc >= 0; c++)
+            if (need_l[k] & BIT(c))
+                rc = prepare(cb, layers[k], take ? take[k] : NULL, chk, &lay, (bst_comp)c);
+        cb->step = k;
+        if (rc >= 0 && cb->keep && k >= 2) { /* the stack so far, for the absorptance */
+            size_t N = bst_basis_size(res->basis);
+            rc = copy_or_zero(ctx, acc.m[BST_TF], N, &cb->keep->tf[k]);
+            if (rc >= 0)
+                rc = copy_or_zero(ctx, acc.m[BST_RB], N, &cb->keep->rb[k]);
+        }
+        if (rc >= 0)
+            rc = combine_pair(cb, &acc, &lay, need_s[k], &next);
+        part_clear(&lay);
+        part_clear(&acc);
+        if (rc >= 0)
+            acc = next;
+        bsti_progress(ctx, (double)(ch * (n - 1) + k) / (double)(nch * (n - 1)), "combining");
+    }
+    if (rc >= 0)
+        rc = hand_over(cb, &acc, want, res, ch);
+    part_clear(&acc);
+    if (rc >= 0)
+        rc = note_warning(cb, bsti_energy_check_result(ctx, res, ch, cb->opts->energy_tol,
+                                                       cb->warning >= BST_WENERGY));
+    return rc;
+}
+
 int bsti_stack_combine_keep(bst_ctx *ctx, size_t n, const bst_layer *const *layers, bst_layer **take,
                    const bst_stack_opts *opts_in, bst_layer **out, struct bsti_prefix *keep)
 {
@@ -563,31 +657,15 @@ int bsti_stack_combine_keep(bst_ctx *ctx, size_t n, const bst_layer *const *laye
     unsigned want = opts->comps ? opts->comps & BST_COMP_ALL : BST_COMP_ALL;
     if (!(opts->drop_tol >= 0.0 && opts->drop_tol < 1.0))
         return bsti_error(ctx, BST_EINVAL, "stack: drop tolerance %g is not in [0, 1)", opts->drop_tol);
-    for (size_t i = 0; i < n; i++) {
-        if (!layers[i])
-            return bsti_error(ctx, BST_EINVAL, "stack: layer %zu is NULL", i + 1);
-        if (!bst_basis_equal(layers[i]->basis, layers[0]->basis))
-            return bsti_error(ctx, BST_EBASIS,
-                              "stack: layer %zu (%s) is in basis %s (%zu patches), layer 1 in %s "
-                              "(%zu patches): resample to one basis first", i + 1,
-                              bst_layer_name(layers[i]), bst_basis_name(layers[i]->basis),
-                              bst_basis_size(layers[i]->basis), bst_basis_name(layers[0]->basis),
-                              bst_basis_size(layers[0]->basis));
-    }
+    int rc = check_layers(ctx, n, layers);
+    if (rc < 0)
+        return rc;
 
-    /* Channels common to every layer, in layer 1's order. */
     const bst_layer *l0 = layers[0];
     const char **names = bsti_calloc(ctx, l0->nchannels, sizeof *names);
     if (!names)
         return BST_ENOMEM;
-    size_t nch = 0;
-    for (size_t c = 0; c < l0->nchannels; c++) {
-        size_t i = 1;
-        while (i < n && bst_layer_find_channel(layers[i], l0->channels[c]) >= 0)
-            i++;
-        if (i == n)
-            names[nch++] = l0->channels[c];
-    }
+    size_t nch = bst_plan_channels(n, layers, names); /* in layer 1's order */
     if (nch == 0) {
         bsti_free(ctx, names);
         return bsti_error(ctx, BST_ENOTFOUND, "stack: the layers have no spectral channel in common");
@@ -596,78 +674,22 @@ int bsti_stack_combine_keep(bst_ctx *ctx, size_t n, const bst_layer *const *laye
     /* need[k]: components required of the partial stack of layers 0..k; needl[k]: of layer k. */
     unsigned *need_s = bsti_calloc(ctx, 2 * n, sizeof *need_s);
     bst_layer *res = NULL;
-    int rc = need_s ? bst_layer_new(ctx, l0->basis, nch, names, &res) : BST_ENOMEM;
-    if (rc < 0)
-        goto out;
-    unsigned *need_l = need_s + n;
-    need_s[n - 1] = want;
-    for (size_t k = n - 1; k >= 1; k--)
-        need(need_s[k], &need_s[k - 1], &need_l[k]);
-    need_l[0] = need_s[0];
-
-    struct combiner cb = {.ctx = ctx, .opts = opts, .lam = bst_basis_lambda(l0->basis), .n = n};
-    for (size_t ch = 0; ch < nch && rc >= 0; ch++) {
-        cb.channel = names[ch];
-        cb.keep = keep && strcmp(names[ch], keep->name) == 0 ? keep : NULL;
-        for (size_t i = 0; i < n && rc >= 0; i++)
-            rc = note_warning(&cb, bsti_energy_check_layer(ctx, layers[i], i,
-                              (size_t)bst_layer_find_channel(layers[i], names[ch]), opts->energy_tol));
-        if (rc < 0)
-            break;
-        struct part acc = {0}, lay = {0}, next;
-        size_t ch0 = (size_t)bst_layer_find_channel(l0, names[ch]);
-        for (int c = 0; c < BST_NCOMP && rc >= 0; c++)
-            if (need_l[0] & BIT(c))
-                rc = prepare(&cb, l0, take ? take[0] : NULL, ch0, &acc, (bst_comp)c);
-        for (size_t k = 1; k < n && rc >= 0; k++) {
-            size_t chk = (size_t)bst_layer_find_channel(layers[k], names[ch]);
-            for (int c = 0; c < BST_NCOMP && rc >= 0; c++)
-                if (need_l[k] & BIT(c))
-                    rc = prepare(&cb, layers[k], take ? take[k] : NULL, chk, &lay, (bst_comp)c);
-            cb.step = k;
-            if (rc >= 0 && keep && k >= 2 && strcmp(names[ch], keep->name) == 0) {
-                size_t N = bst_basis_size(l0->basis);
-                rc = copy_or_zero(ctx, acc.m[BST_TF], N, &keep->tf[k]);
-                if (rc >= 0)
-                    rc = copy_or_zero(ctx, acc.m[BST_RB], N, &keep->rb[k]);
-            }
-            if (rc >= 0)
-                rc = combine_pair(&cb, &acc, &lay, need_s[k], &next);
-            part_clear(&lay);
-            part_clear(&acc);
-            if (rc >= 0)
-                acc = next;
-            bsti_progress(ctx, (double)(ch * (n - 1) + k) / (double)(nch * (n - 1)), "combining");
+    rc = need_s ? bst_layer_new(ctx, l0->basis, nch, names, &res) : BST_ENOMEM;
+    if (rc >= 0) {
+        unsigned *need_l = need_s + n;
+        need_s[n - 1] = want;
+        for (size_t k = n - 1; k >= 1; k--)
+            need(need_s[k], &need_s[k - 1], &need_l[k]);
+        need_l[0] = need_s[0];
+        struct combiner cb = {.ctx = ctx, .opts = opts, .lam = bst_basis_lambda(l0->basis), .n = n};
+        for (size_t ch = 0; ch < nch && rc >= 0; ch++) {
+            cb.channel = names[ch];
+            cb.keep = keep && strcmp(names[ch], keep->name) == 0 ? keep : NULL;
+            rc = combine_channel(&cb, layers, take, need_s, need_l, want, res, ch, nch);
         }
-        /* Hand the requested components to the result (copies when still borrowed). */
-        for (int c = 0; c < BST_NCOMP && rc >= 0; c++) {
-            if (!(want & BIT(c)))
-                continue;
-            bst_mat *m = acc.own[c];
-            acc.own[c] = NULL;
-            if (!m && acc.m[c])
-                rc = bst_mat_convert(ctx, acc.m[c], bst_mat_structure(acc.m[c]),
-                                     bst_mat_precision(acc.m[c]), &m);
-            else if (!m)
-                rc = bst_mat_new_zero(ctx, bst_basis_size(l0->basis), bst_basis_size(l0->basis), &m);
-            if (rc >= 0 && !bst_mat_all_finite(m)) { /* finite inputs whose products overflow */
-                rc = bsti_error(ctx, BST_EINVAL, "layers 1-%zu, channel %s: %s overflows %s: "
-                                "input values too large", n, names[ch], bst_comp_name((bst_comp)c),
-                                bst_mat_precision(m) == BST_FLOAT ? "float" : "double");
-                bst_mat_free(m);
-            } else if (rc >= 0) {
-                rc = bst_layer_set(ctx, res, ch, (bst_comp)c, m);
-            }
-        }
-        part_clear(&acc);
-        if (rc >= 0)
-            rc = note_warning(&cb, bsti_energy_check_result(ctx, res, ch, opts->energy_tol,
-                                                            cb.warning >= BST_WENERGY));
+        if (rc >= 0 && cb.warning > 0)
+            rc = cb.warning; /* the message of the last warning is in ctx */
     }
-    if (rc >= 0 && cb.warning > 0) {
-        rc = cb.warning; /* the message of the last warning is in ctx */
-    }
-out:
     bsti_free(ctx, need_s);
     bsti_free(ctx, names);
     if (rc < 0) {

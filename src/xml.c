@@ -587,6 +587,120 @@ static int source_read(void *opaque, char *buf, int len)
     return (int)n;
 }
 
+/* The file through libxml2's SAX parser into r (r->status: the first error). */
+static void parse(struct reader *r, FILE *fp, double size)
+{
+    bst_ctx *ctx = r->ctx;
+    const char *path = r->path;
+    xmlSAXHandler sax;
+    memset(&sax, 0, sizeof sax);
+    sax.initialized = XML_SAX2_MAGIC;
+    sax.startElementNs = on_start;
+    sax.endElementNs = on_end;
+    sax.characters = on_chars;
+    sax.serror = on_error;
+    struct source src = {.fp = fp, .ctx = ctx, .size = size};
+    /* libxml2 reports some errors (encoding conversion, I/O) through its per-thread generic
+     * handler, which prints on stderr; a library does not print: silenced while reading (the
+     * parse fails with its own message) and given back after. */
+    xmlGenericErrorFunc saved_fn = xmlGenericError;
+    void *saved_ctx = xmlGenericErrorContext;
+    xmlSetGenericErrorFunc(NULL, silent);
+    if (!(r->pctxt = xmlCreateIOParserCtxt(&sax, r, source_read, NULL, &src,
+                                                  XML_CHAR_ENCODING_NONE)) || !r->b->path) {
+        r->status = bsti_error(ctx, BST_ENOMEM, "%s: out of memory starting the XML parser", path);
+    } else {
+        xmlCtxtUseOptions(r->pctxt, XML_PARSE_HUGE | XML_PARSE_NONET);
+        int e = xmlParseDocument(r->pctxt);
+        /* what libxml2 calls "Document is empty" or an encoding error, said as it is; emptiness
+         * as read, not as stat says it (a /proc file has size 0 and text) */
+        if (src.utf32)
+            r->status = bsti_error(ctx, BST_EFORMAT, "%s: UTF-32 text; BSDF XML is read in UTF-8 or "
+                                  "UTF-16 (iconv -f UTF-32 -t UTF-8 converts it)", path);
+        else if (src.done == 0 && !src.err)
+            r->status = bsti_error(ctx, BST_EFORMAT, "%s: the file is empty", path);
+        if (r->status >= 0 && src.err)
+            r->status = bsti_error(ctx, BST_EIO, "%s: read error: %s", path, strerror(src.err));
+        if (r->status >= 0 && (e || !r->pctxt->wellFormed))
+            r->status = bsti_error(ctx, BST_EFORMAT, "%s: malformed or truncated XML", path);
+        bsti_progress(ctx, 1.0, "reading");
+    }
+    xmlSetGenericErrorFunc(saved_ctx, saved_fn);
+    if (r->pctxt) {
+        /* An internal DTD subset makes libxml2 build a document to hold it, even under SAX. */
+        if (r->pctxt->myDoc)
+            xmlFreeDoc(r->pctxt->myDoc);
+        xmlFreeParserCtxt(r->pctxt);
+    }
+}
+
+/* What the parse left checked: channels found, a basis, and the components the file lacks told
+ * in note (completed by reciprocity or as zero). */
+static int check_read(struct reader *r, const bst_bsdf_read_opts *opts, char *note, size_t size)
+{
+    bst_ctx *ctx = r->ctx;
+    const char *path = r->path;
+    bst_bsdf *b = r->b;
+    int rc = r->status;
+    if (rc >= 0) {
+        /* the kind of the blocks read, not of the last <IncidentDataStructure> seen */
+        b->kind = r->kind < 0 ? BST_FILE_KLEMS : (bst_file_kind)r->kind;
+        if (b->nch == 0 && opts && opts->nchannels) {
+            char names[256] = "";
+            for (size_t i = 0; i < opts->nchannels; i++) {
+                size_t len = strlen(names);
+                snprintf(names + len, sizeof names - len, "%s'%s'", i ? ", " : "", opts->channels[i]);
+            }
+            rc = bsti_error(ctx, BST_EFORMAT, "%s: no <ScatteringData> for channel %s%s", path, names,
+                            opts->comps ? " and the requested components" : "");
+        } else if (b->nch == 0) {
+            rc = bsti_error(ctx, BST_EFORMAT, "%s: no <ScatteringData> %s", path,
+                            opts && opts->comps ? "for the requested components" : "found");
+        }
+    }
+    if (rc >= 0 && b->kind != BST_FILE_KLEMS && b->k < 1)
+        rc = bsti_error(ctx, BST_EFORMAT, "%s: tensor trees of depth 0 (a single value) have no basis", path);
+    /* Completion: reciprocity for a missing transmission, zero for a missing reflection. */
+    unsigned comps = opts && opts->comps ? opts->comps : BST_COMP_ALL;
+    for (size_t ch = 0; rc >= 0 && ch < b->nch; ch++) {
+        for (int c = 0; c < BST_NCOMP; c++) {
+            if (!(comps & BST_COMP_BIT(c)) || bsti_bsdf_stored(b, ch, c))
+                continue;
+            int other = bsti_bsdf_reciprocal(c);
+            const char *how = other >= 0 && bsti_bsdf_stored(b, ch, other) ? "from reciprocity" : "as zero";
+            size_t len = strlen(note);
+            snprintf(note + len, size - len, "%s%s %s %s", len ? "; " : "", b->channels[ch],
+                     bst_comp_name((bst_comp)c), how);
+        }
+    }
+    return rc;
+}
+
+/* What was read other than stated (note: completed components), in one warning. */
+static int read_warning(bst_ctx *ctx, const char *path, bst_bsdf *b, const char *note,
+                        size_t negatives)
+{
+    char warn[512] = "";
+    if (note[0])
+        snprintf(warn, sizeof warn, "not in the file, completed: %s", note);
+    b->depth = b->kind == BST_FILE_KLEMS ? 0 : b->k;
+    b->negatives = negatives;
+    if (b->kind != BST_FILE_KLEMS && b->k > BST_K_MAX) {
+        size_t len = strlen(warn);
+        snprintf(warn + len, sizeof warn - len, "%sa tensor tree of depth %d, read at k = %d (its "
+                 "finest cells averaged)", len ? "; " : "", b->k, BST_K_MAX);
+        b->k = BST_K_MAX;
+    }
+    if (negatives) {
+        size_t len = strlen(warn);
+        snprintf(warn + len, sizeof warn - len, "%s%zu negative value%s read as 0 (as libBSDF does)",
+                 len ? "; " : "", negatives, negatives > 1 ? "s" : "");
+    }
+    if (warn[0])
+        return bsti_error(ctx, BST_WDATA, "%s: %s", path, warn);
+    return BST_OK;
+}
+
 int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_bsdf_read_opts *opts, bst_bsdf **out)
 {
     if (!ctx || !out)
@@ -616,108 +730,19 @@ int bst_bsdf_read(bst_ctx *ctx, const char *path, const bst_bsdf_read_opts *opts
     r.b->ctx = ctx;
     r.b->prec = prec;
     r.b->path = bsti_strdup(ctx, path);
-    xmlSAXHandler sax;
-    memset(&sax, 0, sizeof sax);
-    sax.initialized = XML_SAX2_MAGIC;
-    sax.startElementNs = on_start;
-    sax.endElementNs = on_end;
-    sax.characters = on_chars;
-    sax.serror = on_error;
-    struct source src = {.fp = fp, .ctx = ctx, .size = size};
-    /* libxml2 reports some errors (encoding conversion, I/O) through its per-thread generic
-     * handler, which prints on stderr; a library does not print: silenced while reading (the
-     * parse fails with its own message) and given back after. */
-    xmlGenericErrorFunc saved_fn = xmlGenericError;
-    void *saved_ctx = xmlGenericErrorContext;
-    xmlSetGenericErrorFunc(NULL, silent);
-    if (!(r.pctxt = xmlCreateIOParserCtxt(&sax, &r, source_read, NULL, &src,
-                                                  XML_CHAR_ENCODING_NONE)) || !r.b->path) {
-        r.status = bsti_error(ctx, BST_ENOMEM, "%s: out of memory starting the XML parser", path);
-    } else {
-        xmlCtxtUseOptions(r.pctxt, XML_PARSE_HUGE | XML_PARSE_NONET);
-        int e = xmlParseDocument(r.pctxt);
-        /* what libxml2 calls "Document is empty" or an encoding error, said as it is; emptiness
-         * as read, not as stat says it (a /proc file has size 0 and text) */
-        if (src.utf32)
-            r.status = bsti_error(ctx, BST_EFORMAT, "%s: UTF-32 text; BSDF XML is read in UTF-8 or "
-                                  "UTF-16 (iconv -f UTF-32 -t UTF-8 converts it)", path);
-        else if (src.done == 0 && !src.err)
-            r.status = bsti_error(ctx, BST_EFORMAT, "%s: the file is empty", path);
-        if (r.status >= 0 && src.err)
-            r.status = bsti_error(ctx, BST_EIO, "%s: read error: %s", path, strerror(src.err));
-        if (r.status >= 0 && (e || !r.pctxt->wellFormed))
-            r.status = bsti_error(ctx, BST_EFORMAT, "%s: malformed or truncated XML", path);
-        bsti_progress(ctx, 1.0, "reading");
-    }
-    xmlSetGenericErrorFunc(saved_ctx, saved_fn);
-    if (r.pctxt) {
-        /* An internal DTD subset makes libxml2 build a document to hold it, even under SAX. */
-        if (r.pctxt->myDoc)
-            xmlFreeDoc(r.pctxt->myDoc);
-        xmlFreeParserCtxt(r.pctxt);
-    }
+    parse(&r, fp, size);
     fclose(fp);
     bsti_tparse_free(r.tp);
     bsti_free(ctx, r.km);
-    bst_bsdf *b = r.b;
-    int rc = r.status;
-    if (rc >= 0) {
-        /* the kind of the blocks read, not of the last <IncidentDataStructure> seen */
-        b->kind = r.kind < 0 ? BST_FILE_KLEMS : (bst_file_kind)r.kind;
-        if (b->nch == 0 && opts && opts->nchannels) {
-            char names[256] = "";
-            for (size_t i = 0; i < opts->nchannels; i++) {
-                size_t len = strlen(names);
-                snprintf(names + len, sizeof names - len, "%s'%s'", i ? ", " : "", opts->channels[i]);
-            }
-            rc = bsti_error(ctx, BST_EFORMAT, "%s: no <ScatteringData> for channel %s%s", path, names,
-                            opts->comps ? " and the requested components" : "");
-        } else if (b->nch == 0) {
-            rc = bsti_error(ctx, BST_EFORMAT, "%s: no <ScatteringData> %s", path,
-                            opts && opts->comps ? "for the requested components" : "found");
-        }
-    }
-    if (rc >= 0 && b->kind != BST_FILE_KLEMS && b->k < 1)
-        rc = bsti_error(ctx, BST_EFORMAT, "%s: tensor trees of depth 0 (a single value) have no basis", path);
-    /* Completion: reciprocity for a missing transmission, zero for a missing reflection. */
     char note[256] = "";
-    unsigned comps = opts && opts->comps ? opts->comps : BST_COMP_ALL;
-    for (size_t ch = 0; rc >= 0 && ch < b->nch; ch++) {
-        for (int c = 0; c < BST_NCOMP; c++) {
-            if (!(comps & BST_COMP_BIT(c)) || bsti_bsdf_stored(b, ch, c))
-                continue;
-            int other = bsti_bsdf_reciprocal(c);
-            const char *how = other >= 0 && bsti_bsdf_stored(b, ch, other) ? "from reciprocity" : "as zero";
-            size_t len = strlen(note);
-            snprintf(note + len, sizeof note - len, "%s%s %s %s", len ? "; " : "", b->channels[ch],
-                     bst_comp_name((bst_comp)c), how);
-        }
-    }
+    int rc = check_read(&r, opts, note, sizeof note);
+    bst_bsdf *b = r.b;
     if (rc < 0) {
         bst_bsdf_free(b);
         return rc;
     }
     *out = b;
-    /* What was read other than stated, in one warning. */
-    char warn[512] = "";
-    if (note[0])
-        snprintf(warn, sizeof warn, "not in the file, completed: %s", note);
-    b->depth = b->kind == BST_FILE_KLEMS ? 0 : b->k;
-    b->negatives = r.negatives;
-    if (b->kind != BST_FILE_KLEMS && b->k > BST_K_MAX) {
-        size_t len = strlen(warn);
-        snprintf(warn + len, sizeof warn - len, "%sa tensor tree of depth %d, read at k = %d (its "
-                 "finest cells averaged)", len ? "; " : "", b->k, BST_K_MAX);
-        b->k = BST_K_MAX;
-    }
-    if (r.negatives) {
-        size_t len = strlen(warn);
-        snprintf(warn + len, sizeof warn - len, "%s%zu negative value%s read as 0 (as libBSDF does)",
-                 len ? "; " : "", r.negatives, r.negatives > 1 ? "s" : "");
-    }
-    if (warn[0])
-        return bsti_error(ctx, BST_WDATA, "%s: %s", path, warn);
-    return BST_OK;
+    return read_warning(ctx, path, b, note, r.negatives);
 }
 
 bst_file_kind bst_bsdf_kind(const bst_bsdf *b) { return b->kind; }
@@ -749,60 +774,4 @@ const char *bst_bsdf_channel(const bst_bsdf *b, size_t ch) { return ch < b->nch 
 int bst_bsdf_stored(const bst_bsdf *b, size_t ch, bst_comp c)
 {
     return ch < b->nch && (unsigned)c < BST_NCOMP && bsti_bsdf_stored(b, ch, c);
-}
-
-/* ------------------------------------------------------------------ evaluation */
-
-/* Stored component c at (in, out), no reciprocity. */
-static double eval_stored(const bst_bsdf *b, size_t ch, int c, const double in[3], const double out[3])
-{
-    if (b->mat[ch][c]) {
-        size_t n = bst_basis_size(b->klems);
-        double prop[3] = {-in[0], -in[1], -in[2]};
-        return b->mat[ch][c][bst_basis_patch(b->klems, out) + n * bst_basis_patch(b->klems, prop)];
-    }
-    const bsti_ttree *t = b->tree[ch][c];
-    double p[4];
-    if (t->dim == 4) {
-        bsti_sc_disk_to_square(-in[0], -in[1], &p[0], &p[1]);
-        bsti_sc_disk_to_square(out[0], out[1], &p[2], &p[3]);
-    } else {
-        /* rank 3: sin(theta_in) on the lower half of p0; the exit vector rotated so that the
-         * incident light travels towards +x (CONVENTIONS.md 5.2) */
-        p[0] = 0.5 - 1e-6 - 0.5 * sqrt(in[0] * in[0] + in[1] * in[1]);
-        double phi = atan2(-in[1], -in[0]), c0 = cos(phi), s0 = sin(phi);
-        bsti_sc_disk_to_square(out[0] * c0 + out[1] * s0, -out[0] * s0 + out[1] * c0, &p[1], &p[2]);
-    }
-    return bsti_ttree_eval(t, p);
-}
-
-static double eval_comp(const bst_bsdf *b, size_t ch, int c, const double in[3], const double out[3])
-{
-    if (bsti_bsdf_stored(b, ch, c))
-        return eval_stored(b, ch, c, in, out);
-    int other = bsti_bsdf_reciprocal(c);
-    if (other >= 0 && bsti_bsdf_stored(b, ch, other))
-        return eval_stored(b, ch, other, out, in); /* reciprocity: f(in, out) = f(out, in) */
-    return 0.0;
-}
-
-int bst_bsdf_eval(bst_ctx *ctx, const bst_bsdf *b, size_t ch, const double in_raw[3],
-                  const double out_raw[3], double *value)
-{
-    if (!ctx || !b || !in_raw || !out_raw || !value)
-        return ctx ? bsti_error(ctx, BST_EINVAL, "eval: NULL argument") : BST_EINVAL;
-    if (ch >= b->nch)
-        return bsti_error(ctx, BST_EINVAL, "eval: channel %zu of %zu", ch, b->nch);
-    double in[3], out[3], li = 0, lo = 0;
-    for (int i = 0; i < 3; i++)
-        li += in_raw[i] * in_raw[i], lo += out_raw[i] * out_raw[i];
-    if (!(li > 0 && lo > 0 && isfinite(li) && isfinite(lo)))
-        return bsti_error(ctx, BST_EINVAL, "eval: direction vectors must be finite and non-zero");
-    for (int i = 0; i < 3; i++)
-        in[i] = in_raw[i] / sqrt(li), out[i] = out_raw[i] / sqrt(lo);
-    if (in[2] == 0.0 || out[2] == 0.0)
-        return bsti_error(ctx, BST_EINVAL, "eval: a direction lies in the surface plane (z = 0)");
-    int c = in[2] < 0 ? (out[2] > 0 ? BST_TF : BST_RF) : (out[2] < 0 ? BST_TB : BST_RB);
-    *value = eval_comp(b, ch, c, in, out);
-    return BST_OK;
 }

@@ -118,9 +118,10 @@ cmp -s "$tmpdir/a" "$tmpdir/b" && pass "convert round trip is exact" || fail "co
 expect_status 0 "convert to Klems" -- "$B" convert --klems -o "$tmpdir/k.xml" "$ref/L_glass_t4k5.xml"
 grep -q "LBNL/Klems Full" "$tmpdir/k.xml" && pass "Klems output names its basis" || fail "Klems output"
 
-# -v: reading, each step and component, writing; each with a time and the peak memory
+# -v: reading (with the plan's reason for the basis), each step and component, writing; each with
+# a time and the peak memory
 expect_status 0 "combine -v" -- "$B" combine -v -k 3 -o "$tmpdir/v.xml" glass:clear-6mm "$ref/L_diffuser_t3k5.xml" glass:clear-6mm
-n_read=$(grep -c 'read 3 layers onto 64 patches: [0-9.]* s, peak RSS' "$tmpdir/err")
+n_read=$(grep -c 'read 3 layers onto 64 patches (Shirley-Chiu k = 3, as asked): [0-9.]* s, peak RSS' "$tmpdir/err")
 n_step=$(grep -c 'layers 1-[23] Visible \(Tf\|Rf\|Tb\|Rb\): .* s, [0-9.e+-]* GFLOP, rcond .*, peak RSS' "$tmpdir/err")
 n_write=$(grep -c 'wrote [0-9.]* MB: [0-9.]* s, peak RSS' "$tmpdir/err")
 [ "$n_read" -eq 1 ] && [ "$n_step" -eq 8 ] && [ "$n_write" -eq 1 ] && pass "-v: read, 8 step lines, write" ||

@@ -167,6 +167,28 @@ START_TEST(test_memory)
 }
 END_TEST
 
+/* The work model: the partial system takes the widest structure so far. */
+START_TEST(test_work)
+{
+    double N = 256.0, w[3];
+    const bst_structure panes[2] = {BST_DIAG, BST_DIAG};
+    tu_assert_close(bst_plan_work(2, panes, 256, w), N, 1e-15, 1);
+    tu_assert_close(w[0], N, 1e-15, 1);
+    /* a dense layer between panes: both steps dense (the partial stays dense) */
+    const bst_structure shade[3] = {BST_DIAG, BST_DENSE, BST_DIAG};
+    tu_assert_close(bst_plan_work(3, shade, 256, w), 2 * N * N * N, 1e-15, 1);
+    tu_assert_close(w[1], N * N * N, 1e-15, 1);
+    /* a specular tree first: sparse, then sparse again */
+    const bst_structure spec[3] = {BST_SPARSE, BST_DIAG, BST_DIAG};
+    tu_assert_close(bst_plan_work(3, spec, 256, NULL), 2 * N * N, 1e-15, 1);
+    /* one layer: no step */
+    tu_assert_close(bst_plan_work(1, spec, 256, w), 0.0, 0.0, 1);
+    /* the costliest stacks first: dense beats sparse beats diagonal at any N > 1 */
+    ck_assert(bst_plan_work(3, shade, 145, NULL) > bst_plan_work(3, spec, 145, NULL));
+    ck_assert(bst_plan_work(3, spec, 145, NULL) > bst_plan_work(2, panes, 145, NULL));
+}
+END_TEST
+
 static Suite *suite(void)
 {
     Suite *s = suite_create("plan");
@@ -176,6 +198,7 @@ static Suite *suite(void)
     tcase_add_test(tc, test_basis_rule);
     tcase_add_test(tc, test_spectral_plan);
     tcase_add_test(tc, test_memory);
+    tcase_add_test(tc, test_work);
     suite_add_tcase(s, tc);
     return s;
 }

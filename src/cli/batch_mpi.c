@@ -85,18 +85,17 @@ static void wait_quietly(MPI_Request *req, MPI_Status *status)
     }
 }
 
-/* A rank's cost estimate of line sl: the channels times, for each of the n - 1 steps, N^3 when
- * the partial system or the layer added is dense (every later step too: a dense partial stays
- * dense), N^2 for sparse, N for diagonal, N the basis's patches.  Only the order matters. */
-static double cost_of(const struct batch_line *sl, const int *structure, double n)
+/* A rank's cost estimate of line sl, by the plan's work model (bst_plan_work): the layers'
+ * structures over N patches.  Only the order matters. */
+static double cost_of(const struct batch_line *sl, const bst_structure *structure, size_t N)
 {
-    int s = structure[sl->layer[0]];
-    double cost = 0, unit[3] = {n, n * n, n * n * n};
-    for (size_t i = 1; i < sl->n; i++) {
-        if (structure[sl->layer[i]] > s)
-            s = structure[sl->layer[i]];
-        cost += unit[s];
-    }
+    bst_structure *s = malloc((sl->n + 1) * sizeof *s);
+    if (!s)
+        return 0.0; /* dealt out last: no harm */
+    for (size_t i = 0; i < sl->n; i++)
+        s[i] = structure[sl->layer[i]];
+    double cost = bst_plan_work(sl->n, s, N, NULL);
+    free(s);
     return cost;
 }
 
@@ -258,6 +257,68 @@ static int parse_text(const char *sub, const char *path, char *text, size_t len,
     return rc;
 }
 
+/* The OpenBLAS threads and the writer's: the CPUs this rank may use, shared by the working ranks
+ * of its node (rank 0 only dispatches when there are others). */
+static void share_cpus(bst_ctx *ctx, int rank, int size)
+{
+    MPI_Comm node;
+    int node_size = 1, has_zero = rank == 0;
+    MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, rank, MPI_INFO_NULL, &node);
+    MPI_Comm_size(node, &node_size);
+    MPI_Allreduce(MPI_IN_PLACE, &has_zero, 1, MPI_INT, MPI_MAX, node);
+    MPI_Comm_free(&node);
+    int working = node_size - (has_zero && size > 1), per = batch_cores() / (working > 0 ? working : 1);
+    const char *env = getenv("OPENBLAS_NUM_THREADS");
+#ifdef HAVE_OPENBLAS_SET_NUM_THREADS
+    if (!env || !*env)
+        openblas_set_num_threads(per > 1 ? per : 1);
+#else
+    (void)env;
+#endif
+    bst_ctx_set_threads(ctx, per > 1 ? per : 1); /* the writer's threads: the same share */
+}
+
+/* Rank 0: the lines to do, costliest first, dealt out to the other ranks; the summary and the
+ * failures told.  The run's status. */
+static int lead(bst_ctx *ctx, struct batch *b, const struct cli_basis_pick *pick,
+                const bst_structure *structure, const char *summary, struct cli_out *sum, int size)
+{
+    const char *sub = b->sub;
+    int rc = CLI_OK;
+    struct stack_result *res = calloc(b->nlines, sizeof *res);
+    struct todo *todo = calloc(b->nlines, sizeof *todo);
+    size_t ntodo = 0, done = 0, failed = 0, skipped = 0;
+    size_t N = pick->k ? (size_t)1 << (2 * pick->k) : 145;
+    if (!res || !todo) {
+        rc = cli_fail(sub, "out of memory");
+        MPI_Abort(MPI_COMM_WORLD, CLI_FAIL);
+    }
+    for (size_t i = 0; i < b->nlines; i++) {
+        char key[64];
+        batch_key(b, &b->lines[i], key, sizeof key);
+        if (b->resume && batch_up_to_date(b->lines[i].out, key)) {
+            atomic_store(&res[i].state, ST_SKIPPED);
+            batch_print_result(b, &b->lines[i], &res[i], ST_SKIPPED);
+            skipped++, done++;
+            continue;
+        }
+        todo[ntodo].line = i;
+        todo[ntodo++].cost = cost_of(&b->lines[i], structure, N);
+    }
+    qsort(todo, ntodo, sizeof *todo, by_cost);
+    b->resume = 0; /* decided here, once */
+    dispatch(ctx, b, todo, ntodo, res, size, &done, &failed, skipped);
+    if (isatty(STDERR_FILENO))
+        batch_progress(b, done, failed, skipped, 1);
+    if (summary && batch_write_summary(sum, b, res) != CLI_OK)
+        rc = CLI_FAIL;
+    if (failed)
+        rc = batch_report_failures(b, res, failed);
+    free(res);
+    free(todo);
+    return rc;
+}
+
 /* Everything after MPI_Init; the rank's exit status (rank 0's tells the run). */
 static int run(int argc, char **argv, int rank, int size)
 {
@@ -294,7 +355,7 @@ static int run(int argc, char **argv, int rank, int size)
     struct batch_file bf;
     memset(&bf, 0, sizeof bf);
     struct cli_basis_pick pick = {.file = -1};
-    int *structure = NULL;
+    bst_structure *structure = NULL;
     bst_ctx *ctx = cli_ctx_new(sub);
     rc = ctx ? CLI_OK : CLI_FAIL;
     if (rank == 0 && rc == CLI_OK)
@@ -343,22 +404,7 @@ static int run(int argc, char **argv, int rank, int size)
     if (rc == CLI_OK && (rank != 0 || size == 1))
         rc = cli_basis_make(ctx, sub, &pick, b.specs, b.args.channels, b.args.so.precision, &b.all.basis);
 
-    /* the OpenBLAS threads: the CPUs this rank may use, shared by the working ranks of its node */
-    MPI_Comm node;
-    int node_size = 1, has_zero = rank == 0;
-    MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, rank, MPI_INFO_NULL, &node);
-    MPI_Comm_size(node, &node_size);
-    MPI_Allreduce(MPI_IN_PLACE, &has_zero, 1, MPI_INT, MPI_MAX, node);
-    MPI_Comm_free(&node);
-    int working = node_size - (has_zero && size > 1), per = batch_cores() / (working > 0 ? working : 1);
-    const char *env = getenv("OPENBLAS_NUM_THREADS");
-#ifdef HAVE_OPENBLAS_SET_NUM_THREADS
-    if (!env || !*env)
-        openblas_set_num_threads(per > 1 ? per : 1);
-#else
-    (void)env;
-#endif
-    bst_ctx_set_threads(ctx, per > 1 ? per : 1); /* the writer's threads: the same share */
+    share_cpus(ctx, rank, size);
     /* a rank that could not set up cannot take part; the run cannot go on without it */
     int all_ok = rc == CLI_OK;
     MPI_Allreduce(MPI_IN_PLACE, &all_ok, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
@@ -369,37 +415,7 @@ static int run(int argc, char **argv, int rank, int size)
         bst_ctx_set_progress(ctx, NULL, NULL);
         clock_gettime(CLOCK_MONOTONIC, &b.start);
         if (rank == 0) {
-            struct stack_result *res = calloc(b.nlines, sizeof *res);
-            struct todo *todo = calloc(b.nlines, sizeof *todo);
-            size_t ntodo = 0, done = 0, failed = 0, skipped = 0;
-            double n = pick.k ? pow(4.0, pick.k) : 145.0;
-            if (!res || !todo) {
-                rc = cli_fail(sub, "out of memory");
-                MPI_Abort(MPI_COMM_WORLD, CLI_FAIL);
-            }
-            for (size_t i = 0; i < b.nlines; i++) {
-                char key[64];
-                batch_key(&b, &b.lines[i], key, sizeof key);
-                if (b.resume && batch_up_to_date(b.lines[i].out, key)) {
-                    atomic_store(&res[i].state, ST_SKIPPED);
-                    batch_print_result(&b, &b.lines[i], &res[i], ST_SKIPPED);
-                    skipped++, done++;
-                    continue;
-                }
-                todo[ntodo].line = i;
-                todo[ntodo++].cost = cost_of(&b.lines[i], structure, n);
-            }
-            qsort(todo, ntodo, sizeof *todo, by_cost);
-            b.resume = 0; /* decided here, once */
-            dispatch(ctx, &b, todo, ntodo, res, size, &done, &failed, skipped);
-            if (isatty(STDERR_FILENO))
-                batch_progress(&b, done, failed, skipped, 1);
-            if (summary && batch_write_summary(&sum, &b, res) != CLI_OK)
-                rc = CLI_FAIL;
-            if (failed)
-                rc = batch_report_failures(&b, res, failed);
-            free(res);
-            free(todo);
+            rc = lead(ctx, &b, &pick, structure, summary, &sum, size);
         } else {
             b.resume = 0;
             work(ctx, &b);

@@ -272,26 +272,9 @@ int batch_run_stack(bst_ctx *ctx, const struct batch *b, const struct batch_line
         snprintf(view.description + strlen(view.description), len - strlen(view.description),
                  "\nbatch: %s line %zu\n%s", b->path, sl->lineno, key);
     }
-    char why[2048];
-    int spectral = rc == CLI_OK ? cli_spectral_plan(ctx, sub, &view, b->args.per_channel, why, sizeof why) : 0;
-    if (spectral < 0)
-        rc = CLI_FAIL;
+    struct cli_run_opts ro = {.warning = r->warnings, .warning_size = sizeof r->warnings};
     if (rc == CLI_OK)
-        rc = cli_note_spectral(sub, &view, why, 0);
-    if (rc == CLI_OK && spectral) {
-        double *abs[2] = {NULL, NULL};
-        if (cli_combine_spectral(ctx, sub, &view, &b->args.sp, &b->args.so, abs, &sys) != CLI_OK)
-            rc = CLI_FAIL;
-    } else if (rc == CLI_OK) {
-        int st = bst_stack_combine(ctx, view.n, (const bst_layer *const *)view.layers, &b->args.so, &sys);
-        if (st < 0) {
-            rc = cli_fail_ctx(sub, where, ctx);
-        } else if (st > 0) {
-            const char *msg = bst_ctx_message(ctx);
-            snprintf(r->warnings, sizeof r->warnings, "%s", msg && *msg ? msg : bst_strerror(st));
-            cli_warn_ctx(sub, where, st, ctx);
-        }
-    }
+        rc = cli_combine_run(ctx, sub, where, &view, &b->args, &ro, &sys);
     if (rc == CLI_OK)
         rc = cli_write_layer(ctx, sub, sys, sl->out, &b->args.reduce, b->argc, b->argv, &view);
     if (rc == CLI_OK)

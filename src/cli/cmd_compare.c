@@ -282,7 +282,36 @@ static int compare_tsv(const char *sub, bst_ctx *ctx, char **specs, const int is
     return rc;
 }
 
-int cmd_compare(int argc, char **argv)
+/* What the command line asks for. */
+struct compare_req {
+    const char *channel, *mappath;
+    enum map_kind map_kind;
+    struct cli_basis_choice choice;
+    unsigned comps;
+    double dirs[MAX_DIRS][2], fail_below, fail_hem;
+    size_t ndirs;
+    int help;
+    char **specs; /* A and B */
+};
+
+/* --map PATH: its kind from the name's ending. */
+static int parse_map(const char *sub, const char *arg, struct compare_req *q)
+{
+    static const struct { const char *ext; enum map_kind kind; } kinds[] = {
+        {".png", MAP_PNG}, {".svg", MAP_SVG}, {".tsv", MAP_TSV}};
+    const size_t nk = sizeof kinds / sizeof kinds[0];
+    size_t n = strlen(arg), e = 0;
+    while (e < nk && !(n > 4 && strcmp(arg + n - 4, kinds[e].ext) == 0))
+        e++;
+    if (e == nk && strcmp(arg, "-") != 0)
+        return cli_usage(sub, "--map %s: name a .png, .svg or .tsv file, or - for the table on "
+                         "standard output", arg);
+    q->map_kind = e < nk ? kinds[e].kind : MAP_TSV;
+    q->mappath = arg;
+    return CLI_OK;
+}
+
+static int parse(int argc, char **argv, struct compare_req *q)
 {
     static const struct option longopts[] = {{"klems", optional_argument, NULL, 'K'},
                                              {"channel", required_argument, NULL, 'c'},
@@ -293,182 +322,196 @@ int cmd_compare(int argc, char **argv)
                                              {"map", required_argument, NULL, 'm'},
                                              {"help", no_argument, NULL, 'h'},
                                              {NULL, 0, NULL, 0}};
-    const char *sub = "compare", *channel = NULL, *mappath = NULL;
-    enum map_kind map_kind = MAP_PNG;
-    struct cli_basis_choice choice = {0};
-    unsigned comps = 0;
-    double dirs[MAX_DIRS][2], fail_below = -INFINITY, fail_hem = INFINITY;
-    size_t ndirs = 0;
-    int c;
+    const char *sub = "compare";
+    memset(q, 0, sizeof *q);
+    q->map_kind = MAP_PNG;
+    q->fail_below = -INFINITY, q->fail_hem = INFINITY;
+    int c, rc = CLI_OK;
     optind = 1;
     opterr = 0;
-    while ((c = getopt_long(argc, argv, ":hk:", longopts, NULL)) != -1) {
-        int rc;
+    while (rc == CLI_OK && (c = getopt_long(argc, argv, ":hk:", longopts, NULL)) != -1) {
         switch (c) {
         case 'k':
-        case 'K':
-            if ((rc = cli_parse_basis_option(sub, c, optarg, &choice)) != CLI_OK)
-                return rc;
-            break;
-        case 'c': channel = optarg; break;
-        case 'o':
-            if ((rc = cli_parse_comps(sub, optarg, &comps)) != CLI_OK)
-                return rc;
-            break;
+        case 'K': rc = cli_parse_basis_option(sub, c, optarg, &q->choice); break;
+        case 'c': q->channel = optarg; break;
+        case 'o': rc = cli_parse_comps(sub, optarg, &q->comps); break;
         case 'i':
-            if (ndirs == MAX_DIRS)
+            if (q->ndirs == MAX_DIRS)
                 return cli_usage(sub, "--incident: at most %d directions", MAX_DIRS);
-            if ((rc = cli_parse_incident(sub, optarg, dirs[ndirs])) != CLI_OK)
-                return rc;
-            ndirs++;
+            if ((rc = cli_parse_incident(sub, optarg, q->dirs[q->ndirs])) == CLI_OK)
+                q->ndirs++;
             break;
         case 'f':
-            if (cli_parse_double(optarg, &fail_below) != 0 || fail_below < 0 || fail_below > 100)
+            if (cli_parse_double(optarg, &q->fail_below) != 0 || q->fail_below < 0 || q->fail_below > 100)
                 return cli_usage(sub, "--fail-below %s: give a GA between 0 and 100", optarg);
             break;
         case 'H':
-            if (cli_parse_double(optarg, &fail_hem) != 0 || !(fail_hem >= 0) || !isfinite(fail_hem))
+            if (cli_parse_double(optarg, &q->fail_hem) != 0 || !(q->fail_hem >= 0) ||
+                !isfinite(q->fail_hem))
                 return cli_usage(sub, "--fail-hem %s: give a hemispherical difference >= 0", optarg);
             break;
-        case 'm': {
-            static const struct { const char *ext; enum map_kind kind; } kinds[] = {
-                {".png", MAP_PNG}, {".svg", MAP_SVG}, {".tsv", MAP_TSV}};
-            const size_t nk = sizeof kinds / sizeof kinds[0];
-            size_t n = strlen(optarg), e = 0;
-            while (e < nk && !(n > 4 && strcmp(optarg + n - 4, kinds[e].ext) == 0))
-                e++;
-            if (e == nk && strcmp(optarg, "-") != 0)
-                return cli_usage(sub, "--map %s: name a .png, .svg or .tsv file, or - for the table on "
-                                 "standard output", optarg);
-            map_kind = e < nk ? kinds[e].kind : MAP_TSV;
-            mappath = optarg;
-            break;
-        }
-        case 'h': fputs(help, stdout); return CLI_OK;
+        case 'm': rc = parse_map(sub, optarg, q); break;
+        case 'h': q->help = 1; fputs(help, stdout); return CLI_OK;
         case ':': return cli_usage(sub, "option %s needs a value", argv[optind - 1]);
         default: return cli_usage(sub, "unknown option '%s'", argv[optind - 1]);
         }
     }
+    if (rc != CLI_OK)
+        return rc;
     if (argc - optind != 2)
         return cli_usage(sub, argc - optind < 2 ? "two BSDFs expected, A and B" : "only two BSDFs, A and B");
-    FILE *rep = mappath && strcmp(mappath, "-") == 0 ? stderr : stdout; /* the report */
-    char **tspecs = argv + optind;
-    int is_tsv[2] = {cli_tsv_detect(tspecs[0]), cli_tsv_detect(tspecs[1])};
-    if (is_tsv[0] || is_tsv[1]) {
-        if (choice.k || choice.klems)
-            return cli_usage(sub, "a TSV of combine --incident keeps its basis: no -k or --klems");
-        if (isfinite(fail_hem))
-            return cli_usage(sub, "--fail-hem needs every incident patch: not with a TSV");
-        bst_ctx *tctx = cli_ctx_new(sub);
-        if (!tctx)
-            return CLI_FAIL;
-        int rc = compare_tsv(sub, tctx, tspecs, is_tsv, channel, comps, ndirs, dirs, fail_below,
-                             mappath, map_kind, rep);
-        bst_ctx_free(tctx);
+    q->specs = argv + optind;
+    return CLI_OK;
+}
+
+/* Both over one basis, one channel: A's first unless named (loaded again with that channel alone
+ * when B holds it at another index). */
+static int load_pair(bst_ctx *ctx, const char *sub, const struct compare_req *q, struct cli_layers *set)
+{
+    char **specs = q->specs;
+    int rc = cli_layers_load(set, ctx, sub, 2, specs, &q->choice, q->channel, q->comps, BST_DOUBLE);
+    if (rc != CLI_OK || q->channel)
         return rc;
+    const char *name = bst_layer_channel(set->layers[0], 0);
+    int chb = bst_layer_find_channel(set->layers[1], name);
+    if (chb < 0) {
+        rc = cli_fail(sub, "%s has no channel '%s' (the first of %s): name one both hold with "
+                      "--channel", specs[1], name, specs[0]);
+        cli_layers_free(set);
+    } else if (chb != 0) {
+        char *keep = strdup(name);
+        cli_layers_free(set);
+        rc = keep ? cli_layers_load(set, ctx, sub, 2, specs, &q->choice, keep, q->comps, BST_DOUBLE)
+                  : cli_fail(sub, "out of memory");
+        free(keep);
     }
-    if (!ndirs) {
-        static const double paper[][2] = {{0, 0}, {25, 90}, {45, 90}, {50, 90}, {45, 45}, {65, 90}};
-        ndirs = sizeof paper / sizeof paper[0];
-        memcpy(dirs, paper, sizeof paper);
-    }
-    bst_ctx *ctx = cli_ctx_new(sub);
-    if (!ctx)
-        return CLI_FAIL;
-    /* both over one basis, one channel: A's first unless named (loaded again with that channel
-     * alone when B holds it at another index) */
-    char **specs = argv + optind;
-    struct cli_layers set;
-    int rc = cli_layers_load(&set, ctx, sub, 2, specs, &choice, channel, comps, BST_DOUBLE);
-    if (rc == CLI_OK && !channel) {
-        const char *name = bst_layer_channel(set.layers[0], 0);
-        int chb = bst_layer_find_channel(set.layers[1], name);
-        if (chb < 0) {
-            rc = cli_fail(sub, "%s has no channel '%s' (the first of %s): name one both hold with "
-                          "--channel", specs[1], name, specs[0]);
-            cli_layers_free(&set);
-        } else if (chb != 0) {
-            char *keep = strdup(name);
-            cli_layers_free(&set);
-            rc = keep ? cli_layers_load(&set, ctx, sub, 2, specs, &choice, keep, comps, BST_DOUBLE)
-                      : cli_fail(sub, "out of memory");
-            free(keep);
+    return rc;
+}
+
+/* Work arrays of the comparison, one value per incident patch. */
+struct per_patch {
+    double *ha, *hb, *ga, *fa, *la;
+};
+
+/* One component: the table at the asked directions (with the map of the first, when asked),
+ * then the line over every incident patch; its worst patches into *w. */
+static int compare_comp(bst_ctx *ctx, const char *sub, struct compare_req *q, FILE *rep,
+                        const struct cli_layers *set, bst_comp comp, struct per_patch *v,
+                        int *below, struct worst *w)
+{
+    const bst_layer *a = set->layers[0], *b = set->layers[1];
+    const bst_basis *basis = set->basis;
+    size_t n = bst_basis_size(basis);
+    int in_a = bst_layer_get(a, 0, comp) != NULL, in_b = bst_layer_get(b, 0, comp) != NULL;
+    if (bst_metrics_accordance_all(ctx, a, b, 0, comp, v->ga, v->fa) < 0 ||
+        bst_layer_hemispherical(ctx, a, 0, comp, v->ha) < 0 ||
+        bst_layer_hemispherical(ctx, b, 0, comp, v->hb) < 0)
+        return cli_fail_ctx(sub, NULL, ctx);
+    const char *side = comp == BST_TF || comp == BST_RF ? "front" : "back";
+    fprintf(rep, "\n%s (%s incidence)%s%s\n", bst_comp_name(comp), side,
+            in_a ? "" : ": absent from A", in_b ? "" : ": absent from B");
+    fprintf(rep, "  theta    phi  patch       GA      FA    hem A    hem B\n");
+    for (size_t k = 0; k < q->ndirs; k++) {
+        double t = q->dirs[k][0] * M_PI / 180, p = q->dirs[k][1] * M_PI / 180;
+        double d[3] = {sin(t) * cos(p) + 1e-9, sin(t) * sin(p) + 1e-9, cos(t)};
+        size_t j = bst_basis_patch(basis, d);
+        fprintf(rep, "%7.2f %6.2f %6zu %8.3f %7.2f %8.4f %8.4f\n", q->dirs[k][0], q->dirs[k][1], j,
+                v->ga[j], v->fa[j], v->ha[j], v->hb[j]);
+        *below |= v->ga[j] < q->fail_below;
+        if (q->mappath && k == 0) {
+            int rc = write_map(ctx, sub, q->mappath, q->map_kind, rep, a, b, comp, j, q->dirs[0],
+                               q->specs, v->la);
+            if (rc != CLI_OK)
+                return rc;
         }
     }
-    if (rc != CLI_OK) {
-        bst_ctx_free(ctx);
+    q->mappath = NULL; /* one map: the first component's */
+    const double *ga = v->ga, *fa = v->fa, *ha = v->ha, *hb = v->hb;
+    size_t jg = 0, jf = 0, jh = 0;
+    double mg = 0, mf = 0;
+    for (size_t j = 0; j < n; j++) {
+        jg = ga[j] < ga[jg] ? j : jg, jf = fa[j] < fa[jf] ? j : jf;
+        jh = fabs(ha[j] - hb[j]) > fabs(ha[jh] - hb[jh]) ? j : jh;
+        mg += ga[j] / n, mf += fa[j] / n;
+    }
+    double dg[3], df[3], dh[3];
+    bst_basis_center(basis, jg, dg), bst_basis_center(basis, jf, df), bst_basis_center(basis, jh, dh);
+    fprintf(rep, "  all %zu incident patches: GA mean %.3f, least %.3f (patch %zu, theta %.1f); "
+            "FA mean %.2f, least %.2f (patch %zu, theta %.1f); largest |hem A - hem B| %.4f "
+            "(patch %zu, theta %.1f)\n", n, mg, ga[jg], jg, acos(dg[2]) * 180 / M_PI, mf, fa[jf],
+            jf, acos(df[2]) * 180 / M_PI, fabs(ha[jh] - hb[jh]), jh, acos(dh[2]) * 180 / M_PI);
+    *w = (struct worst){comp, jh, ha[jh], hb[jh], fa[jf], ga[jg]};
+    return CLI_OK;
+}
+
+/* Two BSDF files (or layers) over one basis. */
+static int compare_layers(bst_ctx *ctx, const char *sub, struct compare_req *q, FILE *rep)
+{
+    if (!q->ndirs) {
+        static const double paper[][2] = {{0, 0}, {25, 90}, {45, 90}, {50, 90}, {45, 45}, {65, 90}};
+        q->ndirs = sizeof paper / sizeof paper[0];
+        memcpy(q->dirs, paper, sizeof paper);
+    }
+    struct cli_layers set = {0};
+    int rc = load_pair(ctx, sub, q, &set);
+    if (rc != CLI_OK)
         return rc;
-    }
-    const bst_layer *a = set.layers[0], *b = set.layers[1];
-    const bst_basis *basis = set.basis;
-    size_t n = bst_basis_size(basis);
-    double *ha = malloc(n * sizeof *ha), *hb = malloc(n * sizeof *hb);
-    double *ga = malloc(n * sizeof *ga), *fa = malloc(n * sizeof *fa), *la = malloc(n * sizeof *la);
-    if (!ha || !hb || !ga || !fa || !la) {
+    size_t n = bst_basis_size(set.basis);
+    struct per_patch v = {malloc(n * sizeof(double)), malloc(n * sizeof(double)),
+                          malloc(n * sizeof(double)), malloc(n * sizeof(double)),
+                          malloc(n * sizeof(double))};
+    if (!v.ha || !v.hb || !v.ga || !v.fa || !v.la)
         rc = cli_fail(sub, "out of memory");
-        goto out;
-    }
-    print_header(rep, basis, specs, bst_layer_channel(a, 0), "");
+    else
+        print_header(rep, set.basis, q->specs, bst_layer_channel(set.layers[0], 0), "");
     int below = 0, shown = 0;
     struct worst summary[BST_NCOMP];
     for (int cc = 0; cc < BST_NCOMP && rc == CLI_OK; cc++) {
         bst_comp comp = (bst_comp)cc;
-        int in_a = bst_layer_get(a, 0, comp) != NULL, in_b = bst_layer_get(b, 0, comp) != NULL;
-        if (comps ? !(comps & (1u << cc)) : !(in_a || in_b))
+        int in_a = bst_layer_get(set.layers[0], 0, comp) != NULL;
+        int in_b = bst_layer_get(set.layers[1], 0, comp) != NULL;
+        if (q->comps ? !(q->comps & (1u << cc)) : !(in_a || in_b))
             continue;
-        if (bst_metrics_accordance_all(ctx, a, b, 0, comp, ga, fa) < 0 ||
-            bst_layer_hemispherical(ctx, a, 0, comp, ha) < 0 || bst_layer_hemispherical(ctx, b, 0, comp, hb) < 0) {
-            rc = cli_fail_ctx(sub, NULL, ctx);
-            break;
-        }
-        const char *side = comp == BST_TF || comp == BST_RF ? "front" : "back";
-        fprintf(rep, "\n%s (%s incidence)%s%s\n", bst_comp_name(comp), side,
-                in_a ? "" : ": absent from A", in_b ? "" : ": absent from B");
-        fprintf(rep, "  theta    phi  patch       GA      FA    hem A    hem B\n");
-        for (size_t q = 0; q < ndirs; q++) {
-            double t = dirs[q][0] * M_PI / 180, p = dirs[q][1] * M_PI / 180;
-            double d[3] = {sin(t) * cos(p) + 1e-9, sin(t) * sin(p) + 1e-9, cos(t)};
-            size_t j = bst_basis_patch(basis, d);
-            fprintf(rep, "%7.2f %6.2f %6zu %8.3f %7.2f %8.4f %8.4f\n", dirs[q][0], dirs[q][1], j,
-                    ga[j], fa[j], ha[j], hb[j]);
-            below |= ga[j] < fail_below;
-            if (mappath && q == 0)
-                rc = write_map(ctx, sub, mappath, map_kind, rep, a, b, comp, j, dirs[0], specs, la);
-            if (rc != CLI_OK)
-                break;
-        }
-        mappath = NULL; /* one map: the first component's */
-        if (rc != CLI_OK)
-            break;
-        size_t jg = 0, jf = 0, jh = 0;
-        double mg = 0, mf = 0;
-        for (size_t j = 0; j < n; j++) {
-            jg = ga[j] < ga[jg] ? j : jg, jf = fa[j] < fa[jf] ? j : jf;
-            jh = fabs(ha[j] - hb[j]) > fabs(ha[jh] - hb[jh]) ? j : jh;
-            mg += ga[j] / n, mf += fa[j] / n;
-        }
-        double dg[3], df[3], dh[3];
-        bst_basis_center(basis, jg, dg), bst_basis_center(basis, jf, df), bst_basis_center(basis, jh, dh);
-        fprintf(rep, "  all %zu incident patches: GA mean %.3f, least %.3f (patch %zu, theta %.1f); "
-                "FA mean %.2f, least %.2f (patch %zu, theta %.1f); largest |hem A - hem B| %.4f "
-                "(patch %zu, theta %.1f)\n", n, mg, ga[jg], jg, acos(dg[2]) * 180 / M_PI, mf, fa[jf],
-                jf, acos(df[2]) * 180 / M_PI, fabs(ha[jh] - hb[jh]), jh, acos(dh[2]) * 180 / M_PI);
-        summary[shown++] = (struct worst){comp, jh, ha[jh], hb[jh], fa[jf], ga[jg]};
+        rc = compare_comp(ctx, sub, q, rep, &set, comp, &v, &below, &summary[shown]);
+        shown += rc == CLI_OK;
     }
     if (rc == CLI_OK && shown)
-        print_summary(rep, basis, summary, shown);
-    for (int q = 0; rc == CLI_OK && q < shown; q++)
-        if (fabs(summary[q].ha - summary[q].hb) > fail_hem)
+        print_summary(rep, set.basis, summary, shown);
+    for (int k = 0; rc == CLI_OK && k < shown; k++)
+        if (fabs(summary[k].ha - summary[k].hb) > q->fail_hem)
             rc = cli_fail(sub, "%s: the hemispherical values differ by %.6f at patch %zu, more than %g",
-                          bst_comp_name(summary[q].comp), fabs(summary[q].ha - summary[q].hb),
-                          summary[q].patch, fail_hem);
+                          bst_comp_name(summary[k].comp), fabs(summary[k].ha - summary[k].hb),
+                          summary[k].patch, q->fail_hem);
     if (rc == CLI_OK && !shown)
-        rc = cli_fail(sub, "neither BSDF holds %s", comps ? "the components asked for" : "any component");
+        rc = cli_fail(sub, "neither BSDF holds %s", q->comps ? "the components asked for" : "any component");
     if (rc == CLI_OK && below)
-        rc = cli_fail(sub, "GA below %g at a direction shown", fail_below);
-out:
-    free(ha), free(hb), free(ga), free(fa), free(la);
+        rc = cli_fail(sub, "GA below %g at a direction shown", q->fail_below);
+    free(v.ha), free(v.hb), free(v.ga), free(v.fa), free(v.la);
     cli_layers_free(&set);
+    return rc;
+}
+
+int cmd_compare(int argc, char **argv)
+{
+    const char *sub = "compare";
+    struct compare_req q;
+    int rc = parse(argc, argv, &q);
+    if (rc != CLI_OK || q.help)
+        return rc;
+    FILE *rep = q.mappath && strcmp(q.mappath, "-") == 0 ? stderr : stdout; /* the report */
+    int is_tsv[2] = {cli_tsv_detect(q.specs[0]), cli_tsv_detect(q.specs[1])};
+    if ((is_tsv[0] || is_tsv[1]) && (q.choice.k || q.choice.klems))
+        return cli_usage(sub, "a TSV of combine --incident keeps its basis: no -k or --klems");
+    if ((is_tsv[0] || is_tsv[1]) && isfinite(q.fail_hem))
+        return cli_usage(sub, "--fail-hem needs every incident patch: not with a TSV");
+    bst_ctx *ctx = cli_ctx_new(sub);
+    if (!ctx)
+        return CLI_FAIL;
+    if (is_tsv[0] || is_tsv[1])
+        rc = compare_tsv(sub, ctx, q.specs, is_tsv, q.channel, q.comps, q.ndirs, q.dirs,
+                         q.fail_below, q.mappath, q.map_kind, rep);
+    else
+        rc = compare_layers(ctx, sub, &q, rep);
     bst_ctx_free(ctx);
     return rc;
 }

@@ -92,7 +92,16 @@ static void report(const bst_bsdf_write_block *b, void *opaque)
     fputc('\n', stderr);
 }
 
-int cmd_convert(int argc, char **argv)
+/* What the command line asks for. */
+struct convert_req {
+    const char *in, *out, *name, *channels;
+    struct cli_basis_choice basis;
+    int rank, digits, threads, help, no_reduce;
+    double pct, tol;
+    struct verbose verbose;
+};
+
+static int parse(int argc, char **argv, struct convert_req *q)
 {
     enum { OPT_KLEMS = 256, OPT_REDUCE, OPT_NO_REDUCE, OPT_RANK, OPT_DIGITS, OPT_NAME, OPT_CHANNELS,
            OPT_MAXMEM, OPT_THREADS, OPT_REDUCE_TOL };
@@ -106,210 +115,223 @@ int cmd_convert(int argc, char **argv)
         {"max-memory", required_argument, NULL, OPT_MAXMEM},
         {"threads", required_argument, NULL, OPT_THREADS},
         {"verbose", no_argument, NULL, 'v'}, {"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}};
-    const char *sub = "convert", *out = NULL, *name = NULL, *channels = NULL;
-    struct cli_basis_choice basis = {0};
-    int rank = 0, digits = BST_DIGITS_AUTO, threads = 0, c;
-    int reduce_set = 0, no_reduce = 0;
-    double pct = BST_REDUCE_PCT, tol = BST_REDUCE_TOL;
-    struct verbose verbose = {0};
+    const char *sub = "convert";
+    *q = (struct convert_req){.digits = BST_DIGITS_AUTO, .pct = BST_REDUCE_PCT, .tol = BST_REDUCE_TOL};
+    int reduce_set = 0, c;
     optind = 1;
     opterr = 0;
     while ((c = getopt_long(argc, argv, ":o:k:vh", longopts, NULL)) != -1) {
         switch (c) {
-        case 'o': out = optarg; break;
+        case 'o': q->out = optarg; break;
         case 'k':
         case OPT_KLEMS:
-            if (cli_parse_basis_option(sub, c == 'k' ? 'k' : 'K', optarg, &basis) != CLI_OK)
+            if (cli_parse_basis_option(sub, c == 'k' ? 'k' : 'K', optarg, &q->basis) != CLI_OK)
                 return CLI_USAGE;
             break;
-        case OPT_CHANNELS: channels = optarg; break;
+        case OPT_CHANNELS: q->channels = optarg; break;
         case OPT_REDUCE:
-            if (cli_parse_double(optarg, &pct) || pct < 0 || pct >= 100)
+            if (cli_parse_double(optarg, &q->pct) || q->pct < 0 || q->pct >= 100)
                 return cli_usage(sub, "--reduce %s: the percentile must be in [0, 100)", optarg);
             reduce_set = 1;
             break;
-        case OPT_NO_REDUCE: no_reduce = 1; break;
+        case OPT_NO_REDUCE: q->no_reduce = 1; break;
         case OPT_REDUCE_TOL:
-            if (cli_parse_reduce_tol(sub, optarg, &tol) != CLI_OK)
+            if (cli_parse_reduce_tol(sub, optarg, &q->tol) != CLI_OK)
                 return CLI_USAGE;
             reduce_set = 1;
             break;
         case OPT_RANK:
-            if (cli_parse_int(optarg, &rank) || (rank != 3 && rank != 4))
+            if (cli_parse_int(optarg, &q->rank) || (q->rank != 3 && q->rank != 4))
                 return cli_usage(sub, "--rank %s: use 3 or 4", optarg);
             break;
         case OPT_DIGITS:
             if (strcmp(optarg, "exact") == 0)
-                digits = 0;
-            else if (cli_parse_int(optarg, &digits) || digits < 1 || digits > 17)
+                q->digits = 0;
+            else if (cli_parse_int(optarg, &q->digits) || q->digits < 1 || q->digits > 17)
                 return cli_usage(sub, "--digits %s: use 1 to 17, or exact", optarg);
             break;
-        case OPT_NAME: name = optarg; break;
+        case OPT_NAME: q->name = optarg; break;
         case OPT_MAXMEM:
-            if (cli_parse_memory(sub, optarg, &basis.max_memory) != CLI_OK)
+            if (cli_parse_memory(sub, optarg, &q->basis.max_memory) != CLI_OK)
                 return CLI_USAGE;
             break;
         case OPT_THREADS:
-            if (cli_parse_int(optarg, &threads) || threads < 0)
+            if (cli_parse_int(optarg, &q->threads) || q->threads < 0)
                 return cli_usage(sub, "--threads %s: use 0 (one per CPU) or a positive count", optarg);
             break;
-        case 'v': verbose.on = 1; break;
-        case 'h': fputs(help, stdout); return CLI_OK;
+        case 'v': q->verbose.on = 1; break;
+        case 'h': q->help = 1; fputs(help, stdout); return CLI_OK;
         case ':': return cli_usage(sub, "option %s needs a value", argv[optind - 1]);
         default: return cli_usage(sub, "unknown option '%s'", argv[optind - 1]);
         }
     }
     if (argc - optind != 1)
         return cli_usage(sub, argc - optind < 1 ? "no input file given" : "one input file expected");
-    if (!out)
+    if (!q->out)
         return cli_usage(sub, "no output file given (-o OUT, or -o - for standard output)");
+    q->in = argv[optind];
     char early[64];
     const char *epoch_date;
     if (cli_source_date(sub, early, sizeof early, &epoch_date) != CLI_OK) /* before the work */
         return CLI_FAIL;
-    int k = basis.k;
-    const char *klems = basis.klems;
-    if (reduce_set && no_reduce)
+    if (reduce_set && q->no_reduce)
         return cli_usage(sub, "--reduce and --no-reduce exclude each other");
-    if (rank && klems)
+    if (q->rank && q->basis.klems)
         return cli_usage(sub, "--rank applies to tensor trees, not to --klems");
-    const char *in = argv[optind];
-    size_t inlen = strlen(in);
-    /* glass:SPEC and LAYER^ go through the shared loader (no rank-3 source then) */
-    int via_loader = strncmp(in, "glass:", 6) == 0 || strncmp(in, "venetian:", 9) == 0 ||
-                     (inlen && in[inlen - 1] == '^');
+    return CLI_OK;
+}
 
-    bst_ctx *ctx = cli_ctx_new(sub);
-    if (!ctx)
-        return CLI_FAIL;
-    bst_ctx_set_threads(ctx, threads);
-    bst_bsdf *b = NULL;
-    bst_basis *target = NULL;
-    bst_layer *l = NULL;
-    const bst_layer *lw = NULL;
-    struct cli_layers set = {0};
-    char *command = NULL, *chcopy = channels ? strdup(channels) : NULL;
+/* A BSDF XML file read (*b, kept for its rank-3 trees) and made a layer (*l) at the asked basis,
+ * or exactly at its own (then *target NULL). */
+static int read_file(bst_ctx *ctx, const char *sub, struct convert_req *q, bst_bsdf **b,
+                     bst_basis **target, bst_layer **l)
+{
+    const char *in = q->in, *klems = q->basis.klems;
+    int k = q->basis.k;
+    char *chcopy = q->channels ? strdup(q->channels) : NULL;
     const char *chnames[MAX_CHANNELS];
     bst_bsdf_read_opts ro = {.channels = chnames};
-    int rc = CLI_OK, st;
+    if (q->channels && !chcopy)
+        return cli_fail(sub, "out of memory");
     for (char *save = NULL, *t = chcopy ? strtok_r(chcopy, ",", &save) : NULL;
          t && ro.nchannels < MAX_CHANNELS; t = strtok_r(NULL, ",", &save))
         chnames[ro.nchannels++] = t;
-    if (channels && !chcopy) {
-        rc = cli_fail(sub, "out of memory");
-        goto done;
-    }
-    if (via_loader) {
-        char *spec = (char *)in;
-        if ((rc = cli_layers_load(&set, ctx, sub, 1, &spec, &basis, channels, 0, BST_DOUBLE)) != CLI_OK)
-            goto done;
-        lw = set.layers[0];
-        goto write;
-    }
-    st = bst_bsdf_read(ctx, in, &ro, &b);
-    if (st < 0) {
-        rc = cli_fail_ctx(sub, NULL, ctx);
-        goto done;
-    }
-    if (verbose.on)
+    int st = bst_bsdf_read(ctx, in, &ro, b);
+    free(chcopy);
+    if (st < 0)
+        return cli_fail_ctx(sub, NULL, ctx);
+    if (q->verbose.on)
         cli_warn_ctx(sub, NULL, st, ctx);
     else if (st == BST_WDATA) /* a component taken as zero is written as zeros: say so, as combine */
-        cli_warn_zero_components(sub, in, b, 0, "written", ctx);
+        cli_warn_zero_components(sub, in, *b, 0, "written", ctx);
     else
-        cli_warn_bsdf(sub, in, b);
+        cli_warn_bsdf(sub, in, *b);
     bst_ctx_clear(ctx);
     /* the file's own basis is read exactly (NULL target) */
-    int own = (k && bst_bsdf_kind(b) != BST_FILE_KLEMS && k == bst_bsdf_order(b)) ||
-              (!k && !klems);
+    int own = (k && bst_bsdf_kind(*b) != BST_FILE_KLEMS && k == bst_bsdf_order(*b)) || (!k && !klems);
+    st = BST_OK;
     if (!own && k)
-        st = bst_basis_new_sc(ctx, k, &target);
+        st = bst_basis_new_sc(ctx, k, target);
     else if (!own && klems)
-        st = bst_basis_new_klems(ctx, klems, &target);
-    if (st >= 0 && target && bst_bsdf_kind(b) == BST_FILE_KLEMS &&
-        bst_basis_equal(target, bst_bsdf_klems_basis(b))) {
-        bst_basis_free(target);
-        target = NULL;
+        st = bst_basis_new_klems(ctx, klems, target);
+    if (st >= 0 && *target && bst_bsdf_kind(*b) == BST_FILE_KLEMS &&
+        bst_basis_equal(*target, bst_bsdf_klems_basis(*b))) {
+        bst_basis_free(*target);
+        *target = NULL;
     }
     /* a rank-4 tree kept at its own order: every value is a float of the file, held exactly in
      * single precision (half the memory and the traffic of double) */
     bst_precision prec = BST_DOUBLE;
-    if (st >= 0 && !target && bst_bsdf_kind(b) == BST_FILE_TT4 &&
-        bst_bsdf_depth(b) == bst_bsdf_order(b)) {
+    if (st >= 0 && !*target && bst_bsdf_kind(*b) == BST_FILE_TT4 &&
+        bst_bsdf_depth(*b) == bst_bsdf_order(*b)) {
         prec = BST_FLOAT;
-        st = bst_bsdf_set_precision(ctx, b, prec);
+        st = bst_bsdf_set_precision(ctx, *b, prec);
     }
     if (st >= 0) {
         bst_basis *own_basis = NULL;
-        if (!target && bst_bsdf_kind(b) != BST_FILE_KLEMS)
-            st = bst_basis_new_sc(ctx, bst_bsdf_order(b), &own_basis);
-        const bst_basis *at = target ? target : own_basis ? own_basis : bst_bsdf_klems_basis(b);
-        if (st >= 0 && cli_memory_check(sub, at, 1, &b, 0, prec, &basis) != CLI_OK) {
-            bst_basis_free(own_basis);
-            rc = CLI_FAIL;
-            goto done;
-        }
+        if (!*target && bst_bsdf_kind(*b) != BST_FILE_KLEMS)
+            st = bst_basis_new_sc(ctx, bst_bsdf_order(*b), &own_basis);
+        const bst_basis *at = *target ? *target : own_basis ? own_basis : bst_bsdf_klems_basis(*b);
+        int rc = st >= 0 ? cli_memory_check(sub, at, 1, b, 0, prec, &q->basis) : CLI_OK;
         bst_basis_free(own_basis);
+        if (rc != CLI_OK)
+            return rc;
     }
     if (st >= 0)
-        st = bst_bsdf_to_layer(ctx, b, target, &l);
-    if (st < 0) {
-        rc = cli_fail_ctx(sub, in, ctx);
-        goto done;
-    }
-    lw = l;
-write:;
-    /* the command line for the file's comment */
+        st = bst_bsdf_to_layer(ctx, *b, *target, l);
+    return st < 0 ? cli_fail_ctx(sub, in, ctx) : CLI_OK;
+}
+
+/* The command line for the file's comment (what changes no output byte left out), or NULL. */
+static char *command_line(int argc, char **argv)
+{
     size_t len = strlen("bsdfstack") + 1;
     for (int i = 0; i < argc; i++)
         len += strlen(argv[i]) + 1;
-    if (!(command = malloc(len))) {
-        rc = cli_fail(sub, "out of memory");
-        goto done;
-    }
+    char *command = malloc(len);
+    if (!command)
+        return NULL;
     strcpy(command, "bsdfstack");
     for (int i = 0; i < argc; i++)
-        if (!cli_threads_arg(argc, argv, &i)) /* changes no output byte: not recorded */
+        if (!cli_threads_arg(argc, argv, &i))
             strcat(strcat(command, " "), argv[i]);
+    return command;
+}
+
+/* Write lw (b: its file, for rank-3 trees, or NULL) to q->out, atomically. */
+static int write_out(bst_ctx *ctx, const char *sub, struct convert_req *q, const bst_layer *lw,
+                     const bst_bsdf *b, int argc, char **argv)
+{
+    char *command = command_line(argc, argv);
+    if (!command)
+        return cli_fail(sub, "out of memory");
     bst_bsdf_write_opts o;
     bst_bsdf_write_opts_init(&o);
-    o.rank = (bst_tree_rank)rank;
-    o.reduce_pct = no_reduce ? -1.0 : pct;
-    o.reduce_tol = tol;
-    o.digits = digits;
-    o.name = name;
+    o.rank = (bst_tree_rank)q->rank;
+    o.reduce_pct = q->no_reduce ? -1.0 : q->pct;
+    o.reduce_tol = q->tol;
+    o.digits = q->digits;
+    o.name = q->name;
     o.nlayers = 1;
-    o.layers = &in;
+    o.layers = &q->in;
     o.command = command;
     o.rank3_source = b;
     o.on_block = report;
-    o.opaque = &verbose;
+    o.opaque = &q->verbose;
     char date[64];
     struct cli_out co;
-    if (cli_source_date(sub, date, sizeof date, &o.date) != CLI_OK || cli_out_open(&co, sub, out) != CLI_OK) {
-        rc = CLI_FAIL;
-        goto done;
+    if (cli_source_date(sub, date, sizeof date, &o.date) != CLI_OK ||
+        cli_out_open(&co, sub, q->out) != CLI_OK) {
+        free(command);
+        return CLI_FAIL;
     }
     struct timespec w0, w1;
     struct rusage r0, r1;
     clock_gettime(CLOCK_MONOTONIC, &w0);
     getrusage(RUSAGE_SELF, &r0);
-    st = bst_bsdf_write(ctx, lw, co.fp, &o);
-    if (st < 0) {
-        rc = cli_out_fail_ctx(&co, sub, ctx);
-        goto done;
-    }
+    int st = bst_bsdf_write(ctx, lw, co.fp, &o);
+    free(command);
+    if (st < 0)
+        return cli_out_fail_ctx(&co, sub, ctx);
     long pos = co.fp ? ftell(co.fp) : -1;
-    rc = cli_out_commit(&co, sub);
-    if (rc == CLI_OK && verbose.on) { /* the write's time (its decisions included), as combine -v */
+    int rc = cli_out_commit(&co, sub);
+    if (rc == CLI_OK && q->verbose.on) { /* the write's time (its decisions included), as combine -v */
         clock_gettime(CLOCK_MONOTONIC, &w1);
         getrusage(RUSAGE_SELF, &r1);
         fprintf(stderr, "bsdfstack convert: wrote %.1f MB: %.3f s, %.3f CPU-s, peak RSS %.1f MiB\n",
                 pos >= 0 ? pos / 1e6 : 0.0, seconds(&w1) - seconds(&w0),
                 cpu_seconds(&r1) - cpu_seconds(&r0), r1.ru_maxrss / 1024.0);
     }
-done:
-    free(command);
-    free(chcopy);
+    return rc;
+}
+
+int cmd_convert(int argc, char **argv)
+{
+    const char *sub = "convert";
+    struct convert_req q;
+    int rc = parse(argc, argv, &q);
+    if (rc != CLI_OK || q.help)
+        return rc;
+    size_t inlen = strlen(q.in);
+    /* glass:SPEC, venetian:SPEC and LAYER^ go through the shared loader (no rank-3 source then) */
+    int via_loader = strncmp(q.in, "glass:", 6) == 0 || strncmp(q.in, "venetian:", 9) == 0 ||
+                     (inlen && q.in[inlen - 1] == '^');
+    bst_ctx *ctx = cli_ctx_new(sub);
+    if (!ctx)
+        return CLI_FAIL;
+    bst_ctx_set_threads(ctx, q.threads);
+    bst_bsdf *b = NULL;
+    bst_basis *target = NULL;
+    bst_layer *l = NULL;
+    struct cli_layers set = {0};
+    if (via_loader) {
+        char *spec = (char *)q.in;
+        rc = cli_layers_load(&set, ctx, sub, 1, &spec, &q.basis, q.channels, 0, BST_DOUBLE);
+    } else {
+        rc = read_file(ctx, sub, &q, &b, &target, &l);
+    }
+    if (rc == CLI_OK)
+        rc = write_out(ctx, sub, &q, via_loader ? set.layers[0] : l, b, argc, argv);
     cli_layers_free(&set);
     bst_layer_free(l);
     bst_basis_free(target);

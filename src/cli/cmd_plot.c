@@ -294,9 +294,82 @@ static int parse_comps(const char *sub, const char *arg, struct cli_curve_opts *
     return CLI_OK;
 }
 
+enum { O_CURVE = 256, O_PHI, O_TSV, O_MAXMEM };
+
+/* What the command line asks for: a map (m) or curves (cv). */
+struct plot_req {
+    struct map_opts m;
+    struct cli_curve_opts cv;
+    const char *map_only, *curve_only; /* an option given that only a map, or curves, take */
+    int have_decades, curve;
+};
+
+/* Option c with value arg into q: CLI_OK, a usage error, or -1 when c is not one of these. */
+static int option(const char *sub, int c, const char *arg, struct plot_req *q)
+{
+    char extra;
+    switch (c) {
+    case 'C':
+        if (parse_comps(sub, arg, &q->cv) != CLI_OK)
+            return CLI_USAGE;
+        q->m.comp = q->cv.comps[0];
+        break;
+    case 'i':
+        if (cli_parse_incident(sub, arg, q->m.incident) != CLI_OK)
+            return CLI_USAGE;
+        q->m.have_incident = 1, q->map_only = "--incident";
+        break;
+    case 'c': q->m.channel = q->cv.channel = arg; break;
+    case 'D': q->m.dsf = 1, q->map_only = "--dsf"; break;
+    case 'd':
+        if (cli_parse_double(arg, &q->m.decades) != 0 || q->m.decades < 0.1 || q->m.decades > 30)
+            return cli_usage(sub, "--decades %s: give a number between 0.1 and 30", arg);
+        q->have_decades = 1, q->map_only = "--decades";
+        break;
+    case 'l': q->m.linear = 1, q->map_only = "--linear"; break;
+    case 'r':
+        if (sscanf(arg, "%lf,%lf%c", &q->m.rmin, &q->m.rmax, &extra) != 2 || !isfinite(q->m.rmin) ||
+            !isfinite(q->m.rmax) || q->m.rmin < 0 || q->m.rmax <= q->m.rmin)
+            return cli_usage(sub, "--range %s: give MIN,MAX with 0 <= MIN < MAX", arg);
+        q->cv.ymin = q->m.rmin, q->cv.ymax = q->m.rmax;
+        break;
+    case 'p':
+        if (strcmp(arg, "disk") == 0)
+            q->m.angle = 0;
+        else if (strcmp(arg, "angle") == 0)
+            q->m.angle = 1;
+        else
+            return cli_usage(sub, "--projection %s: use disk or angle", arg);
+        q->map_only = "--projection";
+        break;
+    case 's':
+        if (cli_parse_int(arg, &q->m.size) != 0 || q->m.size < 64 || q->m.size > 4096)
+            return cli_usage(sub, "--size %s: give 64 to 4096 pixels", arg);
+        break;
+    case 'f':
+        if ((q->m.format = cli_draw_format_parse(arg)) < 0)
+            return cli_usage(sub, "--format %s: use png, svg or pdf", arg);
+        break;
+    case O_CURVE: q->curve = 1; break;
+    case O_PHI:
+        if (cli_parse_double(arg, &q->cv.phi) != 0 || q->cv.phi < -360 || q->cv.phi > 360)
+            return cli_usage(sub, "--phi %s: give an azimuth in degrees, -360 to 360", arg);
+        q->curve_only = "--phi";
+        break;
+    case O_TSV: q->cv.tsvpath = arg, q->curve_only = "--tsv"; break;
+    case O_MAXMEM:
+        if (cli_parse_memory(sub, arg, &q->cv.max_memory) != CLI_OK)
+            return CLI_USAGE;
+        q->curve_only = "--max-memory";
+        break;
+    case 'o': q->m.outpath = arg; break;
+    default: return -1;
+    }
+    return CLI_OK;
+}
+
 int cmd_plot(int argc, char **argv)
 {
-    enum { O_CURVE = 256, O_PHI, O_TSV, O_MAXMEM };
     static const struct option longopts[] = {{"comp", required_argument, NULL, 'C'},
                                              {"incident", required_argument, NULL, 'i'},
                                              {"channel", required_argument, NULL, 'c'},
@@ -314,110 +387,63 @@ int cmd_plot(int argc, char **argv)
                                              {"output", required_argument, NULL, 'o'},
                                              {"help", no_argument, NULL, 'h'},
                                              {NULL, 0, NULL, 0}};
-    const char *sub = "plot", *map_only = NULL, *curve_only = NULL;
-    struct map_opts m = {.comp = BST_TF, .size = 0, .format = -1, .decades = 4, .rmin = NAN, .rmax = NAN};
-    struct cli_curve_opts cv = {.ncomps = 1, .comps = {BST_TF}, .phi = 0, .ymin = NAN, .ymax = NAN};
-    int c, have_decades = 0, curve = 0;
+    const char *sub = "plot";
+    struct plot_req q = {
+        .m = {.comp = BST_TF, .size = 0, .format = -1, .decades = 4, .rmin = NAN, .rmax = NAN},
+        .cv = {.ncomps = 1, .comps = {BST_TF}, .phi = 0, .ymin = NAN, .ymax = NAN}};
+    struct map_opts *m = &q.m;
+    struct cli_curve_opts *cv = &q.cv;
+    int c;
     optind = 1;
     opterr = 0;
     while ((c = getopt_long(argc, argv, ":ho:", longopts, NULL)) != -1) {
-        char extra;
+        int rc = option(sub, c, optarg, &q);
+        if (rc == CLI_OK)
+            continue;
+        if (rc != -1)
+            return rc;
         switch (c) {
-        case 'C':
-            if (parse_comps(sub, optarg, &cv) != CLI_OK)
-                return CLI_USAGE;
-            m.comp = cv.comps[0];
-            break;
-        case 'i':
-            if (cli_parse_incident(sub, optarg, m.incident) != CLI_OK)
-                return CLI_USAGE;
-            m.have_incident = 1, map_only = "--incident";
-            break;
-        case 'c': m.channel = cv.channel = optarg; break;
-        case 'D': m.dsf = 1, map_only = "--dsf"; break;
-        case 'd':
-            if (cli_parse_double(optarg, &m.decades) != 0 || m.decades < 0.1 || m.decades > 30)
-                return cli_usage(sub, "--decades %s: give a number between 0.1 and 30", optarg);
-            have_decades = 1, map_only = "--decades";
-            break;
-        case 'l': m.linear = 1, map_only = "--linear"; break;
-        case 'r':
-            if (sscanf(optarg, "%lf,%lf%c", &m.rmin, &m.rmax, &extra) != 2 || !isfinite(m.rmin) ||
-                !isfinite(m.rmax) || m.rmin < 0 || m.rmax <= m.rmin)
-                return cli_usage(sub, "--range %s: give MIN,MAX with 0 <= MIN < MAX", optarg);
-            cv.ymin = m.rmin, cv.ymax = m.rmax;
-            break;
-        case 'p':
-            if (strcmp(optarg, "disk") == 0)
-                m.angle = 0;
-            else if (strcmp(optarg, "angle") == 0)
-                m.angle = 1;
-            else
-                return cli_usage(sub, "--projection %s: use disk or angle", optarg);
-            map_only = "--projection";
-            break;
-        case 's':
-            if (cli_parse_int(optarg, &m.size) != 0 || m.size < 64 || m.size > 4096)
-                return cli_usage(sub, "--size %s: give 64 to 4096 pixels", optarg);
-            break;
-        case 'f':
-            if ((m.format = cli_draw_format_parse(optarg)) < 0)
-                return cli_usage(sub, "--format %s: use png, svg or pdf", optarg);
-            break;
-        case O_CURVE: curve = 1; break;
-        case O_PHI:
-            if (cli_parse_double(optarg, &cv.phi) != 0 || cv.phi < -360 || cv.phi > 360)
-                return cli_usage(sub, "--phi %s: give an azimuth in degrees, -360 to 360", optarg);
-            curve_only = "--phi";
-            break;
-        case O_TSV: cv.tsvpath = optarg, curve_only = "--tsv"; break;
-        case O_MAXMEM:
-            if (cli_parse_memory(sub, optarg, &cv.max_memory) != CLI_OK)
-                return CLI_USAGE;
-            curve_only = "--max-memory";
-            break;
-        case 'o': m.outpath = optarg; break;
         case 'h': fputs(help, stdout); return CLI_OK;
         case ':': return cli_usage(sub, "option %s needs a value", argv[optind - 1]);
         default: return cli_usage(sub, "unknown option '%s'", argv[optind - 1]);
         }
     }
     int nfiles = argc - optind;
-    if (curve && map_only)
+    if (q.curve && q.map_only)
         return cli_usage(sub, "%s draws a map; --curve takes --comp, --phi, --channel, --range, --size, "
-                         "--format, --tsv and --max-memory", map_only);
-    if (!curve && curve_only)
-        return cli_usage(sub, "%s goes with --curve", curve_only);
-    if (!curve && cv.ncomps > 1)
+                         "--format, --tsv and --max-memory", q.map_only);
+    if (!q.curve && q.curve_only)
+        return cli_usage(sub, "%s goes with --curve", q.curve_only);
+    if (!q.curve && cv->ncomps > 1)
         return cli_usage(sub, "--comp: a map draws one component (lists go with --curve)");
-    if (nfiles < 1 || (!curve && nfiles > 1))
+    if (nfiles < 1 || (!q.curve && nfiles > 1))
         return cli_usage(sub, nfiles < 1 ? "no file given" : "one file expected (several go with --curve)");
-    if (!m.outpath)
+    if (!m->outpath)
         return cli_usage(sub, "no output given: -o OUT.png, OUT.svg, OUT.pdf or - for standard output");
-    if (m.format < 0 && (m.format = cli_draw_format_of_path(m.outpath)) < 0)
-        return cli_usage(sub, "-o %s: name a .png, .svg or .pdf file, or give --format", m.outpath);
-    if (curve) {
-        int same = cv.tsvpath ? cli_out_same(cv.tsvpath, m.outpath) : 0;
+    if (m->format < 0 && (m->format = cli_draw_format_of_path(m->outpath)) < 0)
+        return cli_usage(sub, "-o %s: name a .png, .svg or .pdf file, or give --format", m->outpath);
+    if (q.curve) {
+        int same = cv->tsvpath ? cli_out_same(cv->tsvpath, m->outpath) : 0;
         if (same < 0)
             return cli_fail(sub, "out of memory");
-        if (same && strcmp(m.outpath, "-") == 0)
+        if (same && strcmp(m->outpath, "-") == 0)
             return cli_usage(sub, "--tsv - and -o - would both write to standard output");
         if (same)
-            return cli_usage(sub, "--tsv %s and -o %s name the same file", cv.tsvpath, m.outpath);
-        cv.size = m.size ? m.size : 720;
-        cv.format = m.format;
-        cv.outpath = m.outpath;
-        return cli_plot_curves(sub, (size_t)nfiles, argv + optind, &cv);
+            return cli_usage(sub, "--tsv %s and -o %s name the same file", cv->tsvpath, m->outpath);
+        cv->size = m->size ? m->size : 720;
+        cv->format = m->format;
+        cv->outpath = m->outpath;
+        return cli_plot_curves(sub, (size_t)nfiles, argv + optind, cv);
     }
-    if (m.linear && have_decades)
+    if (m->linear && q.have_decades)
         return cli_usage(sub, "--linear and --decades exclude each other");
-    if (!m.linear && m.rmin == 0 && m.rmax > 0)
+    if (!m->linear && m->rmin == 0 && m->rmax > 0)
         return cli_usage(sub, "--range: a logarithmic scale needs MIN > 0 (or use --linear)");
-    if (!m.size)
-        m.size = 480;
+    if (!m->size)
+        m->size = 480;
     const char *path = argv[optind];
     if (strncmp(path, "glass:", 6) == 0)
         return cli_fail(sub, "%s: a clear pane scatters nothing off the specular direction; plot "
                         "reads BSDF files (see bsdfstack glass for its T and R)", path);
-    return plot_map(sub, path, &m);
+    return plot_map(sub, path, m);
 }

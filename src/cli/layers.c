@@ -140,6 +140,7 @@ static int read_all(bst_ctx *ctx, const char *sub, size_t n, char **specs,
     memset(pick, 0, sizeof *pick);
     pick->k = plan.k;
     pick->file = plan.file;
+    snprintf(pick->why, sizeof pick->why, "%s", plan.why);
     if (plan.klems)
         snprintf(pick->klems, sizeof pick->klems, "%s", plan.klems);
     if (bst_plan_make_basis(ctx, &plan, n, (const bst_bsdf *const *)files, NULL, basis) < 0)
@@ -237,6 +238,7 @@ int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_
     struct cli_basis_pick pick;
     if ((rc = read_all(ctx, sub, n, specs, choice, &ro, prec, files, &set->basis, &pick)) != CLI_OK)
         goto out;
+    snprintf(set->basis_why, sizeof set->basis_why, "%s", pick.why);
     /* 3. every layer over that basis, reversed where asked */
     for (size_t i = 0; i < n && rc == CLI_OK; i++) {
         rc = make_layer(ctx, sub, specs[i], specs[i], files[i], set->basis, nch, chnames,
@@ -259,7 +261,7 @@ out:
 
 int cli_layers_check(bst_ctx *ctx, const char *sub, size_t n, char **specs,
                      const struct cli_basis_choice *choice, const char *channels,
-                     bst_precision prec, struct cli_basis_pick *pick, int *structure)
+                     bst_precision prec, struct cli_basis_pick *pick, bst_structure *structure)
 {
     bst_bsdf **files = calloc(n, sizeof *files);
     char *chcopy = channels ? strdup(channels) : NULL;
@@ -280,7 +282,7 @@ int cli_layers_check(bst_ctx *ctx, const char *sub, size_t n, char **specs,
                 for (int c = 0; c < BST_NCOMP; c++)
                     if (bst_bsdf_fill(files[i], ch, (bst_comp)c) > fill)
                         fill = bst_bsdf_fill(files[i], ch, (bst_comp)c);
-            structure[i] = fill > BST_SPARSE_MAX_FILL ? CLI_DENSE : fill > 0 ? CLI_SPARSE : CLI_DIAGONAL;
+            structure[i] = fill > BST_SPARSE_MAX_FILL ? BST_DENSE : fill > 0 ? BST_SPARSE : BST_DIAG;
             continue;
         }
         if (is_venetian(specs[i])) { /* its errors show now; dense when its slats scatter diffusely */
@@ -297,7 +299,7 @@ int cli_layers_check(bst_ctx *ctx, const char *sub, size_t n, char **specs,
             int diffuse = v.r_up > 0 || v.r_down > 0 || v.t > 0;
             for (int k = 0; k < 3; k++)
                 diffuse |= v.solar[k] > 0; /* the Solar channel's r-up, r-down, t */
-            structure[i] = diffuse ? CLI_DENSE : CLI_SPARSE;
+            structure[i] = diffuse ? BST_DENSE : BST_SPARSE;
             continue;
         }
         /* a pane: made once here (cheap: one diagonal per component) so that its errors show now */
@@ -307,7 +309,7 @@ int cli_layers_check(bst_ctx *ctx, const char *sub, size_t n, char **specs,
                         &l, &pane);
         bst_layer_free(l);
         bst_glass_free(pane);
-        structure[i] = CLI_DIAGONAL;
+        structure[i] = BST_DIAG;
     }
     for (size_t i = 0; i < n; i++)
         bst_bsdf_free(files[i]);
@@ -320,27 +322,29 @@ int cli_layers_check(bst_ctx *ctx, const char *sub, size_t n, char **specs,
 int cli_basis_make(bst_ctx *ctx, const char *sub, const struct cli_basis_pick *pick, char **specs,
                    const char *channels, bst_precision prec, bst_basis **basis)
 {
-    int st;
     *basis = NULL;
-    if (pick->klems[0])
-        st = bst_basis_new_klems(ctx, pick->klems, basis);
-    else if (pick->k)
-        st = bst_basis_new_sc(ctx, pick->k, basis);
-    else {
+    bst_plan_basis plan = {.k = pick->k, .klems = pick->klems[0] ? pick->klems : NULL,
+                           .file = pick->file, .given = -1};
+    /* the plan's basis made as the picking process made it: only the named file is read */
+    size_t n = pick->file >= 0 ? (size_t)pick->file + 1 : 0;
+    bst_bsdf **files = n ? calloc(n, sizeof *files) : NULL;
+    int rc = n && !files ? cli_fail(sub, "out of memory") : CLI_OK;
+    if (rc == CLI_OK && n) {
         char *chcopy = channels ? strdup(channels) : NULL;
         const char *chnames[MAX_CH];
         size_t nch = chcopy ? split(chcopy, chnames, MAX_CH) : 0;
         bst_bsdf_read_opts ro = {.nchannels = nch, .channels = chnames, .precision = prec};
-        bst_bsdf *file = NULL;
-        int rc = channels && !chcopy ? cli_fail(sub, "out of memory")
-                                     : read_one(ctx, sub, NULL, specs[pick->file], &ro, 1, &file);
+        rc = channels && !chcopy ? cli_fail(sub, "out of memory")
+                                 : read_one(ctx, sub, NULL, specs[n - 1], &ro, 1, &files[n - 1]);
         free(chcopy);
-        if (rc != CLI_OK)
-            return rc;
-        st = bst_basis_copy(ctx, bst_bsdf_klems_basis(file), basis);
-        bst_bsdf_free(file);
     }
-    return st < 0 ? cli_fail_ctx(sub, NULL, ctx) : CLI_OK;
+    if (rc == CLI_OK && bst_plan_make_basis(ctx, &plan, n, (const bst_bsdf *const *)files, NULL,
+                                            basis) < 0)
+        rc = cli_fail_ctx(sub, NULL, ctx);
+    if (files)
+        bst_bsdf_free(files[n - 1]);
+    free(files);
+    return rc;
 }
 
 int cli_layer_load(bst_ctx *ctx, const char *sub, const char *what, const char *spec,

@@ -39,6 +39,8 @@ struct cli_layers {
                           wavelength (bst_stack_combine_spectral) */
     size_t npanes;     /* how many are non-NULL */
     int plan_warn;     /* cli_spectral_plan's reason is one to warn of (bst_plan_spectral) */
+    int spectral;      /* cli_combine_run combined it per wavelength */
+    char basis_why[160]; /* the plan's reason for the basis (bst_plan_basis.why) */
 };
 
 /* Parse -k VALUE (opt 'k') or --klems[=WHICH] (opt 'K') into choice; CLI_OK or a usage error. */
@@ -100,17 +102,17 @@ struct cli_basis_pick {
     int k;         /* 0 when not this */
     char klems[8]; /* "full", "half", "quarter", or "" */
     long file;     /* -1 when not this */
+    char why[160]; /* the rule that chose (bst_plan_basis.why) */
 };
-/* The structure a layer will have once loaded (glass: diagonal; a file: dense when a component
- * fills more than BST_SPARSE_MAX_FILL of its domain, as bst_bsdf_to_layer decides). */
-enum { CLI_DIAGONAL, CLI_SPARSE, CLI_DENSE };
 /* Check every spec as cli_layers_load would load it (all components), without resampling the
  * files: read each file, choose the basis (told in *pick), run the memory guard over all, make
- * each pane once; structure[i] gets the structure of layer i.  CLI_OK, or one error line
- * printed.  The reader's warnings are printed here. */
+ * each pane once; structure[i] gets the structure layer i will have once loaded (a pane
+ * diagonal; a file dense when a component fills more than BST_SPARSE_MAX_FILL of its domain, as
+ * bst_bsdf_to_layer decides).  CLI_OK, or one error line printed.  The reader's warnings are
+ * printed here. */
 int cli_layers_check(bst_ctx *ctx, const char *sub, size_t n, char **specs,
                      const struct cli_basis_choice *choice, const char *channels,
-                     bst_precision prec, struct cli_basis_pick *pick, int *structure);
+                     bst_precision prec, struct cli_basis_pick *pick, bst_structure *structure);
 /* The basis *pick names (specs: those it was picked from). */
 int cli_basis_make(bst_ctx *ctx, const char *sub, const struct cli_basis_pick *pick, char **specs,
                    const char *channels, bst_precision prec, bst_basis **basis);
@@ -160,5 +162,24 @@ int cli_columns_spectral(bst_ctx *ctx, const char *sub, const struct cli_layers 
 /* Append "spectral: WHY" to set->description (the output's metadata); -v also prints it, and so
  * does set->plan_warn, as a warning. */
 int cli_note_spectral(const char *sub, struct cli_layers *set, const char *why, int verbose);
+
+/* How cli_combine_run runs a stack. */
+struct cli_run_opts {
+    int verbose;         /* -v: print the plan's reason */
+    int consume;         /* the layers may be freed at their last use (bst_stack_combine_consume;
+                          * not with absorptance); set->layers[i] are NULL after */
+    double *abs[2];      /* per-layer absorptance, front and back incidence (channel x layer x
+                          * patch each), or NULL: not wanted */
+    void (*spectral_step)(const bst_stack_step *, void *); /* per wavelength: the steps' callback
+                          * (bst_stack_opts.on_step) instead of args->so's, or NULL */
+    char *warning;       /* the combination's warning text, when there is one, or NULL */
+    size_t warning_size;
+};
+/* The run step of combine and batch: plan (cli_spectral_plan, its reason noted in set's
+ * description), then combine per wavelength or per channel, absorptance beside it when asked.
+ * where: the stack's name in messages (a batch line) or NULL.  CLI_OK, or one error line printed
+ * and *sys NULL. */
+int cli_combine_run(bst_ctx *ctx, const char *sub, const char *where, struct cli_layers *set,
+                    const struct cli_stack_args *args, const struct cli_run_opts *ro, bst_layer **sys);
 
 #endif

@@ -237,15 +237,16 @@ static void legend_label(char *buf, size_t size, char **files, size_t f, const s
         snprintf(buf, size, "%s", base_name(files[f]));
 }
 
-static int draw_chart(FILE *fp, size_t nfiles, char **files, const struct cli_curve_opts *o,
-                      const struct curves *all, char (*panels)[64], size_t npanels)
+/* The chart's geometry into ch: the legend's width measured in the figure's face, the panels
+ * stacked, the vertical axis (--range, or 0 to a round value above the largest); -1 when cairo
+ * fails. */
+static int layout(struct chart *ch, size_t nfiles, char **files, const struct cli_curve_opts *o,
+                  const struct curves *all, size_t npanels)
 {
-    struct chart ch;
-    ch.fs = fmax(9, o->size / 60.0);
-    /* the legend's width, measured in the figure's face */
+    ch->fs = fmax(9, o->size / 60.0);
     cairo_surface_t *scratch = cairo_image_surface_create(CAIRO_FORMAT_RGB24, 1, 1);
     cairo_t *m = cairo_create(scratch);
-    cli_draw_font(m, ch.fs);
+    cli_draw_font(m, ch->fs);
     double lw = 0;
     for (size_t f = 0; f < nfiles; f++)
         for (int k = 0; k < o->ncomps; k++) {
@@ -259,31 +260,116 @@ static int draw_chart(FILE *fp, size_t nfiles, char **files, const struct cli_cu
     if (st != CAIRO_STATUS_SUCCESS)
         return -1;
     lw = fmin(lw, 0.45 * o->size);
-    ch.width = o->size;
-    ch.left = 4.2 * ch.fs;
-    ch.right = ch.width - (lw + 5.4 * ch.fs);
-    if (ch.right - ch.left < 0.4 * ch.width)
-        ch.right = ch.left + 0.4 * ch.width;
-    ch.pw = ch.right - ch.left;
-    ch.legend_x = ch.right + 1.2 * ch.fs;
-    ch.ph = 0.6 * ch.pw;
-    ch.top = 2.2 * ch.fs;                    /* a panel's title band */
-    ch.panel_h = ch.top + ch.ph + 3.4 * ch.fs; /* and its axis labels */
-    ch.height = ceil(npanels * ch.panel_h + 0.5 * ch.fs);
-    ch.width = fmax(ch.width, ceil(ch.legend_x + 3 * ch.fs + lw + ch.fs));
+    ch->width = o->size;
+    ch->left = 4.2 * ch->fs;
+    ch->right = ch->width - (lw + 5.4 * ch->fs);
+    if (ch->right - ch->left < 0.4 * ch->width)
+        ch->right = ch->left + 0.4 * ch->width;
+    ch->pw = ch->right - ch->left;
+    ch->legend_x = ch->right + 1.2 * ch->fs;
+    ch->ph = 0.6 * ch->pw;
+    ch->top = 2.2 * ch->fs;                    /* a panel's title band */
+    ch->panel_h = ch->top + ch->ph + 3.4 * ch->fs; /* and its axis labels */
+    ch->height = ceil(npanels * ch->panel_h + 0.5 * ch->fs);
+    ch->width = fmax(ch->width, ceil(ch->legend_x + 3 * ch->fs + lw + ch->fs));
     /* the vertical axis: --range, or 0 to a round value above the largest */
     double vmax = 0;
     for (size_t i = 0; i < all->n; i++)
         for (size_t j = 0; j < all->c[i].n; j++)
             vmax = fmax(vmax, all->c[i].s[j].v);
     if (isfinite(o->ymin)) {
-        ch.ymin = o->ymin, ch.ymax = o->ymax, ch.ystep = nice_step(ch.ymax - ch.ymin);
+        ch->ymin = o->ymin, ch->ymax = o->ymax, ch->ystep = nice_step(ch->ymax - ch->ymin);
     } else {
-        ch.ymin = 0;
-        ch.ystep = nice_step(vmax > 0 ? vmax : 1);
-        ch.ymax = ch.ystep * ceil((vmax > 0 ? vmax : 1) / ch.ystep - 1e-9);
+        ch->ymin = 0;
+        ch->ystep = nice_step(vmax > 0 ? vmax : 1);
+        ch->ymax = ch->ystep * ceil((vmax > 0 ? vmax : 1) / ch->ystep - 1e-9);
     }
+    return 0;
+}
 
+/* Panel p (channel panels[p]): its title, grid, ticks, the curves' steps and the legend. */
+static void draw_panel(cairo_t *cr, const struct chart *ch, size_t p, const char *panel,
+                       const char *title, size_t nfiles, char **files,
+                       const struct cli_curve_opts *o, const struct curves *all)
+{
+    double y0 = p * ch->panel_h, top = y0 + ch->top, bot = top + ch->ph;
+    char head[512];
+    snprintf(head, sizeof head, "%s: %s", panel, title);
+    cli_draw_font(cr, ch->fs);
+    cairo_set_source_rgb(cr, 0, 0, 0);
+    cli_draw_text(cr, ch->left, y0 + 1.5 * ch->fs, 0, 0, head);
+    /* grid and ticks */
+    cairo_set_line_width(cr, 0.6);
+    cairo_set_source_rgb(cr, 0.85, 0.85, 0.85);
+    for (int t = 0; t <= 90; t += 15) {
+        cairo_move_to(cr, xpos(ch, t), top);
+        cairo_line_to(cr, xpos(ch, t), bot);
+    }
+    for (double v = ch->ymin; v <= ch->ymax + 1e-9 * ch->ystep; v += ch->ystep) {
+        cairo_move_to(cr, ch->left, ypos(ch, top, v));
+        cairo_line_to(cr, ch->right, ypos(ch, top, v));
+    }
+    cairo_stroke(cr);
+    cairo_set_source_rgb(cr, 0, 0, 0);
+    cairo_set_line_width(cr, 1);
+    cairo_rectangle(cr, ch->left, top, ch->pw, ch->ph);
+    cairo_stroke(cr);
+    for (int t = 0; t <= 90; t += 15) {
+        char lab[16];
+        snprintf(lab, sizeof lab, "%d\xc2\xb0", t);
+        cli_draw_text(cr, xpos(ch, t), bot + 0.5 * ch->fs, 0.5, 1, lab);
+    }
+    for (double v = ch->ymin; v <= ch->ymax + 1e-9 * ch->ystep; v += ch->ystep) {
+        char lab[32];
+        snprintf(lab, sizeof lab, "%g", fabs(v) < 1e-12 * ch->ystep ? 0 : v);
+        cli_draw_text(cr, ch->left - 0.4 * ch->fs, ypos(ch, top, v), 1, 0.5, lab);
+    }
+    snprintf(head, sizeof head, "incidence \xce\xb8 (degrees from the normal of the incident side)");
+    cli_draw_text(cr, ch->left + ch->pw / 2, bot + 2.9 * ch->fs, 0.5, 0, head);
+    /* the steps, clipped to the plot area (a --range may cut them) */
+    cairo_save(cr);
+    cairo_rectangle(cr, ch->left, top, ch->pw, ch->ph);
+    cairo_clip(cr);
+    cairo_set_line_join(cr, CAIRO_LINE_JOIN_MITER);
+    for (size_t i = 0; i < all->n; i++) {
+        const struct curve *c = &all->c[i];
+        if (strcasecmp(c->channel, panel) != 0)
+            continue;
+        for (size_t j = 0; j < c->n; j++) {
+            double y = ypos(ch, top, c->s[j].v);
+            if (j == 0)
+                cairo_move_to(cr, xpos(ch, c->s[j].t0), y);
+            else
+                cairo_line_to(cr, xpos(ch, c->s[j].t0), y);
+            cairo_line_to(cr, xpos(ch, c->s[j].t1), y);
+        }
+        set_style(cr, c->file, c->comp, fmax(1.2, ch->fs / 8));
+        cairo_stroke(cr);
+    }
+    cairo_restore(cr);
+    cairo_set_dash(cr, NULL, 0, 0);
+    /* the legend beside the plot area */
+    double ly = top + 0.8 * ch->fs;
+    for (size_t f = 0; f < nfiles; f++)
+        for (int k = 0; k < o->ncomps; k++, ly += 1.5 * ch->fs) {
+            char lab[512];
+            legend_label(lab, sizeof lab, files, f, o, k);
+            set_style(cr, f, k, fmax(1.2, ch->fs / 8));
+            cairo_move_to(cr, ch->legend_x, ly);
+            cairo_line_to(cr, ch->legend_x + 2.4 * ch->fs, ly);
+            cairo_stroke(cr);
+            cairo_set_dash(cr, NULL, 0, 0);
+            cairo_set_source_rgb(cr, 0, 0, 0);
+            cli_draw_text(cr, ch->legend_x + 3 * ch->fs, ly, 0, 0.5, lab);
+        }
+}
+
+static int draw_chart(FILE *fp, size_t nfiles, char **files, const struct cli_curve_opts *o,
+                      const struct curves *all, char (*panels)[64], size_t npanels)
+{
+    struct chart ch;
+    if (layout(&ch, nfiles, files, o, all, npanels) < 0)
+        return -1;
     char what[64] = "";
     for (int k = 0; k < o->ncomps; k++)
         snprintf(what + strlen(what), sizeof what - strlen(what), "%s%s", k ? ", " : "", comp_words(o->comps[k]));
@@ -294,78 +380,8 @@ static int draw_chart(FILE *fp, size_t nfiles, char **files, const struct cli_cu
     if (cli_draw_begin(&d, fp, o->format, ch.width, ch.height, title) != CAIRO_STATUS_SUCCESS)
         return -1;
     cairo_t *cr = d.cr;
-    for (size_t p = 0; p < npanels; p++) {
-        double y0 = p * ch.panel_h, top = y0 + ch.top, bot = top + ch.ph;
-        char head[512];
-        snprintf(head, sizeof head, "%s: %s", panels[p], title);
-        cli_draw_font(cr, ch.fs);
-        cairo_set_source_rgb(cr, 0, 0, 0);
-        cli_draw_text(cr, ch.left, y0 + 1.5 * ch.fs, 0, 0, head);
-        /* grid and ticks */
-        cairo_set_line_width(cr, 0.6);
-        cairo_set_source_rgb(cr, 0.85, 0.85, 0.85);
-        for (int t = 0; t <= 90; t += 15) {
-            cairo_move_to(cr, xpos(&ch, t), top);
-            cairo_line_to(cr, xpos(&ch, t), bot);
-        }
-        for (double v = ch.ymin; v <= ch.ymax + 1e-9 * ch.ystep; v += ch.ystep) {
-            cairo_move_to(cr, ch.left, ypos(&ch, top, v));
-            cairo_line_to(cr, ch.right, ypos(&ch, top, v));
-        }
-        cairo_stroke(cr);
-        cairo_set_source_rgb(cr, 0, 0, 0);
-        cairo_set_line_width(cr, 1);
-        cairo_rectangle(cr, ch.left, top, ch.pw, ch.ph);
-        cairo_stroke(cr);
-        for (int t = 0; t <= 90; t += 15) {
-            char lab[16];
-            snprintf(lab, sizeof lab, "%d\xc2\xb0", t);
-            cli_draw_text(cr, xpos(&ch, t), bot + 0.5 * ch.fs, 0.5, 1, lab);
-        }
-        for (double v = ch.ymin; v <= ch.ymax + 1e-9 * ch.ystep; v += ch.ystep) {
-            char lab[32];
-            snprintf(lab, sizeof lab, "%g", fabs(v) < 1e-12 * ch.ystep ? 0 : v);
-            cli_draw_text(cr, ch.left - 0.4 * ch.fs, ypos(&ch, top, v), 1, 0.5, lab);
-        }
-        snprintf(head, sizeof head, "incidence \xce\xb8 (degrees from the normal of the incident side)");
-        cli_draw_text(cr, ch.left + ch.pw / 2, bot + 2.9 * ch.fs, 0.5, 0, head);
-        /* the steps, clipped to the plot area (a --range may cut them) */
-        cairo_save(cr);
-        cairo_rectangle(cr, ch.left, top, ch.pw, ch.ph);
-        cairo_clip(cr);
-        cairo_set_line_join(cr, CAIRO_LINE_JOIN_MITER);
-        for (size_t i = 0; i < all->n; i++) {
-            const struct curve *c = &all->c[i];
-            if (strcasecmp(c->channel, panels[p]) != 0)
-                continue;
-            for (size_t j = 0; j < c->n; j++) {
-                double y = ypos(&ch, top, c->s[j].v);
-                if (j == 0)
-                    cairo_move_to(cr, xpos(&ch, c->s[j].t0), y);
-                else
-                    cairo_line_to(cr, xpos(&ch, c->s[j].t0), y);
-                cairo_line_to(cr, xpos(&ch, c->s[j].t1), y);
-            }
-            set_style(cr, c->file, c->comp, fmax(1.2, ch.fs / 8));
-            cairo_stroke(cr);
-        }
-        cairo_restore(cr);
-        cairo_set_dash(cr, NULL, 0, 0);
-        /* the legend beside the plot area */
-        double ly = top + 0.8 * ch.fs;
-        for (size_t f = 0; f < nfiles; f++)
-            for (int k = 0; k < o->ncomps; k++, ly += 1.5 * ch.fs) {
-                char lab[512];
-                legend_label(lab, sizeof lab, files, f, o, k);
-                set_style(cr, f, k, fmax(1.2, ch.fs / 8));
-                cairo_move_to(cr, ch.legend_x, ly);
-                cairo_line_to(cr, ch.legend_x + 2.4 * ch.fs, ly);
-                cairo_stroke(cr);
-                cairo_set_dash(cr, NULL, 0, 0);
-                cairo_set_source_rgb(cr, 0, 0, 0);
-                cli_draw_text(cr, ch.legend_x + 3 * ch.fs, ly, 0, 0.5, lab);
-            }
-    }
+    for (size_t p = 0; p < npanels; p++)
+        draw_panel(cr, &ch, p, panels[p], title, nfiles, files, o, all);
     return cli_draw_end(&d) == CAIRO_STATUS_SUCCESS ? 0 : -1;
 }
 

@@ -1,0 +1,488 @@
+/* lowrank.c - factored matrices D + U K V^T (lowrank.h): their products, sums, scalings and the
+ * Woodbury inverse, each exact (to rounding) and with dense work of the coarse size only.
+ *
+ * Block bookkeeping: K's block (i, j) is r x r at rows i r .. i r + r - 1 and columns
+ * j r .. j r + r - 1 of a column-major (p r) x (q r) array.  A result's scaling vectors are
+ * collected term by term; a vector already in the list (find_or_add) takes the same block, so the
+ * blocks of equal scalings add up instead of growing the rank. */
+#include <config.h>
+
+#include <math.h>
+#include <string.h>
+
+#include <cblas.h>
+#include <lapacke.h>
+
+#include "ctx.h"
+#include "lowrank.h"
+
+/* Two scaling vectors are one when they differ by at most this much of the larger's largest
+ * value: products of the same diagonals in another order round differently (a few ulps). */
+#define BSTI_LR_SAME_TOL 1e-14
+
+int bsti_lr_map_new(bst_ctx *ctx, size_t N, size_t r, size_t nnz, bsti_lr_map **out)
+{
+    *out = NULL;
+    bsti_lr_map *S = bsti_calloc(ctx, 1, sizeof *S);
+    if (!S)
+        return BST_ENOMEM;
+    S->start = bsti_alloc_array(ctx, N + 1, sizeof *S->start);
+    S->col = S->start ? bsti_alloc_array(ctx, nnz ? nnz : 1, sizeof *S->col) : NULL;
+    S->w = S->col ? bsti_alloc_array(ctx, nnz ? nnz : 1, sizeof *S->w) : NULL;
+    if (!S->w) {
+        bsti_lr_map_free(ctx, S);
+        return BST_ENOMEM;
+    }
+    S->N = N, S->r = r;
+    S->start[0] = 0, S->start[N] = nnz;
+    *out = S;
+    return BST_OK;
+}
+
+int bsti_lr_map_prolong(bst_ctx *ctx, int k, int d, bsti_lr_map **out)
+{
+    *out = NULL;
+    if (d < 0 || d > k || k > BST_K_MAX)
+        return bsti_error(ctx, BST_EINVAL, "prolongation from order %d to %d", d, k);
+    size_t G = (size_t)1 << k, g = (size_t)1 << d, N = G * G, s = (size_t)(k - d);
+    int rc = bsti_lr_map_new(ctx, N, g * g, N, out);
+    if (rc < 0)
+        return rc;
+    bsti_lr_map *S = *out;
+    for (size_t x = 0; x < N; x++) {
+        S->start[x] = x;
+        S->col[x] = ((x / G) >> s) * g + ((x % G) >> s);
+        S->w[x] = 1.0;
+    }
+    return BST_OK;
+}
+
+void bsti_lr_map_free(bst_ctx *ctx, bsti_lr_map *S)
+{
+    if (!S)
+        return;
+    bsti_free(ctx, S->start), bsti_free(ctx, S->col), bsti_free(ctx, S->w);
+    bsti_free(ctx, S);
+}
+
+void bsti_lr_free(bst_ctx *ctx, bsti_lr *m)
+{
+    if (!m)
+        return;
+    bsti_free(ctx, m->d), bsti_free(ctx, m->a), bsti_free(ctx, m->b), bsti_free(ctx, m->k);
+    bsti_free(ctx, m);
+}
+
+/* A matrix with room for p and q scalings, K zero, and a diagonal when with_d. */
+static int lr_alloc(bst_ctx *ctx, const bsti_lr_map *S, size_t p, size_t q, int with_d,
+                    bsti_lr **out)
+{
+    size_t N = S->N, r = S->r;
+    bsti_lr *m = bsti_calloc(ctx, 1, sizeof *m);
+    *out = NULL;
+    if (!m)
+        return BST_ENOMEM;
+    *m = (bsti_lr){.S = S, .N = N, .r = r, .p = p, .q = q};
+    int ok = (!with_d || (m->d = bsti_alloc_array(ctx, N, sizeof *m->d))) &&
+             (m->a = bsti_alloc_array(ctx, p * N + 1, sizeof *m->a)) &&
+             (m->b = bsti_alloc_array(ctx, q * N + 1, sizeof *m->b)) &&
+             (m->k = bsti_calloc(ctx, p * r * q * r + 1, sizeof *m->k));
+    if (!ok) {
+        bsti_lr_free(ctx, m);
+        return BST_ENOMEM;
+    }
+    *out = m;
+    return BST_OK;
+}
+
+int bsti_lr_new(bst_ctx *ctx, const bsti_lr_map *S, const double *d, const double *a,
+                const double *K, const double *b, bsti_lr **out)
+{
+    size_t N = S->N, r = S->r, p = K ? 1 : 0;
+    int rc = lr_alloc(ctx, S, p, p, d != NULL, out);
+    if (rc < 0)
+        return rc;
+    bsti_lr *m = *out;
+    if (d)
+        memcpy(m->d, d, N * sizeof *d);
+    for (size_t x = 0; p && x < N; x++)
+        m->a[x] = a ? a[x] : 1.0, m->b[x] = b ? b[x] : 1.0;
+    if (K)
+        memcpy(m->k, K, r * r * sizeof *K);
+    return BST_OK;
+}
+
+/* The index of v (N values) among the n vectors of list, appended when it is not there. */
+static size_t find_or_add(double *list, size_t *n, const double *v, size_t N)
+{
+    double vmax = 0.0;
+    for (size_t x = 0; x < N; x++)
+        vmax = fmax(vmax, fabs(v[x]));
+    for (size_t i = 0; i < *n; i++) {
+        const double *u = list + i * N;
+        size_t x = 0;
+        while (x < N && fabs(u[x] - v[x]) <= BSTI_LR_SAME_TOL * vmax)
+            x++;
+        if (x == N)
+            return i;
+    }
+    memcpy(list + *n * N, v, N * sizeof *v);
+    return (*n)++;
+}
+
+/* G[row0 .., col0 ..] += S^T diag(c) S, G column-major with leading dimension ld. */
+static void gram_add(const bsti_lr_map *S, const double *c, double *G, size_t ld, size_t row0,
+                     size_t col0)
+{
+    for (size_t x = 0; x < S->N; x++)
+        for (size_t e2 = S->start[x]; e2 < S->start[x + 1]; e2++)
+            for (size_t e1 = S->start[x]; e1 < S->start[x + 1]; e1++)
+                G[(col0 + S->col[e2]) * ld + row0 + S->col[e1]] += c[x] * S->w[e1] * S->w[e2];
+}
+
+/* dst's block (bi, bj) += s * src's block (i, j), both r x r blocks of column-major arrays (no
+ * I and J: lapacke.h brings complex.h's I). */
+static void add_block(double *dst, size_t ldd, size_t bi, size_t bj, const double *src, size_t lds,
+                      size_t i, size_t j, size_t r, double s)
+{
+    for (size_t c = 0; c < r; c++)
+        for (size_t q = 0; q < r; q++)
+            dst[(bj * r + c) * ldd + bi * r + q] += s * src[(j * r + c) * lds + i * r + q];
+}
+
+static void times(double *v, const double *x, const double *y, size_t N)
+{
+    for (size_t n = 0; n < N; n++)
+        v[n] = x[n] * y[n];
+}
+
+/* Scratch of a product or sum: the result's two lists and where each operand's vectors went. */
+struct lists {
+    double *left, *right, *v;
+    size_t *li_f, *li_g, *rj_f, *rj_g;
+};
+
+static int lists_alloc(bst_ctx *ctx, size_t N, size_t pmax, size_t qmax, const bsti_lr *f,
+                       const bsti_lr *g, struct lists *l)
+{
+    memset(l, 0, sizeof *l);
+    l->left = bsti_alloc_array(ctx, pmax * N + 1, sizeof *l->left);
+    l->right = bsti_alloc_array(ctx, qmax * N + 1, sizeof *l->right);
+    l->v = bsti_alloc_array(ctx, N, sizeof *l->v);
+    l->li_f = bsti_alloc_array(ctx, f->p + g->p + f->q + g->q + 4, sizeof *l->li_f);
+    if (!l->left || !l->right || !l->v || !l->li_f)
+        return BST_ENOMEM;
+    l->li_g = l->li_f + f->p + 1, l->rj_f = l->li_g + g->p + 1, l->rj_g = l->rj_f + f->q + 1;
+    return BST_OK;
+}
+
+static void lists_free(bst_ctx *ctx, struct lists *l)
+{
+    bsti_free(ctx, l->left), bsti_free(ctx, l->right), bsti_free(ctx, l->v), bsti_free(ctx, l->li_f);
+}
+
+/* A new matrix holding the lists (pn, qn vectors) and, with_d, a diagonal. */
+static int lr_from_lists(bst_ctx *ctx, const bsti_lr_map *S, const struct lists *l, size_t pn,
+                         size_t qn, int with_d, bsti_lr **out)
+{
+    int rc = lr_alloc(ctx, S, pn, qn, with_d, out);
+    if (rc >= 0) {
+        memcpy((*out)->a, l->left, pn * S->N * sizeof *l->left);
+        memcpy((*out)->b, l->right, qn * S->N * sizeof *l->right);
+    }
+    return rc;
+}
+
+static int same_map(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g)
+{
+    if (f->S != g->S)
+        return bsti_error(ctx, BST_EINVAL, "factored matrices over different maps");
+    return BST_OK;
+}
+
+/* F G = D_F D_G + D_F U_G K_G V_G^T + U_F K_F V_F^T D_G + U_F (K_F V_F^T U_G K_G) V_G^T. */
+int bsti_lr_mul(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, bsti_lr **out)
+{
+    *out = NULL;
+    int rc = same_map(ctx, f, g);
+    if (rc < 0)
+        return rc;
+    size_t N = f->N, r = f->r;
+    struct lists l;
+    double *gm = NULL, *t1 = NULL, *t = NULL;
+    rc = lists_alloc(ctx, N, g->p + f->p, g->q + f->q, f, g, &l);
+    size_t pn = 0, qn = 0;
+    for (size_t i = 0; rc >= 0 && f->d && i < g->p; i++) {
+        times(l.v, f->d, g->a + i * N, N);
+        l.li_g[i] = find_or_add(l.left, &pn, l.v, N);
+    }
+    for (size_t i = 0; rc >= 0 && i < f->p; i++)
+        l.li_f[i] = find_or_add(l.left, &pn, f->a + i * N, N);
+    for (size_t j = 0; rc >= 0 && j < g->q; j++)
+        l.rj_g[j] = find_or_add(l.right, &qn, g->b + j * N, N);
+    for (size_t j = 0; rc >= 0 && g->d && j < f->q; j++) {
+        times(l.v, g->d, f->b + j * N, N);
+        l.rj_f[j] = find_or_add(l.right, &qn, l.v, N);
+    }
+    if (rc >= 0)
+        rc = lr_from_lists(ctx, f->S, &l, pn, qn, f->d && g->d, out);
+    if (rc < 0) {
+        lists_free(ctx, &l);
+        return rc;
+    }
+    bsti_lr *m = *out;
+    size_t ld = pn * r;
+    if (m->d)
+        times(m->d, f->d, g->d, N);
+    for (size_t i = 0; f->d && i < g->p; i++)
+        for (size_t j = 0; j < g->q; j++)
+            add_block(m->k, ld, l.li_g[i], l.rj_g[j], g->k, g->p * r, i, j, r, 1.0);
+    for (size_t i = 0; g->d && i < f->p; i++)
+        for (size_t j = 0; j < f->q; j++)
+            add_block(m->k, ld, l.li_f[i], l.rj_f[j], f->k, f->p * r, i, j, r, 1.0);
+    if (f->p && g->p) { /* the coupled term through V_F^T U_G, (f->q r) x (g->p r) */
+        size_t fq = f->q * r, gp = g->p * r, fp = f->p * r, gq = g->q * r;
+        gm = bsti_calloc(ctx, fq * gp, sizeof *gm);
+        t1 = bsti_alloc_array(ctx, fp * gp, sizeof *t1);
+        t = bsti_alloc_array(ctx, fp * gq, sizeof *t);
+        if (!gm || !t1 || !t)
+            rc = BST_ENOMEM;
+        for (size_t j = 0; rc >= 0 && j < f->q; j++)
+            for (size_t i = 0; i < g->p; i++) {
+                times(l.v, f->b + j * N, g->a + i * N, N);
+                gram_add(f->S, l.v, gm, fq, j * r, i * r);
+            }
+        if (rc >= 0) {
+            cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)fp, (int)gp, (int)fq, 1.0,
+                        f->k, (int)fp, gm, (int)fq, 0.0, t1, (int)fp);
+            cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)fp, (int)gq, (int)gp, 1.0,
+                        t1, (int)fp, g->k, (int)gp, 0.0, t, (int)fp);
+            for (size_t i = 0; i < f->p; i++)
+                for (size_t j = 0; j < g->q; j++)
+                    add_block(m->k, ld, l.li_f[i], l.rj_g[j], t, fp, i, j, r, 1.0);
+        }
+    }
+    bsti_free(ctx, gm), bsti_free(ctx, t1), bsti_free(ctx, t);
+    lists_free(ctx, &l);
+    if (rc < 0) {
+        bsti_lr_free(ctx, m);
+        *out = NULL;
+    }
+    return rc;
+}
+
+int bsti_lr_add(bst_ctx *ctx, double alpha, const bsti_lr *f, double beta, const bsti_lr *g,
+                bsti_lr **out)
+{
+    *out = NULL;
+    int rc = same_map(ctx, f, g);
+    if (rc < 0)
+        return rc;
+    size_t N = f->N, r = f->r;
+    struct lists l;
+    rc = lists_alloc(ctx, N, f->p + g->p, f->q + g->q, f, g, &l);
+    size_t pn = 0, qn = 0;
+    for (size_t i = 0; rc >= 0 && i < f->p; i++)
+        l.li_f[i] = find_or_add(l.left, &pn, f->a + i * N, N);
+    for (size_t i = 0; rc >= 0 && i < g->p; i++)
+        l.li_g[i] = find_or_add(l.left, &pn, g->a + i * N, N);
+    for (size_t j = 0; rc >= 0 && j < f->q; j++)
+        l.rj_f[j] = find_or_add(l.right, &qn, f->b + j * N, N);
+    for (size_t j = 0; rc >= 0 && j < g->q; j++)
+        l.rj_g[j] = find_or_add(l.right, &qn, g->b + j * N, N);
+    if (rc >= 0)
+        rc = lr_from_lists(ctx, f->S, &l, pn, qn, f->d || g->d, out);
+    if (rc >= 0) {
+        bsti_lr *m = *out;
+        for (size_t x = 0; m->d && x < N; x++)
+            m->d[x] = (f->d ? alpha * f->d[x] : 0.0) + (g->d ? beta * g->d[x] : 0.0);
+        for (size_t i = 0; i < f->p; i++)
+            for (size_t j = 0; j < f->q; j++)
+                add_block(m->k, pn * r, l.li_f[i], l.rj_f[j], f->k, f->p * r, i, j, r, alpha);
+        for (size_t i = 0; i < g->p; i++)
+            for (size_t j = 0; j < g->q; j++)
+                add_block(m->k, pn * r, l.li_g[i], l.rj_g[j], g->k, g->p * r, i, j, r, beta);
+    }
+    lists_free(ctx, &l);
+    return rc;
+}
+
+int bsti_lr_scale(bst_ctx *ctx, const double *dr, const bsti_lr *f, const double *dc, bsti_lr **out)
+{
+    size_t N = f->N, r = f->r;
+    int rc = lr_alloc(ctx, f->S, f->p, f->q, f->d != NULL, out);
+    if (rc < 0)
+        return rc;
+    bsti_lr *m = *out;
+    for (size_t x = 0; m->d && x < N; x++)
+        m->d[x] = (dr ? dr[x] : 1.0) * f->d[x] * (dc ? dc[x] : 1.0);
+    for (size_t i = 0; i < f->p; i++)
+        for (size_t x = 0; x < N; x++)
+            m->a[i * N + x] = (dr ? dr[x] : 1.0) * f->a[i * N + x];
+    for (size_t j = 0; j < f->q; j++)
+        for (size_t x = 0; x < N; x++)
+            m->b[j * N + x] = (dc ? dc[x] : 1.0) * f->b[j * N + x];
+    memcpy(m->k, f->k, f->p * r * f->q * r * sizeof *m->k);
+    return BST_OK;
+}
+
+/* The capacitance C = I - K H, H = V^T E^-1 U ((q r) x (p r)), into c ((p r) x (p r)). */
+static int capacitance(bst_ctx *ctx, const bsti_lr *f, const double *einv, double *v, double *c)
+{
+    size_t N = f->N, r = f->r, pr = f->p * r, qr = f->q * r;
+    double *h = bsti_calloc(ctx, qr * pr + 1, sizeof *h);
+    if (!h)
+        return BST_ENOMEM;
+    for (size_t j = 0; j < f->q; j++)
+        for (size_t i = 0; i < f->p; i++) {
+            times(v, f->b + j * N, f->a + i * N, N);
+            times(v, v, einv, N);
+            gram_add(f->S, v, h, qr, j * r, i * r);
+        }
+    for (size_t x = 0; x < pr * pr; x++)
+        c[x] = 0.0;
+    for (size_t x = 0; x < pr; x++)
+        c[x * pr + x] = 1.0;
+    if (pr && qr)
+        cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)pr, (int)pr, (int)qr, -1.0,
+                    f->k, (int)pr, h, (int)qr, 1.0, c, (int)pr);
+    bsti_free(ctx, h);
+    return BST_OK;
+}
+
+/* y = F x (trans 0) or F^T x (trans 1) without forming F: the diagonal, then through S^T, K and S
+ * for each pair of scalings; w holds (p + q) r values. */
+static void lr_apply(const bsti_lr *f, int trans, const double *x, double *y, double *w)
+{
+    size_t N = f->N, r = f->r, pr = f->p * r, qr = f->q * r;
+    const bsti_lr_map *S = f->S;
+    size_t nin = trans ? f->p : f->q, nout = trans ? f->q : f->p;
+    const double *in = trans ? f->a : f->b, *outv = trans ? f->b : f->a;
+    double *s = w, *t = w + (trans ? pr : qr);
+    for (size_t x0 = 0; x0 < N; x0++)
+        y[x0] = f->d ? f->d[x0] * x[x0] : 0.0;
+    memset(s, 0, nin * r * sizeof *s);
+    for (size_t j = 0; j < nin; j++) /* s_j = S^T (v_j .* x) */
+        for (size_t x0 = 0; x0 < N; x0++)
+            for (size_t e = S->start[x0]; e < S->start[x0 + 1]; e++)
+                s[j * r + S->col[e]] += S->w[e] * in[j * N + x0] * x[x0];
+    if (pr && qr)
+        cblas_dgemv(CblasColMajor, trans ? CblasTrans : CblasNoTrans, (int)pr, (int)qr, 1.0, f->k,
+                    (int)pr, s, 1, 0.0, t, 1);
+    for (size_t i = 0; i < nout; i++) /* y += u_i .* S t_i */
+        for (size_t x0 = 0; x0 < N; x0++)
+            for (size_t e = S->start[x0]; e < S->start[x0 + 1]; e++)
+                y[x0] += outv[i * N + x0] * S->w[e] * t[i * r + S->col[e]];
+}
+
+/* An estimate of the 1-norm of I - F (minus = 1) or of F (minus = 0), by LAPACK's dlacn2 (Hager
+ * and Higham's estimator, as dgecon uses) with products through the factors: O(N) a product. */
+static int norm1_estimate(bst_ctx *ctx, const bsti_lr *f, int minus, double *est)
+{
+    size_t N = f->N;
+    double *v = bsti_alloc_array(ctx, 3 * N + (f->p + f->q) * f->r + 1, sizeof *v);
+    lapack_int *isgn = bsti_alloc_array(ctx, N, sizeof *isgn), kase = 0, isave[3] = {0, 0, 0};
+    if (!v || !isgn) {
+        bsti_free(ctx, v), bsti_free(ctx, isgn);
+        return BST_ENOMEM;
+    }
+    double *x = v + N, *y = x + N, *w = y + N;
+    *est = 0.0;
+    do {
+        LAPACKE_dlacn2((lapack_int)N, v, x, isgn, est, &kase, isave);
+        if (kase) {
+            lr_apply(f, kase == 2, x, y, w);
+            for (size_t i = 0; i < N; i++)
+                x[i] = minus ? x[i] - y[i] : y[i];
+        }
+    } while (kase);
+    bsti_free(ctx, v), bsti_free(ctx, isgn);
+    return BST_OK;
+}
+
+int bsti_lr_inverse(bst_ctx *ctx, const bsti_lr *f, bsti_lr **out, double *rcond)
+{
+    size_t N = f->N, r = f->r, pr = f->p * r, qr = f->q * r;
+    *out = NULL;
+    if (rcond)
+        *rcond = 0.0;
+    double emin = INFINITY, emax = 0.0;
+    for (size_t x = 0; x < N; x++) {
+        double e = fabs(1.0 - (f->d ? f->d[x] : 0.0));
+        emin = fmin(emin, e), emax = fmax(emax, e);
+    }
+    if (!(emin > 0.0) || !isfinite(emax))
+        return bsti_error(ctx, BST_ESINGULAR, "factored solve: I - D is singular");
+    int rc = lr_alloc(ctx, f->S, f->p, f->q, 1, out);
+    double *c = rc >= 0 ? bsti_alloc_array(ctx, pr * pr + 1, sizeof *c) : NULL;
+    double *v = c ? bsti_alloc_array(ctx, N, sizeof *v) : NULL;
+    lapack_int *ipiv = v ? bsti_alloc_array(ctx, pr + 1, sizeof *ipiv) : NULL;
+    if (rc >= 0 && !ipiv)
+        rc = BST_ENOMEM;
+    bsti_lr *m = *out;
+    for (size_t x = 0; rc >= 0 && x < N; x++)
+        m->d[x] = 1.0 / (1.0 - (f->d ? f->d[x] : 0.0)); /* E^-1 */
+    if (rc >= 0)
+        rc = capacitance(ctx, f, m->d, v, c);
+    double rc_c = 1.0;
+    if (rc >= 0 && pr) {
+        double norm = LAPACKE_dlange(LAPACK_COL_MAJOR, '1', (lapack_int)pr, (lapack_int)pr, c,
+                                     (lapack_int)pr);
+        lapack_int info = LAPACKE_dgetrf(LAPACK_COL_MAJOR, (lapack_int)pr, (lapack_int)pr, c,
+                                         (lapack_int)pr, ipiv);
+        if (info == 0) /* only to see an exactly or numerically singular capacitance */
+            info = LAPACKE_dgecon(LAPACK_COL_MAJOR, '1', (lapack_int)pr, c, (lapack_int)pr, norm,
+                                  &rc_c);
+        if (info != 0 || !(rc_c > 1e-300))
+            rc = bsti_error(ctx, BST_ESINGULAR, "factored solve: the capacitance I - K V^T E^-1 U "
+                            "(%zu x %zu) is singular", pr, pr);
+        memcpy(m->k, f->k, pr * qr * sizeof *m->k);
+        if (rc >= 0 && qr &&
+            LAPACKE_dgetrs(LAPACK_COL_MAJOR, 'N', (lapack_int)pr, (lapack_int)qr, c, (lapack_int)pr,
+                           ipiv, m->k, (lapack_int)pr) != 0)
+            rc = bsti_error(ctx, BST_ESINGULAR, "factored solve: the capacitance solve failed");
+    }
+    for (size_t i = 0; rc >= 0 && i < f->p; i++)
+        times(m->a + i * N, f->a + i * N, m->d, N);
+    for (size_t j = 0; rc >= 0 && j < f->q; j++)
+        times(m->b + j * N, f->b + j * N, m->d, N);
+    bsti_free(ctx, c), bsti_free(ctx, v), bsti_free(ctx, ipiv);
+    if (rc < 0) {
+        bsti_lr_free(ctx, m);
+        *out = NULL;
+        return rc;
+    }
+    double na, ninv; /* rcond = 1 / (|I - F|_1 |(I - F)^-1|_1), both estimated */
+    rc = norm1_estimate(ctx, f, 1, &na);
+    if (rc >= 0)
+        rc = norm1_estimate(ctx, m, 0, &ninv);
+    if (rc < 0) {
+        bsti_lr_free(ctx, m);
+        *out = NULL;
+        return rc;
+    }
+    if (rcond)
+        *rcond = na > 0 && ninv > 0 ? fmin(1.0, 1.0 / (na * ninv)) : 0.0;
+    return BST_OK;
+}
+
+void bsti_lr_to_dense(const bsti_lr *f, double *out)
+{
+    size_t N = f->N, r = f->r, ld = f->p * r;
+    const bsti_lr_map *S = f->S;
+    memset(out, 0, N * N * sizeof *out);
+    for (size_t x = 0; f->d && x < N; x++)
+        out[x * N + x] = f->d[x];
+    for (size_t i = 0; i < f->p; i++)
+        for (size_t j = 0; j < f->q; j++) {
+            const double *a = f->a + i * N, *b = f->b + j * N;
+            for (size_t y = 0; y < N; y++)
+                for (size_t ey = S->start[y]; ey < S->start[y + 1]; ey++) {
+                    double wy = S->w[ey] * b[y];
+                    const double *kc = f->k + (j * r + S->col[ey]) * ld + i * r;
+                    for (size_t x = 0; x < N; x++)
+                        for (size_t ex = S->start[x]; ex < S->start[x + 1]; ex++)
+                            out[y * N + x] += a[x] * S->w[ex] * kc[S->col[ex]] * wy;
+                }
+        }
+}

@@ -1,0 +1,71 @@
+/* lowrank.h - factored matrices (issue #31, first step): M = D + U K V^T over N patches, the form
+ * in which a layer keeps the resolution of its information.
+ *
+ *   D            diagonal (n values) or absent: clear panes, the unobstructed light
+ *   U            [diag(a_1) S, ..., diag(a_p) S]   (N x p r)
+ *   V            [diag(b_1) S, ..., diag(b_q) S]   (N x q r)
+ *   K            dense (p r) x (q r), column-major; block (i, j) pairs a_i with b_j
+ *   S            an N x r map shared by every matrix of a stack: the 0/1 prolongation P from a
+ *                coarse Shirley-Chiu order (one parent a row: a depth-d tree read at k > d is
+ *                exactly P M_d P^T), or the overlap table W of tree cells with Klems patches
+ *                (a Klems layer is W K W^T)
+ *
+ * Products, sums and diagonal scalings stay in the family: the scaling vectors of the terms are
+ * collected in the two lists, a vector already there (equal to 1e-14 of its largest value) shares
+ * its block, so that a pane + coarse shade + pane stack keeps p = q = 1.  The inter-reflection
+ * (I - M)^-1 is again of the family by the Woodbury identity,
+ *   (E - U K V^T)^-1 = E^-1 + E^-1 U (I - K V^T E^-1 U)^-1 K V^T E^-1,   E = I - D,
+ * whose dense work has the size p r of the coarse information, not N; V^T E^-1 U has blocks
+ * S^T diag(b_j a_i / e) S: diagonal for P (block sums), sparse and small for W.
+ * Nothing here is wired into the structured-matrix dispatch yet (mat.c): that is the next step
+ * of issue #31; tests/test_lowrank.c checks every operation against the dense one. */
+#ifndef BST_LOWRANK_H
+#define BST_LOWRANK_H
+
+#include <stddef.h>
+
+#include "bsdfstack.h"
+
+/* The map S: row x's entries are col[start[x] .. start[x + 1] - 1] with weights w. */
+typedef struct {
+    size_t N, r;
+    size_t *start, *col;
+    double *w;
+} bsti_lr_map;
+
+typedef struct {
+    const bsti_lr_map *S; /* borrowed: outlives the matrix */
+    size_t N, r, p, q;
+    double *d;            /* N values, or NULL: no diagonal part */
+    double *a, *b;        /* p and q vectors of N values (a[i * N + x]) */
+    double *k;            /* (p r) x (q r), column-major */
+} bsti_lr;
+
+/* An N x r map with nnz entries, rows filled by the caller (start[0] = 0, start[N] = nnz). */
+int bsti_lr_map_new(bst_ctx *ctx, size_t N, size_t r, size_t nnz, bsti_lr_map **out);
+/* The prolongation from Shirley-Chiu order d to order k >= d (basis.h's index x 2^k + y): row x
+ * holds 1 at the coarse cell that contains fine cell x. */
+int bsti_lr_map_prolong(bst_ctx *ctx, int k, int d, bsti_lr_map **out);
+void bsti_lr_map_free(bst_ctx *ctx, bsti_lr_map *S);
+
+/* diag(d) + diag(a) S K S^T diag(b): d, a, b may be NULL (none, ones, ones); K r x r, copied. */
+int bsti_lr_new(bst_ctx *ctx, const bsti_lr_map *S, const double *d, const double *a,
+                const double *K, const double *b, bsti_lr **out);
+void bsti_lr_free(bst_ctx *ctx, bsti_lr *m);
+
+/* *out = F G. */
+int bsti_lr_mul(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, bsti_lr **out);
+/* *out = alpha F + beta G. */
+int bsti_lr_add(bst_ctx *ctx, double alpha, const bsti_lr *f, double beta, const bsti_lr *g,
+                bsti_lr **out);
+/* *out = diag(dr) F diag(dc) (either NULL: identity). */
+int bsti_lr_scale(bst_ctx *ctx, const double *dr, const bsti_lr *f, const double *dc, bsti_lr **out);
+/* *out = (I - F)^-1 by the Woodbury identity; *rcond (may be NULL): the reciprocal 1-norm
+ * condition of I - F, 1 / (|I - F|_1 |(I - F)^-1|_1), each norm estimated as LAPACK's dgecon does
+ * (dlacn2) with products through the factors.  BST_ESINGULAR when I - D or the capacitance
+ * I - K V^T E^-1 U is singular. */
+int bsti_lr_inverse(bst_ctx *ctx, const bsti_lr *f, bsti_lr **out, double *rcond);
+/* F's N x N values into out (column-major, leading dimension N). */
+void bsti_lr_to_dense(const bsti_lr *f, double *out);
+
+#endif

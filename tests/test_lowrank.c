@@ -1,0 +1,394 @@
+/* test_lowrank.c - factored matrices D + U K V^T (lowrank.h) against dense arithmetic: products,
+ * sums, scalings and the Woodbury inverse on random operands over the prolongation P and over a
+ * Klems-like overlap map; the inverse at the extremes (near-singular, a factor of rank N,
+ * singular); and a pane + coarse diffuser + pane stack combined by the matrix formalism in
+ * factored form against bst_stack_combine's dense result, component by component, its rank kept. */
+#include <config.h>
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cblas.h>
+#include <lapacke.h>
+
+#include "lowrank.h"
+#include "mat.h"
+#include "testutil.h"
+
+static bst_ctx *ctx;
+static tu_rng rng;
+static void setup(void)
+{
+    ctx = bst_ctx_new();
+    tu_rng_seed(&rng, 31);
+}
+static void teardown(void) { bst_ctx_free(ctx); }
+
+/* max |x - y| over max |y|: the relative difference of two N x N arrays. */
+static double rel_diff(const double *x, const double *y, size_t n)
+{
+    double d = 0.0, m = 0.0;
+    for (size_t i = 0; i < n; i++)
+        d = fmax(d, fabs(x[i] - y[i])), m = fmax(m, fabs(y[i]));
+    return m > 0 ? d / m : d;
+}
+
+static double *dense_of(const bsti_lr *f)
+{
+    double *d = malloc(f->N * f->N * sizeof *d);
+    bsti_lr_to_dense(f, d);
+    return d;
+}
+
+static void random_vec(double *v, size_t n, double lo, double hi)
+{
+    for (size_t i = 0; i < n; i++)
+        v[i] = lo + (hi - lo) * tu_rng_uniform(&rng);
+}
+
+/* A random factored matrix: a diagonal when with_d, two terms of other scalings when two (so
+ * p = q = 2), entries small enough that I - F stays well conditioned. */
+static bsti_lr *random_lr(const bsti_lr_map *S, int with_d, int two)
+{
+    size_t N = S->N, r = S->r;
+    double *d = malloc(N * sizeof *d), *a = malloc(N * sizeof *a), *b = malloc(N * sizeof *b);
+    double *K = malloc(r * r * sizeof *K);
+    random_vec(d, N, 0.0, 0.3), random_vec(a, N, 0.5, 1.0), random_vec(b, N, 0.5, 1.0);
+    random_vec(K, r * r, 0.0, 0.25 / (double)N);
+    bsti_lr *f;
+    ck_assert_int_eq(bsti_lr_new(ctx, S, with_d ? d : NULL, a, K, b, &f), BST_OK);
+    if (two) {
+        bsti_lr *g, *s;
+        random_vec(a, N, 0.5, 1.0), random_vec(b, N, 0.5, 1.0);
+        random_vec(K, r * r, 0.0, 0.25 / (double)N);
+        ck_assert_int_eq(bsti_lr_new(ctx, S, NULL, a, K, b, &g), BST_OK);
+        ck_assert_int_eq(bsti_lr_add(ctx, 1.0, f, 1.0, g, &s), BST_OK);
+        ck_assert_uint_eq(s->p, 2);
+        ck_assert_uint_eq(s->q, 2);
+        bsti_lr_free(ctx, f), bsti_lr_free(ctx, g);
+        f = s;
+    }
+    free(d), free(a), free(b), free(K);
+    return f;
+}
+
+/* A Klems-like overlap map: each of N rows holds 1 to 3 of r columns with weights summing to 1. */
+static bsti_lr_map *overlap_map(size_t N, size_t r)
+{
+    bsti_lr_map *S;
+    ck_assert_int_eq(bsti_lr_map_new(ctx, N, r, 3 * N, &S), BST_OK);
+    size_t e = 0;
+    for (size_t x = 0; x < N; x++) {
+        S->start[x] = e;
+        size_t m = 1 + (size_t)(3 * tu_rng_uniform(&rng)), c0 = (x * r) / N;
+        double w[3], s = 0;
+        for (size_t i = 0; i < m; i++)
+            w[i] = 0.2 + tu_rng_uniform(&rng), s += w[i];
+        for (size_t i = 0; i < m; i++, e++)
+            S->col[e] = (c0 + i) % r, S->w[e] = w[i] / s;
+    }
+    S->start[N] = e;
+    return S;
+}
+
+static bsti_lr_map *map_of(int which)
+{
+    bsti_lr_map *S;
+    if (which == 0)
+        ck_assert_int_eq(bsti_lr_map_prolong(ctx, 3, 1, &S), BST_OK); /* N 64, r 4 */
+    else if (which == 1)
+        ck_assert_int_eq(bsti_lr_map_prolong(ctx, 4, 2, &S), BST_OK); /* N 256, r 16 */
+    else
+        S = overlap_map(100, 9);
+    return S;
+}
+
+/* (I - M)^-1 of a dense N x N M, in place into inv. */
+static void dense_inverse(const double *m, size_t N, double *inv)
+{
+    double *a = malloc(N * N * sizeof *a);
+    lapack_int *ipiv = malloc(N * sizeof *ipiv);
+    for (size_t i = 0; i < N * N; i++)
+        a[i] = -m[i], inv[i] = 0.0;
+    for (size_t i = 0; i < N; i++)
+        a[i * N + i] += 1.0, inv[i * N + i] = 1.0;
+    ck_assert_int_eq(LAPACKE_dgesv(LAPACK_COL_MAJOR, (lapack_int)N, (lapack_int)N, a, (lapack_int)N,
+                                   ipiv, inv, (lapack_int)N), 0);
+    free(a), free(ipiv);
+}
+
+START_TEST(test_algebra)
+{
+    bsti_lr_map *S = map_of(_i / 4);
+    int with_d = _i & 1, two = (_i >> 1) & 1;
+    size_t N = S->N;
+    bsti_lr *f = random_lr(S, with_d, two), *g = random_lr(S, !with_d, 1), *m;
+    double *df = dense_of(f), *dg = dense_of(g), *want = malloc(N * N * sizeof *want), *got;
+    /* product */
+    ck_assert_int_eq(bsti_lr_mul(ctx, f, g, &m), BST_OK);
+    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)N, (int)N, (int)N, 1.0, df, (int)N,
+                dg, (int)N, 0.0, want, (int)N);
+    got = dense_of(m);
+    ck_assert_msg(rel_diff(got, want, N * N) < 1e-13, "product: %g", rel_diff(got, want, N * N));
+    free(got), bsti_lr_free(ctx, m);
+    /* sum */
+    ck_assert_int_eq(bsti_lr_add(ctx, 0.5, f, -2.0, g, &m), BST_OK);
+    for (size_t i = 0; i < N * N; i++)
+        want[i] = 0.5 * df[i] - 2.0 * dg[i];
+    got = dense_of(m);
+    ck_assert_msg(rel_diff(got, want, N * N) < 1e-14, "sum: %g", rel_diff(got, want, N * N));
+    free(got), bsti_lr_free(ctx, m);
+    /* scaling */
+    double *dr = malloc(N * sizeof *dr), *dc = malloc(N * sizeof *dc);
+    random_vec(dr, N, -1.0, 1.0), random_vec(dc, N, 0.1, 2.0);
+    ck_assert_int_eq(bsti_lr_scale(ctx, dr, f, dc, &m), BST_OK);
+    for (size_t j = 0; j < N; j++)
+        for (size_t i = 0; i < N; i++)
+            want[j * N + i] = dr[i] * df[j * N + i] * dc[j];
+    got = dense_of(m);
+    ck_assert_msg(rel_diff(got, want, N * N) < 1e-14, "scaling: %g", rel_diff(got, want, N * N));
+    free(got), bsti_lr_free(ctx, m);
+    /* inverse */
+    double rcond;
+    ck_assert_int_eq(bsti_lr_inverse(ctx, f, &m, &rcond), BST_OK);
+    ck_assert_msg(rcond > 0.1 && rcond <= 1.0, "rcond %g", rcond);
+    dense_inverse(df, N, want);
+    got = dense_of(m);
+    ck_assert_msg(rel_diff(got, want, N * N) < 1e-13, "inverse: %g", rel_diff(got, want, N * N));
+    free(got), bsti_lr_free(ctx, m);
+    free(dr), free(dc), free(df), free(dg), free(want);
+    bsti_lr_free(ctx, f), bsti_lr_free(ctx, g);
+    bsti_lr_map_free(ctx, S);
+}
+END_TEST
+
+/* Near-singular I - F (a near-mirror pair): rcond reported small, the inverse still the dense
+ * one within rcond's loss; F = I exactly: singular, refused. */
+START_TEST(test_extremes)
+{
+    bsti_lr_map *S = map_of(1);
+    size_t N = S->N, r = S->r;
+    /* F = P K P^T with K = c I / 16 (each coarse cell has 16 children): F P = c P, so I - F has
+     * the eigenvalue 1 - c */
+    double *K = calloc(r * r, sizeof *K), *want = malloc(N * N * sizeof *want);
+    for (size_t i = 0; i < r; i++)
+        K[i * r + i] = (1.0 - 1e-9) / 16.0;
+    bsti_lr *f, *m;
+    ck_assert_int_eq(bsti_lr_new(ctx, S, NULL, NULL, K, NULL, &f), BST_OK);
+    double rcond;
+    ck_assert_int_eq(bsti_lr_inverse(ctx, f, &m, &rcond), BST_OK);
+    ck_assert_msg(rcond < 1e-8 && rcond > 1e-11, "rcond %g", rcond);
+    double *df = dense_of(f), *got = dense_of(m);
+    dense_inverse(df, N, want);
+    ck_assert_msg(rel_diff(got, want, N * N) < 1e-6, "near-singular: %g", rel_diff(got, want, N * N));
+    free(got), free(df), bsti_lr_free(ctx, m), bsti_lr_free(ctx, f);
+    /* exactly singular capacitance */
+    for (size_t i = 0; i < r; i++)
+        K[i * r + i] = 1.0 / 16.0;
+    ck_assert_int_eq(bsti_lr_new(ctx, S, NULL, NULL, K, NULL, &f), BST_OK);
+    ck_assert_int_eq(bsti_lr_inverse(ctx, f, &m, &rcond), BST_ESINGULAR);
+    ck_assert_ptr_null(m);
+    bsti_lr_free(ctx, f);
+    /* I - D singular */
+    double *one = malloc(N * sizeof *one);
+    for (size_t x = 0; x < N; x++)
+        one[x] = x == 5 ? 1.0 : 0.5;
+    ck_assert_int_eq(bsti_lr_new(ctx, S, one, NULL, NULL, NULL, &f), BST_OK);
+    ck_assert_int_eq(bsti_lr_inverse(ctx, f, &m, &rcond), BST_ESINGULAR);
+    bsti_lr_free(ctx, f);
+    free(one), free(K), free(want);
+    bsti_lr_map_free(ctx, S);
+}
+END_TEST
+
+/* A factor of rank N (the prolongation from an order to itself: S = I): the same answers. */
+START_TEST(test_full_rank)
+{
+    bsti_lr_map *S;
+    ck_assert_int_eq(bsti_lr_map_prolong(ctx, 3, 3, &S), BST_OK);
+    size_t N = S->N;
+    ck_assert_uint_eq(S->r, N);
+    bsti_lr *f = random_lr(S, 1, 0), *m;
+    double rcond, *df = dense_of(f), *want = malloc(N * N * sizeof *want), *got;
+    ck_assert_int_eq(bsti_lr_inverse(ctx, f, &m, &rcond), BST_OK);
+    dense_inverse(df, N, want);
+    got = dense_of(m);
+    ck_assert_msg(rel_diff(got, want, N * N) < 1e-13, "rank N: %g", rel_diff(got, want, N * N));
+    free(got), free(df), free(want), bsti_lr_free(ctx, m), bsti_lr_free(ctx, f);
+    bsti_lr_map_free(ctx, S);
+}
+END_TEST
+
+/* Every allocation of a product, a sum, a scaling and an inverse failed in turn: BST_ENOMEM,
+ * no result and nothing leaked. */
+START_TEST(test_nomem)
+{
+    bst_ctx *c = bst_ctx_new();
+    tu_alloc al = {0};
+    ck_assert_int_eq(bst_ctx_set_allocator(c, tu_alloc_malloc, tu_alloc_free, &al), BST_OK);
+    bst_ctx *save = ctx;
+    ctx = c;
+    bsti_lr_map *S = map_of(2);
+    bsti_lr *f = random_lr(S, 1, 1), *g = random_lr(S, 0, 0);
+    double *dr = malloc(S->N * sizeof *dr);
+    random_vec(dr, S->N, 0.5, 1.0);
+    for (int op = 0; op < 4; op++) {
+        long base = al.live;
+        for (long k = 1;; k++) {
+            al.fail_at = al.count + k;
+            bsti_lr *m = (bsti_lr *)1;
+            int rc = op == 0   ? bsti_lr_mul(c, f, g, &m)
+                     : op == 1 ? bsti_lr_add(c, 1.0, f, 2.0, g, &m)
+                     : op == 2 ? bsti_lr_scale(c, dr, f, NULL, &m)
+                               : bsti_lr_inverse(c, f, &m, NULL);
+            al.fail_at = 0;
+            if (rc == BST_OK) {
+                bsti_lr_free(c, m);
+                break;
+            }
+            ck_assert_int_eq(rc, BST_ENOMEM);
+            ck_assert_ptr_null(m);
+            ck_assert_int_eq(al.live, base);
+            ck_assert_int_lt(k, 40);
+        }
+    }
+    free(dr);
+    bsti_lr_free(c, f), bsti_lr_free(c, g);
+    bsti_lr_map_free(c, S);
+    ck_assert_int_eq(al.live, 0);
+    ctx = save;
+    bst_ctx_free(c);
+}
+END_TEST
+
+/* ---------------------------------------------------------------- a stack in factored form */
+
+struct comps {
+    bsti_lr *m[BST_NCOMP];
+};
+
+static bsti_lr *mul3(bsti_lr *a, bsti_lr *b, bsti_lr *c) /* a b c, consuming none */
+{
+    bsti_lr *ab, *abc;
+    ck_assert_int_eq(bsti_lr_mul(ctx, a, b, &ab), BST_OK);
+    ck_assert_int_eq(bsti_lr_mul(ctx, ab, c, &abc), BST_OK);
+    bsti_lr_free(ctx, ab);
+    return abc;
+}
+
+/* One step of the formalism (stack.c's formulas), L = Lambda as a scaling:
+ *   Tf = Tf2 (I - L Rb1 L Rf2)^-1 L Tf1,  Rb = Rb2 + Tf2 (I - L Rb1 L Rf2)^-1 L Rb1 L Tb2,
+ *   Tb = Tb1 (I - L Rf2 L Rb1)^-1 L Tb2,  Rf = Rf1 + Tb1 (I - L Rf2 L Rb1)^-1 L Rf2 L Tf1,
+ * with A1 = (L Rb1 L) Rf2 and A2 = (L Rf2 L) Rb1. */
+static struct comps step(const struct comps *u, const struct comps *v, const double *lam)
+{
+    struct comps s;
+    bsti_lr *lrb1, *lrf2, *a1, *a2, *x, *y, *ltf1, *ltb2, *t, *t2;
+    ck_assert_int_eq(bsti_lr_scale(ctx, lam, u->m[BST_RB], lam, &lrb1), BST_OK);
+    ck_assert_int_eq(bsti_lr_scale(ctx, lam, v->m[BST_RF], lam, &lrf2), BST_OK);
+    ck_assert_int_eq(bsti_lr_scale(ctx, lam, u->m[BST_TF], NULL, &ltf1), BST_OK);
+    ck_assert_int_eq(bsti_lr_scale(ctx, lam, v->m[BST_TB], NULL, &ltb2), BST_OK);
+    ck_assert_int_eq(bsti_lr_mul(ctx, lrb1, v->m[BST_RF], &a1), BST_OK);
+    ck_assert_int_eq(bsti_lr_mul(ctx, lrf2, u->m[BST_RB], &a2), BST_OK);
+    ck_assert_int_eq(bsti_lr_inverse(ctx, a1, &x, NULL), BST_OK);
+    ck_assert_int_eq(bsti_lr_inverse(ctx, a2, &y, NULL), BST_OK);
+    s.m[BST_TF] = mul3(v->m[BST_TF], x, ltf1);
+    t = mul3(v->m[BST_TF], x, lrb1);
+    ck_assert_int_eq(bsti_lr_mul(ctx, t, v->m[BST_TB], &t2), BST_OK);
+    ck_assert_int_eq(bsti_lr_add(ctx, 1.0, v->m[BST_RB], 1.0, t2, &s.m[BST_RB]), BST_OK);
+    bsti_lr_free(ctx, t), bsti_lr_free(ctx, t2);
+    s.m[BST_TB] = mul3(u->m[BST_TB], y, ltb2);
+    t = mul3(u->m[BST_TB], y, lrf2);
+    ck_assert_int_eq(bsti_lr_mul(ctx, t, u->m[BST_TF], &t2), BST_OK);
+    ck_assert_int_eq(bsti_lr_add(ctx, 1.0, u->m[BST_RF], 1.0, t2, &s.m[BST_RF]), BST_OK);
+    bsti_lr_free(ctx, t), bsti_lr_free(ctx, t2);
+    bsti_lr *dead[] = {lrb1, lrf2, a1, a2, x, y, ltf1, ltb2};
+    for (size_t i = 0; i < sizeof dead / sizeof dead[0]; i++)
+        bsti_lr_free(ctx, dead[i]);
+    return s;
+}
+
+/* A pane's components as diagonal factored matrices. */
+static struct comps pane_lr(const bst_layer *l, const bsti_lr_map *S)
+{
+    struct comps c;
+    double *d = malloc(S->N * sizeof *d);
+    for (int k = 0; k < BST_NCOMP; k++) {
+        const bst_mat *m = bst_layer_get(l, 0, (bst_comp)k);
+        ck_assert_int_eq(bst_mat_structure(m), BST_DIAG);
+        for (size_t x = 0; x < S->N; x++)
+            d[x] = bst_mat_get(m, x, x);
+        ck_assert_int_eq(bsti_lr_new(ctx, S, d, NULL, NULL, NULL, &c.m[k]), BST_OK);
+    }
+    free(d);
+    return c;
+}
+
+START_TEST(test_stack)
+{
+    /* the diffuser's order-3 matrices as the coarse information of an order-4 layer */
+    bst_basis *b3, *b4;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 3, &b3), BST_OK);
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 4, &b4), BST_OK);
+    bst_layer *coarse = tu_layer(ctx, "L_diffuser_t3k5.xml", b3);
+    bst_layer *pane = tu_layer(ctx, "glass:clear-6mm", b4), *shade;
+    bsti_lr_map *S;
+    ck_assert_int_eq(bsti_lr_map_prolong(ctx, 4, 3, &S), BST_OK);
+    size_t N = S->N, r = S->r;
+    const char *vis = "Visible";
+    ck_assert_int_eq(bst_layer_new(ctx, b4, 1, &vis, &shade), BST_OK);
+    struct comps sh;
+    double *K = malloc(r * r * sizeof *K);
+    for (int k = 0; k < BST_NCOMP; k++) {
+        ck_assert_int_eq(bst_mat_to_dense_array(ctx, bst_layer_get(coarse, 0, (bst_comp)k), K), BST_OK);
+        ck_assert_int_eq(bsti_lr_new(ctx, S, NULL, NULL, K, NULL, &sh.m[k]), BST_OK);
+        bst_mat *m; /* the same layer prolonged to order 4, dense: the library's own path */
+        ck_assert_int_eq(bst_mat_new_dense(ctx, N, N, BST_DOUBLE, &m), BST_OK);
+        bsti_lr_to_dense(sh.m[k], m->dense);
+        ck_assert_int_eq(bst_layer_set(ctx, shade, 0, (bst_comp)k, m), BST_OK);
+    }
+    const bst_layer *layers[3] = {pane, shade, pane};
+    bst_layer *sys;
+    ck_assert_int_ge(bst_stack_combine(ctx, 3, layers, NULL, &sys), 0);
+    struct comps p = pane_lr(pane, S);
+    const double *lam = bst_basis_lambda(b4);
+    struct comps s1 = step(&p, &sh, lam), s2 = step(&s1, &p, lam);
+    double *want = malloc(N * N * sizeof *want);
+    for (int k = 0; k < BST_NCOMP; k++) {
+        ck_assert_int_eq(bst_mat_to_dense_array(ctx, bst_layer_get(sys, 0, (bst_comp)k), want), BST_OK);
+        double *got = dense_of(s2.m[k]);
+        ck_assert_msg(rel_diff(got, want, N * N) < 1e-12, "%s: %g", bst_comp_name((bst_comp)k),
+                      rel_diff(got, want, N * N));
+        /* the rank stays the coarse order's: one scaling a side */
+        ck_assert_msg(s2.m[k]->p <= 1 && s2.m[k]->q <= 1, "%s: p %zu q %zu",
+                      bst_comp_name((bst_comp)k), s2.m[k]->p, s2.m[k]->q);
+        free(got);
+    }
+    for (int k = 0; k < BST_NCOMP; k++) {
+        bsti_lr_free(ctx, sh.m[k]), bsti_lr_free(ctx, p.m[k]);
+        bsti_lr_free(ctx, s1.m[k]), bsti_lr_free(ctx, s2.m[k]);
+    }
+    free(K), free(want);
+    bsti_lr_map_free(ctx, S);
+    bst_layer_free(sys), bst_layer_free(shade), bst_layer_free(pane), bst_layer_free(coarse);
+    bst_basis_free(b3), bst_basis_free(b4);
+}
+END_TEST
+
+static Suite *suite(void)
+{
+    Suite *s = suite_create("lowrank");
+    TCase *tc = tcase_create("factored");
+    tcase_add_checked_fixture(tc, setup, teardown);
+    tcase_set_timeout(tc, 120);
+    tcase_add_loop_test(tc, test_algebra, 0, 12);
+    tcase_add_test(tc, test_extremes);
+    tcase_add_test(tc, test_full_rank);
+    tcase_add_test(tc, test_nomem);
+    tcase_add_test(tc, test_stack);
+    suite_add_tcase(s, tc);
+    return s;
+}
+
+int main(void) { return tu_run(suite()); }
