@@ -888,6 +888,32 @@ int bst_venetian_check(bst_ctx *ctx, const bst_venetian *v);
 int bst_venetian_layer(bst_ctx *ctx, const bst_venetian *v, const bst_basis *basis,
                        size_t nchannels, const char *const *channels, bst_layer **out);
 
+/* ------------------------------------------------------------ perforated screens: perforated.c */
+
+/* A perforated screen from its geometry ("perforated:" specs, bsdfstack-glass(5)): a sheet of
+ * thickness `thickness` with holes on a rectangular grid, pitch x along X (phi = 0) and y along Y,
+ * each a circle of radius `radius` or a hole-x by hole-y rectangle, straight through the sheet.
+ * Light passes undeviated where a hole lets it through (the overlap of the hole's two ends seen
+ * along the direction: exact for every direction, averaged over each patch by samples^2
+ * directions); the rest meets the sheet and is reflected (rf from the front, rb from the back) and
+ * transmitted (t) diffusely, spread over the outgoing patches in proportion to their closed share
+ * so that the layer is reciprocal: R(o, i) = r (1 - F_i)(1 - F_o) / (pi (1 - F)), F_i the open
+ * share of patch i, F its hemispherical mean.  Lengths in m. */
+typedef struct {
+    double x, y;              /* hole pitch along X and Y (> 0) */
+    double thickness;         /* >= 0 */
+    double radius;            /* circular holes (> 0), or NaN for rectangular ones */
+    double hole_x, hole_y;    /* rectangular holes (> 0, <= the pitch), NaN for circular ones */
+    double rf, rb, t;         /* diffuse reflectances (front, back) and transmittance */
+    int samples;              /* samples^2 directions per patch; 0: BST_VENETIAN_SAMPLES */
+} bst_perforated;
+/* Parse "x=5mm,y=5mm,radius=1mm,thickness=1mm,r=0.7" (the text after "perforated:"); every error
+ * names its key. */
+int bst_perforated_parse(bst_ctx *ctx, const char *spec, bst_perforated *p);
+/* The screen as a layer over basis, every channel named (nchannels 0: Visible and Solar) the same. */
+int bst_perforated_layer(bst_ctx *ctx, const bst_perforated *p, const bst_basis *basis,
+                         size_t nchannels, const char *const *channels, bst_layer **out);
+
 /* ---------------------------------------------------------------------- sun positions: sun.c */
 
 /* The sun's position by RADIANCE's gensky/gendaylit formulas (src/gen/sun.c there: declination and

@@ -62,4 +62,9 @@ void bsti_vn_view(const bsti_vn_geom *g, double a, double b, double *view);
  * rs^bounces) per unit flux emitted diffusely by element j into the channel. */
 void bsti_vn_exchange(const bsti_vn_geom *g, double *gm);
 
+/* Spec values of the shades (venetian_spec.c, perforated.c): "16mm", "0.016m", "1.6cm", "0.63in"
+ * or a bare number of millimetres -> metres; a plain number.  0, or -1 when v is not one. */
+int bsti_shade_parse_length(const char *v, double *m);
+int bsti_shade_parse_number(const char *v, double *x);
+
 #endif

@@ -15,6 +15,7 @@
 #include <string.h>
 
 #include "ctx.h"
+#include "venetian.h"
 
 #define VN_MAX_SEGMENTS 1000 /* strips per face: the radiosity matrix is (2 segments)^2 */
 #define VN_MAX_SAMPLES 64    /* directions per patch side: samples^2 per patch */
@@ -45,15 +46,14 @@ static int parse_scaled(const char *v, const char *const *suffix, const double *
     return -1;
 }
 
-/* "16mm", "0.016m", "1.6cm", "0.63in" or a bare number of millimetres -> metres. */
-static int parse_length(const char *v, double *m)
+int bsti_shade_parse_length(const char *v, double *m)
 {
     static const char *const suffix[] = {"", "mm", "m", "cm", "in", NULL};
     static const double factor[] = {1e-3, 1e-3, 1.0, 1e-2, 0.0254};
     return parse_scaled(v, suffix, factor, m);
 }
 
-static int parse_number(const char *v, double *x)
+int bsti_shade_parse_number(const char *v, double *x)
 {
     static const char *const suffix[] = {"", NULL};
     static const double factor[] = {1.0};
@@ -97,14 +97,14 @@ static int set_key(bst_ctx *ctx, int k, const char *val, bst_venetian *v)
     } else if (k == K_SAMPLES) {
         bad = parse_count(val, 0, VN_MAX_SAMPLES, &v->samples);
     } else if (k == K_WIDTH || k == K_SPACING || k == K_CURV) {
-        bad = parse_length(val, &x);
+        bad = bsti_shade_parse_length(val, &x);
     } else if (k >= K_R && k <= K_RS && strchr(val, '/')) { /* VISIBLE/SOLAR */
         char two[64];
         double y = NAN;
         snprintf(two, sizeof two, "%s", val);
         char *slash = strchr(two, '/');
         *slash = '\0';
-        bad = parse_number(two, &x) || parse_number(slash + 1, &y);
+        bad = bsti_shade_parse_number(two, &x) || bsti_shade_parse_number(slash + 1, &y);
         if (!bad) {
             if (k == K_R || k == K_RUP)
                 v->solar[0] = y;
@@ -116,7 +116,7 @@ static int set_key(bst_ctx *ctx, int k, const char *val, bst_venetian *v)
                 v->solar[3] = y;
         }
     } else {
-        bad = parse_number(val, &x);
+        bad = bsti_shade_parse_number(val, &x);
     }
     if (bad)
         return bsti_error(ctx, BST_EINVAL, "venetian: %s: '%s' is not %s", key_name[k], val,

@@ -1,7 +1,7 @@
 #!/bin/sh
-# cli_venetian.sh - venetian:SPEC layers on the command line: a blind between two panes combined,
-# converted and compared with the ray-traced reference; bad specs refused with one line naming the
-# key, and no output file left behind.
+# cli_venetian.sh - venetian:SPEC (and perforated:SPEC) layers on the command line: a blind
+# between two panes combined, converted and compared with the ray-traced reference; bad specs
+# refused with one line naming the key, and no output file left behind.
 . "${BST_SRCDIR:-.}/tests/clitest.sh"
 
 blind=venetian:width=16mm,spacing=14.5mm,tilt=45,rs=0.765,r=0.085,roughness=0.02
@@ -27,6 +27,15 @@ if [ -r "$BST_REFDIR/L_blind0_t4k5.xml" ]; then
     awk '/^Tf/ { t = 1 } t && $1 == "45.00" && $2 == "90.00" { print $4; exit }' "$tmpdir/out" |
         awk '{ exit !($1 >= 99) }' && pass "GA >= 99 at (45, 90)" || fail "GA: $(cat "$tmpdir/out")"
 fi
+
+expect_status 0 "glass + perforated screen + glass (k = 3)" -- "$BSDFSTACK" combine -k 3 \
+    -o "$tmpdir/perf.xml" glass:clear-6mm "perforated:x=5mm,y=5mm,radius=1.5mm,thickness=1mm,r=0.7" \
+    glass:clear-6mm
+[ -s "$tmpdir/perf.xml" ] && pass "system with a screen written" || fail "no screen system"
+rm -f "$tmpdir/bad.xml"
+expect_error "perforated: a radius past half the pitch refused" "radius" -- "$BSDFSTACK" combine \
+    -k 2 -o "$tmpdir/bad.xml" glass:clear-6mm "perforated:x=5mm,y=5mm,radius=3mm"
+[ ! -e "$tmpdir/bad.xml" ] && pass "nothing written" || fail "a bad screen left a file"
 
 bad() { # bad KEY SPEC: one line naming KEY, no file
     rm -f "$tmpdir/bad.xml"

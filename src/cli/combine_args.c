@@ -39,6 +39,8 @@ static const char help[] =
     "  venetian:KEYS      a venetian blind from its geometry: width=16mm,spacing=14.5mm,tilt=45,\n"
     "                     rs=0.765,r=0.085,roughness=0.02 (also curvature, vertical, r-up,\n"
     "                     r-down, t, segments, samples; bsdfstack-glass(5))\n"
+    "  perforated:KEYS    a perforated screen: x=5mm,y=5mm,radius=1.5mm,thickness=1mm,r=0.7\n"
+    "                     (or hole-x, hole-y for rectangular holes; rf, rb, t, samples)\n"
     "  LAYER^             the layer installed reversed (back side facing the exterior)\n"
     "\n"
     "Options:\n"

@@ -1,6 +1,6 @@
 /* layers.c - loading a stack's layers (layers.h): files read, the basis picked by the library's
- * rule (bst_plan_pick_basis), the memory guard, each layer made over the basis (glass: and
- * venetian: specs, reversed layers), and the checks a batch makes before its first stack. */
+ * rule (bst_plan_pick_basis), the memory guard, each layer made over the basis (glass:,
+ * venetian: and perforated: specs, reversed layers), and the checks a batch makes before its first stack. */
 #include <config.h>
 
 #include <errno.h>
@@ -77,10 +77,29 @@ static int is_venetian(const char *spec)
     return strncmp(spec, "venetian:", 9) == 0;
 }
 
+/* A perforated screen from its geometry (bst_perforated_parse). */
+static int is_perforated(const char *spec)
+{
+    return strncmp(spec, "perforated:", 11) == 0;
+}
+
 /* A layer made from a spec rather than read from a file. */
 static int is_made(const char *spec)
 {
-    return is_glass(spec) || is_venetian(spec);
+    return is_glass(spec) || is_venetian(spec) || is_perforated(spec);
+}
+
+/* The perforated:SPEC layer over basis (the spec less its prefix and a trailing ^). */
+static int make_perforated(bst_ctx *ctx, const char *spec, size_t len, const bst_basis *basis,
+                           size_t nch, const char **chnames, bst_layer **l)
+{
+    char *pspec = strndup(spec + 11, len - 11);
+    bst_perforated p;
+    int st = pspec ? bst_perforated_parse(ctx, pspec, &p) : BST_ENOMEM;
+    if (st >= 0)
+        st = bst_perforated_layer(ctx, &p, basis, nch, nch ? chnames : NULL, l);
+    free(pspec);
+    return st;
 }
 
 /* The venetian:SPEC layer over basis (the spec less its prefix and a trailing ^). */
@@ -165,6 +184,8 @@ static int make_layer(bst_ctx *ctx, const char *sub, const char *what, const cha
         bst_bsdf_free(file);
     } else if (is_venetian(spec)) {
         st = make_venetian(ctx, spec, len - (size_t)flip, basis, nch, chnames, &l);
+    } else if (is_perforated(spec)) {
+        st = make_perforated(ctx, spec, len - (size_t)flip, basis, nch, chnames, &l);
     } else {
         char *gspec = strndup(spec + 6, len - 6 - (size_t)flip);
         bst_glass *g = NULL;
@@ -300,6 +321,19 @@ int cli_layers_check(bst_ctx *ctx, const char *sub, size_t n, char **specs,
             for (int k = 0; k < 3; k++)
                 diffuse |= v.solar[k] > 0; /* the Solar channel's r-up, r-down, t */
             structure[i] = diffuse ? BST_DENSE : BST_SPARSE;
+            continue;
+        }
+        if (is_perforated(specs[i])) { /* its errors show now; dense when the sheet scatters */
+            char *pspec = strdup(specs[i] + 11);
+            size_t pl = pspec ? strlen(pspec) : 0;
+            if (pl && pspec[pl - 1] == '^')
+                pspec[pl - 1] = '\0';
+            bst_perforated p = {0};
+            int st = pspec ? bst_perforated_parse(ctx, pspec, &p) : BST_ENOMEM;
+            free(pspec);
+            if (st < 0)
+                rc = cli_fail_ctx(sub, specs[i], ctx);
+            structure[i] = p.rf > 0 || p.rb > 0 || p.t > 0 ? BST_DENSE : BST_DIAG;
             continue;
         }
         /* a pane: made once here (cheap: one diagonal per component) so that its errors show now */
