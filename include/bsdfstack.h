@@ -914,6 +914,22 @@ int bst_perforated_parse(bst_ctx *ctx, const char *spec, bst_perforated *p);
 int bst_perforated_layer(bst_ctx *ctx, const bst_perforated *p, const bst_basis *basis,
                          size_t nchannels, const char *const *channels, bst_layer **out);
 
+/* ------------------------------------------------------------------- woven fabrics: woven.c */
+
+/* A woven fabric from its geometry ("woven:" specs, bsdfstack-glass(5)): cylindrical threads of
+ * `diameter` along X and along Y every `spacing` (m).  The open share along a direction is
+ * (1 - d / (s cos theta_x))+ (1 - d / (s cos theta_y))+, theta_x and theta_y its angles from the
+ * normal across each set of threads (the openness (1 - d / s)^2 at the normal); the rest is
+ * reflected (r) and transmitted (t) diffusely as by a perforated screen. */
+typedef struct {
+    double diameter, spacing;
+    double r, t;
+    int samples;            /* samples^2 directions per patch; 0: BST_VENETIAN_SAMPLES */
+} bst_woven;
+int bst_woven_parse(bst_ctx *ctx, const char *spec, bst_woven *w);
+int bst_woven_layer(bst_ctx *ctx, const bst_woven *w, const bst_basis *basis, size_t nchannels,
+                    const char *const *channels, bst_layer **out);
+
 /* ---------------------------------------------------------------------- sun positions: sun.c */
 
 /* The sun's position by RADIANCE's gensky/gendaylit formulas (src/gen/sun.c there: declination and

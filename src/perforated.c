@@ -183,32 +183,30 @@ static int component(bst_ctx *ctx, const bst_basis *b, const double *F, double F
     return rc;
 }
 
-int bst_perforated_layer(bst_ctx *ctx, const bst_perforated *p, const bst_basis *basis,
-                         size_t nchannels, const char *const *channels, bst_layer **out)
+int bsti_open_layer(bst_ctx *ctx, const bst_basis *basis, double (*share)(const void *, const double *),
+                    const void *data, double rf, double rb, double t, int samples, size_t nchannels,
+                    const char *const *channels, bst_layer **out)
 {
-    if (!ctx || !p || !basis || !out || (nchannels && !channels))
-        return ctx ? bsti_error(ctx, BST_EINVAL, "perforated layer: NULL argument") : BST_EINVAL;
-    *out = NULL;
     static const char *const dual[] = {"Visible", "Solar"};
     if (!nchannels)
         nchannels = 2, channels = dual;
-    size_t n = bst_basis_size(basis), nq = p->samples ? (size_t)p->samples : BST_VENETIAN_SAMPLES;
+    size_t n = bst_basis_size(basis), nq = samples ? (size_t)samples : BST_VENETIAN_SAMPLES;
     const double *lam = bst_basis_lambda(basis);
     double *F = bsti_alloc_array(ctx, n, sizeof *F), Fm = 0;
     if (!F)
-        return bsti_error(ctx, BST_ENOMEM, "perforated layer: out of memory");
+        return BST_ENOMEM;
     for (size_t i = 0; i < n; i++) { /* the open share averaged over the patch */
         double sum = 0;
         for (size_t k = 0; k < nq * nq; k++) {
             double u, v, d[3];
             halton2(k, &u, &v);
             bst_basis_sample(basis, i, u, v, d);
-            sum += open_share(p, d);
+            sum += share(data, d);
         }
         F[i] = sum / (double)(nq * nq);
     }
-    /* a patch and its antipode see the same holes (the share is even in d): one value for both,
-     * so that the layer is reciprocal exactly */
+    /* a patch and its antipode see the same openings (the share is even in d): one value for
+     * both, so that the layer is reciprocal exactly */
     for (size_t i = 0; i < n; i++) {
         size_t a = bst_basis_antipode(basis, i);
         if (a > i && a < n)
@@ -218,7 +216,7 @@ int bst_perforated_layer(bst_ctx *ctx, const bst_perforated *p, const bst_basis 
         Fm += lam[i] * F[i] / M_PI;
     bst_layer *l = NULL;
     int rc = bst_layer_new(ctx, basis, nchannels, channels, &l);
-    const double r[BST_NCOMP] = {[BST_TF] = p->t, [BST_TB] = p->t, [BST_RF] = p->rf, [BST_RB] = p->rb};
+    const double r[BST_NCOMP] = {[BST_TF] = t, [BST_TB] = t, [BST_RF] = rf, [BST_RB] = rb};
     for (size_t ch = 0; ch < nchannels && rc >= 0; ch++)
         for (int c = 0; c < BST_NCOMP && rc >= 0; c++) {
             bst_mat *m = NULL;
@@ -229,8 +227,24 @@ int bst_perforated_layer(bst_ctx *ctx, const bst_perforated *p, const bst_basis 
     bsti_free(ctx, F);
     if (rc < 0) {
         bst_layer_free(l);
-        return rc == BST_ENOMEM ? bsti_error(ctx, rc, "perforated layer: out of memory") : rc;
+        return rc;
     }
     *out = l;
     return BST_OK;
+}
+
+static double perforated_share(const void *data, const double *d)
+{
+    return open_share(data, d);
+}
+
+int bst_perforated_layer(bst_ctx *ctx, const bst_perforated *p, const bst_basis *basis,
+                         size_t nchannels, const char *const *channels, bst_layer **out)
+{
+    if (!ctx || !p || !basis || !out || (nchannels && !channels))
+        return ctx ? bsti_error(ctx, BST_EINVAL, "perforated layer: NULL argument") : BST_EINVAL;
+    *out = NULL;
+    int rc = bsti_open_layer(ctx, basis, perforated_share, p, p->rf, p->rb, p->t, p->samples,
+                             nchannels, channels, out);
+    return rc == BST_ENOMEM ? bsti_error(ctx, rc, "perforated layer: out of memory") : rc;
 }

@@ -62,6 +62,15 @@ void bsti_vn_view(const bsti_vn_geom *g, double a, double b, double *view);
  * rs^bounces) per unit flux emitted diffusely by element j into the channel. */
 void bsti_vn_exchange(const bsti_vn_geom *g, double *gm);
 
+/* A layer of a sheet with openings (perforated.c; perforated screens, woven fabrics): share(data,
+ * d) the share of the sheet open along unit direction d (even in d), averaged over each patch by
+ * samples^2 directions (0: BST_VENETIAN_SAMPLES), on the diagonal of the transmissions; the rest
+ * reflected (rf, rb) and transmitted (t) diffusely by the reciprocal rank-one term of
+ * bst_perforated.  nchannels 0: Visible and Solar, each the same. */
+int bsti_open_layer(bst_ctx *ctx, const bst_basis *basis, double (*share)(const void *, const double *),
+                    const void *data, double rf, double rb, double t, int samples, size_t nchannels,
+                    const char *const *channels, bst_layer **out);
+
 /* Spec values of the shades (venetian_spec.c, perforated.c): "16mm", "0.016m", "1.6cm", "0.63in"
  * or a bare number of millimetres -> metres; a plain number.  0, or -1 when v is not one. */
 int bsti_shade_parse_length(const char *v, double *m);

@@ -32,6 +32,13 @@ expect_status 0 "glass + perforated screen + glass (k = 3)" -- "$BSDFSTACK" comb
     -o "$tmpdir/perf.xml" glass:clear-6mm "perforated:x=5mm,y=5mm,radius=1.5mm,thickness=1mm,r=0.7" \
     glass:clear-6mm
 [ -s "$tmpdir/perf.xml" ] && pass "system with a screen written" || fail "no screen system"
+expect_status 0 "a woven fabric reversed (Klems)" -- "$BSDFSTACK" combine --klems \
+    -o "$tmpdir/woven.xml" glass:clear-6mm "woven:diameter=0.5mm,spacing=2mm,r=0.6,t=0.1^"
+[ -s "$tmpdir/woven.xml" ] && pass "system with a fabric written" || fail "no fabric system"
+rm -f "$tmpdir/bad.xml"
+expect_error "woven: a thread thicker than its spacing refused" "diameter" -- "$BSDFSTACK" combine \
+    -k 2 -o "$tmpdir/bad.xml" "woven:diameter=3mm,spacing=2mm"
+[ ! -e "$tmpdir/bad.xml" ] && pass "nothing written" || fail "a bad fabric left a file"
 rm -f "$tmpdir/bad.xml"
 expect_error "perforated: a radius past half the pitch refused" "radius" -- "$BSDFSTACK" combine \
     -k 2 -o "$tmpdir/bad.xml" glass:clear-6mm "perforated:x=5mm,y=5mm,radius=3mm"

@@ -1,8 +1,9 @@
-/* test_perforated.c - perforated screens from their geometry (bst_perforated, issue #32) against
- * closed forms: a sheet of zero thickness passes its open area at every angle; a thick one with
+/* test_perforated.c - perforated screens and woven fabrics from their geometry (bst_perforated,
+ * bst_woven, issue #32) against closed forms.  Screens: a sheet of zero thickness passes its open area at every angle; a thick one with
  * circular holes the lens of the hole's two ends (checked at normal incidence, pi a^2 / (x y), and
  * at an angle against a direct evaluation); lossless sheets conserve energy; the layer is
- * reciprocal; bad specs name their key. */
+ * reciprocal; bad specs name their key.  Fabrics: the openness (1 - d / s)^2 at the normal and
+ * the product of the two thread sets' shadows off it; energy and reciprocity. */
 #include <config.h>
 
 #include <math.h>
@@ -138,6 +139,59 @@ START_TEST(test_bad_specs)
 }
 END_TEST
 
+/* Woven: with one direction a patch (the Halton point (1/2, 1/3)) the patch's value is the closed
+ * form's mean over that direction in the patch and in its antipode; lossless threads conserve
+ * energy, the layer is reciprocal; bad specs name their key. */
+static double woven_open(const double d[3], double ratio)
+{
+    double cx = d[2] / hypot(d[0], d[2]), cy = d[2] / hypot(d[1], d[2]);
+    return fmax(0.0, 1 - ratio / cx) * fmax(0.0, 1 - ratio / cy);
+}
+
+START_TEST(test_woven)
+{
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 4, &b), BST_OK);
+    bst_woven w;
+    ck_assert_int_eq(bst_woven_parse(ctx, "diameter=0.5mm,spacing=2mm,samples=1", &w), BST_OK);
+    bst_layer *l = NULL;
+    ck_assert_int_eq(bst_woven_layer(ctx, &w, b, 0, NULL, &l), BST_OK);
+    double *tf = hemi(l, BST_TF);
+    for (size_t i = 0; i < bst_basis_size(b); i++) {
+        double d0[3], d1[3];
+        bst_basis_sample(b, i, 0.5, 1.0 / 3, d0);
+        bst_basis_sample(b, bst_basis_antipode(b, i), 0.5, 1.0 / 3, d1);
+        double want = (woven_open(d0, 0.25) + woven_open(d1, 0.25)) / 2;
+        ck_assert_msg(fabs(tf[i] - want) < 1e-14, "patch %zu: %.15g vs %.15g", i, tf[i], want);
+    }
+    double n[3] = {0, 0, 1};
+    ck_assert(fabs(woven_open(n, 0.25) - 0.5625) < 1e-15); /* (1 - d/s)^2 */
+    free(tf);
+    bst_layer_free(l);
+    bst_layer *ll = NULL;
+    ck_assert_int_eq(bst_woven_parse(ctx, "diameter=0.3mm,spacing=1mm,r=0.7,t=0.3", &w), BST_OK);
+    ck_assert_int_eq(bst_woven_layer(ctx, &w, b, 0, NULL, &ll), BST_OK);
+    double *t2 = hemi(ll, BST_TF), *r2 = hemi(ll, BST_RF), worst = 0, err;
+    for (size_t i = 0; i < bst_basis_size(b); i++)
+        worst = fmax(worst, fabs(t2[i] + r2[i] - 1));
+    ck_assert_msg(worst < 1e-12, "lossless fabric: %g", worst);
+    ck_assert_int_eq(bst_metrics_reciprocity(ctx, ll, 0, &err, NULL, NULL), BST_OK);
+    ck_assert_msg(err < 1e-12, "reciprocity %g", err);
+    free(t2), free(r2);
+    bst_layer_free(ll);
+    static const char *const bad[][2] = {{"diameter=3mm,spacing=2mm", "diameter"},
+                                         {"diameter=1mm,spacing=0", "spacing"},
+                                         {"diameter=1mm,spacing=2mm,r=0.8,t=0.3", "r + t"},
+                                         {"diameter=1mm,spacing=2mm,colour=3", "colour"}};
+    for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
+        ck_assert_msg(bst_woven_parse(ctx, bad[k][0], &w) < 0, "%s accepted", bad[k][0]);
+        ck_assert_msg(strstr(bst_ctx_message(ctx), bad[k][1]) != NULL, "%s: '%s'", bad[k][0],
+                      bst_ctx_message(ctx));
+    }
+    bst_basis_free(b);
+}
+END_TEST
+
 static Suite *perforated_suite(void)
 {
     Suite *s = suite_create("perforated");
@@ -148,6 +202,7 @@ static Suite *perforated_suite(void)
     tcase_add_test(tc, test_thick_holes);
     tcase_add_loop_test(tc, test_energy_reciprocity, 0, 2);
     tcase_add_test(tc, test_bad_specs);
+    tcase_add_test(tc, test_woven);
     suite_add_tcase(s, tc);
     return s;
 }

@@ -41,6 +41,7 @@ static const char help[] =
     "                     r-down, t, segments, samples; bsdfstack-glass(5))\n"
     "  perforated:KEYS    a perforated screen: x=5mm,y=5mm,radius=1.5mm,thickness=1mm,r=0.7\n"
     "                     (or hole-x, hole-y for rectangular holes; rf, rb, t, samples)\n"
+    "  woven:KEYS         a woven fabric: diameter=0.5mm,spacing=2mm,r=0.6,t=0.1\n"
     "  LAYER^             the layer installed reversed (back side facing the exterior)\n"
     "\n"
     "Options:\n"

@@ -1,6 +1,6 @@
 /* layers.c - loading a stack's layers (layers.h): files read, the basis picked by the library's
  * rule (bst_plan_pick_basis), the memory guard, each layer made over the basis (glass:,
- * venetian: and perforated: specs, reversed layers), and the checks a batch makes before its first stack. */
+ * venetian:, perforated: and woven: specs, reversed layers), and the checks a batch makes before its first stack. */
 #include <config.h>
 
 #include <errno.h>
@@ -83,10 +83,29 @@ static int is_perforated(const char *spec)
     return strncmp(spec, "perforated:", 11) == 0;
 }
 
+/* A woven fabric from its geometry (bst_woven_parse). */
+static int is_woven(const char *spec)
+{
+    return strncmp(spec, "woven:", 6) == 0;
+}
+
 /* A layer made from a spec rather than read from a file. */
 static int is_made(const char *spec)
 {
-    return is_glass(spec) || is_venetian(spec) || is_perforated(spec);
+    return is_glass(spec) || is_venetian(spec) || is_perforated(spec) || is_woven(spec);
+}
+
+/* The woven:SPEC layer over basis (the spec less its prefix and a trailing ^). */
+static int make_woven(bst_ctx *ctx, const char *spec, size_t len, const bst_basis *basis,
+                      size_t nch, const char **chnames, bst_layer **l)
+{
+    char *wspec = strndup(spec + 6, len - 6);
+    bst_woven w;
+    int st = wspec ? bst_woven_parse(ctx, wspec, &w) : BST_ENOMEM;
+    if (st >= 0)
+        st = bst_woven_layer(ctx, &w, basis, nch, nch ? chnames : NULL, l);
+    free(wspec);
+    return st;
 }
 
 /* The perforated:SPEC layer over basis (the spec less its prefix and a trailing ^). */
@@ -186,6 +205,8 @@ static int make_layer(bst_ctx *ctx, const char *sub, const char *what, const cha
         st = make_venetian(ctx, spec, len - (size_t)flip, basis, nch, chnames, &l);
     } else if (is_perforated(spec)) {
         st = make_perforated(ctx, spec, len - (size_t)flip, basis, nch, chnames, &l);
+    } else if (is_woven(spec)) {
+        st = make_woven(ctx, spec, len - (size_t)flip, basis, nch, chnames, &l);
     } else {
         char *gspec = strndup(spec + 6, len - 6 - (size_t)flip);
         bst_glass *g = NULL;
@@ -334,6 +355,19 @@ int cli_layers_check(bst_ctx *ctx, const char *sub, size_t n, char **specs,
             if (st < 0)
                 rc = cli_fail_ctx(sub, specs[i], ctx);
             structure[i] = p.rf > 0 || p.rb > 0 || p.t > 0 ? BST_DENSE : BST_DIAG;
+            continue;
+        }
+        if (is_woven(specs[i])) { /* its errors show now; dense when the threads scatter */
+            char *wspec = strdup(specs[i] + 6);
+            size_t wl = wspec ? strlen(wspec) : 0;
+            if (wl && wspec[wl - 1] == '^')
+                wspec[wl - 1] = '\0';
+            bst_woven w = {0};
+            int st = wspec ? bst_woven_parse(ctx, wspec, &w) : BST_ENOMEM;
+            free(wspec);
+            if (st < 0)
+                rc = cli_fail_ctx(sub, specs[i], ctx);
+            structure[i] = w.r > 0 || w.t > 0 ? BST_DENSE : BST_DIAG;
             continue;
         }
         /* a pane: made once here (cheap: one diagonal per component) so that its errors show now */
