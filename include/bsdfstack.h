@@ -797,8 +797,9 @@ const bst_glass_meta *bst_glass_metadata(const bst_glass *g);
 
 /* A shading product of the International Glazing and Shading Database (an IGSDB JSON record of
  * type "shading"): its material and its geometry, read and validated, for a geometric shade model
- * to turn into a layer.  bsdfstack does not model geometric shades yet: glass: specs refuse these
- * records (BST_ENOTIMPL).  Lengths in millimetres, angles in degrees, wavelengths in micrometres.
+ * to turn into a layer.  glass: specs refuse these records (BST_ENOTIMPL); the geometric shade
+ * models (bst_venetian, bst_perforated, bst_woven) take their geometry as specs, not yet from a
+ * record.  Lengths in millimetres, angles in degrees, wavelengths in micrometres.
  * IGSDB v1 field names are given beside each member. */
 typedef enum { BST_SHADE_VENETIAN, BST_SHADE_WOVEN, BST_SHADE_PERFORATED } bst_shade_kind;
 typedef enum { BST_PERFORATION_CIRCULAR, BST_PERFORATION_RECTANGULAR,
