@@ -814,8 +814,9 @@ const bst_glass_meta *bst_glass_metadata(const bst_glass *g);
 
 /* A shading product of the International Glazing and Shading Database (an IGSDB JSON record of
  * type "shading"): its material and its geometry, read and validated, for a geometric shade model
- * to turn into a layer.  bsdfstack does not model geometric shades yet: glass: specs refuse these
- * records (BST_ENOTIMPL).  Lengths in millimetres, angles in degrees, wavelengths in micrometres.
+ * to turn into a layer.  glass: specs refuse these records (BST_ENOTIMPL); the geometric shade
+ * models (bst_venetian, bst_perforated, bst_woven) take their geometry as specs, not yet from a
+ * record.  Lengths in millimetres, angles in degrees, wavelengths in micrometres.
  * IGSDB v1 field names are given beside each member. */
 typedef enum { BST_SHADE_VENETIAN, BST_SHADE_WOVEN, BST_SHADE_PERFORATED } bst_shade_kind;
 typedef enum { BST_PERFORATION_CIRCULAR, BST_PERFORATION_RECTANGULAR,
@@ -860,6 +861,92 @@ int bst_shade_read_igsdb(bst_ctx *ctx, const char *path, bst_shade **out);
 void bst_shade_free(bst_shade *s);
 /* "venetian", "woven", "perforated-screen". */
 const char *bst_shade_kind_name(bst_shade_kind kind);
+
+/* ------------------------------ venetian blinds: venetian_spec.c, venetian_trace.c, venetian_layer.c */
+
+/* A venetian blind from its geometry (bsdfstack-glass(5), "venetian:" specs).  Slats of zero
+ * thickness, flat, infinitely long along X (a vertical blind: along Y), stacked every `spacing`
+ * along Y (X).  The tilt is the slat's angle about its long axis: a slat's profile runs from its
+ * exterior edge to its interior edge along (0, sin tilt, cos tilt) in (x, y, z), so tilt 0 holds
+ * the slats horizontal (normal +-Y, the reference blind L_blind0) and a POSITIVE tilt puts the
+ * exterior edge LOWER than the interior edge (the reference blind L_blind45 is tilt = +45); a
+ * vertical blind takes X for Y (positive tilt: the exterior edge towards -X).  Each slat face
+ * reflects rs specularly (a mirror in the slat's plane; `roughness`, RADIANCE metal's rms slope,
+ * turns its facets as Ward's Gaussian lobe) and r_up / r_down diffusely (the face looking +Y at
+ * tilt 0, +X for a vertical blind, and the other), and transmits t diffusely.  The layer's
+ * unobstructed and mirrored light is followed exactly in the blind's profile plane (the X
+ * component of a direction survives every reflection) and averaged over each incident patch by
+ * samples^2 directions (a Halton set; a rough slat draws its facets from the same points); the
+ * light the slats scatter diffusely is a radiosity exchange between `segments` strips per slat
+ * face (the diffuse part has rank 2 segments at most). */
+typedef struct {
+    double width, spacing;  /* m, > 0 */
+    double tilt;            /* degrees, -90..90 */
+    double curvature;       /* m, 0 = flat (the only shape modelled yet); else >= width / 2 */
+    int vertical;           /* slats along Y */
+    int segments;           /* strips per slat face for the radiosity, default BST_VENETIAN_SEGMENTS */
+    int samples;            /* samples^2 directions per patch; 0 (default): BST_VENETIAN_SAMPLES
+                             * at k <= 6 and in Klems bases, half of it at k = 7 */
+    double r_up, r_down, t; /* diffuse reflectances of the two faces, diffuse transmittance */
+    double rs, roughness;   /* specular reflectance, rms slope of its lobe (0: a mirror) */
+    double solar[4];        /* r_up, r_down, t, rs of a channel named Solar (dual-band slats, spec
+                             * values "VISIBLE/SOLAR"); NaN (default): the values above */
+} bst_venetian;
+#define BST_VENETIAN_SEGMENTS 8
+#define BST_VENETIAN_SAMPLES 32
+/* The defaults: no geometry (width = spacing = NaN), tilt 0, flat, black slats. */
+void bst_venetian_init(bst_venetian *v);
+/* Parse "width=16mm,spacing=14.5mm,tilt=45,rs=0.765,r=0.085,..." (the text after "venetian:")
+ * into v (initialised here) and check it; every error names the key. */
+int bst_venetian_parse(bst_ctx *ctx, const char *spec, bst_venetian *v);
+/* The checks bst_venetian_parse makes, for a struct filled by hand. */
+int bst_venetian_check(bst_ctx *ctx, const bst_venetian *v);
+/* The blind as a layer over basis with the channels named (nchannels 0: "Visible" and "Solar"):
+ * Solar from the solar values where given, every other channel from the others. */
+int bst_venetian_layer(bst_ctx *ctx, const bst_venetian *v, const bst_basis *basis,
+                       size_t nchannels, const char *const *channels, bst_layer **out);
+
+/* ------------------------------------------------------------ perforated screens: perforated.c */
+
+/* A perforated screen from its geometry ("perforated:" specs, bsdfstack-glass(5)): a sheet of
+ * thickness `thickness` with holes on a rectangular grid, pitch x along X (phi = 0) and y along Y,
+ * each a circle of radius `radius` or a hole-x by hole-y rectangle, straight through the sheet.
+ * Light passes undeviated where a hole lets it through (the overlap of the hole's two ends seen
+ * along the direction: exact for every direction, averaged over each patch by samples^2
+ * directions); the rest meets the sheet and is reflected (rf from the front, rb from the back) and
+ * transmitted (t) diffusely, spread over the outgoing patches in proportion to their closed share
+ * so that the layer is reciprocal: R(o, i) = r (1 - F_i)(1 - F_o) / (pi (1 - F)), F_i the open
+ * share of patch i, F its hemispherical mean.  Lengths in m. */
+typedef struct {
+    double x, y;              /* hole pitch along X and Y (> 0) */
+    double thickness;         /* >= 0 */
+    double radius;            /* circular holes (> 0), or NaN for rectangular ones */
+    double hole_x, hole_y;    /* rectangular holes (> 0, <= the pitch), NaN for circular ones */
+    double rf, rb, t;         /* diffuse reflectances (front, back) and transmittance */
+    int samples;              /* samples^2 directions per patch; 0: BST_VENETIAN_SAMPLES */
+} bst_perforated;
+/* Parse "x=5mm,y=5mm,radius=1mm,thickness=1mm,r=0.7" (the text after "perforated:"); every error
+ * names its key. */
+int bst_perforated_parse(bst_ctx *ctx, const char *spec, bst_perforated *p);
+/* The screen as a layer over basis, every channel named (nchannels 0: Visible and Solar) the same. */
+int bst_perforated_layer(bst_ctx *ctx, const bst_perforated *p, const bst_basis *basis,
+                         size_t nchannels, const char *const *channels, bst_layer **out);
+
+/* ------------------------------------------------------------------- woven fabrics: woven.c */
+
+/* A woven fabric from its geometry ("woven:" specs, bsdfstack-glass(5)): cylindrical threads of
+ * `diameter` along X and along Y every `spacing` (m).  The open share along a direction is
+ * (1 - d / (s cos theta_x))+ (1 - d / (s cos theta_y))+, theta_x and theta_y its angles from the
+ * normal across each set of threads (the openness (1 - d / s)^2 at the normal); the rest is
+ * reflected (r) and transmitted (t) diffusely as by a perforated screen. */
+typedef struct {
+    double diameter, spacing;
+    double r, t;
+    int samples;            /* samples^2 directions per patch; 0: BST_VENETIAN_SAMPLES */
+} bst_woven;
+int bst_woven_parse(bst_ctx *ctx, const char *spec, bst_woven *w);
+int bst_woven_layer(bst_ctx *ctx, const bst_woven *w, const bst_basis *basis, size_t nchannels,
+                    const char *const *channels, bst_layer **out);
 
 /* ---------------------------------------------------------------------- sun positions: sun.c */
 

@@ -313,8 +313,11 @@ int cmd_convert(int argc, char **argv)
     if (rc != CLI_OK || q.help)
         return rc;
     size_t inlen = strlen(q.in);
-    /* glass:SPEC and LAYER^ go through the shared loader (no rank-3 source then) */
-    int via_loader = strncmp(q.in, "glass:", 6) == 0 || (inlen && q.in[inlen - 1] == '^');
+    /* glass:, venetian:, perforated:, woven: specs and LAYER^ go through the shared loader (no rank-3
+     * source then) */
+    int via_loader = strncmp(q.in, "glass:", 6) == 0 || strncmp(q.in, "venetian:", 9) == 0 ||
+                     strncmp(q.in, "perforated:", 11) == 0 || strncmp(q.in, "woven:", 6) == 0 ||
+                     (inlen && q.in[inlen - 1] == '^');
     bst_ctx *ctx = cli_ctx_new(sub);
     if (!ctx)
         return CLI_FAIL;

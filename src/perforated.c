@@ -1,0 +1,250 @@
+/* perforated.c - a perforated screen from its geometry (bsdfstack.h: bst_perforated), spec and
+ * layer.
+ *
+ * Keys: x, y (hole pitch along X and Y), thickness, radius (circular holes) or hole-x, hole-y
+ * (rectangular), lengths as glass: takes them (bare = mm); r (both faces) or rf, rb; t; samples.
+ *
+ * A hole passes light travelling along d where its two ends, seen along d, overlap: the exit end
+ * is the entrance end moved by thickness (dx, dy) / |dz|, and the share of the sheet's area that
+ * is open along d is that overlap over the cell x y (two equal circles: the lens area; two equal
+ * rectangles: the product of the overlaps per axis).  Symmetric in d -> -d, so front and back
+ * share it.  The diffuse part is rank one (see bst_perforated). */
+#include <config.h>
+
+#include <ctype.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ctx.h"
+#include "venetian.h"
+
+enum { P_X, P_Y, P_THICK, P_RADIUS, P_HX, P_HY, P_R, P_RF, P_RB, P_T, P_SAMPLES, NPKEYS };
+static const char *const pkey[NPKEYS] = {"x", "y", "thickness", "radius", "hole-x", "hole-y", "r",
+                                        "rf", "rb", "t", "samples"};
+#define PKEY_LIST "x, y, thickness, radius, hole-x, hole-y, r, rf, rb, t, samples"
+
+static void perforated_init(bst_perforated *p)
+{
+    memset(p, 0, sizeof *p);
+    p->x = p->y = p->radius = p->hole_x = p->hole_y = NAN;
+}
+
+/* One key's value into p. */
+static int set_pkey(bst_ctx *ctx, int k, const char *val, bst_perforated *p)
+{
+    double x = NAN;
+    if (k == P_SAMPLES) {
+        char *end;
+        long n = strtol(val, &end, 10);
+        if (end == val || *end || n < 0 || n > 64)
+            return bsti_error(ctx, BST_EINVAL, "perforated: samples: '%s' is not a count of 0 "
+                              "(automatic) to 64", val);
+        p->samples = (int)n;
+        return BST_OK;
+    }
+    int length = k <= P_HY;
+    if (length ? bsti_shade_parse_length(val, &x) : bsti_shade_parse_number(val, &x))
+        return bsti_error(ctx, BST_EINVAL, "perforated: %s: '%s' is not %s", pkey[k], val,
+                          length ? "a length (5mm, 0.005m, 0.5cm, 0.2in)" : "a number");
+    double *slot[NPKEYS] = {&p->x, &p->y, &p->thickness, &p->radius, &p->hole_x, &p->hole_y,
+                            &p->rf, &p->rf, &p->rb, &p->t, NULL};
+    *slot[k] = x;
+    if (k == P_R)
+        p->rb = x;
+    return BST_OK;
+}
+
+/* The checks of a parsed screen; every message names its key. */
+static int check(bst_ctx *ctx, const bst_perforated *p, const int *seen)
+{
+    if (!(p->x > 0) || !isfinite(p->x))
+        return bsti_error(ctx, BST_EINVAL, "perforated: x = %g m is not a positive pitch", p->x);
+    if (!(p->y > 0) || !isfinite(p->y))
+        return bsti_error(ctx, BST_EINVAL, "perforated: y = %g m is not a positive pitch", p->y);
+    if (!(p->thickness >= 0) || !isfinite(p->thickness))
+        return bsti_error(ctx, BST_EINVAL, "perforated: thickness = %g m is negative", p->thickness);
+    int circ = seen[P_RADIUS], rect = seen[P_HX] || seen[P_HY];
+    if (circ == rect)
+        return bsti_error(ctx, BST_EINVAL, "perforated: %s (radius for circular holes, hole-x and "
+                          "hole-y for rectangular ones)", circ ? "radius and hole-x/hole-y both given"
+                          : "radius missing");
+    if (circ && !(p->radius > 0 && 2 * p->radius <= fmin(p->x, p->y)))
+        return bsti_error(ctx, BST_EINVAL, "perforated: radius = %g m is not positive and at most "
+                          "half the smaller pitch", p->radius);
+    if (rect && !(p->hole_x > 0 && p->hole_x <= p->x))
+        return bsti_error(ctx, BST_EINVAL, "perforated: hole-x = %g m is not in (0, x]", p->hole_x);
+    if (rect && !(p->hole_y > 0 && p->hole_y <= p->y))
+        return bsti_error(ctx, BST_EINVAL, "perforated: hole-y = %g m is not in (0, y]", p->hole_y);
+    const char *names[3] = {seen[P_R] ? "r" : "rf", seen[P_R] ? "r" : "rb", "t"};
+    double v[3] = {p->rf, p->rb, p->t};
+    for (int k = 0; k < 3; k++)
+        if (!(v[k] >= 0 && v[k] <= 1))
+            return bsti_error(ctx, BST_EINVAL, "perforated: %s = %g is not between 0 and 1",
+                              names[k], v[k]);
+    if (p->rf + p->t > 1 + 1e-12 || p->rb + p->t > 1 + 1e-12)
+        return bsti_error(ctx, BST_EINVAL, "perforated: %s + t = %g is above 1",
+                          p->rf >= p->rb ? names[0] : names[1], fmax(p->rf, p->rb) + p->t);
+    return BST_OK;
+}
+
+int bst_perforated_parse(bst_ctx *ctx, const char *spec, bst_perforated *p)
+{
+    if (!ctx || !spec || !p)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "perforated: NULL argument") : BST_EINVAL;
+    perforated_init(p);
+    char buf[512];
+    if (strlen(spec) >= sizeof buf)
+        return bsti_error(ctx, BST_EINVAL, "perforated: description too long");
+    strcpy(buf, spec);
+    int seen[NPKEYS] = {0};
+    char *save = NULL;
+    for (char *kv = strtok_r(buf, ",", &save); kv; kv = strtok_r(NULL, ",", &save)) {
+        while (isspace((unsigned char)*kv))
+            kv++;
+        char *eq = strchr(kv, '=');
+        if (eq)
+            *eq = '\0';
+        int k = 0;
+        while (k < NPKEYS && strcmp(kv, pkey[k]) != 0)
+            k++;
+        if (k == NPKEYS)
+            return bsti_error(ctx, BST_EINVAL, "perforated: unknown key '%s' (keys: %s)", kv, PKEY_LIST);
+        if (!eq)
+            return bsti_error(ctx, BST_EINVAL, "perforated: %s needs a value (%s=...)", pkey[k], pkey[k]);
+        if (seen[k] || (k == P_R && (seen[P_RF] || seen[P_RB])) ||
+            ((k == P_RF || k == P_RB) && seen[P_R]))
+            return bsti_error(ctx, BST_EINVAL, "perforated: %s given twice", pkey[k]);
+        seen[k] = 1;
+        int rc = set_pkey(ctx, k, eq + 1, p);
+        if (rc < 0)
+            return rc;
+    }
+    if (!seen[P_X] || !seen[P_Y])
+        return bsti_error(ctx, BST_EINVAL, "perforated: %s missing (the hole pitch x and y are "
+                          "needed)", seen[P_X] ? "y" : "x");
+    return check(ctx, p, seen);
+}
+
+/* The open share of the screen along unit direction d (either sign of d[2]). */
+static double open_share(const bst_perforated *p, const double d[3])
+{
+    double az = fabs(d[2]);
+    if (az < 1e-300)
+        return 0.0;
+    double sx = p->thickness * d[0] / az, sy = p->thickness * d[1] / az;
+    if (isnan(p->radius)) /* rectangles */
+        return fmax(0.0, p->hole_x - fabs(sx)) * fmax(0.0, p->hole_y - fabs(sy)) / (p->x * p->y);
+    double a = p->radius, dd = hypot(sx, sy);
+    if (dd >= 2 * a)
+        return 0.0;
+    double lens = 2 * a * a * acos(dd / (2 * a)) - dd / 2 * sqrt(4 * a * a - dd * dd);
+    return lens / (p->x * p->y);
+}
+
+/* The first n points of the Halton sequence in bases 2 and 3 (as the venetian layer's). */
+static void halton2(size_t k, double *u, double *v)
+{
+    double f = 1, r = 0;
+    for (size_t i = k + 1; i; i /= 2)
+        f /= 2, r += f * (double)(i % 2);
+    *u = r;
+    f = 1, r = 0;
+    for (size_t i = k + 1; i; i /= 3)
+        f /= 3, r += f * (double)(i % 3);
+    *v = r;
+}
+
+/* Component values: the diagonal (open share over Lambda) and, with diffuse values, the rank-one
+ * part r (1 - F_i)(1 - F_o) / (pi (1 - Fm)) added densely. */
+static int component(bst_ctx *ctx, const bst_basis *b, const double *F, double Fm, double r,
+                     int transmit, bst_mat **out)
+{
+    size_t n = bst_basis_size(b);
+    const double *lam = bst_basis_lambda(b);
+    double *diag = bsti_alloc_array(ctx, n, sizeof *diag);
+    if (!diag)
+        return BST_ENOMEM;
+    for (size_t i = 0; i < n; i++)
+        diag[i] = transmit ? F[i] / lam[i] : 0.0;
+    int rc;
+    if (r <= 0 || 1 - Fm < 1e-15) {
+        rc = bst_mat_new_diag(ctx, n, diag, out);
+    } else {
+        rc = bst_mat_new_dense(ctx, n, n, BST_DOUBLE, out);
+        double *m = rc >= 0 ? bst_mat_dense_data(*out) : NULL;
+        for (size_t i = 0; m && i < n; i++) {
+            for (size_t o = 0; o < n; o++)
+                m[i * n + o] = r * (1 - F[i]) * (1 - F[o]) / (M_PI * (1 - Fm));
+            m[i * n + i] += diag[i];
+        }
+    }
+    bsti_free(ctx, diag);
+    return rc;
+}
+
+int bsti_open_layer(bst_ctx *ctx, const bst_basis *basis, double (*share)(const void *, const double *),
+                    const void *data, double rf, double rb, double t, int samples, size_t nchannels,
+                    const char *const *channels, bst_layer **out)
+{
+    static const char *const dual[] = {"Visible", "Solar"};
+    if (!nchannels)
+        nchannels = 2, channels = dual;
+    size_t n = bst_basis_size(basis), nq = samples ? (size_t)samples : BST_VENETIAN_SAMPLES;
+    const double *lam = bst_basis_lambda(basis);
+    double *F = bsti_alloc_array(ctx, n, sizeof *F), Fm = 0;
+    if (!F)
+        return BST_ENOMEM;
+    for (size_t i = 0; i < n; i++) { /* the open share averaged over the patch */
+        double sum = 0;
+        for (size_t k = 0; k < nq * nq; k++) {
+            double u, v, d[3];
+            halton2(k, &u, &v);
+            bst_basis_sample(basis, i, u, v, d);
+            sum += share(data, d);
+        }
+        F[i] = sum / (double)(nq * nq);
+    }
+    /* a patch and its antipode see the same openings (the share is even in d): one value for
+     * both, so that the layer is reciprocal exactly */
+    for (size_t i = 0; i < n; i++) {
+        size_t a = bst_basis_antipode(basis, i);
+        if (a > i && a < n)
+            F[i] = F[a] = (F[i] + F[a]) / 2;
+    }
+    for (size_t i = 0; i < n; i++)
+        Fm += lam[i] * F[i] / M_PI;
+    bst_layer *l = NULL;
+    int rc = bst_layer_new(ctx, basis, nchannels, channels, &l);
+    const double r[BST_NCOMP] = {[BST_TF] = t, [BST_TB] = t, [BST_RF] = rf, [BST_RB] = rb};
+    for (size_t ch = 0; ch < nchannels && rc >= 0; ch++)
+        for (int c = 0; c < BST_NCOMP && rc >= 0; c++) {
+            bst_mat *m = NULL;
+            rc = component(ctx, basis, F, Fm, r[c], c == BST_TF || c == BST_TB, &m);
+            if (rc >= 0)
+                rc = bst_layer_set(ctx, l, ch, (bst_comp)c, m);
+        }
+    bsti_free(ctx, F);
+    if (rc < 0) {
+        bst_layer_free(l);
+        return rc;
+    }
+    *out = l;
+    return BST_OK;
+}
+
+static double perforated_share(const void *data, const double *d)
+{
+    return open_share(data, d);
+}
+
+int bst_perforated_layer(bst_ctx *ctx, const bst_perforated *p, const bst_basis *basis,
+                         size_t nchannels, const char *const *channels, bst_layer **out)
+{
+    if (!ctx || !p || !basis || !out || (nchannels && !channels))
+        return ctx ? bsti_error(ctx, BST_EINVAL, "perforated layer: NULL argument") : BST_EINVAL;
+    *out = NULL;
+    int rc = bsti_open_layer(ctx, basis, perforated_share, p, p->rf, p->rb, p->t, p->samples,
+                             nchannels, channels, out);
+    return rc == BST_ENOMEM ? bsti_error(ctx, rc, "perforated layer: out of memory") : rc;
+}

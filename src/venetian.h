@@ -1,0 +1,79 @@
+/* venetian.h - internal side of the venetian blind model (bsdfstack.h: bst_venetian).
+ *
+ * The blind's profile plane is (y, z) of the model's frame (a vertical blind's x and y are
+ * exchanged on the way in and out).  One channel between two neighbouring slats stands for all:
+ * slat 0 runs from its exterior edge (0, -w cos b) to its interior edge (w sin b, 0), slat 1 is
+ * slat 0 moved by the spacing s along y.  Face A is slat 0's face towards slat 1 (the face
+ * looking +y at tilt 0: r_up), face B slat 1's face towards slat 0 (r_down); by periodicity a
+ * face's other side is the other face at the same place.  Element e = face * segments + m is strip
+ * m (from the exterior edge) of a face, of length w / segments.  Every light flux below is per
+ * unit flux entering one period of the blind. */
+#ifndef BST_VENETIAN_H
+#define BST_VENETIAN_H
+
+#include "bsdfstack.h"
+
+/* A ray that has bounced this often between lossless mirrors leaves the channel the way it is
+ * heading (only rays almost normal to the slats get here); a ray whose flux has fallen below
+ * BSTI_VN_MIN_FLUX of what it entered with is dropped (rs < 1 only). */
+#define BSTI_VN_MAX_BOUNCES 100000
+#define BSTI_VN_MIN_FLUX 1e-15
+/* Entry positions per profile direction over the part of the opening that meets a slat, and per
+ * view of the strips from an opening; positions and in-plane angles per strip in their exchange. */
+#define BSTI_VN_POSITIONS 256
+#define BSTI_VN_EXCHANGE_POSITIONS 64
+/* The row of a hit: flux leaving along d (even bounces), the sum of bounces times that flux, the
+ * same along the mirror image dm (odd bounces), then the arrivals on the 2 m strips. */
+enum { BSTI_VN_EVEN, BSTI_VN_EVEN_N, BSTI_VN_ODD, BSTI_VN_ODD_N, BSTI_VN_EVEN_W, BSTI_VN_EVEN_D,
+       BSTI_VN_EVEN_D2, BSTI_VN_ODD_W, BSTI_VN_ODD_D, BSTI_VN_ODD_D2, BSTI_VN_DEP };
+/* Rough slats: rays traced per entry position with their own facet slopes, for the moments of
+ * their exits' turn in the profile plane (BSTI_VN_*_W, _D, _D2: flux, flux x turn, flux x turn^2,
+ * by the parity of the bounces). */
+#define BSTI_VN_ROUGH_RAYS 4
+
+typedef struct {
+    double w, s;         /* slat width, spacing (m) */
+    double sb, cb;       /* sin and cos of the tilt */
+    double ze;           /* z of the exterior edges (-w cos b); interior edges at z = 0 */
+    double nA[2];        /* face A's normal (y, z), into the channel */
+    double rs;           /* specular reflectance */
+    int m;               /* strips per face */
+    int sheet;           /* |tilt| = 90: the slats lie in one plane (no channel) */
+} bsti_vn_geom;
+
+void bsti_vn_geom_init(bsti_vn_geom *g, const bst_venetian *v);
+
+/* The share of light entering along profile direction (a, b) (b > 0: from the exterior, b < 0:
+ * from the interior; b != 0) that passes between the slats without meeting one: exact. */
+double bsti_vn_open(const bsti_vn_geom *g, double a, double b);
+
+/* What becomes of unit flux entering along (a, b) on the part of the opening that meets a slat
+ * (whatever that part's size): row[BSTI_VN_EVEN ..] as enumerated above, BSTI_VN_DEP + 2 m values;
+ * sigma > 0 (rough slats, the deviation of a facet's slope in the profile plane) adds the moments
+ * of BSTI_VN_ROUGH_RAYS rays per entry position traced with their own facets. */
+void bsti_vn_hit(const bsti_vn_geom *g, double a, double b, double sigma, double *row);
+
+/* The strips as seen from the opening that light leaving along profile direction (a, b) crosses
+ * (b > 0: the interior one): view[e] = the mean over that opening of rs^n for each n-th hit of
+ * strip e by a ray traced back along -(a, b). */
+void bsti_vn_view(const bsti_vn_geom *g, double a, double b, double *view);
+
+/* g[e * n + j] (n = 2 segments): the flux arriving on element e (at every bounce, weighted
+ * rs^bounces) per unit flux emitted diffusely by element j into the channel. */
+void bsti_vn_exchange(const bsti_vn_geom *g, double *gm);
+
+/* A layer of a sheet with openings (perforated.c; perforated screens, woven fabrics): share(data,
+ * d) the share of the sheet open along unit direction d (even in d), averaged over each patch by
+ * samples^2 directions (0: BST_VENETIAN_SAMPLES), on the diagonal of the transmissions; the rest
+ * reflected (rf, rb) and transmitted (t) diffusely by the reciprocal rank-one term of
+ * bst_perforated.  nchannels 0: Visible and Solar, each the same. */
+int bsti_open_layer(bst_ctx *ctx, const bst_basis *basis, double (*share)(const void *, const double *),
+                    const void *data, double rf, double rb, double t, int samples, size_t nchannels,
+                    const char *const *channels, bst_layer **out);
+
+/* Spec values of the shades (venetian_spec.c, perforated.c): "16mm", "0.016m", "1.6cm", "0.63in"
+ * or a bare number of millimetres -> metres; a plain number.  0, or -1 when v is not one. */
+int bsti_shade_parse_length(const char *v, double *m);
+int bsti_shade_parse_number(const char *v, double *x);
+
+#endif

@@ -1,0 +1,210 @@
+/* venetian_trace.c - light in one channel of a venetian blind, in its profile plane (venetian.h
+ * for the frame, the faces and the elements).
+ *
+ * Flat slats are parallel mirrors: a ray's X component never changes and each specular bounce
+ * flips its profile direction between d and its mirror image dm, so a ray entering along d leaves
+ * along d after an even number of bounces (out of the opposite side: it cannot cross the opening it
+ * came in by) and along dm after an odd number.  The unobstructed share of the opening is exact
+ * (the overlap of the entrance opening's shadow with the exit opening); only the part of the
+ * opening that meets a slat is sampled, by BSTI_VN_POSITIONS midpoints, each carrying its exact
+ * share, so the shares of every entering ray add up to 1 whatever the sampling. */
+#include <config.h>
+
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+
+#include "venetian.h"
+
+void bsti_vn_geom_init(bsti_vn_geom *g, const bst_venetian *v)
+{
+    double b = v->tilt * (M_PI / 180.0);
+    memset(g, 0, sizeof *g);
+    g->w = v->width;
+    g->s = v->spacing;
+    g->sb = sin(b);
+    g->cb = cos(b);
+    g->sheet = fabs(fabs(v->tilt) - 90.0) < 1e-9;
+    if (g->sheet) /* exactly in the plane z = 0 */
+        g->sb = v->tilt > 0 ? 1.0 : -1.0, g->cb = 0.0;
+    g->ze = -g->w * g->cb;
+    g->nA[0] = g->cb;
+    g->nA[1] = -g->sb;
+    g->rs = v->rs;
+    g->m = v->segments;
+}
+
+/* A uniform number in (0, 1) from a 64-bit key (splitmix64's finaliser): reproducible, and the
+ * numbers of different keys independent for our purpose. */
+static double hash_uniform(uint64_t x)
+{
+    x += 0x9e3779b97f4a7c15u;
+    x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9u;
+    x = (x ^ (x >> 27)) * 0x94d049bb133111ebu;
+    x ^= x >> 31;
+    return ((double)(x >> 11) + 0.5) / 9007199254740992.0;
+}
+
+/* The slope of a rough facet (in the profile plane, standard Gaussian) met at bounce j by ray
+ * `seed`: Box-Muller on two hashed numbers, the same for the same ray and bounce on every run. */
+static double facet_slope(unsigned long seed, long j)
+{
+    uint64_t key = ((uint64_t)seed << 24) ^ (uint64_t)j;
+    double u1 = hash_uniform(2 * key), u2 = hash_uniform(2 * key + 1);
+    return sqrt(-2.0 * log(u1)) * cos(2 * M_PI * u2);
+}
+
+/* Follow a profile ray from (y, z) along (a, b) with flux wgt until it leaves the channel: every
+ * arrival on an element adds the flux then carried to dep[element].  sigma > 0: each bounce's
+ * facet is tilted in the profile plane by slope sigma facet_slope(seed, bounce) (a tilt that
+ * would send the ray into the slat is not taken).  Returns the number of bounces; *left is the
+ * flux that leaves, *ea, *eb its direction. */
+static long trace2(const bsti_vn_geom *g, double y, double z, double a, double b, double wgt,
+                   double *dep, double *left, double sigma, unsigned long seed, double *ea,
+                   double *eb)
+{
+    const double H = g->s * g->cb, min = wgt * BSTI_VN_MIN_FLUX; /* face B's distance from A */
+    long n = 0;
+    for (;;) {
+        double h = y * g->nA[0] + (z - g->ze) * g->nA[1], dh = a * g->nA[0] + b * g->nA[1];
+        double lw = INFINITY, lo = INFINITY;
+        int face = -1;
+        if (dh < 0)
+            lw = fmax(-h / dh, 0.0), face = 0;
+        else if (dh > 0)
+            lw = fmax((H - h) / dh, 0.0), face = 1;
+        if (b > 0)
+            lo = fmax(-z / b, 0.0);
+        else if (b < 0)
+            lo = fmax((g->ze - z) / b, 0.0);
+        if (lo <= lw || face < 0 || n >= BSTI_VN_MAX_BOUNCES || wgt <= min) {
+            *left = wgt <= min ? 0.0 : wgt;
+            *ea = a, *eb = b;
+            return n;
+        }
+        y += a * lw;
+        z += b * lw;
+        /* position along the struck slat from its exterior edge */
+        double t = (y - (face ? g->s : 0.0)) * g->sb + (z - g->ze) * g->cb;
+        long m = (long)floor(t / g->w * g->m);
+        m = m < 0 ? 0 : m >= g->m ? g->m - 1 : m;
+        dep[face * g->m + m] += wgt;
+        wgt *= g->rs;
+        double na = g->nA[0], nb = g->nA[1];
+        if (sigma > 0) {
+            double sl = sigma * facet_slope(seed, n), len = sqrt(1 + sl * sl);
+            double ta = (na + sl * g->sb) / len, tb = (nb + sl * g->cb) / len, dt = a * ta + b * tb;
+            double ra = a - 2 * dt * ta, rb = b - 2 * dt * tb;
+            if ((ra * na + rb * nb > 0) == (face == 0)) /* away from the struck face */
+                na = ta, nb = tb, dh = dt;
+        }
+        a -= 2 * dh * na;
+        b -= 2 * dh * nb;
+        n++;
+    }
+}
+
+/* The face of a sheet (|tilt| = 90) that light travelling along b meets: face A looks to the
+ * exterior at tilt +90 (nA = (0, -1)), to the interior at -90. */
+static int sheet_face(const bsti_vn_geom *g, double b)
+{
+    return (b > 0) == (g->nA[1] < 0) ? 0 : 1;
+}
+
+/* The entrance opening [y0, y0 + s] of light along (a, b) and how far its shadow on the exit
+ * plane is shifted past the exit opening (the channel's openings: y in [0, s] at z = ze and
+ * y in [w sin b, w sin b + s] at z = 0). */
+static double shadow_shift(const bsti_vn_geom *g, double a, double b, double *y0, double *z0)
+{
+    *y0 = b > 0 ? 0.0 : g->w * g->sb;
+    *z0 = b > 0 ? g->ze : 0.0;
+    double y1 = b > 0 ? g->w * g->sb : 0.0, dy = a / b * (b > 0 ? -g->ze : g->ze);
+    return *y0 + dy - y1;
+}
+
+double bsti_vn_open(const bsti_vn_geom *g, double a, double b)
+{
+    if (g->sheet)
+        return 1.0 - fmin(1.0, g->w / g->s);
+    double y0, z0, delta = shadow_shift(g, a, b, &y0, &z0);
+    return fmax(0.0, g->s - fabs(delta)) / g->s;
+}
+
+void bsti_vn_hit(const bsti_vn_geom *g, double a, double b, double sigma, double *row)
+{
+    double dh = a * g->nA[0] + b * g->nA[1], psi = atan2(a, b);
+    double psi_m = atan2(a - 2 * dh * g->nA[0], b - 2 * dh * g->nA[1]);
+    const int np = BSTI_VN_POSITIONS;
+    memset(row, 0, (BSTI_VN_DEP + 2 * (size_t)g->m) * sizeof *row);
+    if (g->sheet) { /* one mirror bounce */
+        row[BSTI_VN_ODD] = row[BSTI_VN_ODD_N] = g->rs;
+        for (int m = 0; m < g->m; m++)
+            row[BSTI_VN_DEP + sheet_face(g, b) * g->m + m] = 1.0 / g->m;
+        return;
+    }
+    double y0, z0, delta = shadow_shift(g, a, b, &y0, &z0), lo, hi, s = g->s;
+    if (delta > 0) /* the shadow overshoots: the upper part of the opening meets slat 1 */
+        lo = y0 + fmax(0.0, s - delta), hi = y0 + s;
+    else
+        lo = y0, hi = y0 + fmin(s, -delta);
+    double none[2000]; /* the rough rays' arrivals: not kept */
+    memset(none, 0, 2 * (size_t)g->m * sizeof *none);
+    for (int k = 0; k < np; k++) {
+        double y = lo + (hi - lo) * (k + 0.5) / np, left;
+        double ea, eb;
+        long n = trace2(g, y, z0, a, b, 1.0 / np, row + BSTI_VN_DEP, &left, 0.0, 0, &ea, &eb);
+        row[n % 2 ? BSTI_VN_ODD : BSTI_VN_EVEN] += left;
+        row[n % 2 ? BSTI_VN_ODD_N : BSTI_VN_EVEN_N] += left * (double)n;
+        for (unsigned long r = 0; sigma > 0 && r < BSTI_VN_ROUGH_RAYS; r++) {
+            /* the same entry with rough facets: how far its exit turns from d or dm in the plane */
+            n = trace2(g, y, z0, a, b, 1.0 / np / BSTI_VN_ROUGH_RAYS, none, &left, sigma,
+                       (unsigned long)k * BSTI_VN_ROUGH_RAYS + r, &ea, &eb);
+            double dev = remainder(atan2(ea, eb) - (n % 2 ? psi_m : psi), 2 * M_PI);
+            double *mom = row + (n % 2 ? BSTI_VN_ODD_W : BSTI_VN_EVEN_W);
+            mom[0] += left, mom[1] += left * dev, mom[2] += left * dev * dev;
+        }
+    }
+}
+
+void bsti_vn_view(const bsti_vn_geom *g, double a, double b, double *view)
+{
+    const int np = BSTI_VN_POSITIONS;
+    memset(view, 0, 2 * (size_t)g->m * sizeof *view);
+    if (g->sheet) { /* the face towards the exit side, strips of w / m in an opening of s */
+        for (int m = 0; m < g->m; m++)
+            view[sheet_face(g, -b) * g->m + m] = g->w / (g->m * g->s);
+        return;
+    }
+    /* traced back into the channel from the opening on the exit side */
+    double y0 = b > 0 ? g->w * g->sb : 0.0, z0 = b > 0 ? 0.0 : g->ze, left, ea, eb;
+    for (int k = 0; k < np; k++)
+        trace2(g, y0 + g->s * (k + 0.5) / np, z0, -a, -b, 1.0 / np, view, &left, 0.0, 0, &ea, &eb);
+}
+
+void bsti_vn_exchange(const bsti_vn_geom *g, double *gm)
+{
+    const size_t n = 2 * (size_t)g->m;
+    const int np = BSTI_VN_EXCHANGE_POSITIONS;
+    memset(gm, 0, n * n * sizeof *gm);
+    if (g->sheet) /* a plane sees none of itself */
+        return;
+    double col[2 * 1000];
+    for (size_t j = 0; j < n; j++) {
+        int face = j >= (size_t)g->m;
+        double sign = face ? -1.0 : 1.0, m = (double)(j % (size_t)g->m);
+        memset(col, 0, n * sizeof *col);
+        for (int p = 0; p < np; p++) {
+            double t = g->w * (m + (p + 0.5) / np) / g->m; /* along the strip */
+            double y = (face ? g->s : 0.0) + t * g->sb, z = g->ze + t * g->cb;
+            /* Lambertian emission of a long strip: uniform in sin(alpha) of the profile angle */
+            for (int q = 0; q < np; q++) {
+                double sa = -1.0 + 2.0 * (q + 0.5) / np, ca = sqrt(1.0 - sa * sa);
+                double a = sign * ca * g->nA[0] + sa * g->sb, b = sign * ca * g->nA[1] + sa * g->cb;
+                double left, ea, eb;
+                trace2(g, y, z, a, b, 1.0 / ((double)np * np), col, &left, 0.0, 0, &ea, &eb);
+            }
+        }
+        for (size_t e = 0; e < n; e++)
+            gm[e * n + j] = col[e];
+    }
+}
