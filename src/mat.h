@@ -115,6 +115,8 @@ int bsti_mul_lowrank_dense(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, dou
                            bst_mat **out);
 int bsti_mul_dense_lowrank(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop,
                            bst_mat **out);
+int bsti_mul_lowrank_sparse(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop,
+                            bst_mat **out);
 int bsti_add_lowrank(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, const bst_mat *b,
                      bst_mat **out);
 

@@ -5,9 +5,10 @@
  *   F G (both FACTORED over one map)  bsti_lr_mul, then settled (a rank past half of N: dense)
  *   F B, B dense                       D B + U (K (V^T B)): O(nnz(S) m (p + q) + p q r^2 m)
  *   A F, A dense                       A D + ((A U) K) V^T: the same cost on A's rows
+ *   F B, A F with a sparse operand     that operand made dense, then as above
  *   alpha F + beta G, G ZERO, DIAG or FACTORED over F's map: bsti_lr_add (the diagonal taken as a
  *                                      factored matrix of no rank)
- * Anything else (another map, a sparse operand) goes the generic dense way.  A float dense
+ * Anything else (factored operands over two maps) goes the generic dense way.  A float dense
  * operand makes a float result, as everywhere in mat.c; the factors are double. */
 #include <config.h>
 
@@ -127,6 +128,22 @@ int bsti_mul_dense_lowrank(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, dou
     if (rc >= 0)
         rc = bst_mat_transpose(ctx, ct, out);
     bst_mat_free(ct);
+    return rc;
+}
+
+/* F B and A F with a sparse operand (the selected columns of a pane, say): that operand made dense
+ * (n m values: the columns asked, or no more than the generic path would make) and multiplied as
+ * above; the factored one is never expanded. */
+int bsti_mul_lowrank_sparse(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop,
+                            bst_mat **out)
+{
+    int left = a->s == BST_FACTORED;
+    bst_mat *d = NULL;
+    int rc = bsti_mat_to_dense(ctx, left ? b : a, BST_DOUBLE, &d);
+    if (rc >= 0)
+        rc = left ? bsti_mul_lowrank_dense(ctx, a, d, drop, out)
+                  : bsti_mul_dense_lowrank(ctx, d, b, drop, out);
+    bst_mat_free(d);
     return rc;
 }
 

@@ -9,8 +9,8 @@
  *   4. SPARSE * DENSE: cholmod_l_sdmult (double) or a loop over the non-zeros (float), O(nnz N);
  *      DENSE * SPARSE: one axpy of a dense column per non-zero of the sparse operand, O(nnz N);
  *   5. DENSE * DENSE: GEMM (OpenBLAS), in single precision when either operand is float;
- *   6. FACTORED (D + U K V^T) with FACTORED over one map, or with DENSE: mat_lowrank.c, without the
- *      factored operand's N x N values; with SPARSE: the generic path.
+ *   6. FACTORED (D + U K V^T) with FACTORED over one map, DENSE or SPARSE (made dense): mat_lowrank.c,
+ *      without the factored operand's N x N values; over two maps: the generic path.
  * Every pair has a kernel; the generic fallback (both operands converted to dense, GEMM) is what
  * the tests compare each kernel with (bsti_mat_mul_generic).  Precision and workspace follow the
  * conventions of mat.c: a dense float operand makes a dense result float, and each kernel's
@@ -170,21 +170,14 @@ static int mul_dense_dense(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, dou
     return BST_OK;
 }
 
-/* A product without a kernel of its own: both operands dense, GEMM. */
-static int mul_generic(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
-{
-    (void)drop;
-    return bsti_mat_mul_generic(ctx, a, b, out);
-}
-
 /* mul_table[structure of A][structure of B] */
 static const mul_kernel mul_table[5][5] = {
     /*                ZERO      DIAG            SPARSE             DENSE                   FACTORED */
     /* ZERO     */ {mul_zero, mul_zero,       mul_zero,          mul_zero,               mul_zero},
     /* DIAG     */ {mul_zero, mul_diag_left,  mul_diag_left,     mul_diag_left,          mul_diag_left},
-    /* SPARSE   */ {mul_zero, mul_diag_right, mul_sparse_sparse, mul_sparse_dense,       mul_generic},
+    /* SPARSE   */ {mul_zero, mul_diag_right, mul_sparse_sparse, mul_sparse_dense,       bsti_mul_lowrank_sparse},
     /* DENSE    */ {mul_zero, mul_diag_right, mul_dense_sparse,  mul_dense_dense,        bsti_mul_dense_lowrank},
-    /* FACTORED */ {mul_zero, mul_diag_right, mul_generic,       bsti_mul_lowrank_dense, bsti_mul_lowrank},
+    /* FACTORED */ {mul_zero, mul_diag_right, bsti_mul_lowrank_sparse, bsti_mul_lowrank_dense, bsti_mul_lowrank},
 };
 
 int bsti_mat_mul_generic(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, bst_mat **out)

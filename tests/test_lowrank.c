@@ -14,6 +14,7 @@
 
 #include "lowrank.h"
 #include "mat.h"
+#include "testmat.h"
 #include "testutil.h"
 
 static bst_ctx *ctx;
@@ -262,6 +263,63 @@ START_TEST(test_nomem)
 }
 END_TEST
 
+/* rel_diff of two matrices' values. */
+static double mat_diff(const bst_mat *x, const bst_mat *y)
+{
+    double *a = tm_dense(ctx, x), *b = tm_dense(ctx, y);
+    double d = rel_diff(a, b, bst_mat_rows(y) * bst_mat_cols(y));
+    free(a), free(b);
+    return d;
+}
+
+/* The FACTORED structure in the dispatch (mat_mul.c, mat_add.c, solve.c): each product with an
+ * operand of every other structure, both orders, each sum, and the solves, against the generic
+ * dense path (both operands expanded). */
+START_TEST(test_dispatch)
+{
+    int kind = _i; /* TM_ZERO .. TM_FLOAT */
+    bsti_lr_map *S = map_of(2);
+    size_t N = S->N;
+    bst_mat *f, *g, *x, *want;
+    ck_assert_int_eq(bsti_mat_from_lr(ctx, random_lr(S, 1, 1), &f), BST_OK);
+    tu_rng gr;
+    tu_rng_seed(&gr, 7 + (uint64_t)kind);
+    g = tm_random(ctx, kind, N, N, 0.002, &gr);
+    double tol = kind == TM_FLOAT ? 1e-5 : 1e-13;
+    for (int order = 0; order < 2; order++) {
+        const bst_mat *a = order ? g : f, *b = order ? f : g;
+        ck_assert_int_eq(bst_mat_mul(ctx, a, b, 0.0, &x), BST_OK);
+        ck_assert_int_eq(bsti_mat_mul_generic(ctx, a, b, &want), BST_OK);
+        ck_assert_msg(mat_diff(x, want) < tol, "product %d, %s", order, tm_kind_name[kind]);
+        ck_assert_int_ne(bst_mat_structure(x), kind == TM_ZERO ? BST_DENSE : BST_ZERO);
+        bst_mat_free(x), bst_mat_free(want);
+    }
+    ck_assert_int_eq(bst_mat_add(ctx, 0.5, g, -1.5, f, &x), BST_OK);
+    ck_assert_int_eq(bsti_mat_add_generic(ctx, 0.5, g, -1.5, f, &want), BST_OK);
+    ck_assert_msg(mat_diff(x, want) < tol, "sum, %s", tm_kind_name[kind]);
+    if (kind == TM_ZERO || kind == TM_DIAG) /* stays factored */
+        ck_assert_int_eq(bst_mat_structure(x), BST_FACTORED);
+    bst_mat_free(x), bst_mat_free(want);
+    /* solves: X = (I - F)^-1 G and G (I - F)^-1, residuals against the generic product */
+    for (int right = 0; right < 2; right++) {
+        double rcond;
+        ck_assert_int_ge(right ? bst_solve_right(ctx, f, g, 0, &x, &rcond)
+                               : bst_solve_left(ctx, f, g, 0, &x, &rcond), 0);
+        bst_mat *fx, *r;
+        ck_assert_int_eq(right ? bsti_mat_mul_generic(ctx, x, f, &fx) : bsti_mat_mul_generic(ctx, f, x, &fx), BST_OK);
+        ck_assert_int_eq(bsti_mat_add_generic(ctx, 1.0, x, -1.0, fx, &r), BST_OK); /* (I - F) X */
+        double *dr = tm_dense(ctx, r), *dg = tm_dense(ctx, g);
+        double gmax = tm_maxabs(dg, N * N);
+        ck_assert_msg(tm_maxdiff(dr, dg, N * N) <= (kind == TM_FLOAT ? 1e-5 : 1e-12) * (gmax > 0 ? gmax : 1),
+                      "solve %d, %s: residual %g", right, tm_kind_name[kind], tm_maxdiff(dr, dg, N * N));
+        free(dr), free(dg);
+        bst_mat_free(fx), bst_mat_free(r), bst_mat_free(x);
+    }
+    bst_mat_free(f), bst_mat_free(g);
+    bsti_lr_map_free(ctx, S);
+}
+END_TEST
+
 /* ---------------------------------------------------------------- a stack in factored form */
 
 struct comps {
@@ -386,6 +444,7 @@ static Suite *suite(void)
     tcase_add_test(tc, test_extremes);
     tcase_add_test(tc, test_full_rank);
     tcase_add_test(tc, test_nomem);
+    tcase_add_loop_test(tc, test_dispatch, TM_ZERO, TM_NKINDS);
     tcase_add_test(tc, test_stack);
     suite_add_tcase(s, tc);
     return s;
