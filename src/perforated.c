@@ -11,7 +11,6 @@
  * share it.  The diffuse part is rank one (see bst_perforated). */
 #include <config.h>
 
-#include <ctype.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -22,7 +21,6 @@
 enum { P_X, P_Y, P_THICK, P_RADIUS, P_HX, P_HY, P_R, P_RF, P_RB, P_T, P_SAMPLES, NPKEYS };
 static const char *const pkey[NPKEYS] = {"x", "y", "thickness", "radius", "hole-x", "hole-y", "r",
                                         "rf", "rb", "t", "samples"};
-#define PKEY_LIST "x, y, thickness, radius, hole-x, hole-y, r, rf, rb, t, samples"
 
 static void perforated_init(bst_perforated *p)
 {
@@ -88,38 +86,25 @@ static int check(bst_ctx *ctx, const bst_perforated *p, const int *seen)
     return BST_OK;
 }
 
+/* One item of a perforated spec (bsti_shade_set): every key needs a value; r and rf/rb overlap. */
+static int perforated_item(bst_ctx *ctx, int k, const char *val, const int *seen, void *opaque)
+{
+    if (!val)
+        return bsti_error(ctx, BST_EINVAL, "perforated: %s needs a value (%s=...)", pkey[k], pkey[k]);
+    if ((k == P_R && (seen[P_RF] || seen[P_RB])) || ((k == P_RF || k == P_RB) && seen[P_R]))
+        return bsti_error(ctx, BST_EINVAL, "perforated: %s given twice", pkey[k]);
+    return set_pkey(ctx, k, val, opaque);
+}
+
 int bst_perforated_parse(bst_ctx *ctx, const char *spec, bst_perforated *p)
 {
     if (!ctx || !spec || !p)
         return ctx ? bsti_error(ctx, BST_EINVAL, "perforated: NULL argument") : BST_EINVAL;
     perforated_init(p);
-    char buf[512];
-    if (strlen(spec) >= sizeof buf)
-        return bsti_error(ctx, BST_EINVAL, "perforated: description too long");
-    strcpy(buf, spec);
-    int seen[NPKEYS] = {0};
-    char *save = NULL;
-    for (char *kv = strtok_r(buf, ",", &save); kv; kv = strtok_r(NULL, ",", &save)) {
-        while (isspace((unsigned char)*kv))
-            kv++;
-        char *eq = strchr(kv, '=');
-        if (eq)
-            *eq = '\0';
-        int k = 0;
-        while (k < NPKEYS && strcmp(kv, pkey[k]) != 0)
-            k++;
-        if (k == NPKEYS)
-            return bsti_error(ctx, BST_EINVAL, "perforated: unknown key '%s' (keys: %s)", kv, PKEY_LIST);
-        if (!eq)
-            return bsti_error(ctx, BST_EINVAL, "perforated: %s needs a value (%s=...)", pkey[k], pkey[k]);
-        if (seen[k] || (k == P_R && (seen[P_RF] || seen[P_RB])) ||
-            ((k == P_RF || k == P_RB) && seen[P_R]))
-            return bsti_error(ctx, BST_EINVAL, "perforated: %s given twice", pkey[k]);
-        seen[k] = 1;
-        int rc = set_pkey(ctx, k, eq + 1, p);
-        if (rc < 0)
-            return rc;
-    }
+    int seen[NPKEYS];
+    int rc = bsti_shade_spec(ctx, "perforated", spec, pkey, NPKEYS, perforated_item, p, seen);
+    if (rc < 0)
+        return rc;
     if (!seen[P_X] || !seen[P_Y])
         return bsti_error(ctx, BST_EINVAL, "perforated: %s missing (the hole pitch x and y are "
                           "needed)", seen[P_X] ? "y" : "x");

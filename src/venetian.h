@@ -75,5 +75,14 @@ int bsti_open_layer(bst_ctx *ctx, const bst_basis *basis, double (*share)(const 
  * or a bare number of millimetres -> metres; a plain number.  0, or -1 when v is not one. */
 int bsti_shade_parse_length(const char *v, double *m);
 int bsti_shade_parse_number(const char *v, double *x);
+/* Each key=value item of a comma-separated shade spec, in order (spaces before a key skipped):
+ * `what` names the kind in messages; keys[0..nkeys-1] the key names; set(ctx, k, value, seen,
+ * opaque) takes item k, value NULL when the item has no '=' (seen[k]: items of key k before
+ * this one, the same key twice refused here, with the key's name).  A key not among keys is
+ * refused naming them all; a spec longer than 511 characters is refused.  seen[] (nkeys values)
+ * is cleared first and tells the caller which keys came. */
+typedef int (*bsti_shade_set)(bst_ctx *ctx, int k, const char *value, const int *seen, void *opaque);
+int bsti_shade_spec(bst_ctx *ctx, const char *what, const char *spec, const char *const *keys,
+                    int nkeys, bsti_shade_set set, void *opaque, int *seen);
 
 #endif

@@ -30,6 +30,40 @@ void bst_venetian_init(bst_venetian *v)
     v->segments = BST_VENETIAN_SEGMENTS;
 }
 
+int bsti_shade_spec(bst_ctx *ctx, const char *what, const char *spec, const char *const *keys,
+                    int nkeys, bsti_shade_set set, void *opaque, int *seen)
+{
+    char buf[512];
+    if (strlen(spec) >= sizeof buf)
+        return bsti_error(ctx, BST_EINVAL, "%s: description too long", what);
+    strcpy(buf, spec);
+    memset(seen, 0, (size_t)nkeys * sizeof *seen);
+    char *save = NULL;
+    for (char *kv = strtok_r(buf, ",", &save); kv; kv = strtok_r(NULL, ",", &save)) {
+        while (isspace((unsigned char)*kv))
+            kv++;
+        char *eq = strchr(kv, '=');
+        if (eq)
+            *eq = '\0';
+        int k = 0;
+        while (k < nkeys && strcmp(kv, keys[k]) != 0)
+            k++;
+        if (k == nkeys) {
+            char list[256] = "";
+            for (int i = 0; i < nkeys; i++)
+                snprintf(list + strlen(list), sizeof list - strlen(list), "%s%s", i ? ", " : "", keys[i]);
+            return bsti_error(ctx, BST_EINVAL, "%s: unknown key '%s' (keys: %s)", what, kv, list);
+        }
+        if (seen[k])
+            return bsti_error(ctx, BST_EINVAL, "%s: %s given twice", what, keys[k]);
+        int rc = set(ctx, k, eq ? eq + 1 : NULL, seen, opaque);
+        if (rc < 0)
+            return rc;
+        seen[k] = 1;
+    }
+    return BST_OK;
+}
+
 /* A number followed by one of the unit suffixes (NULL-terminated; "" = no suffix). */
 static int parse_scaled(const char *v, const char *const *suffix, const double *factor, double *out)
 {
@@ -76,8 +110,6 @@ enum { K_WIDTH, K_SPACING, K_TILT, K_CURV, K_SEG, K_SAMPLES, K_VERT, K_R, K_RUP,
 static const char *const key_name[NKEYS] = {"width", "spacing", "tilt", "curvature", "segments",
                                             "samples", "vertical", "r", "r-up", "r-down", "t",
                                             "rs", "roughness"};
-#define KEY_LIST "width, spacing, tilt, curvature, segments, samples, vertical, r, r-up, r-down, " \
-                 "t, rs, roughness"
 
 /* One key=value (val NULL: a bare key) into v. */
 static int set_key(bst_ctx *ctx, int k, const char *val, bst_venetian *v)
@@ -140,38 +172,24 @@ static int set_key(bst_ctx *ctx, int k, const char *val, bst_venetian *v)
     return BST_OK;
 }
 
+/* One item of a venetian spec (bsti_shade_set): r and r-up/r-down overlap, each face named
+ * once. */
+static int venetian_item(bst_ctx *ctx, int k, const char *val, const int *seen, void *opaque)
+{
+    if ((k == K_R && (seen[K_RUP] || seen[K_RDOWN])) || ((k == K_RUP || k == K_RDOWN) && seen[K_R]))
+        return bsti_error(ctx, BST_EINVAL, "venetian: %s given twice", key_name[k]);
+    return set_key(ctx, k, val, opaque);
+}
+
 int bst_venetian_parse(bst_ctx *ctx, const char *spec, bst_venetian *v)
 {
     if (!ctx || !spec || !v)
         return ctx ? bsti_error(ctx, BST_EINVAL, "venetian: NULL argument") : BST_EINVAL;
     bst_venetian_init(v);
-    char buf[512];
-    if (strlen(spec) >= sizeof buf)
-        return bsti_error(ctx, BST_EINVAL, "venetian: description too long");
-    strcpy(buf, spec);
-    int seen[NKEYS] = {0};
-    char *save = NULL;
-    for (char *kv = strtok_r(buf, ",", &save); kv; kv = strtok_r(NULL, ",", &save)) {
-        while (isspace((unsigned char)*kv))
-            kv++;
-        char *eq = strchr(kv, '=');
-        if (eq)
-            *eq = '\0';
-        int k = 0;
-        while (k < NKEYS && strcmp(kv, key_name[k]) != 0)
-            k++;
-        if (k == NKEYS)
-            return bsti_error(ctx, BST_EINVAL, "venetian: unknown key '%s' (keys: %s)", kv, KEY_LIST);
-        /* r and r-up/r-down overlap: each face may be named once */
-        int face_twice = (k == K_R && (seen[K_RUP] || seen[K_RDOWN])) ||
-                         ((k == K_RUP || k == K_RDOWN) && seen[K_R]);
-        if (seen[k] || face_twice)
-            return bsti_error(ctx, BST_EINVAL, "venetian: %s given twice", key_name[k]);
-        seen[k] = 1;
-        int rc = set_key(ctx, k, eq ? eq + 1 : NULL, v);
-        if (rc < 0)
-            return rc;
-    }
+    int seen[NKEYS];
+    int rc = bsti_shade_spec(ctx, "venetian", spec, key_name, NKEYS, venetian_item, v, seen);
+    if (rc < 0)
+        return rc;
     if (!seen[K_WIDTH] || !seen[K_SPACING])
         return bsti_error(ctx, BST_EINVAL, "venetian: %s missing (width and spacing are needed)",
                           seen[K_WIDTH] ? "spacing" : "width");

@@ -10,7 +10,6 @@
  * (bsti_open_layer). */
 #include <config.h>
 
-#include <ctype.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -58,39 +57,25 @@ static int check(bst_ctx *ctx, const bst_woven *w)
     return BST_OK;
 }
 
+/* One item of a woven spec (bsti_shade_set): every key needs a value. */
+static int woven_item(bst_ctx *ctx, int k, const char *val, const int *seen, void *opaque)
+{
+    (void)seen;
+    if (!val)
+        return bsti_error(ctx, BST_EINVAL, "woven: %s needs a value (%s=...)", wkey[k], wkey[k]);
+    return set_wkey(ctx, k, val, opaque);
+}
+
 int bst_woven_parse(bst_ctx *ctx, const char *spec, bst_woven *w)
 {
     if (!ctx || !spec || !w)
         return ctx ? bsti_error(ctx, BST_EINVAL, "woven: NULL argument") : BST_EINVAL;
     memset(w, 0, sizeof *w);
     w->diameter = w->spacing = NAN;
-    char buf[512];
-    if (strlen(spec) >= sizeof buf)
-        return bsti_error(ctx, BST_EINVAL, "woven: description too long");
-    strcpy(buf, spec);
-    int seen[NWKEYS] = {0};
-    char *save = NULL;
-    for (char *kv = strtok_r(buf, ",", &save); kv; kv = strtok_r(NULL, ",", &save)) {
-        while (isspace((unsigned char)*kv))
-            kv++;
-        char *eq = strchr(kv, '=');
-        if (eq)
-            *eq = '\0';
-        int k = 0;
-        while (k < NWKEYS && strcmp(kv, wkey[k]) != 0)
-            k++;
-        if (k == NWKEYS)
-            return bsti_error(ctx, BST_EINVAL, "woven: unknown key '%s' (keys: diameter, spacing, r, "
-                              "t, samples)", kv);
-        if (!eq)
-            return bsti_error(ctx, BST_EINVAL, "woven: %s needs a value (%s=...)", wkey[k], wkey[k]);
-        if (seen[k])
-            return bsti_error(ctx, BST_EINVAL, "woven: %s given twice", wkey[k]);
-        seen[k] = 1;
-        int rc = set_wkey(ctx, k, eq + 1, w);
-        if (rc < 0)
-            return rc;
-    }
+    int seen[NWKEYS];
+    int rc = bsti_shade_spec(ctx, "woven", spec, wkey, NWKEYS, woven_item, w, seen);
+    if (rc < 0)
+        return rc;
     if (!seen[W_DIAM] || !seen[W_SPACING])
         return bsti_error(ctx, BST_EINVAL, "woven: %s missing (diameter and spacing are needed)",
                           seen[W_DIAM] ? "spacing" : "diameter");

@@ -74,67 +74,10 @@ static int is_glass(const char *spec)
     return strncmp(spec, "glass:", 6) == 0;
 }
 
-/* A blind from its geometry (bst_venetian_parse). */
-static int is_venetian(const char *spec)
-{
-    return strncmp(spec, "venetian:", 9) == 0;
-}
-
-/* A perforated screen from its geometry (bst_perforated_parse). */
-static int is_perforated(const char *spec)
-{
-    return strncmp(spec, "perforated:", 11) == 0;
-}
-
-/* A woven fabric from its geometry (bst_woven_parse). */
-static int is_woven(const char *spec)
-{
-    return strncmp(spec, "woven:", 6) == 0;
-}
-
 /* A layer made from a spec rather than read from a file. */
 static int is_made(const char *spec)
 {
-    return is_glass(spec) || is_venetian(spec) || is_perforated(spec) || is_woven(spec);
-}
-
-/* The woven:SPEC layer over basis (the spec less its prefix and a trailing ^). */
-static int make_woven(bst_ctx *ctx, const char *spec, size_t len, const bst_basis *basis,
-                      size_t nch, const char **chnames, bst_layer **l)
-{
-    char *wspec = strndup(spec + 6, len - 6);
-    bst_woven w;
-    int st = wspec ? bst_woven_parse(ctx, wspec, &w) : BST_ENOMEM;
-    if (st >= 0)
-        st = bst_woven_layer(ctx, &w, basis, nch, nch ? chnames : NULL, l);
-    free(wspec);
-    return st;
-}
-
-/* The perforated:SPEC layer over basis (the spec less its prefix and a trailing ^). */
-static int make_perforated(bst_ctx *ctx, const char *spec, size_t len, const bst_basis *basis,
-                           size_t nch, const char **chnames, bst_layer **l)
-{
-    char *pspec = strndup(spec + 11, len - 11);
-    bst_perforated p;
-    int st = pspec ? bst_perforated_parse(ctx, pspec, &p) : BST_ENOMEM;
-    if (st >= 0)
-        st = bst_perforated_layer(ctx, &p, basis, nch, nch ? chnames : NULL, l);
-    free(pspec);
-    return st;
-}
-
-/* The venetian:SPEC layer over basis (the spec less its prefix and a trailing ^). */
-static int make_venetian(bst_ctx *ctx, const char *spec, size_t len, const bst_basis *basis,
-                         size_t nch, const char **chnames, bst_layer **l)
-{
-    char *vspec = strndup(spec + 9, len - 9);
-    bst_venetian v;
-    int st = vspec ? bst_venetian_parse(ctx, vspec, &v) : BST_ENOMEM;
-    if (st >= 0)
-        st = bst_venetian_layer(ctx, &v, basis, nch, nch ? chnames : NULL, l);
-    free(vspec);
-    return st;
+    return is_glass(spec) || cli_is_shade(spec);
 }
 
 /* Read the file a spec names (a trailing ^ dropped) into *file, printing the reader's warnings
@@ -235,12 +178,8 @@ static int make_layer(bst_ctx *ctx, const char *sub, const char *what, const cha
     if (file) {
         st = bst_bsdf_to_layer(ctx, file, basis, &l);
         bst_bsdf_free(file);
-    } else if (is_venetian(spec)) {
-        st = make_venetian(ctx, spec, len - (size_t)flip, basis, nch, chnames, &l);
-    } else if (is_perforated(spec)) {
-        st = make_perforated(ctx, spec, len - (size_t)flip, basis, nch, chnames, &l);
-    } else if (is_woven(spec)) {
-        st = make_woven(ctx, spec, len - (size_t)flip, basis, nch, chnames, &l);
+    } else if (cli_is_shade(spec)) {
+        st = cli_shade_layer(ctx, spec, basis, nch, chnames, &l);
     } else {
         char *gspec = strndup(spec + 6, len - 6 - (size_t)flip);
         bst_glass *g = NULL;
@@ -385,47 +324,9 @@ int cli_layers_check(bst_ctx *ctx, const char *sub, size_t n, char **specs,
             structure[i] = fill > BST_SPARSE_MAX_FILL ? BST_DENSE : fill > 0 ? BST_SPARSE : BST_DIAG;
             continue;
         }
-        if (is_venetian(specs[i])) { /* its errors show now; dense when its slats scatter diffusely */
-            char *vspec = strdup(specs[i] + 9);
-            size_t vl = vspec ? strlen(vspec) : 0;
-            if (vl && vspec[vl - 1] == '^')
-                vspec[vl - 1] = '\0';
-            bst_venetian v;
-            bst_venetian_init(&v);
-            int st = vspec ? bst_venetian_parse(ctx, vspec, &v) : BST_ENOMEM;
-            free(vspec);
-            if (st < 0)
+        if (cli_is_shade(specs[i])) { /* its errors show now; dense when it scatters */
+            if (cli_shade_check(ctx, specs[i], &structure[i]) < 0)
                 rc = cli_fail_ctx(sub, specs[i], ctx);
-            int diffuse = v.r_up > 0 || v.r_down > 0 || v.t > 0;
-            for (int k = 0; k < 3; k++)
-                diffuse |= v.solar[k] > 0; /* the Solar channel's r-up, r-down, t */
-            structure[i] = diffuse ? BST_DENSE : BST_SPARSE;
-            continue;
-        }
-        if (is_perforated(specs[i])) { /* its errors show now; dense when the sheet scatters */
-            char *pspec = strdup(specs[i] + 11);
-            size_t pl = pspec ? strlen(pspec) : 0;
-            if (pl && pspec[pl - 1] == '^')
-                pspec[pl - 1] = '\0';
-            bst_perforated p = {0};
-            int st = pspec ? bst_perforated_parse(ctx, pspec, &p) : BST_ENOMEM;
-            free(pspec);
-            if (st < 0)
-                rc = cli_fail_ctx(sub, specs[i], ctx);
-            structure[i] = p.rf > 0 || p.rb > 0 || p.t > 0 ? BST_DENSE : BST_DIAG;
-            continue;
-        }
-        if (is_woven(specs[i])) { /* its errors show now; dense when the threads scatter */
-            char *wspec = strdup(specs[i] + 6);
-            size_t wl = wspec ? strlen(wspec) : 0;
-            if (wl && wspec[wl - 1] == '^')
-                wspec[wl - 1] = '\0';
-            bst_woven w = {0};
-            int st = wspec ? bst_woven_parse(ctx, wspec, &w) : BST_ENOMEM;
-            free(wspec);
-            if (st < 0)
-                rc = cli_fail_ctx(sub, specs[i], ctx);
-            structure[i] = w.r > 0 || w.t > 0 ? BST_DENSE : BST_DIAG;
             continue;
         }
         /* a pane: made once here (cheap: one diagonal per component) so that its errors show now */
