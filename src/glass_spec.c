@@ -28,6 +28,7 @@
 #include <unistd.h>
 
 #include "ctx.h"
+#include "numtext.h"
 #include "glass.h"
 
 /* Refractive index assumed by inline specs that give none (soda-lime float glass). */
@@ -63,29 +64,13 @@ const char *bst_glass_catalogue_dir(void)
 
 /* ------------------------------------------------------------------ inline specs */
 
-/* A number followed by one of the unit suffixes (NULL-terminated; "" = no suffix), scaled by the
- * suffix's factor. */
-static int parse_scaled(const char *v, const char *const *suffix, const double *factor, double *out)
-{
-    char *end;
-    errno = 0;
-    double x = strtod(v, &end);
-    if (end == v || !isfinite(x) || errno)
-        return -1;
-    for (int i = 0; suffix[i]; i++)
-        if (strcmp(end, suffix[i]) == 0) {
-            *out = x * factor[i];
-            return 0;
-        }
-    return -1;
-}
 
 /* "6mm", "0.006m", "0.6cm", "0.25in" or a bare number of millimetres -> metres. */
 static int parse_length(const char *v, double *m)
 {
     static const char *const suffix[] = {"", "mm", "m", "cm", "in", NULL};
     static const double factor[] = {1e-3, 1e-3, 1.0, 1e-2, 0.0254};
-    return parse_scaled(v, suffix, factor, m);
+    return bsti_parse_scaled(v, suffix, factor, m);
 }
 
 /* An extinction coefficient: "25", "25/m", "0.25/cm", "0.025/mm" -> 1/m. */
@@ -93,7 +78,7 @@ static int parse_extinction(const char *v, double *k)
 {
     static const char *const suffix[] = {"", "/m", "/cm", "/mm", NULL};
     static const double factor[] = {1.0, 1.0, 1e2, 1e3};
-    return parse_scaled(v, suffix, factor, k);
+    return bsti_parse_scaled(v, suffix, factor, k);
 }
 
 static int parse_number(const char *v, double *x)

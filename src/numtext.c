@@ -25,6 +25,7 @@
  * plain decimal (inf, nan, hexadecimal), is strtod's. */
 #include <config.h>
 
+#include <errno.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -638,4 +639,19 @@ int bsti_parse_double(const char *s, size_t len, double *v)
         return parse_slow(s, len, v);
     *v = negative ? -x : x;
     return 1;
+}
+
+int bsti_parse_scaled(const char *v, const char *const *suffix, const double *factor, double *out)
+{
+    char *end;
+    errno = 0;
+    double x = strtod(v, &end);
+    if (end == v || !isfinite(x) || errno)
+        return -1;
+    for (int i = 0; suffix[i]; i++)
+        if (strcmp(end, suffix[i]) == 0) {
+            *out = x * factor[i];
+            return 0;
+        }
+    return -1;
 }

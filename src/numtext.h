@@ -28,5 +28,9 @@ int bsti_format_double_search(double v, char *buf);
  * rounded operation (Clinger's fast path: the same double as strtod's); anything else goes to
  * strtod itself. */
 int bsti_parse_double(const char *s, size_t len, double *v);
+/* A number followed by one of the unit suffixes (NULL-terminated list; "" = no suffix), scaled by
+ * the suffix's factor into *out (the specs' lengths: "16mm", "0.016m"): 0, or -1 when v is not
+ * one. */
+int bsti_parse_scaled(const char *v, const char *const *suffix, const double *factor, double *out);
 
 #endif

@@ -15,6 +15,7 @@
 #include <string.h>
 
 #include "ctx.h"
+#include "numtext.h"
 #include "venetian.h"
 
 #define VN_MAX_SEGMENTS 1000 /* strips per face: the radiosity matrix is (2 segments)^2 */
@@ -64,34 +65,19 @@ int bsti_shade_spec(bst_ctx *ctx, const char *what, const char *spec, const char
     return BST_OK;
 }
 
-/* A number followed by one of the unit suffixes (NULL-terminated; "" = no suffix). */
-static int parse_scaled(const char *v, const char *const *suffix, const double *factor, double *out)
-{
-    char *end;
-    errno = 0;
-    double x = strtod(v, &end);
-    if (end == v || !isfinite(x) || errno)
-        return -1;
-    for (int i = 0; suffix[i]; i++)
-        if (strcmp(end, suffix[i]) == 0) {
-            *out = x * factor[i];
-            return 0;
-        }
-    return -1;
-}
 
 int bsti_shade_parse_length(const char *v, double *m)
 {
     static const char *const suffix[] = {"", "mm", "m", "cm", "in", NULL};
     static const double factor[] = {1e-3, 1e-3, 1.0, 1e-2, 0.0254};
-    return parse_scaled(v, suffix, factor, m);
+    return bsti_parse_scaled(v, suffix, factor, m);
 }
 
 int bsti_shade_parse_number(const char *v, double *x)
 {
     static const char *const suffix[] = {"", NULL};
     static const double factor[] = {1.0};
-    return parse_scaled(v, suffix, factor, x);
+    return bsti_parse_scaled(v, suffix, factor, x);
 }
 
 static int parse_count(const char *v, int lo, int hi, int *n)
