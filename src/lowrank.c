@@ -287,6 +287,7 @@ int bsti_lr_mul(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, bsti_lr **out)
                         f->k, (int)fp, gm, (int)fq, 0.0, t1, (int)fp);
             cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)fp, (int)gq, (int)gp, 1.0,
                         t1, (int)fp, g->k, (int)gp, 0.0, t, (int)fp);
+            bsti_flops_add(ctx, 2.0 * (double)fp * (double)gp * ((double)fq + (double)gq));
             for (size_t i = 0; i < f->p; i++)
                 for (size_t j = 0; j < g->q; j++)
                     add_block(m->k, ld, l.li_f[i], l.rj_g[j], t, fp, i, j, r, 1.0);
@@ -373,9 +374,11 @@ static int capacitance(bst_ctx *ctx, const bsti_lr *f, const double *einv, doubl
         c[x] = 0.0;
     for (size_t x = 0; x < pr; x++)
         c[x * pr + x] = 1.0;
-    if (pr && qr)
+    if (pr && qr) {
         cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)pr, (int)pr, (int)qr, -1.0,
                     f->k, (int)pr, h, (int)qr, 1.0, c, (int)pr);
+        bsti_flops_add(ctx, 2.0 * (double)pr * (double)pr * (double)qr);
+    }
     bsti_free(ctx, h);
     return BST_OK;
 }
@@ -460,6 +463,9 @@ int bsti_lr_inverse(bst_ctx *ctx, const bsti_lr *f, bsti_lr **out, double *rcond
                                      (lapack_int)pr);
         lapack_int info = LAPACKE_dgetrf(LAPACK_COL_MAJOR, (lapack_int)pr, (lapack_int)pr, c,
                                          (lapack_int)pr, ipiv);
+        double n = (double)pr; /* LAPACK Working Note 41's counts, as solve.c */
+        bsti_flops_add(ctx, 2.0 / 3.0 * n * n * n - 0.5 * n * n + 5.0 / 6.0 * n +
+                                (2.0 * n - 1.0) * n * (double)qr);
         if (info == 0) /* only to see an exactly or numerically singular capacitance */
             info = LAPACKE_dgecon(LAPACK_COL_MAJOR, '1', (lapack_int)pr, c, (lapack_int)pr, norm,
                                   &rc_c);
