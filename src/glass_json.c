@@ -31,19 +31,9 @@
 
 #include "ctx.h"
 #include "glass.h"
+#include "glass_json.h"
 
-/* The file being read, for messages. */
-struct jr {
-    bst_ctx *ctx;
-    const char *path;
-};
-
-static int jerr(const struct jr *jr, int status, const char *fmt, ...)
-#if defined(__GNUC__)
-    __attribute__((format(printf, 3, 4)))
-#endif
-    ;
-static int jerr(const struct jr *jr, int status, const char *fmt, ...)
+int bsti_json_error(const struct bsti_jr *jr, int status, const char *fmt, ...)
 {
     char msg[700];
     va_list ap;
@@ -53,8 +43,7 @@ static int jerr(const struct jr *jr, int status, const char *fmt, ...)
     return bsti_error(jr->ctx, status, "%s: %s", jr->path, msg);
 }
 
-/* obj.key, NULL when obj is NULL, the key is absent or its value null. */
-static json_t *member(json_t *obj, const char *key)
+json_t *bsti_json_member(json_t *obj, const char *key)
 {
     json_t *v = json_is_object(obj) ? json_object_get(obj, key) : NULL;
     return json_is_null(v) ? NULL : v;
@@ -62,20 +51,20 @@ static json_t *member(json_t *obj, const char *key)
 
 /* obj.key as a number or a string (at: obj's path for messages); *v NULL when it is absent and
  * not required. */
-static int field(const struct jr *jr, json_t *obj, const char *at, const char *key, int required,
+static int field(const struct bsti_jr *jr, json_t *obj, const char *at, const char *key, int required,
                  int number, json_t **v)
 {
     const char *what = number ? "a number" : "a string", *dot = *at ? "." : "";
-    *v = member(obj, key);
+    *v = bsti_json_member(obj, key);
     if (!*v)
-        return required ? jerr(jr, BST_EFORMAT, "%s%s%s: missing (%s)", at, dot, key, what) : BST_OK;
+        return required ? bsti_json_error(jr, BST_EFORMAT, "%s%s%s: missing (%s)", at, dot, key, what) : BST_OK;
     if (number ? !json_is_number(*v) : !json_is_string(*v))
-        return jerr(jr, BST_EFORMAT, "%s%s%s is not %s", at, dot, key, what);
+        return bsti_json_error(jr, BST_EFORMAT, "%s%s%s is not %s", at, dot, key, what);
     return BST_OK;
 }
 
 /* A number obj.key: NaN when absent and not required. */
-static int get_number(const struct jr *jr, json_t *obj, const char *at, const char *key,
+static int get_number(const struct bsti_jr *jr, json_t *obj, const char *at, const char *key,
                       int required, double *x)
 {
     json_t *v;
@@ -85,7 +74,7 @@ static int get_number(const struct jr *jr, json_t *obj, const char *at, const ch
 }
 
 /* A string obj.key (owned by the tree): "" when absent and not required. */
-static int get_string(const struct jr *jr, json_t *obj, const char *at, const char *key,
+static int get_string(const struct bsti_jr *jr, json_t *obj, const char *at, const char *key,
                       int required, const char **s)
 {
     json_t *v;
@@ -95,7 +84,7 @@ static int get_string(const struct jr *jr, json_t *obj, const char *at, const ch
 }
 
 /* Read a record; the root must be an IGSDB product, v1 (product_id) or v2 (physical_properties). */
-static int load(const struct jr *jr, json_t **root, const char **type)
+static int load(const struct bsti_jr *jr, json_t **root, const char **type)
 {
     json_error_t e;
     *root = json_load_file(jr->path, JSON_REJECT_DUPLICATES, &e);
@@ -106,12 +95,12 @@ static int load(const struct jr *jr, json_t **root, const char **type)
                           e.column, e.text);
     }
     if (json_is_array(*root))
-        return jerr(jr, BST_EFORMAT, "a list of %zu records: give one product record",
+        return bsti_json_error(jr, BST_EFORMAT, "a list of %zu records: give one product record",
                     json_array_size(*root));
     if (!json_is_object(*root))
-        return jerr(jr, BST_EFORMAT, "not an IGSDB product record (a JSON object)");
+        return bsti_json_error(jr, BST_EFORMAT, "not an IGSDB product record (a JSON object)");
     if (!json_object_get(*root, "product_id") && !json_object_get(*root, "physical_properties"))
-        return jerr(jr, BST_EFORMAT, json_object_get(*root, "id")
+        return bsti_json_error(jr, BST_EFORMAT, json_object_get(*root, "id")
                     ? "an IGSDB v2 record without physical_properties: not a product record"
                     : "no product_id (v1) or physical_properties (v2): not an IGSDB product record");
     const char *units;
@@ -119,17 +108,17 @@ static int load(const struct jr *jr, json_t **root, const char **type)
     if (rc >= 0)
         rc = get_string(jr, *root, "", "unit_system", 0, &units);
     if (rc >= 0 && *units && strcasecmp(units, "SI") != 0)
-        rc = jerr(jr, BST_EFORMAT, "unit_system \"%s\": bsdfstack reads SI records (lengths in mm, "
+        rc = bsti_json_error(jr, BST_EFORMAT, "unit_system \"%s\": bsdfstack reads SI records (lengths in mm, "
                   "wavelengths in um)", units);
     return rc;
 }
 
 /* The rows of sd.spectral_data (at: sd's path) into d, checked as every format's rows are. */
-static int read_rows(const struct jr *jr, json_t *sd, const char *at, struct bsti_glass_data *d)
+static int read_rows(const struct bsti_jr *jr, json_t *sd, const char *at, struct bsti_glass_data *d)
 {
-    json_t *rows = member(sd, "spectral_data");
+    json_t *rows = bsti_json_member(sd, "spectral_data");
     if (!json_is_array(rows) || json_array_size(rows) < 2)
-        return jerr(jr, BST_EFORMAT, "%s.spectral_data: %s", at,
+        return bsti_json_error(jr, BST_EFORMAT, "%s.spectral_data: %s", at,
                     !rows ? "missing (a list of {wavelength, T, Rf, Rb})"
                     : json_is_array(rows) ? "fewer than two rows" : "is not a list");
     size_t cap = 0, n = json_array_size(rows);
@@ -140,7 +129,7 @@ static int read_rows(const struct jr *jr, json_t *sd, const char *at, struct bst
         json_t *r = json_array_get(rows, k);
         double wl, t, v[4];
         if (!json_is_object(r))
-            return jerr(jr, BST_EFORMAT, "%s is not an object", where);
+            return bsti_json_error(jr, BST_EFORMAT, "%s is not an object", where);
         if ((rc = get_number(jr, r, where, "wavelength", 1, &wl)) < 0 ||
             (rc = get_number(jr, r, where, "T", 1, &t)) < 0 ||
             (rc = get_number(jr, r, where, "Rf", 1, &v[2])) < 0 ||
@@ -158,12 +147,12 @@ static int read_rows(const struct jr *jr, json_t *sd, const char *at, struct bst
 }
 
 /* measured_data's numbers (at: the record's path, "" for the root). */
-static int read_measured(const struct jr *jr, json_t *rec, const char *at, double *thickness,
+static int read_measured(const struct bsti_jr *jr, json_t *rec, const char *at, double *thickness,
                          double *conductivity, double *ef, double *eb, double *tir)
 {
     char md[160];
     snprintf(md, sizeof md, "%s%smeasured_data", at, *at ? "." : "");
-    json_t *m = member(rec, "measured_data");
+    json_t *m = bsti_json_member(rec, "measured_data");
     int rc;
     if ((rc = get_number(jr, m, md, "thickness", 0, thickness)) < 0 ||
         (rc = get_number(jr, m, md, "conductivity", 0, conductivity)) < 0 ||
@@ -172,13 +161,13 @@ static int read_measured(const struct jr *jr, json_t *rec, const char *at, doubl
         (rc = get_number(jr, m, md, "tir_front", 0, tir)) < 0)
         return rc;
     if (!isnan(*thickness) && !(*thickness > 0.0 && *thickness <= BSTI_GLASS_MAX_THICKNESS_MM))
-        return jerr(jr, BST_EFORMAT, "%s.thickness = %g is not a thickness in mm", md, *thickness);
+        return bsti_json_error(jr, BST_EFORMAT, "%s.thickness = %g is not a thickness in mm", md, *thickness);
     return BST_OK;
 }
 
 /* ------------------------------------------------------------------ glazing products */
 
-static int read_glazing(const struct jr *jr, bst_glass *g, json_t *root)
+static int read_glazing(const struct bsti_jr *jr, bst_glass *g, json_t *root)
 {
     bst_glass_meta *m = &g->meta;
     const char *subtype, *name, *product, *maker, *coating, *side;
@@ -190,22 +179,22 @@ static int read_glazing(const struct jr *jr, bst_glass *g, json_t *root)
         (rc = get_string(jr, root, "", "coating_name", 0, &coating)) < 0 ||
         (rc = get_string(jr, root, "", "coated_side", 0, &side)) < 0)
         return rc;
-    json_t *id = member(root, "nfrc_id");
+    json_t *id = bsti_json_member(root, "nfrc_id");
     if (id && !json_is_integer(id))
-        return jerr(jr, BST_EFORMAT, "nfrc_id is not an integer");
+        return bsti_json_error(jr, BST_EFORMAT, "nfrc_id is not an integer");
     m->nfrc_id = id ? (long)json_integer_value(id) : -1;
-    json_t *specular = member(member(root, "measured_data"), "is_specular");
+    json_t *specular = bsti_json_member(bsti_json_member(root, "measured_data"), "is_specular");
     if (specular && !json_is_boolean(specular))
-        return jerr(jr, BST_EFORMAT, "measured_data.is_specular is not true or false");
+        return bsti_json_error(jr, BST_EFORMAT, "measured_data.is_specular is not true or false");
     if (json_is_false(specular)) /* its rows hold direct and diffuse light as one */
-        return jerr(jr, BST_EFORMAT, "measured_data.is_specular is false: a diffusing glazing "
+        return bsti_json_error(jr, BST_EFORMAT, "measured_data.is_specular is false: a diffusing glazing "
                     "product (a pane is specular, and hazy products are not modelled)");
     if ((rc = read_measured(jr, root, "", &m->thickness_mm, &m->conductivity,
                             &m->emissivity_front, &m->emissivity_back, &m->ir_transmittance)) < 0)
         return rc;
-    json_t *sd = member(root, "spectral_data");
+    json_t *sd = bsti_json_member(root, "spectral_data");
     if (!sd)
-        return jerr(jr, BST_EFORMAT, "spectral_data: missing (a glazing record needs its spectral "
+        return bsti_json_error(jr, BST_EFORMAT, "spectral_data: missing (a glazing record needs its spectral "
                     "data)");
     if ((rc = read_rows(jr, sd, "spectral_data", &g->data)) < 0)
         return rc;
@@ -241,10 +230,10 @@ void bst_shade_free(bst_shade *s)
 }
 
 /* spectral_data.dual_band_values of the material (at: its path) into s->material. */
-static int read_dual_band(const struct jr *jr, json_t *sd, const char *at, bst_shade *s)
+static int read_dual_band(const struct bsti_jr *jr, json_t *sd, const char *at, bst_shade *s)
 {
     static const char *const comp[4] = {"Tf", "Tb", "Rf", "Rb"};
-    json_t *db = member(sd, "dual_band_values");
+    json_t *db = bsti_json_member(sd, "dual_band_values");
     char where[240];
     snprintf(where, sizeof where, "%s.dual_band_values", at);
     for (int band = 0; band < 2; band++) {
@@ -259,7 +248,7 @@ static int read_dual_band(const struct jr *jr, json_t *sd, const char *at, bst_s
                 if (rc < 0)
                     return rc;
                 if (!isnan(*x) && !(*x >= 0.0 && *x <= 1.0))
-                    return jerr(jr, BST_EFORMAT, "%s.%s = %g is not a value in [0, 1]", where, key,
+                    return bsti_json_error(jr, BST_EFORMAT, "%s.%s = %g is not a value in [0, 1]", where, key,
                                 *x);
                 s->material.has_dual_band |= !isnan(*x);
             }
@@ -268,7 +257,7 @@ static int read_dual_band(const struct jr *jr, json_t *sd, const char *at, bst_s
 }
 
 /* composition[0].child_product: the material the shade is made of. */
-static int read_material(const struct jr *jr, json_t *mat, const char *at, bst_shade *s)
+static int read_material(const struct bsti_jr *jr, json_t *mat, const char *at, bst_shade *s)
 {
     const char *name;
     int rc = get_string(jr, mat, at, "name", 0, &name);
@@ -282,8 +271,8 @@ static int read_material(const struct jr *jr, json_t *mat, const char *at, bst_s
         return rc;
     char sdat[200];
     snprintf(sdat, sizeof sdat, "%s.spectral_data", at);
-    json_t *sd = member(mat, "spectral_data");
-    if (sd && member(sd, "spectral_data")) {
+    json_t *sd = bsti_json_member(mat, "spectral_data");
+    if (sd && bsti_json_member(sd, "spectral_data")) {
         struct bsti_glass_data d = {0, NULL, NULL, NULL, NULL, NULL};
         rc = read_rows(jr, sd, sdat, &d);
         s->material.n = d.n, s->material.wl = d.wl, s->material.tf = d.tf;
@@ -294,21 +283,21 @@ static int read_material(const struct jr *jr, json_t *mat, const char *at, bst_s
     if ((rc = read_dual_band(jr, sd, sdat, s)) < 0)
         return rc;
     if (!s->material.n && !s->material.has_dual_band)
-        return jerr(jr, BST_EFORMAT, "%s: neither spectral rows (spectral_data) nor "
+        return bsti_json_error(jr, BST_EFORMAT, "%s: neither spectral rows (spectral_data) nor "
                     "dual_band_values: the material's optics are missing", sdat);
     return BST_OK;
 }
 
 /* A positive length g.key (mm). */
-static int get_length(const struct jr *jr, json_t *g, const char *at, const char *key, double *x)
+static int get_length(const struct bsti_jr *jr, json_t *g, const char *at, const char *key, double *x)
 {
     int rc = get_number(jr, g, at, key, 1, x);
     if (rc >= 0 && !(*x > 0.0 && *x <= BSTI_SHADE_MAX_LENGTH_MM))
-        rc = jerr(jr, BST_EFORMAT, "%s.%s = %g is not a length in mm (> 0)", at, key, *x);
+        rc = bsti_json_error(jr, BST_EFORMAT, "%s.%s = %g is not a length in mm (> 0)", at, key, *x);
     return rc;
 }
 
-static int read_venetian(const struct jr *jr, json_t *g, const char *at, bst_shade *s)
+static int read_venetian(const struct bsti_jr *jr, json_t *g, const char *at, bst_shade *s)
 {
     double *w = &s->geometry.venetian.slat_width, *c = &s->geometry.venetian.slat_curvature;
     double *tilt = &s->geometry.venetian.slat_tilt, segs;
@@ -322,19 +311,19 @@ static int read_venetian(const struct jr *jr, json_t *g, const char *at, bst_sha
     if (isnan(*tilt))
         *tilt = 0.0; /* IGSDB's default */
     if (!(*c == 0.0 || *c >= *w / 2))
-        return jerr(jr, BST_EFORMAT, "%s.slat_curvature = %g mm: a slat's radius is 0 (flat) or at "
+        return bsti_json_error(jr, BST_EFORMAT, "%s.slat_curvature = %g mm: a slat's radius is 0 (flat) or at "
                     "least half its width (%g mm)", at, *c, *w / 2);
     if (!(*tilt >= -90.0 && *tilt <= 90.0))
-        return jerr(jr, BST_EFORMAT, "%s.slat_tilt = %g is not an angle in -90..90 degrees", at,
+        return bsti_json_error(jr, BST_EFORMAT, "%s.slat_tilt = %g is not an angle in -90..90 degrees", at,
                     *tilt);
     if (!(segs >= 1 && segs <= BSTI_SHADE_MAX_SEGMENTS && segs == floor(segs)))
-        return jerr(jr, BST_EFORMAT, "%s.number_segments = %g is not a count in 1..%d", at, segs,
+        return bsti_json_error(jr, BST_EFORMAT, "%s.number_segments = %g is not a count in 1..%d", at, segs,
                     BSTI_SHADE_MAX_SEGMENTS);
     s->geometry.venetian.number_segments = (int)segs;
     return BST_OK;
 }
 
-static int read_woven(const struct jr *jr, json_t *g, const char *at, bst_shade *s)
+static int read_woven(const struct bsti_jr *jr, json_t *g, const char *at, bst_shade *s)
 {
     double *d = &s->geometry.woven.thread_diameter, *p = &s->geometry.woven.thread_spacing;
     int rc;
@@ -343,12 +332,12 @@ static int read_woven(const struct jr *jr, json_t *g, const char *at, bst_shade 
         (rc = get_length(jr, g, at, "shade_thickness", &s->geometry.woven.shade_thickness)) < 0)
         return rc;
     if (*d > *p)
-        return jerr(jr, BST_EFORMAT, "%s: thread_diameter %g mm exceeds thread_spacing %g mm", at,
+        return bsti_json_error(jr, BST_EFORMAT, "%s: thread_diameter %g mm exceeds thread_spacing %g mm", at,
                     *d, *p);
     return BST_OK;
 }
 
-static int read_perforated(const struct jr *jr, json_t *g, const char *at, bst_shade *s)
+static int read_perforated(const struct bsti_jr *jr, json_t *g, const char *at, bst_shade *s)
 {
     static const char *const types[] = {"Circular", "Rectangular", "Square"};
     double *sx = &s->geometry.perforated.spacing_x, *sy = &s->geometry.perforated.spacing_y;
@@ -364,7 +353,7 @@ static int read_perforated(const struct jr *jr, json_t *g, const char *at, bst_s
         if (strcasecmp(type, types[i]) == 0)
             t = i;
     if (t < 0)
-        return jerr(jr, BST_EFORMAT, "%s.perforation_type \"%s\" (Circular, Rectangular, Square)",
+        return bsti_json_error(jr, BST_EFORMAT, "%s.perforation_type \"%s\" (Circular, Rectangular, Square)",
                     at, type);
     s->geometry.perforated.type = (bst_perforation)t;
     /* a circle or a square has one dimension; IGSDB may still carry a dimension_y */
@@ -373,13 +362,13 @@ static int read_perforated(const struct jr *jr, json_t *g, const char *at, bst_s
     if (t != BST_PERFORATION_RECTANGULAR)
         *dy = *dx;
     if (*dx > *sx || *dy > *sy)
-        return jerr(jr, BST_EFORMAT, "%s: a %s hole of %g x %g mm does not fit its cell of %g x %g "
+        return bsti_json_error(jr, BST_EFORMAT, "%s: a %s hole of %g x %g mm does not fit its cell of %g x %g "
                     "mm", at, types[t], *dx, *dy, *sx, *sy);
     return BST_OK;
 }
 
 /* The shade of a record of type "shading". */
-static int read_shade(const struct jr *jr, json_t *root, bst_shade *s)
+static int read_shade(const struct bsti_jr *jr, json_t *root, bst_shade *s)
 {
     const char *subtype, *name, *maker;
     double id;
@@ -388,30 +377,30 @@ static int read_shade(const struct jr *jr, json_t *root, bst_shade *s)
         (rc = get_string(jr, root, "", "name", 1, &name)) < 0 ||
         (rc = get_string(jr, root, "", "manufacturer_name", 0, &maker)) < 0 ||
         (rc = get_number(jr, root, "", "product_id", 1, &id)) < 0 ||
-        (rc = get_number(jr, member(root, "measured_data"), "measured_data", "permeability_factor",
+        (rc = get_number(jr, bsti_json_member(root, "measured_data"), "measured_data", "permeability_factor",
                          0, &s->permeability)) < 0)
         return rc;
     for (int i = 0; i < 3; i++)
         if (strcmp(subtype, shade_kinds[i]) == 0)
             k = i;
     if (k < 0)
-        return jerr(jr, BST_EFORMAT, "subtype \"%s\": the shades read are venetian, woven and "
+        return bsti_json_error(jr, BST_EFORMAT, "subtype \"%s\": the shades read are venetian, woven and "
                     "perforated-screen", subtype);
     s->kind = (bst_shade_kind)k, s->product_id = (long)id;
     if (!(s->name = bsti_strdup(jr->ctx, name)) || !(s->manufacturer = bsti_strdup(jr->ctx, maker)))
         return BST_ENOMEM;
     if (!isnan(s->permeability) && !(s->permeability >= 0.0 && s->permeability <= 1.0))
-        return jerr(jr, BST_EFORMAT, "measured_data.permeability_factor = %g is not in [0, 1]",
+        return bsti_json_error(jr, BST_EFORMAT, "measured_data.permeability_factor = %g is not in [0, 1]",
                     s->permeability);
-    json_t *comp = member(root, "composition"), *c0 = json_array_get(comp, 0);
+    json_t *comp = bsti_json_member(root, "composition"), *c0 = json_array_get(comp, 0);
     if (!json_is_object(c0))
-        return jerr(jr, BST_EFORMAT, "composition[0]: missing (a shading record names its material "
+        return bsti_json_error(jr, BST_EFORMAT, "composition[0]: missing (a shading record names its material "
                     "and geometry there)");
-    json_t *mat = member(c0, "child_product"), *geo = member(member(c0, "extra_data"), "geometry");
+    json_t *mat = bsti_json_member(c0, "child_product"), *geo = bsti_json_member(bsti_json_member(c0, "extra_data"), "geometry");
     if (!json_is_object(mat))
-        return jerr(jr, BST_EFORMAT, "composition[0].child_product: missing (the material)");
+        return bsti_json_error(jr, BST_EFORMAT, "composition[0].child_product: missing (the material)");
     if (!json_is_object(geo))
-        return jerr(jr, BST_EFORMAT, "composition[0].extra_data.geometry: missing (the geometry)");
+        return bsti_json_error(jr, BST_EFORMAT, "composition[0].extra_data.geometry: missing (the geometry)");
     if ((rc = read_material(jr, mat, "composition[0].child_product", s)) < 0)
         return rc;
     static const char at[] = "composition[0].extra_data.geometry";
@@ -441,15 +430,15 @@ int bst_shade_read_igsdb(bst_ctx *ctx, const char *path, bst_shade **out)
     if (!ctx || !path || !out)
         return ctx ? bsti_error(ctx, BST_EINVAL, "shade: NULL argument") : BST_EINVAL;
     *out = NULL;
-    const struct jr jr = {ctx, path};
+    const struct bsti_jr jr = {ctx, path};
     json_t *root;
     const char *type;
     int rc = load(&jr, &root, &type);
     if (rc >= 0 && !json_object_get(root, "product_id"))
-        rc = jerr(&jr, BST_EFORMAT, "an IGSDB v2 record: shading products are read from their v1 "
+        rc = bsti_json_error(&jr, BST_EFORMAT, "an IGSDB v2 record: shading products are read from their v1 "
                   "record (igsdb.lbl.gov/api/v1/products/ID)");
     else if (rc >= 0 && strcmp(type, "shading") != 0)
-        rc = jerr(&jr, BST_EFORMAT, "type \"%s\": not a shading product%s", type,
+        rc = bsti_json_error(&jr, BST_EFORMAT, "type \"%s\": not a shading product%s", type,
                   strcmp(type, "glazing") == 0 ? " (a pane: read it as glass:FILE)" : "");
     bst_shade *s = NULL;
     if (rc >= 0 && !(s = shade_new(ctx)))
@@ -467,7 +456,7 @@ int bst_shade_read_igsdb(bst_ctx *ctx, const char *path, bst_shade **out)
 
 int bsti_glass_read_igsdb(bst_ctx *ctx, bst_glass *g, const char *path)
 {
-    const struct jr jr = {ctx, path};
+    const struct bsti_jr jr = {ctx, path};
     json_t *root;
     const char *type;
     int rc = load(&jr, &root, &type);
@@ -475,7 +464,7 @@ int bsti_glass_read_igsdb(bst_ctx *ctx, bst_glass *g, const char *path)
     if (v2 && strcasecmp(type, "glazing") == 0) {
         rc = bsti_glass_read_glazing_v2(jr.ctx, jr.path, g, root);
     } else if (v2) {
-        rc = jerr(&jr, strcasecmp(type, "shading") == 0 ? BST_ENOTIMPL : BST_EFORMAT,
+        rc = bsti_json_error(&jr, strcasecmp(type, "shading") == 0 ? BST_ENOTIMPL : BST_EFORMAT,
                   "type \"%s\" in an IGSDB v2 record: bsdfstack reads v2 glazing records (a pane); "
                   "a shading product is read from its v1 record", type);
     } else if (rc >= 0 && strcmp(type, "glazing") == 0) {
@@ -484,11 +473,11 @@ int bsti_glass_read_igsdb(bst_ctx *ctx, bst_glass *g, const char *path)
         bst_shade *s = shade_new(ctx);
         rc = s ? read_shade(&jr, root, s) : BST_ENOMEM;
         if (rc >= 0) /* a valid shade, which no layer can be made of yet */
-            rc = jerr(&jr, BST_ENOTIMPL, "IGSDB shading product \"%s\" (%s): geometric shade "
+            rc = bsti_json_error(&jr, BST_ENOTIMPL, "IGSDB shading product \"%s\" (%s): geometric shade "
                       "layers are not implemented yet", s->name, bst_shade_kind_name(s->kind));
         bst_shade_free(s);
     } else if (rc >= 0) {
-        rc = jerr(&jr, BST_EFORMAT, "type \"%s\": a pane is a glazing product%s", type,
+        rc = bsti_json_error(&jr, BST_EFORMAT, "type \"%s\": a pane is a glazing product%s", type,
                   strcmp(type, "material") == 0 ? " (this is a shade's material)" : "");
     }
     json_decref(root);

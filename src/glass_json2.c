@@ -28,43 +28,17 @@
 
 #include "ctx.h"
 #include "glass.h"
-
-struct jr2 {
-    bst_ctx *ctx;
-    const char *path;
-};
-
-static int err2(const struct jr2 *jr, const char *fmt, ...)
-#if defined(__GNUC__)
-    __attribute__((format(printf, 2, 3)))
-#endif
-    ;
-static int err2(const struct jr2 *jr, const char *fmt, ...)
-{
-    char msg[700];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(msg, sizeof msg, fmt, ap);
-    va_end(ap);
-    return bsti_error(jr->ctx, BST_EFORMAT, "%s: %s", jr->path, msg);
-}
-
-/* obj.key, NULL when obj is not an object, the key is absent or its value null. */
-static json_t *get(json_t *obj, const char *key)
-{
-    json_t *v = json_is_object(obj) ? json_object_get(obj, key) : NULL;
-    return json_is_null(v) ? NULL : v;
-}
+#include "glass_json.h"
 
 /* obj.key as a number, given as one or as a string holding one (at: obj's path); NaN when absent
  * and not required. */
-static int number(const struct jr2 *jr, json_t *obj, const char *at, const char *key, int required,
+static int number(const struct bsti_jr *jr, json_t *obj, const char *at, const char *key, int required,
                   double *x)
 {
-    json_t *v = get(obj, key);
+    json_t *v = bsti_json_member(obj, key);
     *x = NAN;
     if (!v)
-        return required ? err2(jr, "%s%s%s: missing (a number)", at, *at ? "." : "", key) : BST_OK;
+        return required ? bsti_json_error(jr, BST_EFORMAT, "%s%s%s: missing (a number)", at, *at ? "." : "", key) : BST_OK;
     if (json_is_number(v)) {
         *x = json_number_value(v);
         return BST_OK;
@@ -76,20 +50,20 @@ static int number(const struct jr2 *jr, json_t *obj, const char *at, const char 
     while (end && (*end == ' ' || *end == '\t'))
         end++;
     if (!s || end == s || *end || errno || !isfinite(y))
-        return err2(jr, "%s%s%s is not a number", at, *at ? "." : "", key);
+        return bsti_json_error(jr, BST_EFORMAT, "%s%s%s is not a number", at, *at ? "." : "", key);
     *x = y;
     return BST_OK;
 }
 
 /* obj.key as a string (owned by the tree), "" when absent. */
-static int text(const struct jr2 *jr, json_t *obj, const char *key, int required, const char **s)
+static int text(const struct bsti_jr *jr, json_t *obj, const char *key, int required, const char **s)
 {
-    json_t *v = get(obj, key);
+    json_t *v = bsti_json_member(obj, key);
     *s = "";
     if (!v)
-        return required ? err2(jr, "%s: missing (a string)", key) : BST_OK;
+        return required ? bsti_json_error(jr, BST_EFORMAT, "%s: missing (a string)", key) : BST_OK;
     if (!json_is_string(v))
-        return err2(jr, "%s is not a string", key);
+        return bsti_json_error(jr, BST_EFORMAT, "%s is not a string", key);
     *s = json_string_value(v);
     return BST_OK;
 }
@@ -97,11 +71,11 @@ static int text(const struct jr2 *jr, json_t *obj, const char *key, int required
 #define V2_BLOCKS "physical_properties.optical_properties.optical_data.angle_blocks"
 
 /* The wavelength_data of the angle block at normal incidence, NULL after an error. */
-static json_t *normal_block(const struct jr2 *jr, json_t *pp, char *at, size_t size)
+static json_t *normal_block(const struct bsti_jr *jr, json_t *pp, char *at, size_t size)
 {
-    json_t *blocks = get(get(get(pp, "optical_properties"), "optical_data"), "angle_blocks");
+    json_t *blocks = bsti_json_member(bsti_json_member(bsti_json_member(pp, "optical_properties"), "optical_data"), "angle_blocks");
     if (!json_is_array(blocks) || !json_array_size(blocks)) {
-        err2(jr, V2_BLOCKS ": %s", blocks ? "not a non-empty list" : "missing (the spectral data)");
+        bsti_json_error(jr, BST_EFORMAT, V2_BLOCKS ": %s", blocks ? "not a non-empty list" : "missing (the spectral data)");
         return NULL;
     }
     for (size_t b = 0; b < json_array_size(blocks); b++) {
@@ -112,20 +86,20 @@ static json_t *normal_block(const struct jr2 *jr, json_t *pp, char *at, size_t s
             return NULL;
         if (angle != 0.0)
             continue;
-        json_t *rows = get(blk, "wavelength_data");
+        json_t *rows = bsti_json_member(blk, "wavelength_data");
         if (!json_is_array(rows) || json_array_size(rows) < 2) {
-            err2(jr, "%s.wavelength_data: %s", at, !rows ? "missing" : json_is_array(rows)
+            bsti_json_error(jr, BST_EFORMAT, "%s.wavelength_data: %s", at, !rows ? "missing" : json_is_array(rows)
                  ? "fewer than two rows" : "is not a list");
             return NULL;
         }
         return rows;
     }
-    err2(jr, V2_BLOCKS ": no block at incidence_angle 0 (normal incidence)");
+    bsti_json_error(jr, BST_EFORMAT, V2_BLOCKS ": no block at incidence_angle 0 (normal incidence)");
     return NULL;
 }
 
 /* The rows of the normal-incidence block into g->data, checked as every format's rows are. */
-static int read_rows2(const struct jr2 *jr, json_t *pp, struct bsti_glass_data *d)
+static int read_rows2(const struct bsti_jr *jr, json_t *pp, struct bsti_glass_data *d)
 {
     char at[200];
     json_t *rows = normal_block(jr, pp, at, sizeof at);
@@ -137,7 +111,7 @@ static int read_rows2(const struct jr2 *jr, json_t *pp, struct bsti_glass_data *
     for (size_t k = 0; k < n && rc >= 0; k++) {
         char where[260], part[300];
         snprintf(where, sizeof where, "%s.wavelength_data[%zu]", at, k);
-        json_t *r = json_array_get(rows, k), *spec = get(r, "specular"), *dif = get(r, "diffuse");
+        json_t *r = json_array_get(rows, k), *spec = bsti_json_member(r, "specular"), *dif = bsti_json_member(r, "diffuse");
         double wl, v[4], x;
         if ((rc = number(jr, r, where, "w", 1, &wl)) < 0)
             return rc;
@@ -147,7 +121,7 @@ static int read_rows2(const struct jr2 *jr, json_t *pp, struct bsti_glass_data *
         snprintf(part, sizeof part, "%s.diffuse", where);
         for (int i = 0; i < 4 && rc >= 0; i++)
             if ((rc = number(jr, dif, part, key[i], 0, &x)) >= 0 && !isnan(x) && x != 0.0)
-                rc = err2(jr, "%s.%s = %g: a pane is specular, and hazy products (diffuse parts) "
+                rc = bsti_json_error(jr, BST_EFORMAT, "%s.%s = %g: a pane is specular, and hazy products (diffuse parts) "
                           "are not modelled", part, key[i], x);
         if (rc < 0)
             return rc;
@@ -162,7 +136,7 @@ static int read_rows2(const struct jr2 *jr, json_t *pp, struct bsti_glass_data *
 }
 
 /* The record's numbers into g->meta: thickness, conductivity, emissivities, IR transmittance. */
-static int read_physical(const struct jr2 *jr, json_t *root, json_t *pp, bst_glass_meta *m)
+static int read_physical(const struct bsti_jr *jr, json_t *root, json_t *pp, bst_glass_meta *m)
 {
     const char *at = "physical_properties";
     double c;
@@ -175,24 +149,24 @@ static int read_physical(const struct jr2 *jr, json_t *root, json_t *pp, bst_gla
          (rc = number(jr, pp, at, "predefined_emissivity_front", 0, &m->emissivity_front)) < 0) ||
         (isnan(m->emissivity_back) &&
          (rc = number(jr, pp, at, "predefined_emissivity_back", 0, &m->emissivity_back)) < 0) ||
-        (rc = number(jr, get(pp, "bulk_properties_override"),
+        (rc = number(jr, bsti_json_member(pp, "bulk_properties_override"),
                      "physical_properties.bulk_properties_override", "conductivity", 0, &c)) < 0 ||
-        (isnan(c) && (rc = number(jr, get(root, "material_bulk_properties"),
+        (isnan(c) && (rc = number(jr, bsti_json_member(root, "material_bulk_properties"),
                                   "material_bulk_properties", "conductivity", 0, &c)) < 0))
         return rc;
     m->conductivity = c;
     if (!isnan(m->thickness_mm) &&
         !(m->thickness_mm > 0.0 && m->thickness_mm <= BSTI_GLASS_MAX_THICKNESS_MM))
-        return err2(jr, "physical_properties.thickness = %g is not a thickness in mm",
+        return bsti_json_error(jr, BST_EFORMAT, "physical_properties.thickness = %g is not a thickness in mm",
                     m->thickness_mm);
     if (!isnan(c) && !(c > 0.0 && c <= BSTI_GLASS_MAX_CONDUCTIVITY))
-        return err2(jr, "conductivity = %g is not one in W/(m K)", c);
+        return bsti_json_error(jr, BST_EFORMAT, "conductivity = %g is not one in W/(m K)", c);
     return BST_OK;
 }
 
 int bsti_glass_read_glazing_v2(bst_ctx *ctx, const char *path, bst_glass *g, struct json_t *root)
 {
-    const struct jr2 jr = {ctx, path};
+    const struct bsti_jr jr = {ctx, path};
     bst_glass_meta *m = &g->meta;
     const char *subtype, *name, *maker, *coating, *side;
     int rc;
@@ -202,17 +176,17 @@ int bsti_glass_read_glazing_v2(bst_ctx *ctx, const char *path, bst_glass *g, str
         (rc = text(&jr, root, "coating_name", 0, &coating)) < 0 ||
         (rc = text(&jr, root, "coated_side", 0, &side)) < 0)
         return rc;
-    json_t *id = get(root, "nfrc_id");
+    json_t *id = bsti_json_member(root, "nfrc_id");
     if (id && !json_is_integer(id))
-        return err2(&jr, "nfrc_id is not an integer");
+        return bsti_json_error(&jr, BST_EFORMAT, "nfrc_id is not an integer");
     m->nfrc_id = id ? (long)json_integer_value(id) : -1;
-    json_t *pp = get(root, "physical_properties"), *specular = get(pp, "is_specular");
+    json_t *pp = bsti_json_member(root, "physical_properties"), *specular = bsti_json_member(pp, "is_specular");
     if (!json_is_object(pp))
-        return err2(&jr, "physical_properties is not an object");
+        return bsti_json_error(&jr, BST_EFORMAT, "physical_properties is not an object");
     if (specular && !json_is_boolean(specular))
-        return err2(&jr, "physical_properties.is_specular is not true or false");
+        return bsti_json_error(&jr, BST_EFORMAT, "physical_properties.is_specular is not true or false");
     if (json_is_false(specular))
-        return err2(&jr, "physical_properties.is_specular is false: a diffusing glazing product "
+        return bsti_json_error(&jr, BST_EFORMAT, "physical_properties.is_specular is false: a diffusing glazing product "
                     "(a pane is specular, and hazy products are not modelled)");
     if ((rc = read_physical(&jr, root, pp, m)) < 0 || (rc = read_rows2(&jr, pp, &g->data)) < 0)
         return rc;

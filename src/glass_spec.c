@@ -312,25 +312,22 @@ static int read_catalogue(bst_ctx *ctx, bst_glass *g, const char *path, const ch
     return rc;
 }
 
-/* Take the items "model=MODEL" out of a spec's comma-separated list (in place): *model stays -1
- * when there is none. */
-static int take_model(bst_ctx *ctx, const char *where, char *spec, int *model)
+/* Take the items "KEY=VALUE" (prefix "KEY=") out of a spec's comma-separated list, in place:
+ * *count of them, the first one's value in v (vsize bytes; *vlen its whole length). */
+static void take_items(char *spec, const char *prefix, char *v, size_t vsize, int *count,
+                       size_t *vlen)
 {
     char *out = spec, *item = spec;
+    size_t pl = strlen(prefix);
+    *count = 0;
     while (item) {
         char *comma = strchr(item, ',');
         size_t len = comma ? (size_t)(comma - item) : strlen(item);
-        if (len >= 6 && strncmp(item, "model=", 6) == 0) {
-            char v[16];
-            bst_glass_model m;
-            snprintf(v, sizeof v, "%.*s", (int)(len - 6 < sizeof v - 1 ? len - 6 : sizeof v - 1),
-                     item + 6);
-            if (*model >= 0)
-                return bsti_error(ctx, BST_EINVAL, "%s: model given twice", where);
-            if (len - 6 >= sizeof v - 1 || parse_model(v, &m) < 0)
-                return bsti_error(ctx, BST_EINVAL, "%s: model=%.*s (uncoated or coated)", where,
-                                  (int)(len - 6), item + 6);
-            *model = (int)m;
+        if (len >= pl && strncmp(item, prefix, pl) == 0) {
+            if ((*count)++ == 0) {
+                *vlen = len - pl;
+                snprintf(v, vsize, "%.*s", (int)(*vlen < vsize - 1 ? *vlen : vsize - 1), item + pl);
+            }
         } else {
             if (out != spec)
                 *out++ = ',';
@@ -340,39 +337,42 @@ static int take_model(bst_ctx *ctx, const char *where, char *spec, int *model)
         item = comma ? comma + 1 : NULL;
     }
     *out = '\0';
+}
+
+/* Take "model=MODEL" out of a spec's list (in place): *model stays -1 when there is none. */
+static int take_model(bst_ctx *ctx, const char *where, char *spec, int *model)
+{
+    char v[16];
+    size_t vl = 0;
+    int n;
+    bst_glass_model m;
+    take_items(spec, "model=", v, sizeof v, &n, &vl);
+    if (n > 1)
+        return bsti_error(ctx, BST_EINVAL, "%s: model given twice", where);
+    if (n == 1 && (vl >= sizeof v - 1 || parse_model(v, &m) < 0))
+        return bsti_error(ctx, BST_EINVAL, "%s: model=%s (uncoated or coated)", where, v);
+    if (n == 1)
+        *model = (int)m;
     return BST_OK;
 }
 
-/* Take the item "rows=all" or "rows=N" (N >= 2) out of a spec's list (in place) into *rows
+/* Take "rows=all" or "rows=N" (N >= 2) out of a spec's list (in place) into *rows
  * (bst_glass_set_layer_rows' bound, 0 = all); it stays as it was when there is none. */
 static int take_rows(bst_ctx *ctx, const char *where, char *spec, size_t *rows)
 {
-    char *out = spec, *item = spec;
-    int seen = 0;
-    while (item) {
-        char *comma = strchr(item, ',');
-        size_t len = comma ? (size_t)(comma - item) : strlen(item);
-        if (len >= 5 && strncmp(item, "rows=", 5) == 0) {
-            char v[24], *end = NULL;
-            snprintf(v, sizeof v, "%.*s", (int)(len - 5 < sizeof v - 1 ? len - 5 : sizeof v - 1),
-                     item + 5);
-            unsigned long long n = strcmp(v, "all") == 0 ? 0 : strtoull(v, &end, 10);
-            if (seen++)
-                return bsti_error(ctx, BST_EINVAL, "%s: rows given twice", where);
-            if (len - 5 >= sizeof v - 1 || (end && (end == v || *end || !isdigit((unsigned char)*v) ||
-                                                    n < 2 || n > (unsigned long long)SIZE_MAX)))
-                return bsti_error(ctx, BST_EINVAL, "%s: rows=%.*s (all, or a count of at least 2)",
-                                  where, (int)(len - 5), item + 5);
-            *rows = (size_t)n;
-        } else {
-            if (out != spec)
-                *out++ = ',';
-            memmove(out, item, len);
-            out += len;
-        }
-        item = comma ? comma + 1 : NULL;
-    }
-    *out = '\0';
+    char v[24], *end = NULL;
+    size_t vl = 0;
+    int n;
+    take_items(spec, "rows=", v, sizeof v, &n, &vl);
+    if (n > 1)
+        return bsti_error(ctx, BST_EINVAL, "%s: rows given twice", where);
+    if (n == 0)
+        return BST_OK;
+    unsigned long long r = strcmp(v, "all") == 0 ? 0 : strtoull(v, &end, 10);
+    if (vl >= sizeof v - 1 || (end && (end == v || *end || !isdigit((unsigned char)*v) || r < 2 ||
+                                       r > (unsigned long long)SIZE_MAX)))
+        return bsti_error(ctx, BST_EINVAL, "%s: rows=%s (all, or a count of at least 2)", where, v);
+    *rows = (size_t)r;
     return BST_OK;
 }
 
