@@ -49,6 +49,18 @@ json_t *bsti_json_member(json_t *obj, const char *key)
     return json_is_null(v) ? NULL : v;
 }
 
+int bsti_json_row(const struct bsti_jr *jr, const char *where, struct bsti_glass_data *d,
+                  size_t k, double wl, const double v[4])
+{
+    char full[400];
+    snprintf(full, sizeof full, "%s: %s", jr->path, where);
+    int rc = bsti_glass_row_check(jr->ctx, full, k ? d->wl[k - 1] : -INFINITY, wl, v);
+    if (rc < 0)
+        return rc;
+    d->wl[k] = wl, d->tf[k] = v[0], d->tb[k] = v[1], d->rf[k] = v[2], d->rb[k] = v[3];
+    d->n = k + 1;
+    return BST_OK;
+}
 /* obj.key as a number or a string (at: obj's path for messages); *v NULL when it is absent and
  * not required. */
 static int field(const struct bsti_jr *jr, json_t *obj, const char *at, const char *key, int required,
@@ -136,12 +148,8 @@ static int read_rows(const struct bsti_jr *jr, json_t *sd, const char *at, struc
             (rc = get_number(jr, r, where, "Rb", 1, &v[3])) < 0)
             return rc;
         v[0] = v[1] = t;
-        char full[400];
-        snprintf(full, sizeof full, "%s: %s", jr->path, where);
-        if ((rc = bsti_glass_row_check(jr->ctx, full, k ? d->wl[k - 1] : -INFINITY, wl, v)) < 0)
+        if ((rc = bsti_json_row(jr, where, d, k, wl, v)) < 0)
             return rc;
-        d->wl[k] = wl, d->tf[k] = v[0], d->tb[k] = v[1], d->rf[k] = v[2], d->rb[k] = v[3];
-        d->n = k + 1;
     }
     return rc;
 }

@@ -7,6 +7,7 @@
 #include <jansson.h>
 
 #include "bsdfstack.h"
+#include "glass.h"
 
 /* The file being read, for messages. */
 struct bsti_jr {
@@ -22,5 +23,9 @@ int bsti_json_error(const struct bsti_jr *jr, int status, const char *fmt, ...)
     ;
 /* obj.key, NULL when obj is not an object, the key is absent or its value null. */
 json_t *bsti_json_member(json_t *obj, const char *key);
+/* Row k of a pane's data (wavelength wl; v: Tf, Tb, Rf, Rb) checked against the row before
+ * (bsti_glass_row_check, `where` naming it in the file) and stored. */
+int bsti_json_row(const struct bsti_jr *jr, const char *where, struct bsti_glass_data *d,
+                  size_t k, double wl, const double v[4]);
 
 #endif

@@ -121,16 +121,12 @@ static int read_rows2(const struct bsti_jr *jr, json_t *pp, struct bsti_glass_da
         snprintf(part, sizeof part, "%s.diffuse", where);
         for (int i = 0; i < 4 && rc >= 0; i++)
             if ((rc = number(jr, dif, part, key[i], 0, &x)) >= 0 && !isnan(x) && x != 0.0)
-                rc = bsti_json_error(jr, BST_EFORMAT, "%s.%s = %g: a pane is specular, and hazy products (diffuse parts) "
-                          "are not modelled", part, key[i], x);
+                rc = bsti_json_error(jr, BST_EFORMAT, "%s.%s = %g: a pane is specular, and hazy "
+                                     "products (diffuse parts) are not modelled", part, key[i], x);
         if (rc < 0)
             return rc;
-        char full[400];
-        snprintf(full, sizeof full, "%s: %s", jr->path, where);
-        if ((rc = bsti_glass_row_check(jr->ctx, full, k ? d->wl[k - 1] : -INFINITY, wl, v)) < 0)
+        if ((rc = bsti_json_row(jr, where, d, k, wl, v)) < 0)
             return rc;
-        d->wl[k] = wl, d->tf[k] = v[0], d->tb[k] = v[1], d->rf[k] = v[2], d->rb[k] = v[3];
-        d->n = k + 1;
     }
     return rc;
 }

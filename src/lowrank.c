@@ -584,7 +584,7 @@ size_t bsti_lr_stored(const bsti_lr *f)
 int bsti_lr_permute(bst_ctx *ctx, const bsti_lr *f, const size_t *perm, bsti_lr **out)
 {
     const bsti_lr_map *S = f->S;
-    size_t N = f->N, r = f->r, pr = f->p * r, qr = f->q * r;
+    size_t N = f->N, r = f->r, pr = f->p * r;
     *out = NULL;
     size_t *cp = bsti_alloc_array(ctx, r + 1, sizeof *cp);
     if (!cp)
@@ -617,7 +617,6 @@ int bsti_lr_permute(bst_ctx *ctx, const bsti_lr *f, const size_t *perm, bsti_lr 
                 for (size_t i = 0; i < f->p; i++)
                     for (size_t u = 0; u < r; u++)
                         m->k[(j * r + v) * pr + i * r + u] = f->k[(j * r + cp[v]) * pr + i * r + cp[u]];
-        (void)qr;
     }
     bsti_free(ctx, cp);
     return rc;
