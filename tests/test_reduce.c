@@ -41,7 +41,7 @@ static bst_layer *read_back(const char *path, const bst_basis *b, bst_file_kind 
 static char *tmp_path(void)
 {
     static char path[64];
-    snprintf(path, sizeof path, "test_reduce.XXXXXX");
+    snprintf(path, sizeof path, "/tmp/bst_reduce_XXXXXX");
     int fd = mkstemp(path);
     ck_assert_int_ge(fd, 0);
     close(fd);

@@ -165,7 +165,7 @@ static void fine_columns(const char *const *names, size_t n, int k, size_t ncols
 /* Write coarse + fine (no reduction) to a temporary file, read it back at its order. */
 static bst_bsdf *write_read(const bst_layer *coarse, const bst_varres *v, bst_layer **back)
 {
-    char path[] = "test_varres.XXXXXX";
+    char path[] = "/tmp/bst_varres_XXXXXX";
     int fd = mkstemp(path);
     ck_assert_int_ge(fd, 0);
     close(fd);
