@@ -663,11 +663,38 @@ static int klems_map(bst_ctx *ctx, const struct plan *p, bsti_lr_map **out)
     return BST_OK;
 }
 
-/* A stored Klems matrix km over the map S: W K W^T, factored (issue #31). */
-static int klems_factored(bst_ctx *ctx, const bsti_lr_map *S, const double *km, bst_mat **out)
+/* Whether every ring of a Klems basis is its own image under the antipode (phi + 180 degrees):
+ * an even count of patches, or one patch spanning the ring.  Then a patch's overlap with a cell is
+ * its antipode's with the antipodal cell, W(a(c), p) = W(c, a(p)), and reciprocity can be applied
+ * to the Klems matrix before the overlaps instead of on the grid after them. */
+static int klems_antipodal(const bst_basis *kb)
 {
+    for (size_t band = 0; band < kb->nbands; band++)
+        if (kb->nphi[band] != 1 && kb->nphi[band] % 2 != 0)
+            return 0;
+    return 1;
+}
+
+/* A stored Klems matrix km over the map S: W K W^T, factored (issue #31).  recip: the transmission
+ * that reciprocity gives from km (kb its Klems basis, antipodal): M'(o, i) = M(a(i), a(o)) on the
+ * grid is W K' W^T with K'(q, p) = K(a(p), a(q)) on the patches, since W(a(c), p) = W(c, a(p)). */
+static int klems_factored(bst_ctx *ctx, const bsti_lr_map *S, const double *km, int recip,
+                          const bst_basis *kb, bst_mat **out)
+{
+    double *kr = NULL;
+    if (recip) {
+        size_t n = bst_basis_size(kb);
+        if (!(kr = bsti_alloc_array(ctx, n * n, sizeof *kr)))
+            return BST_ENOMEM;
+        for (size_t p = 0; p < n; p++) {
+            size_t ap = bst_basis_antipode(kb, p);
+            for (size_t q = 0; q < n; q++)
+                kr[q + n * p] = km[ap + n * bst_basis_antipode(kb, q)];
+        }
+    }
     bsti_lr *lr;
-    int rc = bsti_lr_new(ctx, S, NULL, NULL, km, NULL, &lr);
+    int rc = bsti_lr_new(ctx, S, NULL, NULL, recip ? kr : km, NULL, &lr);
+    bsti_free(ctx, kr);
     return rc < 0 ? rc : bsti_mat_from_lr(ctx, lr, out);
 }
 
@@ -723,8 +750,8 @@ int bsti_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target_
                 rc = tree_factored(ctx, t, target->k, recip, threads, &m);
             } else if (target->kind == BST_BASIS_SHIRLEY_CHIU && t && t->dim == 4) {
                 rc = tree_component(ctx, t, target->k, recip, b->prec, threads, &m);
-            } else if (kmap && !recip) {
-                rc = klems_factored(ctx, kmap, b->mat[ch][c], &m);
+            } else if (kmap && (!recip || klems_antipodal(b->klems))) {
+                rc = klems_factored(ctx, kmap, b->mat[ch][from], recip, b->klems, &m);
             } else {
                 /* the N x N work buffer only where a component goes through it */
                 if (!work && !(work = bsti_alloc_array(ctx, n * n, sizeof *work))) {

@@ -210,6 +210,61 @@ START_TEST(test_columns)
 }
 END_TEST
 
+/* A Klems file that stores only Tf: its Tb, by reciprocity, is factored too (W K' W^T, K' the
+ * Klems reciprocal) and is exactly the grid's reciprocal of Tf, Tb(o, i) = Tf(a(i), a(o)) with a
+ * the Shirley-Chiu antipode; the full file's stored Tb is not (measured data are not reciprocal),
+ * so reading the Tb block, not reciprocity, would fail this. */
+START_TEST(test_klems_reciprocal)
+{
+    FILE *in = fopen(tu_ref("L_diffuser_t3k5_klems.xml"), "r");
+    ck_assert_ptr_nonnull(in);
+    static char text[4 << 20];
+    size_t len = fread(text, 1, sizeof text - 1, in);
+    fclose(in);
+    text[len] = 0;
+    /* cut the <WavelengthData> block whose direction is Transmission Back */
+    char *dir = strstr(text, "<WavelengthDataDirection>Transmission Back");
+    ck_assert_ptr_nonnull(dir);
+    char *from = dir, *to = strstr(dir, "</WavelengthData>");
+    while (from > text && strncmp(from, "<WavelengthData>", 16) != 0)
+        from--;
+    ck_assert_ptr_nonnull(to);
+    to += strlen("</WavelengthData>");
+    memmove(from, to, strlen(to) + 1);
+    char path[] = "/tmp/bst_klems_tf_XXXXXX";
+    int fd = mkstemp(path);
+    ck_assert_int_ge(fd, 0);
+    ck_assert_int_eq(write(fd, text, strlen(text)), (ssize_t)strlen(text));
+    close(fd);
+    bst_basis *b5;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 5, &b5), BST_OK);
+    bst_bsdf *f;
+    ck_assert_int_ge(bst_bsdf_read(ctx, path, NULL, &f), 0);
+    unlink(path);
+    ck_assert_int_eq(bst_bsdf_stored(f, 0, BST_TB), 0);
+    bst_layer *l;
+    ck_assert_int_eq(bst_bsdf_to_layer(ctx, f, b5, &l), BST_OK);
+    bst_bsdf_free(f);
+    const bst_mat *tf = bst_layer_get(l, 0, BST_TF), *tb = bst_layer_get(l, 0, BST_TB);
+    ck_assert_int_eq(bst_mat_structure(tb), BST_FACTORED);
+    ck_assert_int_eq(bst_mat_structure(tf), BST_FACTORED);
+    size_t n = 1024;
+    double *x = malloc(2 * n * n * sizeof *x), *y = x + n * n, d = 0, m = 0;
+    ck_assert_ptr_nonnull(x);
+    ck_assert_int_eq(bst_mat_to_dense_array(ctx, tf, x), BST_OK);
+    ck_assert_int_eq(bst_mat_to_dense_array(ctx, tb, y), BST_OK);
+    for (size_t i = 0; i < n; i++)
+        for (size_t o = 0; o < n; o++) {
+            double want = x[bst_basis_antipode(b5, i) + n * bst_basis_antipode(b5, o)];
+            d = fmax(d, fabs(y[o + n * i] - want)), m = fmax(m, fabs(want));
+        }
+    ck_assert_msg(m > 0 && d <= 1e-12 * m, "Tb against Tf's reciprocal: %g of %g", d, m);
+    free(x);
+    bst_layer_free(l);
+    bst_basis_free(b5);
+}
+END_TEST
+
 static Suite *suite(void)
 {
     Suite *s = suite_create("factored");
@@ -219,6 +274,7 @@ static Suite *suite(void)
     tcase_add_test(tc, test_layers);
     tcase_add_loop_test(tc, test_stacks, 0, (int)(2 * NSTACKS));
     tcase_add_test(tc, test_columns);
+    tcase_add_test(tc, test_klems_reciprocal);
     suite_add_tcase(s, tc);
     return s;
 }
