@@ -475,6 +475,16 @@ int bst_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target, 
  * (bst_bsdf_depth = bst_bsdf_order) expanded to its own order holds only single-precision values
  * of the file, so BST_FLOAT keeps them exactly in half the memory. */
 int bst_bsdf_set_precision(bst_ctx *ctx, bst_bsdf *b, bst_precision prec);
+/* How bst_bsdf_to_layer lays a rank-3 (isotropic) tree of depth d on a Shirley-Chiu grid of order
+ * k > d.  BST_RANK3_EXACT (the default) samples the tree at order k; BST_RANK3_NATIVE expands it
+ * at its own order d and holds each component factored, P M_d P^T (P the prolongation of order-d
+ * cells to their order-k cells, issue #31): the cost and memory of order d, at the price of
+ * values constant over each pair of order-d cells, a speed-for-accuracy trade measured in
+ * bench/README.md ("Rank-3 trees at their own order").  Rank-4 trees and Klems files are not
+ * affected (they are factored exactly where they are coarser than the grid). */
+typedef enum { BST_RANK3_EXACT = 0, BST_RANK3_NATIVE = 1 } bst_rank3_rule;
+int bst_bsdf_set_rank3_rule(bst_ctx *ctx, bst_bsdf *b, bst_rank3_rule rule);
+bst_rank3_rule bst_bsdf_rank3_rule(const bst_bsdf *b);
 
 /* ----------------------------------------------------------------------------- plans: plan.c */
 

@@ -19,6 +19,7 @@ struct bst_bsdf {
     int depth;             /* tensor-tree depth stored */
     size_t negatives;      /* negative values read as 0 */
     bst_precision prec;    /* of the dense components of bst_bsdf_to_layer (read option) */
+    bst_rank3_rule rank3;  /* how bst_bsdf_to_layer lays a rank-3 tree on a finer grid */
     bst_basis *klems;      /* Klems files */
     size_t nch;
     char *channels[BSTI_BSDF_MAX_CHANNELS];

@@ -230,9 +230,12 @@ double bst_plan_memory(const bst_basis *basis, size_t n, const bst_bsdf *const *
         if (!files[i])
             continue;
         int d = bst_bsdf_depth(files[i]);
-        /* a rank-4 tree coarser than k: its own order's matrix (resample.c, tree_is_factored) */
-        double coarse = bst_bsdf_kind(files[i]) == BST_FILE_TT4 && d >= 1 && d < k
-                            ? 8.0 * pow(4.0, 2.0 * d) : 0.0;
+        /* a rank-4 tree coarser than k: its own order's matrix (resample.c, tree_is_factored);
+         * so is a rank-3 one laid on the grid at its own order (BST_RANK3_NATIVE) */
+        bst_file_kind kind = bst_bsdf_kind(files[i]);
+        int at_own = kind == BST_FILE_TT4 ||
+                     (kind == BST_FILE_TT3 && bst_bsdf_rank3_rule(files[i]) == BST_RANK3_NATIVE);
+        double coarse = at_own && d >= 1 && d < k ? 8.0 * pow(4.0, 2.0 * d) : 0.0;
         for (size_t ch = 0; ch < bst_bsdf_nchannels(files[i]); ch++)
             for (int c = 0; c < BST_NCOMP; c++) {
                 double f = !comps || (comps & BST_COMP_BIT(c)) ? bst_bsdf_fill(files[i], ch, (bst_comp)c) : 0;

@@ -580,6 +580,31 @@ static int tree_factored(bst_ctx *ctx, const bsti_ttree *t, int k, int recip, in
     return rc < 0 ? rc : bsti_mat_from_lr(ctx, lr, out);
 }
 
+/* A rank-3 tree of depth d below the grid's order k, as BST_RANK3_NATIVE asks: expanded at its own
+ * order (expand3, the same sampling as at any order) and held as P M_d P^T, the reciprocal taken
+ * on the order-d grid (the antipode, index reversal, maps an order-d cell's children to its
+ * antipode's children, so it commutes with P). */
+static int tree3_factored(bst_ctx *ctx, const bsti_ttree *t, int k, int recip, bst_mat **out)
+{
+    int d = t->depth;
+    size_t r = (size_t)1 << (2 * d);
+    double *K = bsti_alloc_array(ctx, r * r, sizeof *K);
+    if (!K)
+        return BST_ENOMEM;
+    bsti_lr_map *S = NULL;
+    bsti_lr *lr = NULL;
+    int rc = expand3(ctx, t, d, K);
+    if (rc >= 0 && recip)
+        antipode_transpose(K, r);
+    if (rc >= 0)
+        rc = bsti_lr_map_prolong(ctx, k, d, &S);
+    if (rc >= 0)
+        rc = bsti_lr_new(ctx, S, NULL, NULL, K, NULL, &lr);
+    bsti_lr_map_free(ctx, S);
+    bsti_free(ctx, K);
+    return rc < 0 ? rc : bsti_mat_from_lr(ctx, lr, out);
+}
+
 /* Whether a rank-4 tree goes factored onto order k: coarser than k, and dense at its own order
  * (a sparse or diagonal tree stays sparse or diagonal at k, which costs less). */
 static int tree_is_factored(const bsti_ttree *t, int k)
@@ -750,6 +775,9 @@ int bsti_bsdf_to_layer(bst_ctx *ctx, const bst_bsdf *b, const bst_basis *target_
                 rc = tree_factored(ctx, t, target->k, recip, threads, &m);
             } else if (target->kind == BST_BASIS_SHIRLEY_CHIU && t && t->dim == 4) {
                 rc = tree_component(ctx, t, target->k, recip, b->prec, threads, &m);
+            } else if (target->kind == BST_BASIS_SHIRLEY_CHIU && t && t->dim == 3 &&
+                       b->rank3 == BST_RANK3_NATIVE && t->depth >= 1 && t->depth < target->k) {
+                rc = tree3_factored(ctx, t, target->k, recip, &m);
             } else if (kmap && (!recip || klems_antipodal(b->klems))) {
                 rc = klems_factored(ctx, kmap, b->mat[ch][from], recip, b->klems, &m);
             } else {

@@ -756,6 +756,15 @@ int bst_bsdf_set_precision(bst_ctx *ctx, bst_bsdf *b, bst_precision prec)
     b->prec = prec;
     return BST_OK;
 }
+int bst_bsdf_set_rank3_rule(bst_ctx *ctx, bst_bsdf *b, bst_rank3_rule rule)
+{
+    if (!ctx || !b || (rule != BST_RANK3_EXACT && rule != BST_RANK3_NATIVE))
+        return ctx ? bsti_error(ctx, BST_EINVAL, "set_rank3_rule: NULL BSDF or unknown rule %d",
+                                (int)rule) : BST_EINVAL;
+    b->rank3 = rule;
+    return BST_OK;
+}
+bst_rank3_rule bst_bsdf_rank3_rule(const bst_bsdf *b) { return b->rank3; }
 double bst_bsdf_fill(const bst_bsdf *b, size_t ch, bst_comp c)
 {
     if (ch >= b->nch || (unsigned)c >= BST_NCOMP)

@@ -27,4 +27,20 @@ for stack in "glass:clear-6mm $tmpdir/d3.xml glass:clear-6mm" "glass:nfrc-102 $t
         pass "peak RSS while combining: factored $f_peak MiB, dense $d_peak MiB" ||
         fail "peak RSS: factored $f_peak MiB, dense $d_peak MiB"
 done
+# --rank3 native: a depth-3 TensorTree3 at k = 5 goes factored (rank 64) where exact makes it dense;
+# a wrong value is one line naming the option, and nothing is written
+expect_status 0 "a depth-3 TensorTree3" -- "$B" convert -k 3 --rank 3 --no-reduce -o "$tmpdir/i3.xml" \
+    "$ref/L_diffuser_t3k5.xml"
+expect_status 0 "combine --rank3 native" -- "$B" combine -v -k 5 --rank3 native -o "$tmpdir/n.xml" \
+    glass:clear-6mm "$tmpdir/i3.xml" glass:clear-6mm
+grep -q "layers 1-2 Visible Tf: factored rank 64" "$tmpdir/err" && pass "--rank3 native: factored, rank 64" ||
+    fail "--rank3 native is not factored: $(head -5 "$tmpdir/err")"
+expect_status 0 "combine --rank3 exact" -- "$B" combine -v -k 5 -o "$tmpdir/e.xml" \
+    glass:clear-6mm "$tmpdir/i3.xml" glass:clear-6mm
+grep -q "layers 1-2 Visible Tf: dense" "$tmpdir/err" && pass "--rank3 exact (default): dense" ||
+    fail "the default is not the exact (dense) expansion: $(head -5 "$tmpdir/err")"
+rm -f "$tmpdir/x.xml"
+expect_status 2 "--rank3 foo" -- "$B" combine --rank3 foo -o "$tmpdir/x.xml" glass:clear-6mm "$tmpdir/i3.xml"
+[ "$(wc -l < "$tmpdir/err")" -le 2 ] && grep -q -- "--rank3 foo" "$tmpdir/err" && [ ! -e "$tmpdir/x.xml" ] &&
+    pass "--rank3 foo: one line naming it, nothing written" || fail "--rank3 foo: $(cat "$tmpdir/err")"
 finish

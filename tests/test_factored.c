@@ -17,9 +17,10 @@
 
 static bst_ctx *ctx;
 static char coarse3[64], coarse4[64]; /* blind0 at depth 3, blind45 at depth 4 */
+static char iso3[64];                 /* the diffuser as a TensorTree3 of depth 3 */
 
-/* The reference file read at order k and written as a TensorTree4 of that depth (every value). */
-static void make_coarse(const char *ref, int k, char *path)
+/* The reference file read at order k and written as a tree of that depth and rank (every value). */
+static void make_tree(const char *ref, int k, bst_tree_rank rank, char *path)
 {
     bst_basis *b;
     ck_assert_int_eq(bst_basis_new_sc(ctx, k, &b), BST_OK);
@@ -30,7 +31,7 @@ static void make_coarse(const char *ref, int k, char *path)
     close(fd);
     bst_bsdf_write_opts o;
     bst_bsdf_write_opts_init(&o);
-    o.rank = BST_RANK_4;
+    o.rank = rank;
     o.reduce_pct = -1.0;
     o.digits = 0;
     ck_assert_int_eq(bst_bsdf_write_path(ctx, l, path, &o), BST_OK);
@@ -41,24 +42,31 @@ static void make_coarse(const char *ref, int k, char *path)
 static void setup(void)
 {
     ctx = bst_ctx_new();
-    make_coarse("L_blind0_t4k5.xml", 3, coarse3);
-    make_coarse("L_blind45_t4k5.xml", 4, coarse4);
+    make_tree("L_blind0_t4k5.xml", 3, BST_RANK_4, coarse3);
+    make_tree("L_blind45_t4k5.xml", 4, BST_RANK_4, coarse4);
+    make_tree("L_diffuser_t3k5.xml", 3, BST_RANK_3, iso3);
 }
 
 static void teardown(void)
 {
-    unlink(coarse3), unlink(coarse4);
+    unlink(coarse3), unlink(coarse4), unlink(iso3);
     bst_ctx_free(ctx);
 }
 
-static bst_layer *file_layer(const char *path, const bst_basis *b)
+static bst_layer *file_layer_rule(const char *path, const bst_basis *b, bst_rank3_rule rule)
 {
     bst_bsdf *f;
     ck_assert_int_ge(bst_bsdf_read(ctx, path, NULL, &f), 0);
+    ck_assert_int_eq(bst_bsdf_set_rank3_rule(ctx, f, rule), BST_OK);
     bst_layer *l;
     ck_assert_int_eq(bst_bsdf_to_layer(ctx, f, b, &l), BST_OK);
     bst_bsdf_free(f);
     return l;
+}
+
+static bst_layer *file_layer(const char *path, const bst_basis *b)
+{
+    return file_layer_rule(path, b, BST_RANK3_EXACT);
 }
 
 static int factored_steps;
@@ -82,8 +90,9 @@ static double rel_diff(const bst_mat *a, const bst_mat *b)
 }
 
 /* The stacks (exterior first): 'g' a pane, '3' blind0 at depth 3, '4' blind45 at depth 4, 'D' the
- * blind at its own depth 5 (dense at k = 5), 'K' a Klems diffuser; '^' after one: reversed. */
-static const char *const stacks[] = {"g3", "3g", "g3g", "g4^g3", "gDg3", "g3^Kg", "34^"};
+ * blind at its own depth 5 (dense at k = 5), 'K' a Klems diffuser, 'I' the diffuser as a rank-3
+ * tree of depth 3 at its own order (BST_RANK3_NATIVE); '^' after one: reversed. */
+static const char *const stacks[] = {"g3", "3g", "g3g", "g4^g3", "gDg3", "g3^Kg", "34^", "gI^g"};
 #define NSTACKS (sizeof stacks / sizeof stacks[0])
 
 static size_t build(const char *spec, const bst_basis *b, bst_layer **layers)
@@ -101,6 +110,7 @@ static size_t build(const char *spec, const bst_basis *b, bst_layer **layers)
                       : *c == '3' ? file_layer(coarse3, b)
                       : *c == '4' ? file_layer(coarse4, b)
                       : *c == 'D' ? tu_layer(ctx, "L_blind0_t4k5.xml", b)
+                      : *c == 'I' ? file_layer_rule(iso3, b, BST_RANK3_NATIVE)
                                   : tu_layer(ctx, "L_diffuser_t3k5_klems.xml", b);
     }
     return n;
@@ -150,7 +160,8 @@ START_TEST(test_stacks)
     factored_steps = 0;
     bst_layer *fact, *dense;
     ck_assert_int_ge(bst_stack_combine(ctx, n, (const bst_layer *const *)layers, &o, &fact), 0);
-    if (strcmp(spec, "g3") == 0 || strcmp(spec, "g3g") == 0 || strcmp(spec, "3g") == 0)
+    if (strcmp(spec, "g3") == 0 || strcmp(spec, "g3g") == 0 || strcmp(spec, "3g") == 0 ||
+        strcmp(spec, "gI^g") == 0)
         ck_assert_int_gt(factored_steps, 0);
     o.force_dense = 1;
     ck_assert_int_ge(bst_stack_combine(ctx, n, (const bst_layer *const *)layers, &o, &dense), 0);
@@ -207,6 +218,63 @@ START_TEST(test_columns)
     for (size_t i = 0; i < n; i++)
         bst_layer_free(layers[i]);
     bst_basis_free(b5);
+}
+END_TEST
+
+/* BST_RANK3_NATIVE: a rank-3 tree of depth 3 read at k = 5 is factored, rank 64, each fine cell
+ * holding the value its order-3 cells have in the exact expansion at order 3; without the rule it
+ * is sampled at order 5 (dense).  A file storing only Tf gets Tf's reciprocal as Tb, factored. */
+START_TEST(test_rank3_native)
+{
+    bst_basis *b5, *b3;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 5, &b5), BST_OK);
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 3, &b3), BST_OK);
+    bst_layer *l = file_layer_rule(iso3, b5, BST_RANK3_NATIVE), *c3 = file_layer(iso3, b3);
+    bst_layer *exact = file_layer(iso3, b5);
+    for (int c = 0; c < BST_NCOMP; c++) {
+        const bst_mat *m = bst_layer_get(l, 0, (bst_comp)c), *m3 = bst_layer_get(c3, 0, (bst_comp)c);
+        ck_assert_int_eq(bst_mat_structure(m), BST_FACTORED);
+        ck_assert_uint_eq(bsti_mat_rank(m), 64);
+        ck_assert_int_eq(bst_mat_structure(bst_layer_get(exact, 0, (bst_comp)c)), BST_DENSE);
+        for (size_t y = 0; y < 1024; y += 13)
+            for (size_t x = 0; x < 1024; x += 7) {
+                size_t px = ((x / 32) >> 2) * 8 + ((x % 32) >> 2), py = ((y / 32) >> 2) * 8 + ((y % 32) >> 2);
+                ck_assert_double_eq_tol(bst_mat_get(m, x, y), bst_mat_get(m3, px, py),
+                                        1e-13 * fabs(bst_mat_get(m3, px, py)));
+            }
+    }
+    bst_layer_free(l), bst_layer_free(c3), bst_layer_free(exact);
+    /* the same file without its Transmission Back: Tb(o, i) = Tf(a(i), a(o)) */
+    FILE *in = fopen(iso3, "r");
+    ck_assert_ptr_nonnull(in);
+    static char text[8 << 20];
+    size_t len = fread(text, 1, sizeof text - 1, in);
+    fclose(in);
+    text[len] = 0;
+    char *dir = strstr(text, "<WavelengthDataDirection>Transmission Back");
+    ck_assert_ptr_nonnull(dir);
+    char *from = dir, *to = strstr(dir, "</WavelengthData>");
+    while (from > text && strncmp(from, "<WavelengthData>", 16) != 0)
+        from--;
+    ck_assert_ptr_nonnull(to);
+    to += strlen("</WavelengthData>");
+    memmove(from, to, strlen(to) + 1);
+    char path[] = "/tmp/bst_iso_tf_XXXXXX";
+    int fd = mkstemp(path);
+    ck_assert_int_ge(fd, 0);
+    ck_assert_int_eq(write(fd, text, strlen(text)), (ssize_t)strlen(text));
+    close(fd);
+    l = file_layer_rule(path, b5, BST_RANK3_NATIVE);
+    unlink(path);
+    const bst_mat *tf = bst_layer_get(l, 0, BST_TF), *tb = bst_layer_get(l, 0, BST_TB);
+    ck_assert_int_eq(bst_mat_structure(tb), BST_FACTORED);
+    for (size_t i = 0; i < 1024; i += 11)
+        for (size_t o = 0; o < 1024; o += 3) {
+            double want = bst_mat_get(tf, bst_basis_antipode(b5, i), bst_basis_antipode(b5, o));
+            ck_assert_double_eq_tol(bst_mat_get(tb, o, i), want, 1e-13 * fabs(want));
+        }
+    bst_layer_free(l);
+    bst_basis_free(b5), bst_basis_free(b3);
 }
 END_TEST
 
@@ -275,6 +343,7 @@ static Suite *suite(void)
     tcase_add_loop_test(tc, test_stacks, 0, (int)(2 * NSTACKS));
     tcase_add_test(tc, test_columns);
     tcase_add_test(tc, test_klems_reciprocal);
+    tcase_add_test(tc, test_rank3_native);
     suite_add_tcase(s, tc);
     return s;
 }

@@ -46,7 +46,7 @@ static const char help[] =
     "Usage: mpirun -n N bsdfstack-mpi [-k K | --klems[=full|half|quarter]] [--only Tf,Rf,Tb,Rb]\n"
     "                       [--channels NAMES] [--precision double|single] [--drop-tol X]\n"
     "                       [--reduce PCT | --no-reduce] [--reduce-tol T] [--dense]\n"
-    "                       [--per-channel]\n"
+    "                       [--per-channel] [--rank3 exact|native]\n"
     "                       [--spectral-tol X] [--glass-rule average|centre] [--strict]\n"
     "                       [--max-memory SIZE] [--summary FILE] [--resume] FILE\n"
     "`bsdfstack batch` over the N ranks of an MPI job: the same file, options and outputs (byte\n"

@@ -51,7 +51,7 @@ static const char help[] =
     "Usage: bsdfstack batch [-k K | --klems[=full|half|quarter]] [--only Tf,Rf,Tb,Rb]\n"
     "                       [--channels NAMES] [--precision double|single] [--drop-tol X]\n"
     "                       [--reduce PCT | --no-reduce] [--reduce-tol T] [--dense]\n"
-    "                       [--per-channel]\n"
+    "                       [--per-channel] [--rank3 exact|native]\n"
     "                       [--spectral-tol X] [--glass-rule average|centre] [--strict]\n"
     "                       [--max-memory SIZE] [-j N] [--summary FILE] [--resume] FILE\n"
     "Combines many stacks, one per line of FILE ('-' = standard input):\n"

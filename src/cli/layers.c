@@ -81,9 +81,11 @@ static int is_made(const char *spec)
 }
 
 /* Read the file a spec names (a trailing ^ dropped) into *file, printing the reader's warnings
- * unless quiet.  Messages name `what`, or the file when what is NULL. */
+ * unless quiet, and give it the choice's rank-3 rule (choice may be NULL: the default).  Messages
+ * name `what`, or the file when what is NULL. */
 static int read_one(bst_ctx *ctx, const char *sub, const char *what, const char *spec,
-                    const bst_bsdf_read_opts *ro, int quiet, bst_bsdf **file)
+                    const bst_bsdf_read_opts *ro, const struct cli_basis_choice *choice, int quiet,
+                    bst_bsdf **file)
 {
     char *path = strdup(spec);
     if (!path)
@@ -100,6 +102,8 @@ static int read_one(bst_ctx *ctx, const char *sub, const char *what, const char 
         cli_warn_zero_components(sub, path, *file, ro->comps, "taken", ctx);
     else
         cli_warn_ctx(sub, what, st, ctx);
+    if (rc == CLI_OK && choice && bst_bsdf_set_rank3_rule(ctx, *file, choice->rank3) < 0)
+        rc = cli_fail_ctx(sub, what, ctx);
     free(path);
     return rc;
 }
@@ -114,7 +118,7 @@ static int read_all(bst_ctx *ctx, const char *sub, size_t n, char **specs,
     int rc = CLI_OK;
     for (size_t i = 0; i < n && rc == CLI_OK; i++)
         if (!is_made(specs[i]))
-            rc = read_one(ctx, sub, NULL, specs[i], ro, 0, &files[i]);
+            rc = read_one(ctx, sub, NULL, specs[i], ro, choice, 0, &files[i]);
     if (rc != CLI_OK)
         return rc;
     bst_plan_basis plan; /* the library's rule (plan.c) */
@@ -362,7 +366,7 @@ int cli_basis_make(bst_ctx *ctx, const char *sub, const struct cli_basis_pick *p
         size_t nch = chcopy ? split(chcopy, chnames, MAX_CH) : 0;
         bst_bsdf_read_opts ro = {.nchannels = nch, .channels = chnames, .precision = prec};
         rc = channels && !chcopy ? cli_fail(sub, "out of memory")
-                                 : read_one(ctx, sub, NULL, specs[n - 1], &ro, 1, &files[n - 1]);
+                                 : read_one(ctx, sub, NULL, specs[n - 1], &ro, NULL, 1, &files[n - 1]);
         free(chcopy);
     }
     if (rc == CLI_OK && bst_plan_make_basis(ctx, &plan, n, (const bst_bsdf *const *)files, NULL,
@@ -388,7 +392,7 @@ int cli_layer_load(bst_ctx *ctx, const char *sub, const char *what, const char *
     *layer = NULL;
     *pane = NULL;
     if (rc == CLI_OK && !is_made(spec))
-        rc = read_one(ctx, sub, what, spec, &ro, 1, &file);
+        rc = read_one(ctx, sub, what, spec, &ro, choice, 1, &file);
     if (rc == CLI_OK)
         rc = make_layer(ctx, sub, what, spec, file, basis, nch, chnames, choice->at_centre, layer,
                         pane, note);

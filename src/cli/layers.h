@@ -14,6 +14,7 @@ struct cli_basis_choice {
     bst_precision work;
     const char *lower; /* the options that lower the need, for the message; NULL = "-k" */
     int at_centre;     /* --glass-rule centre: panes at patch centres (WINDOW's), 0: averages */
+    bst_rank3_rule rank3; /* --rank3: how rank-3 trees meet a finer grid (bst_bsdf_set_rank3_rule) */
 };
 
 /* The choice that loads layers over basis b itself (a Shirley-Chiu order or a named Klems basis). */
@@ -53,7 +54,7 @@ int cli_parse_basis_option(const char *sub, int opt, const char *value, struct c
  * options start at CLI_O_OWN. */
 enum { CLI_O_KLEMS = 256, CLI_O_ONLY, CLI_O_CHANNELS, CLI_O_PRECISION, CLI_O_DROP, CLI_O_REDUCE,
        CLI_O_NOREDUCE, CLI_O_DENSE, CLI_O_STRICT, CLI_O_PERCH, CLI_O_MAXMEM, CLI_O_SPTOL,
-       CLI_O_GLASSRULE, CLI_O_REDUCETOL, CLI_O_OWN };
+       CLI_O_GLASSRULE, CLI_O_REDUCETOL, CLI_O_RANK3, CLI_O_OWN };
 #define CLI_STACK_LONGOPTS                                                                         \
     {"klems", optional_argument, NULL, CLI_O_KLEMS}, {"only", required_argument, NULL, CLI_O_ONLY},  \
     {"channels", required_argument, NULL, CLI_O_CHANNELS},                                          \
@@ -65,7 +66,8 @@ enum { CLI_O_KLEMS = 256, CLI_O_ONLY, CLI_O_CHANNELS, CLI_O_PRECISION, CLI_O_DRO
     {"strict", no_argument, NULL, CLI_O_STRICT}, {"per-channel", no_argument, NULL, CLI_O_PERCH},   \
     {"max-memory", required_argument, NULL, CLI_O_MAXMEM},                                          \
     {"spectral-tol", required_argument, NULL, CLI_O_SPTOL},                                         \
-    {"glass-rule", required_argument, NULL, CLI_O_GLASSRULE}
+    {"glass-rule", required_argument, NULL, CLI_O_GLASSRULE},                                       \
+    {"rank3", required_argument, NULL, CLI_O_RANK3}
 
 /* How a tree is reduced: --reduce PCT (pct -1 for --no-reduce) and --reduce-tol T (INFINITY:
  * the percentile alone); bst_bsdf_write_opts's reduce_pct and reduce_tol. */

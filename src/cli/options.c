@@ -82,6 +82,12 @@ int cli_stack_option(const char *sub, int c, const char *arg, struct cli_stack_a
             return cli_usage(sub, "--glass-rule %s: use average or centre", arg);
         a->basis.at_centre = a->sp.at_centre = strcmp(arg, "centre") == 0;
         return CLI_OK;
+    case CLI_O_RANK3:
+        if (strcmp(arg, "exact") && strcmp(arg, "native"))
+            return cli_usage(sub, "--rank3 %s: use exact (sampled at the order combined) or native "
+                             "(at the tree's own order, held factored)", arg);
+        a->basis.rank3 = strcmp(arg, "native") == 0 ? BST_RANK3_NATIVE : BST_RANK3_EXACT;
+        return CLI_OK;
     default: return -1;
     }
 }
