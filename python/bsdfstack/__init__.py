@@ -542,8 +542,10 @@ class File(_Source, BSDF):
     the file at its own basis (made on first use); in a stack it is resampled onto the stack's
     basis (bsdfstack-convert(1)); resample() gives it over another basis."""
 
-    def __init__(self, path, channels=None, only=None, progress=None):
+    def __init__(self, path, channels=None, only=None, progress=None, rank3="exact"):
         _Source.__init__(self)
+        if rank3 not in ("exact", "native"):
+            raise ValueError("rank3=%r: use 'exact' or 'native'" % (rank3,))
         self.path = os.fspath(path)
         self._bsdf = None
         self._ptr = None
@@ -563,6 +565,7 @@ class File(_Source, BSDF):
                 lib.bst_ctx_clear(c)  # what every TensorTree4 file expects: no warning
                 st = 0
             self._ctx.check(st)
+            self._ctx.check(lib.bst_bsdf_set_rank3_rule(c, self._bsdf, rank3 == "native"))
 
     def _only_reciprocity(self, mask):
         """Whether the reader completed nothing but a transmission from the other side's (the
@@ -803,12 +806,14 @@ class _GlassPtr:
         _let_go(self)
 
 
-def load(path, channels=None, only=None, progress=None):
+def load(path, channels=None, only=None, progress=None, rank3="exact"):
     """Read a BSDF XML file once (Klems, TensorTree3, TensorTree4, any resolution).
     channels: names to read (default all); only: components to read ("Tf,Rb"; default all; the
     reader completes a missing transmission by reciprocity, with a LibraryWarning for anything
-    it takes as zero)."""
-    return File(path, channels, only, progress)
+    it takes as zero); rank3: how a TensorTree3 of depth d meets a finer order in a stack,
+    "exact" (sampled at that order) or "native" (at order d, held factored: faster, coarser;
+    combine --rank3 in bsdfstack-combine(1))."""
+    return File(path, channels, only, progress, rank3)
 
 
 def glass(spec, catalogue=None):

@@ -173,6 +173,8 @@ _PROTOTYPES = {
     "bst_bsdf_kind": (c_int, [c_void_p]),
     "bst_bsdf_order": (c_int, [c_void_p]),
     "bst_bsdf_depth": (c_int, [c_void_p]),
+    "bst_bsdf_set_rank3_rule": (c_int, [c_void_p, c_void_p, c_int]),
+    "bst_bsdf_rank3_rule": (c_int, [c_void_p]),
     "bst_bsdf_negatives": (c_size_t, [c_void_p]),
     "bst_bsdf_klems_basis": (c_void_p, [c_void_p]),
     "bst_plan_pick_basis": (None, [c_size_t, c_void_p, c_void_p, c_int, c_char_p,

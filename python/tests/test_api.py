@@ -247,3 +247,19 @@ def test_glass_many_rows_grouped(tmp_path):
     for c in ("Tf", "Rf", "Tb", "Rb"):
         d = np.abs(np.diag(np.asarray(grouped.matrix(c))) - np.diag(np.asarray(every.matrix(c)))) * lam
         assert 0 < d.max() <= 1e-8, (c, d.max())
+
+
+def test_rank3_native_is_factored_at_its_own_order():
+    """load(rank3="native"): the depth-5 diffuser at k = 6 is held factored, and every fine
+    incident patch has the hemispherical T and R of the order-5 patch holding it (P M_5 P^T
+    spreads each order-5 value over four cells of a quarter of its solid angle)."""
+    native = bsdfstack.load(ref("L_diffuser_t3k5.xml"), rank3="native")
+    exact5 = bsdfstack.load(ref("L_diffuser_t3k5.xml")).resample(k=5)
+    fine = native.resample(k=6)
+    assert fine.structure("Tf") == "factored"
+    for comp in ("Tf", "Rf", "Tb", "Rb"):
+        for theta, phi in ((0, 0), (30, 45), (60, 200)):
+            assert abs(fine.hemispherical(comp, theta, phi) -
+                       exact5.hemispherical(comp, theta, phi)) < 1e-12
+    with pytest.raises(ValueError):
+        bsdfstack.load(ref("L_diffuser_t3k5.xml"), rank3="coarse")
