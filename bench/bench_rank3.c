@@ -1,10 +1,11 @@
 /* bench_rank3.c - a rank-3 tree at its own order (BST_RANK3_NATIVE) against the exact expansion:
- *   bench/bench_rank3 K [REFDIR [PRECISION]]
+ *   bench/bench_rank3 K [REFDIR [PRECISION [layer]]]
  * Reads L_diffuser_t3k5.xml (a rank-3 tree of depth 5) onto the Shirley-Chiu grid of order K > 5
- * both ways and prints, for the layer alone and for pane + layer + pane (glass:clear-6mm), per
- * component: the seconds and peak RSS of each way, GA and FA (bst_metrics_accordance: Grobe 2017
- * eq. 7 and the flux accordance) at the paper's directions and their least over every incident
- * patch, and the largest |difference| of an incident patch's directional-hemispherical value.
+ * both ways and prints, for the layer alone and for pane + layer + pane (glass:clear-6mm): the
+ * seconds of each way and the peak RSS so far (every native result is made first), and per
+ * component GA and FA (bst_metrics_accordance: Grobe 2017 eq. 7 and the flux accordance) at the
+ * paper's directions, their least over every incident patch, and the largest |difference| of an
+ * incident patch's directional-hemispherical value (`layer`: the layer alone only).
  * PRECISION (double, the default, or single) is that of the dense work of the exact way; at
  * K = 7 in double the exact stack needs about 14 GiB, in single about 7 GiB.  Run from the top of
  * the source tree (the pane from layers/glass) or set BSDFSTACK_GLASS_DIR. */
@@ -103,8 +104,8 @@ static void report(bst_ctx *ctx, const bst_layer *exact, const bst_layer *native
 
 int main(int argc, char **argv)
 {
-    if (argc < 2 || argc > 4) {
-        fprintf(stderr, "usage: bench/bench_rank3 K [REFDIR [double|single]]\n");
+    if (argc < 2 || argc > 5) {
+        fprintf(stderr, "usage: bench/bench_rank3 K [REFDIR [double|single [layer]]]\n");
         return 2;
     }
     int k = atoi(argv[1]);
@@ -116,17 +117,22 @@ int main(int argc, char **argv)
     bst_basis *b;
     if (!ctx || bst_basis_new_sc(ctx, k, &b) < 0)
         die(ctx, "basis");
-    for (int stack = 0; stack < 2; stack++) {
-        double te, tn;
-        /* the native way first: its peak is then its own */
-        bst_layer *native = make(ctx, path, b, BST_RANK3_NATIVE, prec, stack, &tn);
-        double pn = peak_mib();
+    int stacks = argc > 4 && strcmp(argv[4], "layer") == 0 ? 1 : 2;
+    /* every native result first, so that their peak RSS is their own (it only grows) */
+    bst_layer *native[2] = {NULL, NULL};
+    double tn[2], pn[2];
+    for (int stack = 0; stack < stacks; stack++) {
+        native[stack] = make(ctx, path, b, BST_RANK3_NATIVE, prec, stack, &tn[stack]);
+        pn[stack] = peak_mib();
+    }
+    for (int stack = 0; stack < stacks; stack++) {
+        double te;
         bst_layer *exact = make(ctx, path, b, BST_RANK3_EXACT, prec, stack, &te);
-        printf("%s, k = %d, %s: native %.2f s (peak %.0f MiB), exact %.2f s (peak %.0f MiB)\n",
-               stack ? "pane + L_diffuser_t3k5 + pane" : "L_diffuser_t3k5 alone", k,
-               prec == BST_FLOAT ? "single" : "double", tn, pn, te, peak_mib());
-        report(ctx, exact, native, b);
-        bst_layer_free(exact), bst_layer_free(native);
+        printf("%s, k = %d, %s: native %.2f s (peak RSS so far %.0f MiB), exact %.2f s (peak RSS "
+               "so far %.0f MiB)\n", stack ? "pane + L_diffuser_t3k5 + pane" : "L_diffuser_t3k5 alone",
+               k, prec == BST_FLOAT ? "single" : "double", tn[stack], pn[stack], te, peak_mib());
+        report(ctx, exact, native[stack], b);
+        bst_layer_free(exact), bst_layer_free(native[stack]);
     }
     bst_basis_free(b);
     bst_ctx_free(ctx);
