@@ -426,6 +426,8 @@ static int fill_layer(struct build *B, bst_layer *l, size_t nch, const size_t *c
 static int make_band(bst_ctx *ctx, const bst_venetian *v, const bst_basis *basis, bst_layer *l,
                      size_t nch, const size_t *ch)
 {
+    if (v->rule == BST_VENETIAN_CENTRE)
+        return bsti_vn_wce_band(ctx, v, basis, l, nch, ch);
     struct build B;
     memset(&B, 0, sizeof B);
     B.ctx = ctx, B.b = basis, B.v = v;
