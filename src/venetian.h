@@ -62,10 +62,11 @@ void bsti_vn_view(const bsti_vn_geom *g, double a, double b, double *view);
  * rs^bounces) per unit flux emitted diffusely by element j into the channel. */
 void bsti_vn_exchange(const bsti_vn_geom *g, double *gm);
 
-/* WINDOW's model (rule=centre, venetian_wce.c): the blind of slat values v into channels
- * ch[0..nch) of l; and the checks of its keys (rule, distribution, and what the model lacks). */
-int bsti_vn_wce_band(bst_ctx *ctx, const bst_venetian *v, const bst_basis *basis, bst_layer *l,
-                     size_t nch, const size_t *ch);
+/* WINDOW's model (rule=centre, venetian_wce.c): the blind v into channels vis[0..nvis) of l
+ * (its slat values) and sol[0..nsol) (Solar: what WCE's dual-band rule makes of v's solar values,
+ * bsdfstack.h); and the checks of its keys (rule, distribution, and what the model lacks). */
+int bsti_vn_wce_layer(bst_ctx *ctx, const bst_venetian *v, const bst_basis *basis, bst_layer *l,
+                      size_t nvis, const size_t *vis, size_t nsol, const size_t *sol);
 int bsti_vn_wce_check(bst_ctx *ctx, const bst_venetian *v);
 
 /* A layer of a sheet with openings (perforated.c; perforated screens, woven fabrics): share(data,

@@ -426,8 +426,6 @@ static int fill_layer(struct build *B, bst_layer *l, size_t nch, const size_t *c
 static int make_band(bst_ctx *ctx, const bst_venetian *v, const bst_basis *basis, bst_layer *l,
                      size_t nch, const size_t *ch)
 {
-    if (v->rule == BST_VENETIAN_CENTRE)
-        return bsti_vn_wce_band(ctx, v, basis, l, nch, ch);
     struct build B;
     memset(&B, 0, sizeof B);
     B.ctx = ctx, B.b = basis, B.v = v;
@@ -491,6 +489,8 @@ int bst_venetian_layer(bst_ctx *ctx, const bst_venetian *v, const bst_basis *bas
         else
             ch[nvis++] = c;
     rc = bst_layer_new(ctx, basis, nchannels, channels, &l);
+    if (rc >= 0 && v->rule == BST_VENETIAN_CENTRE) /* WINDOW's model: venetian_wce.c */
+        rc = bsti_vn_wce_layer(ctx, v, basis, l, nvis, ch, nsol, ch + nvis), nvis = nsol = 0;
     if (rc >= 0 && nvis)
         rc = make_band(ctx, v, basis, l, nvis, ch);
     if (rc >= 0 && nsol)

@@ -269,8 +269,8 @@ static int components(struct wce_build *B, bst_mat **mats)
     return rc;
 }
 
-int bsti_vn_wce_band(bst_ctx *ctx, const bst_venetian *v, const bst_basis *basis, bst_layer *l,
-                     size_t nch, const size_t *ch)
+/* The four dense components of the blind v over basis into mats (bst_comp order). */
+static int model(bst_ctx *ctx, const bst_venetian *v, const bst_basis *basis, bst_mat **mats)
 {
     struct wce_build B;
     memset(&B, 0, sizeof B);
@@ -280,27 +280,68 @@ int bsti_vn_wce_band(bst_ctx *ctx, const bst_venetian *v, const bst_basis *basis
     B.rhs = bsti_alloc_array(ctx, ne * B.n, sizeof *B.rhs);
     B.view = bsti_alloc_array(ctx, ne * B.n, sizeof *B.view);
     B.tdd = bsti_alloc_array(ctx, B.n, sizeof *B.tdd);
-    bst_mat *mats[BST_NCOMP] = {NULL};
     int rc = B.cen && B.rhs && B.view && B.tdd ? BST_OK : BST_ENOMEM;
     for (size_t i = 0; i < B.n && rc >= 0; i++)
         bst_basis_center(basis, i, B.cen + 3 * i);
     if (rc >= 0)
         rc = components(&B, mats);
-    for (int k = 0; k < BST_NCOMP && rc >= 0; k++) {
-        for (size_t j = 1; j < nch && rc >= 0; j++) {
-            bst_mat *copy;
-            rc = bst_mat_convert(ctx, mats[k], BST_DENSE, BST_DOUBLE, &copy);
-            if (rc >= 0)
-                rc = bst_layer_set(ctx, l, ch[j], (bst_comp)k, copy);
-        }
-        if (rc >= 0) {
-            rc = bst_layer_set(ctx, l, ch[0], (bst_comp)k, mats[k]);
-            mats[k] = NULL; /* the layer's now, also on failure */
-        }
-    }
-    for (int k = 0; k < BST_NCOMP; k++)
-        bst_mat_free(mats[k]);
     bsti_free(ctx, B.cen), bsti_free(ctx, B.rhs), bsti_free(ctx, B.view), bsti_free(ctx, B.tdd);
+    return rc;
+}
+
+/* WCE's dual-band rule: the slat value outside the visible range, from the visible and the
+ * solar one (NaN: as visible). */
+static double outside(double vis, double sol)
+{
+    if (isnan(sol))
+        return vis;
+    return fmax(0.0, (sol - BST_DUAL_BAND_F * vis) / (1.0 - BST_DUAL_BAND_F));
+}
+
+/* mats[k] into channels ch[0..nch) of l (copies but for the last, which the layer takes). */
+static int put(bst_ctx *ctx, bst_layer *l, size_t nch, const size_t *ch, bst_mat **mats)
+{
+    int rc = BST_OK;
+    for (int k = 0; k < BST_NCOMP && rc >= 0; k++)
+        for (size_t j = 0; j < nch && rc >= 0; j++) {
+            bst_mat *m = mats[k];
+            if (j + 1 < nch)
+                rc = bst_mat_convert(ctx, mats[k], BST_DENSE, BST_DOUBLE, &m);
+            else
+                mats[k] = NULL; /* the layer's now, also on failure */
+            if (rc >= 0)
+                rc = bst_layer_set(ctx, l, ch[j], (bst_comp)k, m);
+        }
+    return rc;
+}
+
+int bsti_vn_wce_layer(bst_ctx *ctx, const bst_venetian *v, const bst_basis *basis, bst_layer *l,
+                      size_t nvis, const size_t *vis, size_t nsol, const size_t *sol)
+{
+    bst_mat *mv[BST_NCOMP] = {NULL}, *mo[BST_NCOMP] = {NULL};
+    int rc = model(ctx, v, basis, mv);
+    if (rc >= 0 && nsol) {
+        /* WCE takes the visible values inside 0.38-0.78 um and the rule's outside: its solar
+         * band then weighs the two layers f : 1 - f, as the stack's dual-band rule splits them */
+        bst_venetian vo = *v;
+        vo.r_up = outside(v->r_up, v->solar[0]);
+        vo.r_down = outside(v->r_down, v->solar[1]);
+        vo.t = outside(v->t, v->solar[2]);
+        rc = model(ctx, &vo, basis, mo);
+        for (int k = 0; k < BST_NCOMP && rc >= 0; k++) {
+            double *a = bst_mat_dense_data(mo[k]);
+            const double *b = bst_mat_dense_data(mv[k]);
+            size_t nn = bst_basis_size(basis) * bst_basis_size(basis);
+            for (size_t q = 0; q < nn; q++)
+                a[q] = BST_DUAL_BAND_F * b[q] + (1.0 - BST_DUAL_BAND_F) * a[q];
+        }
+        if (rc >= 0)
+            rc = put(ctx, l, nsol, sol, mo);
+    }
+    if (rc >= 0)
+        rc = put(ctx, l, nvis, vis, mv);
+    for (int k = 0; k < BST_NCOMP; k++)
+        bst_mat_free(mv[k]), bst_mat_free(mo[k]);
     return rc;
 }
 
@@ -325,6 +366,17 @@ int bsti_vn_wce_check(bst_ctx *ctx, const bst_venetian *v)
     if (v->curvature != 0.0)
         return bsti_error(ctx, BST_ENOTIMPL, "venetian: curvature = %g m: rule=centre models flat "
                           "slats only (curvature=0)", v->curvature);
+    static const char *const key[3] = {"r-up", "r-down", "t"};
+    const double x[3] = {v->r_up, v->r_down, v->t};
+    double o[3];
+    for (int k = 0; k < 3; k++)
+        o[k] = outside(x[k], v->solar[k]);
+    if (o[0] + o[2] > 1.0 + 1e-12 || o[1] + o[2] > 1.0 + 1e-12) {
+        int k = o[0] + o[2] > 1.0 + 1e-12 ? 0 : 1;
+        return bsti_error(ctx, BST_EINVAL, "venetian: %s + t outside the visible range = %g is "
+                          "above 1 (rule=centre takes (solar - %g visible) / %g there, as WINDOW)",
+                          key[k], o[k] + o[2], BST_DUAL_BAND_F, 1.0 - BST_DUAL_BAND_F);
+    }
     if (v->samples != 0)
         return bsti_error(ctx, BST_EINVAL, "venetian: samples = %d: rule=centre takes one direction "
                           "per patch (leave samples out)", v->samples);

@@ -289,6 +289,7 @@ START_TEST(test_spec)
         {"rule=centre,r=0.5/0.4,rs=0/0.2", "rs"},
         {"rule=centre,curvature=20mm", "curvature"},
         {"rule=centre,samples=4", "samples"},
+        {"rule=centre,r=0.2/0.7", "r-up + t outside the visible range"},
         {"rule=centre,rule=centre", "rule"},
     };
     for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
