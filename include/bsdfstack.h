@@ -909,7 +909,11 @@ typedef struct {
  * b the first arrivals: the radiosity, and reciprocal, only for E = r I, i.e. t = 0 and
  * r_up = r_down).  The unobstructed share of the centre direction goes on the diagonal over
  * Lambda.  Neither distribution conserves energy exactly with lossless slats but the uniform one
- * (directional: T + R off 1 by up to 0.06 in Klems full for r = 0.8, t = 0.2).  A vertical blind is turned in both
+ * (directional: T + R off 1 by up to 0.06 in Klems full for r = 0.8, t = 0.2).  With dual-band
+ * slats the Solar channel is WCE's dual-band rule applied to the slats: BST_DUAL_BAND_F times the
+ * layer of the visible values plus 1 - BST_DUAL_BAND_F times that of (solar - f visible) / (1 - f)
+ * (at least 0; r + t of these above 1 is refused), so that a spectral stack's dual-band rule
+ * gives WCE's per-wavelength layers.  A vertical blind is turned in both
  * distributions (WCE v1.0.75 turns it only in the uniform one); |tilt| is held below 89.99999 as
  * WCE holds it. */
 enum { BST_VENETIAN_AVERAGE = 0, BST_VENETIAN_CENTRE = 1 };
