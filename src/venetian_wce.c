@@ -24,7 +24,8 @@
  *                v_k the share of the exit opening that looks onto strip k along the outgoing
  *                direction.
  * Every patch is taken at its centre direction (bst_basis_center); the unobstructed share of the
- * incident centre goes on the diagonal over Lambda. */
+ * incident centre goes on the diagonal over Lambda.  Dual-band slats: the Solar channel weighs the
+ * layers of the visible and of the outside values f : 1 - f (bsti_vn_wce_layer). */
 #include <config.h>
 
 #include <math.h>

@@ -7,6 +7,7 @@
  *   how far the default model (rule=average) lies from them;
  * - black slats: the unobstructed share of each patch's centre direction on the diagonal (the
  *   closed form 1 - w |sin(phi - tilt)| / (s cos phi)), nothing else, in both distributions;
+ *   closed at +-90 degrees;
  * - uniform distribution, lossless slats (r + t = 1): T + R = 1 for every incident patch to 1e-12
  *   (it is not reciprocal: each column is one constant);
  * - directional distribution with t = 0: reciprocal (Tf(o, i) = Tb(a(i), a(o)), R(o, i) =
@@ -163,11 +164,13 @@ static double openness(double phi, double w, double s, double tilt_deg)
 
 /* Black slats, both distributions, horizontal and vertical: each incident patch's centre
  * direction passes its geometric openness onto the diagonal (times 1 / Lambda), from both sides
- * (from the interior against -tilt), and nothing else is transmitted or reflected. */
+ * (from the interior against -tilt), and nothing else is transmitted or reflected; at +-90 degrees
+ * the overlapping slats (width > spacing) let no light through. */
 START_TEST(test_black_openness)
 {
     static const char *const specs[] = {"tilt=0", "tilt=30", "tilt=-60,distribution=uniform",
-                                        "tilt=45,vertical", "tilt=89,distribution=uniform"};
+                                        "tilt=45,vertical", "tilt=89,distribution=uniform",
+                                        "tilt=90", "tilt=-90,vertical,distribution=uniform"};
     char spec[160];
     snprintf(spec, sizeof spec, "width=16mm,spacing=14.5mm,rule=centre,%s", specs[_i]);
     bst_venetian v = parse(spec);
@@ -343,7 +346,7 @@ static Suite *venetian_wce_suite(void)
     tcase_add_checked_fixture(tc, setup, teardown);
     tcase_set_timeout(tc, 300);
     tcase_add_test(tc, test_wce_case);
-    tcase_add_loop_test(tc, test_black_openness, 0, 5);
+    tcase_add_loop_test(tc, test_black_openness, 0, 7);
     tcase_add_loop_test(tc, test_uniform_lossless, 0, 3);
     tcase_add_loop_test(tc, test_directional_reciprocity, 0, 3);
     tcase_add_test(tc, test_spec);
