@@ -901,7 +901,7 @@ typedef struct {
 /* WINDOW's venetian model (rule=centre), as Windows-CalcEngine (v1.0.75) computes it, so that a
  * Klems-type basis gets WINDOW's numbers: flat diffuse slats (r_up, r_down, t; rs = 0) split into
  * `segments` strips per slat (5 when a spec gives rule=centre without segments=), every patch
- * evaluated at its centre direction only.  Light entering a channel lands on the strips (exact
+ * evaluated at its centre direction only (a ring of one patch at azimuth 180, as WCE).  Light entering a channel lands on the strips (exact
  * shares), the strips exchange it by crossed-strings view factors, and what leaves is spread:
  * UNIFORM, each incident patch's scattered flux by 1/pi over every outgoing patch; DIRECTIONAL,
  * by the radiance of the strips seen from each outgoing patch's centre (WCE solves the strips'

@@ -23,9 +23,11 @@
  *                seen from each outgoing patch's centre: its radiance sum_k x_k v_k s / (pi w / m),
  *                v_k the share of the exit opening that looks onto strip k along the outgoing
  *                direction.
- * Every patch is taken at its centre direction (bst_basis_center); the unobstructed share of the
- * incident centre goes on the diagonal over Lambda.  Dual-band slats: the Solar channel weighs the
- * layers of the visible and of the outside values f : 1 - f (bsti_vn_wce_layer). */
+ * Every patch is taken at its centre direction (bst_basis_center; a ring of one patch at azimuth
+ * 180 degrees, where WCE puts its centre: the same for a horizontal blind, the mirror image for a
+ * vertical one); the unobstructed share of the incident centre goes on the diagonal over Lambda.
+ * Dual-band slats: the Solar channel weighs the layers of the visible and of the outside values
+ * f : 1 - f (bsti_vn_wce_layer). */
 #include <config.h>
 
 #include <math.h>
@@ -282,8 +284,12 @@ static int model(bst_ctx *ctx, const bst_venetian *v, const bst_basis *basis, bs
     B.view = bsti_alloc_array(ctx, ne * B.n, sizeof *B.view);
     B.tdd = bsti_alloc_array(ctx, B.n, sizeof *B.tdd);
     int rc = B.cen && B.rhs && B.view && B.tdd ? BST_OK : BST_ENOMEM;
-    for (size_t i = 0; i < B.n && rc >= 0; i++)
-        bst_basis_center(basis, i, B.cen + 3 * i);
+    for (size_t i = 0; i < B.n && rc >= 0; i++) {
+        double *c = B.cen + 3 * i;
+        bst_basis_center(basis, i, c);
+        if (bst_basis_antipode(basis, i) == i) /* a ring of one patch: WCE's centre is at 180 deg */
+            c[0] = -c[0], c[1] = -c[1];
+    }
     if (rc >= 0)
         rc = components(&B, mats);
     bsti_free(ctx, B.cen), bsti_free(ctx, B.rhs), bsti_free(ctx, B.view), bsti_free(ctx, B.tdd);
