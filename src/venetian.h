@@ -62,6 +62,13 @@ void bsti_vn_view(const bsti_vn_geom *g, double a, double b, double *view);
  * rs^bounces) per unit flux emitted diffusely by element j into the channel. */
 void bsti_vn_exchange(const bsti_vn_geom *g, double *gm);
 
+/* WINDOW's model (rule=centre, venetian_wce.c): the blind v into channels vis[0..nvis) of l
+ * (its slat values) and sol[0..nsol) (Solar: what WCE's dual-band rule makes of v's solar values,
+ * bsdfstack.h); and the checks of its keys (rule, distribution, and what the model lacks). */
+int bsti_vn_wce_layer(bst_ctx *ctx, const bst_venetian *v, const bst_basis *basis, bst_layer *l,
+                      size_t nvis, const size_t *vis, size_t nsol, const size_t *sol);
+int bsti_vn_wce_check(bst_ctx *ctx, const bst_venetian *v);
+
 /* A layer of a sheet with openings (perforated.c; perforated screens, woven fabrics): share(data,
  * d) the share of the sheet open along unit direction d (even in d), averaged over each patch by
  * samples^2 directions (0: BST_VENETIAN_SAMPLES), on the diagonal of the transmissions; the rest

@@ -489,6 +489,8 @@ int bst_venetian_layer(bst_ctx *ctx, const bst_venetian *v, const bst_basis *bas
         else
             ch[nvis++] = c;
     rc = bst_layer_new(ctx, basis, nchannels, channels, &l);
+    if (rc >= 0 && v->rule == BST_VENETIAN_CENTRE) /* WINDOW's model: venetian_wce.c */
+        rc = bsti_vn_wce_layer(ctx, v, basis, l, nvis, ch, nsol, ch + nvis), nvis = nsol = 0;
     if (rc >= 0 && nvis)
         rc = make_band(ctx, v, basis, l, nvis, ch);
     if (rc >= 0 && nsol)

@@ -4,7 +4,8 @@
  * Keys: width, spacing, curvature (lengths as glass: takes them: 16mm, 0.016m, 1.6cm, 0.63in,
  * bare = mm), tilt (degrees), segments, samples (counts), vertical (a flag, or vertical=0|1),
  * r (both faces' diffuse reflectance), r-up, r-down, t, rs, roughness (numbers; the first five
- * also as VISIBLE/SOLAR: the second for a channel named Solar, the first for any other).  Every message
+ * also as VISIBLE/SOLAR: the second for a channel named Solar, the first for any other), rule
+ * (average | centre: WINDOW's model, venetian_wce.c) and distribution (directional | uniform).  Every message
  * names the key it is about, so that a script's user finds the mistake in a long spec. */
 #include <config.h>
 
@@ -92,10 +93,21 @@ static int parse_count(const char *v, int lo, int hi, int *n)
 }
 
 enum { K_WIDTH, K_SPACING, K_TILT, K_CURV, K_SEG, K_SAMPLES, K_VERT, K_R, K_RUP, K_RDOWN, K_T,
-       K_RS, K_ROUGH, NKEYS };
+       K_RS, K_ROUGH, K_RULE, K_DIST, NKEYS };
 static const char *const key_name[NKEYS] = {"width", "spacing", "tilt", "curvature", "segments",
                                             "samples", "vertical", "r", "r-up", "r-down", "t",
-                                            "rs", "roughness"};
+                                            "rs", "roughness", "rule", "distribution"};
+
+/* The words of rule= and distribution=, by value (bsdfstack.h: BST_VENETIAN_AVERAGE, ...). */
+static int parse_word(const char *val, const char *const *words, int nwords, int *x)
+{
+    for (int k = 0; k < nwords; k++)
+        if (strcmp(val, words[k]) == 0) {
+            *x = k;
+            return 0;
+        }
+    return -1;
+}
 
 /* One key=value (val NULL: a bare key) into v. */
 static int set_key(bst_ctx *ctx, int k, const char *val, bst_venetian *v)
@@ -110,6 +122,13 @@ static int set_key(bst_ctx *ctx, int k, const char *val, bst_venetian *v)
     } else if (!val) {
         return bsti_error(ctx, BST_EINVAL, "venetian: %s needs a value (%s=...)", key_name[k],
                           key_name[k]);
+    } else if (k == K_RULE || k == K_DIST) {
+        static const char *const rules[] = {"average", "centre"}, *const dists[] = {"directional", "uniform"};
+        if (k == K_RULE && strcmp(val, "center") == 0)
+            val = "centre";
+        if (parse_word(val, k == K_RULE ? rules : dists, 2, k == K_RULE ? &v->rule : &v->distribution))
+            return bsti_error(ctx, BST_EINVAL, "venetian: %s: '%s' is not %s", key_name[k], val,
+                              k == K_RULE ? "average or centre" : "directional or uniform");
     } else if (k == K_SEG) {
         bad = parse_count(val, 1, VN_MAX_SEGMENTS, &v->segments);
     } else if (k == K_SAMPLES) {
@@ -179,6 +198,10 @@ int bst_venetian_parse(bst_ctx *ctx, const char *spec, bst_venetian *v)
     if (!seen[K_WIDTH] || !seen[K_SPACING])
         return bsti_error(ctx, BST_EINVAL, "venetian: %s missing (width and spacing are needed)",
                           seen[K_WIDTH] ? "spacing" : "width");
+    if (seen[K_DIST] && v->rule != BST_VENETIAN_CENTRE)
+        return bsti_error(ctx, BST_EINVAL, "venetian: distribution needs rule=centre (WINDOW's model)");
+    if (v->rule == BST_VENETIAN_CENTRE && !seen[K_SEG]) /* WINDOW's default */
+        v->segments = BST_VENETIAN_WCE_SEGMENTS;
     return bst_venetian_check(ctx, v);
 }
 
@@ -228,6 +251,9 @@ int bst_venetian_check(bst_ctx *ctx, const bst_venetian *v)
     if (!(v->roughness >= 0.0) || !isfinite(v->roughness))
         return bsti_error(ctx, BST_EINVAL, "venetian: roughness = %g is not a slope >= 0",
                           v->roughness);
+    int rc = bsti_vn_wce_check(ctx, v);
+    if (rc < 0)
+        return rc;
     if (v->curvature != 0.0)
         return bsti_error(ctx, BST_ENOTIMPL, "venetian: curvature = %g m: curved slats are not "
                           "modelled yet (curvature=0 for flat slats)", v->curvature);

@@ -1295,6 +1295,47 @@ START_TEST(test_spectral_workers)
 }
 END_TEST
 
+/* dg_small_102_venetian built from the blind's description alone: NFRC 102 and
+ * venetian:...,rule=centre (WINDOW's model, slats r = 0.6/0.7, t = 0.2/0.1) combined per
+ * wavelength as WCE combines them; the layer's Solar channel carries WCE's dual-band rule for the
+ * slats (test_venetian_wce.c checks the model's matrices themselves). */
+START_TEST(test_dg_small_venetian_model)
+{
+    bst_basis *b = wce_basis("basis_wce_small.tsv");
+    size_t N = bst_basis_size(b);
+    bst_glass *g;
+    ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-102", getenv("BSDFSTACK_GLASS_DIR"), &g), BST_OK);
+    bst_venetian v;
+    ck_assert_int_eq(bst_venetian_parse(ctx, "width=16mm,spacing=12mm,tilt=45,rule=centre,"
+                                        "distribution=directional,r=0.6/0.7,t=0.2/0.1", &v), BST_OK);
+    ck_assert_int_eq(v.segments, 5);
+    bst_layer *shade;
+    ck_assert_int_eq(bst_venetian_layer(ctx, &v, b, 0, NULL, &shade), BST_OK);
+    bst_spectral_layer l[2] = {{.pane = g}, {.bands = shade}};
+    bst_spectral_opts so;
+    bst_spectral_opts_init(&so);
+    so.at_centre = 1;
+    so.tol = 0; /* WCE combines every wavelength */
+    double *af = malloc(2 * N * sizeof *af), *ab = malloc(2 * N * sizeof *ab);
+    bst_layer *r;
+    int rc = bst_stack_combine_spectral_layers(ctx, 2, l, b, 1, (const char *const[]){"Solar"}, &so,
+                                               NULL, &r, af, ab);
+    ck_assert_msg(rc >= 0, "%s", bst_ctx_message(ctx));
+    struct sys s;
+    sys_init(&s, b, 2);
+    sys_from(&s, r, 0, af, ab);
+    ck_assert_int_eq(compare_results(&s, "wce/cases/dg_small_102_venetian_results.tsv", "solar",
+                                     WCE_TOL, 0), 92);
+    assert_energy(&s);
+    sys_free(&s);
+    bst_layer_free(r);
+    bst_layer_free(shade);
+    free(af), free(ab);
+    bst_glass_free(g);
+    bst_basis_free(b);
+}
+END_TEST
+
 static Suite *wce_suite(void)
 {
     Suite *s = suite_create("wce");
@@ -1317,6 +1358,7 @@ static Suite *wce_suite(void)
     tcase_add_test(tc, test_dg_quarter_lambertian_visible_from_data);
     tcase_add_test(tc, test_dg_full_2011SA1_library);
     tcase_add_test(tc, test_dg_small_lambertian_library);
+    tcase_add_test(tc, test_dg_small_venetian_model);
     tcase_add_test(tc, test_spectral_columns);
     tcase_add_test(tc, test_spectral_groups);
     tcase_add_test(tc, test_combine_absorptance_one_pass);
