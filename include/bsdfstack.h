@@ -901,6 +901,9 @@ void bst_venetian_init(bst_venetian *v);
 int bst_venetian_parse(bst_ctx *ctx, const char *spec, bst_venetian *v);
 /* The checks bst_venetian_parse makes, for a struct filled by hand. */
 int bst_venetian_check(bst_ctx *ctx, const bst_venetian *v);
+/* The key=value items of spec applied to v as it is (a record's blind, bst_shade_model_of), then
+ * checked: each key replaces what v had (a plain r, r-up, r-down, t or rs its Solar value too). */
+int bst_venetian_update(bst_ctx *ctx, const char *spec, bst_venetian *v);
 /* The blind as a layer over basis with the channels named (nchannels 0: "Visible" and "Solar"):
  * Solar from the solar values where given, every other channel from the others. */
 int bst_venetian_layer(bst_ctx *ctx, const bst_venetian *v, const bst_basis *basis,
@@ -924,10 +927,17 @@ typedef struct {
     double hole_x, hole_y;    /* rectangular holes (> 0, <= the pitch), NaN for circular ones */
     double rf, rb, t;         /* diffuse reflectances (front, back) and transmittance */
     int samples;              /* samples^2 directions per patch; 0: BST_VENETIAN_SAMPLES */
+    double solar[3];          /* rf, rb, t of a channel named Solar (spec values "VISIBLE/SOLAR");
+                                 NaN (default): the values above */
 } bst_perforated;
+/* The defaults: no geometry (pitch, radius and holes NaN), thickness 0, a black sheet. */
+void bst_perforated_init(bst_perforated *p);
 /* Parse "x=5mm,y=5mm,radius=1mm,thickness=1mm,r=0.7" (the text after "perforated:"); every error
  * names its key. */
 int bst_perforated_parse(bst_ctx *ctx, const char *spec, bst_perforated *p);
+/* The items of spec applied to p as it is, then checked (as bst_venetian_update; radius replaces
+ * rectangular holes and hole-x or hole-y a radius). */
+int bst_perforated_update(bst_ctx *ctx, const char *spec, bst_perforated *p);
 /* The screen as a layer over basis, every channel named (nchannels 0: Visible and Solar) the same. */
 int bst_perforated_layer(bst_ctx *ctx, const bst_perforated *p, const bst_basis *basis,
                          size_t nchannels, const char *const *channels, bst_layer **out);
@@ -938,13 +948,20 @@ int bst_perforated_layer(bst_ctx *ctx, const bst_perforated *p, const bst_basis 
  * `diameter` along X and along Y every `spacing` (m).  The open share along a direction is
  * (1 - d / (s cos theta_x))+ (1 - d / (s cos theta_y))+, theta_x and theta_y its angles from the
  * normal across each set of threads (the openness (1 - d / s)^2 at the normal); the rest is
- * reflected (r) and transmitted (t) diffusely as by a perforated screen. */
+ * reflected (rf from the front, rb from the back) and transmitted (t) diffusely as by a perforated
+ * screen. */
 typedef struct {
     double diameter, spacing;
-    double r, t;
+    double rf, rb, t;
     int samples;            /* samples^2 directions per patch; 0: BST_VENETIAN_SAMPLES */
+    double solar[3];        /* rf, rb, t of a channel named Solar; NaN (default): the values above */
 } bst_woven;
+/* The defaults: no geometry (NaN), black threads. */
+void bst_woven_init(bst_woven *w);
+/* Parse "diameter=0.5mm,spacing=2mm,r=0.7,t=0.1" (the text after "woven:"). */
 int bst_woven_parse(bst_ctx *ctx, const char *spec, bst_woven *w);
+/* The items of spec applied to w as it is, then checked (as bst_venetian_update). */
+int bst_woven_update(bst_ctx *ctx, const char *spec, bst_woven *w);
 int bst_woven_layer(bst_ctx *ctx, const bst_woven *w, const bst_basis *basis, size_t nchannels,
                     const char *const *channels, bst_layer **out);
 

@@ -45,7 +45,8 @@ static int perforated_layer(bst_ctx *c, const union shade *u, const bst_basis *b
 }
 static int perforated_scatters(const union shade *u)
 {
-    return u->p.rf > 0 || u->p.rb > 0 || u->p.t > 0;
+    return u->p.rf > 0 || u->p.rb > 0 || u->p.t > 0 || u->p.solar[0] > 0 || u->p.solar[1] > 0 ||
+           u->p.solar[2] > 0;
 }
 
 static int woven_parse(bst_ctx *c, const char *s, union shade *u)
@@ -59,7 +60,8 @@ static int woven_layer(bst_ctx *c, const union shade *u, const bst_basis *b, siz
 }
 static int woven_scatters(const union shade *u)
 {
-    return u->w.r > 0 || u->w.t > 0;
+    return u->w.rf > 0 || u->w.rb > 0 || u->w.t > 0 || u->w.solar[0] > 0 || u->w.solar[1] > 0 ||
+           u->w.solar[2] > 0;
 }
 
 static const struct kind {
