@@ -814,10 +814,9 @@ const bst_glass_meta *bst_glass_metadata(const bst_glass *g);
 
 /* A shading product of the International Glazing and Shading Database (an IGSDB JSON record of
  * type "shading"): its material and its geometry, read and validated, for a geometric shade model
- * to turn into a layer.  glass: specs refuse these records (BST_ENOTIMPL); the geometric shade
- * models (bst_venetian, bst_perforated, bst_woven) take their geometry as specs, not yet from a
- * record.  Lengths in millimetres, angles in degrees, wavelengths in micrometres.
- * IGSDB v1 field names are given beside each member. */
+ * to turn into a layer (bst_shade_model_of below; "shade:FILE" specs).  glass: specs refuse these
+ * records (BST_EINVAL, naming shade:FILE).  Lengths in millimetres, angles in degrees, wavelengths
+ * in micrometres.  IGSDB v1 field names are given beside each member. */
 typedef enum { BST_SHADE_VENETIAN, BST_SHADE_WOVEN, BST_SHADE_PERFORATED } bst_shade_kind;
 typedef enum { BST_PERFORATION_CIRCULAR, BST_PERFORATION_RECTANGULAR,
                BST_PERFORATION_SQUARE } bst_perforation;
@@ -852,9 +851,12 @@ typedef struct {
         struct {
             bst_perforation type;            /* perforation_type */
             double spacing_x, spacing_y;     /* spacing_x, spacing_y */
-            double dimension_x, dimension_y; /* circular: dimension_x is the diameter */
+            double dimension_x, dimension_y; /* Circular: dimension_x is the hole's RADIUS (as
+                                                LBNL's WinCalc hands it to Windows-CalcEngine);
+                                                Square: dimension_x is the side */
         } perforated;
     } geometry;
+    char *path;                     /* the file read */
 } bst_shade;
 /* Read one IGSDB v1 shading record (a JSON file); every error names the file and the field. */
 int bst_shade_read_igsdb(bst_ctx *ctx, const char *path, bst_shade **out);
@@ -964,6 +966,53 @@ int bst_woven_parse(bst_ctx *ctx, const char *spec, bst_woven *w);
 int bst_woven_update(bst_ctx *ctx, const char *spec, bst_woven *w);
 int bst_woven_layer(bst_ctx *ctx, const bst_woven *w, const bst_basis *basis, size_t nchannels,
                     const char *const *channels, bst_layer **out);
+
+/* ------------------------------------------- IGSDB shading products as layers: shade.c */
+
+/* The band values a record's material gives the shade models (bsdfstack-glass(5), "IGSDB shading
+ * records"): from its spectral rows when it has them, averaged over Visible (D65 x V) and Solar
+ * (ASTM E891) as a spectral pane's channels average its rows (glass_band.c, the band spectra read
+ * from catalogue_dir, NULL = bst_glass_catalogue_dir()), every value diffuse (specular 0, Tf = Tb
+ * = T); else its dual_band_values as the record gives them (NaN where absent). */
+int bst_shade_band_values(bst_ctx *ctx, const bst_shade *s, const char *catalogue_dir,
+                          bst_shade_band *visible, bst_shade_band *solar);
+
+/* A shade made from its geometry: the model of `kind`, the one of the three structs filled. */
+typedef struct {
+    bst_shade_kind kind;
+    bst_venetian venetian;     /* BST_SHADE_VENETIAN */
+    bst_perforated perforated; /* BST_SHADE_PERFORATED */
+    bst_woven woven;           /* BST_SHADE_WOVEN */
+} bst_shade_model;
+/* Front and back values of one band that a model holds as one (a slat's or thread's diffuse
+ * transmittance Tf and Tb; a slat's specular reflectance of its two faces) are averaged when they
+ * differ by at most this, else the record is refused. */
+#define BST_SHADE_SIDE_TOL 0.005
+/* The record as its kind's model, then overrides (the key=value items of that kind's spec,
+ * bst_venetian_update etc.; NULL or "" for none) applied and the result checked.  Venetian: width,
+ * spacing, tilt (IGSDB's sign is ours), curvature and segments from the geometry; the material's
+ * Rf on the face looking up (r-up; WINDOW's front), Rb on the other (r-down), specular parts as
+ * rs, T (spectral rows) or Tf + Tb's specular and diffuse parts as the diffuse t.  Perforated:
+ * pitch spacing_x, spacing_y, radius dimension_x (Circular) or holes dimension_x by dimension_y
+ * (Rectangular; Square: dimension_x both ways), thickness the material's; woven: diameter and
+ * spacing; both with rf, rb, t the material's whole R and T (their light scattered diffusely).
+ * Every error is one line naming the file (s->path) and the field or key. */
+int bst_shade_model_of(bst_ctx *ctx, const bst_shade *s, const char *catalogue_dir,
+                       const char *overrides, bst_shade_model *m);
+/* A shade spec as the program's layers name it, parsed into m: "venetian:KEYS", "perforated:KEYS",
+ * "woven:KEYS" or "shade:FILE[,KEYS]" (an IGSDB shading record read, bst_shade_model_of; FILE
+ * ends at its first comma unless the whole text names a file). */
+int bst_shade_parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, bst_shade_model *m);
+/* The model as a layer over basis (nchannels 0: Visible and Solar), by its kind's *_layer. */
+int bst_shade_model_layer(bst_ctx *ctx, const bst_shade_model *m, const bst_basis *basis,
+                          size_t nchannels, const char *const *channels, bst_layer **out);
+/* The model as the spec that makes it ("venetian:width=16mm,...", values as VISIBLE/SOLAR where
+ * the Solar channel differs), into buf (size bytes, truncated); returns the length it needs. */
+size_t bst_shade_model_spec(const bst_shade_model *m, char *buf, size_t size);
+/* bst_shade_parse then bst_shade_model_layer, for bindings that do not hold the struct. */
+int bst_shade_spec_layer(bst_ctx *ctx, const char *spec, const char *catalogue_dir,
+                         const bst_basis *basis, size_t nchannels, const char *const *channels,
+                         bst_layer **out);
 
 /* ---------------------------------------------------------------------- sun positions: sun.c */
 
