@@ -83,15 +83,16 @@ static int band_model(bst_ctx *ctx, const bst_shade *s, const bst_shade_band *b,
     if (fabs(tot[0] - tot[1]) > BST_SHADE_SIDE_TOL)
         return bsti_error(ctx, BST_ENOTIMPL, "%s: the material's Tf_%s %g and Tb_%s %g differ: the "
                           "shade models transmit the same both ways", s->path, bn, tot[0], bn, tot[1]);
-    x[2] = (tot[0] + tot[1]) / 2;
+    x[2] = tot[0] == tot[1] ? tot[0] : (tot[0] + tot[1]) / 2;
     x[0] = tot[2], x[1] = tot[3], x[3] = 0.0;
     if (keep_rs) {
         if (fabs(sp[2] - sp[3]) > BST_SHADE_SIDE_TOL)
             return bsti_error(ctx, BST_ENOTIMPL, "%s: the material's Rf_%s_specular %g and "
                               "Rb_%s_specular %g differ: a slat has one specular reflectance (rs) "
                               "for both faces", s->path, bn, sp[2], bn, sp[3]);
-        x[3] = (sp[2] + sp[3]) / 2;
-        x[0] -= sp[2], x[1] -= sp[3];
+        x[3] = sp[2] == sp[3] ? sp[2] : (sp[2] + sp[3]) / 2;
+        for (int c = 2; c < 4; c++) /* the diffuse parts as given (0 when absent) */
+            x[c - 2] = isnan(b->diffuse[c]) ? 0.0 : b->diffuse[c];
     }
     return BST_OK;
 }
