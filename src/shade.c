@@ -269,13 +269,17 @@ static void put(struct text *t, const char *fmt, ...)
         t->len += (size_t)n;
 }
 
-/* ",KEY=VALUE" of a per-channel value, VALUE/SOLAR where the Solar channel's differs. */
+/* ",KEY=VALUE" of a per-channel value, VALUE/SOLAR where the Solar channel's differs in the
+ * digits written (band averages of the same rows may differ in the last bit). */
 static void put_band(struct text *t, const char *key, double x, double sol)
 {
-    if (isnan(sol) || sol == x)
-        put(t, ",%s=%.10g", key, x);
+    char a[32], b[32];
+    snprintf(a, sizeof a, "%.10g", x);
+    snprintf(b, sizeof b, "%.10g", sol);
+    if (isnan(sol) || strcmp(a, b) == 0)
+        put(t, ",%s=%s", key, a);
     else
-        put(t, ",%s=%.10g/%.10g", key, x, sol);
+        put(t, ",%s=%s/%s", key, a, b);
 }
 
 size_t bst_shade_model_spec(const bst_shade_model *m, char *buf, size_t size)
