@@ -1009,7 +1009,10 @@ int bst_shade_model_layer(bst_ctx *ctx, const bst_shade_model *m, const bst_basi
 /* The model as the spec that makes it ("venetian:width=16mm,...", values as VISIBLE/SOLAR where
  * the Solar channel differs), into buf (size bytes, truncated); returns the length it needs. */
 size_t bst_shade_model_spec(const bst_shade_model *m, char *buf, size_t size);
-/* bst_shade_parse then bst_shade_model_layer, for bindings that do not hold the struct. */
+/* Bindings that do not hold the struct: bst_shade_parse, then the model's spec into buf (size
+ * bytes; BST_EINVAL when it does not fit), or the model's layer. */
+int bst_shade_spec_model(bst_ctx *ctx, const char *spec, const char *catalogue_dir, char *buf,
+                         size_t size);
 int bst_shade_spec_layer(bst_ctx *ctx, const char *spec, const char *catalogue_dir,
                          const bst_basis *basis, size_t nchannels, const char *const *channels,
                          bst_layer **out);

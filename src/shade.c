@@ -329,3 +329,15 @@ size_t bst_shade_model_spec(const bst_shade_model *m, char *buf, size_t size)
         put(&t, ",samples=%d", samples);
     return t.len;
 }
+
+int bst_shade_spec_model(bst_ctx *ctx, const char *spec, const char *catalogue_dir, char *buf,
+                         size_t size)
+{
+    bst_shade_model m;
+    int rc = bst_shade_parse(ctx, spec, catalogue_dir, &m);
+    if (rc < 0)
+        return rc;
+    if (bst_shade_model_spec(&m, buf, size) >= size)
+        return bsti_error(ctx, BST_EINVAL, "shade: the model's spec is longer than %zu characters", size);
+    return BST_OK;
+}
