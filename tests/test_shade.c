@@ -10,7 +10,9 @@
  *  - overrides (tilt, segments, a plain value replacing a dual-band one, a thickness the record
  *    lacks), and refusals with one line naming the file and the field or key: unknown key, a
  *    glazing record, Tf and Tb or the two faces' specular reflectances that differ, a missing
- *    component, a curved slat (passed to the venetian model, which decides). */
+ *    component, a curved slat (passed to the venetian model, which decides);
+ *  - allocation failure at every allocation of reading a record into its model: BST_ENOMEM and
+ *    nothing leaked. */
 #include <config.h>
 
 #include <math.h>
@@ -20,6 +22,7 @@
 #include <strings.h>
 #include <unistd.h>
 
+#include "testglass.h"
 #include "testutil.h"
 
 static bst_ctx *ctx;
@@ -333,6 +336,24 @@ START_TEST(test_refused)
 }
 END_TEST
 
+static int parse_step(bst_ctx *c, void *spec)
+{
+    bst_shade_model m;
+    return bst_shade_parse(c, spec, cat(), &m);
+}
+
+START_TEST(test_alloc_failure)
+{
+    char s[2][600];
+    snprintf(s[0], sizeof s[0], "shade:%s,tilt=10", record("v.json", "venetian", "", dual(slat), venetian_geo));
+    snprintf(s[1], sizeof s[1], "shade:%s", record("p.json", "perforated-screen", "\"thickness\": 0.2",
+             constant_rows, "\"spacing_x\": 1.7, \"spacing_y\": 2, \"dimension_x\": 0.6, "
+             "\"perforation_type\": \"Circular\""));
+    tg_alloc_sweep("a dual-band venetian record", 200, parse_step, s[0]);
+    tg_alloc_sweep("a screen record of spectral rows", 200, parse_step, s[1]);
+}
+END_TEST
+
 int main(void)
 {
     Suite *s = suite_create("shade");
@@ -344,6 +365,7 @@ int main(void)
     tcase_add_test(tc, test_woven);
     tcase_add_test(tc, test_band_values);
     tcase_add_test(tc, test_refused);
+    tcase_add_test(tc, test_alloc_failure);
     suite_add_tcase(s, tc);
     return tu_run(s);
 }
