@@ -824,10 +824,9 @@ const bst_glass_meta *bst_glass_metadata(const bst_glass *g);
 
 /* A shading product of the International Glazing and Shading Database (an IGSDB JSON record of
  * type "shading"): its material and its geometry, read and validated, for a geometric shade model
- * to turn into a layer.  glass: specs refuse these records (BST_ENOTIMPL); the geometric shade
- * models (bst_venetian, bst_perforated, bst_woven) take their geometry as specs, not yet from a
- * record.  Lengths in millimetres, angles in degrees, wavelengths in micrometres.
- * IGSDB v1 field names are given beside each member. */
+ * to turn into a layer (bst_shade_model_of below; "shade:FILE" specs).  glass: specs refuse these
+ * records (BST_EINVAL, naming shade:FILE).  Lengths in millimetres, angles in degrees, wavelengths
+ * in micrometres.  IGSDB v1 field names are given beside each member. */
 typedef enum { BST_SHADE_VENETIAN, BST_SHADE_WOVEN, BST_SHADE_PERFORATED } bst_shade_kind;
 typedef enum { BST_PERFORATION_CIRCULAR, BST_PERFORATION_RECTANGULAR,
                BST_PERFORATION_SQUARE } bst_perforation;
@@ -862,9 +861,12 @@ typedef struct {
         struct {
             bst_perforation type;            /* perforation_type */
             double spacing_x, spacing_y;     /* spacing_x, spacing_y */
-            double dimension_x, dimension_y; /* circular: dimension_x is the diameter */
+            double dimension_x, dimension_y; /* Circular: dimension_x is the hole's RADIUS (as
+                                                LBNL's WinCalc hands it to Windows-CalcEngine);
+                                                Square: dimension_x is the side */
         } perforated;
     } geometry;
+    char *path;                     /* the file read */
 } bst_shade;
 /* Read one IGSDB v1 shading record (a JSON file); every error names the file and the field. */
 int bst_shade_read_igsdb(bst_ctx *ctx, const char *path, bst_shade **out);
@@ -937,6 +939,9 @@ void bst_venetian_init(bst_venetian *v);
 int bst_venetian_parse(bst_ctx *ctx, const char *spec, bst_venetian *v);
 /* The checks bst_venetian_parse makes, for a struct filled by hand. */
 int bst_venetian_check(bst_ctx *ctx, const bst_venetian *v);
+/* The key=value items of spec applied to v as it is (a record's blind, bst_shade_model_of), then
+ * checked: each key replaces what v had (a plain r, r-up, r-down, t or rs its Solar value too). */
+int bst_venetian_update(bst_ctx *ctx, const char *spec, bst_venetian *v);
 /* The blind as a layer over basis with the channels named (nchannels 0: "Visible" and "Solar"):
  * Solar from the solar values where given, every other channel from the others. */
 int bst_venetian_layer(bst_ctx *ctx, const bst_venetian *v, const bst_basis *basis,
@@ -960,10 +965,17 @@ typedef struct {
     double hole_x, hole_y;    /* rectangular holes (> 0, <= the pitch), NaN for circular ones */
     double rf, rb, t;         /* diffuse reflectances (front, back) and transmittance */
     int samples;              /* samples^2 directions per patch; 0: BST_VENETIAN_SAMPLES */
+    double solar[3];          /* rf, rb, t of a channel named Solar (spec values "VISIBLE/SOLAR");
+                                 NaN (default): the values above */
 } bst_perforated;
+/* The defaults: no geometry (pitch, radius and holes NaN), thickness 0, a black sheet. */
+void bst_perforated_init(bst_perforated *p);
 /* Parse "x=5mm,y=5mm,radius=1mm,thickness=1mm,r=0.7" (the text after "perforated:"); every error
  * names its key. */
 int bst_perforated_parse(bst_ctx *ctx, const char *spec, bst_perforated *p);
+/* The items of spec applied to p as it is, then checked (as bst_venetian_update; radius replaces
+ * rectangular holes and hole-x or hole-y a radius). */
+int bst_perforated_update(bst_ctx *ctx, const char *spec, bst_perforated *p);
 /* The screen as a layer over basis, every channel named (nchannels 0: Visible and Solar) the same. */
 int bst_perforated_layer(bst_ctx *ctx, const bst_perforated *p, const bst_basis *basis,
                          size_t nchannels, const char *const *channels, bst_layer **out);
@@ -974,15 +986,72 @@ int bst_perforated_layer(bst_ctx *ctx, const bst_perforated *p, const bst_basis 
  * `diameter` along X and along Y every `spacing` (m).  The open share along a direction is
  * (1 - d / (s cos theta_x))+ (1 - d / (s cos theta_y))+, theta_x and theta_y its angles from the
  * normal across each set of threads (the openness (1 - d / s)^2 at the normal); the rest is
- * reflected (r) and transmitted (t) diffusely as by a perforated screen. */
+ * reflected (rf from the front, rb from the back) and transmitted (t) diffusely as by a perforated
+ * screen. */
 typedef struct {
     double diameter, spacing;
-    double r, t;
+    double rf, rb, t;
     int samples;            /* samples^2 directions per patch; 0: BST_VENETIAN_SAMPLES */
+    double solar[3];        /* rf, rb, t of a channel named Solar; NaN (default): the values above */
 } bst_woven;
+/* The defaults: no geometry (NaN), black threads. */
+void bst_woven_init(bst_woven *w);
+/* Parse "diameter=0.5mm,spacing=2mm,r=0.7,t=0.1" (the text after "woven:"). */
 int bst_woven_parse(bst_ctx *ctx, const char *spec, bst_woven *w);
+/* The items of spec applied to w as it is, then checked (as bst_venetian_update). */
+int bst_woven_update(bst_ctx *ctx, const char *spec, bst_woven *w);
 int bst_woven_layer(bst_ctx *ctx, const bst_woven *w, const bst_basis *basis, size_t nchannels,
                     const char *const *channels, bst_layer **out);
+
+/* ------------------------------------------- IGSDB shading products as layers: shade.c */
+
+/* The band values a record's material gives the shade models (bsdfstack-glass(5), "IGSDB shading
+ * records"): from its spectral rows when it has them, averaged over Visible (D65 x V) and Solar
+ * (ASTM E891) as a spectral pane's channels average its rows (glass_band.c, the band spectra read
+ * from catalogue_dir, NULL = bst_glass_catalogue_dir()), every value diffuse (specular 0, Tf = Tb
+ * = T); else its dual_band_values as the record gives them (NaN where absent). */
+int bst_shade_band_values(bst_ctx *ctx, const bst_shade *s, const char *catalogue_dir,
+                          bst_shade_band *visible, bst_shade_band *solar);
+
+/* A shade made from its geometry: the model of `kind`, the one of the three structs filled. */
+typedef struct {
+    bst_shade_kind kind;
+    bst_venetian venetian;     /* BST_SHADE_VENETIAN */
+    bst_perforated perforated; /* BST_SHADE_PERFORATED */
+    bst_woven woven;           /* BST_SHADE_WOVEN */
+} bst_shade_model;
+/* Front and back values of one band that a model holds as one (a slat's or thread's diffuse
+ * transmittance Tf and Tb; a slat's specular reflectance of its two faces) are averaged when they
+ * differ by at most this, else the record is refused. */
+#define BST_SHADE_SIDE_TOL 0.005
+/* The record as its kind's model, then overrides (the key=value items of that kind's spec,
+ * bst_venetian_update etc.; NULL or "" for none) applied and the result checked.  Venetian: width,
+ * spacing, tilt (IGSDB's sign is ours), curvature and segments from the geometry; the material's
+ * Rf on the face looking up (r-up; WINDOW's front), Rb on the other (r-down), specular parts as
+ * rs, T (spectral rows) or Tf + Tb's specular and diffuse parts as the diffuse t.  Perforated:
+ * pitch spacing_x, spacing_y, radius dimension_x (Circular) or holes dimension_x by dimension_y
+ * (Rectangular; Square: dimension_x both ways), thickness the material's; woven: diameter and
+ * spacing; both with rf, rb, t the material's whole R and T (their light scattered diffusely).
+ * Every error is one line naming the file (s->path) and the field or key. */
+int bst_shade_model_of(bst_ctx *ctx, const bst_shade *s, const char *catalogue_dir,
+                       const char *overrides, bst_shade_model *m);
+/* A shade spec as the program's layers name it, parsed into m: "venetian:KEYS", "perforated:KEYS",
+ * "woven:KEYS" or "shade:FILE[,KEYS]" (an IGSDB shading record read, bst_shade_model_of; FILE
+ * ends at its first comma unless the whole text names a file). */
+int bst_shade_parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, bst_shade_model *m);
+/* The model as a layer over basis (nchannels 0: Visible and Solar), by its kind's *_layer. */
+int bst_shade_model_layer(bst_ctx *ctx, const bst_shade_model *m, const bst_basis *basis,
+                          size_t nchannels, const char *const *channels, bst_layer **out);
+/* The model as the spec that makes it ("venetian:width=16mm,...", values as VISIBLE/SOLAR where
+ * the Solar channel differs), into buf (size bytes, truncated); returns the length it needs. */
+size_t bst_shade_model_spec(const bst_shade_model *m, char *buf, size_t size);
+/* Bindings that do not hold the struct: bst_shade_parse, then the model's spec into buf (size
+ * bytes; BST_EINVAL when it does not fit), or the model's layer. */
+int bst_shade_spec_model(bst_ctx *ctx, const char *spec, const char *catalogue_dir, char *buf,
+                         size_t size);
+int bst_shade_spec_layer(bst_ctx *ctx, const char *spec, const char *catalogue_dir,
+                         const bst_basis *basis, size_t nchannels, const char *const *channels,
+                         bst_layer **out);
 
 /* ---------------------------------------------------------------------- sun positions: sun.c */
 

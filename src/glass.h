@@ -168,6 +168,12 @@ int bsti_glass_read_igsdb(bst_ctx *ctx, bst_glass *g, const char *path);
  * path names the file in messages. */
 struct json_t;
 int bsti_glass_read_glazing_v2(bst_ctx *ctx, const char *path, bst_glass *g, struct json_t *root);
+/* Data d's normal-incidence Tf, Tb, Rf, Rb (v) averaged over the band named (Visible, Solar,
+ * CIE-X, CIE-Y, CIE-Z) with the weights a spectral pane's channel of that band gives its data, the
+ * band spectra read from the catalogue directory dir (a shade's material, bst_shade_model_of);
+ * where: for messages. */
+int bsti_glass_band_average(bst_ctx *ctx, const struct bsti_glass_data *d, const char *dir,
+                            const char *band, const char *where, double v[4]);
 /* Add band b as a channel of spectral pane g (where: for messages); complete or absent. */
 int bsti_glass_add_band(bst_ctx *ctx, bst_glass *g, const char *where,
                         const struct bsti_glass_band *b);

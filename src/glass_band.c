@@ -337,6 +337,40 @@ static int trapezoid(const double *x, const double *sd, size_t m, double lo, dou
     return 0;
 }
 
+/* The grid a band averages data d on: the data's own wavelengths for Solar (WCE's single-layer
+ * averages), the photopic grid for the others. */
+static void own_grid(const bst_glass *g, const struct bsti_glass_data *d,
+                     const struct bsti_glass_band *b, const double **own, size_t *m)
+{
+    *own = b->solar ? d->wl : g->photopic.x;
+    *m = b->solar ? d->n : g->photopic.n;
+}
+
+/* The weights w[0..m-1] of band b on that grid (own_grid): the band's average of P is
+ * sum_k w[k] P(own[k]), P the data interpolated linearly; one line naming where when the data do
+ * not reach the band. */
+static int own_weights(bst_ctx *ctx, const bst_glass *g, const struct bsti_glass_data *d,
+                       const char *where, const struct bsti_glass_band *b, double *w)
+{
+    const double *own;
+    size_t m;
+    own_grid(g, d, b, &own, &m);
+    if (d->wl[0] > b->hi || d->wl[d->n - 1] < b->lo)
+        return bsti_error(ctx, BST_EFORMAT, "%s: the data (%g..%g um) cover none of %s's range "
+                          "%g..%g um", where, d->wl[0], d->wl[d->n - 1], b->name, b->lo, b->hi);
+    double *sd = bsti_alloc_array(ctx, m, sizeof *sd);
+    if (!sd)
+        return BST_ENOMEM;
+    for (size_t k = 0; k < m; k++)
+        sd[k] = band_sd(g, b, own[k]);
+    int rc = trapezoid(own, sd, m, b->lo, b->hi, w);
+    bsti_free(ctx, sd);
+    if (rc < 0)
+        return bsti_error(ctx, BST_EFORMAT, "%s: no interval of the data's wavelengths lies in "
+                          "%s's range %g..%g um", where, b->name, b->lo, b->hi);
+    return BST_OK;
+}
+
 /* Fills channel g->nch with a spectral band of a spectral pane (bsti_glass_add_band commits or
  * clears it). */
 static int fill_band(bst_ctx *ctx, bst_glass *g, const char *where,
@@ -345,30 +379,22 @@ static int fill_band(bst_ctx *ctx, bst_glass *g, const char *where,
     const struct bsti_glass_data *d = &g->data;
     /* the single pane's own grid (WCE's single-layer averages) and the integration grid of
      * per-wavelength stacks (WCE's multi-layer averages) */
-    const double *own = b->solar ? d->wl : g->photopic.x;
-    size_t m = b->solar ? d->n : g->photopic.n;
+    const double *own;
+    size_t m;
+    own_grid(g, d, b, &own, &m);
     const double *ig = b->solar ? g->solar.x : g->photopic.x;
     size_t mg = b->solar ? g->solar.n : g->photopic.n;
-    if (d->wl[0] > b->hi || d->wl[d->n - 1] < b->lo)
-        return bsti_error(ctx, BST_EFORMAT, "%s: the data (%g..%g um) cover none of %s's range "
-                          "%g..%g um", where, d->wl[0], d->wl[d->n - 1], b->name, b->lo, b->hi);
+    if (d->wl[0] > b->hi || d->wl[d->n - 1] < b->lo) /* before the channel is made */
+        return own_weights(ctx, g, d, where, b, NULL);
     int rc = bsti_glass_channel_new(ctx, g, where, b->name, m);
     if (rc < 0)
         return rc;
     struct bsti_glass_channel *c = &g->ch[g->nch];
-    double *sd = bsti_alloc_array(ctx, m > mg ? m : mg, sizeof *sd);
-    if (!sd || !(c->grid = bsti_alloc_array(ctx, mg, sizeof *c->grid)) ||
-        !(c->sd = bsti_alloc_array(ctx, mg, sizeof *c->sd))) {
-        bsti_free(ctx, sd);
+    if (!(c->grid = bsti_alloc_array(ctx, mg, sizeof *c->grid)) ||
+        !(c->sd = bsti_alloc_array(ctx, mg, sizeof *c->sd)))
         return BST_ENOMEM;
-    }
-    for (size_t k = 0; k < m; k++)
-        sd[k] = band_sd(g, b, own[k]);
-    rc = trapezoid(own, sd, m, b->lo, b->hi, c->w);
-    bsti_free(ctx, sd);
-    if (rc < 0)
-        return bsti_error(ctx, BST_EFORMAT, "%s: no interval of the data's wavelengths lies in "
-                          "%s's range %g..%g um", where, b->name, b->lo, b->hi);
+    if ((rc = own_weights(ctx, g, d, where, b, c->w)) < 0)
+        return rc;
     for (size_t k = 0; k < m; k++) {
         double tf, tb, rf, rb;
         bsti_glass_data_at(d, own[k], &tf, &tb, &rf, &rb);
@@ -381,6 +407,40 @@ static int fill_band(bst_ctx *ctx, bst_glass *g, const char *where,
     for (size_t k = 0; k < mg; k++)
         c->grid[k] = ig[k], c->sd[k] = band_sd(g, b, ig[k]);
     return BST_OK;
+}
+
+int bsti_glass_band_average(bst_ctx *ctx, const struct bsti_glass_data *d, const char *dir,
+                            const char *band, const char *where, double v[4])
+{
+    const struct bsti_glass_band *b = bsti_glass_find_band(band);
+    if (!b || !d->n)
+        return bsti_error(ctx, BST_EINVAL, "%s: no spectral band %s, or no data", where, band);
+    bst_glass *g = bsti_glass_new(ctx);
+    if (!g)
+        return BST_ENOMEM;
+    int rc;
+    if ((rc = read_spectrum(ctx, dir, "solar_ASTM_E891_87_Table1.tsv", 2, &g->solar)) >= 0 &&
+        (rc = read_spectrum(ctx, dir, "photopic_source_D65.tsv", 2, &g->d65)) >= 0 &&
+        (rc = read_spectrum(ctx, dir, "photopic_detector_V.tsv", 2, &g->v)) >= 0)
+        rc = read_spectrum(ctx, dir, "photopic_wavelength_set.tsv", 1, &g->photopic);
+    const double *own = NULL;
+    size_t m = 0;
+    double *w = NULL;
+    if (rc >= 0) {
+        own_grid(g, d, b, &own, &m);
+        rc = (w = bsti_alloc_array(ctx, m, sizeof *w)) ? own_weights(ctx, g, d, where, b, w) : BST_ENOMEM;
+    }
+    for (int i = 0; i < 4; i++)
+        v[i] = 0.0;
+    for (size_t k = 0; rc >= 0 && k < m; k++) {
+        double x[4];
+        bsti_glass_data_at(d, own[k], &x[0], &x[1], &x[2], &x[3]);
+        for (int i = 0; i < 4; i++)
+            v[i] += w[k] * x[i];
+    }
+    bsti_free(ctx, w);
+    bst_glass_free(g);
+    return rc;
 }
 
 int bsti_glass_add_band(bst_ctx *ctx, bst_glass *g, const char *where,

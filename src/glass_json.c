@@ -1,7 +1,8 @@
 /* glass_json.c - IGSDB JSON product records (the International Glazing and Shading Database's API,
  * v1: igsdb.lbl.gov/api/v1/products/ID): a glazing product becomes a pane's spectral data and
- * metadata, a shading product a bst_shade (its material and geometry, validated).  A v2 record
- * (physical_properties, no product_id) of a glazing product is read by glass_json2.c.
+ * metadata, a shading product a bst_shade (its material and geometry, validated; shade.c makes
+ * it a layer of its geometric model).  A v2 record (physical_properties, no product_id) of a
+ * glazing product is read by glass_json2.c.
  *
  * Fields read (bsdfstack-glass(5), "IGSDB records"): product_id, type ("glazing" or "shading"),
  * subtype (glazing: the material type that picks the angular model; shading: venetian, woven,
@@ -232,6 +233,7 @@ void bst_shade_free(bst_shade *s)
         return;
     bst_ctx *ctx = s->ctx;
     bsti_free(ctx, s->name), bsti_free(ctx, s->manufacturer), bsti_free(ctx, s->material.name);
+    bsti_free(ctx, s->path);
     bsti_free(ctx, s->material.wl), bsti_free(ctx, s->material.tf), bsti_free(ctx, s->material.tb);
     bsti_free(ctx, s->material.rf), bsti_free(ctx, s->material.rb);
     bsti_free(ctx, s);
@@ -369,6 +371,9 @@ static int read_perforated(const struct bsti_jr *jr, json_t *g, const char *at, 
         return rc;
     if (t != BST_PERFORATION_RECTANGULAR)
         *dy = *dx;
+    if (t == BST_PERFORATION_CIRCULAR && 2 * *dx > fmin(*sx, *sy))
+        return bsti_json_error(jr, BST_EFORMAT, "%s: a Circular hole of radius (dimension_x) %g mm does not "
+                    "fit its cell of %g x %g mm", at, *dx, *sx, *sy);
     if (*dx > *sx || *dy > *sy)
         return bsti_json_error(jr, BST_EFORMAT, "%s: a %s hole of %g x %g mm does not fit its cell of %g x %g "
                     "mm", at, types[t], *dx, *dy, *sx, *sy);
@@ -451,6 +456,8 @@ int bst_shade_read_igsdb(bst_ctx *ctx, const char *path, bst_shade **out)
     bst_shade *s = NULL;
     if (rc >= 0 && !(s = shade_new(ctx)))
         rc = BST_ENOMEM;
+    if (rc >= 0 && !(s->path = bsti_strdup(ctx, path)))
+        rc = BST_ENOMEM;
     if (rc >= 0)
         rc = read_shade(&jr, root, s);
     json_decref(root);
@@ -480,9 +487,10 @@ int bsti_glass_read_igsdb(bst_ctx *ctx, bst_glass *g, const char *path)
     } else if (rc >= 0 && strcmp(type, "shading") == 0) {
         bst_shade *s = shade_new(ctx);
         rc = s ? read_shade(&jr, root, s) : BST_ENOMEM;
-        if (rc >= 0) /* a valid shade, which no layer can be made of yet */
-            rc = bsti_json_error(&jr, BST_ENOTIMPL, "IGSDB shading product \"%s\" (%s): geometric shade "
-                      "layers are not implemented yet", s->name, bst_shade_kind_name(s->kind));
+        if (rc >= 0) /* a valid shade: a layer of its geometric model, not a pane */
+            rc = bsti_json_error(&jr, BST_EINVAL, "IGSDB shading product \"%s\" (%s): this is a shading "
+                      "record, not a pane: name it shade:%s", s->name, bst_shade_kind_name(s->kind),
+                      jr.path);
         bst_shade_free(s);
     } else if (rc >= 0) {
         rc = bsti_json_error(&jr, BST_EFORMAT, "type \"%s\": a pane is a glazing product%s", type,

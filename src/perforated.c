@@ -2,7 +2,8 @@
  * layer.
  *
  * Keys: x, y (hole pitch along X and Y), thickness, radius (circular holes) or hole-x, hole-y
- * (rectangular), lengths as glass: takes them (bare = mm); r (both faces) or rf, rb; t; samples.
+ * (rectangular), lengths as glass: takes them (bare = mm); r (both faces) or rf, rb; t (each a
+ * number or VISIBLE/SOLAR, the second for a channel named Solar); samples.
  *
  * A hole passes light travelling along d where its two ends, seen along d, overlap: the exit end
  * is the entrance end moved by thickness (dx, dy) / |dz|, and the share of the sheet's area that
@@ -14,6 +15,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 #include "ctx.h"
 #include "venetian.h"
@@ -22,16 +24,20 @@ enum { P_X, P_Y, P_THICK, P_RADIUS, P_HX, P_HY, P_R, P_RF, P_RB, P_T, P_SAMPLES,
 static const char *const pkey[NPKEYS] = {"x", "y", "thickness", "radius", "hole-x", "hole-y", "r",
                                         "rf", "rb", "t", "samples"};
 
-static void perforated_init(bst_perforated *p)
+void bst_perforated_init(bst_perforated *p)
 {
+    if (!p)
+        return;
     memset(p, 0, sizeof *p);
     p->x = p->y = p->radius = p->hole_x = p->hole_y = NAN;
+    p->solar[0] = p->solar[1] = p->solar[2] = NAN;
 }
 
-/* One key's value into p. */
+/* One key's value into p: a hole's shape given replaces the other shape (a record's, under
+ * bst_perforated_update); r, rf, rb, t as VISIBLE/SOLAR or one value for every channel. */
 static int set_pkey(bst_ctx *ctx, int k, const char *val, bst_perforated *p)
 {
-    double x = NAN;
+    double x = NAN, sol = NAN;
     if (k == P_SAMPLES) {
         char *end;
         long n = strtol(val, &end, 10);
@@ -42,31 +48,57 @@ static int set_pkey(bst_ctx *ctx, int k, const char *val, bst_perforated *p)
         return BST_OK;
     }
     int length = k <= P_HY;
-    if (length ? bsti_shade_parse_length(val, &x) : bsti_shade_parse_number(val, &x))
+    if (length ? bsti_shade_parse_length(val, &x) : bsti_shade_parse_bands(val, &x, &sol))
         return bsti_error(ctx, BST_EINVAL, "perforated: %s: '%s' is not %s", pkey[k], val,
-                          length ? "a length (5mm, 0.005m, 0.5cm, 0.2in)" : "a number");
+                          length ? "a length (5mm, 0.005m, 0.5cm, 0.2in)" : "a number or VISIBLE/SOLAR");
     double *slot[NPKEYS] = {&p->x, &p->y, &p->thickness, &p->radius, &p->hole_x, &p->hole_y,
                             &p->rf, &p->rf, &p->rb, &p->t, NULL};
     *slot[k] = x;
+    if (k == P_RADIUS)
+        p->hole_x = p->hole_y = NAN;
+    if (k == P_HX || k == P_HY)
+        p->radius = NAN;
     if (k == P_R)
-        p->rb = x;
+        p->rb = x, p->solar[0] = p->solar[1] = sol;
+    if (k == P_RF || k == P_RB || k == P_T)
+        p->solar[k - P_RF] = sol;
     return BST_OK;
 }
 
-/* The checks of a parsed screen; every message names its key. */
-static int check(bst_ctx *ctx, const bst_perforated *p, const int *seen)
+int bsti_sheet_check(bst_ctx *ctx, const char *what, const char *const names[3], const double v[3],
+                     const double sol[3])
+{
+    for (int band = 0; band < 2; band++) { /* the values, then the Solar channel's */
+        double x[3] = {v[0], v[1], v[2]};
+        const char *sfx = band ? " (Solar)" : "";
+        for (int k = 0; band && k < 3; k++)
+            if (!isnan(sol[k]))
+                x[k] = sol[k];
+        for (int k = 0; k < 3; k++)
+            if (!(x[k] >= 0 && x[k] <= 1))
+                return bsti_error(ctx, BST_EINVAL, "%s: %s%s = %g is not between 0 and 1", what,
+                                  names[k], sfx, x[k]);
+        if (x[0] + x[2] > 1 + 1e-12 || x[1] + x[2] > 1 + 1e-12)
+            return bsti_error(ctx, BST_EINVAL, "%s: %s + t%s = %g is above 1", what,
+                              x[0] >= x[1] ? names[0] : names[1], sfx, fmax(x[0], x[1]) + x[2]);
+    }
+    return BST_OK;
+}
+
+/* The checks of a screen; every message names its key (r where the spec gave r, else rf, rb). */
+static int check(bst_ctx *ctx, const bst_perforated *p, int named_r)
 {
     if (!(p->x > 0) || !isfinite(p->x))
         return bsti_error(ctx, BST_EINVAL, "perforated: x = %g m is not a positive pitch", p->x);
     if (!(p->y > 0) || !isfinite(p->y))
         return bsti_error(ctx, BST_EINVAL, "perforated: y = %g m is not a positive pitch", p->y);
     if (!(p->thickness >= 0) || !isfinite(p->thickness))
-        return bsti_error(ctx, BST_EINVAL, "perforated: thickness = %g m is negative", p->thickness);
-    int circ = seen[P_RADIUS], rect = seen[P_HX] || seen[P_HY];
-    if (circ == rect)
-        return bsti_error(ctx, BST_EINVAL, "perforated: %s (radius for circular holes, hole-x and "
-                          "hole-y for rectangular ones)", circ ? "radius and hole-x/hole-y both given"
-                          : "radius missing");
+        return bsti_error(ctx, BST_EINVAL, "perforated: thickness = %g m is not a length >= 0",
+                          p->thickness);
+    int circ = !isnan(p->radius), rect = !isnan(p->hole_x) || !isnan(p->hole_y);
+    if (!circ && !rect)
+        return bsti_error(ctx, BST_EINVAL, "perforated: radius missing (radius for circular holes, "
+                          "hole-x and hole-y for rectangular ones)");
     if (circ && !(p->radius > 0 && 2 * p->radius <= fmin(p->x, p->y)))
         return bsti_error(ctx, BST_EINVAL, "perforated: radius = %g m is not positive and at most "
                           "half the smaller pitch", p->radius);
@@ -74,25 +106,22 @@ static int check(bst_ctx *ctx, const bst_perforated *p, const int *seen)
         return bsti_error(ctx, BST_EINVAL, "perforated: hole-x = %g m is not in (0, x]", p->hole_x);
     if (rect && !(p->hole_y > 0 && p->hole_y <= p->y))
         return bsti_error(ctx, BST_EINVAL, "perforated: hole-y = %g m is not in (0, y]", p->hole_y);
-    const char *names[3] = {seen[P_R] ? "r" : "rf", seen[P_R] ? "r" : "rb", "t"};
-    double v[3] = {p->rf, p->rb, p->t};
-    for (int k = 0; k < 3; k++)
-        if (!(v[k] >= 0 && v[k] <= 1))
-            return bsti_error(ctx, BST_EINVAL, "perforated: %s = %g is not between 0 and 1",
-                              names[k], v[k]);
-    if (p->rf + p->t > 1 + 1e-12 || p->rb + p->t > 1 + 1e-12)
-        return bsti_error(ctx, BST_EINVAL, "perforated: %s + t = %g is above 1",
-                          p->rf >= p->rb ? names[0] : names[1], fmax(p->rf, p->rb) + p->t);
-    return BST_OK;
+    const char *names[3] = {named_r ? "r" : "rf", named_r ? "r" : "rb", "t"};
+    const double v[3] = {p->rf, p->rb, p->t};
+    return bsti_sheet_check(ctx, "perforated", names, v, p->solar);
 }
 
-/* One item of a perforated spec (bsti_shade_set): every key needs a value; r and rf/rb overlap. */
+/* One item of a perforated spec (bsti_shade_set): every key needs a value; r and rf/rb overlap,
+ * and so do radius and hole-x/hole-y within one spec. */
 static int perforated_item(bst_ctx *ctx, int k, const char *val, const int *seen, void *opaque)
 {
     if (!val)
         return bsti_error(ctx, BST_EINVAL, "perforated: %s needs a value (%s=...)", pkey[k], pkey[k]);
     if ((k == P_R && (seen[P_RF] || seen[P_RB])) || ((k == P_RF || k == P_RB) && seen[P_R]))
         return bsti_error(ctx, BST_EINVAL, "perforated: %s given twice", pkey[k]);
+    if ((k == P_RADIUS && (seen[P_HX] || seen[P_HY])) || ((k == P_HX || k == P_HY) && seen[P_RADIUS]))
+        return bsti_error(ctx, BST_EINVAL, "perforated: radius and hole-x/hole-y both given "
+                          "(radius for circular holes, hole-x and hole-y for rectangular ones)");
     return set_pkey(ctx, k, val, opaque);
 }
 
@@ -100,7 +129,7 @@ int bst_perforated_parse(bst_ctx *ctx, const char *spec, bst_perforated *p)
 {
     if (!ctx || !spec || !p)
         return ctx ? bsti_error(ctx, BST_EINVAL, "perforated: NULL argument") : BST_EINVAL;
-    perforated_init(p);
+    bst_perforated_init(p);
     int seen[NPKEYS];
     int rc = bsti_shade_spec(ctx, "perforated", spec, pkey, NPKEYS, perforated_item, p, seen);
     if (rc < 0)
@@ -108,7 +137,16 @@ int bst_perforated_parse(bst_ctx *ctx, const char *spec, bst_perforated *p)
     if (!seen[P_X] || !seen[P_Y])
         return bsti_error(ctx, BST_EINVAL, "perforated: %s missing (the hole pitch x and y are "
                           "needed)", seen[P_X] ? "y" : "x");
-    return check(ctx, p, seen);
+    return check(ctx, p, seen[P_R]);
+}
+
+int bst_perforated_update(bst_ctx *ctx, const char *spec, bst_perforated *p)
+{
+    if (!ctx || !spec || !p)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "perforated: NULL argument") : BST_EINVAL;
+    int seen[NPKEYS];
+    int rc = bsti_shade_spec(ctx, "perforated", spec, pkey, NPKEYS, perforated_item, p, seen);
+    return rc < 0 ? rc : check(ctx, p, seen[P_R]);
 }
 
 /* The open share of the screen along unit direction d (either sign of d[2]). */
@@ -169,8 +207,8 @@ static int component(bst_ctx *ctx, const bst_basis *b, const double *F, double F
 }
 
 int bsti_open_layer(bst_ctx *ctx, const bst_basis *basis, double (*share)(const void *, const double *),
-                    const void *data, double rf, double rb, double t, int samples, size_t nchannels,
-                    const char *const *channels, bst_layer **out)
+                    const void *data, const double v[3], const double sol[3], int samples,
+                    size_t nchannels, const char *const *channels, bst_layer **out)
 {
     static const char *const dual[] = {"Visible", "Solar"};
     if (!nchannels)
@@ -201,14 +239,19 @@ int bsti_open_layer(bst_ctx *ctx, const bst_basis *basis, double (*share)(const 
         Fm += lam[i] * F[i] / M_PI;
     bst_layer *l = NULL;
     int rc = bst_layer_new(ctx, basis, nchannels, channels, &l);
-    const double r[BST_NCOMP] = {[BST_TF] = t, [BST_TB] = t, [BST_RF] = rf, [BST_RB] = rb};
-    for (size_t ch = 0; ch < nchannels && rc >= 0; ch++)
+    for (size_t ch = 0; ch < nchannels && rc >= 0; ch++) {
+        double x[3] = {v[0], v[1], v[2]};
+        for (int k = 0; k < 3 && strcasecmp(channels[ch], "Solar") == 0; k++)
+            if (!isnan(sol[k]))
+                x[k] = sol[k];
+        const double r[BST_NCOMP] = {[BST_TF] = x[2], [BST_TB] = x[2], [BST_RF] = x[0], [BST_RB] = x[1]};
         for (int c = 0; c < BST_NCOMP && rc >= 0; c++) {
             bst_mat *m = NULL;
             rc = component(ctx, basis, F, Fm, r[c], c == BST_TF || c == BST_TB, &m);
             if (rc >= 0)
                 rc = bst_layer_set(ctx, l, ch, (bst_comp)c, m);
         }
+    }
     bsti_free(ctx, F);
     if (rc < 0) {
         bst_layer_free(l);
@@ -229,7 +272,10 @@ int bst_perforated_layer(bst_ctx *ctx, const bst_perforated *p, const bst_basis 
     if (!ctx || !p || !basis || !out || (nchannels && !channels))
         return ctx ? bsti_error(ctx, BST_EINVAL, "perforated layer: NULL argument") : BST_EINVAL;
     *out = NULL;
-    int rc = bsti_open_layer(ctx, basis, perforated_share, p, p->rf, p->rb, p->t, p->samples,
-                             nchannels, channels, out);
+    const double v[3] = {p->rf, p->rb, p->t};
+    int rc = check(ctx, p, 0);
+    if (rc >= 0)
+        rc = bsti_open_layer(ctx, basis, perforated_share, p, v, p->solar, p->samples, nchannels,
+                             channels, out);
     return rc == BST_ENOMEM ? bsti_error(ctx, rc, "perforated layer: out of memory") : rc;
 }

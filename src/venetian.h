@@ -72,16 +72,25 @@ int bsti_vn_wce_check(bst_ctx *ctx, const bst_venetian *v);
 /* A layer of a sheet with openings (perforated.c; perforated screens, woven fabrics): share(data,
  * d) the share of the sheet open along unit direction d (even in d), averaged over each patch by
  * samples^2 directions (0: BST_VENETIAN_SAMPLES), on the diagonal of the transmissions; the rest
- * reflected (rf, rb) and transmitted (t) diffusely by the reciprocal rank-one term of
- * bst_perforated.  nchannels 0: Visible and Solar, each the same. */
+ * reflected (v[0] = rf, v[1] = rb) and transmitted (v[2] = t) diffusely by the reciprocal rank-one
+ * term of bst_perforated; a channel named Solar takes sol[k] where it is not NaN.  nchannels 0:
+ * Visible and Solar. */
 int bsti_open_layer(bst_ctx *ctx, const bst_basis *basis, double (*share)(const void *, const double *),
-                    const void *data, double rf, double rb, double t, int samples, size_t nchannels,
-                    const char *const *channels, bst_layer **out);
+                    const void *data, const double v[3], const double sol[3], int samples,
+                    size_t nchannels, const char *const *channels, bst_layer **out);
+/* The checks of a sheet's diffuse values (perforated screens, woven fabrics: `what`): each of
+ * rf, rb, t (named by names[]) in [0, 1], rf + t and rb + t at most 1, the values and the Solar
+ * ones (sol[k] where not NaN). */
+int bsti_sheet_check(bst_ctx *ctx, const char *what, const char *const names[3], const double v[3],
+                     const double sol[3]);
 
 /* Spec values of the shades (venetian_spec.c, perforated.c): "16mm", "0.016m", "1.6cm", "0.63in"
  * or a bare number of millimetres -> metres; a plain number.  0, or -1 when v is not one. */
 int bsti_shade_parse_length(const char *v, double *m);
 int bsti_shade_parse_number(const char *v, double *x);
+/* A reflectance or transmittance as a spec gives it: a number, or VISIBLE/SOLAR (*sol the second,
+ * for a channel named Solar; NaN when there is no '/').  0, or -1 when v is not one. */
+int bsti_shade_parse_bands(const char *v, double *vis, double *sol);
 /* Each key=value item of a comma-separated shade spec, in order (spaces before a key skipped):
  * `what` names the kind in messages; keys[0..nkeys-1] the key names; set(ctx, k, value, seen,
  * opaque) takes item k, value NULL when the item has no '=' (seen[k]: items of key k before

@@ -81,6 +81,21 @@ int bsti_shade_parse_number(const char *v, double *x)
     return bsti_parse_scaled(v, suffix, factor, x);
 }
 
+int bsti_shade_parse_bands(const char *v, double *vis, double *sol)
+{
+    const char *slash = strchr(v, '/');
+    char first[64];
+    *sol = NAN;
+    if (!slash)
+        return bsti_shade_parse_number(v, vis);
+    size_t n = (size_t)(slash - v);
+    if (n >= sizeof first)
+        return -1;
+    memcpy(first, v, n);
+    first[n] = '\0';
+    return bsti_shade_parse_number(first, vis) || bsti_shade_parse_number(slash + 1, sol) ? -1 : 0;
+}
+
 static int parse_count(const char *v, int lo, int hi, int *n)
 {
     char *end;
@@ -154,6 +169,16 @@ static int set_key(bst_ctx *ctx, int k, const char *val, bst_venetian *v)
         }
     } else {
         bad = bsti_shade_parse_number(val, &x);
+        /* one value for every channel: a Solar value given before (a record's, under
+         * bst_venetian_update) no longer applies */
+        if (!bad && (k == K_R || k == K_RUP))
+            v->solar[0] = NAN;
+        if (!bad && (k == K_R || k == K_RDOWN))
+            v->solar[1] = NAN;
+        if (!bad && k == K_T)
+            v->solar[2] = NAN;
+        if (!bad && k == K_RS)
+            v->solar[3] = NAN;
     }
     if (bad)
         return bsti_error(ctx, BST_EINVAL, "venetian: %s: '%s' is not %s", key_name[k], val,
@@ -203,6 +228,15 @@ int bst_venetian_parse(bst_ctx *ctx, const char *spec, bst_venetian *v)
     if (v->rule == BST_VENETIAN_CENTRE && !seen[K_SEG]) /* WINDOW's default */
         v->segments = BST_VENETIAN_WCE_SEGMENTS;
     return bst_venetian_check(ctx, v);
+}
+
+int bst_venetian_update(bst_ctx *ctx, const char *spec, bst_venetian *v)
+{
+    if (!ctx || !spec || !v)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "venetian: NULL argument") : BST_EINVAL;
+    int seen[NKEYS];
+    int rc = bsti_shade_spec(ctx, "venetian", spec, key_name, NKEYS, venetian_item, v, seen);
+    return rc < 0 ? rc : bst_venetian_check(ctx, v);
 }
 
 /* A reflectance or transmittance key's value must lie in [0, 1]. */

@@ -1,6 +1,8 @@
 /* woven.c - a woven fabric from its geometry (bsdfstack.h: bst_woven), spec and layer.
  *
- * Keys: diameter, spacing (lengths as glass: takes them, bare = mm), r, t (numbers), samples.
+ * Keys: diameter, spacing (lengths as glass: takes them, bare = mm), r (both faces) or rf, rb
+ * (exterior, interior face), t (numbers, or VISIBLE/SOLAR: the second for a channel named Solar),
+ * samples.
  * Two sets of cylindrical threads, along X and along Y, every `spacing`.  A cylinder of diameter d
  * casts a shadow d / cos(theta_p) wide on the fabric's plane, theta_p the direction's angle from
  * the normal in the plane across the threads, so the open share along unit direction d is
@@ -17,8 +19,17 @@
 #include "ctx.h"
 #include "venetian.h"
 
-enum { W_DIAM, W_SPACING, W_R, W_T, W_SAMPLES, NWKEYS };
-static const char *const wkey[NWKEYS] = {"diameter", "spacing", "r", "t", "samples"};
+enum { W_DIAM, W_SPACING, W_R, W_RF, W_RB, W_T, W_SAMPLES, NWKEYS };
+static const char *const wkey[NWKEYS] = {"diameter", "spacing", "r", "rf", "rb", "t", "samples"};
+
+void bst_woven_init(bst_woven *w)
+{
+    if (!w)
+        return;
+    memset(w, 0, sizeof *w);
+    w->diameter = w->spacing = NAN;
+    w->solar[0] = w->solar[1] = w->solar[2] = NAN;
+}
 
 static int set_wkey(bst_ctx *ctx, int k, const char *val, bst_woven *w)
 {
@@ -31,38 +42,39 @@ static int set_wkey(bst_ctx *ctx, int k, const char *val, bst_woven *w)
         w->samples = (int)n;
         return BST_OK;
     }
-    double x;
+    double x, sol = NAN;
     int length = k <= W_SPACING;
-    if (length ? bsti_shade_parse_length(val, &x) : bsti_shade_parse_number(val, &x))
+    if (length ? bsti_shade_parse_length(val, &x) : bsti_shade_parse_bands(val, &x, &sol))
         return bsti_error(ctx, BST_EINVAL, "woven: %s: '%s' is not %s", wkey[k], val,
-                          length ? "a length (0.5mm, 0.0005m, 0.05cm)" : "a number");
-    double *slot[NWKEYS] = {&w->diameter, &w->spacing, &w->r, &w->t, NULL};
+                          length ? "a length (0.5mm, 0.0005m, 0.05cm)" : "a number or VISIBLE/SOLAR");
+    double *slot[NWKEYS] = {&w->diameter, &w->spacing, &w->rf, &w->rf, &w->rb, &w->t, NULL};
     *slot[k] = x;
+    if (k == W_R)
+        w->rb = x, w->solar[0] = w->solar[1] = sol;
+    if (k >= W_RF && k <= W_T)
+        w->solar[k - W_RF] = sol;
     return BST_OK;
 }
 
-static int check(bst_ctx *ctx, const bst_woven *w)
+static int check(bst_ctx *ctx, const bst_woven *w, int named_r)
 {
     if (!(w->spacing > 0) || !isfinite(w->spacing))
         return bsti_error(ctx, BST_EINVAL, "woven: spacing = %g m is not positive", w->spacing);
     if (!(w->diameter > 0 && w->diameter <= w->spacing))
         return bsti_error(ctx, BST_EINVAL, "woven: diameter = %g m is not positive and at most the "
                           "spacing", w->diameter);
-    if (!(w->r >= 0 && w->r <= 1))
-        return bsti_error(ctx, BST_EINVAL, "woven: r = %g is not between 0 and 1", w->r);
-    if (!(w->t >= 0 && w->t <= 1))
-        return bsti_error(ctx, BST_EINVAL, "woven: t = %g is not between 0 and 1", w->t);
-    if (w->r + w->t > 1 + 1e-12)
-        return bsti_error(ctx, BST_EINVAL, "woven: r + t = %g is above 1", w->r + w->t);
-    return BST_OK;
+    const char *names[3] = {named_r ? "r" : "rf", named_r ? "r" : "rb", "t"};
+    const double v[3] = {w->rf, w->rb, w->t};
+    return bsti_sheet_check(ctx, "woven", names, v, w->solar);
 }
 
-/* One item of a woven spec (bsti_shade_set): every key needs a value. */
+/* One item of a woven spec (bsti_shade_set): every key needs a value; r and rf/rb overlap. */
 static int woven_item(bst_ctx *ctx, int k, const char *val, const int *seen, void *opaque)
 {
-    (void)seen;
     if (!val)
         return bsti_error(ctx, BST_EINVAL, "woven: %s needs a value (%s=...)", wkey[k], wkey[k]);
+    if ((k == W_R && (seen[W_RF] || seen[W_RB])) || ((k == W_RF || k == W_RB) && seen[W_R]))
+        return bsti_error(ctx, BST_EINVAL, "woven: %s given twice", wkey[k]);
     return set_wkey(ctx, k, val, opaque);
 }
 
@@ -70,8 +82,7 @@ int bst_woven_parse(bst_ctx *ctx, const char *spec, bst_woven *w)
 {
     if (!ctx || !spec || !w)
         return ctx ? bsti_error(ctx, BST_EINVAL, "woven: NULL argument") : BST_EINVAL;
-    memset(w, 0, sizeof *w);
-    w->diameter = w->spacing = NAN;
+    bst_woven_init(w);
     int seen[NWKEYS];
     int rc = bsti_shade_spec(ctx, "woven", spec, wkey, NWKEYS, woven_item, w, seen);
     if (rc < 0)
@@ -79,7 +90,16 @@ int bst_woven_parse(bst_ctx *ctx, const char *spec, bst_woven *w)
     if (!seen[W_DIAM] || !seen[W_SPACING])
         return bsti_error(ctx, BST_EINVAL, "woven: %s missing (diameter and spacing are needed)",
                           seen[W_DIAM] ? "spacing" : "diameter");
-    return check(ctx, w);
+    return check(ctx, w, seen[W_R]);
+}
+
+int bst_woven_update(bst_ctx *ctx, const char *spec, bst_woven *w)
+{
+    if (!ctx || !spec || !w)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "woven: NULL argument") : BST_EINVAL;
+    int seen[NWKEYS];
+    int rc = bsti_shade_spec(ctx, "woven", spec, wkey, NWKEYS, woven_item, w, seen);
+    return rc < 0 ? rc : check(ctx, w, seen[W_R]);
 }
 
 /* The open share along unit direction d (see the top of the file). */
@@ -99,7 +119,10 @@ int bst_woven_layer(bst_ctx *ctx, const bst_woven *w, const bst_basis *basis, si
     if (!ctx || !w || !basis || !out || (nchannels && !channels))
         return ctx ? bsti_error(ctx, BST_EINVAL, "woven layer: NULL argument") : BST_EINVAL;
     *out = NULL;
-    int rc = bsti_open_layer(ctx, basis, woven_share, w, w->r, w->r, w->t, w->samples, nchannels,
+    const double v[3] = {w->rf, w->rb, w->t};
+    int rc = check(ctx, w, 0);
+    if (rc >= 0)
+        rc = bsti_open_layer(ctx, basis, woven_share, w, v, w->solar, w->samples, nchannels,
                              channels, out);
     return rc == BST_ENOMEM ? bsti_error(ctx, rc, "woven layer: out of memory") : rc;
 }

@@ -133,8 +133,8 @@ printf '{"product_id": 9, "type": "shading", "subtype": "woven", "name": "made-u
  "composition": [{"child_product": {"spectral_data": {"dual_band_values": {"Tf_sol_diffuse": 0.05}}},
   "extra_data": {"geometry": {"thread_diameter": 0.3, "thread_spacing": 1, "shade_thickness": 0.4}}}]}\n' \
     > "$tmpdir/screen.json"
-expect_error "glass: a shading record" "geometric shade layers are not implemented yet" -- "$B" glass "$tmpdir/screen.json"
-expect_error "combine: a shading record" "screen.json: IGSDB shading product \"made-up screen\" \\(woven\\): geometric shade layers are not implemented yet" \
+expect_error "glass: a shading record" "this is a shading record, not a pane: name it shade:" -- "$B" glass "$tmpdir/screen.json"
+expect_error "combine: a shading record" "screen.json: IGSDB shading product \"made-up screen\" \\(woven\\): this is a shading record, not a pane: name it shade:.*screen.json" \
     -- "$B" combine -k 2 -o "$tmpdir/shade.xml" "glass:$tmpdir/screen.json" glass:clear-6mm
 [ -e "$tmpdir/shade.xml" ] && fail "a shading record left an output file" || pass "no output file"
 printf '{"product_id": 9,\n "type": "glazing",,\n}\n' > "$tmpdir/bad.json"

@@ -2,7 +2,7 @@
  *  - a glazing record holding NFRC 102's data gives the same pane and two-pane stack as the same
  *    data in bsdfstack's table, to the bit, with its metadata; its subtype picks the model;
  *  - one shading record of each kind (venetian, woven, perforated-screen) is read into bst_shade
- *    with its material and geometry, and refused as a layer with one line (BST_ENOTIMPL);
+ *    with its material and geometry, and refused as a pane with one line naming shade:FILE;
  *  - malformed JSON, missing fields, wrong units, impossible geometry: one line each, naming the
  *    file and the field; allocation failure;
  *  - the same glazing record in IGSDB v2's shape (numbers as strings, angle blocks) gives the same
@@ -146,16 +146,16 @@ START_TEST(test_shades)
         if (k == 1)
             ck_assert(s->geometry.woven.thread_diameter == 0.5 &&
                       s->geometry.woven.thread_spacing == 0.8 && s->geometry.woven.shade_thickness == 0.6);
-        if (k == 2) /* a circle's dimension_y is its diameter, whatever the record says */
+        if (k == 2) /* a circle's dimension_y is its dimension_x (its radius), whatever the record says */
             ck_assert(s->geometry.perforated.type == BST_PERFORATION_CIRCULAR &&
                       s->geometry.perforated.spacing_y == 1.7 && s->geometry.perforated.dimension_x == 0.6 &&
                       s->geometry.perforated.dimension_y == 0.6);
         bst_shade_free(s);
-        /* as a pane: one line, no layer */
+        /* as a pane: one line naming the spec that takes it, no pane */
         bst_glass *g = (bst_glass *)1;
-        ck_assert_int_eq(bst_glass_parse(tg_ctx, path, NULL, &g), BST_ENOTIMPL);
+        ck_assert_int_eq(bst_glass_parse(tg_ctx, path, NULL, &g), BST_EINVAL);
         ck_assert_ptr_null(g);
-        ck_assert(strstr(bst_ctx_message(tg_ctx), "geometric shade layers are not implemented yet"));
+        ck_assert(strstr(bst_ctx_message(tg_ctx), "this is a shading record, not a pane: name it shade:"));
         ck_assert(strstr(bst_ctx_message(tg_ctx), kinds[k]) && !strchr(bst_ctx_message(tg_ctx), '\n'));
     }
     bst_shade_free(NULL);
@@ -281,6 +281,9 @@ START_TEST(test_wrong_units)
                   ".geometry: a Rectangular hole of 0.5 x 2 mm does not fit its cell");
     refused_shade("perforated-screen", "\"spacing_x\": 1, \"spacing_y\": 1, \"dimension_x\": 0.5, "
                   "\"perforation_type\": \"Hexagonal\"", ".perforation_type \"Hexagonal\"");
+    /* a circle's dimension_x is its radius: 0.6 mm does not fit a 1 mm cell */
+    refused_shade("perforated-screen", "\"spacing_x\": 1, \"spacing_y\": 1.5, \"dimension_x\": 0.6, "
+                  "\"perforation_type\": \"Circular\"", ".geometry: a Circular hole of radius (dimension_x) 0.6 mm");
 }
 END_TEST
 

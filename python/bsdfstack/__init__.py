@@ -9,7 +9,9 @@ outgoing patch, values are BSDF in 1/sr.
 
     import bsdfstack
     g = bsdfstack.glass("clear-6mm")
-    b = bsdfstack.load("blind.xml")
+    b = bsdfstack.load("blind.xml")      # or a shade from its geometry, an IGSDB record:
+    # b = bsdfstack.venetian(width="16mm", spacing="14.5mm", tilt=45, rs=0.765, r=0.085)
+    # b = bsdfstack.shade("blind.json", tilt=30)
     s = bsdfstack.combine([g, b, g], k=6, only="Tf,Rb", precision="single")
     tf = s.matrix("Tf", "Visible")       # numpy, N x N, a view on the library's buffer
     s.hemispherical("Tf", 45, 90)        # directional-hemispherical T, light along (45, 90)
@@ -55,8 +57,9 @@ from ._lib import lib, text, cstr, cstr_array, COMPS, Error
 
 __version__ = text(lib.bst_version())
 
-__all__ = ["Error", "LibraryWarning", "BSDF", "Stack", "Glass", "Comparison", "load", "glass",
-           "combine", "columns", "Columns", "compare", "version", "library_path"]
+__all__ = ["Error", "LibraryWarning", "BSDF", "Stack", "Glass", "Shade", "Comparison", "load",
+           "glass", "venetian", "perforated", "woven", "shade", "combine", "columns", "Columns",
+           "compare", "version", "library_path"]
 
 
 class LibraryWarning(UserWarning):
@@ -482,9 +485,9 @@ def _epoch_date():
 # ------------------------------------------------------------------------- sources of layers
 
 class _Source:
-    """Something that becomes a layer over any basis: a file (load) or a pane (glass).  The
-    layers it makes are kept, one per (basis, precision, channels, glass rule), for the next
-    stack over the same basis."""
+    """Something that becomes a layer over any basis: a file (load), a pane (glass) or a shade
+    (venetian, perforated, woven, shade).  The layers it makes are kept, one per (basis,
+    precision, channels, glass rule), for the next stack over the same basis."""
 
     def __init__(self):
         self._ctx = _Ctx()
@@ -806,6 +809,124 @@ class _GlassPtr:
         _let_go(self)
 
 
+class Shade(_Source):
+    """A shade made from its geometry (bsdfstack-glass(5)): a venetian blind, a perforated screen
+    or a woven fabric, from a spec ("venetian:width=16mm,...") or an IGSDB shading record
+    ("shade:FILE.json,tilt=30"); made over any stack's basis (default Shirley-Chiu k = 5), with
+    channels Visible and Solar.  venetian(), perforated(), woven() and shade() make them."""
+
+    def __init__(self, spec, catalogue=None):
+        _Source.__init__(self)
+        self.spec = os.fspath(spec)
+        self.catalogue = catalogue if catalogue is not None else os.environ.get("BSDFSTACK_GLASS_DIR")
+        self.model = self._model(self.spec)
+
+    def _model(self, spec):
+        buf = ctypes.create_string_buffer(2048)
+        with self._ctx as c:
+            self._ctx.check(lib.bst_shade_spec_model(c, cstr(spec), cstr(self.catalogue), buf,
+                                                     len(buf)))
+        return text(buf.value)
+
+    @property
+    def name(self):
+        return self.spec
+
+    @property
+    def kind(self):
+        """"venetian", "perforated" or "woven": the model the layer is made from."""
+        return self.model.split(":", 1)[0]
+
+    def __repr__(self):
+        return "<bsdfstack.Shade %s: %s>" % (self.spec, self.model)
+
+    def layer(self, k=None, klems=None, channels=None):
+        """The shade over Shirley-Chiu order k (default 5) or a Klems basis, as a BSDF."""
+        basis = _Basis.make(self._ctx, 5 if k is None and klems is None else k, klems)
+        return self._on(basis.ptr, _lib.BST_DOUBLE, _names(channels), False)[1]
+
+    def _make(self, basis, prec, channels, at_centre):
+        out = ctypes.c_void_p()
+        names = cstr_array(channels or ())
+        self._ctx.check(lib.bst_shade_spec_layer(self._ctx.ptr, cstr(self.spec), cstr(self.catalogue),
+                                                 basis, len(channels or ()),
+                                                 names if channels else None, ctypes.byref(out)),
+                        self.name)
+        held = BSDF(out.value, self._ctx, self.name)
+        if prec != _lib.BST_DOUBLE:  # dense work in single precision, as a file's
+            held = _copy_layer(self._ctx, held, list(held.channels), prec)
+        return held
+
+
+# spec keys that are lengths, per model: a number given for one of them is metres
+_LENGTH_KEYS = {"venetian": ("width", "spacing", "curvature"),
+                "perforated": ("x", "y", "thickness", "radius", "hole-x", "hole-y"),
+                "woven": ("diameter", "spacing")}
+
+
+def _spec_items(kind, keys):
+    """key=value items of a shade spec from keyword arguments: names with _ for - (r_up is
+    r-up), a number for a length in metres (strings with units as the spec takes them: "16mm"),
+    a pair (visible, solar) as VISIBLE/SOLAR, True for a flag, None or False left out."""
+    items = []
+    for name, v in keys.items():
+        key = name.replace("_", "-")
+        if v is None or v is False:
+            continue
+        if v is True:
+            items.append(key)
+            continue
+        if isinstance(v, (tuple, list)):
+            if len(v) != 2:
+                raise Error("%s: give one value or a (visible, solar) pair, not %r" % (key, v))
+            items.append("%s=%s/%s" % (key, _spec_value(kind, key, v[0]), _spec_value(kind, key, v[1])))
+        else:
+            items.append("%s=%s" % (key, _spec_value(kind, key, v)))
+    return ",".join(items)
+
+
+def _spec_value(kind, key, v):
+    if isinstance(v, str):
+        return v
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise Error("%s: %r is not a number or a string" % (key, v))
+    x = float(v)
+    if key in _LENGTH_KEYS.get(kind, ()):
+        return repr(x) + "m"
+    return repr(int(v)) if isinstance(v, int) else repr(x)
+
+
+def venetian(catalogue=None, **keys):
+    """A venetian blind from its geometry: venetian(width=0.016, spacing=0.0145, tilt=45,
+    rs=0.765, r=0.085, roughness=0.02), the keys of the venetian: spec (bsdfstack-glass(5);
+    r_up, r_down for r-up, r-down), lengths in metres or as strings with units ("16mm"),
+    (visible, solar) pairs for dual-band slats, vertical=True."""
+    return Shade("venetian:" + _spec_items("venetian", keys), catalogue)
+
+
+def perforated(catalogue=None, **keys):
+    """A perforated screen: perforated(x=0.005, y=0.005, radius=0.0015, thickness=0.001, r=0.7),
+    or hole_x, hole_y for rectangular holes; rf, rb, t, samples; as venetian() takes them."""
+    return Shade("perforated:" + _spec_items("perforated", keys), catalogue)
+
+
+def woven(catalogue=None, **keys):
+    """A woven fabric: woven(diameter=0.0005, spacing=0.002, r=0.6, t=0.1) (or rf, rb)."""
+    return Shade("woven:" + _spec_items("woven", keys), catalogue)
+
+
+def shade(path, catalogue=None, **overrides):
+    """An IGSDB shading record (a v1 JSON record of a venetian, perforated-screen or woven
+    product) as the layer of its geometric model: shade("blind.json", tilt=30, segments=8);
+    the keyword arguments are that model's keys (as venetian() etc. take them) and replace the
+    record's values.  .model is the equivalent spec."""
+    path = os.fspath(path)
+    if not overrides:
+        return Shade("shade:" + path, catalogue)
+    kind = Shade("shade:" + path, catalogue).kind
+    return Shade("shade:%s,%s" % (path, _spec_items(kind, overrides)), catalogue)
+
+
 def load(path, channels=None, only=None, progress=None, rank3="exact"):
     """Read a BSDF XML file once (Klems, TensorTree3, TensorTree4, any resolution).
     channels: names to read (default all); only: components to read ("Tf,Rb"; default all; the
@@ -825,17 +946,20 @@ def glass(spec, catalogue=None):
 
 
 def _as_layer(x):
-    """A stack entry: a BSDF, File, Glass, a flipped source, or a program-style string
-    ("glass:clear-6mm", "blind.xml", with a trailing ^ for reversed)."""
+    """A stack entry: a BSDF, File, Glass, Shade, a flipped source, or a program-style string
+    ("glass:clear-6mm", "venetian:...", "shade:rec.json", "blind.xml", a trailing ^ for
+    reversed)."""
     if isinstance(x, (_Source, _Flipped, BSDF)):
         return x
     if isinstance(x, (str, os.PathLike)):
         s = os.fspath(x)
         flip = s.endswith("^")
         s = s[:-1] if flip else s
-        src = Glass(s) if s.startswith("glass:") else File(s)
+        src = (Glass(s) if s.startswith("glass:") else
+               Shade(s) if s.startswith(("venetian:", "perforated:", "woven:", "shade:")) else File(s))
         return src.flip() if flip else src
-    raise Error("not a layer: %r (give a BSDF, glass(...), load(...) or a file name)" % (x,))
+    raise Error("not a layer: %r (give a BSDF, glass(...), venetian(...), load(...) or a file "
+                "name)" % (x,))
 
 
 def _names(channels):

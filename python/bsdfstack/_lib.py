@@ -205,6 +205,9 @@ _PROTOTYPES = {
     "bst_glass_layer_nodes": (c_size_t, [c_void_p, c_size_t, size_p]),
     "bst_glass_layer": (c_int, [c_void_p, c_void_p, c_void_p, c_size_t, POINTER(c_char_p), c_int,
                                 POINTER(c_void_p)]),
+    "bst_shade_spec_model": (c_int, [c_void_p, c_char_p, c_char_p, c_char_p, c_size_t]),
+    "bst_shade_spec_layer": (c_int, [c_void_p, c_char_p, c_char_p, c_void_p, c_size_t,
+                                     POINTER(c_char_p), POINTER(c_void_p)]),
 }
 
 for _name, (_res, _args) in _PROTOTYPES.items():

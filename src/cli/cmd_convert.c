@@ -21,9 +21,11 @@
 static const char help[] =
     "Usage: bsdfstack convert [OPTIONS] IN -o OUT\n"
     "Reads the BSDF XML file IN (Klems matrices or RADIANCE tensor trees; or glass:SPEC, a pane of\n"
-    "the glass catalogue; LAYER^ for a reversed layer), resamples it to another basis if asked and\n"
-    "writes it as BSDF XML to OUT ('-' = standard output).  Without a basis option a file keeps\n"
-    "its own (a tree its order, a Klems file its basis; glass: Shirley-Chiu k = 5).  Shirley-Chiu\n"
+    "the glass catalogue; a shade from its geometry, venetian:KEYS, perforated:KEYS, woven:KEYS\n"
+    "or shade:FILE.json (an IGSDB shading record); LAYER^ for a reversed layer), resamples it to\n"
+    "another basis if asked and writes it as BSDF XML to OUT ('-' = standard output).  Without a\n"
+    "basis option a file keeps its own (a tree its order, a Klems file its basis; glass: and the\n"
+    "shades Shirley-Chiu k = 5).  Shirley-Chiu\n"
     "output is a tensor tree: TensorTree3 when every component is isotropic, else TensorTree4;\n"
     "Klems output holds every component with each text row one outgoing patch, as WINDOW,\n"
     "EnergyPlus and RADIANCE read it.  OUT appears only when everything was written.\n"
@@ -313,10 +315,9 @@ int cmd_convert(int argc, char **argv)
     if (rc != CLI_OK || q.help)
         return rc;
     size_t inlen = strlen(q.in);
-    /* glass:, venetian:, perforated:, woven: specs and LAYER^ go through the shared loader (no rank-3
-     * source then) */
-    int via_loader = strncmp(q.in, "glass:", 6) == 0 || strncmp(q.in, "venetian:", 9) == 0 ||
-                     strncmp(q.in, "perforated:", 11) == 0 || strncmp(q.in, "woven:", 6) == 0 ||
+    /* glass: specs, shades (venetian:, perforated:, woven:, shade:) and LAYER^ go through the
+     * shared loader (no rank-3 source then) */
+    int via_loader = strncmp(q.in, "glass:", 6) == 0 || cli_is_shade(q.in) ||
                      (inlen && q.in[inlen - 1] == '^');
     bst_ctx *ctx = cli_ctx_new(sub);
     if (!ctx)

@@ -16,7 +16,7 @@
 
 static const char help[] =
     "Usage: bsdfstack info [--max-memory SIZE] [--reference REF] FILE\n"
-    "       bsdfstack info glass:SPEC\n"
+    "       bsdfstack info glass:SPEC | shade:FILE.json[,KEYS] | venetian:KEYS | ...\n"
     "Prints the basis and channels of a BSDF XML file, which components it stores, the\n"
     "directional-hemispherical transmittance T and reflectance R for front (exterior) and back\n"
     "incidence at theta = 0, 15, 30, 45, 60, 75 degrees (propagation azimuth 0 and 90), and the\n"
@@ -35,7 +35,11 @@ static const char help[] =
     "angular model and why, its source and what its file says of it.\n"
     "glass:SPEC (a pane, bsdfstack-glass(5)): its description, source, angular model and why,\n"
     "metadata, channels, and T and R at the angles above (a pane is specular: its directional-\n"
-    "hemispherical values are the model's at that angle; `bsdfstack glass` prints more).\n";
+    "hemispherical values are the model's at that angle; `bsdfstack glass` prints more).\n"
+    "shade:FILE.json[,KEYS] (an IGSDB shading record, bsdfstack-glass(5)): the product, its\n"
+    "kind, geometry and material (band values Tf Tb Rf Rb, specular and diffuse), and the model\n"
+    "its layer is made from, as the venetian:, perforated: or woven: spec that makes the same\n"
+    "layer (KEYS override the record's values); venetian:KEYS and the others: that model.\n";
 
 /* The layers a file written by bsdfstack records in its header comment ("layers (exterior first):
  * ..." and one "layer N SPEC: ..." line per pane), printed as "layers    ..." lines; nothing for
@@ -109,6 +113,91 @@ static int info_pane(const char *sub, const char *spec)
         }
     }
     bst_glass_free(g);
+    bst_ctx_free(ctx);
+    return CLI_OK;
+}
+
+/* The record's material values of one band, as "Tf Tb Rf Rb" specular / diffuse ("-" absent). */
+static void print_band(const char *name, const bst_shade_band *b)
+{
+    printf("          %-8s", name);
+    for (int part = 0; part < 2; part++) {
+        const double *v = part ? b->diffuse : b->specular;
+        printf("%s", part ? "  diffuse" : "specular");
+        for (int c = 0; c < 4; c++)
+            printf(isnan(v[c]) ? "       -" : " %7.4f", v[c]);
+    }
+    printf("\n");
+}
+
+/* What an IGSDB shading record says (`info shade:FILE`): product, kind, geometry, material. */
+static int print_record(bst_ctx *ctx, const char *body)
+{
+    /* the file as bst_shade_parse takes it: to the first comma, unless the whole names a file */
+    const char *comma = strchr(body, ',');
+    char *file = strndup(body, comma && access(body, F_OK) != 0 ? (size_t)(comma - body) : strlen(body));
+    bst_shade *s = NULL;
+    bst_shade_band vis, sol;
+    int rc = file ? bst_shade_read_igsdb(ctx, file, &s) : BST_ENOMEM;
+    free(file);
+    if (rc >= 0)
+        rc = bst_shade_band_values(ctx, s, getenv("BSDFSTACK_GLASS_DIR"), &vis, &sol);
+    if (rc < 0) {
+        bst_shade_free(s);
+        return rc;
+    }
+    printf("product   %s (IGSDB %ld%s%s), %s\n", s->name, s->product_id, *s->manufacturer ? ", " : "",
+           s->manufacturer, bst_shade_kind_name(s->kind));
+    if (s->kind == BST_SHADE_VENETIAN)
+        printf("geometry  slat width %g mm, spacing %g mm, curvature %g mm, tilt %g, %d segments\n",
+               s->geometry.venetian.slat_width, s->geometry.venetian.slat_spacing,
+               s->geometry.venetian.slat_curvature, s->geometry.venetian.slat_tilt,
+               s->geometry.venetian.number_segments);
+    else if (s->kind == BST_SHADE_WOVEN)
+        printf("geometry  thread diameter %g mm, spacing %g mm, shade thickness %g mm\n",
+               s->geometry.woven.thread_diameter, s->geometry.woven.thread_spacing,
+               s->geometry.woven.shade_thickness);
+    else
+        printf("geometry  %s holes %g x %g mm (radius if circular), pitch %g x %g mm\n",
+               s->geometry.perforated.type == BST_PERFORATION_CIRCULAR ? "circular"
+               : s->geometry.perforated.type == BST_PERFORATION_SQUARE ? "square" : "rectangular",
+               s->geometry.perforated.dimension_x, s->geometry.perforated.dimension_y,
+               s->geometry.perforated.spacing_x, s->geometry.perforated.spacing_y);
+    printf("material  %s, thickness %g mm", s->material.name, s->material.thickness_mm);
+    if (s->material.n)
+        printf(", %zu spectral rows %g..%g um (band averages below)\n", s->material.n,
+               s->material.wl[0], s->material.wl[s->material.n - 1]);
+    else
+        printf(", dual-band values\n");
+    if (!isnan(s->permeability))
+        printf("openness  %g (measured_data.permeability_factor, not used by the optics)\n", s->permeability);
+    printf("bands     Tf Tb Rf Rb:\n");
+    print_band("Visible", &vis);
+    print_band("Solar", &sol);
+    bst_shade_free(s);
+    return BST_OK;
+}
+
+/* `info shade:FILE[,KEYS]` (or venetian:, perforated:, woven:): the record, and the model the layer
+ * is made from, as its spec. */
+static int info_shade(const char *sub, const char *spec)
+{
+    bst_ctx *ctx = cli_ctx_new(sub);
+    if (!ctx)
+        return CLI_FAIL;
+    bst_shade_model m;
+    int rc = strncmp(spec, "shade:", 6) == 0 ? print_record(ctx, spec + 6) : BST_OK;
+    if (rc >= 0)
+        rc = cli_shade_parse(ctx, spec, &m);
+    if (rc < 0) {
+        rc = cli_fail_ctx(sub, NULL, ctx);
+        bst_ctx_free(ctx);
+        return rc;
+    }
+    char text[1024];
+    bst_shade_model_spec(&m, text, sizeof text);
+    printf("model     %s\n", text);
+    printf("channel   Visible, Solar (a value A/B: A for Visible, B for Solar)\n");
     bst_ctx_free(ctx);
     return CLI_OK;
 }
@@ -226,6 +315,11 @@ int cmd_info(int argc, char **argv)
         if (ref)
             return cli_usage(sub, "--reference compares a BSDF file, not a pane");
         return info_pane(sub, path);
+    }
+    if (cli_is_shade(path)) {
+        if (ref)
+            return cli_usage(sub, "--reference compares a BSDF file, not a shade's spec");
+        return info_shade(sub, path);
     }
     bst_ctx *ctx = cli_ctx_new(sub);
     if (!ctx)

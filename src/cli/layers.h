@@ -193,9 +193,11 @@ int cli_combine_run(bst_ctx *ctx, const char *sub, const char *where, struct cli
                     const struct cli_stack_args *args, const struct cli_run_opts *ro, bst_layer **sys);
 
 /* Shades made from their geometry (shades.c): whether spec is one (venetian:, perforated:,
- * woven:); its layer over basis (a trailing ^ left to the caller); its check, telling the
- * structure its layer will have.  Library statuses, the message in ctx. */
+ * woven:, shade:FILE); the spec parsed (a trailing ^ dropped); its layer over basis (the ^ left
+ * to the caller); its check, telling the structure its layer will have.  Library statuses, the
+ * message in ctx. */
 int cli_is_shade(const char *spec);
+int cli_shade_parse(bst_ctx *ctx, const char *spec, bst_shade_model *m);
 int cli_shade_layer(bst_ctx *ctx, const char *spec, const bst_basis *basis, size_t nch,
                     const char **chnames, bst_layer **l);
 int cli_shade_check(bst_ctx *ctx, const char *spec, bst_structure *structure);
