@@ -221,6 +221,30 @@ START_TEST(test_columns)
 }
 END_TEST
 
+/* src without its Transmission Back block, written to a temporary file (path: its name). */
+static void without_tb(const char *src, char *path, size_t size)
+{
+    FILE *in = fopen(src, "r");
+    ck_assert_ptr_nonnull(in);
+    static char text[8 << 20];
+    size_t len = fread(text, 1, sizeof text - 1, in);
+    fclose(in);
+    text[len] = 0;
+    char *dir = strstr(text, "<WavelengthDataDirection>Transmission Back");
+    ck_assert_ptr_nonnull(dir);
+    char *from = dir, *to = strstr(dir, "</WavelengthData>");
+    while (from > text && strncmp(from, "<WavelengthData>", 16) != 0)
+        from--;
+    ck_assert_ptr_nonnull(to);
+    to += strlen("</WavelengthData>");
+    memmove(from, to, strlen(to) + 1);
+    snprintf(path, size, "/tmp/bst_no_tb_XXXXXX");
+    int fd = mkstemp(path);
+    ck_assert_int_ge(fd, 0);
+    ck_assert_int_eq(write(fd, text, strlen(text)), (ssize_t)strlen(text));
+    close(fd);
+}
+
 /* BST_RANK3_NATIVE: a rank-3 tree of depth 3 read at k = 5 is factored, rank 64, each fine cell
  * holding the value its order-3 cells have in the exact expansion at order 3; without the rule it
  * is sampled at order 5 (dense).  A file storing only Tf gets Tf's reciprocal as Tb, factored. */
@@ -245,25 +269,8 @@ START_TEST(test_rank3_native)
     }
     bst_layer_free(l), bst_layer_free(c3), bst_layer_free(exact);
     /* the same file without its Transmission Back: Tb(o, i) = Tf(a(i), a(o)) */
-    FILE *in = fopen(iso3, "r");
-    ck_assert_ptr_nonnull(in);
-    static char text[8 << 20];
-    size_t len = fread(text, 1, sizeof text - 1, in);
-    fclose(in);
-    text[len] = 0;
-    char *dir = strstr(text, "<WavelengthDataDirection>Transmission Back");
-    ck_assert_ptr_nonnull(dir);
-    char *from = dir, *to = strstr(dir, "</WavelengthData>");
-    while (from > text && strncmp(from, "<WavelengthData>", 16) != 0)
-        from--;
-    ck_assert_ptr_nonnull(to);
-    to += strlen("</WavelengthData>");
-    memmove(from, to, strlen(to) + 1);
-    char path[] = "/tmp/bst_iso_tf_XXXXXX";
-    int fd = mkstemp(path);
-    ck_assert_int_ge(fd, 0);
-    ck_assert_int_eq(write(fd, text, strlen(text)), (ssize_t)strlen(text));
-    close(fd);
+    char path[64];
+    without_tb(iso3, path, sizeof path);
     l = file_layer_rule(path, b5, BST_RANK3_NATIVE);
     unlink(path);
     const bst_mat *tf = bst_layer_get(l, 0, BST_TF), *tb = bst_layer_get(l, 0, BST_TB);
@@ -284,26 +291,8 @@ END_TEST
  * so reading the Tb block, not reciprocity, would fail this. */
 START_TEST(test_klems_reciprocal)
 {
-    FILE *in = fopen(tu_ref("L_diffuser_t3k5_klems.xml"), "r");
-    ck_assert_ptr_nonnull(in);
-    static char text[4 << 20];
-    size_t len = fread(text, 1, sizeof text - 1, in);
-    fclose(in);
-    text[len] = 0;
-    /* cut the <WavelengthData> block whose direction is Transmission Back */
-    char *dir = strstr(text, "<WavelengthDataDirection>Transmission Back");
-    ck_assert_ptr_nonnull(dir);
-    char *from = dir, *to = strstr(dir, "</WavelengthData>");
-    while (from > text && strncmp(from, "<WavelengthData>", 16) != 0)
-        from--;
-    ck_assert_ptr_nonnull(to);
-    to += strlen("</WavelengthData>");
-    memmove(from, to, strlen(to) + 1);
-    char path[] = "/tmp/bst_klems_tf_XXXXXX";
-    int fd = mkstemp(path);
-    ck_assert_int_ge(fd, 0);
-    ck_assert_int_eq(write(fd, text, strlen(text)), (ssize_t)strlen(text));
-    close(fd);
+    char path[64];
+    without_tb(tu_ref("L_diffuser_t3k5_klems.xml"), path, sizeof path);
     bst_basis *b5;
     ck_assert_int_eq(bst_basis_new_sc(ctx, 5, &b5), BST_OK);
     bst_bsdf *f;
