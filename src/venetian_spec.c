@@ -228,8 +228,5 @@ int bst_venetian_check(bst_ctx *ctx, const bst_venetian *v)
     if (!(v->roughness >= 0.0) || !isfinite(v->roughness))
         return bsti_error(ctx, BST_EINVAL, "venetian: roughness = %g is not a slope >= 0",
                           v->roughness);
-    if (v->curvature != 0.0)
-        return bsti_error(ctx, BST_ENOTIMPL, "venetian: curvature = %g m: curved slats are not "
-                          "modelled yet (curvature=0 for flat slats)", v->curvature);
     return BST_OK;
 }
