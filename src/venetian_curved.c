@@ -180,7 +180,9 @@ void bsti_vn_curved_view(const bsti_vn_geom *g, double a, double b, double *view
 void bsti_vn_curved_exchange(const bsti_vn_geom *g, double *gm)
 {
     const size_t n = 2 * (size_t)g->m;
-    const int np = BSTI_VN_EXCHANGE_POSITIONS, na = BSTI_VN_CURVED_ANGLES;
+    const int na = BSTI_VN_CURVED_ANGLES;
+    const int np = g->m * BSTI_VN_EXCHANGE_POSITIONS >= BSTI_VN_CURVED_FACE_POSITIONS
+                 ? BSTI_VN_EXCHANGE_POSITIONS : (BSTI_VN_CURVED_FACE_POSITIONS + g->m - 1) / g->m;
     double col[2 * 1000], out[5], wa[BSTI_VN_CURVED_ANGLES], sum = 0;
     /* Lambertian emission in the profile plane, cos(alpha) / 2 d alpha: midpoints uniform in
      * alpha, weighed by cos alpha and normalised (a concave strip sees itself only at grazing
