@@ -93,7 +93,7 @@ static int first_arc(const bsti_vn_geom *g, const double p[2], const double d[2]
         if (j == jlast && flast == 0)
             continue; /* off a convex face: away from its own circle */
         double q0 = p[0] - (g->c[0] + (double)j * s), q1 = p[1] - g->c[1];
-        double qd = q0 * d[0] + q1 * d[1], c = (hypot(q0, q1) - g->R) * (hypot(q0, q1) + g->R);
+        double qd = q0 * d[0] + q1 * d[1], c = q0 * q0 + q1 * q1 - g->R * g->R;
         double disc = qd * qd - c;
         if (disc < 0)
             continue;

@@ -9,7 +9,7 @@
  * - a concave face's exchange with itself against the inscribed-angle closed form, a convex face
  *   sees none of itself, deep arcs' exchange is reciprocal; lossless diffuse slats conserve energy to the radiosity's quadrature,
  *   and the segment count converges;
- * - curvature 1000 x width against the flat slat's layer; reciprocity. */
+ * - curvature 1000 x width against the flat slat's layer; reciprocity; allocation failure. */
 #include <config.h>
 
 #include <math.h>
@@ -368,12 +368,48 @@ START_TEST(test_reciprocity)
 }
 END_TEST
 
+/* Every allocation of a curved layer's making fails in turn: BST_ENOMEM, no layer, nothing
+ * leaked. */
+START_TEST(test_alloc_failure)
+{
+    bst_ctx *c = bst_ctx_new();
+    tu_alloc a = {0};
+    ck_assert_int_eq(bst_ctx_set_allocator(c, tu_alloc_malloc, tu_alloc_free, &a), BST_OK);
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(c, 2, &b), BST_OK);
+    bst_venetian v;
+    ck_assert_int_eq(bst_venetian_parse(c, "width=16mm,spacing=14.5mm,tilt=30,rs=0.7,r=0.1,samples=2,"
+                                        "segments=2,curvature=10mm", &v), BST_OK);
+    long base = a.live, k;
+    for (k = 1;; k++) {
+        a.fail_at = a.count + k;
+        bst_layer *l = NULL;
+        int rc = bst_venetian_layer(c, &v, b, 0, NULL, &l);
+        if (rc == BST_OK) {
+            bst_layer_free(l);
+            break;
+        }
+        ck_assert_int_eq(rc, BST_ENOMEM);
+        ck_assert_ptr_null(l);
+        ck_assert_int_eq(a.live, base);
+        ck_assert_int_lt(k, 1000);
+    }
+    printf("curved venetian layer: %ld allocations failed in turn, none leaked\n", k - 1);
+    ck_assert_int_gt(k, 1);
+    ck_assert_int_eq(a.live, base);
+    a.fail_at = 0;
+    bst_basis_free(b);
+    bst_ctx_free(c);
+}
+END_TEST
+
 static Suite *curved_suite(void)
 {
     Suite *s = suite_create("venetian_curved");
     TCase *tc = tcase_create("curved");
     tcase_add_checked_fixture(tc, setup, teardown);
     tcase_set_timeout(tc, 600);
+    tcase_add_test(tc, test_alloc_failure);
     tcase_add_loop_test(tc, test_openness, 0, 6);
     tcase_add_loop_test(tc, test_lossless_mirror, 0, 5); /* the fourth in Klems full */
     tcase_add_loop_test(tc, test_closed, 0, 3);
