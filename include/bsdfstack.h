@@ -877,8 +877,8 @@ const char *bst_shade_kind_name(bst_shade_kind kind);
 /* ------------------------------ venetian blinds: venetian_spec.c, venetian_trace.c, venetian_layer.c */
 
 /* A venetian blind from its geometry (bsdfstack-glass(5), "venetian:" specs).  Slats of zero
- * thickness, flat, infinitely long along X (a vertical blind: along Y), stacked every `spacing`
- * along Y (X).  The tilt is the slat's angle about its long axis: a slat's profile runs from its
+ * thickness, flat or circular arcs, infinitely long along X (a vertical blind: along Y), stacked
+ * every `spacing` along Y (X).  The tilt is the slat's angle about its long axis: a slat's profile runs from its
  * exterior edge to its interior edge along (0, sin tilt, cos tilt) in (x, y, z), so tilt 0 holds
  * the slats horizontal (normal +-Y, the reference blind L_blind0) and a POSITIVE tilt puts the
  * exterior edge LOWER than the interior edge (the reference blind L_blind45 is tilt = +45); a
@@ -890,11 +890,18 @@ const char *bst_shade_kind_name(bst_shade_kind kind);
  * component of a direction survives every reflection) and averaged over each incident patch by
  * samples^2 directions (a Halton set; a rough slat draws its facets from the same points); the
  * light the slats scatter diffusely is a radiosity exchange between `segments` strips per slat
- * face (the diffuse part has rank 2 segments at most). */
+ * face (the diffuse part has rank 2 segments at most).  A curved slat (curvature R > 0) is the arc
+ * of radius R whose chord is the flat slat of the same tilt (width = the chord), bowed towards
+ * r_up's side: convex upward, the crown towards +Y (the sky) at tilt 0 as real blinds and WINDOW's
+ * positive slat curvature (IGSDB slat_curvature), turning with the tilt; r_up is its convex face.
+ * Its light is followed in the whole periodic array of arcs (mirrored about the arc's normal where
+ * it meets one), N^2 directions a patch each from 8 positions across the slat's shadow, the
+ * unobstructed share exact; its strips (equal arc lengths) exchange light traced from the arcs,
+ * not their chords. */
 typedef struct {
     double width, spacing;  /* m, > 0 */
     double tilt;            /* degrees, -90..90 */
-    double curvature;       /* m, 0 = flat (the only shape modelled yet); else >= width / 2 */
+    double curvature;       /* m, 0 = flat; else the arc's radius, >= width / 2 (crown +Y at tilt 0) */
     int vertical;           /* slats along Y */
     int segments;           /* strips per slat face for the radiosity, default BST_VENETIAN_SEGMENTS */
     int samples;            /* samples^2 directions per patch; 0 (default): BST_VENETIAN_SAMPLES

@@ -30,6 +30,15 @@ enum { BSTI_VN_EVEN, BSTI_VN_EVEN_N, BSTI_VN_ODD, BSTI_VN_ODD_N, BSTI_VN_EVEN_W,
  * their exits' turn in the profile plane (BSTI_VN_*_W, _D, _D2: flux, flux x turn, flux x turn^2,
  * by the parity of the bounces). */
 #define BSTI_VN_ROUGH_RAYS 4
+/* Curved slats: rays per incident direction across the part of the opening that meets a slat
+ * (each direction of a patch its own, stratified, entry positions). */
+#define BSTI_VN_CURVED_RAYS 8
+/* Curved slats: emission angles per position in the strips' exchange, and positions per face
+ * (BSTI_VN_EXCHANGE_POSITIONS a strip at least): strips of neighbouring arcs may come close,
+ * where the exchange converges only as 1 / positions (its reciprocity 0.0085 with 64 a strip,
+ * 0.0027 with 256, deep arcs 9 mm apart at tilt 60). */
+#define BSTI_VN_CURVED_ANGLES 256
+#define BSTI_VN_CURVED_FACE_POSITIONS 2048
 
 typedef struct {
     double w, s;         /* slat width, spacing (m) */
@@ -39,16 +48,22 @@ typedef struct {
     double rs;           /* specular reflectance */
     int m;               /* strips per face */
     int sheet;           /* |tilt| = 90: the slats lie in one plane (no channel) */
+    double len;          /* a face's length along its profile (w flat, R 2h curved) */
+    /* curved slats (venetian_curved.c): the arc of radius R about c (slat 0), half-angle h
+     * (cth = cos h), and the extent of slat 0 in y and z (zlo..zhi: the slab that holds them) */
+    int curved;
+    double R, half, cth, c[2], ylo, yhi, zlo, zhi;
 } bsti_vn_geom;
 
+/* Flat slats, or curved ones when v->curvature > 0 (bsti_vn_curved_init). */
 void bsti_vn_geom_init(bsti_vn_geom *g, const bst_venetian *v);
 
 /* The share of light entering along profile direction (a, b) (b > 0: from the exterior, b < 0:
  * from the interior; b != 0) that passes between the slats without meeting one: exact. */
 double bsti_vn_open(const bsti_vn_geom *g, double a, double b);
 
-/* What becomes of unit flux entering along (a, b) on the part of the opening that meets a slat
- * (whatever that part's size): row[BSTI_VN_EVEN ..] as enumerated above, BSTI_VN_DEP + 2 m values;
+/* Flat slats only: what becomes of unit flux entering along (a, b) on the part of the opening
+ * that meets a slat (whatever that part's size): row[BSTI_VN_EVEN ..] as enumerated above, BSTI_VN_DEP + 2 m values;
  * sigma > 0 (rough slats, the deviation of a facet's slope in the profile plane) adds the moments
  * of BSTI_VN_ROUGH_RAYS rays per entry position traced with their own facets. */
 void bsti_vn_hit(const bsti_vn_geom *g, double a, double b, double sigma, double *row);
@@ -68,6 +83,31 @@ void bsti_vn_exchange(const bsti_vn_geom *g, double *gm);
 int bsti_vn_wce_layer(bst_ctx *ctx, const bst_venetian *v, const bst_basis *basis, bst_layer *l,
                       size_t nvis, const size_t *vis, size_t nsol, const size_t *sol);
 int bsti_vn_wce_check(bst_ctx *ctx, const bst_venetian *v);
+
+/* The slope of a rough facet (standard Gaussian) met at bounce j by ray `seed`: the same on every
+ * run. */
+double bsti_vn_facet_slope(unsigned long seed, long j);
+
+/* Curved slats (venetian_curved.c; bsti_vn_open, _view and _exchange turn to these when
+ * g->curved).  _init: the arc of radius `radius` over the flat slat set up in g. */
+void bsti_vn_curved_init(bsti_vn_geom *g, double radius);
+double bsti_vn_curved_open(const bsti_vn_geom *g, double a, double b);
+void bsti_vn_curved_view(const bsti_vn_geom *g, double a, double b, double *view);
+void bsti_vn_curved_exchange(const bsti_vn_geom *g, double *gm);
+/* Where light entering along (a, b) (unit) meets a slat: the positions y0 .. y0 + span on the
+ * plane z = z0 that it enters by (span <= s: the shadow of one arc, or a whole period when the
+ * shadows overlap).  0 when no light meets a slat. */
+int bsti_vn_curved_entries(const bsti_vn_geom *g, double a, double b, double *y0, double *z0,
+                           double *span);
+/* Follow a profile ray from start along dir (unit) with flux wgt until it leaves the slab of the
+ * slats: each arrival on a strip adds the flux then carried to dep[element]; each bounce takes
+ * rs.  The ray starts on no slat (jlast = LONG_MIN) or on face flast (0 convex, 1 concave) of
+ * slat jlast.  sigma > 0: each bounce's facet is tilted along the arc by sigma
+ * bsti_vn_facet_slope(seed, bounce).  out: the flux that leaves, its direction (2) and the
+ * normal of its last bounce's facet (2; 0 without a bounce).  Returns the number of bounces. */
+long bsti_vn_curved_trace(const bsti_vn_geom *g, const double start[2], const double dir[2],
+                          long jlast, int flast, double wgt, double *dep, double sigma,
+                          unsigned long seed, double out[5]);
 
 /* A layer of a sheet with openings (perforated.c; perforated screens, woven fabrics): share(data,
  * d) the share of the sheet open along unit direction d (even in d), averaged over each patch by

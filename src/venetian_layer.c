@@ -11,9 +11,12 @@
  * is kept apart until the end, so that a factored matrix type can hold it as it stands; until one
  * exists a component with diffuse slats is returned dense, one with mirror or black slats sparse.
  * Incident patches are averaged over samples x samples directions uniform in projected solid
- * angle (bst_basis_sample), outgoing patches' views the same way. */
+ * angle (bst_basis_sample), outgoing patches' views the same way.  Curved slats (g.curved) take
+ * the same path except for S and the first arrivals: rays traced per incident direction
+ * (incident_curved), since a mirrored ray no longer leaves along d or its mirror image. */
 #include <config.h>
 
+#include <limits.h>
 #include <math.h>
 #include <string.h>
 #include <strings.h>
@@ -45,6 +48,8 @@ struct build {
     double *view[2];/* ne x n: column o = strips seen from outgoing patch o at the exterior /
                      * interior opening */
     double *hit[2], *see[2]; /* tables of bsti_vn_hit and bsti_vn_view rows, light along +Z / -Z */
+    double *acc;    /* curved slats: 2 n flux sums of one column (reflected, transmitted) */
+    size_t *touched;/* and the entries of acc in use, in the order first met */
 };
 
 /* The entries of one incident column, summed over its directions. */
@@ -136,7 +141,8 @@ static int make_tables(struct build *B)
             /* the ends are grazing in the profile plane: just inside */
             double phi = fmin(fmax(((double)k / VN_TABLE - 0.5) * M_PI, -M_PI / 2 + 1e-9), M_PI / 2 - 1e-9);
             double a = sin(phi), b = side ? -cos(phi) : cos(phi);
-            bsti_vn_hit(&B->g, a, b, B->v->roughness / sqrt(2.0), B->hit[side] + k * nh);
+            if (!B->g.curved) /* curved slats trace each incident direction (incident_curved) */
+                bsti_vn_hit(&B->g, a, b, B->v->roughness / sqrt(2.0), B->hit[side] + k * nh);
             bsti_vn_view(&B->g, a, b, B->see[side] + k * B->ne);
         }
     }
@@ -255,10 +261,104 @@ static int incident_patch(struct build *B, struct column *col, double *row)
     return rc;
 }
 
+/* Flux x of a column leaving along the model direction dir (out of the interior side when
+ * interior) into B->acc (incident_curved). */
+static void acc_add(struct build *B, size_t *nt, const double dir[3], int interior, double x)
+{
+    double d[3];
+    to_model(B, dir, d);
+    size_t row = bst_basis_patch(B->b, d), a = 2 * row + (interior != 0);
+    if (x == 0.0 || row >= B->n)
+        return;
+    if (B->acc[a] == 0.0)
+        B->touched[(*nt)++] = a;
+    B->acc[a] += x / bst_basis_lambda(B->b)[row];
+}
+
+/* The Halton sequence's radical inverse of k in base `base`. */
+static double radical_inverse(size_t k, size_t base)
+{
+    double f = 1.0, r = 0.0;
+    for (; k > 0; k /= base) {
+        f /= (double)base;
+        r += f * (double)(k % base);
+    }
+    return r;
+}
+
+/* One incident patch i from side col->back among curved slats: each direction's unobstructed
+ * share exactly, the rest as BSTI_VN_CURVED_RAYS rays entering across the shadow of a slat
+ * (stratified, offset by a fifth Halton dimension), each followed with its own rough facets to
+ * where it leaves; out of the profile plane a path of n bounces is turned as by one facet of its
+ * last bounce tilted along X with n times the variance (as spread() does for flat slats). */
+static int incident_curved(struct build *B, struct column *col)
+{
+    const double wq = 1.0 / (double)B->np, sigma = B->v->roughness / sqrt(2.0);
+    const size_t i = col->i, nr = BSTI_VN_CURVED_RAYS;
+    double *dep = B->dep[col->back] + i * B->ne;
+    size_t nt = 0;
+    for (size_t p = 0; p < B->np; p++) {
+        const double *pt = B->pts + 4 * p;
+        double s[3], d[3], y0, z0, span, out[5];
+        bst_basis_sample(B->b, i, pt[0], pt[1], s);
+        if (col->back)
+            s[2] = -s[2];
+        to_model(B, s, d);
+        double r = hypot(d[1], d[2]), u[2] = {d[1] / r, d[2] / r};
+        if (fabs(d[2]) < 1e-300)
+            continue;
+        double open = bsti_vn_open(&B->g, d[1], d[2]), hit = (1.0 - open) * wq / (double)nr;
+        acc_add(B, &nt, d, !col->back, open * wq);
+        if (open >= 1.0 || !bsti_vn_curved_entries(&B->g, u[0], u[1], &y0, &z0, &span))
+            continue;
+        double off = radical_inverse(p + 1, 11);
+        for (size_t k = 0; k < nr; k++) {
+            double start[2] = {y0 + span * ((double)k + off) / (double)nr, z0};
+            unsigned long seed = ((2 * i + (size_t)col->back) * B->np + p) * nr + k;
+            long n = bsti_vn_curved_trace(&B->g, start, u, LONG_MIN, 0, hit, dep, sigma, seed, out);
+            double e[3] = {d[0], r * out[1], r * out[2]}, dir[3];
+            memcpy(dir, e, sizeof dir);
+            if (B->v->roughness > 0 && n > 0) {
+                double s1 = B->v->roughness * sqrt((double)n / 2) * pt[2], len = sqrt(1 + s1 * s1);
+                double nl[3] = {0.0, out[3], out[4]}, once[3];
+                double nf[3] = {s1 / len, out[3] / len, out[4] / len};
+                reflect(e, nl, once);
+                reflect(once, nf, dir);
+                if ((dir[2] > 0) != (e[2] > 0))
+                    memcpy(dir, e, sizeof dir);
+            }
+            acc_add(B, &nt, dir, e[2] > 0, out[0]);
+        }
+    }
+    int rc = BST_OK;
+    for (size_t k = 0; k < nt; k++) {
+        size_t a = B->touched[k], row = a / 2;
+        int c = a % 2 ? (col->back ? BST_RB : BST_TF) : (col->back ? BST_TB : BST_RF);
+        if (rc >= 0)
+            rc = trip_add(B->ctx, &B->tr[c], row, i, B->acc[a]);
+        B->acc[a] = 0.0;
+    }
+    return rc;
+}
+
 /* The direct and mirrored parts of every column and the first arrivals, both sides. */
 static int trace_incident(struct build *B)
 {
     struct column col = {0};
+    if (B->g.curved) {
+        B->acc = bsti_alloc_array(B->ctx, 2 * B->n, sizeof *B->acc);
+        B->touched = bsti_alloc_array(B->ctx, 2 * B->n, sizeof *B->touched);
+        if (!B->acc || !B->touched)
+            return BST_ENOMEM;
+        memset(B->acc, 0, 2 * B->n * sizeof *B->acc);
+        int rc = BST_OK;
+        for (int back = 0; back < 2 && rc >= 0; back++)
+            for (size_t i = 0; i < B->n && rc >= 0; i++) {
+                col.back = back, col.i = i;
+                rc = incident_curved(B, &col);
+            }
+        return rc;
+    }
     col.cap = 3 * B->np + 1; /* open, even, odd per direction */
     col.row = bsti_alloc_array(B->ctx, col.cap, sizeof *col.row);
     col.comp = bsti_alloc_array(B->ctx, col.cap, sizeof *col.comp);
@@ -351,7 +451,7 @@ static int radiosity(struct build *B)
     for (size_t j = 0; j < ne; j++)
         for (size_t e = 0; e < ne; e++)
             a[j * ne + e] = (e == j) - em[e] * gm[e * ne + j] - B->v->t * gm[((e + m) % ne) * ne + j];
-    double scale = B->g.s * (double)m / (M_PI * B->g.w);
+    double scale = B->g.s * (double)m / (M_PI * B->g.len);
     for (int side = 0; side < 2; side++) {
         double *d = B->dep[side];
         for (size_t i = 0; i < B->n; i++) {
@@ -399,6 +499,7 @@ static void build_free(struct build *B)
         bsti_free(B->ctx, B->hit[s]), bsti_free(B->ctx, B->see[s]);
     }
     bsti_free(B->ctx, B->pts);
+    bsti_free(B->ctx, B->acc), bsti_free(B->ctx, B->touched);
 }
 
 /* The four components into channels ch[0..nch) of l (the first its own, the others copies). */

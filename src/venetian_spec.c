@@ -288,8 +288,5 @@ int bst_venetian_check(bst_ctx *ctx, const bst_venetian *v)
     int rc = bsti_vn_wce_check(ctx, v);
     if (rc < 0)
         return rc;
-    if (v->curvature != 0.0)
-        return bsti_error(ctx, BST_ENOTIMPL, "venetian: curvature = %g m: curved slats are not "
-                          "modelled yet (curvature=0 for flat slats)", v->curvature);
     return BST_OK;
 }

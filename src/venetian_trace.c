@@ -1,5 +1,6 @@
 /* venetian_trace.c - light in one channel of a venetian blind, in its profile plane (venetian.h
- * for the frame, the faces and the elements).
+ * for the frame, the faces and the elements).  Flat slats here; curved ones in venetian_curved.c
+ * (bsti_vn_open, _view and _exchange turn to it).
  *
  * Flat slats are parallel mirrors: a ray's X component never changes and each specular bounce
  * flips its profile direction between d and its mirror image dm, so a ray entering along d leaves
@@ -32,6 +33,9 @@ void bsti_vn_geom_init(bsti_vn_geom *g, const bst_venetian *v)
     g->nA[1] = -g->sb;
     g->rs = v->rs;
     g->m = v->segments;
+    g->len = g->w;
+    if (v->curvature > 0)
+        bsti_vn_curved_init(g, v->curvature);
 }
 
 /* A uniform number in (0, 1) from a 64-bit key (splitmix64's finaliser): reproducible, and the
@@ -47,7 +51,7 @@ static double hash_uniform(uint64_t x)
 
 /* The slope of a rough facet (in the profile plane, standard Gaussian) met at bounce j by ray
  * `seed`: Box-Muller on two hashed numbers, the same for the same ray and bounce on every run. */
-static double facet_slope(unsigned long seed, long j)
+double bsti_vn_facet_slope(unsigned long seed, long j)
 {
     uint64_t key = ((uint64_t)seed << 24) ^ (uint64_t)j;
     double u1 = hash_uniform(2 * key), u2 = hash_uniform(2 * key + 1);
@@ -92,7 +96,7 @@ static long trace2(const bsti_vn_geom *g, double y, double z, double a, double b
         wgt *= g->rs;
         double na = g->nA[0], nb = g->nA[1];
         if (sigma > 0) {
-            double sl = sigma * facet_slope(seed, n), len = sqrt(1 + sl * sl);
+            double sl = sigma * bsti_vn_facet_slope(seed, n), len = sqrt(1 + sl * sl);
             double ta = (na + sl * g->sb) / len, tb = (nb + sl * g->cb) / len, dt = a * ta + b * tb;
             double ra = a - 2 * dt * ta, rb = b - 2 * dt * tb;
             if ((ra * na + rb * nb > 0) == (face == 0)) /* away from the struck face */
@@ -124,6 +128,8 @@ static double shadow_shift(const bsti_vn_geom *g, double a, double b, double *y0
 
 double bsti_vn_open(const bsti_vn_geom *g, double a, double b)
 {
+    if (g->curved)
+        return bsti_vn_curved_open(g, a, b);
     if (g->sheet)
         return 1.0 - fmin(1.0, g->w / g->s);
     double y0, z0, delta = shadow_shift(g, a, b, &y0, &z0);
@@ -169,6 +175,10 @@ void bsti_vn_hit(const bsti_vn_geom *g, double a, double b, double sigma, double
 void bsti_vn_view(const bsti_vn_geom *g, double a, double b, double *view)
 {
     const int np = BSTI_VN_POSITIONS;
+    if (g->curved) {
+        bsti_vn_curved_view(g, a, b, view);
+        return;
+    }
     memset(view, 0, 2 * (size_t)g->m * sizeof *view);
     if (g->sheet) { /* the face towards the exit side, strips of w / m in an opening of s */
         for (int m = 0; m < g->m; m++)
@@ -185,6 +195,10 @@ void bsti_vn_exchange(const bsti_vn_geom *g, double *gm)
 {
     const size_t n = 2 * (size_t)g->m;
     const int np = BSTI_VN_EXCHANGE_POSITIONS;
+    if (g->curved) {
+        bsti_vn_curved_exchange(g, gm);
+        return;
+    }
     memset(gm, 0, n * n * sizeof *gm);
     if (g->sheet) /* a plane sees none of itself */
         return;

@@ -1,7 +1,7 @@
 #!/bin/sh
 # cli_venetian.sh - venetian:SPEC (and perforated:SPEC) layers on the command line: a blind
-# between two panes combined, converted and compared with the ray-traced reference; bad specs
-# refused with one line naming the key, and no output file left behind.
+# (flat, and curved) between two panes combined, converted and compared with the ray-traced
+# reference; bad specs refused with one line naming the key, and no output file left behind.
 . "${BST_SRCDIR:-.}/tests/clitest.sh"
 
 blind=venetian:width=16mm,spacing=14.5mm,tilt=45,rs=0.765,r=0.085,roughness=0.02
@@ -14,6 +14,9 @@ expect_status 0 "glass + venetian + glass (k = 3)" -- \
 [ -s "$tmpdir/sys.xml" ] && pass "system written" || fail "no system file"
 expect_status 0 "a vertical blind, reversed, Klems" -- \
     "$BSDFSTACK" combine --klems -o "$tmpdir/vert.xml" "venetian:width=25mm,spacing=20mm,tilt=30,vertical,r=0.5^"
+expect_status 0 "curved slats (k = 3)" -- "$BSDFSTACK" combine -k 3 -o "$tmpdir/curved.xml" \
+    glass:clear-6mm "venetian:width=25mm,spacing=22mm,tilt=30,curvature=40mm,rs=0.6,r=0.2,roughness=0.03"
+[ -s "$tmpdir/curved.xml" ] && pass "system with curved slats written" || fail "no curved system"
 expect_status 0 "dual-band slats beside a spectral pane" -- "$BSDFSTACK" combine -k 2 \
     -o "$tmpdir/dual.xml" glass:nfrc-102 "venetian:width=16mm,spacing=14.5mm,rs=0.765/0.7,r=0.085/0.1"
 expect_status 0 "info on it" -- "$BSDFSTACK" info "$tmpdir/dual.xml"

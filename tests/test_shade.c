@@ -10,7 +10,7 @@
  *  - overrides (tilt, segments, a plain value replacing a dual-band one, a thickness the record
  *    lacks), and refusals with one line naming the file and the field or key: unknown key, a
  *    glazing record, Tf and Tb or the two faces' specular reflectances that differ, a missing
- *    component, a curved slat (passed to the venetian model, which decides);
+ *    component; a curved slat's radius (mm) becomes the model's curvature;
  *  - allocation failure at every allocation of reading a record into its model: BST_ENOMEM and
  *    nothing leaked. */
 #include <config.h>
@@ -294,14 +294,14 @@ START_TEST(test_refused)
     refused(s, BST_EINVAL, "unknown key 'colour'", path);
     snprintf(s, sizeof s, "shade:%s,tilt=100", path);
     refused(s, BST_EINVAL, "tilt = 100", path);
-    /* a curved slat goes to the venetian model, which decides (not modelled yet) */
+    /* a curved slat: the record's radius (mm) is the model's curvature (m) */
     const char *curved = record("c.json", "venetian", "", dual(slat), "\"slat_width\": 16, "
                                 "\"slat_spacing\": 12, \"slat_curvature\": 30, \"number_segments\": 5");
     snprintf(s, sizeof s, "shade:%s", curved);
     bst_shade_model m;
     int st = bst_shade_parse(ctx, s, cat(), &m);
-    ck_assert_msg(st == BST_OK || (st == BST_ENOTIMPL && strstr(bst_ctx_message(ctx), "curvature")),
-                  "%d %s", st, bst_ctx_message(ctx));
+    ck_assert_msg(st == BST_OK, "%d %s", st, bst_ctx_message(ctx));
+    ck_assert_double_eq_tol(m.venetian.curvature, 0.030, 1e-15);
     /* Tf and Tb apart, the faces' specular reflectances apart, a component missing */
     const char *v[16];
     memcpy(v, slat, sizeof v);
