@@ -372,34 +372,8 @@ END_TEST
  * leaked. */
 START_TEST(test_alloc_failure)
 {
-    bst_ctx *c = bst_ctx_new();
-    tu_alloc a = {0};
-    ck_assert_int_eq(bst_ctx_set_allocator(c, tu_alloc_malloc, tu_alloc_free, &a), BST_OK);
-    bst_basis *b;
-    ck_assert_int_eq(bst_basis_new_sc(c, 2, &b), BST_OK);
-    bst_venetian v;
-    ck_assert_int_eq(bst_venetian_parse(c, "width=16mm,spacing=14.5mm,tilt=30,rs=0.7,r=0.1,samples=2,"
-                                        "segments=2,curvature=10mm", &v), BST_OK);
-    long base = a.live, k;
-    for (k = 1;; k++) {
-        a.fail_at = a.count + k;
-        bst_layer *l = NULL;
-        int rc = bst_venetian_layer(c, &v, b, 0, NULL, &l);
-        if (rc == BST_OK) {
-            bst_layer_free(l);
-            break;
-        }
-        ck_assert_int_eq(rc, BST_ENOMEM);
-        ck_assert_ptr_null(l);
-        ck_assert_int_eq(a.live, base);
-        ck_assert_int_lt(k, 1000);
-    }
-    printf("curved venetian layer: %ld allocations failed in turn, none leaked\n", k - 1);
-    ck_assert_int_gt(k, 1);
-    ck_assert_int_eq(a.live, base);
-    a.fail_at = 0;
-    bst_basis_free(b);
-    bst_ctx_free(c);
+    long n = tu_venetian_alloc_failures("width=16mm,spacing=14.5mm,tilt=30,rs=0.7,r=0.1,samples=2,segments=2,curvature=10mm");
+    printf("curved venetian layer: %ld allocations failed in turn, none leaked\n", n);
 }
 END_TEST
 

@@ -32,38 +32,6 @@ static void teardown(void) { bst_ctx_free(ctx); }
 /* The acceptance tolerance of issue #32 on WCE's matrices (1/sr). */
 #define WCE_MATRIX_TOL 1e-4
 
-/* A basis from one of WCE's patch tables (wce/basis/basis_*.tsv), its Lambda checked. */
-static bst_basis *wce_basis(const char *file)
-{
-    char path[128], line[512];
-    snprintf(path, sizeof path, "wce/basis/%s", file);
-    FILE *fp = fopen(tu_ref(path), "r");
-    ck_assert_msg(fp != NULL, "cannot open %s", tu_ref(path));
-    double bounds[32], lam[256];
-    int nphi[32] = {0}, nb = 0;
-    size_t np = 0;
-    while (fgets(line, sizeof line, fp)) {
-        int idx, ring;
-        double tlo, thi, plo, phi, tc, pc, l;
-        if (line[0] == '#' || sscanf(line, "%d %d %lf %lf %lf %lf %lf %lf %lf", &idx, &ring, &tlo,
-                                     &thi, &plo, &phi, &tc, &pc, &l) != 9)
-            continue;
-        if (ring > nb) {
-            ck_assert_int_eq(ring, nb + 1);
-            bounds[nb] = tlo, bounds[nb + 1] = thi;
-            nb = ring;
-        }
-        nphi[ring - 1]++;
-        lam[np++] = l;
-    }
-    fclose(fp);
-    bst_basis *b = NULL;
-    ck_assert_int_eq(bst_basis_new_klems_bands(ctx, file, (size_t)nb, bounds, nphi, &b), BST_OK);
-    ck_assert_uint_eq(bst_basis_size(b), np);
-    for (size_t i = 0; i < np; i++)
-        tu_assert_close(bst_basis_lambda(b)[i], lam[i], 1e-9, 0);
-    return b;
-}
 
 /* WCE's matrix `name` (Tf, Tb, Rf, Rb) of the shade (layer 2) in block `block` of the case's
  * layer matrices, n x n row-major (outgoing, incident), zero where the file lists nothing. */
@@ -111,7 +79,7 @@ static void against_wce(const char *spec, int block, double t, double r, double 
     char full[256];
     snprintf(full, sizeof full, "%s,t=%.17g,r=%.17g", spec, t, r);
     bst_venetian v = parse(full);
-    bst_basis *b = wce_basis("basis_wce_small.tsv");
+    bst_basis *b = tu_wce_basis(ctx, "basis_wce_small.tsv");
     bst_layer *l = layer_of(&v, b);
     size_t n = bst_basis_size(b);
     for (int c = 0; c < BST_NCOMP; c++) {
@@ -319,7 +287,7 @@ END_TEST
 START_TEST(test_alloc_failure)
 {
     bst_venetian v = parse("width=16mm,spacing=12mm,tilt=45,r=0.6,t=0.2,rule=centre");
-    bst_basis *b = wce_basis("basis_wce_small.tsv");
+    bst_basis *b = tu_wce_basis(ctx, "basis_wce_small.tsv");
     int failed = 0;
     for (long k = 1; k < 200; k++) {
         tu_alloc a = {k, 0, 0};

@@ -49,36 +49,6 @@ static FILE *open_ref(const char *name)
     return fp;
 }
 
-/* A basis from one of WCE's patch tables (basis/basis_*.tsv), with its Lambda checked. */
-static bst_basis *wce_basis(const char *file)
-{
-    char path[128], line[512];
-    snprintf(path, sizeof path, "wce/basis/%s", file);
-    FILE *fp = open_ref(path);
-    double bounds[32], lam[256];
-    int nphi[32] = {0}, nb = 0, ring, idx;
-    size_t np = 0;
-    while (fgets(line, sizeof line, fp)) {
-        double tlo, thi, plo, phi, tc, pc, l;
-        if (line[0] == '#' || sscanf(line, "%d %d %lf %lf %lf %lf %lf %lf %lf", &idx, &ring, &tlo,
-                                     &thi, &plo, &phi, &tc, &pc, &l) != 9)
-            continue;
-        if (ring > nb) {
-            ck_assert_int_eq(ring, nb + 1);
-            bounds[nb] = tlo, bounds[nb + 1] = thi;
-            nb = ring;
-        }
-        nphi[ring - 1]++;
-        lam[np++] = l;
-    }
-    fclose(fp);
-    bst_basis *b;
-    ck_assert_int_eq(bst_basis_new_klems_bands(ctx, file, (size_t)nb, bounds, nphi, &b), BST_OK);
-    ck_assert_uint_eq(bst_basis_size(b), np);
-    for (size_t i = 0; i < np; i++)
-        tu_assert_close(bst_basis_lambda(b)[i], lam[i], 1e-9, 0);
-    return b;
-}
 
 /* ------------------------------------------------------------------ a system and its quantities */
 
@@ -220,7 +190,7 @@ static bst_mat *read_matrix(const char *file, const char *object, const char *wh
 
 START_TEST(test_sb_7ring_double)
 {
-    bst_basis *b = wce_basis("basis_wce_7ring_test.tsv");
+    bst_basis *b = tu_wce_basis(ctx, "basis_wce_7ring_test.tsv");
     size_t N = bst_basis_size(b);
     bst_layer *g;
     ck_assert_int_eq(bst_layer_new(ctx, b, 1, (const char *const[]){"Solar"}, &g), BST_OK);
@@ -261,7 +231,7 @@ END_TEST
 /* (I - Lambda Rb Lambda Rf)^-1 for given diagonal reflectances, through the structured solve. */
 START_TEST(test_sb_7ring_interreflectance)
 {
-    bst_basis *b = wce_basis("basis_wce_7ring_test.tsv");
+    bst_basis *b = tu_wce_basis(ctx, "basis_wce_7ring_test.tsv");
     size_t N = bst_basis_size(b);
     static const double r[7] = {1.438618083, 0.189397664, 0.112189021, 0.114376511, 0.207336671,
                                 0.951907739, 15.28298172};
@@ -395,7 +365,7 @@ static double *solar_weights(const double *wl, size_t n)
 
 static void layer_matrix_case(const char *name, const char *basis_file, int rows)
 {
-    bst_basis *b = wce_basis(basis_file);
+    bst_basis *b = tu_wce_basis(ctx, basis_file);
     struct spectral_case *sc = malloc(sizeof *sc);
     read_spectral_case(sc, name, bst_basis_size(b));
     double *w = solar_weights(sc->wl, sc->nwl);
@@ -451,7 +421,7 @@ END_TEST
  * WCE's patch-centre layers, both bands. */
 START_TEST(test_dg_klems_quarter_from_data)
 {
-    bst_basis *b = wce_basis("basis_klems_quarter.tsv"), *kq;
+    bst_basis *b = tu_wce_basis(ctx, "basis_klems_quarter.tsv"), *kq;
     ck_assert_int_eq(bst_basis_new_klems(ctx, "quarter", &kq), BST_OK);
     ck_assert(bst_basis_equal(b, kq)); /* the built-in quarter basis is WCE's */
     bst_glass *g[2];
@@ -560,7 +530,7 @@ static void pane_and_shade(struct sys *s, const bst_glass *g, const bst_basis *b
  * on the union of NFRC 102's grid and the two-band material's {0.3, 0.38 -+ 1e-6, 0.78 -+ 1e-6, 2.5}. */
 START_TEST(test_dg_full_2011SA1_from_data)
 {
-    bst_basis *b = wce_basis("basis_klems_full.tsv");
+    bst_basis *b = tu_wce_basis(ctx, "basis_klems_full.tsv");
     size_t N = bst_basis_size(b);
     bst_glass *g;
     ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-102", getenv("BSDFSTACK_GLASS_DIR"), &g), BST_OK);
@@ -659,7 +629,7 @@ static double *weights_d65_1nm(const double *wl, size_t n)
  * other cases: this case's exact wavelength set is not documented. */
 START_TEST(test_dg_quarter_lambertian_visible_from_data)
 {
-    bst_basis *b = wce_basis("basis_klems_quarter.tsv");
+    bst_basis *b = tu_wce_basis(ctx, "basis_klems_quarter.tsv");
     size_t N = bst_basis_size(b), n;
     bst_glass *g;
     ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-102", getenv("BSDFSTACK_GLASS_DIR"), &g), BST_OK);
@@ -724,7 +694,7 @@ struct sa1_case {
 static void sa1_case_new(struct sa1_case *s)
 {
     static const char *const panes[2] = {"nfrc-102", "nfrc-103"};
-    s->b = wce_basis("basis_klems_full.tsv");
+    s->b = tu_wce_basis(ctx, "basis_klems_full.tsv");
     s->N = bst_basis_size(s->b);
     for (int q = 0; q < 2; q++)
         ck_assert_int_eq(bst_glass_parse(ctx, panes[q], getenv("BSDFSTACK_GLASS_DIR"), &s->g[q]), BST_OK);
@@ -888,7 +858,7 @@ END_TEST
  * follows the BSDF material, and differs here by 2.1e-6 at most (asserted: 5e-6). */
 START_TEST(test_dg_small_lambertian_library)
 {
-    bst_basis *b = wce_basis("basis_wce_small.tsv");
+    bst_basis *b = tu_wce_basis(ctx, "basis_wce_small.tsv");
     size_t N = bst_basis_size(b);
     bst_glass *g;
     ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-102", getenv("BSDFSTACK_GLASS_DIR"), &g), BST_OK);
@@ -930,7 +900,7 @@ END_TEST
 /* One measured layer on its own (band values only): its hemispherical integrals and absorptance. */
 static void single_layer(const char *name, const char *basis_file, const char *band, int rows)
 {
-    bst_basis *b = wce_basis(basis_file);
+    bst_basis *b = tu_wce_basis(ctx, basis_file);
     size_t N = bst_basis_size(b);
     bst_layer *l;
     ck_assert_int_eq(bst_layer_new(ctx, b, 1, (const char *const[]){"x"}, &l), BST_OK);
@@ -1175,7 +1145,7 @@ static void ref_absorptance(size_t n, const bst_layer *const *layers, const bst_
  * without the channel is refused. */
 START_TEST(test_combine_absorptance_one_pass)
 {
-    bst_basis *b = wce_basis("basis_klems_full.tsv");
+    bst_basis *b = tu_wce_basis(ctx, "basis_klems_full.tsv");
     size_t N = bst_basis_size(b);
     bst_glass *g[2];
     bst_layer *pane[2];
@@ -1301,7 +1271,7 @@ END_TEST
  * slats (test_venetian_wce.c checks the model's matrices themselves). */
 START_TEST(test_dg_small_venetian_model)
 {
-    bst_basis *b = wce_basis("basis_wce_small.tsv");
+    bst_basis *b = tu_wce_basis(ctx, "basis_wce_small.tsv");
     size_t N = bst_basis_size(b);
     bst_glass *g;
     ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-102", getenv("BSDFSTACK_GLASS_DIR"), &g), BST_OK);

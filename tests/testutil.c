@@ -121,6 +121,68 @@ void tu_alloc_free(void *p, void *opaque)
     }
 }
 
+bst_basis *tu_wce_basis(bst_ctx *ctx, const char *file)
+{
+    char path[128], line[512];
+    snprintf(path, sizeof path, "wce/basis/%s", file);
+    FILE *fp = fopen(tu_ref(path), "r");
+    ck_assert_msg(fp != NULL, "cannot open reference file %s", tu_ref(path));
+    double bounds[32], lam[256];
+    int nphi[32] = {0}, nb = 0, ring, idx;
+    size_t np = 0;
+    while (fgets(line, sizeof line, fp)) {
+        double tlo, thi, plo, phi, tc, pc, l;
+        if (line[0] == '#' || sscanf(line, "%d %d %lf %lf %lf %lf %lf %lf %lf", &idx, &ring, &tlo,
+                                     &thi, &plo, &phi, &tc, &pc, &l) != 9)
+            continue;
+        if (ring > nb) {
+            ck_assert_int_eq(ring, nb + 1);
+            bounds[nb] = tlo, bounds[nb + 1] = thi;
+            nb = ring;
+        }
+        nphi[ring - 1]++;
+        lam[np++] = l;
+    }
+    fclose(fp);
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_klems_bands(ctx, file, (size_t)nb, bounds, nphi, &b), BST_OK);
+    ck_assert_uint_eq(bst_basis_size(b), np);
+    for (size_t i = 0; i < np; i++)
+        tu_assert_close(bst_basis_lambda(b)[i], lam[i], 1e-9, 0);
+    return b;
+}
+
+long tu_venetian_alloc_failures(const char *spec)
+{
+    bst_ctx *c = bst_ctx_new();
+    tu_alloc a = {0};
+    ck_assert_int_eq(bst_ctx_set_allocator(c, tu_alloc_malloc, tu_alloc_free, &a), BST_OK);
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(c, 2, &b), BST_OK);
+    bst_venetian v;
+    ck_assert_int_eq(bst_venetian_parse(c, spec, &v), BST_OK);
+    long base = a.live, k;
+    for (k = 1;; k++) {
+        a.fail_at = a.count + k;
+        bst_layer *l = NULL;
+        int rc = bst_venetian_layer(c, &v, b, 0, NULL, &l);
+        if (rc == BST_OK) {
+            bst_layer_free(l);
+            break;
+        }
+        ck_assert_int_eq(rc, BST_ENOMEM);
+        ck_assert_ptr_null(l);
+        ck_assert_int_eq(a.live, base);
+        ck_assert_int_lt(k, 1000);
+    }
+    ck_assert_int_gt(k, 1);
+    ck_assert_int_eq(a.live, base);
+    a.fail_at = 0;
+    bst_basis_free(b);
+    bst_ctx_free(c);
+    return k - 1;
+}
+
 int tu_run(Suite *s)
 {
     SRunner *sr = srunner_create(s);

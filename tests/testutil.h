@@ -35,6 +35,10 @@ const char *tu_src(const char *name);
  * ($BSDFSTACK_GLASS_DIR), else a reference file (tu_ref) resampled to b.  Fails the test on error. */
 bst_layer *tu_layer(bst_ctx *ctx, const char *what, const bst_basis *b);
 
+/* A basis from one of WCE's patch tables (wce/basis/FILE in the reference folder), each patch's
+ * Lambda checked against the table's. */
+bst_basis *tu_wce_basis(bst_ctx *ctx, const char *file);
+
 /* An allocator for bst_ctx_set_allocator that fails the n-th allocation (n >= 1; 0 = never),
  * and counts live blocks so that leaks show. */
 typedef struct {
@@ -44,6 +48,11 @@ typedef struct {
 } tu_alloc;
 void *tu_alloc_malloc(size_t size, void *opaque);
 void tu_alloc_free(void *p, void *opaque);
+
+/* Every allocation of bst_venetian_layer of the venetian spec over Shirley-Chiu k = 2 fails in
+ * turn: BST_ENOMEM, no layer, nothing leaked each time, then the layer is made.  Returns how many
+ * allocations were failed (at least one). */
+long tu_venetian_alloc_failures(const char *spec);
 
 /* Output collected in memory, NUL-terminated (p, n; the caller frees p): tu_mem_write is a
  * bst_bsdf_write_sink that fails once more than `limit` bytes were offered (0 = never) and counts
