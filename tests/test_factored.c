@@ -210,6 +210,71 @@ START_TEST(test_columns)
 }
 END_TEST
 
+/* Text written into a growing buffer. */
+struct text {
+    char *p;
+    size_t n;
+};
+
+static int to_text(const char *buf, size_t len, void *opaque)
+{
+    struct text *t = opaque;
+    t->p = realloc(t->p, t->n + len + 1);
+    memcpy(t->p + t->n, buf, len);
+    t->n += len;
+    return 0;
+}
+
+/* An allocator that refuses every block of at least `refuse` bytes (the writer's expansion). */
+static void *refusing_malloc(size_t size, void *opaque)
+{
+    return size >= *(const size_t *)opaque ? NULL : malloc(size);
+}
+
+static void plain_free(void *p, void *opaque)
+{
+    (void)opaque;
+    free(p);
+}
+
+/* A factored system's tree: the writer expands a factored component to write it, or reads it
+ * value by value through the factors when that memory is refused; the same bytes either way,
+ * reduced (budgets, reciprocity: lines through the factors) and not. */
+START_TEST(test_write_expanded)
+{
+    bst_basis *b5;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 5, &b5), BST_OK);
+    bst_layer *layers[8];
+    size_t n = build("g3g", b5, layers);
+    bst_layer *sys;
+    ck_assert_int_ge(bst_stack_combine(ctx, n, (const bst_layer *const *)layers, NULL, &sys), 0);
+    ck_assert_int_eq(bst_mat_structure(bst_layer_get(sys, 0, BST_TB)), BST_FACTORED);
+    size_t refuse = 1024 * 1024 * sizeof(double);
+    bst_ctx *c2 = bst_ctx_new();
+    ck_assert_int_eq(bst_ctx_set_allocator(c2, refusing_malloc, plain_free, &refuse), BST_OK);
+    for (int reduce = 0; reduce < 2; reduce++) {
+        bst_bsdf_write_opts o;
+        bst_bsdf_write_opts_init(&o);
+        o.rank = BST_RANK_4;
+        o.date = "2026-11-28T00:00:00Z";
+        if (!reduce)
+            o.reduce_pct = -1.0;
+        struct text a = {NULL, 0}, b = {NULL, 0};
+        ck_assert_int_eq(bst_bsdf_write_fn(ctx, sys, to_text, &a, &o), BST_OK);
+        ck_assert_int_eq(bst_bsdf_write_fn(c2, sys, to_text, &b, &o), BST_OK);
+        ck_assert_uint_gt(a.n, 100000);
+        ck_assert_uint_eq(a.n, b.n);
+        ck_assert_msg(memcmp(a.p, b.p, a.n) == 0, "reduce %d: the expanded tree differs", reduce);
+        free(a.p), free(b.p);
+    }
+    bst_ctx_free(c2);
+    bst_layer_free(sys);
+    for (size_t i = 0; i < n; i++)
+        bst_layer_free(layers[i]);
+    bst_basis_free(b5);
+}
+END_TEST
+
 static Suite *suite(void)
 {
     Suite *s = suite_create("factored");
@@ -219,6 +284,7 @@ static Suite *suite(void)
     tcase_add_test(tc, test_layers);
     tcase_add_loop_test(tc, test_stacks, 0, (int)(2 * NSTACKS));
     tcase_add_test(tc, test_columns);
+    tcase_add_test(tc, test_write_expanded);
     suite_add_tcase(s, tc);
     return s;
 }
