@@ -26,8 +26,9 @@ struct bst_mat {
 
 /* Wrap a factored matrix (ownership passes to the matrix, also on failure). */
 int bsti_mat_from_lr(bst_ctx *ctx, bsti_lr *lr, bst_mat **out);
-/* The factored form of m (FACTORED: a copy; DIAG or ZERO over map S: its diagonal alone) into *lr,
- * or BST_ENOTFOUND for another structure. */
+/* The factored form of m (FACTORED: a copy; DIAG or ZERO over map S: its diagonal alone; SPARSE
+ * over a prolongation S: P K P^T when it is exactly that, a sparse tree of depth below k) into
+ * *lr, or BST_ENOTFOUND for another structure or sparse matrix. */
 int bsti_mat_lr_of(bst_ctx *ctx, const bst_mat *m, const bsti_lr_map *S, bsti_lr **lr);
 /* A FACTORED matrix whose low-rank part is as large as the matrix itself (BSTI_LR_DENSE_SHARE of
  * N) becomes dense: the structure by cost (a product of two such costs about as much as GEMM on

@@ -17,6 +17,7 @@
 
 static bst_ctx *ctx;
 static char coarse3[64], coarse4[64]; /* blind0 at depth 3, blind45 at depth 4 */
+static char glass3[64];                /* the clear pane's tree at depth 3: sparse there */
 
 /* The reference file read at order k and written as a TensorTree4 of that depth (every value). */
 static void make_coarse(const char *ref, int k, char *path)
@@ -43,11 +44,12 @@ static void setup(void)
     ctx = bst_ctx_new();
     make_coarse("L_blind0_t4k5.xml", 3, coarse3);
     make_coarse("L_blind45_t4k5.xml", 4, coarse4);
+    make_coarse("L_glass_t4k5.xml", 3, glass3);
 }
 
 static void teardown(void)
 {
-    unlink(coarse3), unlink(coarse4);
+    unlink(coarse3), unlink(coarse4), unlink(glass3);
     bst_ctx_free(ctx);
 }
 
@@ -82,8 +84,10 @@ static double rel_diff(const bst_mat *a, const bst_mat *b)
 }
 
 /* The stacks (exterior first): 'g' a pane, '3' blind0 at depth 3, '4' blind45 at depth 4, 'D' the
- * blind at its own depth 5 (dense at k = 5), 'K' a Klems diffuser; '^' after one: reversed. */
-static const char *const stacks[] = {"g3", "3g", "g3g", "g4^g3", "gDg3", "g3^Kg", "34^"};
+ * blind at its own depth 5 (dense at k = 5), 'K' a Klems diffuser, 't' the pane's tree file at
+ * depth 3 (sparse, P K P^T beside a factored layer); '^' after one: reversed. */
+static const char *const stacks[] = {"g3", "3g", "g3g", "g4^g3", "gDg3", "g3^Kg", "34^", "t3t",
+                                     "t4^gt"};
 #define NSTACKS (sizeof stacks / sizeof stacks[0])
 
 static size_t build(const char *spec, const bst_basis *b, bst_layer **layers)
@@ -100,6 +104,7 @@ static size_t build(const char *spec, const bst_basis *b, bst_layer **layers)
         layers[n++] = *c == 'g'   ? tu_layer(ctx, "glass:clear-6mm", b)
                       : *c == '3' ? file_layer(coarse3, b)
                       : *c == '4' ? file_layer(coarse4, b)
+                      : *c == 't' ? file_layer(glass3, b)
                       : *c == 'D' ? tu_layer(ctx, "L_blind0_t4k5.xml", b)
                                   : tu_layer(ctx, "L_diffuser_t3k5_klems.xml", b);
     }
@@ -152,6 +157,11 @@ START_TEST(test_stacks)
     ck_assert_int_ge(bst_stack_combine(ctx, n, (const bst_layer *const *)layers, &o, &fact), 0);
     if (strcmp(spec, "g3") == 0 || strcmp(spec, "g3g") == 0 || strcmp(spec, "3g") == 0)
         ck_assert_int_gt(factored_steps, 0);
+    if (spec[0] == 't') { /* the sparse tree joins the factored shade (t3t: every component of
+                             every step; t4^gt: a rank reaching N / 2 turns dense) */
+        ck_assert_int_eq(bst_mat_structure(bst_layer_get(layers[0], 0, BST_TF)), BST_SPARSE);
+        ck_assert_int_ge(factored_steps, strcmp(spec, "t3t") == 0 ? 4 * ((int)n - 1) : 1);
+    }
     o.force_dense = 1;
     ck_assert_int_ge(bst_stack_combine(ctx, n, (const bst_layer *const *)layers, &o, &dense), 0);
     for (int c = 0; c < BST_NCOMP; c++) {
