@@ -35,6 +35,12 @@ int bsti_mat_lr_of(bst_ctx *ctx, const bst_mat *m, const bsti_lr_map *S, bsti_lr
  * the dense ones and holds more); any other is kept.  *m is replaced, the old freed. */
 #define BSTI_LR_DENSE_SHARE 0.5
 int bsti_mat_lr_settle(bst_ctx *ctx, bst_mat **m);
+/* A FACTORED m's N x N values (column-major, freed with bsti_free), column by column through the
+ * factors with the bits bsti_lr_get gives: the tree writer streams them instead of evaluating the
+ * factors at every visit of every value (at k = 7, 2 GiB for the one component being written).
+ * NULL for another structure or when that memory is not there (the writer then reads the values
+ * one by one, as before). */
+double *bsti_mat_lr_values(bst_ctx *ctx, const bst_mat *m);
 /* The rank of a FACTORED matrix's low-rank part (p r by q r: the larger), 0 for any other. */
 size_t bsti_mat_rank(const bst_mat *m);
 

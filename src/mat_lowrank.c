@@ -253,3 +253,14 @@ int bsti_mat_lr_settle(bst_ctx *ctx, bst_mat **m)
     *m = d;
     return BST_OK;
 }
+
+double *bsti_mat_lr_values(bst_ctx *ctx, const bst_mat *m)
+{
+    if (!m || m->s != BST_FACTORED)
+        return NULL;
+    size_t n = m->rows;
+    double *v = bsti_alloc_array(ctx, n * n, sizeof *v);
+    for (size_t j = 0; v && j < n; j++)
+        bsti_lr_col(m->lr, j, v + j * n);
+    return v;
+}

@@ -78,22 +78,6 @@ static double tensor_get(const void *opaque, size_t index)
     return bsti_mat_at(m, index % m->rows, index / m->rows);
 }
 
-/* A FACTORED component's N x N values for the tree writer, column by column through the factors
- * (bsti_lr_col: each the bits bsti_lr_get gives, so the tree is the one written value by value):
- * the writer's passes then stream an array (at k = 7, 2 GiB of the one component being written)
- * instead of evaluating the factors for every visit of every value.  NULL when that memory is not
- * there: the values are then read one by one, as before. */
-static double *expanded(bst_ctx *ctx, const bst_mat *m)
-{
-    if (!m || m->s != BST_FACTORED)
-        return NULL;
-    size_t n = m->rows;
-    double *v = bsti_alloc_array(ctx, n * n, sizeof *v);
-    for (size_t j = 0; v && j < n; j++)
-        bsti_lr_col(m->lr, j, v + j * n);
-    return v;
-}
-
 static double zero_get(const void *opaque, size_t index)
 {
     (void)opaque, (void)index;
@@ -580,8 +564,8 @@ static int write_blocks(struct xw *w)
                         t.d = w->t3[idx];
                     } else if (m && m->s == BST_DENSE && m->prec == BST_DOUBLE)
                         t.d = m->dense;
-                    else if ((full = expanded(w->ctx, m)) != NULL)
-                        t.d = full;
+                    else if ((full = bsti_mat_lr_values(w->ctx, m)) != NULL)
+                        t.d = full; /* (each value's bits: the tree written value by value) */
                     else if (m && m->s == BST_DENSE)
                         t.f = m->dense;
                     else if (m && m->s != BST_ZERO)
