@@ -50,7 +50,7 @@ int bsti_lr_map_prolong(bst_ctx *ctx, int k, int d, bsti_lr_map **out)
     if (rc < 0)
         return rc;
     bsti_lr_map *S = *out;
-    S->k = k, S->d = d;
+    S->k = k, S->d = d, S->single = 1;
     snprintf(S->tag, sizeof S->tag, "P");
     for (size_t x = 0; x < N; x++) {
         S->start[x] = x;
@@ -170,6 +170,35 @@ static void gram_add(const bsti_lr_map *S, const double *c, double *G, size_t ld
                 G[(col0 + S->col[e2]) * ld + row0 + S->col[e1]] += c[x] * S->w[e1] * S->w[e2];
 }
 
+/* The gram S^T diag(c) S of a map of one entry a row is diagonal: its r values into g (the sum
+ * over each coarse cell's rows, in the order and with the operations gram_add uses). */
+static void gram_diag(const bsti_lr_map *S, const double *c, double *g)
+{
+    for (size_t x = 0; x < S->r; x++)
+        g[x] = 0.0;
+    for (size_t x = 0; x < S->N; x++)
+        g[S->col[x]] += c[x] * S->w[x] * S->w[x];
+}
+
+/* T := beta T + alpha K G for K (m x nq r, column-major) and G (nq r x np r) of diagonal r x r
+ * blocks, block (j, i)'s diagonal at g + (j np + i) r; beta is 0 (T overwritten) or 1.  What a
+ * GEMM with that G gives (with one block row, nq = 1, the same values: every sum holds one
+ * product) at r times fewer operations. */
+static void mul_diag_blocks(const double *K, size_t m, size_t nq, size_t np, size_t r,
+                            const double *g, double alpha, int beta, double *T)
+{
+    for (size_t i = 0; i < np; i++)
+        for (size_t c = 0; c < r; c++) {
+            double *t = T + (i * r + c) * m;
+            for (size_t x = 0; x < m; x++) {
+                double acc = 0.0;
+                for (size_t j = 0; j < nq; j++)
+                    acc += K[(j * r + c) * m + x] * g[(j * np + i) * r + c];
+                t[x] = beta ? t[x] + alpha * acc : alpha * acc;
+            }
+        }
+}
+
 /* dst's block (bi, bj) += s * src's block (i, j), both r x r blocks of column-major arrays (no
  * I and J: lapacke.h brings complex.h's I). */
 static void add_block(double *dst, size_t ldd, size_t bi, size_t bj, const double *src, size_t lds,
@@ -272,7 +301,8 @@ int bsti_lr_mul(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, bsti_lr **out)
             add_block(m->k, ld, l.li_f[i], l.rj_f[j], f->k, f->p * r, i, j, r, 1.0);
     if (f->p && g->p) { /* the coupled term through V_F^T U_G, (f->q r) x (g->p r) */
         size_t fq = f->q * r, gp = g->p * r, fp = f->p * r, gq = g->q * r;
-        gm = bsti_calloc(ctx, fq * gp, sizeof *gm);
+        int single = f->S->single; /* V_F^T U_G of diagonal blocks: no GEMM for K_F V_F^T U_G */
+        gm = single ? bsti_alloc_array(ctx, f->q * gp, sizeof *gm) : bsti_calloc(ctx, fq * gp, sizeof *gm);
         t1 = bsti_alloc_array(ctx, fp * gp, sizeof *t1);
         t = bsti_alloc_array(ctx, fp * gq, sizeof *t);
         if (!gm || !t1 || !t)
@@ -280,14 +310,22 @@ int bsti_lr_mul(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, bsti_lr **out)
         for (size_t j = 0; rc >= 0 && j < f->q; j++)
             for (size_t i = 0; i < g->p; i++) {
                 times(l.v, f->b + j * N, g->a + i * N, N);
-                gram_add(f->S, l.v, gm, fq, j * r, i * r);
+                if (single)
+                    gram_diag(f->S, l.v, gm + (j * g->p + i) * r);
+                else
+                    gram_add(f->S, l.v, gm, fq, j * r, i * r);
             }
-        if (rc >= 0) {
+        if (rc >= 0 && single) {
+            mul_diag_blocks(f->k, fp, f->q, g->p, r, gm, 1.0, 0, t1);
+        } else if (rc >= 0) {
             cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)fp, (int)gp, (int)fq, 1.0,
                         f->k, (int)fp, gm, (int)fq, 0.0, t1, (int)fp);
+            bsti_flops_add(ctx, 2.0 * (double)fp * (double)gp * (double)fq);
+        }
+        if (rc >= 0) {
             cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)fp, (int)gq, (int)gp, 1.0,
                         t1, (int)fp, g->k, (int)gp, 0.0, t, (int)fp);
-            bsti_flops_add(ctx, 2.0 * (double)fp * (double)gp * ((double)fq + (double)gq));
+            bsti_flops_add(ctx, 2.0 * (double)fp * (double)gp * (double)gq);
             for (size_t i = 0; i < f->p; i++)
                 for (size_t j = 0; j < g->q; j++)
                     add_block(m->k, ld, l.li_f[i], l.rj_g[j], t, fp, i, j, r, 1.0);
@@ -361,20 +399,26 @@ int bsti_lr_scale(bst_ctx *ctx, const double *dr, const bsti_lr *f, const double
 static int capacitance(bst_ctx *ctx, const bsti_lr *f, const double *einv, double *v, double *c)
 {
     size_t N = f->N, r = f->r, pr = f->p * r, qr = f->q * r;
-    double *h = bsti_calloc(ctx, qr * pr + 1, sizeof *h);
+    int single = f->S->single; /* H of diagonal blocks: K H without a GEMM */
+    double *h = bsti_calloc(ctx, (single ? f->q * pr : qr * pr) + 1, sizeof *h);
     if (!h)
         return BST_ENOMEM;
     for (size_t j = 0; j < f->q; j++)
         for (size_t i = 0; i < f->p; i++) {
             times(v, f->b + j * N, f->a + i * N, N);
             times(v, v, einv, N);
-            gram_add(f->S, v, h, qr, j * r, i * r);
+            if (single)
+                gram_diag(f->S, v, h + (j * f->p + i) * r);
+            else
+                gram_add(f->S, v, h, qr, j * r, i * r);
         }
     for (size_t x = 0; x < pr * pr; x++)
         c[x] = 0.0;
     for (size_t x = 0; x < pr; x++)
         c[x * pr + x] = 1.0;
-    if (pr && qr) {
+    if (pr && qr && single) {
+        mul_diag_blocks(f->k, pr, f->q, f->p, r, h, -1.0, 1, c);
+    } else if (pr && qr) {
         cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)pr, (int)pr, (int)qr, -1.0,
                     f->k, (int)pr, h, (int)qr, 1.0, c, (int)pr);
         bsti_flops_add(ctx, 2.0 * (double)pr * (double)pr * (double)qr);
@@ -559,6 +603,73 @@ double bsti_lr_get(const bsti_lr *f, size_t x, size_t y)
             v += f->a[i * N + x] * s * f->b[j * N + y];
         }
     return v;
+}
+
+/* bsti_lr_col and bsti_lr_row: the value (x, y) is built as bsti_lr_get builds it, the diagonal or
+ * 0 first and then, pair (i, j) by pair, v += a_i[x] s b_j[y] with s = 0 + the sum over the map's
+ * entries of w K w, so that a line holds the very bits of the values one by one. */
+void bsti_lr_col(const bsti_lr *f, size_t y, double *out)
+{
+    const bsti_lr_map *S = f->S;
+    size_t N = f->N, r = f->r, ld = f->p * r;
+    for (size_t x = 0; x < N; x++)
+        out[x] = 0.0;
+    if (f->d)
+        out[y] = f->d[y];
+    for (size_t i = 0; i < f->p; i++)
+        for (size_t j = 0; j < f->q; j++) {
+            const double *a = f->a + i * N, *kb = f->k + j * r * ld + i * r;
+            double by = f->b[j * N + y];
+            if (S->single) { /* one entry a row: s = 0 + w K w */
+                double wy = S->w[y];
+                const double *kc = kb + S->col[y] * ld;
+                for (size_t x = 0; x < N; x++) {
+                    double s = 0.0;
+                    s += S->w[x] * kc[S->col[x]] * wy;
+                    out[x] += a[x] * s * by;
+                }
+                continue;
+            }
+            for (size_t x = 0; x < N; x++) {
+                double s = 0.0;
+                for (size_t ex = S->start[x]; ex < S->start[x + 1]; ex++)
+                    for (size_t ey = S->start[y]; ey < S->start[y + 1]; ey++)
+                        s += S->w[ex] * kb[S->col[ey] * ld + S->col[ex]] * S->w[ey];
+                out[x] += a[x] * s * by;
+            }
+        }
+}
+
+void bsti_lr_row(const bsti_lr *f, size_t x, double *out)
+{
+    const bsti_lr_map *S = f->S;
+    size_t N = f->N, r = f->r, ld = f->p * r;
+    for (size_t y = 0; y < N; y++)
+        out[y] = 0.0;
+    if (f->d)
+        out[x] = f->d[x];
+    for (size_t i = 0; i < f->p; i++)
+        for (size_t j = 0; j < f->q; j++) {
+            const double *b = f->b + j * N, *kb = f->k + j * r * ld + i * r;
+            double ax = f->a[i * N + x];
+            if (S->single) {
+                double wx = S->w[x];
+                const double *kr = kb + S->col[x];
+                for (size_t y = 0; y < N; y++) {
+                    double s = 0.0;
+                    s += wx * kr[S->col[y] * ld] * S->w[y];
+                    out[y] += ax * s * b[y];
+                }
+                continue;
+            }
+            for (size_t y = 0; y < N; y++) {
+                double s = 0.0;
+                for (size_t ex = S->start[x]; ex < S->start[x + 1]; ex++)
+                    for (size_t ey = S->start[y]; ey < S->start[y + 1]; ey++)
+                        s += S->w[ex] * kb[S->col[ey] * ld + S->col[ex]] * S->w[ey];
+                out[y] += ax * s * b[y];
+            }
+        }
 }
 
 static int all_finite(const double *v, size_t n)

@@ -36,6 +36,8 @@ typedef struct {
     size_t *start, *col;
     double *w;
     int k, d;         /* a prolongation from order d to k; d = -1 for another map */
+    int single;       /* every row has one entry of weight 1 (a prolongation): S^T diag(c) S is
+                         the diagonal of block sums */
     char tag[32];     /* "P", a Klems basis's name, or "" (untagged) */
     long refs;        /* changed atomically (matrices of one stack live in several threads) */
     bst_ctx *ctx;
@@ -72,6 +74,11 @@ void bsti_lr_apply(const bsti_lr *f, int trans, const double *x, double *y, doub
 int bsti_lr_permute(bst_ctx *ctx, const bsti_lr *f, const size_t *perm, bsti_lr **out);
 /* Element (i, j). */
 double bsti_lr_get(const bsti_lr *f, size_t i, size_t j);
+/* Column y (out[x] = F[x, y], N values) or row x (out[y] = F[x, y]) of F, each value the same bits
+ * as bsti_lr_get gives (the same operations in the same order), at O(N p q) a line instead of
+ * O(N) calls. */
+void bsti_lr_col(const bsti_lr *f, size_t y, double *out);
+void bsti_lr_row(const bsti_lr *f, size_t x, double *out);
 /* Every stored value finite. */
 int bsti_lr_finite(const bsti_lr *f);
 /* Values stored: the diagonal, the scaling vectors and K. */

@@ -26,14 +26,21 @@ struct bst_mat {
 
 /* Wrap a factored matrix (ownership passes to the matrix, also on failure). */
 int bsti_mat_from_lr(bst_ctx *ctx, bsti_lr *lr, bst_mat **out);
-/* The factored form of m (FACTORED: a copy; DIAG or ZERO over map S: its diagonal alone) into *lr,
- * or BST_ENOTFOUND for another structure. */
+/* The factored form of m (FACTORED: a copy; DIAG or ZERO over map S: its diagonal alone; SPARSE
+ * over a prolongation S: P K P^T when it is exactly that, a sparse tree of depth below k) into
+ * *lr, or BST_ENOTFOUND for another structure or sparse matrix. */
 int bsti_mat_lr_of(bst_ctx *ctx, const bst_mat *m, const bsti_lr_map *S, bsti_lr **lr);
 /* A FACTORED matrix whose low-rank part is as large as the matrix itself (BSTI_LR_DENSE_SHARE of
  * N) becomes dense: the structure by cost (a product of two such costs about as much as GEMM on
  * the dense ones and holds more); any other is kept.  *m is replaced, the old freed. */
 #define BSTI_LR_DENSE_SHARE 0.5
 int bsti_mat_lr_settle(bst_ctx *ctx, bst_mat **m);
+/* A FACTORED m's N x N values (column-major, freed with bsti_free), column by column through the
+ * factors with the bits bsti_lr_get gives: the tree writer streams them instead of evaluating the
+ * factors at every visit of every value (at k = 7, 2 GiB for the one component being written).
+ * NULL for another structure or when that memory is not there (the writer then reads the values
+ * one by one, as before). */
+double *bsti_mat_lr_values(bst_ctx *ctx, const bst_mat *m);
 /* The rank of a FACTORED matrix's low-rank part (p r by q r: the larger), 0 for any other. */
 size_t bsti_mat_rank(const bst_mat *m);
 

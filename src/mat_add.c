@@ -174,14 +174,15 @@ static int add_dense(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, 
 
 /* add_table[structure of A][structure of B], A the denser after normalization (step 1);
  * FACTORED counts as the densest: with ZERO, DIAG or FACTORED it stays factored (mat_lowrank.c),
- * with SPARSE or DENSE the sum is dense (NULL: the generic path). */
+ * with a SPARSE that is P K P^T over its prolongation too, with any other SPARSE or DENSE the sum
+ * is dense (NULL: the generic path). */
 static const add_kernel add_table[5][5] = {
     /*                ZERO              DIAG              SPARSE      DENSE      FACTORED */
     /* ZERO     */ {add_zero,         NULL,             NULL,       NULL,      NULL},
     /* DIAG     */ {add_scaled,       add_diag_diag,    NULL,       NULL,      NULL},
     /* SPARSE   */ {add_scaled,       add_sparse,       add_sparse, NULL,      NULL},
     /* DENSE    */ {add_scaled,       add_dense,        add_dense,  add_dense, NULL},
-    /* FACTORED */ {bsti_add_lowrank, bsti_add_lowrank, NULL,       NULL,      bsti_add_lowrank},
+    /* FACTORED */ {bsti_add_lowrank, bsti_add_lowrank, bsti_add_lowrank, NULL, bsti_add_lowrank},
 };
 
 int bsti_mat_add_generic(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, const bst_mat *b,

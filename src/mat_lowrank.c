@@ -5,13 +5,16 @@
  *   F G (both FACTORED over one map)  bsti_lr_mul, then settled (a rank past half of N: dense)
  *   F B, B dense                       D B + U (K (V^T B)): O(nnz(S) m (p + q) + p q r^2 m)
  *   A F, A dense                       A D + ((A U) K) V^T: the same cost on A's rows
- *   F B, A F with a sparse operand     that operand made dense, then as above
- *   alpha F + beta G, G ZERO, DIAG or FACTORED over F's map: bsti_lr_add (the diagonal taken as a
- *                                      factored matrix of no rank)
+ *   F B, A F with a sparse operand     one that is P K P^T over F's prolongation (a sparse tree
+ *                                      of depth below k) factored with that K, then bsti_lr_mul;
+ *                                      any other made dense, then as above
+ *   alpha F + beta G, G ZERO, DIAG, such a SPARSE or FACTORED over F's map: bsti_lr_add (the
+ *                                      diagonal taken as a factored matrix of no rank)
  * Anything else (factored operands over two maps) goes the generic dense way.  A float dense
  * operand makes a float result, as everywhere in mat.c; the factors are double. */
 #include <config.h>
 
+#include <stdint.h>
 #include <string.h>
 
 #include <cblas.h>
@@ -131,15 +134,59 @@ int bsti_mul_dense_lowrank(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, dou
     return rc;
 }
 
-/* F B and A F with a sparse operand (the selected columns of a pane, say): that operand made dense
- * (n m values: the columns asked, or no more than the generic path would make) and multiplied as
- * above; the factored one is never expanded. */
+/* A SPARSE N x N m that is exactly P K P^T for the prolongation S (each pair of coarse cells holds
+ * one value in all its fine pairs, or none: a sparse rank-4 tree of depth d read at k > d, a clear
+ * pane's tree file say), as the factored matrix with that K (dense, r x r); BST_ENOTFOUND, with no
+ * message, for any other.  Work: O(nnz + r^2), two r x r arrays. */
+static int sparse_lr(bst_ctx *ctx, const bst_mat *m, const bsti_lr_map *S, bsti_lr **lr)
+{
+    *lr = NULL;
+    if (!S->single || S->k < 0 || m->rows != S->N || m->cols != S->N)
+        return BST_ENOTFOUND;
+    size_t r = S->r, fine = S->N / r; /* fine cells a coarse cell */
+    double *K = bsti_calloc(ctx, r * r, sizeof *K);
+    uint32_t *cnt = bsti_calloc(ctx, r * r, sizeof *cnt);
+    int rc = K && cnt ? BST_OK : BST_ENOMEM;
+    const SuiteSparse_long *p = m->sp->p, *ri = m->sp->i;
+    const double *x = m->sp->x;
+    for (size_t j = 0; rc >= 0 && j < m->cols; j++)
+        for (SuiteSparse_long q = p[j]; q < p[j + 1] && rc >= 0; q++) {
+            size_t c = S->col[j] * r + S->col[ri[q]];
+            if (x[q] == 0.0)
+                continue;
+            if (cnt[c] > 0 && K[c] != x[q])
+                rc = BST_ENOTFOUND;
+            K[c] = x[q], cnt[c]++;
+        }
+    for (size_t c = 0; rc >= 0 && c < r * r; c++)
+        if (cnt[c] && cnt[c] != fine * fine)
+            rc = BST_ENOTFOUND;
+    if (rc >= 0)
+        rc = bsti_lr_new(ctx, S, NULL, NULL, K, NULL, lr);
+    bsti_free(ctx, K), bsti_free(ctx, cnt);
+    return rc;
+}
+
+/* F B and A F with a sparse operand: one that is P K P^T over F's prolongation (sparse_lr) joins F
+ * in the family (bsti_lr_mul: the dense work of the coarse order, the result factored); any other
+ * (the selected columns of a pane, say) is made dense (n m values: the columns asked, or no more
+ * than the generic path would make) and multiplied as above.  The factored one is never
+ * expanded. */
 int bsti_mul_lowrank_sparse(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop,
                             bst_mat **out)
 {
     int left = a->s == BST_FACTORED;
+    bsti_lr *ls, *lr;
+    int rc = sparse_lr(ctx, left ? b : a, (left ? a : b)->lr->S, &ls);
+    if (rc >= 0) {
+        rc = left ? bsti_lr_mul(ctx, a->lr, ls, &lr) : bsti_lr_mul(ctx, ls, b->lr, &lr);
+        bsti_lr_free(ctx, ls);
+        return settled(ctx, rc, lr, out);
+    }
+    if (rc != BST_ENOTFOUND)
+        return rc;
     bst_mat *d = NULL;
-    int rc = bsti_mat_to_dense(ctx, left ? b : a, BST_DOUBLE, &d);
+    rc = bsti_mat_to_dense(ctx, left ? b : a, BST_DOUBLE, &d);
     if (rc >= 0)
         rc = left ? bsti_mul_lowrank_dense(ctx, a, d, drop, out)
                   : bsti_mul_dense_lowrank(ctx, d, b, drop, out);
@@ -180,6 +227,8 @@ int bsti_mat_lr_of(bst_ctx *ctx, const bst_mat *m, const bsti_lr_map *S, bsti_lr
     *lr = NULL;
     if (m->s == BST_FACTORED)
         return bsti_lr_copy(ctx, m->lr, lr);
+    if (m->s == BST_SPARSE)
+        return sparse_lr(ctx, m, S, lr);
     if ((m->s != BST_DIAG && m->s != BST_ZERO) || m->rows != S->N || m->cols != S->N)
         return BST_ENOTFOUND;
     return bsti_lr_new(ctx, S, m->s == BST_DIAG ? m->diag : NULL, NULL, NULL, NULL, lr);
@@ -203,4 +252,15 @@ int bsti_mat_lr_settle(bst_ctx *ctx, bst_mat **m)
     bst_mat_free(*m);
     *m = d;
     return BST_OK;
+}
+
+double *bsti_mat_lr_values(bst_ctx *ctx, const bst_mat *m)
+{
+    if (!m || m->s != BST_FACTORED)
+        return NULL;
+    size_t n = m->rows;
+    double *v = bsti_alloc_array(ctx, n * n, sizeof *v);
+    for (size_t j = 0; v && j < n; j++)
+        bsti_lr_col(m->lr, j, v + j * n);
+    return v;
 }

@@ -132,6 +132,47 @@ static int recip_dense(const bst_mat *tf, const bst_mat *tb, const size_t *a, si
     return nan_probe == 0.0;
 }
 
+/* Column x of m (out[o] = m(o, x), row 0) or its row x (out[y] = m(x, y), row 1), n values, each as
+ * element() reads it: a FACTORED m's through its factors a line at a time (bsti_lr_col, _row). */
+static void line_of(const bst_mat *m, int row, size_t x, size_t n, double *out)
+{
+    if (m && m->s == BST_FACTORED) {
+        if (row)
+            bsti_lr_row(m->lr, x, out);
+        else
+            bsti_lr_col(m->lr, x, out);
+        return;
+    }
+    for (size_t y = 0; y < n; y++)
+        out[y] = row ? element(m, x, y) : element(m, y, x);
+}
+
+/* The element-wise loop below for transmissions of which one is FACTORED, a one-to-one: Tf's
+ * column i beside Tb's row a(i), the same pairs in the same order, and *scale the largest |value|
+ * of either (every value of both is read once).  Values are finite (checked before). */
+static int recip_lines(bst_ctx *ctx, const bst_mat *tf, const bst_mat *tb, const size_t *a,
+                       size_t n, double *worst, double *scale, size_t *wi, size_t *wo)
+{
+    double *x = bsti_alloc_array(ctx, 2 * n, sizeof *x), *y = x ? x + n : NULL;
+    if (!x)
+        return BST_ENOMEM;
+    double w = 0.0, s = 0.0;
+    size_t bi = 0, bo = 0;
+    for (size_t i = 0; i < n; i++) {
+        line_of(tf, 0, i, n, x);
+        line_of(tb, 1, a[i], n, y);
+        for (size_t o = 0; o < n; o++) {
+            double d = fabs(x[o] - y[a[o]]);
+            s = fmax(s, fmax(fabs(x[o]), fabs(y[a[o]])));
+            if (d > w)
+                w = d, bi = i, bo = o;
+        }
+    }
+    bsti_free(ctx, x);
+    *worst = w, *scale = s, *wi = bi, *wo = bo;
+    return BST_OK;
+}
+
 /* Reciprocity of the BSDF, f(in, out) = f(out, in), in the index convention of bsdfstack.h:
  * light crossing from the front along propagation direction p and leaving along e has Tf's
  * incident patch P(p) and outgoing patch P(e); the reverse path enters from the back propagating
@@ -172,6 +213,23 @@ int bst_metrics_reciprocity(bst_ctx *ctx, const bst_layer *l, size_t ch, double 
     if ((tf && !bst_mat_all_finite(tf)) || (tb && !bst_mat_all_finite(tb)))
         return bsti_error(ctx, BST_EINVAL, "reciprocity: channel %s holds a transmission value "
                           "that is not finite", l->channels[ch]);
+    if ((tf && tf->s == BST_FACTORED) || (tb && tb->s == BST_FACTORED)) {
+        size_t *a = bsti_alloc_array(ctx, n, sizeof *a);
+        if (!a)
+            return BST_ENOMEM;
+        int one_to_one = 1, rc = BST_OK;
+        for (size_t p = 0; p < n; p++)
+            a[p] = bst_basis_antipode(b, p);
+        for (size_t p = 0; p < n && one_to_one; p++)
+            one_to_one = a[a[p]] == p;
+        if (one_to_one)
+            rc = recip_lines(ctx, tf, tb, a, n, &worst, &scale, &wi, &wo);
+        bsti_free(ctx, a);
+        if (rc < 0)
+            return rc;
+        if (one_to_one)
+            goto done;
+    }
     scale = fmax(tf ? bst_mat_max_abs(tf) : 0.0, tb ? bst_mat_max_abs(tb) : 0.0);
     /* Where a is one-to-one (every built-in basis; not a Klems band of odd size > 1), (o, i) off
      * the diagonal pairs with (a(i), a(o)) off the diagonal: diagonal or zero transmissions on

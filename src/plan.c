@@ -250,8 +250,9 @@ double bst_plan_memory(const bst_basis *basis, size_t n, const bst_bsdf *const *
     if (ndense)
         *ndense = held;
     double need = 64.0 * 1048576.0 + 0.5 * cells + sparse + factored;
-    if (held == 0) /* a factored combination works on coarse matrices: about three at a time */
-        return need + (combining ? 3.0 * largest : 0.0);
+    if (held == 0) /* a factored combination works on coarse matrices: about three at a time; the
+                      tree writer expands one factored component (xml_write.c) */
+        return need + (combining ? 3.0 * largest : 0.0) + (factored > 0 ? 8.0 * cells : 0.0);
     double w = combining ? 3.0 * (work == BST_FLOAT ? 4.0 : 8.0) : 0.0;
     return need + cells * ((double)held * (read == BST_FLOAT ? 4.0 : 8.0) + (w > 8.0 ? w : 8.0));
 }

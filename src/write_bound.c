@@ -13,8 +13,9 @@
 #include "write_bound.h"
 
 /* col[i] = sum over o of m(o, i), row[o] = sum over i (row may be NULL), negatives read as 0, as
- * a tree reader stores them; m (NULL: zeros) has nr rows and n columns. */
-static void sums(const bst_mat *m, size_t nr, size_t n, double *col, double *row)
+ * a tree reader stores them; m (NULL: zeros) has nr rows and n columns; line: room for nr values
+ * (a FACTORED m's column). */
+static void sums(const bst_mat *m, size_t nr, size_t n, double *col, double *row, double *line)
 {
     memset(col, 0, n * sizeof *col);
     if (row)
@@ -27,14 +28,16 @@ static void sums(const bst_mat *m, size_t nr, size_t n, double *col, double *row
             if (row)
                 row[i] = col[i];
         }
-    } else if (m->s == BST_FACTORED) { /* element by element through the factors */
-        for (size_t i = 0; i < n; i++)
+    } else if (m->s == BST_FACTORED) { /* column by column through the factors (line: nr) */
+        for (size_t i = 0; i < n; i++) {
+            bsti_lr_col(m->lr, i, line);
             for (size_t o = 0; o < nr; o++) {
-                double v = fmax(bst_mat_get(m, o, i), 0.0);
+                double v = fmax(line[o], 0.0);
                 col[i] += v;
                 if (row)
                     row[o] += v;
             }
+        }
     } else if (m->s == BST_SPARSE) {
         const SuiteSparse_long *p = m->sp->p, *ri = m->sp->i;
         const double *x = m->sp->x;
@@ -122,15 +125,15 @@ int bsti_bounds_layer(bst_ctx *ctx, const bst_layer *l, double tol, double rho, 
     double lam = M_PI / (double)n; /* Shirley-Chiu: every patch pi / N */
     memset(b, 0, sizeof *b);
     int rc = bounds_alloc(ctx, nch, n, b);
-    double *h = rc >= 0 ? bsti_alloc_array(ctx, (BST_NCOMP + 1) * n, sizeof *h) : NULL;
+    double *h = rc >= 0 ? bsti_alloc_array(ctx, (BST_NCOMP + 2) * n, sizeof *h) : NULL;
     if (rc >= 0 && !h)
         rc = BST_ENOMEM;
     for (size_t ch = 0; rc >= 0 && ch < nch; ch++) {
         const double *hc[BST_NCOMP];
-        double *tb_rows = h + BST_NCOMP * n;
+        double *tb_rows = h + BST_NCOMP * n, *line = tb_rows + n;
         for (int c = 0; c < BST_NCOMP; c++) {
             const bst_mat *m = bst_layer_get(l, ch, (bst_comp)c);
-            sums(m, n, n, h + c * n, c == BST_TB && omit_tf[ch] ? tb_rows : NULL);
+            sums(m, n, n, h + c * n, c == BST_TB && omit_tf[ch] ? tb_rows : NULL, line);
             for (size_t i = 0; i < n; i++)
                 h[c * n + i] *= lam;
             hc[c] = m ? h + c * n : NULL;
@@ -158,7 +161,7 @@ int bsti_bounds_layer(bst_ctx *ctx, const bst_layer *l, double tol, double rho, 
 /* Directional-hemispherical values of a front component's columns at order k (N patches) into
  * out: the fine column where there is one, the coarse patch's (hc, order kc) elsewhere. */
 static void varres_front(const bst_varres *v, const bst_mat *fine, int kc, const double *hc,
-                         double *out, double *colsum)
+                         double *out, double *colsum, double *line)
 {
     size_t G = (size_t)1 << v->k, N = G * G, Gc = (size_t)1 << kc;
     int sh = v->k - kc;
@@ -166,7 +169,7 @@ static void varres_front(const bst_varres *v, const bst_mat *fine, int kc, const
         out[i] = hc[((i / G) >> sh) * Gc + ((i % G) >> sh)];
     if (!fine || fine->rows != N || fine->cols != v->ncols)
         return; /* (bsti_varres_init refuses it later) */
-    sums(fine, N, v->ncols, colsum, NULL);
+    sums(fine, N, v->ncols, colsum, NULL, line);
     for (size_t q = 0; q < v->ncols; q++)
         if (v->cols[q] < N)
             out[v->cols[q]] = colsum[q] * M_PI / (double)N;
@@ -181,14 +184,15 @@ int bsti_bounds_varres(bst_ctx *ctx, const bst_layer *coarse, const bst_varres *
     double lam = M_PI / (double)Nc;
     memset(b, 0, sizeof *b);
     int rc = bounds_alloc(ctx, nch, N, b);
-    double *h = rc >= 0 ? bsti_alloc_array(ctx, BST_NCOMP * Nc + 2 * N + v->ncols + 1, sizeof *h) : NULL;
+    double *h = rc >= 0 ? bsti_alloc_array(ctx, BST_NCOMP * Nc + 3 * N + v->ncols + 1, sizeof *h) : NULL;
     if (rc >= 0 && !h)
         rc = BST_ENOMEM;
     for (size_t ch = 0; rc >= 0 && ch < nch; ch++) {
         const double *hc[BST_NCOMP];
+        double *line = h + BST_NCOMP * Nc + 2 * N + v->ncols; /* N values (Nc <= N) */
         for (int c = 0; c < BST_NCOMP; c++) {
             const bst_mat *m = bst_layer_get(coarse, ch, (bst_comp)c);
-            sums(m, Nc, Nc, h + c * Nc, NULL);
+            sums(m, Nc, Nc, h + c * Nc, NULL, line);
             for (size_t i = 0; i < Nc; i++)
                 h[c * Nc + i] *= lam;
             hc[c] = m ? h + c * Nc : NULL;
@@ -196,9 +200,9 @@ int bsti_bounds_varres(bst_ctx *ctx, const bst_layer *coarse, const bst_varres *
         double *col = b->col + ch * BST_NCOMP * N, *ft = h + BST_NCOMP * Nc, *fr = ft + N;
         double *colsum = fr + N;
         if (hc[BST_TF])
-            varres_front(v, v->tf ? v->tf[ch] : NULL, kc, hc[BST_TF], ft, colsum);
+            varres_front(v, v->tf ? v->tf[ch] : NULL, kc, hc[BST_TF], ft, colsum, line);
         if (hc[BST_RF])
-            varres_front(v, v->rf ? v->rf[ch] : NULL, kc, hc[BST_RF], fr, colsum);
+            varres_front(v, v->rf ? v->rf[ch] : NULL, kc, hc[BST_RF], fr, colsum, line);
         side(N, hc[BST_TF] ? ft : NULL, hc[BST_RF] ? fr : NULL, tol, rho, col + BST_TF * N,
              col + BST_RF * N);
         side(Nc, hc[BST_TB], hc[BST_RB], tol, rho, col + BST_TB * N, col + BST_RB * N);

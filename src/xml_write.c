@@ -549,6 +549,7 @@ static int write_blocks(struct xw *w)
                 } else {
                     bsti_tensor t = {w->kind == BST_FILE_TT3 ? 3 : 4, w->k, NULL, NULL, NULL, NULL, 0, NULL};
                     bsti_varres vr = {0};
+                    double *full = NULL; /* a FACTORED component's values (expanded) */
                     const bst_mat *const *fine = !w->v ? NULL : c == BST_TF ? w->v->tf
                                                  : c == BST_RF ? w->v->rf : NULL;
                     if (w->v && fine && fine[ch]) { /* order k, fine columns over coarse cells */
@@ -563,6 +564,8 @@ static int write_blocks(struct xw *w)
                         t.d = w->t3[idx];
                     } else if (m && m->s == BST_DENSE && m->prec == BST_DOUBLE)
                         t.d = m->dense;
+                    else if ((full = bsti_mat_lr_values(w->ctx, m)) != NULL)
+                        t.d = full; /* (each value's bits: the tree written value by value) */
                     else if (m && m->s == BST_DENSE)
                         t.f = m->dense;
                     else if (m && m->s != BST_ZERO)
@@ -584,6 +587,7 @@ static int write_blocks(struct xw *w)
                     bsti_tree_stats st;
                     int rc = bsti_ttree_write(w->ctx, &t, &r, w->out, &st);
                     bsti_varres_done(w->ctx, &vr);
+                    bsti_free(w->ctx, full);
                     if (rc < 0 && rc != BST_EIO) {
                         bsti_error_prefix(w->ctx, "%s %s", rep.channel, block_label[c]);
                         return rc;

@@ -18,6 +18,7 @@
 static bst_ctx *ctx;
 static char coarse3[64], coarse4[64]; /* blind0 at depth 3, blind45 at depth 4 */
 static char iso3[64];                 /* the diffuser as a TensorTree3 of depth 3 */
+static char glass3[64];                /* the clear pane's tree at depth 3: sparse there */
 
 /* The reference file read at order k and written as a tree of that depth and rank (every value). */
 static void make_tree(const char *ref, int k, bst_tree_rank rank, char *path)
@@ -45,11 +46,12 @@ static void setup(void)
     make_tree("L_blind0_t4k5.xml", 3, BST_RANK_4, coarse3);
     make_tree("L_blind45_t4k5.xml", 4, BST_RANK_4, coarse4);
     make_tree("L_diffuser_t3k5.xml", 3, BST_RANK_3, iso3);
+    make_tree("L_glass_t4k5.xml", 3, BST_RANK_4, glass3);
 }
 
 static void teardown(void)
 {
-    unlink(coarse3), unlink(coarse4), unlink(iso3);
+    unlink(coarse3), unlink(coarse4), unlink(iso3), unlink(glass3);
     bst_ctx_free(ctx);
 }
 
@@ -91,8 +93,10 @@ static double rel_diff(const bst_mat *a, const bst_mat *b)
 
 /* The stacks (exterior first): 'g' a pane, '3' blind0 at depth 3, '4' blind45 at depth 4, 'D' the
  * blind at its own depth 5 (dense at k = 5), 'K' a Klems diffuser, 'I' the diffuser as a rank-3
- * tree of depth 3 at its own order (BST_RANK3_NATIVE); '^' after one: reversed. */
-static const char *const stacks[] = {"g3", "3g", "g3g", "g4^g3", "gDg3", "g3^Kg", "34^", "gI^g"};
+ * tree of depth 3 at its own order (BST_RANK3_NATIVE), 't' the pane's tree file at depth 3
+ * (sparse, P K P^T beside a factored layer); '^' after one: reversed. */
+static const char *const stacks[] = {"g3", "3g", "g3g", "g4^g3", "gDg3", "g3^Kg", "34^", "gI^g",
+                                     "t3t", "t4^gt"};
 #define NSTACKS (sizeof stacks / sizeof stacks[0])
 
 static size_t build(const char *spec, const bst_basis *b, bst_layer **layers)
@@ -109,6 +113,7 @@ static size_t build(const char *spec, const bst_basis *b, bst_layer **layers)
         layers[n++] = *c == 'g'   ? tu_layer(ctx, "glass:clear-6mm", b)
                       : *c == '3' ? file_layer(coarse3, b)
                       : *c == '4' ? file_layer(coarse4, b)
+                      : *c == 't' ? file_layer(glass3, b)
                       : *c == 'D' ? tu_layer(ctx, "L_blind0_t4k5.xml", b)
                       : *c == 'I' ? file_layer_rule(iso3, b, BST_RANK3_NATIVE)
                                   : tu_layer(ctx, "L_diffuser_t3k5_klems.xml", b);
@@ -163,6 +168,11 @@ START_TEST(test_stacks)
     if (strcmp(spec, "g3") == 0 || strcmp(spec, "g3g") == 0 || strcmp(spec, "3g") == 0 ||
         strcmp(spec, "gI^g") == 0)
         ck_assert_int_gt(factored_steps, 0);
+    if (spec[0] == 't') { /* the sparse tree joins the factored shade (t3t: every component of
+                             every step; t4^gt: a rank reaching N / 2 turns dense) */
+        ck_assert_int_eq(bst_mat_structure(bst_layer_get(layers[0], 0, BST_TF)), BST_SPARSE);
+        ck_assert_int_ge(factored_steps, strcmp(spec, "t3t") == 0 ? 4 * ((int)n - 1) : 1);
+    }
     o.force_dense = 1;
     ck_assert_int_ge(bst_stack_combine(ctx, n, (const bst_layer *const *)layers, &o, &dense), 0);
     for (int c = 0; c < BST_NCOMP; c++) {
@@ -322,6 +332,71 @@ START_TEST(test_klems_reciprocal)
 }
 END_TEST
 
+/* Text written into a growing buffer. */
+struct text {
+    char *p;
+    size_t n;
+};
+
+static int to_text(const char *buf, size_t len, void *opaque)
+{
+    struct text *t = opaque;
+    t->p = realloc(t->p, t->n + len + 1);
+    memcpy(t->p + t->n, buf, len);
+    t->n += len;
+    return 0;
+}
+
+/* An allocator that refuses every block of at least `refuse` bytes (the writer's expansion). */
+static void *refusing_malloc(size_t size, void *opaque)
+{
+    return size >= *(const size_t *)opaque ? NULL : malloc(size);
+}
+
+static void plain_free(void *p, void *opaque)
+{
+    (void)opaque;
+    free(p);
+}
+
+/* A factored system's tree: the writer expands a factored component to write it, or reads it
+ * value by value through the factors when that memory is refused; the same bytes either way,
+ * reduced (budgets, reciprocity: lines through the factors) and not. */
+START_TEST(test_write_expanded)
+{
+    bst_basis *b5;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 5, &b5), BST_OK);
+    bst_layer *layers[8];
+    size_t n = build("g3g", b5, layers);
+    bst_layer *sys;
+    ck_assert_int_ge(bst_stack_combine(ctx, n, (const bst_layer *const *)layers, NULL, &sys), 0);
+    ck_assert_int_eq(bst_mat_structure(bst_layer_get(sys, 0, BST_TB)), BST_FACTORED);
+    size_t refuse = 1024 * 1024 * sizeof(double);
+    bst_ctx *c2 = bst_ctx_new();
+    ck_assert_int_eq(bst_ctx_set_allocator(c2, refusing_malloc, plain_free, &refuse), BST_OK);
+    for (int reduce = 0; reduce < 2; reduce++) {
+        bst_bsdf_write_opts o;
+        bst_bsdf_write_opts_init(&o);
+        o.rank = BST_RANK_4;
+        o.date = "2026-11-28T00:00:00Z";
+        if (!reduce)
+            o.reduce_pct = -1.0;
+        struct text a = {NULL, 0}, b = {NULL, 0};
+        ck_assert_int_eq(bst_bsdf_write_fn(ctx, sys, to_text, &a, &o), BST_OK);
+        ck_assert_int_eq(bst_bsdf_write_fn(c2, sys, to_text, &b, &o), BST_OK);
+        ck_assert_uint_gt(a.n, 100000);
+        ck_assert_uint_eq(a.n, b.n);
+        ck_assert_msg(memcmp(a.p, b.p, a.n) == 0, "reduce %d: the expanded tree differs", reduce);
+        free(a.p), free(b.p);
+    }
+    bst_ctx_free(c2);
+    bst_layer_free(sys);
+    for (size_t i = 0; i < n; i++)
+        bst_layer_free(layers[i]);
+    bst_basis_free(b5);
+}
+END_TEST
+
 static Suite *suite(void)
 {
     Suite *s = suite_create("factored");
@@ -333,6 +408,7 @@ static Suite *suite(void)
     tcase_add_test(tc, test_columns);
     tcase_add_test(tc, test_klems_reciprocal);
     tcase_add_test(tc, test_rank3_native);
+    tcase_add_test(tc, test_write_expanded);
     suite_add_tcase(s, tc);
     return s;
 }

@@ -133,6 +133,43 @@ START_TEST(test_algebra)
     got = dense_of(m);
     ck_assert_msg(rel_diff(got, want, N * N) < 1e-13, "product: %g", rel_diff(got, want, N * N));
     free(got), bsti_lr_free(ctx, m);
+    /* a prolongation's diagonal grams (S->single) against the general gram and GEMM: the same
+     * product and inverse, to the bit with one block (p = q = 1) */
+    if (S->single) {
+        bsti_lr *m1, *m0, *i1, *i0;
+        ck_assert_int_eq(bsti_lr_mul(ctx, f, g, &m1), BST_OK);
+        ck_assert_int_eq(bsti_lr_inverse(ctx, f, &i1, NULL), BST_OK);
+        S->single = 0;
+        ck_assert_int_eq(bsti_lr_mul(ctx, f, g, &m0), BST_OK);
+        ck_assert_int_eq(bsti_lr_inverse(ctx, f, &i0, NULL), BST_OK);
+        S->single = 1;
+        size_t nk = m1->p * m1->r * m1->q * m1->r, ni = i1->p * i1->r * i1->q * i1->r;
+        if (!two) { /* (f: one block, so K_F V_F^T U_G sums one product a value) */
+            ck_assert_int_eq(memcmp(m1->k, m0->k, nk * sizeof *m1->k), 0);
+            ck_assert_int_eq(memcmp(i1->k, i0->k, ni * sizeof *i1->k), 0);
+            ck_assert_int_eq(memcmp(i1->d, i0->d, N * sizeof *i1->d), 0);
+        }
+        ck_assert_msg(rel_diff(m1->k, m0->k, nk) < 1e-14, "single-entry product: %g",
+                      rel_diff(m1->k, m0->k, nk));
+        ck_assert_msg(rel_diff(i1->k, i0->k, ni) < 1e-13, "single-entry inverse: %g",
+                      rel_diff(i1->k, i0->k, ni));
+        bsti_lr_free(ctx, m1), bsti_lr_free(ctx, m0), bsti_lr_free(ctx, i1), bsti_lr_free(ctx, i0);
+    }
+    /* columns and rows: the bits of the values one by one */
+    double *line = malloc(N * sizeof *line);
+    for (size_t y = 0; y < N; y += 7) {
+        bsti_lr_col(f, y, line);
+        for (size_t x = 0; x < N; x++) {
+            double v = bsti_lr_get(f, x, y);
+            ck_assert_msg(memcmp(&line[x], &v, sizeof v) == 0, "column %zu row %zu", y, x);
+        }
+        bsti_lr_row(g, y, line);
+        for (size_t x = 0; x < N; x++) {
+            double v = bsti_lr_get(g, y, x);
+            ck_assert_msg(memcmp(&line[x], &v, sizeof v) == 0, "row %zu column %zu", y, x);
+        }
+    }
+    free(line);
     /* sum */
     ck_assert_int_eq(bsti_lr_add(ctx, 0.5, f, -2.0, g, &m), BST_OK);
     for (size_t i = 0; i < N * N; i++)
