@@ -554,10 +554,11 @@ double bst_plan_work(size_t n, const bst_structure *structure, size_t N, double 
  * values fill at most BST_SPARSE_MAX_FILL of its domain (specular trees: sparse, 16 bytes a
  * value); on top of them a conversion needs one double grid, a combination (combining)
  * 3 N^2 values of the work precision, whichever is more; a rank-4 tree of depth d below the
- * Shirley-Chiu order asked is held factored (BST_FACTORED): its 4^d x 4^d doubles, and a
- * combination of such layers alone three of the largest, and the tree writer one N^2 grid of
- * doubles (it expands a factored component, one at a time, to write it); for the rest (the program, its
- * libraries, diagonal and sparse parts) 64 MiB and N^2 / 2 bytes.  comps: the components read
+ * Shirley-Chiu order asked is held factored (BST_FACTORED; so is a rank-3 one under
+ * BST_RANK3_NATIVE): its 4^d x 4^d doubles, and a combination of such layers alone three of the
+ * largest, and the tree writer one N^2 grid of doubles (it expands a factored component, one at
+ * a time, to write it); for the rest (the program, its libraries, diagonal and sparse parts)
+ * 64 MiB and N^2 / 2 bytes.  comps: the components read
  * (BST_COMP_BIT mask, 0 = all); *ndense (may be NULL): the dense components counted. */
 double bst_plan_memory(const bst_basis *basis, size_t n, const bst_bsdf *const *files,
                        unsigned comps, bst_precision read, int combining, bst_precision work,
