@@ -304,6 +304,7 @@ START_TEST(test_alloc_failure)
         failed++;
     }
     ck_assert_int_gt(failed, 3);
+    bst_basis_free(b);
 }
 END_TEST
 
