@@ -851,6 +851,34 @@ START_TEST(test_spectral_columns)
 }
 END_TEST
 
+/* Pane g and a band-valued shade over b combined per wavelength as WCE combines them (patch
+ * centres, every wavelength, Solar), checked against the 92 rows of a dg_small case's results
+ * within tol and for energy balance; the shade is freed. */
+static void pane_shade_case(bst_glass *g, bst_layer *shade, const bst_basis *b, const char *results,
+                            double tol)
+{
+    size_t N = bst_basis_size(b);
+    bst_spectral_layer l[2] = {{.pane = g}, {.bands = shade}};
+    bst_spectral_opts so;
+    bst_spectral_opts_init(&so);
+    so.at_centre = 1;
+    so.tol = 0; /* WCE combines every wavelength */
+    double *af = malloc(2 * N * sizeof *af), *ab = malloc(2 * N * sizeof *ab);
+    bst_layer *r;
+    int rc = bst_stack_combine_spectral_layers(ctx, 2, l, b, 1, (const char *const[]){"Solar"}, &so,
+                                               NULL, &r, af, ab);
+    ck_assert_msg(rc >= 0, "%s", bst_ctx_message(ctx));
+    struct sys s;
+    sys_init(&s, b, 2);
+    sys_from(&s, r, 0, af, ab);
+    ck_assert_int_eq(compare_results(&s, results, "solar", tol, 0), 92);
+    assert_energy(&s);
+    sys_free(&s);
+    bst_layer_free(r);
+    bst_layer_free(shade);
+    free(af), free(ab);
+}
+
 /* The same for NFRC 102 + a Lambertian dual-band diffuser (every element T / pi or R / pi; solar
  * T = 0.5, R = 0.3; visible T = 0.4, R = 0.2) in WCE's Small basis, solar.  WCE's perfect-diffuser
  * material does not add the dual-band wavelengths 0.38 -+ 1e-6, 0.78 -+ 1e-6 to its grid (its 121
@@ -870,26 +898,7 @@ START_TEST(test_dg_small_lambertian_library)
             vis[c][i] = (t ? 0.4 : 0.2) / M_PI, sol[c][i] = (t ? 0.5 : 0.3) / M_PI;
     }
     bst_layer *shade = dual_band_layer(b, sol, vis);
-    bst_spectral_layer l[2] = {{.pane = g}, {.bands = shade}};
-    bst_spectral_opts so;
-    bst_spectral_opts_init(&so);
-    so.at_centre = 1;
-    so.tol = 0; /* WCE combines every wavelength */
-    double *af = malloc(2 * N * sizeof *af), *ab = malloc(2 * N * sizeof *ab);
-    bst_layer *r;
-    int rc = bst_stack_combine_spectral_layers(ctx, 2, l, b, 1, (const char *const[]){"Solar"}, &so,
-                                               NULL, &r, af, ab);
-    ck_assert_msg(rc >= 0, "%s", bst_ctx_message(ctx));
-    struct sys s;
-    sys_init(&s, b, 2);
-    sys_from(&s, r, 0, af, ab);
-    ck_assert_int_eq(compare_results(&s, "wce/cases/dg_small_102_lambertian_results.tsv", "solar",
-                                     5e-6, 0), 92);
-    assert_energy(&s);
-    sys_free(&s);
-    bst_layer_free(r);
-    bst_layer_free(shade);
-    free(af), free(ab);
+    pane_shade_case(g, shade, b, "wce/cases/dg_small_102_lambertian_results.tsv", 5e-6);
     for (int c = 0; c < BST_NCOMP; c++)
         free(vis[c]), free(sol[c]);
     bst_glass_free(g);
@@ -1272,7 +1281,6 @@ END_TEST
 START_TEST(test_dg_small_venetian_model)
 {
     bst_basis *b = tu_wce_basis(ctx, "basis_wce_small.tsv");
-    size_t N = bst_basis_size(b);
     bst_glass *g;
     ck_assert_int_eq(bst_glass_parse(ctx, "nfrc-102", getenv("BSDFSTACK_GLASS_DIR"), &g), BST_OK);
     bst_venetian v;
@@ -1281,26 +1289,7 @@ START_TEST(test_dg_small_venetian_model)
     ck_assert_int_eq(v.segments, 5);
     bst_layer *shade;
     ck_assert_int_eq(bst_venetian_layer(ctx, &v, b, 0, NULL, &shade), BST_OK);
-    bst_spectral_layer l[2] = {{.pane = g}, {.bands = shade}};
-    bst_spectral_opts so;
-    bst_spectral_opts_init(&so);
-    so.at_centre = 1;
-    so.tol = 0; /* WCE combines every wavelength */
-    double *af = malloc(2 * N * sizeof *af), *ab = malloc(2 * N * sizeof *ab);
-    bst_layer *r;
-    int rc = bst_stack_combine_spectral_layers(ctx, 2, l, b, 1, (const char *const[]){"Solar"}, &so,
-                                               NULL, &r, af, ab);
-    ck_assert_msg(rc >= 0, "%s", bst_ctx_message(ctx));
-    struct sys s;
-    sys_init(&s, b, 2);
-    sys_from(&s, r, 0, af, ab);
-    ck_assert_int_eq(compare_results(&s, "wce/cases/dg_small_102_venetian_results.tsv", "solar",
-                                     WCE_TOL, 0), 92);
-    assert_energy(&s);
-    sys_free(&s);
-    bst_layer_free(r);
-    bst_layer_free(shade);
-    free(af), free(ab);
+    pane_shade_case(g, shade, b, "wce/cases/dg_small_102_venetian_results.tsv", WCE_TOL);
     bst_glass_free(g);
     bst_basis_free(b);
 }
