@@ -267,13 +267,36 @@ static double mirror_ga(const bst_layer *l, bst_comp c, size_t j)
     return den > 0 ? 100 * (1 - num / den) : 100;
 }
 
+/* GA (eq. 7, negatives read as 0 as bst_metrics_accordance reads them) of column j of component c
+ * of l against the mean of ref and its image under x -> -x: the reference with the ray tracer's
+ * noise halved where the geometry has that symmetry (both blinds), nothing else changed. */
+static double sym_ga(const bst_layer *l, const bst_layer *ref, bst_comp c, size_t j)
+{
+    const bst_basis *b = bst_layer_basis(ref);
+    const bst_mat *m = bst_layer_get(ref, 0, c), *ml = bst_layer_get(l, 0, c);
+    const double *lam = bst_basis_lambda(b);
+    size_t mj = bsti_basis_mirror_x(b, j);
+    double num = 0, den = 0;
+    for (size_t o = 0; o < bst_basis_size(b); o++) {
+        double y = (fmax(bst_mat_get(m, o, j), 0) +
+                    fmax(bst_mat_get(m, bsti_basis_mirror_x(b, o), mj), 0)) / 2;
+        double x = fmax(bst_mat_get(ml, o, j), 0);
+        num += lam[o] * (x - y) * (x - y);
+        den += lam[o] * (x + y) * (x + y);
+    }
+    return den > 0 ? 100 * (1 - num / den) : 100;
+}
+
 /* The issue's bars are GA >= 99 at the five directions from both sides and |dT|, |dR| <= 0.01 for
  * every incident patch up to 70 deg.  Where this model does not reach them the floor asserted is
  * the measured figure less a margin, named here so that it cannot pass unnoticed:
  * - L_blind45 Tb at (45, 90), (50, 90) and (65, 90): GA 94.85, 96.19, 96.32.  These columns carry
  *   2-5 % of the light, almost all of it diffuse, which the ray tracer resolves with a few rays a
- *   patch: the reference agrees with its own mirror image to GA 95.8, 93.3 and 94.7 only.  (The
- *   model's diffuse T there is 0.021 against the reference's 0.026 at (45, 90).)
+ *   patch: the reference agrees with its own mirror image to GA 95.8, 93.3 and 94.7 only.  Against
+ *   the symmetrized reference (sym_ga: its noise variance halved) the model reaches 96.6, 97.8 and
+ *   97.2, so noise explains only part of the gap: the model's diffuse T there is 0.021 against
+ *   the reference's 0.026 at (45, 90), a difference in the slats' diffuse exchange not resolved
+ *   yet.
  * - Hemispherical values: Tb, Rf, Rb within 0.0131, 0.0107, 0.0112 (L_blind0) and 0.0115, 0.0192,
  *   0.0162 (L_blind45), 2-22 patches a component beyond 0.01; Tf within 0.042 and 0.031 with
  *   200-300 patches beyond 0.01.  The reference's Tf is the reciprocal of its Tb (genBSDF stores
@@ -307,8 +330,9 @@ START_TEST(test_reference_blinds)
             bst_comp c = side ? BST_TB : BST_TF;
             ck_assert_int_eq(bst_metrics_accordance(ctx, l, ref, 0, c, j, &ga, &fa, NULL), BST_OK);
             printf("  %s (theta %g, phi %g): GA %.3f FA %.2f; the reference against its mirror "
-                   "image: GA %.3f%s\n", side ? "Tb" : "Tf", dirs[k][0], dirs[k][1], ga, fa,
-                   mirror_ga(ref, c, j), ga < 99 ? "  (below the issue's bar of 99)" : "");
+                   "image: GA %.3f; against the symmetrized reference: GA %.3f%s\n",
+                   side ? "Tb" : "Tf", dirs[k][0], dirs[k][1], ga, fa, mirror_ga(ref, c, j),
+                   sym_ga(l, ref, c, j), ga < 99 ? "  (below the issue's bar of 99)" : "");
             fflush(stdout);
             ck_assert_msg(ga >= ga_floor[_i][side][k], "%s %s (%g, %g): GA %.3f < %g", refs[_i],
                           side ? "Tb" : "Tf", dirs[k][0], dirs[k][1], ga, ga_floor[_i][side][k]);
