@@ -141,6 +141,12 @@ START_TEST(test_venetian)
     ck_assert_uint_lt(bst_shade_model_spec(&m, spec, sizeof spec), sizeof spec);
     ck_assert_str_eq(spec, "venetian:width=16mm,spacing=12mm,tilt=45,curvature=0mm,segments=5,"
                      "r-up=0.7/0.6,r-down=0.55/0.5,t=0.04/0.05,rs=0.05/0.1");
+    /* WINDOW's model by an override: its spec names the rule and the distribution */
+    snprintf(s, sizeof s, "shade:%s,rs=0,rule=centre,distribution=uniform", path);
+    ck_assert_int_eq(bst_shade_parse(ctx, s, cat(), &m), BST_OK);
+    ck_assert_uint_lt(bst_shade_model_spec(&m, spec, sizeof spec), sizeof spec);
+    ck_assert_str_eq(spec, "venetian:width=16mm,spacing=12mm,tilt=45,curvature=0mm,segments=5,"
+                     "r-up=0.7/0.6,r-down=0.55/0.5,t=0.04/0.05,rs=0,rule=centre,distribution=uniform");
     bst_basis_free(b);
 }
 END_TEST
