@@ -43,7 +43,8 @@ double bsti_perforated_wce_open(const bst_perforated *p, const double d[3])
     double a = p->radius;
     if (p->thickness > 0 && th > atan(2.0 * a / p->thickness))
         return 0.0;
-    double hole = M_PI / 2 * a * a * cos(th) + M_PI / 2 * (a * a * cos(th) - a * p->thickness * sin(th));
+    double hole = M_PI / 2 * a * a * cos(th) +
+                  M_PI / 2 * (a * a * cos(th) - a * p->thickness * sin(th));
     return hole / (p->x * p->y * cos(th));
 }
 
