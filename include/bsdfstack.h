@@ -976,7 +976,22 @@ typedef struct {
     int samples;              /* samples^2 directions per patch; 0: BST_VENETIAN_SAMPLES */
     double solar[3];          /* rf, rb, t of a channel named Solar (spec values "VISIBLE/SOLAR");
                                  NaN (default): the values above */
+    int rule;                 /* BST_VENETIAN_AVERAGE (default, the model above) or
+                               * BST_VENETIAN_CENTRE: WINDOW's model (below; sheet_wce.c) */
 } bst_perforated;
+/* WINDOW's model of a perforated screen (rule=centre), as Windows-CalcEngine (v1.0.75) computes
+ * it, so that a Klems-type basis gets WINDOW's numbers: every patch i taken at its centre
+ * direction only (theta_i, phi_i); its open share F_i on the diagonal of Tf and Tb over Lambda_i;
+ * the rest (1 - F_i) of the incident light transmitted (t) and reflected (rf from the front, rb
+ * from the back) and spread by 1/pi over every outgoing patch: Tf(o, i) = F_i delta_oi /
+ * Lambda_i + (1 - F_i) t / pi, Rf(o, i) = (1 - F_i) rf / pi (energy is conserved for r + t = 1,
+ * the layer is reciprocal only where F is constant).  WCE's open shares: rectangular holes the
+ * product of (hole - thickness |tan psi|)+ / pitch along X and Y, psi the direction's projected
+ * angle there (exact, as the default model's); circular holes not the lens of the default model
+ * but (pi a^2 - pi a thickness tan(theta) / 2) / (x y) up to tan(theta) = 2 a / thickness, 0
+ * beyond.  No `distribution`: WCE spreads a screen's scattered light uniformly only.  A Solar
+ * channel with its own values weighs the layers of the visible ones and of (solar - f visible)
+ * / (1 - f) f : 1 - f (f = BST_DUAL_BAND_F), as the venetian WINDOW mode does. */
 /* The defaults: no geometry (pitch, radius and holes NaN), thickness 0, a black sheet. */
 void bst_perforated_init(bst_perforated *p);
 /* Parse "x=5mm,y=5mm,radius=1mm,thickness=1mm,r=0.7" (the text after "perforated:"); every error
@@ -1002,7 +1017,18 @@ typedef struct {
     double rf, rb, t;
     int samples;            /* samples^2 directions per patch; 0: BST_VENETIAN_SAMPLES */
     double solar[3];        /* rf, rb, t of a channel named Solar; NaN (default): the values above */
+    int rule;               /* BST_VENETIAN_AVERAGE (default) or BST_VENETIAN_CENTRE: WINDOW's
+                             * model (below; sheet_wce.c) */
 } bst_woven;
+/* WINDOW's woven model (rule=centre), as Windows-CalcEngine (v1.0.75) computes it: the centre
+ * rule and uniform spreading of the perforated screen's WINDOW mode, with WCE's open share
+ * Tx Ty, Tx = (1 - g / cos a)+ for the direction's angle a from the normal in the XZ plane,
+ * Ty = (1 - g / cos b)+ for b = atan(tan(alt) / cos(alt)), alt = asin(sin theta sin phi)
+ * (g = diameter / spacing; not the angle in the YZ plane of the default model), and WCE's
+ * empirical scattering through the threads S(g, alt, a, r) (r the reflectance of the side the
+ * light does not meet) moved from reflection to transmission: Tf(o, i) = F_i delta_oi / Lambda_i
+ * + ((1 - F_i) t + S_i(rb)) / pi, Rf(o, i) = ((1 - F_i) rf - S_i(rb)) / pi, the back with rf and
+ * rb swapped. */
 /* The defaults: no geometry (NaN), black threads. */
 void bst_woven_init(bst_woven *w);
 /* Parse "diameter=0.5mm,spacing=2mm,r=0.7,t=0.1" (the text after "woven:"). */

@@ -3,7 +3,8 @@
  *
  * Keys: x, y (hole pitch along X and Y), thickness, radius (circular holes) or hole-x, hole-y
  * (rectangular), lengths as glass: takes them (bare = mm); r (both faces) or rf, rb; t (each a
- * number or VISIBLE/SOLAR, the second for a channel named Solar); samples.
+ * number or VISIBLE/SOLAR, the second for a channel named Solar); samples; rule (average, or
+ * centre: WINDOW's model, sheet_wce.c).
  *
  * A hole passes light travelling along d where its two ends, seen along d, overlap: the exit end
  * is the entrance end moved by thickness (dx, dy) / |dz|, and the share of the sheet's area that
@@ -20,9 +21,20 @@
 #include "ctx.h"
 #include "venetian.h"
 
-enum { P_X, P_Y, P_THICK, P_RADIUS, P_HX, P_HY, P_R, P_RF, P_RB, P_T, P_SAMPLES, NPKEYS };
+enum { P_X, P_Y, P_THICK, P_RADIUS, P_HX, P_HY, P_R, P_RF, P_RB, P_T, P_SAMPLES, P_RULE, NPKEYS };
 static const char *const pkey[NPKEYS] = {"x", "y", "thickness", "radius", "hole-x", "hole-y", "r",
-                                        "rf", "rb", "t", "samples"};
+                                        "rf", "rb", "t", "samples", "rule"};
+
+int bsti_shade_parse_rule(bst_ctx *ctx, const char *what, const char *val, int *rule)
+{
+    if (strcmp(val, "average") == 0)
+        *rule = BST_VENETIAN_AVERAGE;
+    else if (strcmp(val, "centre") == 0 || strcmp(val, "center") == 0)
+        *rule = BST_VENETIAN_CENTRE;
+    else
+        return bsti_error(ctx, BST_EINVAL, "%s: rule: '%s' is not average or centre", what, val);
+    return BST_OK;
+}
 
 void bst_perforated_init(bst_perforated *p)
 {
@@ -38,6 +50,8 @@ void bst_perforated_init(bst_perforated *p)
 static int set_pkey(bst_ctx *ctx, int k, const char *val, bst_perforated *p)
 {
     double x = NAN, sol = NAN;
+    if (k == P_RULE)
+        return bsti_shade_parse_rule(ctx, "perforated", val, &p->rule);
     if (k == P_SAMPLES) {
         char *end;
         long n = strtol(val, &end, 10);
@@ -52,7 +66,7 @@ static int set_pkey(bst_ctx *ctx, int k, const char *val, bst_perforated *p)
         return bsti_error(ctx, BST_EINVAL, "perforated: %s: '%s' is not %s", pkey[k], val,
                           length ? "a length (5mm, 0.005m, 0.5cm, 0.2in)" : "a number or VISIBLE/SOLAR");
     double *slot[NPKEYS] = {&p->x, &p->y, &p->thickness, &p->radius, &p->hole_x, &p->hole_y,
-                            &p->rf, &p->rf, &p->rb, &p->t, NULL};
+                            &p->rf, &p->rf, &p->rb, &p->t, NULL, NULL};
     *slot[k] = x;
     if (k == P_RADIUS)
         p->hole_x = p->hole_y = NAN;
@@ -108,7 +122,8 @@ static int check(bst_ctx *ctx, const bst_perforated *p, int named_r)
         return bsti_error(ctx, BST_EINVAL, "perforated: hole-y = %g m is not in (0, y]", p->hole_y);
     const char *names[3] = {named_r ? "r" : "rf", named_r ? "r" : "rb", "t"};
     const double v[3] = {p->rf, p->rb, p->t};
-    return bsti_sheet_check(ctx, "perforated", names, v, p->solar);
+    int rc = bsti_sheet_check(ctx, "perforated", names, v, p->solar);
+    return rc < 0 ? rc : bsti_sheet_wce_check(ctx, "perforated", p->rule, p->samples, v, p->solar);
 }
 
 /* One item of a perforated spec (bsti_shade_set): every key needs a value; r and rf/rb overlap,
@@ -274,7 +289,9 @@ int bst_perforated_layer(bst_ctx *ctx, const bst_perforated *p, const bst_basis 
     *out = NULL;
     const double v[3] = {p->rf, p->rb, p->t};
     int rc = check(ctx, p, 0);
-    if (rc >= 0)
+    if (rc >= 0 && p->rule == BST_VENETIAN_CENTRE) /* WINDOW's model: sheet_wce.c */
+        rc = bsti_sheet_wce_layer(ctx, basis, p, NULL, v, p->solar, nchannels, channels, out);
+    else if (rc >= 0)
         rc = bsti_open_layer(ctx, basis, perforated_share, p, v, p->solar, p->samples, nchannels,
                              channels, out);
     return rc == BST_ENOMEM ? bsti_error(ctx, rc, "perforated layer: out of memory") : rc;

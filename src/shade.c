@@ -303,11 +303,14 @@ size_t bst_shade_model_spec(const bst_shade_model *m, char *buf, size_t size)
             put(&t, ",vertical");
         if (v->samples)
             put(&t, ",samples=%d", v->samples);
+        if (v->rule == BST_VENETIAN_CENTRE)
+            put(&t, ",rule=centre%s",
+                v->distribution == BST_VENETIAN_UNIFORM ? ",distribution=uniform" : "");
         return t.len;
     }
     double r[3];
     const double *sol;
-    int samples;
+    int samples, rule;
     if (m->kind == BST_SHADE_PERFORATED) {
         const bst_perforated *p = &m->perforated;
         put(&t, "perforated:x=%.10gmm,y=%.10gmm,thickness=%.10gmm", p->x / MM, p->y / MM,
@@ -316,17 +319,21 @@ size_t bst_shade_model_spec(const bst_shade_model *m, char *buf, size_t size)
             put(&t, ",radius=%.10gmm", p->radius / MM);
         else
             put(&t, ",hole-x=%.10gmm,hole-y=%.10gmm", p->hole_x / MM, p->hole_y / MM);
-        r[0] = p->rf, r[1] = p->rb, r[2] = p->t, sol = p->solar, samples = p->samples;
+        r[0] = p->rf, r[1] = p->rb, r[2] = p->t, sol = p->solar;
+        samples = p->samples, rule = p->rule;
     } else {
         const bst_woven *w = &m->woven;
         put(&t, "woven:diameter=%.10gmm,spacing=%.10gmm", w->diameter / MM, w->spacing / MM);
-        r[0] = w->rf, r[1] = w->rb, r[2] = w->t, sol = w->solar, samples = w->samples;
+        r[0] = w->rf, r[1] = w->rb, r[2] = w->t, sol = w->solar;
+        samples = w->samples, rule = w->rule;
     }
     put_band(&t, "rf", r[0], sol[0]);
     put_band(&t, "rb", r[1], sol[1]);
     put_band(&t, "t", r[2], sol[2]);
     if (samples)
         put(&t, ",samples=%d", samples);
+    if (rule == BST_VENETIAN_CENTRE)
+        put(&t, ",rule=centre");
     return t.len;
 }
 

@@ -118,6 +118,19 @@ long bsti_vn_curved_trace(const bsti_vn_geom *g, const double start[2], const do
 int bsti_open_layer(bst_ctx *ctx, const bst_basis *basis, double (*share)(const void *, const double *),
                     const void *data, const double v[3], const double sol[3], int samples,
                     size_t nchannels, const char *const *channels, bst_layer **out);
+/* WINDOW's models of sheets (sheet_wce.c; rule=centre of bst_perforated and bst_woven): the
+ * layer with every patch at its centre (exactly one of p, w given; v and sol as for
+ * bsti_open_layer); WCE's open share of a screen and of a fabric along unit direction d, and
+ * its fabric's scattering through the threads for the reflectance r of the side not met; the
+ * checks of rule=centre (rule, samples 0, the values outside the visible range). */
+int bsti_sheet_wce_layer(bst_ctx *ctx, const bst_basis *basis, const bst_perforated *p,
+                         const bst_woven *w, const double v[3], const double sol[3],
+                         size_t nchannels, const char *const *channels, bst_layer **out);
+double bsti_perforated_wce_open(const bst_perforated *p, const double d[3]);
+double bsti_woven_wce_open(const bst_woven *w, const double d[3]);
+double bsti_woven_wce_scatter(const bst_woven *w, const double d[3], double r);
+int bsti_sheet_wce_check(bst_ctx *ctx, const char *what, int rule, int samples, const double v[3],
+                         const double sol[3]);
 /* The checks of a sheet's diffuse values (perforated screens, woven fabrics: `what`): each of
  * rf, rb, t (named by names[]) in [0, 1], rf + t and rb + t at most 1, the values and the Solar
  * ones (sol[k] where not NaN). */
@@ -128,6 +141,9 @@ int bsti_sheet_check(bst_ctx *ctx, const char *what, const char *const names[3],
  * or a bare number of millimetres -> metres; a plain number.  0, or -1 when v is not one. */
 int bsti_shade_parse_length(const char *v, double *m);
 int bsti_shade_parse_number(const char *v, double *x);
+/* rule= of perforated and woven specs (perforated.c): average or centre (center) into *rule;
+ * else an error naming `what` and the key. */
+int bsti_shade_parse_rule(bst_ctx *ctx, const char *what, const char *val, int *rule);
 /* A reflectance or transmittance as a spec gives it: a number, or VISIBLE/SOLAR (*sol the second,
  * for a channel named Solar; NaN when there is no '/').  0, or -1 when v is not one. */
 int bsti_shade_parse_bands(const char *v, double *vis, double *sol);

@@ -2,7 +2,7 @@
  *
  * Keys: diameter, spacing (lengths as glass: takes them, bare = mm), r (both faces) or rf, rb
  * (exterior, interior face), t (numbers, or VISIBLE/SOLAR: the second for a channel named Solar),
- * samples.
+ * samples, rule (average, or centre: WINDOW's model, sheet_wce.c).
  * Two sets of cylindrical threads, along X and along Y, every `spacing`.  A cylinder of diameter d
  * casts a shadow d / cos(theta_p) wide on the fabric's plane, theta_p the direction's angle from
  * the normal in the plane across the threads, so the open share along unit direction d is
@@ -19,8 +19,9 @@
 #include "ctx.h"
 #include "venetian.h"
 
-enum { W_DIAM, W_SPACING, W_R, W_RF, W_RB, W_T, W_SAMPLES, NWKEYS };
-static const char *const wkey[NWKEYS] = {"diameter", "spacing", "r", "rf", "rb", "t", "samples"};
+enum { W_DIAM, W_SPACING, W_R, W_RF, W_RB, W_T, W_SAMPLES, W_RULE, NWKEYS };
+static const char *const wkey[NWKEYS] = {"diameter", "spacing", "r", "rf", "rb", "t", "samples",
+                                        "rule"};
 
 void bst_woven_init(bst_woven *w)
 {
@@ -33,6 +34,8 @@ void bst_woven_init(bst_woven *w)
 
 static int set_wkey(bst_ctx *ctx, int k, const char *val, bst_woven *w)
 {
+    if (k == W_RULE)
+        return bsti_shade_parse_rule(ctx, "woven", val, &w->rule);
     if (k == W_SAMPLES) {
         char *end;
         long n = strtol(val, &end, 10);
@@ -47,7 +50,7 @@ static int set_wkey(bst_ctx *ctx, int k, const char *val, bst_woven *w)
     if (length ? bsti_shade_parse_length(val, &x) : bsti_shade_parse_bands(val, &x, &sol))
         return bsti_error(ctx, BST_EINVAL, "woven: %s: '%s' is not %s", wkey[k], val,
                           length ? "a length (0.5mm, 0.0005m, 0.05cm)" : "a number or VISIBLE/SOLAR");
-    double *slot[NWKEYS] = {&w->diameter, &w->spacing, &w->rf, &w->rf, &w->rb, &w->t, NULL};
+    double *slot[NWKEYS] = {&w->diameter, &w->spacing, &w->rf, &w->rf, &w->rb, &w->t, NULL, NULL};
     *slot[k] = x;
     if (k == W_R)
         w->rb = x, w->solar[0] = w->solar[1] = sol;
@@ -65,7 +68,8 @@ static int check(bst_ctx *ctx, const bst_woven *w, int named_r)
                           "spacing", w->diameter);
     const char *names[3] = {named_r ? "r" : "rf", named_r ? "r" : "rb", "t"};
     const double v[3] = {w->rf, w->rb, w->t};
-    return bsti_sheet_check(ctx, "woven", names, v, w->solar);
+    int rc = bsti_sheet_check(ctx, "woven", names, v, w->solar);
+    return rc < 0 ? rc : bsti_sheet_wce_check(ctx, "woven", w->rule, w->samples, v, w->solar);
 }
 
 /* One item of a woven spec (bsti_shade_set): every key needs a value; r and rf/rb overlap. */
@@ -121,7 +125,9 @@ int bst_woven_layer(bst_ctx *ctx, const bst_woven *w, const bst_basis *basis, si
     *out = NULL;
     const double v[3] = {w->rf, w->rb, w->t};
     int rc = check(ctx, w, 0);
-    if (rc >= 0)
+    if (rc >= 0 && w->rule == BST_VENETIAN_CENTRE) /* WINDOW's model: sheet_wce.c */
+        rc = bsti_sheet_wce_layer(ctx, basis, NULL, w, v, w->solar, nchannels, channels, out);
+    else if (rc >= 0)
         rc = bsti_open_layer(ctx, basis, woven_share, w, v, w->solar, w->samples, nchannels,
                              channels, out);
     return rc == BST_ENOMEM ? bsti_error(ctx, rc, "woven layer: out of memory") : rc;

@@ -2,9 +2,10 @@
 # cli_shade.sh - IGSDB shading records as layers on the command line (shade:FILE.json[,KEYS]):
 # a made-up venetian record gives the very system its hand-written venetian: spec gives (the data
 # of the two output files identical), overrides too; info prints the product and the model; a
-# batch line takes it; a perforated and a woven record combine; refusals are one line, a
-# non-zero exit and no output file: malformed JSON, a missing field, a glazing record given to
-# shade:, a shading record given to glass:, an unknown override key.
+# batch line takes it; a perforated and a woven record combine, also in WINDOW's models
+# (rule=centre, which the model printed names); refusals are one line, a non-zero exit and no
+# output file: malformed JSON, a missing field, a glazing record given to shade:, a shading
+# record given to glass:, an unknown override key, a rule that is neither.
 . "${BST_SRCDIR:-.}/tests/clitest.sh"
 B=$BSDFSTACK
 cd "$tmpdir" || exit 99
@@ -64,6 +65,14 @@ expect_status 0 "glass + screen + fabric (k = 2)" -- \
     "$B" combine -k 2 -o sf.xml glass:clear-6mm shade:screen.json shade:fabric.json,samples=4
 [ -s sf.xml ] && pass "screen and fabric combined" || fail "no sf.xml"
 expect_status 0 "convert shade:fabric.json" -- "$B" convert -k 2 shade:fabric.json -o f.xml
+# WINDOW's models by an override: the model says so, and a Klems stack takes them
+expect_status 0 "info shade:screen.json,rule=centre" -- "$B" info shade:screen.json,rule=centre
+grep -q "^model     perforated:x=5mm,.*,t=0.1,rule=centre$" out &&
+    pass "screen: rule=centre in the model" || fail "screen rule: $(grep model out)"
+expect_status 0 "glass + WINDOW screen + WINDOW fabric (Klems quarter)" -- \
+    "$B" combine --klems=quarter -o wf.xml glass:clear-6mm shade:screen.json,rule=centre \
+    woven:diameter=0.5mm,spacing=2mm,r=0.6,t=0.1,rule=centre
+[ -s wf.xml ] && pass "WINDOW screen and fabric combined" || fail "no wf.xml"
 
 # a batch line takes it
 printf 'b1.xml glass:clear-6mm shade:blind.json,tilt=0\n' > stacks.txt
@@ -92,6 +101,8 @@ bad "a glazing record given to shade:" "pane.json: type \"glazing\": not a shadi
 bad "a shading record given to glass:" "blind.json: .*this is a shading record, not a pane: name it shade:blind.json" \
     glass:blind.json
 bad "an unknown override key" "blind.json: venetian: unknown key 'colour'" shade:blind.json,tilt=30,colour=red
+bad "a rule that is neither" "perforated: rule: 'middle' is not average or centre" \
+    perforated:x=5mm,y=5mm,radius=1mm,rule=middle
 bad "a bad override value" "blind.json: venetian: tilt = 100 is not between" shade:blind.json,tilt=100
 bad "a screen record without its sheet's thickness" "thickness: missing" \
     "shade:$(record thin.json perforated-screen '' "$rows" '"spacing_x": 5, "spacing_y": 5, "dimension_x": 1.5, "perforation_type": "Circular"'; echo thin.json)"

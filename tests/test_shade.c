@@ -7,10 +7,11 @@
  *    material give the pane's own Visible and Solar T and R at normal incidence (the glass path
  *    reading the same rows from the reference's table) and WCE's averages of them
  *    (../shared/reference/wce/glass/glass_angular_averaged_wce.tsv, theta 0);
- *  - overrides (tilt, segments, a plain value replacing a dual-band one, a thickness the record
- *    lacks), and refusals with one line naming the file and the field or key: unknown key, a
- *    glazing record, Tf and Tb or the two faces' specular reflectances that differ, a missing
- *    component; a curved slat's radius (mm) becomes the model's curvature;
+ *  - overrides (tilt, segments, rule=centre for WINDOW's perforated and woven models, a plain
+ *    value replacing a dual-band one, a thickness the record lacks), and refusals with one line
+ *    naming the file and the field or key: unknown key, a glazing record, Tf and Tb or the two
+ *    faces' specular reflectances that differ, a missing component; a curved slat's radius (mm)
+ *    becomes the model's curvature;
  *  - allocation failure at every allocation of reading a record into its model: BST_ENOMEM and
  *    nothing leaked. */
 #include <config.h>
@@ -140,6 +141,12 @@ START_TEST(test_venetian)
     ck_assert_uint_lt(bst_shade_model_spec(&m, spec, sizeof spec), sizeof spec);
     ck_assert_str_eq(spec, "venetian:width=16mm,spacing=12mm,tilt=45,curvature=0mm,segments=5,"
                      "r-up=0.7/0.6,r-down=0.55/0.5,t=0.04/0.05,rs=0.05/0.1");
+    /* WINDOW's model by an override: its spec names the rule and the distribution */
+    snprintf(s, sizeof s, "shade:%s,rs=0,rule=centre,distribution=uniform", path);
+    ck_assert_int_eq(bst_shade_parse(ctx, s, cat(), &m), BST_OK);
+    ck_assert_uint_lt(bst_shade_model_spec(&m, spec, sizeof spec), sizeof spec);
+    ck_assert_str_eq(spec, "venetian:width=16mm,spacing=12mm,tilt=45,curvature=0mm,segments=5,"
+                     "r-up=0.7/0.6,r-down=0.55/0.5,t=0.04/0.05,rs=0,rule=centre,distribution=uniform");
     bst_basis_free(b);
 }
 END_TEST
@@ -169,6 +176,19 @@ START_TEST(test_perforated)
                  holes[k]);
         same_as(path, "", spec, b);
     }
+    /* WINDOW's model by an override (the record's layer then is not the default one: the sheet
+     * is 0.2 mm thick), and the model's spec says so */
+    const char *rec = record("p.json", "perforated-screen", "\"thickness\": 0.2", constant_rows, geo[0]);
+    same_as(rec, "rule=centre", "perforated:x=1.7mm,y=2mm,thickness=0.2mm,radius=0.6mm,rf=0.6,"
+            "rb=0.3,t=0.1,rule=centre", b);
+    bst_shade_model mc;
+    char sc[600], spc[600];
+    snprintf(sc, sizeof sc, "shade:%s,rule=centre", rec);
+    ck_assert_int_eq(bst_shade_parse(ctx, sc, cat(), &mc), BST_OK);
+    ck_assert_int_eq(mc.perforated.rule, BST_VENETIAN_CENTRE);
+    ck_assert_uint_lt(bst_shade_model_spec(&mc, spc, sizeof spc), sizeof spc);
+    ck_assert_str_eq(spc, "perforated:x=1.7mm,y=2mm,thickness=0.2mm,radius=0.6mm,rf=0.6,rb=0.3,"
+                     "t=0.1,rule=centre");
     /* a material without a thickness: refused, unless thickness= is given */
     const char *path = record("p.json", "perforated-screen", "\"conductivity\": 160", constant_rows, geo[0]);
     char s[600];
@@ -197,6 +217,8 @@ START_TEST(test_woven)
     snprintf(spec, sizeof spec, "woven:diameter=0.5mm,spacing=0.8mm,rf=0.5/0.45,rb=0.3/0.25,t=%.17g/%.17g",
              0.02 + 0.08, 0.01 + 0.09);
     same_as(path, "", spec, b);
+    strcat(spec, ",rule=centre"); /* WINDOW's woven model by an override */
+    same_as(path, "rule=centre", spec, b);
     bst_basis_free(b);
 }
 END_TEST

@@ -906,12 +906,14 @@ def venetian(catalogue=None, **keys):
 
 def perforated(catalogue=None, **keys):
     """A perforated screen: perforated(x=0.005, y=0.005, radius=0.0015, thickness=0.001, r=0.7),
-    or hole_x, hole_y for rectangular holes; rf, rb, t, samples; as venetian() takes them."""
+    or hole_x, hole_y for rectangular holes; rf, rb, t, samples; rule="centre" for WINDOW's
+    model (bsdfstack-glass(5)); as venetian() takes them."""
     return Shade("perforated:" + _spec_items("perforated", keys), catalogue)
 
 
 def woven(catalogue=None, **keys):
-    """A woven fabric: woven(diameter=0.0005, spacing=0.002, r=0.6, t=0.1) (or rf, rb)."""
+    """A woven fabric: woven(diameter=0.0005, spacing=0.002, r=0.6, t=0.1) (or rf, rb;
+    rule="centre" for WINDOW's model)."""
     return Shade("woven:" + _spec_items("woven", keys), catalogue)
 
 

@@ -71,6 +71,24 @@ def test_screen_and_fabric_records(tmp_path):
     same(bsdfstack.shade(rec, samples=8).layer(k=3), w.layer(k=3))
 
 
+def test_window_mode(tmp_path):
+    """rule="centre": WINDOW's models of screens and fabrics, also over a record.  WCE's
+    RectangularPerforatedShade1.unit.cpp (TestSolarProperties) asserts T_dirhem 0.055556 at
+    normal incidence in its quarter basis (within 1e-6); the rest of the light, reflected by the
+    opaque sheet, is R = (1 - T) r."""
+    p = bsdfstack.perforated(x="19.05mm", y="19.05mm", thickness="0.6mm", hole_x="3.175mm",
+                             hole_y="6.35mm", t=0, r=0.7, rule="centre").layer(klems="quarter")
+    t = p.hemispherical("Tf", 0, 0)
+    assert abs(t - 0.055556) <= 1e-6
+    assert abs(p.hemispherical("Rf", 0, 0) - (1 - t) * 0.7) <= 1e-12
+    rec = _record(tmp_path / "fabric.json", "woven", ROWS,
+                  {"thread_diameter": 0.5, "thread_spacing": 2, "shade_thickness": 0.6})
+    w = bsdfstack.woven(diameter=0.0005, spacing=0.002, rf=0.6, rb=0.3, t=0.1, rule="centre")
+    same(bsdfstack.shade(rec, rule="centre").layer(klems="quarter"), w.layer(klems="quarter"))
+    with pytest.raises(bsdfstack.Error, match="rule"):
+        bsdfstack.woven(diameter=0.0005, spacing=0.002, rule="middle").layer(klems="quarter")
+
+
 def test_stacks_take_shades(tmp_path, pane):
     rec = _record(tmp_path / "blind.json", "venetian", SLATS, BLIND)
     a = bsdfstack.combine([pane, "shade:%s" % rec, pane], klems="quarter")
