@@ -264,3 +264,97 @@ double *bsti_mat_lr_values(bst_ctx *ctx, const bst_mat *m)
         bsti_lr_col(m->lr, j, v + j * n);
     return v;
 }
+
+int bsti_mat_lr_wide(const bst_mat *m)
+{
+    if (!m || m->s != BST_FACTORED)
+        return 0;
+    const bsti_lr_map *S = m->lr->S;
+    return !S->single && !S->tag[0] && S->start[S->N] > BSTI_LR_WIDE * S->N;
+}
+
+/* The indices of K's lines (rows: cols 0, columns: 1) holding a value not 0, into idx; their count. */
+static size_t used_lines(const bsti_lr *f, int cols, size_t *idx)
+{
+    size_t nr = f->p * f->r, nc = f->q * f->r, n = 0, len = cols ? nc : nr;
+    for (size_t a = 0; a < len; a++) {
+        size_t b = 0, other = cols ? nr : nc;
+        while (b < other && (cols ? f->k[a * nr + b] : f->k[b * nr + a]) == 0.0)
+            b++;
+        if (b < other)
+            idx[n++] = a;
+    }
+    return n;
+}
+
+/* out (N x n, column-major): column t = diag(v_i) S e_c for line idx[t] = i r + c of the list v
+ * (nl lines in all); pos: room for nl counts. */
+static void lines_dense(const bsti_lr *f, const double *v, const size_t *idx, size_t n, size_t nl,
+                        size_t *pos, double *out)
+{
+    const bsti_lr_map *S = f->S;
+    size_t N = f->N, r = f->r;
+    memset(out, 0, N * n * sizeof *out);
+    memset(pos, 0, nl * sizeof *pos);
+    for (size_t t = 0; t < n; t++)
+        pos[idx[t]] = t + 1;
+    for (size_t x = 0; x < N; x++)
+        for (size_t e = S->start[x]; e < S->start[x + 1]; e++)
+            for (size_t i = 0; i * r + S->col[e] < nl; i++) {
+                size_t t = pos[i * r + S->col[e]];
+                if (t)
+                    out[(t - 1) * N + x] += v[i * N + x] * S->w[e];
+            }
+}
+
+int bsti_mat_lr_expand(bst_ctx *ctx, const bst_mat *m, bst_precision prec, bst_mat **out)
+{
+    const bsti_lr *f = m->lr;
+    size_t N = f->N, nr = f->p * f->r, nc = f->q * f->r;
+    size_t *ri = bsti_alloc_array(ctx, 2 * (nr + nc), sizeof *ri);
+    if (!ri)
+        return BST_ENOMEM;
+    size_t *ci = ri + nr, *pos = ci + nc, R = used_lines(f, 0, ri), C = used_lines(f, 1, ci);
+    double *A = bsti_alloc_array(ctx, N * (R + C) + R * C + 1, sizeof *A);
+    int rc = A ? bst_mat_new_dense(ctx, N, N, BST_DOUBLE, out) : BST_ENOMEM;
+    if (rc >= 0) {
+        double *B = A + N * R, *Ks = B + N * C, *M = bst_mat_dense_data(*out);
+        lines_dense(f, f->a, ri, R, nr, pos, A);
+        lines_dense(f, f->b, ci, C, nc, pos, B);
+        for (size_t t = 0; t < C; t++)
+            for (size_t s = 0; s < R; s++)
+                Ks[t * R + s] = f->k[ci[t] * nr + ri[s]];
+        if (R && C) { /* (A Ks) B^T or A (Ks B^T), whichever inner size is less */
+            size_t inner = R < C ? R : C;
+            double *T = bsti_alloc_array(ctx, N * inner, sizeof *T);
+            if (!T) {
+                rc = BST_ENOMEM;
+            } else if (C <= R) {
+                cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)N, (int)C, (int)R, 1.0,
+                            A, (int)N, Ks, (int)R, 0.0, T, (int)N);
+                cblas_dgemm(CblasColMajor, CblasNoTrans, CblasTrans, (int)N, (int)N, (int)C, 1.0, T,
+                            (int)N, B, (int)N, 0.0, M, (int)N);
+            } else {
+                cblas_dgemm(CblasColMajor, CblasNoTrans, CblasTrans, (int)R, (int)N, (int)C, 1.0,
+                            Ks, (int)R, B, (int)N, 0.0, T, (int)R);
+                cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)N, (int)N, (int)R, 1.0,
+                            A, (int)N, T, (int)R, 0.0, M, (int)N);
+            }
+            bsti_free(ctx, T);
+        }
+        for (size_t x = 0; f->d && x < N; x++)
+            M[x * N + x] += f->d[x];
+        if (rc >= 0 && prec != BST_DOUBLE) {
+            bst_mat *f;
+            rc = bst_mat_convert(ctx, *out, BST_DENSE, prec, &f);
+            bst_mat_free(*out);
+            *out = rc >= 0 ? f : NULL;
+        }
+        if (rc < 0) {
+            bst_mat_free(*out);
+            *out = NULL;
+        }
+    }
+    bsti_free(ctx, A), bsti_free(ctx, ri);
+    return rc;
+}

@@ -8,8 +8,12 @@
  * Q_y (2m x N) the flux the strips re-emit diffusely for each incident patch of side y: the
  * radiosity solution Q = (I - E G)^-1 E D of the first arrivals D, E the strips' emission (r of
  * the face, t from the face behind), G their exchange.  The second term has rank 2m at most and
- * is kept apart until the end, so that a factored matrix type can hold it as it stands; until one
- * exists a component with diffuse slats is returned dense, one with mirror or black slats sparse.
+ * is kept apart until the end.  Where S is diagonal (diffuse slats without a mirror part: only the
+ * unobstructed light, on the diagonal of T) and the rank is small beside N, each component is
+ * FACTORED (lowrank.h): diag(S) + W K W^T over one map W = [U_ext | U_int | Q_ext^T | Q_int^T]
+ * (N x 8m) shared by the four components, K selecting the blocks, so that the stack keeps such
+ * a blind at the size of its strips (issue #31/#32).  Otherwise a component with diffuse slats is
+ * dense, one with mirror or black slats sparse.
  * Incident patches are averaged over samples x samples directions uniform in projected solid
  * angle (bst_basis_sample), outgoing patches' views the same way.  Curved slats (g.curved) take
  * the same path except for S and the first arrivals: rays traced per incident direction
@@ -24,6 +28,7 @@
 #include <cblas.h>
 
 #include "ctx.h"
+#include "mat.h"
 #include "venetian.h"
 
 struct trip {
@@ -50,6 +55,7 @@ struct build {
     double *hit[2], *see[2]; /* tables of bsti_vn_hit and bsti_vn_view rows, light along +Z / -Z */
     double *acc;    /* curved slats: 2 n flux sums of one column (reflected, transmitted) */
     size_t *touched;/* and the entries of acc in use, in the order first met */
+    bsti_lr_map *W; /* the factored components' map, or NULL: dense */
 };
 
 /* The entries of one incident column, summed over its directions. */
@@ -470,7 +476,74 @@ static int radiosity(struct build *B)
     return BST_OK;
 }
 
-/* Component c: its sparse part, plus (diffuse slats) U_x^T Q_y as a dense matrix. */
+/* Whether every component's sparse part is on the diagonal. */
+static int sparse_diagonal(const struct build *B)
+{
+    for (int c = 0; c < BST_NCOMP; c++)
+        for (size_t k = 0; k < B->tr[c].nnz; k++)
+            if (B->tr[c].row[k] != B->tr[c].col[k])
+                return 0;
+    return 1;
+}
+
+/* B->W = [U_ext | U_int | Q_ext^T | Q_int^T], row x the strips' views from patch x and their
+ * emissions for light incident on x (zeros left out), when the components can be factored over
+ * it: a diagonal sparse part and a rank (4 x 2m) below BSTI_LR_DENSE_SHARE of N. */
+static int make_map(struct build *B)
+{
+    size_t n = B->n, ne = B->ne, nnz = 0;
+    if (!sparse_diagonal(B) || (double)(4 * ne) >= BSTI_LR_DENSE_SHARE * (double)n)
+        return BST_OK;
+    const double *blk[4] = {B->view[0], B->view[1], B->dep[0], B->dep[1]};
+    for (int q = 0; q < 4; q++)
+        for (size_t k = 0; k < n * ne; k++)
+            nnz += blk[q][k] != 0.0;
+    int rc = bsti_lr_map_new(B->ctx, n, 4 * ne, nnz, &B->W);
+    if (rc < 0)
+        return rc;
+    bsti_lr_map *W = B->W;
+    W->k = bst_basis_order(B->b);
+    nnz = 0;
+    for (size_t x = 0; x < n; x++) {
+        W->start[x] = nnz;
+        for (int q = 0; q < 4; q++)
+            for (size_t e = 0; e < ne; e++)
+                if (blk[q][x * ne + e] != 0.0)
+                    W->col[nnz] = q * ne + e, W->w[nnz++] = blk[q][x * ne + e];
+    }
+    W->start[n] = nnz;
+    return BST_OK;
+}
+
+/* Component c factored over B->W: its diagonal, and K pairing the views of its exit side (block
+ * exit) with the emissions for its incident side (block 2 + in), strip by strip. */
+static int component_factored(struct build *B, int c, int in, int exit, bst_mat **out)
+{
+    struct trip *t = &B->tr[c];
+    size_t n = B->n, ne = B->ne, r = 4 * ne;
+    double *d = t->nnz ? bsti_alloc_array(B->ctx, n, sizeof *d) : NULL;
+    double *K = bsti_alloc_array(B->ctx, r * r, sizeof *K);
+    int rc = K && (d || !t->nnz) ? BST_OK : BST_ENOMEM;
+    if (rc >= 0) {
+        memset(K, 0, r * r * sizeof *K);
+        for (size_t e = 0; e < ne; e++)
+            K[(size_t)exit * ne + e + r * ((2 + (size_t)in) * ne + e)] = 1.0;
+        if (d) {
+            memset(d, 0, n * sizeof *d);
+            for (size_t k = 0; k < t->nnz; k++)
+                d[t->row[k]] += t->val[k];
+        }
+        bsti_lr *lr;
+        rc = bsti_lr_new(B->ctx, B->W, d, NULL, K, NULL, &lr);
+        if (rc >= 0)
+            rc = bsti_mat_from_lr(B->ctx, lr, out);
+    }
+    bsti_free(B->ctx, d), bsti_free(B->ctx, K);
+    return rc;
+}
+
+/* Component c: its sparse part, plus (diffuse slats) U_x^T Q_y: factored over B->W where there is
+ * one, else as a dense matrix. */
 static int component(struct build *B, int c, int diffuse, bst_mat **out)
 {
     struct trip *t = &B->tr[c];
@@ -478,11 +551,13 @@ static int component(struct build *B, int c, int diffuse, bst_mat **out)
     if (!diffuse)
         return t->nnz ? bst_mat_new_sparse(B->ctx, n, n, t->nnz, t->row, t->col, t->val, out)
                       : bst_mat_new_zero(B->ctx, n, n, out);
+    int in = c == BST_TB || c == BST_RB, exit = c == BST_TF || c == BST_RB;
+    if (B->W)
+        return component_factored(B, c, in, exit, out);
     int rc = bst_mat_new_dense(B->ctx, n, n, BST_DOUBLE, out);
     if (rc < 0)
         return rc;
     double *m = bst_mat_dense_data(*out);
-    int in = c == BST_TB || c == BST_RB, exit = c == BST_TF || c == BST_RB;
     cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, (int)n, (int)n, (int)B->ne, 1.0,
                 B->view[exit], (int)B->ne, B->dep[in], (int)B->ne, 0.0, m, (int)n);
     for (size_t k = 0; k < t->nnz; k++)
@@ -500,12 +575,15 @@ static void build_free(struct build *B)
     }
     bsti_free(B->ctx, B->pts);
     bsti_free(B->ctx, B->acc), bsti_free(B->ctx, B->touched);
+    bsti_lr_map_free(B->ctx, B->W);
 }
 
 /* The four components into channels ch[0..nch) of l (the first its own, the others copies). */
 static int fill_layer(struct build *B, bst_layer *l, size_t nch, const size_t *ch)
 {
     int diffuse = B->v->r_up > 0 || B->v->r_down > 0 || B->v->t > 0, rc = BST_OK;
+    if (diffuse)
+        rc = make_map(B);
     for (int c = 0; c < BST_NCOMP && rc >= 0; c++) {
         bst_mat *m = NULL;
         rc = component(B, c, diffuse, &m);

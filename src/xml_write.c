@@ -612,8 +612,42 @@ static int write_blocks(struct xw *w)
 
 /* ------------------------------------------------------------------ entry points */
 
+static int write_layer_as_is(bst_ctx *ctx, const bst_layer *l, bsti_sink *s,
+                             const bst_bsdf_write_opts *opts, const bst_varres *v);
+
 static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst_bsdf_write_opts *opts,
                        const bst_varres *v)
+{
+    if (!ctx)
+        return BST_EINVAL;
+    size_t nm = l ? l->nchannels * BST_NCOMP : 0, wide = 0;
+    for (size_t i = 0; i < nm; i++)
+        wide += bsti_mat_lr_wide(l->comp[i]);
+    if (!wide)
+        return write_layer_as_is(ctx, l, s, opts, v);
+    /* a layer with components factored over a wide map (mat.h): written from a copy with those
+     * components expanded (the layer's own matrices are shared, not copied) */
+    bst_layer tmp = *l;
+    bst_mat **own = bsti_calloc(ctx, 2 * nm, sizeof *own);
+    int rc = own ? BST_OK : BST_ENOMEM;
+    tmp.comp = own + nm;
+    for (size_t i = 0; i < nm && rc >= 0; i++)
+        if (bsti_mat_lr_wide(l->comp[i]))
+            rc = bsti_mat_lr_expand(ctx, l->comp[i], BST_DOUBLE, &own[i]), tmp.comp[i] = own[i];
+        else
+            tmp.comp[i] = l->comp[i];
+    if (rc >= 0)
+        rc = write_layer_as_is(ctx, &tmp, s, opts, v);
+    else if (rc == BST_ENOMEM)
+        rc = bsti_error(ctx, rc, "writing BSDF XML: out of memory expanding a factored component");
+    for (size_t i = 0; own && i < nm; i++)
+        bst_mat_free(own[i]);
+    bsti_free(ctx, own);
+    return rc;
+}
+
+static int write_layer_as_is(bst_ctx *ctx, const bst_layer *l, bsti_sink *s,
+                             const bst_bsdf_write_opts *opts, const bst_varres *v)
 {
     if (!ctx)
         return BST_EINVAL;

@@ -94,9 +94,22 @@ static double rel_diff(const bst_mat *a, const bst_mat *b)
 /* The stacks (exterior first): 'g' a pane, '3' blind0 at depth 3, '4' blind45 at depth 4, 'D' the
  * blind at its own depth 5 (dense at k = 5), 'K' a Klems diffuser, 'I' the diffuser as a rank-3
  * tree of depth 3 at its own order (BST_RANK3_NATIVE), 't' the pane's tree file at depth 3
- * (sparse, P K P^T beside a factored layer); '^' after one: reversed. */
+ * (sparse, P K P^T beside a factored layer), 'v' a venetian blind of matte slats (MATTE_BLIND:
+ * factored over its strips' map, rank 64; reversed, dense: bsti_lr_permute keeps one-entry maps
+ * only); '^' after one: reversed. */
+#define MATTE_BLIND "width=16mm,spacing=14.5mm,tilt=45,r-up=0.7,r-down=0.4,t=0.05,samples=4"
+static bst_layer *matte_blind(const bst_basis *b)
+{
+    bst_venetian v;
+    bst_layer *l;
+    const char *ch = "Visible";
+    ck_assert_int_eq(bst_venetian_parse(ctx, MATTE_BLIND, &v), BST_OK);
+    ck_assert_int_eq(bst_venetian_layer(ctx, &v, b, 1, &ch, &l), BST_OK);
+    return l;
+}
+
 static const char *const stacks[] = {"g3", "3g", "g3g", "g4^g3", "gDg3", "g3^Kg", "34^", "gI^g",
-                                     "t3t", "t4^gt"};
+                                     "t3t", "t4^gt", "gvg", "gv^g", "vgv^", "3vg"};
 #define NSTACKS (sizeof stacks / sizeof stacks[0])
 
 static size_t build(const char *spec, const bst_basis *b, bst_layer **layers)
@@ -116,6 +129,7 @@ static size_t build(const char *spec, const bst_basis *b, bst_layer **layers)
                       : *c == 't' ? file_layer(glass3, b)
                       : *c == 'D' ? tu_layer(ctx, "L_blind0_t4k5.xml", b)
                       : *c == 'I' ? file_layer_rule(iso3, b, BST_RANK3_NATIVE)
+                      : *c == 'v' ? matte_blind(b)
                                   : tu_layer(ctx, "L_diffuser_t3k5_klems.xml", b);
     }
     return n;
@@ -149,6 +163,52 @@ START_TEST(test_layers)
 }
 END_TEST
 
+/* A venetian blind of matte slats: factored over its strips' map (4 x 16 lines: the views and
+ * emissions of both sides), no mirror part; its values through the factors one by one
+ * (bsti_lr_get) and expanded by GEMM (bsti_mat_lr_expand, as the writer and the stack take them)
+ * agree, and the layer written and read back is the layer (to the single precision in which a
+ * tree at its own order is read). */
+START_TEST(test_matte_blind)
+{
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 5, &b), BST_OK);
+    bst_layer *l = matte_blind(b);
+    for (int c = 0; c < BST_NCOMP; c++) {
+        const bst_mat *m = bst_layer_get(l, 0, (bst_comp)c);
+        ck_assert_int_eq(bst_mat_structure(m), BST_FACTORED);
+        ck_assert_uint_eq(bsti_mat_rank(m), 64);
+        ck_assert(bsti_mat_lr_wide(m));
+        bst_mat *d;
+        ck_assert_int_eq(bsti_mat_lr_expand(ctx, m, BST_DOUBLE, &d), BST_OK);
+        ck_assert_msg(rel_diff(m, d) < 1e-14, "%s: %g", bst_comp_name((bst_comp)c), rel_diff(m, d));
+        bst_mat_free(d);
+    }
+    char path[] = "/tmp/bst_matte_XXXXXX";
+    int fd = mkstemp(path);
+    ck_assert_int_ge(fd, 0);
+    close(fd);
+    bst_bsdf_write_opts wo;
+    bst_bsdf_write_opts_init(&wo);
+    wo.reduce_pct = -1; /* every value */
+    wo.digits = 0;        /* as many as reading back exactly needs */
+    wo.recip_tol = -1;    /* both transmissions stored (not one from the other) */
+    ck_assert_int_eq(bst_bsdf_write_path(ctx, l, path, &wo), BST_OK);
+    bst_bsdf *f;
+    bst_layer *back;
+    ck_assert_int_ge(bst_bsdf_read(ctx, path, NULL, &f), 0);
+    unlink(path);
+    ck_assert_int_eq(bst_bsdf_to_layer(ctx, f, b, &back), BST_OK);
+    bst_bsdf_free(f);
+    for (int c = 0; c < BST_NCOMP; c++) {
+        double d = rel_diff(bst_layer_get(back, 0, (bst_comp)c), bst_layer_get(l, 0, (bst_comp)c));
+        /* (a tree at its own order is read as floats) */
+        ck_assert_msg(d < 2e-7, "written %s: %g", bst_comp_name((bst_comp)c), d);
+    }
+    bst_layer_free(back), bst_layer_free(l);
+    bst_basis_free(b);
+}
+END_TEST
+
 START_TEST(test_stacks)
 {
     const char *spec = stacks[_i % NSTACKS];
@@ -166,8 +226,11 @@ START_TEST(test_stacks)
     bst_layer *fact, *dense;
     ck_assert_int_ge(bst_stack_combine(ctx, n, (const bst_layer *const *)layers, &o, &fact), 0);
     if (strcmp(spec, "g3") == 0 || strcmp(spec, "g3g") == 0 || strcmp(spec, "3g") == 0 ||
-        strcmp(spec, "gI^g") == 0)
+        strcmp(spec, "gI^g") == 0 || strcmp(spec, "gvg") == 0)
         ck_assert_int_gt(factored_steps, 0);
+    if (strchr(spec, 'v')) /* a wide map's results are handed over expanded (mat.h) */
+        for (int c = 0; c < BST_NCOMP; c++)
+            ck_assert_int_ne(bst_mat_structure(bst_layer_get(fact, 0, (bst_comp)c)), BST_FACTORED);
     if (spec[0] == 't') { /* the sparse tree joins the factored shade (t3t: every component of
                              every step; t4^gt: a rank reaching N / 2 turns dense) */
         ck_assert_int_eq(bst_mat_structure(bst_layer_get(layers[0], 0, BST_TF)), BST_SPARSE);
@@ -404,6 +467,7 @@ static Suite *suite(void)
     tcase_add_unchecked_fixture(tc, setup, teardown); /* the coarse files once */
     tcase_set_timeout(tc, 300);
     tcase_add_test(tc, test_layers);
+    tcase_add_test(tc, test_matte_blind);
     tcase_add_loop_test(tc, test_stacks, 0, (int)(2 * NSTACKS));
     tcase_add_test(tc, test_columns);
     tcase_add_test(tc, test_klems_reciprocal);
