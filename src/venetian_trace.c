@@ -8,7 +8,9 @@
  * came in by) and along dm after an odd number.  The unobstructed share of the opening is exact
  * (the overlap of the entrance opening's shadow with the exit opening); only the part of the
  * opening that meets a slat is sampled, by BSTI_VN_POSITIONS midpoints, each carrying its exact
- * share, so the shares of every entering ray add up to 1 whatever the sampling. */
+ * share, so the shares of every entering ray add up to 1 whatever the sampling.  Rough slats
+ * break the parity rule (a facet's slope may add or save a bounce): their rays are followed with
+ * their own facets from the same positions, BSTI_VN_ROUGH_RAYS each. */
 #include <config.h>
 
 #include <math.h>
@@ -61,11 +63,11 @@ double bsti_vn_facet_slope(unsigned long seed, long j)
 /* Follow a profile ray from (y, z) along (a, b) with flux wgt until it leaves the channel: every
  * arrival on an element adds the flux then carried to dep[element].  sigma > 0: each bounce's
  * facet is tilted in the profile plane by slope sigma facet_slope(seed, bounce) (a tilt that
- * would send the ray into the slat is not taken).  Returns the number of bounces; *left is the
- * flux that leaves, *ea, *eb its direction. */
+ * would send the ray into the slat is not taken; the first bounce's slope is sigma first).
+ * Returns the number of bounces; *left is the flux that leaves, *ea, *eb its direction. */
 static long trace2(const bsti_vn_geom *g, double y, double z, double a, double b, double wgt,
-                   double *dep, double *left, double sigma, unsigned long seed, double *ea,
-                   double *eb)
+                   double *dep, double *left, double sigma, unsigned long seed, double first,
+                   double *ea, double *eb)
 {
     const double H = g->s * g->cb, min = wgt * BSTI_VN_MIN_FLUX; /* face B's distance from A */
     long n = 0;
@@ -96,7 +98,7 @@ static long trace2(const bsti_vn_geom *g, double y, double z, double a, double b
         wgt *= g->rs;
         double na = g->nA[0], nb = g->nA[1];
         if (sigma > 0) {
-            double sl = sigma * bsti_vn_facet_slope(seed, n), len = sqrt(1 + sl * sl);
+            double sl = sigma * (n ? bsti_vn_facet_slope(seed, n) : first), len = sqrt(1 + sl * sl);
             double ta = (na + sl * g->sb) / len, tb = (nb + sl * g->cb) / len, dt = a * ta + b * tb;
             double ra = a - 2 * dt * ta, rb = b - 2 * dt * tb;
             if ((ra * na + rb * nb > 0) == (face == 0)) /* away from the struck face */
@@ -136,6 +138,32 @@ double bsti_vn_open(const bsti_vn_geom *g, double a, double b)
     return fmax(0.0, g->s - fabs(delta)) / g->s;
 }
 
+/* The standard normal quantile of p in (0, 1): Abramowitz and Stegun's 26.2.23 (error below
+ * 4.5e-4), then two Newton steps on erfc. */
+static double normal_quantile(double p)
+{
+    double q = p < 0.5 ? p : 1 - p, t = sqrt(-2 * log(q));
+    double x = t - (2.515517 + t * (0.802853 + t * 0.010328)) /
+                       (1 + t * (1.432788 + t * (0.189269 + t * 0.001308)));
+    if (p < 0.5)
+        x = -x;
+    for (int i = 0; i < 2; i++)
+        x -= (0.5 * erfc(-x / M_SQRT2) - p) / (exp(-0.5 * x * x) / sqrt(2 * M_PI));
+    return x;
+}
+
+/* The first bounce's facet slope (standard Gaussian) of rough ray r at entry position k of
+ * bsti_vn_hit: stratified, a Latin square of the positions and the BSTI_VN_ROUGH_RAYS bands of
+ * the distribution (ray r takes band r, the positions spread over it in a scrambled order), so
+ * that the few rays of a position and the positions together cover the distribution evenly (its
+ * first bounce decides most of a rough ray's fate). */
+static double first_slope(int k, unsigned long r)
+{
+    const int np = BSTI_VN_POSITIONS;
+    unsigned long stratum = r * (unsigned long)np + ((unsigned long)k * 167u) % (unsigned long)np;
+    return normal_quantile((stratum + 0.5) / ((double)np * BSTI_VN_ROUGH_RAYS));
+}
+
 void bsti_vn_hit(const bsti_vn_geom *g, double a, double b, double sigma, double *row)
 {
     double dh = a * g->nA[0] + b * g->nA[1], psi = atan2(a, b);
@@ -153,18 +181,24 @@ void bsti_vn_hit(const bsti_vn_geom *g, double a, double b, double sigma, double
         lo = y0 + fmax(0.0, s - delta), hi = y0 + s;
     else
         lo = y0, hi = y0 + fmin(s, -delta);
-    double none[2000]; /* the rough rays' arrivals: not kept */
-    memset(none, 0, 2 * (size_t)g->m * sizeof *none);
     for (int k = 0; k < np; k++) {
-        double y = lo + (hi - lo) * (k + 0.5) / np, left;
-        double ea, eb;
-        long n = trace2(g, y, z0, a, b, 1.0 / np, row + BSTI_VN_DEP, &left, 0.0, 0, &ea, &eb);
-        row[n % 2 ? BSTI_VN_ODD : BSTI_VN_EVEN] += left;
-        row[n % 2 ? BSTI_VN_ODD_N : BSTI_VN_EVEN_N] += left * (double)n;
+        double y = lo + (hi - lo) * (k + 0.5) / np, left, ea, eb;
+        if (sigma <= 0) {
+            long n = trace2(g, y, z0, a, b, 1.0 / np, row + BSTI_VN_DEP, &left, 0.0, 0, 0.0, &ea,
+                            &eb);
+            row[n % 2 ? BSTI_VN_ODD : BSTI_VN_EVEN] += left;
+            row[n % 2 ? BSTI_VN_ODD_N : BSTI_VN_EVEN_N] += left * (double)n;
+        }
         for (unsigned long r = 0; sigma > 0 && r < BSTI_VN_ROUGH_RAYS; r++) {
-            /* the same entry with rough facets: how far its exit turns from d or dm in the plane */
-            n = trace2(g, y, z0, a, b, 1.0 / np / BSTI_VN_ROUGH_RAYS, none, &left, sigma,
-                       (unsigned long)k * BSTI_VN_ROUGH_RAYS + r, &ea, &eb);
+            /* the same entry with rough facets: where it lands, which way it leaves (the parity
+             * of its bounces: a rough ray may bounce once more or less than a flat one, e.g.
+             * walk between slats it meets almost normally) and how far its exit turns from d
+             * or dm in the plane */
+            long n = trace2(g, y, z0, a, b, 1.0 / np / BSTI_VN_ROUGH_RAYS, row + BSTI_VN_DEP,
+                            &left, sigma, (unsigned long)k * BSTI_VN_ROUGH_RAYS + r,
+                            first_slope(k, r), &ea, &eb);
+            row[n % 2 ? BSTI_VN_ODD : BSTI_VN_EVEN] += left;
+            row[n % 2 ? BSTI_VN_ODD_N : BSTI_VN_EVEN_N] += left * (double)n;
             double dev = remainder(atan2(ea, eb) - (n % 2 ? psi_m : psi), 2 * M_PI);
             double *mom = row + (n % 2 ? BSTI_VN_ODD_W : BSTI_VN_EVEN_W);
             mom[0] += left, mom[1] += left * dev, mom[2] += left * dev * dev;
@@ -188,7 +222,8 @@ void bsti_vn_view(const bsti_vn_geom *g, double a, double b, double *view)
     /* traced back into the channel from the opening on the exit side */
     double y0 = b > 0 ? g->w * g->sb : 0.0, z0 = b > 0 ? 0.0 : g->ze, left, ea, eb;
     for (int k = 0; k < np; k++)
-        trace2(g, y0 + g->s * (k + 0.5) / np, z0, -a, -b, 1.0 / np, view, &left, 0.0, 0, &ea, &eb);
+        trace2(g, y0 + g->s * (k + 0.5) / np, z0, -a, -b, 1.0 / np, view, &left, 0.0, 0, 0.0, &ea,
+               &eb);
 }
 
 void bsti_vn_exchange(const bsti_vn_geom *g, double *gm)
@@ -215,7 +250,7 @@ void bsti_vn_exchange(const bsti_vn_geom *g, double *gm)
                 double sa = -1.0 + 2.0 * (q + 0.5) / np, ca = sqrt(1.0 - sa * sa);
                 double a = sign * ca * g->nA[0] + sa * g->sb, b = sign * ca * g->nA[1] + sa * g->cb;
                 double left, ea, eb;
-                trace2(g, y, z, a, b, 1.0 / ((double)np * np), col, &left, 0.0, 0, &ea, &eb);
+                trace2(g, y, z, a, b, 1.0 / ((double)np * np), col, &left, 0.0, 0, 0.0, &ea, &eb);
             }
         }
         for (size_t e = 0; e < n; e++)
