@@ -2,7 +2,8 @@
 # (SC2034, SC2154: variables this file sets for, and reads from, the scripts that source it)
 # lib.sh - what bench/run and bench/run-long share, sourced by both (bash): how a run is timed
 # (`measure`), how S1's accuracy is computed (`ga`), how a row of results.csv is written (`row`),
-# and the command line of each configuration they both measure (`case_s1`, `case_gdg`, `case_dd`),
+# and the command line of each configuration they both measure (`case_s1`, `case_gdg`, `case_dd`,
+# `case_gbg`),
 # so that a row recorded one run at a time by run-long is measured exactly as bench/run's rows.
 #
 # The caller sets, before bench_init: me (its name, for messages), bst, ref, runs; and csv before
@@ -96,6 +97,10 @@ case_s1() {
 case_gdg() { # pane + diffuser + pane, dense
     measure "gdg_k$1_$2" combine -v -k "$1" --precision "$2" -o "$work/gdg_k$1_$2.xml" glass:clear-6mm "$diffuser" glass:clear-6mm
     row dense "pane+diffuser+pane" "$1" "$2" - "gdg_k$1_$2"
+}
+case_gbg() { # pane + the depth-6 blind + pane, factored above k = 6 (needs $work/L_blind0_t4k6.xml)
+    measure "gbg_k$1_$2" combine -v -k "$1" --precision "$2" -o "$work/gbg_k$1_$2.xml" glass:clear-6mm "$work/L_blind0_t4k6.xml" glass:clear-6mm
+    row factored "pane+blind (k = 6 tree)+pane" "$1" "$2" - "gbg_k$1_$2"
 }
 case_dd() { # diffuser + diffuser, dense
     measure "dd_k$1_$2" combine -v -k "$1" --precision "$2" -o "$work/dd_k$1_$2.xml" "$diffuser" "$diffuser"

@@ -268,6 +268,7 @@ END {
     print "Diffuser + diffuser at k = 7 in double precision is not measured: both layers are dense in all"
     print "four components (8 matrices of 2 GiB), and `combine` estimates its peak at 22.2 GiB, more than"
     print "this 23.5 GiB machine can spare beside its other work (`--max-memory 1M` prints the estimate)."
+    factored_table()
     steps_table()
     print ""
     print "## Plots"
@@ -280,6 +281,22 @@ END {
     print "axes; the legend gives each series' exponent, fitted to its points at k >= 5 (N^3 is the"
     print "dense algebra's bound). The second plots, for S1, the least GA against the k = 6 truth"
     print "against CPU seconds: the trade itself."
+}
+# Layers held factored (issue #31: case "factored", bench/run-long's gbg), when any row was recorded
+function factored_table(   r, any) {
+    for (r = 1; r <= n; r++) any += v[r, 1] == "factored"
+    if (!any) return
+    print ""
+    print "## Layers at the resolution of their information (factored)"
+    print ""
+    wrap("A rank-4 tree of depth 6 read at k = 7 is P M_6 P^T: the combination's dense work has the" \
+        " coarse order's size (bench/README.md, issue #31); `--dense` is the dense rows' path.", "", "")
+    print ""
+    thead("| stack | k | precision | wall s | CPU s | read s | combine s | write s | GFLOP | bound | peak MiB | file MB | runs |")
+    for (r = 1; r <= n; r++)
+        if (v[r, 1] == "factored")
+            printf "| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", v[r, 2], v[r, 3], v[r, 4], v[r, 6], v[r, 7], v[r, 9], v[r, 10], v[r, 11], gflop(v[r, 17]), bound(v[r, 3], v[r, 10], v[r, 4], v[r, 17]), v[r, 8], v[r, 12], runsof(r)
+    provenance("factored")
 }
 # The flops of each dense step (steps.csv) at the two highest orders recorded, the seconds and the
 # bound at the highest

@@ -103,7 +103,7 @@ void bsti_lr_free(bst_ctx *ctx, bsti_lr *m)
 }
 
 /* A matrix with room for p and q scalings, K zero, and a diagonal when with_d. */
-static int lr_alloc(bst_ctx *ctx, const bsti_lr_map *S, size_t p, size_t q, int with_d,
+int bsti_lr_alloc(bst_ctx *ctx, const bsti_lr_map *S, size_t p, size_t q, int with_d,
                     bsti_lr **out)
 {
     size_t N = S->N, r = S->r;
@@ -129,7 +129,7 @@ int bsti_lr_new(bst_ctx *ctx, const bsti_lr_map *S, const double *d, const doubl
                 const double *K, const double *b, bsti_lr **out)
 {
     size_t N = S->N, r = S->r, p = K ? 1 : 0;
-    int rc = lr_alloc(ctx, S, p, p, d != NULL, out);
+    int rc = bsti_lr_alloc(ctx, S, p, p, d != NULL, out);
     if (rc < 0)
         return rc;
     bsti_lr *m = *out;
@@ -142,13 +142,12 @@ int bsti_lr_new(bst_ctx *ctx, const bsti_lr_map *S, const double *d, const doubl
     return BST_OK;
 }
 
-/* The index of v (N values) among the n vectors of list, appended when it is not there. */
-static size_t find_or_add(double *list, size_t *n, const double *v, size_t N)
+size_t bsti_lr_find(const double *list, size_t n, const double *v, size_t N)
 {
     double vmax = 0.0;
     for (size_t x = 0; x < N; x++)
         vmax = fmax(vmax, fabs(v[x]));
-    for (size_t i = 0; i < *n; i++) {
+    for (size_t i = 0; i < n; i++) {
         const double *u = list + i * N;
         size_t x = 0;
         while (x < N && fabs(u[x] - v[x]) <= BSTI_LR_SAME_TOL * vmax)
@@ -156,12 +155,19 @@ static size_t find_or_add(double *list, size_t *n, const double *v, size_t N)
         if (x == N)
             return i;
     }
-    memcpy(list + *n * N, v, N * sizeof *v);
-    return (*n)++;
+    return n;
+}
+
+size_t bsti_lr_find_or_add(double *list, size_t *n, const double *v, size_t N)
+{
+    size_t i = bsti_lr_find(list, *n, v, N);
+    if (i == *n)
+        memcpy(list + (*n)++ * N, v, N * sizeof *v);
+    return i;
 }
 
 /* G[row0 .., col0 ..] += S^T diag(c) S, G column-major with leading dimension ld. */
-static void gram_add(const bsti_lr_map *S, const double *c, double *G, size_t ld, size_t row0,
+void bsti_lr_gram_add(const bsti_lr_map *S, const double *c, double *G, size_t ld, size_t row0,
                      size_t col0)
 {
     for (size_t x = 0; x < S->N; x++)
@@ -172,7 +178,7 @@ static void gram_add(const bsti_lr_map *S, const double *c, double *G, size_t ld
 
 /* The gram S^T diag(c) S of a map of one entry a row is diagonal: its r values into g (the sum
  * over each coarse cell's rows, in the order and with the operations gram_add uses). */
-static void gram_diag(const bsti_lr_map *S, const double *c, double *g)
+void bsti_lr_gram_diag(const bsti_lr_map *S, const double *c, double *g)
 {
     for (size_t x = 0; x < S->r; x++)
         g[x] = 0.0;
@@ -184,7 +190,7 @@ static void gram_diag(const bsti_lr_map *S, const double *c, double *g)
  * blocks, block (j, i)'s diagonal at g + (j np + i) r; beta is 0 (T overwritten) or 1.  What a
  * GEMM with that G gives (with one block row, nq = 1, the same values: every sum holds one
  * product) at r times fewer operations. */
-static void mul_diag_blocks(const double *K, size_t m, size_t nq, size_t np, size_t r,
+void bsti_lr_mul_diag_blocks(const double *K, size_t m, size_t nq, size_t np, size_t r,
                             const double *g, double alpha, int beta, double *T)
 {
     for (size_t i = 0; i < np; i++)
@@ -201,7 +207,7 @@ static void mul_diag_blocks(const double *K, size_t m, size_t nq, size_t np, siz
 
 /* dst's block (bi, bj) += s * src's block (i, j), both r x r blocks of column-major arrays (no
  * I and J: lapacke.h brings complex.h's I). */
-static void add_block(double *dst, size_t ldd, size_t bi, size_t bj, const double *src, size_t lds,
+void bsti_lr_add_block(double *dst, size_t ldd, size_t bi, size_t bj, const double *src, size_t lds,
                       size_t i, size_t j, size_t r, double s)
 {
     for (size_t c = 0; c < r; c++)
@@ -244,7 +250,7 @@ static void lists_free(bst_ctx *ctx, struct lists *l)
 static int lr_from_lists(bst_ctx *ctx, const bsti_lr_map *S, const struct lists *l, size_t pn,
                          size_t qn, int with_d, bsti_lr **out)
 {
-    int rc = lr_alloc(ctx, S, pn, qn, with_d, out);
+    int rc = bsti_lr_alloc(ctx, S, pn, qn, with_d, out);
     if (rc >= 0) {
         memcpy((*out)->a, l->left, pn * S->N * sizeof *l->left);
         memcpy((*out)->b, l->right, qn * S->N * sizeof *l->right);
@@ -273,15 +279,15 @@ int bsti_lr_mul(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, bsti_lr **out)
     size_t pn = 0, qn = 0;
     for (size_t i = 0; rc >= 0 && f->d && i < g->p; i++) {
         times(l.v, f->d, g->a + i * N, N);
-        l.li_g[i] = find_or_add(l.left, &pn, l.v, N);
+        l.li_g[i] = bsti_lr_find_or_add(l.left, &pn, l.v, N);
     }
     for (size_t i = 0; rc >= 0 && i < f->p; i++)
-        l.li_f[i] = find_or_add(l.left, &pn, f->a + i * N, N);
+        l.li_f[i] = bsti_lr_find_or_add(l.left, &pn, f->a + i * N, N);
     for (size_t j = 0; rc >= 0 && j < g->q; j++)
-        l.rj_g[j] = find_or_add(l.right, &qn, g->b + j * N, N);
+        l.rj_g[j] = bsti_lr_find_or_add(l.right, &qn, g->b + j * N, N);
     for (size_t j = 0; rc >= 0 && g->d && j < f->q; j++) {
         times(l.v, g->d, f->b + j * N, N);
-        l.rj_f[j] = find_or_add(l.right, &qn, l.v, N);
+        l.rj_f[j] = bsti_lr_find_or_add(l.right, &qn, l.v, N);
     }
     if (rc >= 0)
         rc = lr_from_lists(ctx, f->S, &l, pn, qn, f->d && g->d, out);
@@ -295,10 +301,10 @@ int bsti_lr_mul(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, bsti_lr **out)
         times(m->d, f->d, g->d, N);
     for (size_t i = 0; f->d && i < g->p; i++)
         for (size_t j = 0; j < g->q; j++)
-            add_block(m->k, ld, l.li_g[i], l.rj_g[j], g->k, g->p * r, i, j, r, 1.0);
+            bsti_lr_add_block(m->k, ld, l.li_g[i], l.rj_g[j], g->k, g->p * r, i, j, r, 1.0);
     for (size_t i = 0; g->d && i < f->p; i++)
         for (size_t j = 0; j < f->q; j++)
-            add_block(m->k, ld, l.li_f[i], l.rj_f[j], f->k, f->p * r, i, j, r, 1.0);
+            bsti_lr_add_block(m->k, ld, l.li_f[i], l.rj_f[j], f->k, f->p * r, i, j, r, 1.0);
     if (f->p && g->p) { /* the coupled term through V_F^T U_G, (f->q r) x (g->p r) */
         size_t fq = f->q * r, gp = g->p * r, fp = f->p * r, gq = g->q * r;
         int single = f->S->single; /* V_F^T U_G of diagonal blocks: no GEMM for K_F V_F^T U_G */
@@ -311,12 +317,12 @@ int bsti_lr_mul(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, bsti_lr **out)
             for (size_t i = 0; i < g->p; i++) {
                 times(l.v, f->b + j * N, g->a + i * N, N);
                 if (single)
-                    gram_diag(f->S, l.v, gm + (j * g->p + i) * r);
+                    bsti_lr_gram_diag(f->S, l.v, gm + (j * g->p + i) * r);
                 else
-                    gram_add(f->S, l.v, gm, fq, j * r, i * r);
+                    bsti_lr_gram_add(f->S, l.v, gm, fq, j * r, i * r);
             }
         if (rc >= 0 && single) {
-            mul_diag_blocks(f->k, fp, f->q, g->p, r, gm, 1.0, 0, t1);
+            bsti_lr_mul_diag_blocks(f->k, fp, f->q, g->p, r, gm, 1.0, 0, t1);
         } else if (rc >= 0) {
             cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)fp, (int)gp, (int)fq, 1.0,
                         f->k, (int)fp, gm, (int)fq, 0.0, t1, (int)fp);
@@ -328,7 +334,7 @@ int bsti_lr_mul(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, bsti_lr **out)
             bsti_flops_add(ctx, 2.0 * (double)fp * (double)gp * (double)gq);
             for (size_t i = 0; i < f->p; i++)
                 for (size_t j = 0; j < g->q; j++)
-                    add_block(m->k, ld, l.li_f[i], l.rj_g[j], t, fp, i, j, r, 1.0);
+                    bsti_lr_add_block(m->k, ld, l.li_f[i], l.rj_g[j], t, fp, i, j, r, 1.0);
         }
     }
     bsti_free(ctx, gm), bsti_free(ctx, t1), bsti_free(ctx, t);
@@ -352,13 +358,13 @@ int bsti_lr_add(bst_ctx *ctx, double alpha, const bsti_lr *f, double beta, const
     rc = lists_alloc(ctx, N, f->p + g->p, f->q + g->q, f, g, &l);
     size_t pn = 0, qn = 0;
     for (size_t i = 0; rc >= 0 && i < f->p; i++)
-        l.li_f[i] = find_or_add(l.left, &pn, f->a + i * N, N);
+        l.li_f[i] = bsti_lr_find_or_add(l.left, &pn, f->a + i * N, N);
     for (size_t i = 0; rc >= 0 && i < g->p; i++)
-        l.li_g[i] = find_or_add(l.left, &pn, g->a + i * N, N);
+        l.li_g[i] = bsti_lr_find_or_add(l.left, &pn, g->a + i * N, N);
     for (size_t j = 0; rc >= 0 && j < f->q; j++)
-        l.rj_f[j] = find_or_add(l.right, &qn, f->b + j * N, N);
+        l.rj_f[j] = bsti_lr_find_or_add(l.right, &qn, f->b + j * N, N);
     for (size_t j = 0; rc >= 0 && j < g->q; j++)
-        l.rj_g[j] = find_or_add(l.right, &qn, g->b + j * N, N);
+        l.rj_g[j] = bsti_lr_find_or_add(l.right, &qn, g->b + j * N, N);
     if (rc >= 0)
         rc = lr_from_lists(ctx, f->S, &l, pn, qn, f->d || g->d, out);
     if (rc >= 0) {
@@ -367,10 +373,10 @@ int bsti_lr_add(bst_ctx *ctx, double alpha, const bsti_lr *f, double beta, const
             m->d[x] = (f->d ? alpha * f->d[x] : 0.0) + (g->d ? beta * g->d[x] : 0.0);
         for (size_t i = 0; i < f->p; i++)
             for (size_t j = 0; j < f->q; j++)
-                add_block(m->k, pn * r, l.li_f[i], l.rj_f[j], f->k, f->p * r, i, j, r, alpha);
+                bsti_lr_add_block(m->k, pn * r, l.li_f[i], l.rj_f[j], f->k, f->p * r, i, j, r, alpha);
         for (size_t i = 0; i < g->p; i++)
             for (size_t j = 0; j < g->q; j++)
-                add_block(m->k, pn * r, l.li_g[i], l.rj_g[j], g->k, g->p * r, i, j, r, beta);
+                bsti_lr_add_block(m->k, pn * r, l.li_g[i], l.rj_g[j], g->k, g->p * r, i, j, r, beta);
     }
     lists_free(ctx, &l);
     return rc;
@@ -379,7 +385,7 @@ int bsti_lr_add(bst_ctx *ctx, double alpha, const bsti_lr *f, double beta, const
 int bsti_lr_scale(bst_ctx *ctx, const double *dr, const bsti_lr *f, const double *dc, bsti_lr **out)
 {
     size_t N = f->N, r = f->r;
-    int rc = lr_alloc(ctx, f->S, f->p, f->q, f->d != NULL, out);
+    int rc = bsti_lr_alloc(ctx, f->S, f->p, f->q, f->d != NULL, out);
     if (rc < 0)
         return rc;
     bsti_lr *m = *out;
@@ -392,38 +398,6 @@ int bsti_lr_scale(bst_ctx *ctx, const double *dr, const bsti_lr *f, const double
         for (size_t x = 0; x < N; x++)
             m->b[j * N + x] = (dc ? dc[x] : 1.0) * f->b[j * N + x];
     memcpy(m->k, f->k, f->p * r * f->q * r * sizeof *m->k);
-    return BST_OK;
-}
-
-/* The capacitance C = I - K H, H = V^T E^-1 U ((q r) x (p r)), into c ((p r) x (p r)). */
-static int capacitance(bst_ctx *ctx, const bsti_lr *f, const double *einv, double *v, double *c)
-{
-    size_t N = f->N, r = f->r, pr = f->p * r, qr = f->q * r;
-    int single = f->S->single; /* H of diagonal blocks: K H without a GEMM */
-    double *h = bsti_calloc(ctx, (single ? f->q * pr : qr * pr) + 1, sizeof *h);
-    if (!h)
-        return BST_ENOMEM;
-    for (size_t j = 0; j < f->q; j++)
-        for (size_t i = 0; i < f->p; i++) {
-            times(v, f->b + j * N, f->a + i * N, N);
-            times(v, v, einv, N);
-            if (single)
-                gram_diag(f->S, v, h + (j * f->p + i) * r);
-            else
-                gram_add(f->S, v, h, qr, j * r, i * r);
-        }
-    for (size_t x = 0; x < pr * pr; x++)
-        c[x] = 0.0;
-    for (size_t x = 0; x < pr; x++)
-        c[x * pr + x] = 1.0;
-    if (pr && qr && single) {
-        mul_diag_blocks(f->k, pr, f->q, f->p, r, h, -1.0, 1, c);
-    } else if (pr && qr) {
-        cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)pr, (int)pr, (int)qr, -1.0,
-                    f->k, (int)pr, h, (int)qr, 1.0, c, (int)pr);
-        bsti_flops_add(ctx, 2.0 * (double)pr * (double)pr * (double)qr);
-    }
-    bsti_free(ctx, h);
     return BST_OK;
 }
 
@@ -450,100 +424,6 @@ void bsti_lr_apply(const bsti_lr *f, int trans, const double *x, double *y, doub
         for (size_t x0 = 0; x0 < N; x0++)
             for (size_t e = S->start[x0]; e < S->start[x0 + 1]; e++)
                 y[x0] += outv[i * N + x0] * S->w[e] * t[i * r + S->col[e]];
-}
-
-/* An estimate of the 1-norm of I - F (minus = 1) or of F (minus = 0), by LAPACK's dlacn2 (Hager
- * and Higham's estimator, as dgecon uses) with products through the factors: O(N) a product. */
-static int norm1_estimate(bst_ctx *ctx, const bsti_lr *f, int minus, double *est)
-{
-    size_t N = f->N;
-    double *v = bsti_alloc_array(ctx, 3 * N + (f->p + f->q) * f->r + 1, sizeof *v);
-    lapack_int *isgn = bsti_alloc_array(ctx, N, sizeof *isgn), kase = 0, isave[3] = {0, 0, 0};
-    if (!v || !isgn) {
-        bsti_free(ctx, v), bsti_free(ctx, isgn);
-        return BST_ENOMEM;
-    }
-    double *x = v + N, *y = x + N, *w = y + N;
-    *est = 0.0;
-    do {
-        LAPACKE_dlacn2((lapack_int)N, v, x, isgn, est, &kase, isave);
-        if (kase) {
-            bsti_lr_apply(f, kase == 2, x, y, w);
-            for (size_t i = 0; i < N; i++)
-                x[i] = minus ? x[i] - y[i] : y[i];
-        }
-    } while (kase);
-    bsti_free(ctx, v), bsti_free(ctx, isgn);
-    return BST_OK;
-}
-
-int bsti_lr_inverse(bst_ctx *ctx, const bsti_lr *f, bsti_lr **out, double *rcond)
-{
-    size_t N = f->N, r = f->r, pr = f->p * r, qr = f->q * r;
-    *out = NULL;
-    if (rcond)
-        *rcond = 0.0;
-    double emin = INFINITY, emax = 0.0;
-    for (size_t x = 0; x < N; x++) {
-        double e = fabs(1.0 - (f->d ? f->d[x] : 0.0));
-        emin = fmin(emin, e), emax = fmax(emax, e);
-    }
-    if (!(emin > 0.0) || !isfinite(emax))
-        return bsti_error(ctx, BST_ESINGULAR, "factored solve: I - D is singular");
-    int rc = lr_alloc(ctx, f->S, f->p, f->q, 1, out);
-    double *c = rc >= 0 ? bsti_alloc_array(ctx, pr * pr + 1, sizeof *c) : NULL;
-    double *v = c ? bsti_alloc_array(ctx, N, sizeof *v) : NULL;
-    lapack_int *ipiv = v ? bsti_alloc_array(ctx, pr + 1, sizeof *ipiv) : NULL;
-    if (rc >= 0 && !ipiv)
-        rc = BST_ENOMEM;
-    bsti_lr *m = *out;
-    for (size_t x = 0; rc >= 0 && x < N; x++)
-        m->d[x] = 1.0 / (1.0 - (f->d ? f->d[x] : 0.0)); /* E^-1 */
-    if (rc >= 0)
-        rc = capacitance(ctx, f, m->d, v, c);
-    double rc_c = 1.0;
-    if (rc >= 0 && pr) {
-        double norm = LAPACKE_dlange(LAPACK_COL_MAJOR, '1', (lapack_int)pr, (lapack_int)pr, c,
-                                     (lapack_int)pr);
-        lapack_int info = LAPACKE_dgetrf(LAPACK_COL_MAJOR, (lapack_int)pr, (lapack_int)pr, c,
-                                         (lapack_int)pr, ipiv);
-        double n = (double)pr; /* LAPACK Working Note 41's counts, as solve.c */
-        bsti_flops_add(ctx, 2.0 / 3.0 * n * n * n - 0.5 * n * n + 5.0 / 6.0 * n +
-                                (2.0 * n - 1.0) * n * (double)qr);
-        if (info == 0) /* only to see an exactly or numerically singular capacitance */
-            info = LAPACKE_dgecon(LAPACK_COL_MAJOR, '1', (lapack_int)pr, c, (lapack_int)pr, norm,
-                                  &rc_c);
-        if (info != 0 || !(rc_c > 1e-300))
-            rc = bsti_error(ctx, BST_ESINGULAR, "factored solve: the capacitance I - K V^T E^-1 U "
-                            "(%zu x %zu) is singular", pr, pr);
-        memcpy(m->k, f->k, pr * qr * sizeof *m->k);
-        if (rc >= 0 && qr &&
-            LAPACKE_dgetrs(LAPACK_COL_MAJOR, 'N', (lapack_int)pr, (lapack_int)qr, c, (lapack_int)pr,
-                           ipiv, m->k, (lapack_int)pr) != 0)
-            rc = bsti_error(ctx, BST_ESINGULAR, "factored solve: the capacitance solve failed");
-    }
-    for (size_t i = 0; rc >= 0 && i < f->p; i++)
-        times(m->a + i * N, f->a + i * N, m->d, N);
-    for (size_t j = 0; rc >= 0 && j < f->q; j++)
-        times(m->b + j * N, f->b + j * N, m->d, N);
-    bsti_free(ctx, c), bsti_free(ctx, v), bsti_free(ctx, ipiv);
-    if (rc < 0) {
-        bsti_lr_free(ctx, m);
-        *out = NULL;
-        return rc;
-    }
-    double na, ninv; /* rcond = 1 / (|I - F|_1 |(I - F)^-1|_1), both estimated */
-    rc = norm1_estimate(ctx, f, 1, &na);
-    if (rc >= 0)
-        rc = norm1_estimate(ctx, m, 0, &ninv);
-    if (rc < 0) {
-        bsti_lr_free(ctx, m);
-        *out = NULL;
-        return rc;
-    }
-    if (rcond)
-        *rcond = na > 0 && ninv > 0 ? fmin(1.0, 1.0 / (na * ninv)) : 0.0;
-    return BST_OK;
 }
 
 void bsti_lr_to_dense(const bsti_lr *f, double *out)
@@ -575,7 +455,7 @@ int bsti_lr_copy(bst_ctx *ctx, const bsti_lr *f, bsti_lr **out)
 int bsti_lr_transpose(bst_ctx *ctx, const bsti_lr *f, bsti_lr **out)
 {
     size_t N = f->N, pr = f->p * f->r, qr = f->q * f->r;
-    int rc = lr_alloc(ctx, f->S, f->q, f->p, f->d != NULL, out);
+    int rc = bsti_lr_alloc(ctx, f->S, f->q, f->p, f->d != NULL, out);
     if (rc < 0)
         return rc;
     bsti_lr *m = *out;
@@ -712,7 +592,7 @@ int bsti_lr_permute(bst_ctx *ctx, const bsti_lr *f, const size_t *perm, bsti_lr 
             cp[S->col[ex]] = S->col[ey];
     }
     if (rc >= 0)
-        rc = lr_alloc(ctx, S, f->p, f->q, f->d != NULL, out);
+        rc = bsti_lr_alloc(ctx, S, f->p, f->q, f->d != NULL, out);
     if (rc >= 0) {
         bsti_lr *m = *out;
         for (size_t x = 0; x < N; x++) {

@@ -17,8 +17,8 @@
  *   (E - U K V^T)^-1 = E^-1 + E^-1 U (I - K V^T E^-1 U)^-1 K V^T E^-1,   E = I - D,
  * whose dense work has the size p r of the coarse information, not N; V^T E^-1 U has blocks
  * S^T diag(b_j a_i / e) S: diagonal for P (block sums), sparse and small for W.
- * Nothing here is wired into the structured-matrix dispatch yet (mat.c): that is the next step
- * of issue #31; tests/test_lowrank.c checks every operation against the dense one. */
+ * mat_lowrank.c and solve.c wire it into the structured-matrix dispatch; tests/test_lowrank.c
+ * checks every operation against the dense one. */
 #ifndef BST_LOWRANK_H
 #define BST_LOWRANK_H
 
@@ -96,11 +96,56 @@ int bsti_lr_add(bst_ctx *ctx, double alpha, const bsti_lr *f, double beta, const
                 bsti_lr **out);
 /* *out = diag(dr) F diag(dc) (either NULL: identity). */
 int bsti_lr_scale(bst_ctx *ctx, const double *dr, const bsti_lr *f, const double *dc, bsti_lr **out);
-/* *out = (I - F)^-1 by the Woodbury identity; *rcond (may be NULL): the reciprocal 1-norm
- * condition of I - F, 1 / (|I - F|_1 |(I - F)^-1|_1), each norm estimated as LAPACK's dgecon does
- * (dlacn2) with products through the factors.  BST_ESINGULAR when I - D or the capacitance
- * I - K V^T E^-1 U is singular. */
+/* The solves with I - F (lowrank_solve.c).  A factorization holds E^-1 = (I - D)^-1 and the LU
+ * factors of the capacitance C = I - K H, H = V^T E^-1 U ((p r) x (p r)), of F (side 0) or of F^T
+ * (side 1: I - K^T U^T E^-1 V), each made at its first use.  A solve with a factored right-hand
+ * side B whose left scalings are among F's (those of the side's matrix: F's a for side 0, its b
+ * for side 1) needs no inverse: (I - F)^-1 U = E^-1 U C^-1 (the push-through identity) gives
+ *   (I - F)^-1 B = E^-1 D_B + E^-1 U C^-1 [K V^T E^-1 D_B + K_B' V_B^T],
+ * K_B' = K_B with its block rows moved to those of F's equal scalings: one LU (2/3 (p r)^3) and a
+ * solve with the columns of the bracket, where forming (I - F)^-1 and multiplying it by B costs a
+ * solve with q r columns and then a GEMM.  Any other B goes through the inverse, formed from the
+ * same LU.  The stack's B (L Tf1, L Rb1 L Tb2, Tf2 for a right solve) share A's scalings, so each
+ * inter-reflection of a pane + factored layer step costs one LU, one solve and one GEMM.  *rcond
+ * (may be NULL): the reciprocal 1-norm condition of I - F, 1 / (|I - F|_1 |(I - F)^-1|_1), each
+ * norm estimated as LAPACK's dgecon does (dlacn2) with products through the factors (a vector
+ * through the LU: O(N + (p r)^2)).  BST_ESINGULAR when I - D or the capacitance is singular. */
+typedef struct {
+    bsti_lr *m[2];      /* F (side 0) and F^T (side 1), the one not asked yet NULL */
+    double *einv;       /* N values: 1 / (1 - d) */
+    double *lu[2];      /* side s's capacitance's LU factors ((p r)^2 values of m[s]), or NULL */
+    void *ipiv[2];      /* their pivots (lapack_int: lapacke.h is kept out of this header) */
+} bsti_lr_fact;
+/* I - F factored on side `trans` (0: for (I - F)^-1 B, 1: for (I - F)^-T B, as a right solve
+ * B (I - F)^-1 = ((I - F)^-T B^T)^T needs); F is copied. */
+int bsti_lr_factor(bst_ctx *ctx, const bsti_lr *f, int trans, bsti_lr_fact **out, double *rcond);
+/* *out = (I - F)^-1 B (trans 0) or (I - F)^-T B (trans 1), B over F's map. */
+int bsti_lr_fact_solve(bst_ctx *ctx, bsti_lr_fact *fa, int trans, const bsti_lr *b, bsti_lr **out);
+/* *out = (I - F)^-1 (trans 0) or (I - F)^-T (trans 1), factored: E^-1 + E^-1 U C^-1 K V^T E^-1. */
+int bsti_lr_fact_inverse(bst_ctx *ctx, bsti_lr_fact *fa, int trans, bsti_lr **out);
+void bsti_lr_fact_free(bst_ctx *ctx, bsti_lr_fact *fa);
+/* *out = (I - F)^-1 by the Woodbury identity (a factorization's inverse), *rcond as above. */
 int bsti_lr_inverse(bst_ctx *ctx, const bsti_lr *f, bsti_lr **out, double *rcond);
+
+/* Shared by lowrank.c and lowrank_solve.c (not for other modules). */
+/* A matrix over S with room for p and q scalings, K zero, and a diagonal when with_d. */
+int bsti_lr_alloc(bst_ctx *ctx, const bsti_lr_map *S, size_t p, size_t q, int with_d, bsti_lr **out);
+/* The index of v (N values) among the n vectors of list (equal to 1e-14 of v's largest value), n
+ * when it is not there; bsti_lr_find_or_add appends it then. */
+size_t bsti_lr_find(const double *list, size_t n, const double *v, size_t N);
+size_t bsti_lr_find_or_add(double *list, size_t *n, const double *v, size_t N);
+/* dst's r x r block (bi, bj) += s * src's block (i, j), column-major, leading dimensions ldd, lds. */
+void bsti_lr_add_block(double *dst, size_t ldd, size_t bi, size_t bj, const double *src, size_t lds,
+                       size_t i, size_t j, size_t r, double s);
+/* The gram S^T diag(c) S: added into G's block at (row0, col0) (leading dimension ld), or, for a
+ * map of one entry a row, its diagonal's r values into g (bsti_lr_gram_diag). */
+void bsti_lr_gram_add(const bsti_lr_map *S, const double *c, double *G, size_t ld, size_t row0,
+                      size_t col0);
+void bsti_lr_gram_diag(const bsti_lr_map *S, const double *c, double *g);
+/* T := beta T + alpha K G, K m x (nq r), G (nq r) x (np r) of diagonal r x r blocks (block (j, i)'s
+ * diagonal at g + (j np + i) r), beta 0 or 1. */
+void bsti_lr_mul_diag_blocks(const double *K, size_t m, size_t nq, size_t np, size_t r,
+                             const double *g, double alpha, int beta, double *T);
 /* F's N x N values into out (column-major, leading dimension N). */
 void bsti_lr_to_dense(const bsti_lr *f, double *out);
 

@@ -6,8 +6,11 @@
  *   SPARSE - UMFPACK LU of the sparse I - A (umfpack_dl_*), one solve per column of B;
  *   DENSE  - LAPACK getrf, then getrs on all columns at once (single precision when A or B is a
  *            dense float matrix);
- *   FACTORED - (I - A)^-1 itself, factored again, by the Woodbury identity (lowrank.c: the dense
- *            work has the coarse information's size), then a product with B (mat_lowrank.c).
+ *   FACTORED - the LU of the Woodbury capacitance (lowrank_solve.c: the dense work has the coarse
+ *            information's size); a B factored over A's map (or diagonal, or a sparse P K P^T)
+ *            whose left scalings are A's is solved through it, any other multiplied by the
+ *            inverse formed from it (mat_lowrank.c).  A right solve factors A^T's capacitance:
+ *            the side a solve needs is factored at its first use.
  * The right solve works on transposes: Y^T = (I - A)^-T B^T, with the transposed solve of the same
  * factorization (UMFPACK_At, getrs 'T').
  *
@@ -66,7 +69,7 @@ struct factor {
     bst_mat *lu_mat;        /* DENSE: the matrix A whose storage holds lu, when it was taken */
     lapack_int *ipiv;
     double *w1, *w2;        /* SPARSE: vectors of n */
-    bst_mat *inv;           /* FACTORED: (I - A)^-1, FACTORED */
+    bsti_lr_fact *lf;       /* FACTORED: the capacitance's LU (lowrank_solve.c) */
 };
 
 static void factor_free(struct factor *f)
@@ -84,7 +87,7 @@ static void factor_free(struct factor *f)
     bsti_free(ctx, f->ipiv);
     bsti_free(ctx, f->w1);
     bsti_free(ctx, f->w2);
-    bst_mat_free(f->inv);
+    bsti_lr_fact_free(ctx, f->lf);
     memset(f, 0, sizeof *f);
 }
 
@@ -316,35 +319,66 @@ static int factor_dense(bst_ctx *ctx, const bst_mat *a, bst_precision prec, stru
     return BST_OK;
 }
 
-/* I - A factored as its inverse (lowrank.c), *rcond its estimate; the inverse's rank is A's. */
-static int factor_lowrank(bst_ctx *ctx, const bst_mat *a, bst_precision prec, struct factor *f,
-                          double *rcond, bst_mat **take)
+/* I - A factored by its capacitance (lowrank_solve.c), on the side of a left (right 0) or right
+ * solve; *rcond its estimate. */
+static int factor_lowrank(bst_ctx *ctx, const bst_mat *a, int right, struct factor *f,
+                          double *rcond)
 {
-    (void)prec, (void)take;
-    bsti_lr *inv;
-    int rc = bsti_lr_inverse(ctx, a->lr, &inv, rcond);
-    if (rc >= 0)
-        rc = bsti_mat_from_lr(ctx, inv, &f->inv);
     f->anorm = 1.0;
+    return bsti_lr_factor(ctx, a->lr, right, &f->lf, rcond);
+}
+
+/* X = (I - A)^-1 B (trans 0) or (I - A)^-T B for a FACTORED A: through the capacitance when B is
+ * factored over A's map (or a diagonal, or a sparse P K P^T there), else B times the inverse. */
+static int lowrank_solve(struct factor *f, int trans, const bst_mat *b, bst_mat **out)
+{
+    bst_ctx *ctx = f->ctx;
+    const bsti_lr *fl = f->lf->m[0] ? f->lf->m[0] : f->lf->m[1];
+    bsti_lr *lb = NULL, *x, *inv;
+    const bsti_lr *bl = b->s == BST_FACTORED ? b->lr : NULL;
+    int rc = BST_OK;
+    if (!bl && (rc = bsti_mat_lr_of(ctx, b, fl->S, &lb)) < 0 && rc != BST_ENOTFOUND)
+        return rc;
+    if (lb)
+        bl = lb;
+    if (bl && bsti_lr_same_map(fl, bl)) {
+        rc = bsti_lr_fact_solve(ctx, f->lf, trans, bl, &x);
+        bsti_lr_free(ctx, lb);
+        if (rc >= 0 && (rc = bsti_mat_from_lr(ctx, x, out)) >= 0 &&
+            (rc = bsti_mat_lr_settle(ctx, out)) < 0) {
+            bst_mat_free(*out);
+            *out = NULL;
+        }
+        return rc;
+    }
+    bsti_lr_free(ctx, lb);
+    bst_mat *z;
+    if ((rc = bsti_lr_fact_inverse(ctx, f->lf, trans, &inv)) < 0 ||
+        (rc = bsti_mat_from_lr(ctx, inv, &z)) < 0)
+        return rc;
+    rc = bst_mat_mul(ctx, z, b, 0.0, out);
+    bst_mat_free(z);
     return rc;
 }
 
 /* Factor I - A; *rcond as documented at the top.  With *take = a (A given up by the caller) a
  * dense A in the factor's precision is overwritten by I - A and then its LU factors, and the factor
  * owns it (*take = NULL): no second N x N buffer. */
-static int factor_new(bst_ctx *ctx, const bst_mat *a, bst_precision prec, struct factor *f,
-                      double *rcond, bst_mat **take)
+static int factor_new(bst_ctx *ctx, const bst_mat *a, bst_precision prec, int right,
+                      struct factor *f, double *rcond, bst_mat **take)
 {
     typedef int (*factor_fn)(bst_ctx *, const bst_mat *, bst_precision, struct factor *, double *,
                              bst_mat **);
     static const factor_fn by_structure[] = {
         [BST_ZERO] = factor_zero, [BST_DIAG] = factor_diag, [BST_SPARSE] = factor_sparse,
-        [BST_DENSE] = factor_dense, [BST_FACTORED] = factor_lowrank};
+        [BST_DENSE] = factor_dense};
     memset(f, 0, sizeof *f);
     f->ctx = ctx;
     f->s = a->s;
     f->n = a->rows;
     *rcond = 1.0;
+    if (a->s == BST_FACTORED)
+        return factor_lowrank(ctx, a, right, f, rcond);
     if ((unsigned)a->s >= sizeof by_structure / sizeof by_structure[0] || !by_structure[a->s])
         return bsti_error(ctx, BST_EINVAL, "solve: unknown structure");
     return by_structure[a->s](ctx, a, prec, f, rcond, take);
@@ -387,14 +421,8 @@ static int factor_solve(struct factor *f, int trans, const bst_mat *b, bst_mat *
         bsti_free(ctx, inv);
         return rc;
     }
-    if (f->s == BST_FACTORED) { /* X = Z B or Z^T B with Z = (I - A)^-1 */
-        bst_mat *zt = NULL;
-        if (trans && (rc = bst_mat_transpose(ctx, f->inv, &zt)) < 0)
-            return rc;
-        rc = bst_mat_mul(ctx, trans ? zt : f->inv, b, 0.0, out);
-        bst_mat_free(zt);
-        return rc;
-    }
+    if (f->s == BST_FACTORED)
+        return lowrank_solve(f, trans, b, out);
     if (f->s == BST_DENSE) {
         bst_mat *x;
         if ((rc = bst_mat_convert(ctx, b, BST_DENSE, f->prec, &x)) < 0)
@@ -545,12 +573,12 @@ static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **ow
     double rcond;
     bst_mat *adense = NULL;
     int a_dense = a->s == BST_DENSE;
-    rc = factor_new(ctx, a, prec, &f, &rcond, own_a);
+    rc = factor_new(ctx, a, prec, right, &f, &rcond, own_a);
     if (rc == BSTI_USE_DENSE) { /* workspace: a dense copy of A (n^2 doubles) */
         factor_free(&f);
         rc = bst_mat_convert(ctx, a, BST_DENSE, BST_DOUBLE, &adense);
         if (rc >= 0)
-            rc = factor_new(ctx, adense, prec, &f, &rcond, &adense);
+            rc = factor_new(ctx, adense, prec, right, &f, &rcond, &adense);
         bst_mat_free(adense);
     }
     if (*own_a) {

@@ -460,6 +460,77 @@ START_TEST(test_write_expanded)
 }
 END_TEST
 
+static double min_rcond;
+static void note_rcond(const bst_stack_step *s, void *opaque)
+{
+    (void)opaque;
+    min_rcond = fmin(min_rcond, s->rcond);
+    factored_steps += s->structure == BST_FACTORED;
+}
+
+/* Near-perfect mirrors (diagonal, reflectance 1 - 1e-9) around a near-white Lambertian layer held
+ * factored (P K P^T, K = rho / pi: reflectance 1 - 2e-9, transmittance 1e-9): both gaps'
+ * inter-reflections are nearly singular.  The factored path (solves through the capacitance)
+ * reports the condition the dense path does (each an estimate: within a factor of 10), gives the
+ * same status (the ill-conditioning warning) and the dense path's values within the loss the
+ * condition allows. */
+START_TEST(test_near_mirrors)
+{
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 3, &b), BST_OK);
+    size_t N = bst_basis_size(b);
+    const double *lam = bst_basis_lambda(b), pi = acos(-1.0);
+    const char *vis = "Visible";
+    bsti_lr_map *S;
+    ck_assert_int_eq(bsti_lr_map_prolong(ctx, 3, 1, &S), BST_OK);
+    bst_layer *mirror, *white;
+    ck_assert_int_eq(bst_layer_new(ctx, b, 1, &vis, &mirror), BST_OK);
+    ck_assert_int_eq(bst_layer_new(ctx, b, 1, &vis, &white), BST_OK);
+    double *d = malloc(N * sizeof *d), K[16];
+    for (int c = 0; c < BST_NCOMP; c++) {
+        int refl = c == BST_RF || c == BST_RB;
+        for (size_t x = 0; x < N; x++)
+            d[x] = (refl ? 1.0 - 1e-9 : 1e-9) / lam[x];
+        bst_mat *m;
+        ck_assert_int_eq(bst_mat_new_diag(ctx, N, d, &m), BST_OK);
+        ck_assert_int_eq(bst_layer_set(ctx, mirror, 0, (bst_comp)c, m), BST_OK);
+        for (int i = 0; i < 16; i++)
+            K[i] = (refl ? 1.0 - 2e-9 : 1e-9) / pi;
+        bsti_lr *lr;
+        ck_assert_int_eq(bsti_lr_new(ctx, S, NULL, NULL, K, NULL, &lr), BST_OK);
+        ck_assert_int_eq(bsti_mat_from_lr(ctx, lr, &m), BST_OK);
+        ck_assert_int_eq(bst_layer_set(ctx, white, 0, (bst_comp)c, m), BST_OK);
+    }
+    const bst_layer *layers[3] = {mirror, white, mirror};
+    bst_stack_opts o;
+    bst_stack_opts_init(&o);
+    o.on_step = note_rcond;
+    bst_layer *fact, *dense;
+    double rc[2];
+    int st[2];
+    for (int k = 0; k < 2; k++) {
+        o.force_dense = k;
+        min_rcond = 1.0, factored_steps = 0;
+        st[k] = bst_stack_combine(ctx, 3, layers, &o, k ? &dense : &fact);
+        rc[k] = min_rcond;
+        if (!k)
+            ck_assert_int_eq(factored_steps, 8);
+    }
+    ck_assert_int_eq(st[0], st[1]);
+    ck_assert_int_eq(st[0], BST_WILLCOND);
+    ck_assert_msg(rc[0] < 1e-6 && rc[0] > 0.1 * rc[1] && rc[0] < 10 * rc[1], "rcond %g, dense %g",
+                  rc[0], rc[1]);
+    for (int c = 0; c < BST_NCOMP; c++) {
+        double dd = rel_diff(bst_layer_get(fact, 0, (bst_comp)c), bst_layer_get(dense, 0, (bst_comp)c));
+        ck_assert_msg(dd < 1e-15 / rc[1], "%s: %g (rcond %g)", bst_comp_name((bst_comp)c), dd, rc[1]);
+    }
+    free(d);
+    bsti_lr_map_free(ctx, S);
+    bst_layer_free(fact), bst_layer_free(dense), bst_layer_free(mirror), bst_layer_free(white);
+    bst_basis_free(b);
+}
+END_TEST
+
 static Suite *suite(void)
 {
     Suite *s = suite_create("factored");
@@ -473,6 +544,7 @@ static Suite *suite(void)
     tcase_add_test(tc, test_klems_reciprocal);
     tcase_add_test(tc, test_rank3_native);
     tcase_add_test(tc, test_write_expanded);
+    tcase_add_test(tc, test_near_mirrors);
     suite_add_tcase(s, tc);
     return s;
 }

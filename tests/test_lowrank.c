@@ -12,6 +12,7 @@
 #include <cblas.h>
 #include <lapacke.h>
 
+#include "ctx.h"
 #include "lowrank.h"
 #include "mat.h"
 #include "testmat.h"
@@ -119,6 +120,16 @@ static void dense_inverse(const double *m, size_t N, double *inv)
     free(a), free(ipiv);
 }
 
+/* want = (I - M)^-1 B for dense N x N M and B (trans: (I - M)^-T B). */
+static void dense_solve(const double *m, const double *b, size_t N, int trans, double *want)
+{
+    double *inv = malloc(N * N * sizeof *inv);
+    dense_inverse(m, N, inv);
+    cblas_dgemm(CblasColMajor, trans ? CblasTrans : CblasNoTrans, CblasNoTrans, (int)N, (int)N,
+                (int)N, 1.0, inv, (int)N, b, (int)N, 0.0, want, (int)N);
+    free(inv);
+}
+
 START_TEST(test_algebra)
 {
     bsti_lr_map *S = map_of(_i / 4);
@@ -220,13 +231,31 @@ START_TEST(test_extremes)
     double *df = dense_of(f), *got = dense_of(m);
     dense_inverse(df, N, want);
     ck_assert_msg(rel_diff(got, want, N * N) < 1e-6, "near-singular: %g", rel_diff(got, want, N * N));
-    free(got), free(df), bsti_lr_free(ctx, m), bsti_lr_free(ctx, f);
+    free(got), bsti_lr_free(ctx, m);
+    /* the solves through the capacitance (B = F: F's scalings, no inverse), either side: the same
+     * condition reported, the dense solve within its loss */
+    for (int side = 0; side < 2; side++) {
+        bsti_lr_fact *fa;
+        double rc2, *w2 = malloc(N * N * sizeof *w2);
+        ck_assert_int_eq(bsti_lr_factor(ctx, f, side, &fa, &rc2), BST_OK);
+        ck_assert_msg(fabs(rc2 - rcond) <= 1e-3 * rcond, "side %d: rcond %g, %g", side, rc2, rcond);
+        ck_assert_int_eq(bsti_lr_fact_solve(ctx, fa, side, f, &m), BST_OK);
+        dense_solve(df, df, N, side, w2);
+        got = dense_of(m);
+        ck_assert_msg(rel_diff(got, w2, N * N) < 1e-6, "near-singular solve %d: %g", side,
+                      rel_diff(got, w2, N * N));
+        free(got), free(w2), bsti_lr_free(ctx, m), bsti_lr_fact_free(ctx, fa);
+    }
+    free(df), bsti_lr_free(ctx, f);
     /* exactly singular capacitance */
     for (size_t i = 0; i < r; i++)
         K[i * r + i] = 1.0 / 16.0;
     ck_assert_int_eq(bsti_lr_new(ctx, S, NULL, NULL, K, NULL, &f), BST_OK);
     ck_assert_int_eq(bsti_lr_inverse(ctx, f, &m, &rcond), BST_ESINGULAR);
     ck_assert_ptr_null(m);
+    bsti_lr_fact *fa = (bsti_lr_fact *)1;
+    ck_assert_int_eq(bsti_lr_factor(ctx, f, 1, &fa, &rcond), BST_ESINGULAR);
+    ck_assert_ptr_null(fa);
     bsti_lr_free(ctx, f);
     /* I - D singular */
     double *one = malloc(N * sizeof *one);
@@ -258,8 +287,88 @@ START_TEST(test_full_rank)
 }
 END_TEST
 
-/* Every allocation of a product, a sum, a scaling and an inverse failed in turn: BST_ENOMEM,
- * no result and nothing leaked. */
+/* (I - F)^-1 B and (I - F)^-T B through the capacitance's LU (lowrank_solve.c) against the dense
+ * solve, for a B whose left scalings are F's (no inverse formed for (I - F)^-1 B: fewer flops than
+ * the inverse and a product), one whose left scalings are F's right ones (the same for
+ * (I - F)^-T B, the right solve's transpose), one of other scalings (through the inverse) and a
+ * diagonal; each factorization also serves the other side. */
+START_TEST(test_solves)
+{
+    bsti_lr_map *S = map_of(_i / 4);
+    int with_d = _i & 1, two = (_i >> 1) & 1;
+    size_t N = S->N;
+    bsti_lr *f = random_lr(S, with_d, two), *bs[4];
+    double *dr = malloc(N * sizeof *dr), *dc = malloc(N * sizeof *dc);
+    random_vec(dr, N, 0.5, 1.5), random_vec(dc, N, 0.5, 1.5);
+    ck_assert_int_eq(bsti_lr_scale(ctx, NULL, f, dc, &bs[0]), BST_OK); /* F's a */
+    bsti_lr *t1;
+    ck_assert_int_eq(bsti_lr_scale(ctx, dr, f, NULL, &t1), BST_OK);
+    ck_assert_int_eq(bsti_lr_transpose(ctx, t1, &bs[1]), BST_OK); /* F's b on the left */
+    bsti_lr_free(ctx, t1);
+    bs[2] = random_lr(S, !with_d, 1);
+    ck_assert_int_eq(bsti_lr_new(ctx, S, dr, NULL, NULL, NULL, &bs[3]), BST_OK);
+    double *df = dense_of(f), *want = malloc(N * N * sizeof *want);
+    for (int side = 0; side < 2; side++) {
+        bsti_lr_fact *fa;
+        double rcond;
+        ck_assert_int_eq(bsti_lr_factor(ctx, f, side, &fa, &rcond), BST_OK);
+        ck_assert_msg(rcond > 0.1 && rcond <= 1.0, "rcond %g", rcond);
+        for (int t = 0; t < 2; t++) {
+            int tt = side ^ t; /* the factored side first, then the other */
+            for (int k = 0; k < 4; k++) {
+                double *db = dense_of(bs[k]), *got, f0 = ctx->flops;
+                bsti_lr *x;
+                ck_assert_int_eq(bsti_lr_fact_solve(ctx, fa, tt, bs[k], &x), BST_OK);
+                double flops = ctx->flops - f0;
+                dense_solve(df, db, N, tt, want);
+                got = dense_of(x);
+                ck_assert_msg(rel_diff(got, want, N * N) < 1e-12, "side %d, solve %d, B %d: %g",
+                              side, tt, k, rel_diff(got, want, N * N));
+                if (k == tt && !with_d) { /* matched: cheaper than the inverse and a product */
+                    bsti_lr *inv, *y;
+                    f0 = ctx->flops;
+                    ck_assert_int_eq(bsti_lr_fact_inverse(ctx, fa, tt, &inv), BST_OK);
+                    ck_assert_int_eq(bsti_lr_mul(ctx, inv, bs[k], &y), BST_OK);
+                    ck_assert_msg(flops < ctx->flops - f0, "%g flops, through the inverse %g",
+                                  flops, ctx->flops - f0);
+                    bsti_lr_free(ctx, inv), bsti_lr_free(ctx, y);
+                }
+                free(got), free(db), bsti_lr_free(ctx, x);
+            }
+        }
+        bsti_lr_fact_free(ctx, fa);
+    }
+    for (int k = 0; k < 4; k++)
+        bsti_lr_free(ctx, bs[k]);
+    free(df), free(want), free(dr), free(dc);
+    bsti_lr_free(ctx, f);
+    bsti_lr_map_free(ctx, S);
+}
+END_TEST
+
+/* I - F factored for a right solve, then (I - F)^-T F^T (F^T's left scalings are the side's:
+ * solved through the LU) and (I - F)^-1 G (the other side factored at its first use, G through
+ * the inverse); the last result in *out. */
+static int factor_solves(bst_ctx *c, const bsti_lr *f, const bsti_lr *ft, const bsti_lr *g,
+                         bsti_lr **out)
+{
+    bsti_lr_fact *fa;
+    bsti_lr *x = NULL;
+    double rcond;
+    *out = NULL;
+    int rc = bsti_lr_factor(c, f, 1, &fa, &rcond);
+    if (rc < 0)
+        return rc;
+    rc = bsti_lr_fact_solve(c, fa, 1, ft, &x);
+    bsti_lr_free(c, x);
+    if (rc >= 0)
+        rc = bsti_lr_fact_solve(c, fa, 0, g, out);
+    bsti_lr_fact_free(c, fa);
+    return rc;
+}
+
+/* Every allocation of a product, a sum, a scaling, an inverse and a factorization's solves failed
+ * in turn: BST_ENOMEM, no result and nothing leaked. */
 START_TEST(test_nomem)
 {
     bst_ctx *c = bst_ctx_new();
@@ -271,7 +380,9 @@ START_TEST(test_nomem)
     bsti_lr *f = random_lr(S, 1, 1), *g = random_lr(S, 0, 0);
     double *dr = malloc(S->N * sizeof *dr);
     random_vec(dr, S->N, 0.5, 1.0);
-    for (int op = 0; op < 4; op++) {
+    bsti_lr *ft;
+    ck_assert_int_eq(bsti_lr_transpose(c, f, &ft), BST_OK);
+    for (int op = 0; op < 5; op++) {
         long base = al.live;
         for (long k = 1;; k++) {
             al.fail_at = al.count + k;
@@ -279,7 +390,8 @@ START_TEST(test_nomem)
             int rc = op == 0   ? bsti_lr_mul(c, f, g, &m)
                      : op == 1 ? bsti_lr_add(c, 1.0, f, 2.0, g, &m)
                      : op == 2 ? bsti_lr_scale(c, dr, f, NULL, &m)
-                               : bsti_lr_inverse(c, f, &m, NULL);
+                     : op == 3 ? bsti_lr_inverse(c, f, &m, NULL)
+                               : factor_solves(c, f, ft, g, &m);
             al.fail_at = 0;
             if (rc == BST_OK) {
                 bsti_lr_free(c, m);
@@ -288,11 +400,11 @@ START_TEST(test_nomem)
             ck_assert_int_eq(rc, BST_ENOMEM);
             ck_assert_ptr_null(m);
             ck_assert_int_eq(al.live, base);
-            ck_assert_int_lt(k, 40);
+            ck_assert_int_lt(k, 120);
         }
     }
     free(dr);
-    bsti_lr_free(c, f), bsti_lr_free(c, g);
+    bsti_lr_free(c, f), bsti_lr_free(c, g), bsti_lr_free(c, ft);
     bsti_lr_map_free(c, S);
     ck_assert_int_eq(al.live, 0);
     ctx = save;
@@ -478,6 +590,7 @@ static Suite *suite(void)
     tcase_add_checked_fixture(tc, setup, teardown);
     tcase_set_timeout(tc, 120);
     tcase_add_loop_test(tc, test_algebra, 0, 12);
+    tcase_add_loop_test(tc, test_solves, 0, 12);
     tcase_add_test(tc, test_extremes);
     tcase_add_test(tc, test_full_rank);
     tcase_add_test(tc, test_nomem);
