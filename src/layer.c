@@ -191,9 +191,18 @@ static int mirror_x_permutation(bst_ctx *ctx, const bst_basis *b, bst_mat **out)
     return rc;
 }
 
-/* P M P for a FACTORED M and the mirror P, in M's factors (bsti_lr_permute); BST_ENOTFOUND when
- * the map does not allow it. */
-static int mirror_factored(bst_ctx *ctx, const bst_basis *b, const bst_mat *m, bst_mat **out)
+/* The mirrored maps of one flip: an untagged map (a venetian blind's strips) mirrored once for
+ * every component over it, so that they stay over one map. */
+struct mirrored {
+    const bsti_lr_map *from;
+    bsti_lr_map *to;
+};
+
+/* P M P for a FACTORED M and the mirror P, in M's factors: over M's own map where the mirror maps
+ * its lines onto lines (bsti_lr_permute: prolongations), over the mirrored map for an untagged
+ * one (bsti_lr_permute_over, *mm keeping it for the next component); BST_ENOTFOUND otherwise. */
+static int mirror_factored(bst_ctx *ctx, const bst_basis *b, const bst_mat *m, struct mirrored *mm,
+                           bst_mat **out)
 {
     size_t n = bst_basis_size(b);
     size_t *perm = bsti_alloc_array(ctx, n, sizeof *perm);
@@ -203,6 +212,16 @@ static int mirror_factored(bst_ctx *ctx, const bst_basis *b, const bst_mat *m, b
         perm[j] = bsti_basis_mirror_x(b, j);
     bsti_lr *lr;
     int rc = bsti_lr_permute(ctx, m->lr, perm, &lr);
+    if (rc == BST_ENOTFOUND && !m->lr->S->tag[0]) {
+        rc = BST_OK;
+        if (mm->from != m->lr->S) {
+            bsti_lr_map_free(ctx, mm->to);
+            mm->to = NULL, mm->from = m->lr->S;
+            rc = bsti_lr_map_permuted(ctx, m->lr->S, perm, &mm->to);
+        }
+        if (rc >= 0)
+            rc = bsti_lr_permute_over(ctx, m->lr, perm, mm->to, &lr);
+    }
     bsti_free(ctx, perm);
     return rc < 0 ? rc : bsti_mat_from_lr(ctx, lr, out);
 }
@@ -214,6 +233,7 @@ int bst_layer_flip(bst_ctx *ctx, const bst_layer *l, bst_layer **out)
     *out = NULL;
     bst_mat *p = NULL;
     bst_layer *f = NULL;
+    struct mirrored mm = {NULL, NULL};
     int rc = mirror_x_permutation(ctx, l->basis, &p);
     if (rc >= 0)
         rc = bst_layer_new(ctx, l->basis, l->nchannels, (const char *const *)l->channels, &f);
@@ -228,7 +248,7 @@ int bst_layer_flip(bst_ctx *ctx, const bst_layer *l, bst_layer **out)
                 continue;
             bst_mat *pm = NULL, *pmp = NULL, *res = NULL;
             if (bst_mat_structure(m) == BST_FACTORED) { /* permuted in its factors */
-                rc = mirror_factored(ctx, l->basis, m, &res);
+                rc = mirror_factored(ctx, l->basis, m, &mm, &res);
                 if (rc != BST_ENOTFOUND) {
                     if (rc >= 0)
                         rc = bst_layer_set(ctx, f, ch, (bst_comp)c, res);
@@ -252,6 +272,7 @@ int bst_layer_flip(bst_ctx *ctx, const bst_layer *l, bst_layer **out)
                 rc = bst_layer_set(ctx, f, ch, (bst_comp)c, res);
         }
     bst_mat_free(p);
+    bsti_lr_map_free(ctx, mm.to);
     if (rc < 0) {
         bst_layer_free(f);
         return rc;

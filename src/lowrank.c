@@ -572,6 +572,43 @@ size_t bsti_lr_stored(const bsti_lr *f)
     return (f->d ? f->N : 0) + (f->p + f->q) * f->N + f->p * f->r * f->q * f->r;
 }
 
+int bsti_lr_map_permuted(bst_ctx *ctx, const bsti_lr_map *S, const size_t *perm, bsti_lr_map **out)
+{
+    int rc = bsti_lr_map_new(ctx, S->N, S->r, S->start[S->N], out);
+    if (rc < 0)
+        return rc;
+    bsti_lr_map *m = *out;
+    size_t e = 0;
+    for (size_t x = 0; x < S->N; x++) {
+        m->start[x] = e;
+        for (size_t f = S->start[perm[x]]; f < S->start[perm[x] + 1]; f++, e++)
+            m->col[e] = S->col[f], m->w[e] = S->w[f];
+    }
+    m->start[S->N] = e;
+    m->k = S->k;
+    return BST_OK;
+}
+
+int bsti_lr_permute_over(bst_ctx *ctx, const bsti_lr *f, const size_t *perm, const bsti_lr_map *S2,
+                         bsti_lr **out)
+{
+    size_t N = f->N;
+    int rc = bsti_lr_alloc(ctx, S2, f->p, f->q, f->d != NULL, out);
+    if (rc < 0)
+        return rc;
+    bsti_lr *m = *out;
+    for (size_t x = 0; x < N; x++) {
+        if (m->d)
+            m->d[x] = f->d[perm[x]];
+        for (size_t i = 0; i < f->p; i++)
+            m->a[i * N + x] = f->a[i * N + perm[x]];
+        for (size_t j = 0; j < f->q; j++)
+            m->b[j * N + x] = f->b[j * N + perm[x]];
+    }
+    memcpy(m->k, f->k, f->p * f->r * f->q * f->r * sizeof *m->k);
+    return BST_OK;
+}
+
 int bsti_lr_permute(bst_ctx *ctx, const bsti_lr *f, const size_t *perm, bsti_lr **out)
 {
     const bsti_lr_map *S = f->S;

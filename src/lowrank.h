@@ -72,6 +72,12 @@ void bsti_lr_apply(const bsti_lr *f, int trans, const double *x, double *y, doub
  * coarse cell onto those of one coarse cell (a mirror of the grid, for a prolongation; maps of
  * one entry a row only): BST_ENOTFOUND, with no message, when it does not. */
 int bsti_lr_permute(bst_ctx *ctx, const bsti_lr *f, const size_t *perm, bsti_lr **out);
+/* An untagged map whose row x is row perm[x] of S (a maker's reference in *out), and F over it:
+ * F'[x, y] = F[perm[x], perm[y]] for any map (S2 made from F's map by bsti_lr_map_permuted with
+ * the same perm; one S2 for the components of one layer keeps them over one map). */
+int bsti_lr_map_permuted(bst_ctx *ctx, const bsti_lr_map *S, const size_t *perm, bsti_lr_map **out);
+int bsti_lr_permute_over(bst_ctx *ctx, const bsti_lr *f, const size_t *perm, const bsti_lr_map *S2,
+                         bsti_lr **out);
 /* Element (i, j). */
 double bsti_lr_get(const bsti_lr *f, size_t i, size_t j);
 /* Column y (out[x] = F[x, y], N values) or row x (out[y] = F[x, y]) of F, each value the same bits
