@@ -572,6 +572,20 @@ size_t bsti_lr_stored(const bsti_lr *f)
     return (f->d ? f->N : 0) + (f->p + f->q) * f->N + f->p * f->r * f->q * f->r;
 }
 
+/* m's diagonal and scaling vectors: F's, entry x from entry perm[x]. */
+static void permute_vectors(const bsti_lr *f, const size_t *perm, bsti_lr *m)
+{
+    size_t N = f->N;
+    for (size_t x = 0; x < N; x++) {
+        if (m->d)
+            m->d[x] = f->d[perm[x]];
+        for (size_t i = 0; i < f->p; i++)
+            m->a[i * N + x] = f->a[i * N + perm[x]];
+        for (size_t j = 0; j < f->q; j++)
+            m->b[j * N + x] = f->b[j * N + perm[x]];
+    }
+}
+
 int bsti_lr_map_permuted(bst_ctx *ctx, const bsti_lr_map *S, const size_t *perm, bsti_lr_map **out)
 {
     int rc = bsti_lr_map_new(ctx, S->N, S->r, S->start[S->N], out);
@@ -592,20 +606,11 @@ int bsti_lr_map_permuted(bst_ctx *ctx, const bsti_lr_map *S, const size_t *perm,
 int bsti_lr_permute_over(bst_ctx *ctx, const bsti_lr *f, const size_t *perm, const bsti_lr_map *S2,
                          bsti_lr **out)
 {
-    size_t N = f->N;
     int rc = bsti_lr_alloc(ctx, S2, f->p, f->q, f->d != NULL, out);
     if (rc < 0)
         return rc;
-    bsti_lr *m = *out;
-    for (size_t x = 0; x < N; x++) {
-        if (m->d)
-            m->d[x] = f->d[perm[x]];
-        for (size_t i = 0; i < f->p; i++)
-            m->a[i * N + x] = f->a[i * N + perm[x]];
-        for (size_t j = 0; j < f->q; j++)
-            m->b[j * N + x] = f->b[j * N + perm[x]];
-    }
-    memcpy(m->k, f->k, f->p * f->r * f->q * f->r * sizeof *m->k);
+    permute_vectors(f, perm, *out);
+    memcpy((*out)->k, f->k, f->p * f->r * f->q * f->r * sizeof *f->k);
     return BST_OK;
 }
 
@@ -632,14 +637,7 @@ int bsti_lr_permute(bst_ctx *ctx, const bsti_lr *f, const size_t *perm, bsti_lr 
         rc = bsti_lr_alloc(ctx, S, f->p, f->q, f->d != NULL, out);
     if (rc >= 0) {
         bsti_lr *m = *out;
-        for (size_t x = 0; x < N; x++) {
-            if (m->d)
-                m->d[x] = f->d[perm[x]];
-            for (size_t i = 0; i < f->p; i++)
-                m->a[i * N + x] = f->a[i * N + perm[x]];
-            for (size_t j = 0; j < f->q; j++)
-                m->b[j * N + x] = f->b[j * N + perm[x]];
-        }
+        permute_vectors(f, perm, m);
         for (size_t j = 0; j < f->q; j++) /* K'_ij[u, v] = K_ij[cp u, cp v] */
             for (size_t v = 0; v < r; v++)
                 for (size_t i = 0; i < f->p; i++)

@@ -152,20 +152,37 @@ bst_basis *tu_wce_basis(bst_ctx *ctx, const char *file)
     return b;
 }
 
-long tu_venetian_alloc_failures(const char *spec)
+/* The layer of a shade spec of kind "venetian", "woven" or "perforated" over b, in c. */
+static int shade_layer(bst_ctx *c, const char *kind, const char *spec, const bst_basis *b,
+                       bst_layer **l)
+{
+    if (strcmp(kind, "woven") == 0) {
+        bst_woven w;
+        ck_assert_int_eq(bst_woven_parse(c, spec, &w), BST_OK);
+        return bst_woven_layer(c, &w, b, 0, NULL, l);
+    }
+    if (strcmp(kind, "perforated") == 0) {
+        bst_perforated p;
+        ck_assert_int_eq(bst_perforated_parse(c, spec, &p), BST_OK);
+        return bst_perforated_layer(c, &p, b, 0, NULL, l);
+    }
+    bst_venetian v;
+    ck_assert_int_eq(bst_venetian_parse(c, spec, &v), BST_OK);
+    return bst_venetian_layer(c, &v, b, 0, NULL, l);
+}
+
+long tu_shade_alloc_failures(const char *kind, const char *spec, const char *klems)
 {
     bst_ctx *c = bst_ctx_new();
     tu_alloc a = {0};
     ck_assert_int_eq(bst_ctx_set_allocator(c, tu_alloc_malloc, tu_alloc_free, &a), BST_OK);
     bst_basis *b;
-    ck_assert_int_eq(bst_basis_new_sc(c, 2, &b), BST_OK);
-    bst_venetian v;
-    ck_assert_int_eq(bst_venetian_parse(c, spec, &v), BST_OK);
+    ck_assert_int_eq(klems ? bst_basis_new_klems(c, klems, &b) : bst_basis_new_sc(c, 2, &b), BST_OK);
     long base = a.live, k;
     for (k = 1;; k++) {
         a.fail_at = a.count + k;
         bst_layer *l = NULL;
-        int rc = bst_venetian_layer(c, &v, b, 0, NULL, &l);
+        int rc = shade_layer(c, kind, spec, b, &l);
         if (rc == BST_OK) {
             bst_layer_free(l);
             break;
@@ -181,6 +198,11 @@ long tu_venetian_alloc_failures(const char *spec)
     bst_basis_free(b);
     bst_ctx_free(c);
     return k - 1;
+}
+
+long tu_venetian_alloc_failures(const char *spec)
+{
+    return tu_shade_alloc_failures("venetian", spec, NULL);
 }
 
 int tu_run(Suite *s)

@@ -53,6 +53,9 @@ void tu_alloc_free(void *p, void *opaque);
  * turn: BST_ENOMEM, no layer, nothing leaked each time, then the layer is made.  Returns how many
  * allocations were failed (at least one). */
 long tu_venetian_alloc_failures(const char *spec);
+/* The same for a shade of kind "venetian", "woven" or "perforated" (its spec), over the Klems
+ * basis named klems or, NULL, Shirley-Chiu k = 2. */
+long tu_shade_alloc_failures(const char *kind, const char *spec, const char *klems);
 
 /* Output collected in memory, NUL-terminated (p, n; the caller frees p): tu_mem_write is a
  * bst_bsdf_write_sink that fails once more than `limit` bytes were offered (0 = never) and counts
