@@ -235,6 +235,8 @@ double *bst_mat_diag_data(bst_mat *m) { return (m && m->s == BST_DIAG) ? m->diag
 /* Dense copy of any matrix in precision prec.  Workspace: the result only. */
 int bsti_mat_to_dense(bst_ctx *ctx, const bst_mat *m, bst_precision prec, bst_mat **out)
 {
+    if (bsti_mat_lr_wide(m)) /* by GEMM: through the factors each value costs a row's entries^2 */
+        return bsti_mat_lr_expand(ctx, m, prec, out);
     bst_mat *d;
     int rc = bst_mat_new_dense(ctx, m->rows, m->cols, prec, &d);
     if (rc < 0)

@@ -141,6 +141,15 @@ int bst_mat_to_dense_array(bst_ctx *ctx, const bst_mat *m, double *out)
         memcpy(out, m->dense, r * m->cols * sizeof(double));
         return BST_OK;
     }
+    if (bsti_mat_lr_wide(m)) { /* by GEMM (mat.h) */
+        bst_mat *d;
+        int rc = bsti_mat_lr_expand(ctx, m, BST_DOUBLE, &d);
+        if (rc < 0)
+            return rc;
+        memcpy(out, d->dense, r * m->cols * sizeof(double));
+        bst_mat_free(d);
+        return BST_OK;
+    }
     if (m->s == BST_FACTORED) {
         bsti_lr_to_dense(m->lr, out);
         return BST_OK;
