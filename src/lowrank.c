@@ -27,6 +27,7 @@ int bsti_lr_map_new(bst_ctx *ctx, size_t N, size_t r, size_t nnz, bsti_lr_map **
     bsti_lr_map *S = bsti_calloc(ctx, 1, sizeof *S);
     if (!S)
         return BST_ENOMEM;
+    S->refs = 1, S->ctx = ctx; /* before any failure: the release below frees what was made */
     S->start = bsti_alloc_array(ctx, N + 1, sizeof *S->start);
     S->col = S->start ? bsti_alloc_array(ctx, nnz ? nnz : 1, sizeof *S->col) : NULL;
     S->w = S->col ? bsti_alloc_array(ctx, nnz ? nnz : 1, sizeof *S->w) : NULL;
@@ -34,7 +35,7 @@ int bsti_lr_map_new(bst_ctx *ctx, size_t N, size_t r, size_t nnz, bsti_lr_map **
         bsti_lr_map_free(ctx, S);
         return BST_ENOMEM;
     }
-    S->N = N, S->r = r, S->k = -1, S->d = -1, S->refs = 1, S->ctx = ctx;
+    S->N = N, S->r = r, S->k = -1, S->d = -1;
     S->start[0] = 0, S->start[N] = nnz;
     *out = S;
     return BST_OK;

@@ -41,12 +41,13 @@ int bsti_mat_lr_settle(bst_ctx *ctx, bst_mat **m);
  * NULL for another structure or when that memory is not there (the writer then reads the values
  * one by one, as before). */
 double *bsti_mat_lr_values(bst_ctx *ctx, const bst_mat *m);
-/* Whether m is FACTORED over a wide map: one not a prolongation (tagged "P") nor a Klems overlap
- * table, whose rows hold more than BSTI_LR_WIDE entries on average (a venetian blind's strips:
- * venetian_layer.c).  Each value then costs p q times the square of a row's entries through the
- * factors, so that the element- and line-wise readers (writer, bounds, checks) take minutes at
- * k = 6; such a matrix is expanded once, by GEMM, before them (bsti_mat_lr_expand). */
-#define BSTI_LR_WIDE 8
+/* Whether m is FACTORED over a wide map: an untagged one, made of a layer's own lines (a
+ * venetian blind's strips: venetian_layer.c; a sheet's spread: perforated.c), not a prolongation
+ * (tagged "P", one entry a row) nor a Klems overlap table.  Through the factors each value costs
+ * p q times the square of a row's entries (64 for a blind, 5 for a sheet), so that the element-
+ * and line-wise readers (writer, bounds, checks) take minutes at k = 6 (a sheet's stack: 17 s of
+ * 18 at k = 5); such a matrix is expanded once, by GEMM (p r multiply-adds a value, r <= 8 x
+ * segments), before them (bsti_mat_lr_expand). */
 int bsti_mat_lr_wide(const bst_mat *m);
 /* A FACTORED m as a dense matrix of precision prec, D + (A K) B^T by GEMM (double) over the rows
  * and columns of K that are not zero (the values equal bsti_lr_get's to rounding, not to the

@@ -270,7 +270,7 @@ int bsti_mat_lr_wide(const bst_mat *m)
     if (!m || m->s != BST_FACTORED)
         return 0;
     const bsti_lr_map *S = m->lr->S;
-    return !S->single && !S->tag[0] && S->start[S->N] > BSTI_LR_WIDE * S->N;
+    return !S->single && !S->tag[0];
 }
 
 /* The indices of K's lines (rows: cols 0, columns: 1) holding a value not 0, into idx; their count. */

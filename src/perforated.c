@@ -19,6 +19,7 @@
 #include <strings.h>
 
 #include "ctx.h"
+#include "mat.h"
 #include "venetian.h"
 
 enum { P_X, P_Y, P_THICK, P_RADIUS, P_HX, P_HY, P_R, P_RF, P_RB, P_T, P_SAMPLES, P_RULE, NPKEYS };
@@ -193,31 +194,61 @@ static void halton2(size_t k, double *u, double *v)
     *v = r;
 }
 
-/* Component values: the diagonal (open share over Lambda) and, with diffuse values, the rank-one
- * part r (1 - F_i)(1 - F_o) / (pi (1 - Fm)) added densely. */
-static int component(bst_ctx *ctx, const bst_basis *b, const double *F, double Fm, double r,
-                     int transmit, bst_mat **out)
+/* Component c of channel ch: diag(dg[c]) + o in[c]^T, factored over the channel's map
+ * [o | in[TF] | in[RF] | in[TB] | in[RB]] (K pairs column 0 with column 1 + c), or the diagonal
+ * alone where in[c] is NULL. */
+static int sheet_component(bst_ctx *ctx, size_t n, bsti_lr_map *S, const double *dg,
+                           const double *in, int c, bst_mat **out)
 {
-    size_t n = bst_basis_size(b);
-    const double *lam = bst_basis_lambda(b);
-    double *diag = bsti_alloc_array(ctx, n, sizeof *diag);
-    if (!diag)
+    if (!in) {
+        if (dg)
+            return bst_mat_new_diag(ctx, n, dg, out);
+        double *z = bsti_calloc(ctx, n, sizeof *z);
+        int rc = z ? bst_mat_new_diag(ctx, n, z, out) : BST_ENOMEM;
+        bsti_free(ctx, z);
+        return rc;
+    }
+    size_t r = S->r;
+    double *K = bsti_calloc(ctx, r * r, sizeof *K);
+    if (!K)
         return BST_ENOMEM;
-    for (size_t i = 0; i < n; i++)
-        diag[i] = transmit ? F[i] / lam[i] : 0.0;
-    int rc;
-    if (r <= 0 || 1 - Fm < 1e-15) {
-        rc = bst_mat_new_diag(ctx, n, diag, out);
-    } else {
-        rc = bst_mat_new_dense(ctx, n, n, BST_DOUBLE, out);
-        double *m = rc >= 0 ? bst_mat_dense_data(*out) : NULL;
-        for (size_t i = 0; m && i < n; i++) {
-            for (size_t o = 0; o < n; o++)
-                m[i * n + o] = r * (1 - F[i]) * (1 - F[o]) / (M_PI * (1 - Fm));
-            m[i * n + i] += diag[i];
+    K[r * (1 + (size_t)c)] = 1.0;
+    bsti_lr *lr;
+    int rc = bsti_lr_new(ctx, S, dg, NULL, K, NULL, &lr);
+    if (rc >= 0)
+        rc = bsti_mat_from_lr(ctx, lr, out);
+    bsti_free(ctx, K);
+    return rc;
+}
+
+int bsti_sheet_channel(bst_ctx *ctx, const bst_basis *basis, const double *o,
+                       const double *const in[BST_NCOMP], const double *const dg[BST_NCOMP],
+                       bst_layer *l, size_t ch)
+{
+    size_t n = bst_basis_size(basis), nnz = 0, r = 1 + BST_NCOMP;
+    const double *col[1 + BST_NCOMP] = {o, in[0], in[1], in[2], in[3]};
+    bsti_lr_map *S = NULL;
+    int rc = BST_OK, any = in[0] || in[1] || in[2] || in[3];
+    for (size_t q = 0; any && q < r; q++)
+        for (size_t x = 0; col[q] && x < n; x++)
+            nnz += col[q][x] != 0.0;
+    if (any && (rc = bsti_lr_map_new(ctx, n, r, nnz, &S)) >= 0) {
+        S->k = bst_basis_kind_of(basis) == BST_BASIS_SHIRLEY_CHIU ? bst_basis_order(basis) : -1;
+        nnz = 0;
+        for (size_t x = 0; x < n; x++) {
+            S->start[x] = nnz;
+            for (size_t q = 0; q < r; q++)
+                if (col[q] && col[q][x] != 0.0)
+                    S->col[nnz] = q, S->w[nnz++] = col[q][x];
         }
     }
-    bsti_free(ctx, diag);
+    for (int c = 0; c < BST_NCOMP && rc >= 0; c++) {
+        bst_mat *m = NULL;
+        rc = sheet_component(ctx, n, S, dg[c], in[c], c, &m);
+        if (rc >= 0)
+            rc = bst_layer_set(ctx, l, ch, (bst_comp)c, m);
+    }
+    bsti_lr_map_free(ctx, S);
     return rc;
 }
 
@@ -252,21 +283,32 @@ int bsti_open_layer(bst_ctx *ctx, const bst_basis *basis, double (*share)(const 
     }
     for (size_t i = 0; i < n; i++)
         Fm += lam[i] * F[i] / M_PI;
+    /* the diffuse part r (1 - F_i)(1 - F_o) / (pi (1 - Fm)): o = 1 - F, in = r o / (pi (1 - Fm)) */
+    double *buf = bsti_alloc_array(ctx, 6 * n, sizeof *buf);
     bst_layer *l = NULL;
-    int rc = bst_layer_new(ctx, basis, nchannels, channels, &l);
+    int rc = buf ? bst_layer_new(ctx, basis, nchannels, channels, &l) : BST_ENOMEM;
+    double *o = buf, *diag = buf ? buf + n : NULL;
+    for (size_t i = 0; buf && i < n; i++)
+        o[i] = 1.0 - F[i], diag[i] = F[i] / lam[i];
     for (size_t ch = 0; ch < nchannels && rc >= 0; ch++) {
         double x[3] = {v[0], v[1], v[2]};
         for (int k = 0; k < 3 && strcasecmp(channels[ch], "Solar") == 0; k++)
             if (!isnan(sol[k]))
                 x[k] = sol[k];
         const double r[BST_NCOMP] = {[BST_TF] = x[2], [BST_TB] = x[2], [BST_RF] = x[0], [BST_RB] = x[1]};
-        for (int c = 0; c < BST_NCOMP && rc >= 0; c++) {
-            bst_mat *m = NULL;
-            rc = component(ctx, basis, F, Fm, r[c], c == BST_TF || c == BST_TB, &m);
-            if (rc >= 0)
-                rc = bst_layer_set(ctx, l, ch, (bst_comp)c, m);
+        const double *in[BST_NCOMP] = {NULL}, *dg[BST_NCOMP] = {NULL};
+        for (int c = 0; c < BST_NCOMP; c++) {
+            dg[c] = c == BST_TF || c == BST_TB ? diag : NULL;
+            if (r[c] <= 0 || 1 - Fm < 1e-15)
+                continue;
+            double *w = buf + (2 + (size_t)c) * n;
+            for (size_t i = 0; i < n; i++)
+                w[i] = r[c] * o[i] / (M_PI * (1 - Fm));
+            in[c] = w;
         }
+        rc = bsti_sheet_channel(ctx, basis, o, in, dg, l, ch);
     }
+    bsti_free(ctx, buf);
     bsti_free(ctx, F);
     if (rc < 0) {
         bst_layer_free(l);

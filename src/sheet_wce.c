@@ -111,28 +111,20 @@ static void scattered(const bst_woven *w, const double *d, double F, const doubl
     dd[3][i] += wt * ((1.0 - F) * x[1] - sb);
 }
 
-/* One channel's four components from F and the scattered parts dd into l's channel ch. */
+/* One channel's four components from F and the scattered parts dd into l's channel ch: each
+ * D(i) / pi spread uniformly, factored (bsti_sheet_channel) with o = 1 / pi. */
 static int put_channel(bst_ctx *ctx, const bst_basis *basis, const double *F, double *const dd[4],
-                       bst_layer *l, size_t ch)
+                       double *work, bst_layer *l, size_t ch)
 {
-    static const bst_comp comp[4] = {BST_TF, BST_RF, BST_TB, BST_RB};
     size_t n = bst_basis_size(basis);
     const double *lam = bst_basis_lambda(basis);
-    int rc = BST_OK;
-    for (int k = 0; k < 4 && rc >= 0; k++) {
-        bst_mat *m = NULL;
-        rc = bst_mat_new_dense(ctx, n, n, BST_DOUBLE, &m);
-        double *a = rc >= 0 ? bst_mat_dense_data(m) : NULL;
-        for (size_t i = 0; a && i < n; i++) { /* column i: incident patch i */
-            for (size_t o = 0; o < n; o++)
-                a[i * n + o] = dd[k][i] / M_PI;
-            if (k == 0 || k == 2)
-                a[i * n + i] += F[i] / lam[i];
-        }
-        if (rc >= 0)
-            rc = bst_layer_set(ctx, l, ch, comp[k], m);
-    }
-    return rc;
+    double *o = work, *diag = work + n;
+    for (size_t i = 0; i < n; i++)
+        o[i] = 1.0 / M_PI, diag[i] = F[i] / lam[i];
+    const double *in[BST_NCOMP] = {[BST_TF] = dd[0], [BST_RF] = dd[1], [BST_TB] = dd[2],
+                                   [BST_RB] = dd[3]};
+    const double *dg[BST_NCOMP] = {[BST_TF] = diag, [BST_TB] = diag};
+    return bsti_sheet_channel(ctx, basis, o, in, dg, l, ch);
 }
 
 int bsti_sheet_wce_layer(bst_ctx *ctx, const bst_basis *basis, const bst_perforated *p,
@@ -143,7 +135,7 @@ int bsti_sheet_wce_layer(bst_ctx *ctx, const bst_basis *basis, const bst_perfora
     if (!nchannels)
         nchannels = 2, channels = dual;
     size_t n = bst_basis_size(basis);
-    double *buf = bsti_alloc_array(ctx, 6 * n, sizeof *buf), *dirs = NULL;
+    double *buf = bsti_alloc_array(ctx, 8 * n, sizeof *buf), *dirs = NULL;
     if (buf)
         dirs = bsti_alloc_array(ctx, 3 * n, sizeof *dirs);
     if (!dirs) {
@@ -168,7 +160,7 @@ int bsti_sheet_wce_layer(bst_ctx *ctx, const bst_basis *basis, const bst_perfora
             if (solar)
                 scattered(w, d, F[i], o, 1.0 - BST_DUAL_BAND_F, dd, i);
         }
-        rc = put_channel(ctx, basis, F, dd, l, ch);
+        rc = put_channel(ctx, basis, F, dd, buf + 6 * n, l, ch);
     }
     bsti_free(ctx, buf);
     bsti_free(ctx, dirs);

@@ -122,6 +122,14 @@ long bsti_vn_curved_trace(const bsti_vn_geom *g, const double start[2], const do
 int bsti_open_layer(bst_ctx *ctx, const bst_basis *basis, double (*share)(const void *, const double *),
                     const void *data, const double v[3], const double sol[3], int samples,
                     size_t nchannels, const char *const *channels, bst_layer **out);
+/* Channel ch of l from a sheet's parts: component c = diag(dg[c]) + o in[c]^T (o over the
+ * outgoing patches, in[c] over the incident ones, N values each; dg[c] NULL: no diagonal; in[c]
+ * NULL: the diagonal alone, zero without one), each factored (lowrank.h) over one map
+ * [o | in[TF] | in[RF] | in[TB] | in[RB]] of the channel: the stack keeps a screen or a fabric at
+ * rank one instead of N^2 values a component (perforated.c). */
+int bsti_sheet_channel(bst_ctx *ctx, const bst_basis *basis, const double *o,
+                       const double *const in[BST_NCOMP], const double *const dg[BST_NCOMP],
+                       bst_layer *l, size_t ch);
 /* WINDOW's models of sheets (sheet_wce.c; rule=centre of bst_perforated and bst_woven): the
  * layer with every patch at its centre (exactly one of p, w given; v and sol as for
  * bsti_open_layer); WCE's open share of a screen and of a fabric along unit direction d, and

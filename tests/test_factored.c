@@ -108,8 +108,34 @@ static bst_layer *matte_blind(const bst_basis *b)
     return l;
 }
 
+/* 'p' a perforated screen (diagonal + rank one over its channel's map), 'w' a woven fabric in
+ * WINDOW's model (rule=centre: the uniform spread, rank one a component over a map of five). */
+#define SCREEN "x=3mm,y=3mm,radius=1mm,thickness=1mm,r=0.6,t=0.05"
+#define FABRIC "diameter=0.5mm,spacing=1.6mm,r=0.6,t=0.1,rule=centre"
+static bst_layer *sheet(const char *kind, const bst_basis *b)
+{
+    const char *ch = "Visible";
+    bst_layer *l;
+    if (kind[0] == 'p') {
+        bst_perforated p;
+        ck_assert_int_eq(bst_perforated_parse(ctx, SCREEN, &p), BST_OK);
+        ck_assert_int_eq(bst_perforated_layer(ctx, &p, b, 1, &ch, &l), BST_OK);
+    } else {
+        bst_woven w;
+        ck_assert_int_eq(bst_woven_parse(ctx, FABRIC, &w), BST_OK);
+        ck_assert_int_eq(bst_woven_layer(ctx, &w, b, 1, &ch, &l), BST_OK);
+    }
+    for (int c = 0; c < BST_NCOMP; c++) {
+        const bst_mat *m = bst_layer_get(l, 0, (bst_comp)c);
+        ck_assert_int_eq(bst_mat_structure(m), BST_FACTORED);
+        ck_assert_uint_le(bsti_mat_rank(m), 5);
+    }
+    return l;
+}
+
 static const char *const stacks[] = {"g3", "3g", "g3g", "g4^g3", "gDg3", "g3^Kg", "34^", "gI^g",
-                                     "t3t", "t4^gt", "gvg", "gv^g", "vgv^", "3vg"};
+                                     "t3t", "t4^gt", "gvg", "gv^g", "vgv^", "3vg", "gpg", "gw^g",
+                                     "pgw", "pv"};
 #define NSTACKS (sizeof stacks / sizeof stacks[0])
 
 static size_t build(const char *spec, const bst_basis *b, bst_layer **layers)
@@ -130,6 +156,7 @@ static size_t build(const char *spec, const bst_basis *b, bst_layer **layers)
                       : *c == 'D' ? tu_layer(ctx, "L_blind0_t4k5.xml", b)
                       : *c == 'I' ? file_layer_rule(iso3, b, BST_RANK3_NATIVE)
                       : *c == 'v' ? matte_blind(b)
+                      : *c == 'p' || *c == 'w' ? sheet(c, b)
                                   : tu_layer(ctx, "L_diffuser_t3k5_klems.xml", b);
     }
     return n;
@@ -233,9 +260,10 @@ START_TEST(test_stacks)
     bst_layer *fact, *dense;
     ck_assert_int_ge(bst_stack_combine(ctx, n, (const bst_layer *const *)layers, &o, &fact), 0);
     if (strcmp(spec, "g3") == 0 || strcmp(spec, "g3g") == 0 || strcmp(spec, "3g") == 0 ||
-        strcmp(spec, "gI^g") == 0 || strcmp(spec, "gvg") == 0 || strcmp(spec, "gv^g") == 0)
+        strcmp(spec, "gI^g") == 0 || strcmp(spec, "gvg") == 0 || strcmp(spec, "gv^g") == 0 ||
+        strcmp(spec, "gpg") == 0 || strcmp(spec, "gw^g") == 0)
         ck_assert_int_gt(factored_steps, 0);
-    if (strchr(spec, 'v')) /* a wide map's results are handed over expanded (mat.h) */
+    if (strpbrk(spec, "vpw")) /* a wide map's results are handed over expanded (mat.h) */
         for (int c = 0; c < BST_NCOMP; c++)
             ck_assert_int_ne(bst_mat_structure(bst_layer_get(fact, 0, (bst_comp)c)), BST_FACTORED);
     if (spec[0] == 't') { /* the sparse tree joins the factored shade (t3t: every component of
