@@ -563,6 +563,39 @@ double bst_plan_work(size_t n, const bst_structure *structure, size_t N, double 
 double bst_plan_memory(const bst_basis *basis, size_t n, const bst_bsdf *const *files,
                        unsigned comps, bst_precision read, int combining, bst_precision work,
                        size_t *ndense);
+/* A layer as the model sees it before it is made: read from `file` (as above), or made from a
+ * spec (file NULL): what it will hold, all channels together, as bst_shade_model_plan tells (a
+ * pane: all zero, its components diagonal). */
+typedef struct {
+    const bst_bsdf *file; /* the file it is read from, or NULL: made */
+    size_t nchannels;     /* made: its channels (0: not known, a pane) */
+    size_t dense;         /* made: components held dense, N x N doubles each */
+    size_t factored;      /* made: components held factored over a wide map (mat.h: a venetian
+                             blind's strips), the diagonal and width x width values each */
+    size_t width;         /* made: that map's columns (every row holds at most that many) */
+} bst_plan_held;
+/* What the need counts beyond the base, for a message. */
+typedef struct {
+    size_t dense;          /* N x N components the layers hold dense */
+    double dense_bytes;    /* their bytes: files' in the read precision, made layers' in double */
+    size_t expanded;       /* components expanded from factored ones over wide maps: a
+                              combination's results (channels x components), else the made
+                              layers' own, which the writer expands */
+    double expanded_bytes; /* their bytes: results in the work precision, else doubles */
+} bst_plan_need;
+/* bst_plan_memory over layers some of which are made from specs: their dense components count
+ * as a file's, in double; their factored ones count their own size (the diagonal, width x width
+ * values and the map's N x width entries of 16 bytes, once a channel), and where no layer holds
+ * a dense component, their expansion: a combination hands its results over expanded (every
+ * channel in common, at most the fewest a file or made layer holds, times the components asked
+ * for by comps, N^2 values of the work precision each), and without one the writer expands every
+ * factored component as doubles; either adds one N^2 grid of doubles (the last expansion's, or
+ * the writer's).  A made layer's sparse parts (mirror or black slats) count as the rest.  comps
+ * selects the components read from files and those a combination hands over; *need (may be
+ * NULL) gets what was counted. */
+double bst_plan_memory_held(const bst_basis *basis, size_t n, const bst_plan_held *layers,
+                            unsigned comps, bst_precision read, int combining, bst_precision work,
+                            bst_plan_need *need);
 
 /* --------------------------- BSDF XML writer: xml_write.c, ttree_write.c, ttree_rank3.c, sink.c */
 
@@ -1077,6 +1110,16 @@ int bst_shade_parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, b
 /* The model as a layer over basis (nchannels 0: Visible and Solar), by its kind's *_layer. */
 int bst_shade_model_layer(bst_ctx *ctx, const bst_shade_model *m, const bst_basis *basis,
                           size_t nchannels, const char *const *channels, bst_layer **out);
+/* What the model's layer over basis (channels as bst_shade_model_layer takes them) will hold,
+ * for the memory model (bst_plan_memory_held), without making it.  Per channel: a venetian blind
+ * of WINDOW's model (rule=centre) four dense components; of the default model with diffuse slats
+ * (r_up, r_down or t above 0), four factored over the strips' map (width 8 segments) when it has
+ * no mirror part (rs = 0) and 8 segments is below N / 2 (mat.h, BSTI_LR_DENSE_SHARE), else four
+ * dense; mirror or black slats sparse (none counted).  A perforated screen or a woven fabric with
+ * diffuse values: four factored components (the diagonal and rank at most 5 over a wide map,
+ * both rules), else diagonal.  BST_OK, or BST_EINVAL for a NULL argument or an unknown kind. */
+int bst_shade_model_plan(bst_ctx *ctx, const bst_shade_model *m, const bst_basis *basis,
+                         size_t nchannels, const char *const *channels, bst_plan_held *out);
 /* The model as the spec that makes it ("venetian:width=16mm,...", values as VISIBLE/SOLAR where
  * the Solar channel differs), into buf (size bytes, truncated); returns the length it needs. */
 size_t bst_shade_model_spec(const bst_shade_model *m, char *buf, size_t size);

@@ -216,45 +216,109 @@ static int decide(size_t n, const bst_plan_layer *layers, int per_channel, size_
     return 1;
 }
 
+/* The sums over the layers the model counts (bst_plan_memory_held). */
+struct held_sum {
+    size_t dense_files, dense_made, factored;
+    double sparse;   /* bytes of file components that come out sparse (value and index each) */
+    double coarse;   /* bytes of coarse matrices held factored, and the largest one */
+    double largest;
+    double made_small; /* bytes of made layers' factored components (diagonals, K, maps) */
+    size_t nres;     /* the fewest channels a file or made layer holds (0: none known) */
+};
+
+static void fewest(struct held_sum *t, size_t nch)
+{
+    if (nch && (!t->nres || nch < t->nres))
+        t->nres = nch;
+}
+
+/* A file layer's components: dense, sparse or (a tree coarser than k) factored. */
+static void count_file(const bst_bsdf *f, unsigned comps, int k, double cells, struct held_sum *t)
+{
+    int d = bst_bsdf_depth(f);
+    /* a rank-4 tree coarser than k: its own order's matrix (resample.c, tree_is_factored); so is
+     * a rank-3 one laid on the grid at its own order (BST_RANK3_NATIVE) */
+    bst_file_kind kind = bst_bsdf_kind(f);
+    int at_own = kind == BST_FILE_TT4 ||
+                 (kind == BST_FILE_TT3 && bst_bsdf_rank3_rule(f) == BST_RANK3_NATIVE);
+    double coarse = at_own && d >= 1 && d < k ? 8.0 * pow(4.0, 2.0 * d) : 0.0;
+    fewest(t, bst_bsdf_nchannels(f));
+    for (size_t ch = 0; ch < bst_bsdf_nchannels(f); ch++)
+        for (int c = 0; c < BST_NCOMP; c++) {
+            double x = !comps || (comps & BST_COMP_BIT(c)) ? bst_bsdf_fill(f, ch, (bst_comp)c) : 0;
+            if (x > BST_SPARSE_MAX_FILL && coarse > 0)
+                t->coarse += coarse, t->largest = fmax(t->largest, coarse);
+            else if (x > BST_SPARSE_MAX_FILL)
+                t->dense_files++;
+            else
+                t->sparse += 16.0 * x * cells;
+        }
+}
+
+/* The model over layers[i], or files[i] where layers is NULL (either may be NULL). */
+static double memory_of(const bst_basis *basis, size_t n, const bst_bsdf *const *files,
+                        const bst_plan_held *layers, unsigned comps, bst_precision read,
+                        int combining, bst_precision work, bst_plan_need *need)
+{
+    double N = (double)bst_basis_size(basis), cells = N * N;
+    int k = bst_basis_kind_of(basis) == BST_BASIS_SHIRLEY_CHIU ? bst_basis_order(basis) : 0;
+    struct held_sum t = {0};
+    for (size_t i = 0; (layers || files) && i < n; i++) {
+        const bst_plan_held none = {.file = files ? files[i] : NULL}, *h = layers ? &layers[i] : &none;
+        if (h->file) {
+            count_file(h->file, comps, k, cells, &t);
+            continue;
+        }
+        fewest(&t, h->nchannels);
+        t.dense_made += h->dense;
+        t.factored += h->factored;
+        if (h->factored) /* each: its diagonal and K; the map once a channel */
+            t.made_small += (double)h->factored * 8.0 * (N + (double)h->width * (double)h->width) +
+                            (double)(h->nchannels ? h->nchannels : 1) * 16.0 * N * (double)h->width;
+    }
+    double rb = read == BST_FLOAT ? 4.0 : 8.0, wb = work == BST_FLOAT ? 4.0 : 8.0;
+    bst_plan_need got = {.dense = t.dense_files + t.dense_made,
+                         .dense_bytes = cells * ((double)t.dense_files * rb + (double)t.dense_made * 8.0)};
+    double base = 64.0 * 1048576.0 + 0.5 * cells + t.sparse + t.coarse + t.made_small, bytes;
+    if (got.dense) {
+        double w = combining ? 3.0 * wb : 0.0;
+        bytes = base + got.dense_bytes + cells * (w > 8.0 ? w : 8.0);
+    } else if (t.factored) {
+        /* a stack of factored layers over wide maps hands its results over expanded (stack.c,
+         * hand_over); one without a combination is written with each expanded (xml_write.c) */
+        unsigned want = comps ? comps & BST_COMP_ALL : BST_COMP_ALL;
+        size_t nc = 0;
+        for (int c = 0; c < BST_NCOMP; c++)
+            nc += (want & BST_COMP_BIT(c)) != 0;
+        got.expanded = combining ? (t.nres ? t.nres : 1) * nc : t.factored;
+        got.expanded_bytes = cells * (double)got.expanded * (combining ? wb : 8.0);
+        bytes = base + got.expanded_bytes + 8.0 * cells + (combining ? 3.0 * t.largest : 0.0);
+    } else {
+        /* a factored combination works on coarse matrices: about three at a time; the tree
+         * writer expands one factored component (xml_write.c) */
+        bytes = base + (combining ? 3.0 * t.largest : 0.0) + (t.coarse > 0 ? 8.0 * cells : 0.0);
+    }
+    if (need)
+        *need = got;
+    return bytes;
+}
+
+double bst_plan_memory_held(const bst_basis *basis, size_t n, const bst_plan_held *layers,
+                            unsigned comps, bst_precision read, int combining, bst_precision work,
+                            bst_plan_need *need)
+{
+    return memory_of(basis, n, NULL, layers, comps, read, combining, work, need);
+}
+
 double bst_plan_memory(const bst_basis *basis, size_t n, const bst_bsdf *const *files,
                        unsigned comps, bst_precision read, int combining, bst_precision work,
                        size_t *ndense)
 {
-    double cells = (double)bst_basis_size(basis) * (double)bst_basis_size(basis);
-    int k = bst_basis_kind_of(basis) == BST_BASIS_SHIRLEY_CHIU ? bst_basis_order(basis) : 0;
-    size_t held = 0;
-    double sparse = 0;   /* bytes of components that come out sparse (value and index each) */
-    double factored = 0; /* bytes of coarse matrices held factored, and the largest one */
-    double largest = 0;
-    for (size_t i = 0; files && i < n; i++) {
-        if (!files[i])
-            continue;
-        int d = bst_bsdf_depth(files[i]);
-        /* a rank-4 tree coarser than k: its own order's matrix (resample.c, tree_is_factored);
-         * so is a rank-3 one laid on the grid at its own order (BST_RANK3_NATIVE) */
-        bst_file_kind kind = bst_bsdf_kind(files[i]);
-        int at_own = kind == BST_FILE_TT4 ||
-                     (kind == BST_FILE_TT3 && bst_bsdf_rank3_rule(files[i]) == BST_RANK3_NATIVE);
-        double coarse = at_own && d >= 1 && d < k ? 8.0 * pow(4.0, 2.0 * d) : 0.0;
-        for (size_t ch = 0; ch < bst_bsdf_nchannels(files[i]); ch++)
-            for (int c = 0; c < BST_NCOMP; c++) {
-                double f = !comps || (comps & BST_COMP_BIT(c)) ? bst_bsdf_fill(files[i], ch, (bst_comp)c) : 0;
-                if (f > BST_SPARSE_MAX_FILL && coarse > 0)
-                    factored += coarse, largest = fmax(largest, coarse);
-                else if (f > BST_SPARSE_MAX_FILL)
-                    held++;
-                else
-                    sparse += 16.0 * f * cells;
-            }
-    }
+    bst_plan_need need;
+    double bytes = memory_of(basis, n, files, NULL, comps, read, combining, work, &need);
     if (ndense)
-        *ndense = held;
-    double need = 64.0 * 1048576.0 + 0.5 * cells + sparse + factored;
-    if (held == 0) /* a factored combination works on coarse matrices: about three at a time; the
-                      tree writer expands one factored component (xml_write.c) */
-        return need + (combining ? 3.0 * largest : 0.0) + (factored > 0 ? 8.0 * cells : 0.0);
-    double w = combining ? 3.0 * (work == BST_FLOAT ? 4.0 : 8.0) : 0.0;
-    return need + cells * ((double)held * (read == BST_FLOAT ? 4.0 : 8.0) + (w > 8.0 ? w : 8.0));
+        *ndense = need.dense;
+    return bytes;
 }
 
 double bst_plan_work(size_t n, const bst_structure *structure, size_t N, double *work)

@@ -24,10 +24,12 @@
 #include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
+#include <strings.h>
 #include <unistd.h>
 
 #include "ctx.h"
 #include "glass.h"
+#include "mat.h"
 
 #define MM 1e-3 /* the record's lengths are millimetres, the models' metres */
 
@@ -238,6 +240,67 @@ int bst_shade_model_layer(bst_ctx *ctx, const bst_shade_model *m, const bst_basi
     case BST_SHADE_WOVEN: return bst_woven_layer(ctx, &m->woven, basis, nchannels, channels, out);
     default: return bsti_error(ctx, BST_EINVAL, "shade layer: kind %d unknown", (int)m->kind);
     }
+}
+
+/* What one channel of a venetian blind of slat values v holds (bst_venetian_layer, make_band,
+ * make_map; venetian_wce.c): 4 dense, 4 factored over the strips' map, or none (sparse). */
+static void venetian_channel(const bst_venetian *v, size_t N, bst_plan_held *h)
+{
+    int diffuse = v->r_up > 0 || v->r_down > 0 || v->t > 0;
+    size_t width = 8 * (size_t)v->segments; /* [U_ext | U_int | Q_ext^T | Q_int^T] */
+    if (v->rule == BST_VENETIAN_CENTRE)
+        h->dense += BST_NCOMP;
+    else if (diffuse && v->rs == 0 && (double)width < BSTI_LR_DENSE_SHARE * (double)N)
+        h->factored += BST_NCOMP, h->width = width > h->width ? width : h->width;
+    else if (diffuse)
+        h->dense += BST_NCOMP;
+}
+
+/* Whether a sheet's channel scatters: any diffuse value above 0 (sol's where not NaN). */
+static int sheet_scatters(const double v[3], const double sol[3], int solar)
+{
+    for (int k = 0; k < 3; k++)
+        if ((solar && !isnan(sol[k]) ? sol[k] : v[k]) > 0)
+            return 1;
+    return 0;
+}
+
+int bst_shade_model_plan(bst_ctx *ctx, const bst_shade_model *m, const bst_basis *basis,
+                         size_t nchannels, const char *const *channels, bst_plan_held *out)
+{
+    if (!ctx || !m || !basis || !out || (nchannels && !channels))
+        return ctx ? bsti_error(ctx, BST_EINVAL, "shade plan: NULL argument") : BST_EINVAL;
+    static const char *const dual[] = {"Visible", "Solar"};
+    if (!nchannels)
+        nchannels = 2, channels = dual;
+    memset(out, 0, sizeof *out);
+    out->nchannels = nchannels;
+    size_t N = bst_basis_size(basis);
+    const bst_venetian *v = &m->venetian;
+    bst_venetian vs = *v; /* the Solar channel's slat values, as bst_venetian_layer takes them */
+    double *sv[4] = {&vs.r_up, &vs.r_down, &vs.t, &vs.rs};
+    for (int k = 0; k < 4; k++)
+        if (!isnan(v->solar[k]))
+            *sv[k] = v->solar[k];
+    for (size_t c = 0; c < nchannels; c++) {
+        int solar = strcasecmp(channels[c], "Solar") == 0;
+        double x[3];
+        const double *sol = NULL;
+        switch (m->kind) {
+        case BST_SHADE_VENETIAN: venetian_channel(solar ? &vs : v, N, out); continue;
+        case BST_SHADE_PERFORATED:
+            x[0] = m->perforated.rf, x[1] = m->perforated.rb, x[2] = m->perforated.t;
+            sol = m->perforated.solar;
+            break;
+        case BST_SHADE_WOVEN:
+            x[0] = m->woven.rf, x[1] = m->woven.rb, x[2] = m->woven.t, sol = m->woven.solar;
+            break;
+        default: return bsti_error(ctx, BST_EINVAL, "shade plan: kind %d unknown", (int)m->kind);
+        }
+        if (sheet_scatters(x, sol, solar)) /* the diagonal and rank <= 5 over a wide map */
+            out->factored += BST_NCOMP, out->width = 5;
+    }
+    return BST_OK;
 }
 
 int bst_shade_spec_layer(bst_ctx *ctx, const char *spec, const char *catalogue_dir,

@@ -1,6 +1,7 @@
 /* test_plan.c - the stack's decisions (plan.c): the basis rule over files of every kind, the
  * warning for a k above every rank-4 tree's order, the spectral plan's every branch with its
- * reason, the common channels and bands, and the memory model against its closed form. */
+ * reason, the common channels and bands, and the memory model against its closed form, over
+ * files and over layers made from shade specs (what those will hold, against the layers made). */
 #include <config.h>
 
 #include <math.h>
@@ -167,6 +168,124 @@ START_TEST(test_memory)
 }
 END_TEST
 
+/* The components of l that are dense and factored, all channels together. */
+static void count_made(const bst_layer *l, size_t *dense, size_t *factored)
+{
+    *dense = *factored = 0;
+    for (size_t ch = 0; ch < bst_layer_nchannels(l); ch++)
+        for (int c = 0; c < BST_NCOMP; c++) {
+            bst_structure s = bst_mat_structure(bst_layer_get(l, ch, (bst_comp)c));
+            *dense += s == BST_DENSE;
+            *factored += s == BST_FACTORED;
+        }
+}
+
+/* A shade spec's plan at order k with the channels given (NULL: the default two), checked
+ * against the layer the model then makes: as many dense and factored components. */
+static bst_plan_held plan_of(const char *spec, int k, size_t nch, const char *const *names)
+{
+    bst_shade_model m;
+    bst_basis *b;
+    bst_plan_held h;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, k, &b), BST_OK);
+    ck_assert_msg(bst_shade_parse(ctx, spec, NULL, &m) >= 0, "%s", bst_ctx_message(ctx));
+    ck_assert_int_eq(bst_shade_model_plan(ctx, &m, b, nch, names, &h), BST_OK);
+    ck_assert_ptr_null(h.file);
+    ck_assert_uint_eq(h.nchannels, nch ? nch : 2);
+    if (m.kind == BST_SHADE_VENETIAN) { /* perforated and woven layers are being factored (#32) */
+        bst_layer *l;
+        size_t dense, factored;
+        ck_assert_int_eq(bst_shade_model_layer(ctx, &m, b, nch, names, &l), BST_OK);
+        count_made(l, &dense, &factored);
+        ck_assert_msg(dense == h.dense && factored == h.factored, "%s at k = %d: made %zu dense "
+                      "%zu factored, planned %zu and %zu", spec, k, dense, factored, h.dense,
+                      h.factored);
+        bst_layer_free(l);
+    }
+    bst_basis_free(b);
+    return h;
+}
+
+/* What shade layers will hold, by their model's rules (bsdfstack.h, bst_shade_model_plan), and
+ * the same as the venetian layers made hold. */
+START_TEST(test_shade_plan)
+{
+    const char *vis[1] = {"Visible"}, *both[2] = {"Solar", "Visible"};
+    bst_plan_held h = plan_of("venetian:width=16mm,spacing=14.5mm,rs=0.765,r=0.085", 3, 0, NULL);
+    ck_assert(h.dense == 8 && h.factored == 0); /* a mirror part: dense */
+    h = plan_of("venetian:width=16mm,spacing=14.5mm,r=0.7", 4, 0, NULL);
+    ck_assert(h.dense == 0 && h.factored == 8 && h.width == 64); /* matte: factored, 8 x 8 strips */
+    h = plan_of("venetian:width=16mm,spacing=14.5mm,r=0.7", 2, 0, NULL); /* N = 16: 64 >= N / 2 */
+    ck_assert(h.dense == 8 && h.factored == 0);
+    h = plan_of("venetian:width=16mm,spacing=14.5mm,r=0.7,segments=2", 3, 1, vis);
+    ck_assert(h.dense == 0 && h.factored == 4 && h.width == 16); /* N = 64: 16 < N / 2 */
+    h = plan_of("venetian:width=16mm,spacing=14.5mm,r=0.7,rs=0/0.3", 4, 2, both);
+    ck_assert(h.dense == 4 && h.factored == 4); /* the Solar channel has a mirror part */
+    h = plan_of("venetian:width=16mm,spacing=14.5mm,rs=0.9", 3, 0, NULL);
+    ck_assert(h.dense == 0 && h.factored == 0); /* mirror slats: sparse */
+    h = plan_of("venetian:width=16mm,spacing=14.5mm,r=0.7,rule=centre", 3, 0, NULL);
+    ck_assert(h.dense == 8 && h.factored == 0); /* WINDOW's model: dense */
+    h = plan_of("perforated:x=5mm,y=5mm,radius=1mm,r=0.7", 3, 0, NULL);
+    ck_assert(h.dense == 0 && h.factored == 8 && h.width == 5);
+    h = plan_of("perforated:x=5mm,y=5mm,radius=1mm,r=0/0.2", 3, 1, vis);
+    ck_assert(h.dense == 0 && h.factored == 0); /* black in Visible: the open share, diagonal */
+    h = plan_of("woven:diameter=0.5mm,spacing=2mm,r=0.7,t=0.1,rule=centre", 3, 0, NULL);
+    ck_assert(h.dense == 0 && h.factored == 8);
+    bst_shade_model m;
+    ck_assert_int_eq(bst_shade_model_plan(ctx, &m, NULL, 0, NULL, &h), BST_EINVAL);
+}
+END_TEST
+
+/* The model over made layers (bsdfstack.h, bst_plan_memory_held) against its closed form at
+ * k = 4 (N = 256): dense made components count as doubles; factored ones their own size and, with
+ * no dense component, the expansion of a combination's results or of the writer's input. */
+START_TEST(test_memory_held)
+{
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 4, &b), BST_OK);
+    bst_bsdf *diff = read_ref("L_diffuser_t3k5.xml"); /* one channel, four dense components */
+    double N = 256.0, cells = N * N, base = 64.0 * 1048576.0 + 0.5 * cells;
+    bst_plan_need need;
+    /* a pane, a dual-band specular blind (8 dense), a pane: 8 doubles and 3 of work */
+    bst_plan_held sp[3] = {{0}, {.nchannels = 2, .dense = 8}, {0}};
+    tu_assert_close(bst_plan_memory_held(b, 3, sp, 0, BST_FLOAT, 1, BST_FLOAT, &need),
+                    base + cells * (8 * 8.0 + 3 * 4.0), 1e-15, 1);
+    ck_assert(need.dense == 8 && need.expanded == 0);
+    tu_assert_close(need.dense_bytes, 64.0 * cells, 1e-15, 1);
+    /* and the diffuser read in single precision beside it */
+    bst_plan_held sd[2] = {{.file = diff}, {.nchannels = 2, .dense = 8}};
+    tu_assert_close(bst_plan_memory_held(b, 2, sd, 0, BST_FLOAT, 1, BST_DOUBLE, &need),
+                    base + cells * (4 * 4.0 + 8 * 8.0 + 3 * 8.0), 1e-15, 1);
+    ck_assert_uint_eq(need.dense, 12);
+    /* a matte blind (8 factored over 64 columns) between panes: its own size, and the results'
+     * 2 channels x 4 components expanded in the work precision, and one double grid */
+    double small = 8 * 8.0 * (N + 64.0 * 64.0) + 2 * 16.0 * N * 64.0;
+    bst_plan_held mt[3] = {{0}, {.nchannels = 2, .factored = 8, .width = 64}, {0}};
+    tu_assert_close(bst_plan_memory_held(b, 3, mt, 0, BST_DOUBLE, 1, BST_DOUBLE, &need),
+                    base + small + cells * (8 * 8.0 + 8.0), 1e-15, 1);
+    ck_assert(need.dense == 0 && need.expanded == 8);
+    tu_assert_close(bst_plan_memory_held(b, 3, mt, 0, BST_DOUBLE, 1, BST_FLOAT, &need),
+                    base + small + cells * (8 * 4.0 + 8.0), 1e-15, 1);
+    /* --only Tf beside a layer of one channel: the results' 1 x 1 */
+    bst_plan_held mf[2] = {{.nchannels = 1}, {.nchannels = 2, .factored = 8, .width = 64}};
+    tu_assert_close(bst_plan_memory_held(b, 2, mf, BST_COMP_BIT(BST_TF), BST_DOUBLE, 1, BST_DOUBLE,
+                                         &need), base + small + cells * (1 * 8.0 + 8.0), 1e-15, 1);
+    ck_assert_uint_eq(need.expanded, 1);
+    /* not combined (convert): the writer expands all 8 as doubles */
+    tu_assert_close(bst_plan_memory_held(b, 1, mt + 1, 0, BST_FLOAT, 0, BST_FLOAT, &need),
+                    base + small + cells * (8 * 8.0 + 8.0), 1e-15, 1);
+    ck_assert_uint_eq(need.expanded, 8);
+    /* bst_plan_memory is the same model over files */
+    const bst_bsdf *f[2] = {NULL, diff};
+    bst_plan_held hf[2] = {{0}, {.file = diff}};
+    size_t nd;
+    tu_assert_close(bst_plan_memory(b, 2, f, 0, BST_DOUBLE, 1, BST_DOUBLE, &nd),
+                    bst_plan_memory_held(b, 2, hf, 0, BST_DOUBLE, 1, BST_DOUBLE, NULL), 1e-15, 1);
+    bst_bsdf_free(diff);
+    bst_basis_free(b);
+}
+END_TEST
+
 /* The work model: the partial system takes the widest structure so far. */
 START_TEST(test_work)
 {
@@ -198,6 +317,8 @@ static Suite *suite(void)
     tcase_add_test(tc, test_basis_rule);
     tcase_add_test(tc, test_spectral_plan);
     tcase_add_test(tc, test_memory);
+    tcase_add_test(tc, test_shade_plan);
+    tcase_add_test(tc, test_memory_held);
     tcase_add_test(tc, test_work);
     suite_add_tcase(s, tc);
     return s;

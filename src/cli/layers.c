@@ -110,7 +110,8 @@ static int read_one(bst_ctx *ctx, const char *sub, const char *what, const char 
 
 /* Steps 1 and 2 of loading: every file among specs read into files[i] (NULL for glass:), and the
  * basis chosen (the finest tree order, else the first Klems file's basis, else k = 5, unless the
- * choice names one), told in *pick; then the memory guard over all of them. */
+ * choice names one), told in *pick; then the memory guard over all of them, the layers made
+ * from shade specs as their models will make them. */
 static int read_all(bst_ctx *ctx, const char *sub, size_t n, char **specs,
                     const struct cli_basis_choice *choice, const bst_bsdf_read_opts *ro,
                     bst_precision prec, bst_bsdf **files, bst_basis **basis, struct cli_basis_pick *pick)
@@ -133,7 +134,21 @@ static int read_all(bst_ctx *ctx, const char *sub, size_t n, char **specs,
         snprintf(pick->klems, sizeof pick->klems, "%s", plan.klems);
     if (bst_plan_make_basis(ctx, &plan, n, (const bst_bsdf *const *)files, NULL, basis) < 0)
         return cli_fail_ctx(sub, NULL, ctx);
-    return cli_memory_check(sub, *basis, n, files, ro->comps, prec, choice);
+    /* what each layer will hold: a file's components, a shade's as its model makes them (a
+     * pane's are diagonal) */
+    bst_plan_held *held = calloc(n, sizeof *held);
+    if (!held)
+        return cli_fail(sub, "out of memory");
+    for (size_t i = 0; i < n && rc == CLI_OK; i++) {
+        held[i].file = files[i];
+        if (cli_is_shade(specs[i]) &&
+            cli_shade_plan(ctx, specs[i], *basis, ro->nchannels, ro->channels, &held[i]) < 0)
+            rc = cli_fail_ctx(sub, specs[i], ctx);
+    }
+    if (rc == CLI_OK)
+        rc = cli_memory_check_held(sub, *basis, n, held, ro->comps, prec, choice);
+    free(held);
+    return rc;
 }
 
 /* Step 3 for one spec: its layer over basis from the file read (file, freed here) or from the

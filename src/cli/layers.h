@@ -27,6 +27,11 @@ void cli_basis_choice_of(const bst_basis *b, struct cli_basis_choice *choice);
  * limit and the options that lower the need, and CLI_FAIL. */
 int cli_memory_check(const char *sub, const bst_basis *basis, size_t n, bst_bsdf *const *files,
                      unsigned comps, bst_precision prec, const struct cli_basis_choice *choice);
+/* The same over layers some of which are made from specs (bst_plan_memory_held; a combination of
+ * factored layers counts its results expanded, and the message says so). */
+int cli_memory_check_held(const char *sub, const bst_basis *basis, size_t n,
+                          const bst_plan_held *held, unsigned comps, bst_precision prec,
+                          const struct cli_basis_choice *choice);
 /* Parse SIZE: bytes, or a number with K, M, G or T (powers of 1024); CLI_OK or a usage error. */
 int cli_parse_memory(const char *sub, const char *value, double *bytes);
 
@@ -201,5 +206,8 @@ int cli_shade_parse(bst_ctx *ctx, const char *spec, bst_shade_model *m);
 int cli_shade_layer(bst_ctx *ctx, const char *spec, const bst_basis *basis, size_t nch,
                     const char **chnames, bst_layer **l);
 int cli_shade_check(bst_ctx *ctx, const char *spec, bst_structure *structure);
+/* What its layer over basis will hold (bst_shade_model_plan), for the memory guard. */
+int cli_shade_plan(bst_ctx *ctx, const char *spec, const bst_basis *basis, size_t nch,
+                   const char *const *chnames, bst_plan_held *held);
 
 #endif

@@ -45,27 +45,59 @@ static double memory_available(void)
     return avail;
 }
 
-int cli_memory_check(const char *sub, const bst_basis *basis, size_t n, bst_bsdf *const *files,
-                     unsigned comps, bst_precision prec, const struct cli_basis_choice *choice)
+/* What the need counts, for the message (one: a component's bytes in the read precision): "4 dense components of 0.125 GiB", "the results' 8
+ * components expanded from factored layers, of 2 GiB each", ... */
+static void counted(const bst_plan_need *got, double cells, double one, int combining, char *buf,
+                    size_t size)
 {
-    size_t held;
-    double need = bst_plan_memory(basis, n, (const bst_bsdf *const *)files, comps, prec,
-                                  choice->combining, choice->work, &held);
+    double gib = 1073741824.0, each = got->dense ? got->dense_bytes / (double)got->dense : 0;
+    if (got->expanded)
+        snprintf(buf, size, "%s%zu component%s expanded from factored layers, of %.3g GiB each",
+                 combining ? "the results' " : "", got->expanded, got->expanded == 1 ? "" : "s",
+                 got->expanded_bytes / (double)got->expanded / gib);
+    else if (got->dense && each != 4.0 * cells && each != 8.0 * cells) /* files' floats, made doubles */
+        snprintf(buf, size, "%zu dense components, %.3g GiB in all", got->dense,
+                 got->dense_bytes / gib);
+    else
+        snprintf(buf, size, "%zu dense component%s of %.3g GiB", got->dense,
+                 got->dense == 1 ? "" : "s", (got->dense ? each : one) / gib);
+}
+
+int cli_memory_check_held(const char *sub, const bst_basis *basis, size_t n,
+                          const bst_plan_held *held, unsigned comps, bst_precision prec,
+                          const struct cli_basis_choice *choice)
+{
+    bst_plan_need got;
+    double need = bst_plan_memory_held(basis, n, held, comps, prec, choice->combining, choice->work,
+                                       &got);
     double limit = choice->max_memory > 0 ? choice->max_memory : memory_available();
     if (limit <= 0 || need <= limit)
         return CLI_OK;
-    double gib = 1073741824.0;
-    char where[64];
+    double gib = 1073741824.0, cells = (double)bst_basis_size(basis) * (double)bst_basis_size(basis);
+    char where[64], what[160];
     if (bst_basis_kind_of(basis) == BST_BASIS_SHIRLEY_CHIU)
         snprintf(where, sizeof where, "k = %d", bst_basis_order(basis));
     else
         snprintf(where, sizeof where, "%s", bst_basis_name(basis));
-    return cli_fail(sub, "%s needs about %.3g GiB (%zu dense component%s of %.3g GiB%s), more than "
-                    "the %.3g GiB %s: use %s; or raise the limit with --max-memory SIZE", where,
-                    need / gib, held, held == 1 ? "" : "s",
-                    (double)bst_basis_size(basis) * (double)bst_basis_size(basis) *
-                        (prec == BST_FLOAT ? 4.0 : 8.0) / gib,
+    /* none counted: the size of one in the read precision */
+    counted(&got, cells, cells * (prec == BST_FLOAT ? 4.0 : 8.0), choice->combining, what, sizeof what);
+    return cli_fail(sub, "%s needs about %.3g GiB (%s%s), more than the %.3g GiB %s: use %s; or "
+                    "raise the limit with --max-memory SIZE", where, need / gib, what,
                     choice->combining ? " and the combination's work" : "", limit / gib,
                     choice->max_memory > 0 ? "--max-memory allows" : "available",
                     choice->lower ? choice->lower : "a lower -k");
+}
+
+int cli_memory_check(const char *sub, const bst_basis *basis, size_t n, bst_bsdf *const *files,
+                     unsigned comps, bst_precision prec, const struct cli_basis_choice *choice)
+{
+    bst_plan_held one[8] = {{0}}, *held = n <= 8 ? one : calloc(n, sizeof *held);
+    if (!held)
+        return cli_fail(sub, "out of memory");
+    for (size_t i = 0; i < n; i++)
+        held[i] = (bst_plan_held){.file = files ? files[i] : NULL};
+    int rc = cli_memory_check_held(sub, basis, n, held, comps, prec, choice);
+    if (held != one)
+        free(held);
+    return rc;
 }

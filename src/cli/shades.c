@@ -70,3 +70,11 @@ int cli_shade_check(bst_ctx *ctx, const char *spec, bst_structure *structure)
                  : st >= 0 && m.kind == BST_SHADE_VENETIAN ? BST_SPARSE : BST_DIAG;
     return st;
 }
+
+int cli_shade_plan(bst_ctx *ctx, const char *spec, const bst_basis *basis, size_t nch,
+                   const char *const *chnames, bst_plan_held *held)
+{
+    bst_shade_model m;
+    int st = cli_shade_parse(ctx, spec, &m);
+    return st < 0 ? st : bst_shade_model_plan(ctx, &m, basis, nch, nch ? chnames : NULL, held);
+}

@@ -1,0 +1,84 @@
+# cli_memory.sh - the memory guard over layers made from specs (issue #32): a shade's layer is
+# counted as its model will make it (bst_shade_model_plan), before any layer is made.  The
+# needs printed are compared with the model's closed form (bsdfstack.h, bst_plan_memory_held)
+# computed here from N: base 64 MiB + N^2 / 2 bytes; a dense component N^2 doubles; a combination
+# 3 N^2 values of the work precision; a factored component its diagonal and width^2 values, its
+# map N x width entries of 16 bytes a channel, and with no dense layer the results expanded
+# (channels x 4 components, N^2 values of the work precision each) and one N^2 grid of doubles.
+. "${BST_SRCDIR:-.}/tests/clitest.sh"
+B=$BSDFSTACK
+cd "$tmpdir" || exit 99
+
+specular='venetian:width=16mm,spacing=14.5mm,tilt=0,rs=0.765,r=0.085,roughness=0.02'
+matte='venetian:width=16mm,spacing=14.5mm,tilt=0,r=0.7'
+screen='perforated:x=5mm,y=5mm,radius=1mm,r=0.7'
+
+# need N DENSE FACTORED WIDTH NCH EXPANDED WORKBYTES: the model's bytes in GiB
+need() {
+    awk -v N="$1" -v d="$2" -v f="$3" -v w="$4" -v nch="$5" -v e="$6" -v wb="$7" 'BEGIN {
+        c = N * N; b = 64 * 1048576 + 0.5 * c + d * 8 * c
+        if (f) b += f * 8 * (N + w * w) + nch * 16 * N * w
+        if (d) b += c * (3 * wb > 8 ? 3 * wb : 8); else if (f) b += e * wb * c + 8 * c
+        printf "%.6g\n", b / 1073741824 }'
+}
+# the need a refusal printed (GiB)
+printed() { sed -n 's/.*needs about \([0-9.e+-]*\) GiB.*/\1/p' "$tmpdir/err"; }
+# close GOT WANT: within the message's three significant digits
+close() { awk -v g="$1" -v w="$2" 'BEGIN { exit !(g > 0 && (g - w) / w < 5e-3 && (w - g) / w < 5e-3) }'; }
+
+# a specular blind between panes at k = 4 (N = 256): its two channels' four dense components each,
+# refused at once in one line, with nothing written
+rm -f s.xml
+expect_error "a dense made blind beyond --max-memory" \
+    "k = 4 needs about [0-9.]+ GiB \(8 dense components of 0.000488 GiB and the combination's work\), more than the 0.00781 GiB --max-memory allows: use a lower -k, --precision single or --only; or raise the limit with --max-memory SIZE" -- \
+    "$B" combine -k 4 --max-memory 8M glass:clear-6mm "$specular" glass:clear-6mm -o s.xml
+[ ! -e s.xml ] && pass "no output when refused" || fail "s.xml written though refused"
+want=$(need 256 8 0 0 2 0 8)
+close "$(printed)" "$want" && pass "specular blind: $(printed) GiB, the model's $want" ||
+    fail "specular blind: printed $(printed) GiB, the model gives $want"
+# one channel asked: four
+"$B" combine -k 4 --channels Visible --max-memory 8M glass:clear-6mm "$specular" -o s.xml 2>"$tmpdir/err"
+want=$(need 256 4 0 0 1 0 8)
+grep -q "(4 dense components" "$tmpdir/err" && close "$(printed)" "$want" &&
+    pass "--channels Visible: 4 dense components, $want GiB" || fail "--channels Visible: $(cat "$tmpdir/err")"
+# a generous limit changes nothing
+expect_status 0 "the same under a generous --max-memory" -- \
+    "$B" combine -k 3 --max-memory 2G glass:clear-6mm "$specular" glass:clear-6mm -o s.xml
+[ -s s.xml ] && pass "written under a generous limit" || fail "s.xml not written"
+
+# a matte blind is factored (8 segments: a map of 64 columns): its results are counted expanded
+for prec in double single; do
+    wb=8; [ "$prec" = single ] && wb=4
+    rm -f m.xml
+    expect_error "a matte blind's expanded results ($prec)" \
+        "k = 4 needs about [0-9.]+ GiB \(the results' 8 components expanded from factored layers, of 0.000(488|244) GiB each and the combination's work\), more than" -- \
+        "$B" combine -k 4 --precision $prec --max-memory 1M glass:clear-6mm "$matte" glass:clear-6mm -o m.xml
+    want=$(need 256 0 8 64 2 8 $wb)
+    close "$(printed)" "$want" && pass "matte blind ($prec): $(printed) GiB, the model's $want" ||
+        fail "matte blind ($prec): printed $(printed) GiB, the model gives $want"
+    [ ! -e m.xml ] && pass "no output ($prec)" || fail "m.xml written though refused"
+done
+# written without a combination (convert): the writer expands the blind's 8 components as doubles
+"$B" convert -k 4 --max-memory 1M -o m.xml "$matte" 2>"$tmpdir/err"
+want=$(need 256 0 8 64 2 8 8)
+grep -q "(8 components expanded from factored layers" "$tmpdir/err" && close "$(printed)" "$want" &&
+    pass "convert a matte blind: $want GiB" || fail "convert a matte blind: $(cat "$tmpdir/err"), the model $want"
+expect_status 0 "a matte blind under a generous --max-memory" -- \
+    "$B" combine -k 3 --max-memory 2G glass:clear-6mm "$matte" glass:clear-6mm -o m.xml
+[ -s m.xml ] && pass "matte stack written" || fail "m.xml not written"
+
+# a perforated screen: factored (the diagonal and rank <= 5 over a wide map)
+"$B" combine -k 4 --max-memory 1M glass:clear-6mm "$screen" -o p.xml 2>"$tmpdir/err"
+want=$(need 256 0 8 5 2 8 8)
+close "$(printed)" "$want" && [ ! -e p.xml ] && pass "perforated screen: $want GiB" ||
+    fail "perforated screen: $(cat "$tmpdir/err"), the model $want"
+
+# a batch counts its shades too, before its first stack
+printf 'b1.xml glass:clear-6mm %s glass:clear-6mm\nb2.xml glass:clear-6mm\n' "$specular" > stacks.txt
+expect_error "batch: a dense made blind beyond --max-memory" "k = 4 needs about [0-9.]+ GiB \(8 dense components" -- \
+    "$B" batch -k 4 --max-memory 8M stacks.txt
+[ ! -e b1.xml ] && [ ! -e b2.xml ] && pass "batch: nothing written" || fail "batch wrote though refused"
+# a bad shade spec is still one line naming it
+expect_error "a bad shade spec" "venetian:width=16mm: .*spacing" -- \
+    "$B" combine -k 4 --max-memory 8M glass:clear-6mm venetian:width=16mm -o x.xml
+finish
