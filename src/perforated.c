@@ -195,12 +195,13 @@ static void halton2(size_t k, double *u, double *v)
 }
 
 /* Component c of channel ch: diag(dg[c]) + o in[c]^T, factored over the channel's map
- * [o | in[TF] | in[RF] | in[TB] | in[RB]] (K pairs column 0 with column 1 + c), or the diagonal
- * alone where in[c] is NULL. */
+ * [o | in[TF] | in[RF] | in[TB] | in[RB]] (K pairs column 0 with column 1 + c; none where in[c] is
+ * NULL, so that a channel's components are all factored or none: bst_shade_model_plan), or the
+ * diagonal alone without a map. */
 static int sheet_component(bst_ctx *ctx, size_t n, bsti_lr_map *S, const double *dg,
                            const double *in, int c, bst_mat **out)
 {
-    if (!in) {
+    if (!S) {
         if (dg)
             return bst_mat_new_diag(ctx, n, dg, out);
         double *z = bsti_calloc(ctx, n, sizeof *z);
@@ -212,7 +213,7 @@ static int sheet_component(bst_ctx *ctx, size_t n, bsti_lr_map *S, const double 
     double *K = bsti_calloc(ctx, r * r, sizeof *K);
     if (!K)
         return BST_ENOMEM;
-    K[r * (1 + (size_t)c)] = 1.0;
+    K[r * (1 + (size_t)c)] = in ? 1.0 : 0.0;
     bsti_lr *lr;
     int rc = bsti_lr_new(ctx, S, dg, NULL, K, NULL, &lr);
     if (rc >= 0)

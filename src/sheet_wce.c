@@ -121,8 +121,12 @@ static int put_channel(bst_ctx *ctx, const bst_basis *basis, const double *F, do
     double *o = work, *diag = work + n;
     for (size_t i = 0; i < n; i++)
         o[i] = 1.0 / M_PI, diag[i] = F[i] / lam[i];
-    const double *in[BST_NCOMP] = {[BST_TF] = dd[0], [BST_RF] = dd[1], [BST_TB] = dd[2],
-                                   [BST_RB] = dd[3]};
+    static const bst_comp comp[4] = {BST_TF, BST_RF, BST_TB, BST_RB};
+    const double *in[BST_NCOMP] = {NULL}; /* (a channel that scatters nothing: diagonal) */
+    for (int k = 0; k < 4; k++)
+        for (size_t i = 0; i < n && !in[comp[k]]; i++)
+            if (dd[k][i] != 0.0)
+                in[comp[k]] = dd[k];
     const double *dg[BST_NCOMP] = {[BST_TF] = diag, [BST_TB] = diag};
     return bsti_sheet_channel(ctx, basis, o, in, dg, l, ch);
 }
