@@ -562,6 +562,16 @@ START_TEST(test_wide_result)
                 ck_assert(strstr(a.p, "Transmission Front") != NULL);
             free(a.p), free(b.p);
         }
+    /* refused the memory of a block of columns or of the one expanded component, the write fails
+     * with a message instead of reading each value through the factors */
+    size_t refuse = 4 * 1024 * 1024;
+    bst_ctx *c2 = bst_ctx_new();
+    ck_assert_int_eq(bst_ctx_set_allocator(c2, refusing_malloc, plain_free, &refuse), BST_OK);
+    struct text t = {NULL, 0};
+    ck_assert_int_eq(bst_bsdf_write_fn(c2, sys, to_text, &t, NULL), BST_ENOMEM);
+    ck_assert(strstr(bst_ctx_message(c2), "out of memory") != NULL);
+    free(t.p);
+    bst_ctx_free(c2);
     bst_layer_free(sys), bst_layer_free(ref), bst_layer_free(exp);
     for (size_t i = 0; i < n; i++)
         bst_layer_free(layers[i]);
