@@ -35,24 +35,40 @@ int bsti_mat_lr_of(bst_ctx *ctx, const bst_mat *m, const bsti_lr_map *S, bsti_lr
  * the dense ones and holds more); any other is kept.  *m is replaced, the old freed. */
 #define BSTI_LR_DENSE_SHARE 0.5
 int bsti_mat_lr_settle(bst_ctx *ctx, bst_mat **m);
-/* A FACTORED m's N x N values (column-major, freed with bsti_free), column by column through the
- * factors with the bits bsti_lr_get gives: the tree writer streams them instead of evaluating the
- * factors at every visit of every value (at k = 7, 2 GiB for the one component being written).
- * NULL for another structure or when that memory is not there (the writer then reads the values
- * one by one, as before). */
-double *bsti_mat_lr_values(bst_ctx *ctx, const bst_mat *m);
+/* A FACTORED m's N x N values into out (column-major), bsti_cols's columns (over a wide map by
+ * GEMM; any other column by column through the factors with the bits bsti_lr_get gives): the tree
+ * writer streams them instead of evaluating the factors at every visit of every value, into one
+ * buffer for all its components (at k = 7, 2 GiB: allocated and first touched once, not once a
+ * component).  BST_ENOMEM when the reader's memory is not there. */
+int bsti_mat_lr_values(bst_ctx *ctx, const bst_mat *m, double *out);
 /* Whether m is FACTORED over a wide map: an untagged one, made of a layer's own lines (a
  * venetian blind's strips: venetian_layer.c; a sheet's spread: perforated.c), not a prolongation
  * (tagged "P", one entry a row) nor a Klems overlap table.  Through the factors each value costs
  * p q times the square of a row's entries (64 for a blind, 5 for a sheet), so that the element-
- * and line-wise readers (writer, bounds, checks) take minutes at k = 6 (a sheet's stack: 17 s of
- * 18 at k = 5); such a matrix is expanded once, by GEMM (p r multiply-adds a value, r <= 8 x
- * segments), before them (bsti_mat_lr_expand). */
+ * and line-wise readers (writer, bounds, checks) would take minutes at k = 6 (a sheet's stack at
+ * k = 5: 17 s of 18); they read such a matrix's columns by GEMM instead (p r multiply-adds a
+ * value, r <= 8 x segments), a block at a time (bsti_cols). */
 int bsti_mat_lr_wide(const bst_mat *m);
 /* A FACTORED m as a dense matrix of precision prec, D + (A K) B^T by GEMM (double) over the rows
  * and columns of K that are not zero (the values equal bsti_lr_get's to rounding, not to the
- * bit). */
+ * bit): bsti_cols's columns, all of them. */
 int bsti_mat_lr_expand(bst_ctx *ctx, const bst_mat *m, bst_precision prec, bst_mat **out);
+/* The columns of an N x N matrix a block at a time, for the readers of a stack's result (the
+ * writer, the bounds, the reciprocity and rotation checks, the metrics, the spectral sums), which
+ * then hold a block of columns instead of an expanded copy of each component.  Each value as
+ * bsti_mat_at reads it, except for a FACTORED matrix over a wide map (bsti_mat_lr_wide), whose
+ * columns are formed by GEMM from A K and B (held once, N (R + C) values at most): blocks of
+ * bsti_cols_block columns from column 0 are bsti_mat_lr_expand's columns bit for bit (it reads
+ * them so; the writer, the bounds and the metrics too), other columns to rounding (GEMM's kernels
+ * depend on the shape).  m NULL or ZERO: zeros.
+ * bsti_cols_get: columns cols[0..n-1] (cols NULL: j0..j0 + n - 1) into out (N x n, column-major),
+ * at most bsti_cols_block columns (BSTI_COLS_BYTES of them) a GEMM. */
+#define BSTI_COLS_BYTES ((size_t)32 << 20)
+typedef struct bsti_cols bsti_cols;
+int bsti_cols_new(bst_ctx *ctx, const bst_mat *m, size_t N, bsti_cols **out);
+size_t bsti_cols_block(const bsti_cols *c);
+void bsti_cols_get(bsti_cols *c, const size_t *cols, size_t j0, size_t n, double *out);
+void bsti_cols_free(bsti_cols *c);
 /* The rank of a FACTORED matrix's low-rank part (p r by q r: the larger), 0 for any other. */
 size_t bsti_mat_rank(const bst_mat *m);
 

@@ -254,15 +254,14 @@ int bsti_mat_lr_settle(bst_ctx *ctx, bst_mat **m)
     return BST_OK;
 }
 
-double *bsti_mat_lr_values(bst_ctx *ctx, const bst_mat *m)
+int bsti_mat_lr_values(bst_ctx *ctx, const bst_mat *m, double *out)
 {
-    if (!m || m->s != BST_FACTORED)
-        return NULL;
-    size_t n = m->rows;
-    double *v = bsti_alloc_array(ctx, n * n, sizeof *v);
-    for (size_t j = 0; v && j < n; j++)
-        bsti_lr_col(m->lr, j, v + j * n);
-    return v;
+    bsti_cols *c;
+    int rc = bsti_cols_new(ctx, m, m->rows, &c);
+    if (rc >= 0)
+        bsti_cols_get(c, NULL, 0, m->rows, out);
+    bsti_cols_free(c);
+    return rc;
 }
 
 int bsti_mat_lr_wide(const bst_mat *m)
@@ -307,54 +306,181 @@ static void lines_dense(const bsti_lr *f, const double *v, const size_t *idx, si
             }
 }
 
-int bsti_mat_lr_expand(bst_ctx *ctx, const bst_mat *m, bst_precision prec, bst_mat **out)
+/* ------------------------------------------------------------------ columns a block at a time */
+
+struct bsti_cols {
+    bst_ctx *ctx;
+    const bst_mat *m;     /* NULL: zeros */
+    size_t N, block;
+    /* a FACTORED m over a wide map: M[:, y] = D e_y + L Rt[:, y] with L N x n and Rt n x N, n the
+     * lesser of K's used rows R and columns C: L = A Ks, Rt = B^T (C <= R), or L = A, Rt = Ks B^T */
+    int gemm;
+    size_t n;
+    int rt_t;             /* Rt held as its transpose (B, N x n) */
+    double *L, *Rt, *gather;
+};
+
+/* The factored reader's L and Rt (bsti_cols's comment), from the lines of K that are not zero. */
+static int cols_gemm_init(bsti_cols *c)
 {
-    const bsti_lr *f = m->lr;
+    bst_ctx *ctx = c->ctx;
+    const bsti_lr *f = c->m->lr;
     size_t N = f->N, nr = f->p * f->r, nc = f->q * f->r;
     size_t *ri = bsti_alloc_array(ctx, 2 * (nr + nc), sizeof *ri);
     if (!ri)
         return BST_ENOMEM;
     size_t *ci = ri + nr, *pos = ci + nc, R = used_lines(f, 0, ri), C = used_lines(f, 1, ci);
-    double *A = bsti_alloc_array(ctx, N * (R + C) + R * C + 1, sizeof *A);
-    int rc = A ? bst_mat_new_dense(ctx, N, N, BST_DOUBLE, out) : BST_ENOMEM;
-    if (rc >= 0) {
-        double *B = A + N * R, *Ks = B + N * C, *M = bst_mat_dense_data(*out);
+    double *A = bsti_alloc_array(ctx, N * R + 1, sizeof *A);
+    double *B = bsti_alloc_array(ctx, N * C + 1, sizeof *B);
+    double *Ks = bsti_alloc_array(ctx, R * C + 1, sizeof *Ks);
+    c->n = R < C ? R : C;
+    c->rt_t = C <= R;
+    c->L = c->n && c->rt_t ? bsti_alloc_array(ctx, N * C, sizeof *c->L) : NULL;
+    c->Rt = c->n && !c->rt_t ? bsti_alloc_array(ctx, R * N, sizeof *c->Rt) : NULL;
+    c->gather = c->n ? bsti_alloc_array(ctx, c->block * c->n, sizeof *c->gather) : NULL;
+    int rc = A && B && Ks && (!c->n || (c->gather && (c->rt_t ? c->L : c->Rt))) ? BST_OK : BST_ENOMEM;
+    if (rc >= 0 && c->n) {
         lines_dense(f, f->a, ri, R, nr, pos, A);
         lines_dense(f, f->b, ci, C, nc, pos, B);
         for (size_t t = 0; t < C; t++)
             for (size_t s = 0; s < R; s++)
                 Ks[t * R + s] = f->k[ci[t] * nr + ri[s]];
-        if (R && C) { /* (A Ks) B^T or A (Ks B^T), whichever inner size is less */
-            size_t inner = R < C ? R : C;
-            double *T = bsti_alloc_array(ctx, N * inner, sizeof *T);
-            if (!T) {
-                rc = BST_ENOMEM;
-            } else if (C <= R) {
-                cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)N, (int)C, (int)R, 1.0,
-                            A, (int)N, Ks, (int)R, 0.0, T, (int)N);
-                cblas_dgemm(CblasColMajor, CblasNoTrans, CblasTrans, (int)N, (int)N, (int)C, 1.0, T,
-                            (int)N, B, (int)N, 0.0, M, (int)N);
-            } else {
-                cblas_dgemm(CblasColMajor, CblasNoTrans, CblasTrans, (int)R, (int)N, (int)C, 1.0,
-                            Ks, (int)R, B, (int)N, 0.0, T, (int)R);
-                cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)N, (int)N, (int)R, 1.0,
-                            A, (int)N, T, (int)R, 0.0, M, (int)N);
-            }
-            bsti_free(ctx, T);
-        }
-        for (size_t x = 0; f->d && x < N; x++)
-            M[x * N + x] += f->d[x];
-        if (rc >= 0 && prec != BST_DOUBLE) {
-            bst_mat *f;
-            rc = bst_mat_convert(ctx, *out, BST_DENSE, prec, &f);
-            bst_mat_free(*out);
-            *out = rc >= 0 ? f : NULL;
-        }
-        if (rc < 0) {
-            bst_mat_free(*out);
-            *out = NULL;
+        if (c->rt_t) { /* L = A Ks (N x C), Rt = B^T kept as B */
+            cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)N, (int)C, (int)R, 1.0, A,
+                        (int)N, Ks, (int)R, 0.0, c->L, (int)N);
+            c->Rt = B, B = NULL;
+        } else { /* L = A, Rt = Ks B^T (R x N) */
+            cblas_dgemm(CblasColMajor, CblasNoTrans, CblasTrans, (int)R, (int)N, (int)C, 1.0, Ks,
+                        (int)R, B, (int)N, 0.0, c->Rt, (int)R);
+            c->L = A, A = NULL;
         }
     }
-    bsti_free(ctx, A), bsti_free(ctx, ri);
+    bsti_free(ctx, A), bsti_free(ctx, B), bsti_free(ctx, Ks), bsti_free(ctx, ri);
+    return rc;
+}
+
+void bsti_cols_free(bsti_cols *c)
+{
+    if (!c)
+        return;
+    bsti_free(c->ctx, c->L), bsti_free(c->ctx, c->Rt), bsti_free(c->ctx, c->gather);
+    bsti_free(c->ctx, c);
+}
+
+int bsti_cols_new(bst_ctx *ctx, const bst_mat *m, size_t N, bsti_cols **out)
+{
+    bsti_cols *c = bsti_calloc(ctx, 1, sizeof *c);
+    *out = NULL;
+    if (!c)
+        return BST_ENOMEM;
+    c->ctx = ctx, c->m = m && m->s != BST_ZERO ? m : NULL, c->N = N;
+    size_t fit = BSTI_COLS_BYTES / (N * sizeof(double) + 1);
+    c->block = fit < 1 ? 1 : fit > N ? N : fit;
+    c->gemm = bsti_mat_lr_wide(m);
+    int rc = c->gemm ? cols_gemm_init(c) : BST_OK;
+    if (rc < 0) {
+        bsti_cols_free(c);
+        return rc;
+    }
+    *out = c;
+    return BST_OK;
+}
+
+size_t bsti_cols_block(const bsti_cols *c)
+{
+    return c->block;
+}
+
+/* Columns of the factored reader: cols (n of them, NULL: j0..j0 + n - 1), n <= block. */
+static void cols_gemm(bsti_cols *c, const size_t *cols, size_t j0, size_t n, double *out)
+{
+    const bsti_lr *f = c->m->lr;
+    size_t N = c->N, k = c->n;
+    if (!k) {
+        memset(out, 0, N * n * sizeof *out);
+    } else if (c->rt_t) { /* out = L B[cols, :]^T */
+        const double *b = c->Rt + j0;
+        size_t ldb = N;
+        if (cols) {
+            for (size_t t = 0; t < k; t++)
+                for (size_t s = 0; s < n; s++)
+                    c->gather[t * n + s] = c->Rt[t * N + cols[s]];
+            b = c->gather, ldb = n;
+        }
+        cblas_dgemm(CblasColMajor, CblasNoTrans, CblasTrans, (int)N, (int)n, (int)k, 1.0, c->L,
+                    (int)N, b, (int)ldb, 0.0, out, (int)N);
+    } else { /* out = L Rt[:, cols] */
+        const double *b = c->Rt + j0 * k;
+        if (cols) {
+            for (size_t s = 0; s < n; s++)
+                memcpy(c->gather + s * k, c->Rt + cols[s] * k, k * sizeof *c->gather);
+            b = c->gather;
+        }
+        cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)N, (int)n, (int)k, 1.0, c->L,
+                    (int)N, b, (int)k, 0.0, out, (int)N);
+    }
+    for (size_t s = 0; f->d && s < n; s++) {
+        size_t y = cols ? cols[s] : j0 + s;
+        out[s * N + y] += f->d[y];
+    }
+}
+
+/* Column y of any other matrix, each value as bsti_mat_at reads it (FACTORED: bsti_lr_col). */
+static void col_plain(const bst_mat *m, size_t N, size_t y, double *out)
+{
+    if (m && m->s == BST_FACTORED) {
+        bsti_lr_col(m->lr, y, out);
+        return;
+    }
+    if (m && m->s == BST_DENSE && m->prec == BST_DOUBLE) {
+        memcpy(out, (const double *)m->dense + y * N, N * sizeof *out);
+        return;
+    }
+    if (m && m->s == BST_DENSE) {
+        for (size_t x = 0; x < N; x++)
+            out[x] = ((const float *)m->dense)[y * N + x];
+        return;
+    }
+    memset(out, 0, N * sizeof *out);
+    if (m && m->s == BST_DIAG) {
+        out[y] = m->diag[y];
+    } else if (m && m->s == BST_SPARSE) {
+        const SuiteSparse_long *p = m->sp->p, *ri = m->sp->i;
+        const double *x = m->sp->x;
+        for (SuiteSparse_long q = p[y]; q < p[y + 1]; q++)
+            out[ri[q]] = x[q];
+    }
+}
+
+void bsti_cols_get(bsti_cols *c, const size_t *cols, size_t j0, size_t n, double *out)
+{
+    for (size_t s0 = 0; s0 < n; s0 += c->block) {
+        size_t nb = n - s0 < c->block ? n - s0 : c->block;
+        double *o = out + s0 * c->N;
+        if (c->gemm) {
+            cols_gemm(c, cols ? cols + s0 : NULL, j0 + s0, nb, o);
+            continue;
+        }
+        for (size_t s = 0; s < nb; s++)
+            col_plain(c->m, c->N, cols ? cols[s0 + s] : j0 + s0 + s, o + s * c->N);
+    }
+}
+
+int bsti_mat_lr_expand(bst_ctx *ctx, const bst_mat *m, bst_precision prec, bst_mat **out)
+{
+    bsti_cols *c;
+    *out = NULL;
+    int rc = bsti_cols_new(ctx, m, m->rows, &c);
+    if (rc >= 0)
+        rc = bst_mat_new_dense(ctx, m->rows, m->rows, BST_DOUBLE, out);
+    if (rc >= 0)
+        bsti_cols_get(c, NULL, 0, m->rows, bst_mat_dense_data(*out));
+    bsti_cols_free(c);
+    if (rc >= 0 && prec != BST_DOUBLE) {
+        bst_mat *f;
+        rc = bst_mat_convert(ctx, *out, BST_DENSE, prec, &f);
+        bst_mat_free(*out);
+        *out = rc >= 0 ? f : NULL;
+    }
     return rc;
 }

@@ -141,13 +141,13 @@ int bst_mat_to_dense_array(bst_ctx *ctx, const bst_mat *m, double *out)
         memcpy(out, m->dense, r * m->cols * sizeof(double));
         return BST_OK;
     }
-    if (bsti_mat_lr_wide(m)) { /* by GEMM (mat.h) */
-        bst_mat *d;
-        int rc = bsti_mat_lr_expand(ctx, m, BST_DOUBLE, &d);
+    if (bsti_mat_lr_wide(m)) { /* by GEMM (mat.h), straight into out */
+        bsti_cols *c;
+        int rc = bsti_cols_new(ctx, m, r, &c);
         if (rc < 0)
             return rc;
-        memcpy(out, d->dense, r * m->cols * sizeof(double));
-        bst_mat_free(d);
+        bsti_cols_get(c, NULL, 0, m->cols, out);
+        bsti_cols_free(c);
         return BST_OK;
     }
     if (m->s == BST_FACTORED) {
@@ -276,6 +276,32 @@ int bst_mat_all_finite(const bst_mat *m)
     }
 }
 
+/* A FACTORED m's largest |value|, a block of columns at a time (bsti_cols: over a wide map by
+ * GEMM), or value by value when the block's memory is not there. */
+static double factored_max_abs(const bst_mat *m)
+{
+    double v = 0.0;
+    size_t n = m->rows;
+    bsti_cols *c = NULL;
+    double *buf = NULL;
+    if (bsti_cols_new(m->ctx, m, n, &c) >= 0 &&
+        (buf = bsti_alloc_array(m->ctx, bsti_cols_block(c) * n, sizeof *buf)) != NULL) {
+        for (size_t j0 = 0, nb = bsti_cols_block(c); j0 < n; j0 += nb) {
+            size_t k = n - j0 < nb ? n - j0 : nb;
+            bsti_cols_get(c, NULL, j0, k, buf);
+            for (size_t t = 0; t < k * n; t++)
+                v = fmax(v, fabs(buf[t]));
+        }
+    } else {
+        for (size_t j = 0; j < n; j++)
+            for (size_t i = 0; i < n; i++)
+                v = fmax(v, fabs(bsti_lr_get(m->lr, i, j)));
+    }
+    bsti_free(m->ctx, buf);
+    bsti_cols_free(c);
+    return v;
+}
+
 double bst_mat_max_abs(const bst_mat *m)
 {
     double v = 0.0;
@@ -296,9 +322,7 @@ double bst_mat_max_abs(const bst_mat *m)
                                                    : (double)((const float *)m->dense)[k]));
         break;
     case BST_FACTORED:
-        for (size_t j = 0; j < m->cols; j++)
-            for (size_t i = 0; i < m->rows; i++)
-                v = fmax(v, fabs(bsti_lr_get(m->lr, i, j)));
+        v = factored_max_abs(m);
         break;
     default: break;
     }

@@ -23,6 +23,79 @@ static int check_args(bst_ctx *ctx, const bst_layer *a, const bst_layer *b, size
     return BST_OK;
 }
 
+/* Element (o, i) of m, 0 for an absent or zero matrix. */
+static double element(const bst_mat *m, size_t o, size_t i)
+{
+    if (!m || m->s == BST_ZERO)
+        return 0.0;
+    return m->s == BST_DENSE ? bsti_dense_get(m, o, i) : bst_mat_get(m, o, i);
+}
+
+/* Column x of m (out[o] = m(o, x), row 0) or its row x (out[y] = m(x, y), row 1), n values, each as
+ * element() reads it: a FACTORED m's through its factors a line at a time (bsti_lr_col, _row). */
+static void line_of(const bst_mat *m, int row, size_t x, size_t n, double *out)
+{
+    if (m && m->s == BST_FACTORED) {
+        if (row)
+            bsti_lr_row(m->lr, x, out);
+        else
+            bsti_lr_col(m->lr, x, out);
+        return;
+    }
+    for (size_t y = 0; y < n; y++)
+        out[y] = row ? element(m, x, y) : element(m, y, x);
+}
+
+/* The lines (columns, or rows when row) of a matrix (NULL: zero), a block at a time: a FACTORED
+ * one over a wide map through bsti_cols (its rows as the columns of its transpose), by GEMM; any
+ * other one line at a time (line_of). */
+struct lines {
+    const bst_mat *m;
+    bst_mat *t;     /* the transpose whose columns are m's rows */
+    bsti_cols *c;   /* NULL: line_of */
+    int row;
+};
+
+static int lines_open(bst_ctx *ctx, const bst_mat *m, int row, size_t n, struct lines *l)
+{
+    *l = (struct lines){m, NULL, NULL, row};
+    if (!bsti_mat_lr_wide(m))
+        return BST_OK;
+    int rc = row ? bst_mat_transpose(ctx, m, &l->t) : BST_OK;
+    if (rc >= 0)
+        rc = bsti_cols_new(ctx, row ? l->t : m, n, &l->c);
+    if (rc < 0)
+        bst_mat_free(l->t);
+    return rc;
+}
+
+/* Lines idx[0..nb-1] (idx NULL: x0..x0 + nb - 1) into out (n x nb). */
+static void lines_get(struct lines *l, const size_t *idx, size_t x0, size_t nb, size_t n, double *out)
+{
+    if (l->c) {
+        bsti_cols_get(l->c, idx, x0, nb, out);
+        return;
+    }
+    for (size_t s = 0; s < nb; s++)
+        line_of(l->m, l->row, idx ? idx[s] : x0 + s, n, out + s * n);
+}
+
+static void lines_close(struct lines *l)
+{
+    bsti_cols_free(l->c);
+    bst_mat_free(l->t);
+}
+
+/* Lines a block of x and y holds: BSTI_COLS_BYTES of them (at least one) when either is read by
+ * GEMM, else one (line by line, as before: no more memory). */
+static size_t lines_block(size_t n, const struct lines *x, const struct lines *y)
+{
+    if (!x->c && !y->c)
+        return 1;
+    size_t nb = BSTI_COLS_BYTES / (n * sizeof(double) + 1);
+    return nb < 1 ? 1 : nb > n ? n : nb;
+}
+
 /* GA, FA and LA (each may be NULL) of column j of ma and mb (either may be NULL: zero).  Eq. (6)'s
  * DSF = BSDF cos(theta_i) takes the incident direction's cosine, the same for every term of one
  * column, so it cancels in (7) and (8); the terms of (7) are weighted by the outgoing patches'
@@ -30,13 +103,12 @@ static int check_args(bst_ctx *ctx, const bst_layer *a, const bst_layer *b, size
  * sum).  The paper's DSFs are not negative: a negative value (the round-off of a combination
  * where the light is 0, or one in a TSV of columns) counts as 0, as the readers read one; by its
  * magnitude it would score LA 0 against an exact 0. */
-static int column(bst_ctx *ctx, const bst_mat *ma, const bst_mat *mb, const double *lam, size_t n,
+static int column(bst_ctx *ctx, const double *xa, const double *xb, const double *lam, size_t n,
                   size_t j, double *ga, double *fa, double *la)
 {
     double diff = 0.0, sum = 0.0, d2 = 0.0, s2 = 0.0;
     for (size_t i = 0; i < n; i++) {
-        double x = ma ? bst_mat_get(ma, i, j) : 0.0;
-        double y = mb ? bst_mat_get(mb, i, j) : 0.0;
+        double x = xa[i], y = xb[i];
         if (!isfinite(x) || !isfinite(y))
             return bsti_error(ctx, BST_EINVAL, "accordance: non-finite value for incident patch %zu, "
                               "outgoing patch %zu", j, i);
@@ -53,6 +125,19 @@ static int column(bst_ctx *ctx, const bst_mat *ma, const bst_mat *mb, const doub
     return BST_OK;
 }
 
+/* Both matrices' columns j0..j0 + nb - 1 (lines(), below) and their GA, FA and LA (la: one column). */
+static int columns(bst_ctx *ctx, struct lines *lx, struct lines *ly, const double *lam, size_t n,
+                   size_t j0, size_t nb, double *buf, double *ga, double *fa, double *la)
+{
+    lines_get(lx, NULL, j0, nb, n, buf);
+    lines_get(ly, NULL, j0, nb, n, buf + nb * n);
+    int rc = BST_OK;
+    for (size_t s = 0; s < nb && rc >= 0; s++)
+        rc = column(ctx, buf + s * n, buf + (nb + s) * n, lam, n, j0 + s, ga ? ga + s : NULL,
+                    fa ? fa + s : NULL, la);
+    return rc;
+}
+
 int bst_metrics_accordance(bst_ctx *ctx, const bst_layer *a, const bst_layer *b, size_t ch,
                            bst_comp c, size_t incident, double *ga, double *fa, double *la)
 {
@@ -63,8 +148,18 @@ int bst_metrics_accordance(bst_ctx *ctx, const bst_layer *a, const bst_layer *b,
     int rc = check_args(ctx, a, b, ch, c);
     if (rc < 0)
         return rc;
-    return column(ctx, bst_layer_get(a, ch, c), bst_layer_get(b, ch, c), bst_basis_lambda(a->basis),
-                  bst_basis_size(a->basis), incident, ga, fa, la);
+    size_t n = bst_basis_size(a->basis);
+    struct lines ma, mb;
+    double *buf = bsti_alloc_array(ctx, 2 * n, sizeof *buf);
+    rc = buf ? lines_open(ctx, bst_layer_get(a, ch, c), 0, n, &ma) : BST_ENOMEM;
+    if (rc >= 0 && (rc = lines_open(ctx, bst_layer_get(b, ch, c), 0, n, &mb)) < 0)
+        lines_close(&ma);
+    if (rc >= 0) {
+        rc = columns(ctx, &ma, &mb, bst_basis_lambda(a->basis), n, incident, 1, buf, ga, fa, la);
+        lines_close(&ma), lines_close(&mb);
+    }
+    bsti_free(ctx, buf);
+    return rc;
 }
 
 int bst_metrics_accordance_all(bst_ctx *ctx, const bst_layer *a, const bst_layer *b, size_t ch,
@@ -75,23 +170,31 @@ int bst_metrics_accordance_all(bst_ctx *ctx, const bst_layer *a, const bst_layer
     int rc = check_args(ctx, a, b, ch, c);
     if (rc < 0)
         return rc;
-    size_t n = bst_basis_size(a->basis);
-    const bst_mat *ma = bst_layer_get(a, ch, c), *mb = bst_layer_get(b, ch, c);
-    for (size_t j = 0; j < n && rc >= 0; j++)
-        rc = column(ctx, ma, mb, bst_basis_lambda(a->basis), n, j, ga ? ga + j : NULL,
-                    fa ? fa + j : NULL, NULL);
+    size_t n = bst_basis_size(a->basis), nb = 1;
+    struct lines ma, mb;
+    rc = lines_open(ctx, bst_layer_get(a, ch, c), 0, n, &ma);
+    if (rc >= 0 && (rc = lines_open(ctx, bst_layer_get(b, ch, c), 0, n, &mb)) < 0)
+        lines_close(&ma);
+    if (rc >= 0)
+        nb = lines_block(n, &ma, &mb);
+    double *buf = rc >= 0 ? bsti_alloc_array(ctx, 2 * nb * n, sizeof *buf) : NULL;
+    if (rc >= 0 && !buf) {
+        lines_close(&ma), lines_close(&mb);
+        rc = BST_ENOMEM;
+    }
+    int open = rc >= 0;
+    for (size_t j0 = 0; rc >= 0 && j0 < n; j0 += nb) {
+        size_t k = n - j0 < nb ? n - j0 : nb;
+        rc = columns(ctx, &ma, &mb, bst_basis_lambda(a->basis), n, j0, k, buf, ga ? ga + j0 : NULL,
+                     fa ? fa + j0 : NULL, NULL);
+    }
+    if (open)
+        lines_close(&ma), lines_close(&mb);
+    bsti_free(ctx, buf);
     return rc;
 }
 
 /* ------------------------------------------------------------------ reciprocity */
-
-/* Element (o, i) of m, 0 for an absent or zero matrix. */
-static double element(const bst_mat *m, size_t o, size_t i)
-{
-    if (!m || m->s == BST_ZERO)
-        return 0.0;
-    return m->s == BST_DENSE ? bsti_dense_get(m, o, i) : bst_mat_get(m, o, i);
-}
 
 /* Side of the square tiles the dense check walks: two tiles (one of each matrix, 64 KiB in double)
  * stay in the cache while the tile of Tb is read across its columns. */
@@ -132,42 +235,42 @@ static int recip_dense(const bst_mat *tf, const bst_mat *tb, const size_t *a, si
     return nan_probe == 0.0;
 }
 
-/* Column x of m (out[o] = m(o, x), row 0) or its row x (out[y] = m(x, y), row 1), n values, each as
- * element() reads it: a FACTORED m's through its factors a line at a time (bsti_lr_col, _row). */
-static void line_of(const bst_mat *m, int row, size_t x, size_t n, double *out)
-{
-    if (m && m->s == BST_FACTORED) {
-        if (row)
-            bsti_lr_row(m->lr, x, out);
-        else
-            bsti_lr_col(m->lr, x, out);
-        return;
-    }
-    for (size_t y = 0; y < n; y++)
-        out[y] = row ? element(m, x, y) : element(m, y, x);
-}
-
 /* The element-wise loop below for transmissions of which one is FACTORED, a one-to-one: Tf's
- * column i beside Tb's row a(i), the same pairs in the same order, and *scale the largest |value|
- * of either (every value of both is read once).  Values are finite (checked before). */
+ * column i beside Tb's row a(i), the same pairs in the same order, a block of lines at a time
+ * (lines()), and *scale the largest |value| of either (every value of both is read once).  Values
+ * are finite (checked before). */
 static int recip_lines(bst_ctx *ctx, const bst_mat *tf, const bst_mat *tb, const size_t *a,
                        size_t n, double *worst, double *scale, size_t *wi, size_t *wo)
 {
-    double *x = bsti_alloc_array(ctx, 2 * n, sizeof *x), *y = x ? x + n : NULL;
-    if (!x)
+    struct lines lf, lb;
+    int rc = lines_open(ctx, tf, 0, n, &lf);
+    if (rc >= 0 && (rc = lines_open(ctx, tb, 1, n, &lb)) < 0)
+        lines_close(&lf);
+    if (rc < 0)
+        return rc;
+    size_t nb = lines_block(n, &lf, &lb);
+    double *x = bsti_alloc_array(ctx, 2 * nb * n, sizeof *x), *y = x ? x + nb * n : NULL;
+    if (!x) {
+        lines_close(&lf), lines_close(&lb);
         return BST_ENOMEM;
+    }
     double w = 0.0, s = 0.0;
     size_t bi = 0, bo = 0;
-    for (size_t i = 0; i < n; i++) {
-        line_of(tf, 0, i, n, x);
-        line_of(tb, 1, a[i], n, y);
-        for (size_t o = 0; o < n; o++) {
-            double d = fabs(x[o] - y[a[o]]);
-            s = fmax(s, fmax(fabs(x[o]), fabs(y[a[o]])));
-            if (d > w)
-                w = d, bi = i, bo = o;
+    for (size_t i0 = 0; i0 < n; i0 += nb) {
+        size_t k = n - i0 < nb ? n - i0 : nb;
+        lines_get(&lf, NULL, i0, k, n, x); /* Tf's columns i, Tb's rows a(i) */
+        lines_get(&lb, a + i0, 0, k, n, y);
+        for (size_t t = 0; t < k; t++) {
+            const double *xc = x + t * n, *yr = y + t * n;
+            for (size_t o = 0; o < n; o++) {
+                double d = fabs(xc[o] - yr[a[o]]);
+                s = fmax(s, fmax(fabs(xc[o]), fabs(yr[a[o]])));
+                if (d > w)
+                    w = d, bi = i0 + t, bo = o;
+            }
         }
     }
+    lines_close(&lf), lines_close(&lb);
     bsti_free(ctx, x);
     *worst = w, *scale = s, *wi = bi, *wo = bo;
     return BST_OK;

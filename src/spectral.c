@@ -50,6 +50,7 @@
 #include "ctx.h"
 #include "glass.h"
 #include "layer.h"
+#include "mat.h"
 #include "spectral_groups.h"
 #include "stack.h"
 
@@ -188,6 +189,42 @@ static int dual_new(bst_ctx *ctx, const bst_layer *l, size_t pos, const bst_basi
 
 /* ------------------------------------------------------------------ the combination */
 
+/* *acc += w m for m FACTORED over a wide map (mat.h): into a dense double *acc (made when NULL or
+ * not dense double) a block of m's columns at a time (bsti_cols), so that no expanded copy of m is
+ * held beside the sum.  Such sums do not stay factored: each group's scaling vectors are its own,
+ * and the rank grows with the groups. */
+static int add_wide(bst_ctx *ctx, bst_mat **acc, const bst_mat *m, double w)
+{
+    size_t N = bst_mat_rows(m);
+    bst_mat *d = NULL;
+    int rc = BST_OK;
+    if (!*acc)
+        rc = bst_mat_new_dense(ctx, N, N, BST_DOUBLE, &d); /* zeros */
+    else if (bst_mat_structure(*acc) != BST_DENSE || bst_mat_precision(*acc) != BST_DOUBLE)
+        rc = bst_mat_convert(ctx, *acc, BST_DENSE, BST_DOUBLE, &d);
+    if (rc < 0)
+        return rc;
+    if (d) {
+        bst_mat_free(*acc);
+        *acc = d;
+    }
+    bsti_cols *c;
+    if ((rc = bsti_cols_new(ctx, m, N, &c)) < 0)
+        return rc;
+    size_t nb = bsti_cols_block(c);
+    double *buf = bsti_alloc_array(ctx, nb * N, sizeof *buf), *sum = bst_mat_dense_data(*acc);
+    for (size_t j0 = 0; buf && j0 < N; j0 += nb) {
+        size_t k = N - j0 < nb ? N - j0 : nb;
+        bsti_cols_get(c, NULL, j0, k, buf);
+        for (size_t t = 0; t < k * N; t++)
+            sum[j0 * N + t] += w * buf[t];
+    }
+    rc = buf ? BST_OK : BST_ENOMEM;
+    bsti_free(ctx, buf);
+    bsti_cols_free(c);
+    return rc;
+}
+
 /* acc[c] += w * m[c] for the requested components (acc[c] == NULL: acc[c] = w * m[c]).  Dense
  * double sums are added in place (and the first taken from sys, scaled in place): no N x N
  * matrix allocated, filled and freed per group and component. */
@@ -208,6 +245,12 @@ static int accumulate(bst_ctx *ctx, bst_mat **acc, bst_layer *sys, unsigned want
             bst_mat_precision(acc[c]) == BST_DOUBLE && size <= INT_MAX) {
             cblas_daxpy((int)size, w, bst_mat_dense_data((bst_mat *)m), 1,
                         bst_mat_dense_data(acc[c]), 1);
+            continue;
+        }
+        if (bsti_mat_lr_wide(m)) { /* groups' maps differ in their scalings: summed dense */
+            int rc = add_wide(ctx, &acc[c], m, w);
+            if (rc < 0)
+                return rc;
             continue;
         }
         bst_mat *sum;

@@ -568,7 +568,9 @@ static int check_layers(bst_ctx *ctx, size_t n, const bst_layer *const *layers)
 }
 
 /* Hand the wanted components of the whole stack (acc) to channel ch of res: copies where still
- * borrowed, zero matrices where a component vanished. */
+ * borrowed, zero matrices where a component vanished.  A component factored over a wide map stays
+ * factored (double): its readers take its columns a block at a time (bsti_cols, mat.h), so that no
+ * expanded copy of every component is ever held together (at k = 7 each is 1-2 GiB). */
 static int hand_over(struct combiner *cb, struct part *acc, unsigned want, bst_layer *res,
                      size_t ch)
 {
@@ -585,12 +587,6 @@ static int hand_over(struct combiner *cb, struct part *acc, unsigned want, bst_l
                                  bst_mat_precision(acc->m[c]), &m);
         else if (!m)
             rc = bst_mat_new_zero(ctx, N, N, &m);
-        if (rc >= 0 && bsti_mat_lr_wide(m)) { /* the readers' cost: mat.h */
-            bst_mat *d;
-            rc = bsti_mat_lr_expand(ctx, m, cb->opts->precision, &d);
-            bst_mat_free(m);
-            m = rc >= 0 ? d : NULL;
-        }
         if (rc >= 0 && !bst_mat_all_finite(m)) { /* finite inputs whose products overflow */
             rc = bsti_error(ctx, BST_EINVAL, "layers 1-%zu, channel %s: %s overflows %s: input "
                             "values too large", cb->n, cb->channel, bst_comp_name((bst_comp)c),

@@ -597,11 +597,52 @@ int bsti_tt3_build(bst_ctx *ctx, int k, int refine, double fa_stop, int give_up,
     return rc;
 }
 
+/* bsti_tt3_rotation_fa of a FACTORED m over a wide map, a block of columns i and their turned
+ * columns at a time (bsti_cols: by GEMM, where each value through the factors costs a row's
+ * entries squared); NAN when the block's memory is not there. */
+static double rotation_fa_wide(const bst_mat *m, int k, double stop)
+{
+    size_t G = (size_t)1 << k, N = G * G;
+    bsti_cols *c = NULL;
+    if (bsti_cols_new(m->ctx, m, N, &c) < 0)
+        return NAN;
+    size_t nb = bsti_cols_block(c) / 2 ? bsti_cols_block(c) / 2 : 1;
+    double *buf = bsti_alloc_array(m->ctx, 2 * nb * N, sizeof *buf), worst = buf ? 100.0 : NAN;
+    size_t *idx = bsti_alloc_array(m->ctx, 2 * nb, sizeof *idx);
+    for (size_t i0 = 0; buf && idx && i0 < N && !(worst < stop); i0 += nb) {
+        size_t n = N - i0 < nb ? N - i0 : nb;
+        for (size_t t = 0; t < n; t++)
+            idx[t] = i0 + t, idx[n + t] = bsti_sc_turn(i0 + t, 1, G);
+        bsti_cols_get(c, idx, 0, 2 * n, buf);
+        for (size_t t = 0; t < n && !(worst < stop); t++) {
+            const double *x = buf + t * N, *y = buf + (n + t) * N;
+            double diff = 0.0, sum = 0.0;
+            for (size_t o = 0; o < N; o++) {
+                size_t ro = ((G - 1 - (o & (G - 1))) << k) | (o >> k); /* bsti_sc_turn(o, 1, G) */
+                diff += fabs(x[o] - y[ro]);
+                sum += fabs(x[o]) + fabs(y[ro]);
+            }
+            if (sum > 0.0)
+                worst = fmin(worst, 100.0 * (1.0 - diff / sum));
+        }
+    }
+    if (!idx)
+        worst = NAN;
+    bsti_free(m->ctx, buf), bsti_free(m->ctx, idx);
+    bsti_cols_free(c);
+    return worst;
+}
+
 double bsti_tt3_rotation_fa(const bst_mat *m, int k, double stop)
 {
     size_t G = (size_t)1 << k, N = G * G;
     if (!m || m->s == BST_ZERO || m->rows != N)
         return 100.0;
+    if (bsti_mat_lr_wide(m)) {
+        double fa = rotation_fa_wide(m, k, stop);
+        if (!isnan(fa))
+            return fa;
+    }
     struct macc a;
     macc_init(&a, m);
     double worst = 100.0;

@@ -12,32 +12,61 @@
 #include "mat.h"
 #include "write_bound.h"
 
+/* col[i] += the values of block (nr x nb, column-major) column i (row[o] += row o's; row may be
+ * NULL), negatives read as 0. */
+static void sums_block(const double *block, size_t nr, size_t nb, double *col, double *row)
+{
+    for (size_t i = 0; i < nb; i++)
+        for (size_t o = 0; o < nr; o++) {
+            double v = fmax(block[i * nr + o], 0.0);
+            col[i] += v;
+            if (row)
+                row[o] += v;
+        }
+}
+
 /* col[i] = sum over o of m(o, i), row[o] = sum over i (row may be NULL), negatives read as 0, as
  * a tree reader stores them; m (NULL: zeros) has nr rows and n columns; line: room for nr values
- * (a FACTORED m's column). */
-static void sums(const bst_mat *m, size_t nr, size_t n, double *col, double *row, double *line)
+ * (a FACTORED m's column, when a block of them (bsti_cols) is not to be had). */
+static int sums(bst_ctx *ctx, const bst_mat *m, size_t nr, size_t n, double *col, double *row,
+                double *line)
 {
     memset(col, 0, n * sizeof *col);
     if (row)
         memset(row, 0, nr * sizeof *row);
     if (!m || m->s == BST_ZERO)
-        return;
+        return BST_OK;
     if (m->s == BST_DIAG) {
         for (size_t i = 0; i < n && i < nr; i++) {
             col[i] = fmax(m->diag[i], 0.0);
             if (row)
                 row[i] = col[i];
         }
-    } else if (m->s == BST_FACTORED) { /* column by column through the factors (line: nr) */
-        for (size_t i = 0; i < n; i++) {
-            bsti_lr_col(m->lr, i, line);
-            for (size_t o = 0; o < nr; o++) {
-                double v = fmax(line[o], 0.0);
-                col[i] += v;
-                if (row)
-                    row[o] += v;
+    } else if (m->s == BST_FACTORED) { /* over a wide map a block of columns at a time by GEMM
+                                          (bsti_cols), else column by column through the factors */
+        bsti_cols *c = NULL;
+        size_t nb = 1;
+        double *buf = line;
+        if (bsti_mat_lr_wide(m)) {
+            int rc = bsti_cols_new(ctx, m, nr, &c);
+            if (rc < 0)
+                return rc;
+            nb = bsti_cols_block(c);
+            if (!(buf = bsti_alloc_array(ctx, nb * nr, sizeof *buf))) {
+                bsti_cols_free(c);
+                return BST_ENOMEM;
             }
         }
+        for (size_t i0 = 0; i0 < n; i0 += nb) {
+            size_t b = n - i0 < nb ? n - i0 : nb;
+            if (buf == line)
+                bsti_lr_col(m->lr, i0, line);
+            else
+                bsti_cols_get(c, NULL, i0, b, buf);
+            sums_block(buf, nr, b, col + i0, row);
+        }
+        if (buf != line)
+            bsti_free(ctx, buf), bsti_cols_free(c);
     } else if (m->s == BST_SPARSE) {
         const SuiteSparse_long *p = m->sp->p, *ri = m->sp->i;
         const double *x = m->sp->x;
@@ -71,6 +100,7 @@ static void sums(const bst_mat *m, size_t nr, size_t n, double *col, double *row
             col[i] = s;
         }
     }
+    return BST_OK;
 }
 
 double bsti_bounds_rho(int digits)
@@ -133,11 +163,14 @@ int bsti_bounds_layer(bst_ctx *ctx, const bst_layer *l, double tol, double rho, 
         double *tb_rows = h + BST_NCOMP * n, *line = tb_rows + n;
         for (int c = 0; c < BST_NCOMP; c++) {
             const bst_mat *m = bst_layer_get(l, ch, (bst_comp)c);
-            sums(m, n, n, h + c * n, c == BST_TB && omit_tf[ch] ? tb_rows : NULL, line);
+            if (rc >= 0)
+                rc = sums(ctx, m, n, n, h + c * n, c == BST_TB && omit_tf[ch] ? tb_rows : NULL, line);
             for (size_t i = 0; i < n; i++)
                 h[c * n + i] *= lam;
             hc[c] = m ? h + c * n : NULL;
         }
+        if (rc < 0)
+            break;
         double *col = b->col + ch * BST_NCOMP * n, *row = b->row + ch * n;
         side(n, hc[BST_TF], hc[BST_RF], tol, rho, col + BST_TF * n, col + BST_RF * n);
         side(n, hc[BST_TB], hc[BST_RB], tol, rho, col + BST_TB * n, col + BST_RB * n);
@@ -160,19 +193,20 @@ int bsti_bounds_layer(bst_ctx *ctx, const bst_layer *l, double tol, double rho, 
 
 /* Directional-hemispherical values of a front component's columns at order k (N patches) into
  * out: the fine column where there is one, the coarse patch's (hc, order kc) elsewhere. */
-static void varres_front(const bst_varres *v, const bst_mat *fine, int kc, const double *hc,
-                         double *out, double *colsum, double *line)
+static int varres_front(bst_ctx *ctx, const bst_varres *v, const bst_mat *fine, int kc,
+                        const double *hc, double *out, double *colsum, double *line)
 {
     size_t G = (size_t)1 << v->k, N = G * G, Gc = (size_t)1 << kc;
     int sh = v->k - kc;
     for (size_t i = 0; i < N; i++)
         out[i] = hc[((i / G) >> sh) * Gc + ((i % G) >> sh)];
     if (!fine || fine->rows != N || fine->cols != v->ncols)
-        return; /* (bsti_varres_init refuses it later) */
-    sums(fine, N, v->ncols, colsum, NULL, line);
-    for (size_t q = 0; q < v->ncols; q++)
+        return BST_OK; /* (bsti_varres_init refuses it later) */
+    int rc = sums(ctx, fine, N, v->ncols, colsum, NULL, line);
+    for (size_t q = 0; rc >= 0 && q < v->ncols; q++)
         if (v->cols[q] < N)
             out[v->cols[q]] = colsum[q] * M_PI / (double)N;
+    return rc;
 }
 
 int bsti_bounds_varres(bst_ctx *ctx, const bst_layer *coarse, const bst_varres *v, double tol,
@@ -192,17 +226,20 @@ int bsti_bounds_varres(bst_ctx *ctx, const bst_layer *coarse, const bst_varres *
         double *line = h + BST_NCOMP * Nc + 2 * N + v->ncols; /* N values (Nc <= N) */
         for (int c = 0; c < BST_NCOMP; c++) {
             const bst_mat *m = bst_layer_get(coarse, ch, (bst_comp)c);
-            sums(m, Nc, Nc, h + c * Nc, NULL, line);
+            if (rc >= 0)
+                rc = sums(ctx, m, Nc, Nc, h + c * Nc, NULL, line);
             for (size_t i = 0; i < Nc; i++)
                 h[c * Nc + i] *= lam;
             hc[c] = m ? h + c * Nc : NULL;
         }
         double *col = b->col + ch * BST_NCOMP * N, *ft = h + BST_NCOMP * Nc, *fr = ft + N;
         double *colsum = fr + N;
-        if (hc[BST_TF])
-            varres_front(v, v->tf ? v->tf[ch] : NULL, kc, hc[BST_TF], ft, colsum, line);
-        if (hc[BST_RF])
-            varres_front(v, v->rf ? v->rf[ch] : NULL, kc, hc[BST_RF], fr, colsum, line);
+        if (rc >= 0 && hc[BST_TF])
+            rc = varres_front(ctx, v, v->tf ? v->tf[ch] : NULL, kc, hc[BST_TF], ft, colsum, line);
+        if (rc >= 0 && hc[BST_RF])
+            rc = varres_front(ctx, v, v->rf ? v->rf[ch] : NULL, kc, hc[BST_RF], fr, colsum, line);
+        if (rc < 0)
+            break;
         side(N, hc[BST_TF] ? ft : NULL, hc[BST_RF] ? fr : NULL, tol, rho, col + BST_TF * N,
              col + BST_RF * N);
         side(Nc, hc[BST_TB], hc[BST_RB], tol, rho, col + BST_TB * N, col + BST_RB * N);

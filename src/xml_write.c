@@ -68,6 +68,7 @@ struct xw {
     bsti_bounds bounds;     /* a reduced tree's budgets (col NULL: no bound) */
     int digits;             /* o->digits, BST_DIGITS_AUTO resolved */
     double *ring;           /* rank 3: G/2 budgets */
+    double *full;           /* a FACTORED component's values, n x n (factored_values) */
 };
 
 /* ------------------------------------------------------------------ matrix access */
@@ -272,6 +273,28 @@ static void free_t3(struct xw *w)
  * where the pane's transmission falls fast with theta, the cells of one ring differ).  The
  * 90-degree rotation test cannot see either (rotation FA 99.9: a mirror peak turns into itself),
  * so the FA of the rank-3 form decides, as it should. */
+/* The rank-3 tensor of a component factored over a wide map (mat.h), built alone from its expanded
+ * copy, freed before the next (bsti_tt3_build gives each job the results it gives it among others;
+ * a give-up among others only spares the work of a layer that stays rank 4). */
+static int t3_wide(struct xw *w, const bst_mat *m, size_t idx, int *isotropic)
+{
+    const bst_bsdf_write_opts *o = w->o;
+    bst_mat *d;
+    int rc = bsti_mat_lr_expand(w->ctx, m, BST_DOUBLE, &d);
+    if (rc < 0)
+        return rc;
+    bsti_tt3_job job = {d, w->t3[idx], NAN, NAN};
+    rc = bsti_tt3_build(w->ctx, w->k, o->iso_refine, o->rank == BST_RANK_3 ? -INFINITY
+                        : o->iso_fa_min - 2.0, o->rank != BST_RANK_3, 0, BSTI_TT3_TABLE_BYTES, 0, 1,
+                        &job);
+    bst_mat_free(d);
+    if (rc >= 0)
+        w->iso[idx] = job.fa_min;
+    if (rc >= 0 && job.fa_min < o->iso_fa_min)
+        *isotropic = 0;
+    return rc;
+}
+
 static int build_t3(struct xw *w, int *isotropic)
 {
     const bst_bsdf_write_opts *o = w->o;
@@ -304,6 +327,12 @@ static int build_t3(struct xw *w, int *isotropic)
                     *isotropic = 0;
                     if (o->rank != BST_RANK_3)
                         goto done;
+                }
+                if (bsti_mat_lr_wide(m)) {
+                    rc = t3_wide(w, m, idx, isotropic);
+                    if (rc >= 0 && !*isotropic && o->rank != BST_RANK_3)
+                        goto done;
+                    continue;
                 }
                 jobs[nj].m = m, jobs[nj].t3 = w->t3[idx];
                 at[nj++] = idx;
@@ -527,6 +556,18 @@ static void klems_data(struct xw *w, const bst_mat *m, bst_bsdf_write_block *rep
         rep->hemi_error = fmax(rep->hemi_error, fabs(hemi[i]));
 }
 
+/* A FACTORED m's values (bsti_mat_lr_values) in w->full, made at the first such component and
+ * kept for the next (a fresh 2 GiB at k = 7 a component: allocated and its pages first touched
+ * again each time); NULL when that memory is not there. */
+static const double *factored_values(struct xw *w, const bst_mat *m)
+{
+    if (!m || m->s != BST_FACTORED)
+        return NULL;
+    if (!w->full && !(w->full = bsti_alloc_array(w->ctx, w->n * w->n, sizeof *w->full)))
+        return NULL;
+    return bsti_mat_lr_values(w->ctx, m, w->full) >= 0 ? w->full : NULL;
+}
+
 static int write_blocks(struct xw *w)
 {
     const bst_bsdf_write_opts *o = w->o;
@@ -549,13 +590,17 @@ static int write_blocks(struct xw *w)
                 } else {
                     bsti_tensor t = {w->kind == BST_FILE_TT3 ? 3 : 4, w->k, NULL, NULL, NULL, NULL, 0, NULL};
                     bsti_varres vr = {0};
-                    double *full = NULL; /* a FACTORED component's values (expanded) */
                     const bst_mat *const *fine = !w->v ? NULL : c == BST_TF ? w->v->tf
                                                  : c == BST_RF ? w->v->rf : NULL;
+                    bst_mat *dense = NULL; /* a wide coarse one under fine columns, expanded */
                     if (w->v && fine && fine[ch]) { /* order k, fine columns over coarse cells */
-                        vr = (bsti_varres){w->k, w->kc, m, fine[ch], w->v->ncols, w->v->cols, NULL, NULL};
-                        int rc = bsti_varres_init(w->ctx, &vr);
+                        int rc = bsti_mat_lr_wide(m) ? bsti_mat_lr_expand(w->ctx, m, BST_DOUBLE, &dense) : BST_OK;
+                        vr = (bsti_varres){w->k, w->kc, dense ? dense : m, fine[ch], w->v->ncols,
+                                           w->v->cols, NULL, NULL};
+                        if (rc >= 0)
+                            rc = bsti_varres_init(w->ctx, &vr);
                         if (rc < 0) {
+                            bst_mat_free(dense);
                             bsti_error_prefix(w->ctx, "%s %s", rep.channel, block_label[c]);
                             return rc;
                         }
@@ -564,8 +609,12 @@ static int write_blocks(struct xw *w)
                         t.d = w->t3[idx];
                     } else if (m && m->s == BST_DENSE && m->prec == BST_DOUBLE)
                         t.d = m->dense;
-                    else if ((full = bsti_mat_lr_values(w->ctx, m)) != NULL)
-                        t.d = full; /* (each value's bits: the tree written value by value) */
+                    else if ((t.d = factored_values(w, m)) != NULL)
+                        ; /* (expanded into the one buffer of every block) */
+                    else if (bsti_mat_lr_wide(m))
+                        return bsti_error(w->ctx, BST_ENOMEM, "writing BSDF XML: %s %s: out of "
+                                          "memory expanding a factored component", rep.channel,
+                                          block_label[c]);
                     else if (m && m->s == BST_DENSE)
                         t.f = m->dense;
                     else if (m && m->s != BST_ZERO)
@@ -587,7 +636,7 @@ static int write_blocks(struct xw *w)
                     bsti_tree_stats st;
                     int rc = bsti_ttree_write(w->ctx, &t, &r, w->out, &st);
                     bsti_varres_done(w->ctx, &vr);
-                    bsti_free(w->ctx, full);
+                    bst_mat_free(dense);
                     if (rc < 0 && rc != BST_EIO) {
                         bsti_error_prefix(w->ctx, "%s %s", rep.channel, block_label[c]);
                         return rc;
@@ -612,42 +661,11 @@ static int write_blocks(struct xw *w)
 
 /* ------------------------------------------------------------------ entry points */
 
-static int write_layer_as_is(bst_ctx *ctx, const bst_layer *l, bsti_sink *s,
-                             const bst_bsdf_write_opts *opts, const bst_varres *v);
-
+/* A component factored over a wide map (mat.h) is read a block of columns at a time by the
+ * checks and bounds, and expanded for its own block alone (write_blocks), so that one expanded
+ * component is held at a time. */
 static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst_bsdf_write_opts *opts,
                        const bst_varres *v)
-{
-    if (!ctx)
-        return BST_EINVAL;
-    size_t nm = l ? l->nchannels * BST_NCOMP : 0, wide = 0;
-    for (size_t i = 0; i < nm; i++)
-        wide += bsti_mat_lr_wide(l->comp[i]);
-    if (!wide)
-        return write_layer_as_is(ctx, l, s, opts, v);
-    /* a layer with components factored over a wide map (mat.h): written from a copy with those
-     * components expanded (the layer's own matrices are shared, not copied) */
-    bst_layer tmp = *l;
-    bst_mat **own = bsti_calloc(ctx, 2 * nm, sizeof *own);
-    int rc = own ? BST_OK : BST_ENOMEM;
-    tmp.comp = own + nm;
-    for (size_t i = 0; i < nm && rc >= 0; i++)
-        if (bsti_mat_lr_wide(l->comp[i]))
-            rc = bsti_mat_lr_expand(ctx, l->comp[i], BST_DOUBLE, &own[i]), tmp.comp[i] = own[i];
-        else
-            tmp.comp[i] = l->comp[i];
-    if (rc >= 0)
-        rc = write_layer_as_is(ctx, &tmp, s, opts, v);
-    else if (rc == BST_ENOMEM)
-        rc = bsti_error(ctx, rc, "writing BSDF XML: out of memory expanding a factored component");
-    for (size_t i = 0; own && i < nm; i++)
-        bst_mat_free(own[i]);
-    bsti_free(ctx, own);
-    return rc;
-}
-
-static int write_layer_as_is(bst_ctx *ctx, const bst_layer *l, bsti_sink *s,
-                             const bst_bsdf_write_opts *opts, const bst_varres *v)
 {
     if (!ctx)
         return BST_EINVAL;
@@ -741,6 +759,7 @@ static int write_layer_as_is(bst_ctx *ctx, const bst_layer *l, bsti_sink *s,
     free_t3(&w);
     bsti_bounds_free(ctx, &w.bounds);
     bsti_free(ctx, w.ring);
+    bsti_free(ctx, w.full);
     bsti_free(ctx, w.omit);
     bsti_free(ctx, w.hemi);
     if (rc == BST_EIO)

@@ -1,7 +1,8 @@
 # cli_factored.sh - layers held factored (issue #31) end to end: a depth-3 tree at k = 5 goes
 # factored (-v says so, with its rank), writes the system --dense writes (compare: no
 # directional-hemispherical difference, GA 100), with less memory; per channel and per
-# wavelength alike; a reversed factored layer too.
+# wavelength alike; a reversed factored layer too; a matte venetian blind's stack written with one
+# expanded component at a time.
 . "${BST_SRCDIR:-.}/tests/clitest.sh"
 ref=${BST_REFDIR:?}
 B=$BSDFSTACK
@@ -39,6 +40,18 @@ expect_status 0 "combine --rank3 exact" -- "$B" combine -v -k 5 -o "$tmpdir/e.xm
     glass:clear-6mm "$tmpdir/i3.xml" glass:clear-6mm
 grep -q "layers 1-2 Visible Tf: dense" "$tmpdir/err" && pass "--rank3 exact (default): dense" ||
     fail "the default is not the exact (dense) expansion: $(head -5 "$tmpdir/err")"
+# a matte venetian blind's stack at k = 5 stays factored to the end: the writer expands one
+# component of 1024^2 doubles (8 MiB) at a time, where a dense system of one channel holds four
+# (32 MiB; the system here has two channels), so writing adds less than that to the peak of
+# reading the layers (before the writer took one component at a time: 8 copies and more)
+blind='venetian:width=16mm,spacing=14.5mm,tilt=45,r=0.7,t=0.05'
+expect_status 0 "combine a matte blind factored" -- "$B" combine -v -k 5 -o "$tmpdir/v.xml" \
+    glass:clear-6mm "$blind" glass:clear-6mm
+r_peak=$(awk '/: read 3 layers/ { sub(/.*peak RSS /, ""); print $1 + 0 }' "$tmpdir/err")
+w_peak=$(awk '/: wrote / { sub(/.*peak RSS /, ""); print $1 + 0 }' "$tmpdir/err")
+awk -v r="$r_peak" -v w="$w_peak" 'BEGIN { exit !(r > 0 && w > r && w - r < 32) }' &&
+    pass "peak RSS: read $r_peak MiB, written $w_peak MiB (less than 4 components more)" ||
+    fail "peak RSS: read $r_peak MiB, written $w_peak MiB: 4 expanded components or more"
 rm -f "$tmpdir/x.xml"
 expect_status 2 "--rank3 foo" -- "$B" combine --rank3 foo -o "$tmpdir/x.xml" glass:clear-6mm "$tmpdir/i3.xml"
 [ "$(wc -l < "$tmpdir/err")" -le 2 ] && grep -q -- "--rank3 foo" "$tmpdir/err" && [ ! -e "$tmpdir/x.xml" ] &&

@@ -153,7 +153,7 @@ static int whole(bst_ctx *ctx, const char *sub, struct combine_req *q, struct cl
     if (rc == CLI_OK && set->spectral && q->verbose)
         fprintf(stderr, "bsdfstack %s: per wavelength: %zu steps over the groups of wavelengths, "
                 "least rcond %.3g\n", sub, steps_seen, steps_seen ? steps_least_rcond : 1.0);
-    cli_blas_rest(); /* writing does no BLAS work */
+    cli_blas_rest(); /* writing does no BLAS work but expanding factored components (GEMM bursts) */
     if (rc == CLI_OK && q->verbose) {
         char what[96];
         snprintf(what, sizeof what, "combined, %.4g GFLOP in dense kernels", steps_flops * 1e-9);
