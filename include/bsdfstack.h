@@ -578,21 +578,18 @@ typedef struct {
 typedef struct {
     size_t dense;          /* N x N components the layers hold dense */
     double dense_bytes;    /* their bytes: files' in the read precision, made layers' in double */
-    size_t expanded;       /* components expanded from factored ones over wide maps: a
-                              combination's results (channels x components), else the made
-                              layers' own, which the writer expands */
-    double expanded_bytes; /* their bytes: results in the work precision, else doubles */
+    size_t expanded;       /* components expanded at once from factored ones over wide maps:
+                              1, the writer's grid (0 where a layer is dense) */
+    double expanded_bytes; /* its bytes: N^2 doubles */
 } bst_plan_need;
 /* bst_plan_memory over layers some of which are made from specs: their dense components count
  * as a file's, in double; their factored ones count their own size (the diagonal, width x width
  * values and the map's N x width entries of 16 bytes, once a channel), and where no layer holds
- * a dense component, their expansion: a combination hands its results over expanded (every
- * channel in common, at most the fewest a file or made layer holds, times the components asked
- * for by comps, N^2 values of the work precision each), and without one the writer expands every
- * factored component as doubles; either adds one N^2 grid of doubles (the last expansion's, or
- * the writer's).  A made layer's sparse parts (mirror or black slats) count as the rest.  comps
- * selects the components read from files and those a combination hands over; *need (may be
- * NULL) gets what was counted. */
+ * a dense component, the writer's one N^2 grid of doubles (it expands a factored component at a
+ * time, a combination's results staying factored) and 64 MiB of column blocks (the readers of
+ * such components).  A made layer's sparse parts (mirror or black slats) count as the rest.
+ * Not counted: a wavelength-by-wavelength combination's per-channel sums (bst_plan_spectral).
+ * comps selects the components read from files; *need (may be NULL) gets what was counted. */
 double bst_plan_memory_held(const bst_basis *basis, size_t n, const bst_plan_held *layers,
                             unsigned comps, bst_precision read, int combining, bst_precision work,
                             bst_plan_need *need);

@@ -284,15 +284,13 @@ static double memory_of(const bst_basis *basis, size_t n, const bst_bsdf *const 
         double w = combining ? 3.0 * wb : 0.0;
         bytes = base + got.dense_bytes + cells * (w > 8.0 ? w : 8.0);
     } else if (t.factored) {
-        /* a stack of factored layers over wide maps hands its results over expanded (stack.c,
-         * hand_over); one without a combination is written with each expanded (xml_write.c) */
-        unsigned want = comps ? comps & BST_COMP_ALL : BST_COMP_ALL;
-        size_t nc = 0;
-        for (int c = 0; c < BST_NCOMP; c++)
-            nc += (want & BST_COMP_BIT(c)) != 0;
-        got.expanded = combining ? (t.nres ? t.nres : 1) * nc : t.factored;
-        got.expanded_bytes = cells * (double)got.expanded * (combining ? wb : 8.0);
-        bytes = base + got.expanded_bytes + 8.0 * cells + (combining ? 3.0 * t.largest : 0.0);
+        /* factored layers over wide maps: a stack hands its results over factored (stack.c,
+         * hand_over), their readers take blocks of columns (bsti_cols: up to 32 MiB each, two at
+         * a time), and the writer expands one component at a time into one grid of doubles
+         * (xml_write.c), combined or not */
+        got.expanded = 1;
+        got.expanded_bytes = 8.0 * cells;
+        bytes = base + got.expanded_bytes + 64.0 * 1048576.0 + (combining ? 3.0 * t.largest : 0.0);
     } else {
         /* a factored combination works on coarse matrices: about three at a time; the tree
          * writer expands one factored component (xml_write.c) */

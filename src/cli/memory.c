@@ -52,9 +52,8 @@ static void counted(const bst_plan_need *got, double cells, double one, int comb
 {
     double gib = 1073741824.0, each = got->dense ? got->dense_bytes / (double)got->dense : 0;
     if (got->expanded)
-        snprintf(buf, size, "%s%zu component%s expanded from factored layers, of %.3g GiB each",
-                 combining ? "the results' " : "", got->expanded, got->expanded == 1 ? "" : "s",
-                 got->expanded_bytes / (double)got->expanded / gib);
+        snprintf(buf, size, "factored %s written one component at a time through a grid of %.3g "
+                 "GiB", combining ? "results" : "components", got->expanded_bytes / gib);
     else if (got->dense && each != 4.0 * cells && each != 8.0 * cells) /* files' floats, made doubles */
         snprintf(buf, size, "%zu dense components, %.3g GiB in all", got->dense,
                  got->dense_bytes / gib);
