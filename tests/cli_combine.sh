@@ -199,7 +199,7 @@ expect_status 0 "facing 0.99 reflectors" -- "$BSDFSTACK" combine -k 3 "$tmpdir/g
 [ ! -s "$tmpdir/err" ] && pass "no warning when energy is conserved" || fail "spurious warning: $(cat "$tmpdir/err")"
 # The memory guard: an estimate beyond --max-memory is refused before any work, in one line
 # naming the need and the limit, with no output; a generous limit changes nothing.
-expect_error "--max-memory below the need" "k = 4 needs about [0-9.]+ GiB \(4 dense components of [0-9.]+ GiB and the combination's work\), more than the 0.00781 GiB --max-memory allows: use a lower -k, --precision single or --only" -- \
+expect_error "--max-memory below the need" "k = 4 needs about [0-9.]+ GiB \(4 dense components of [0-9.]+ GiB and the combination's work\), more than the 0.00781 GiB --max-memory allows: use a lower -k, --precision single or fewer --channels" -- \
     "$BSDFSTACK" combine -k 4 --max-memory 8M glass:clear-6mm "$ref/L_diffuser_t3k5.xml" -o "$tmpdir/mem.xml"
 [ ! -e "$tmpdir/mem.xml" ] && pass "no output when refused for memory" || fail "output written though refused for memory"
 expect_status 0 "--max-memory above the need" -- \

@@ -31,7 +31,7 @@ close() { awk -v g="$1" -v w="$2" 'BEGIN { exit !(g > 0 && (g - w) / w < 5e-3 &&
 # refused at once in one line, with nothing written
 rm -f s.xml
 expect_error "a dense made blind beyond --max-memory" \
-    "k = 4 needs about [0-9.]+ GiB \(8 dense components of 0.000488 GiB and the combination's work\), more than the 0.00781 GiB --max-memory allows: use a lower -k, --precision single or --only; or raise the limit with --max-memory SIZE" -- \
+    "k = 4 needs about [0-9.]+ GiB \(8 dense components of 0.000488 GiB and the combination's work\), more than the 0.00781 GiB --max-memory allows: use a lower -k, --precision single or fewer --channels; or raise the limit with --max-memory SIZE" -- \
     "$B" combine -k 4 --max-memory 8M glass:clear-6mm "$specular" glass:clear-6mm -o s.xml
 [ ! -e s.xml ] && pass "no output when refused" || fail "s.xml written though refused"
 want=$(need 256 8 0 0 2 0 8)

@@ -109,7 +109,7 @@ static int load(bst_ctx *ctx, const char *sub, struct combine_req *q, struct cli
     double t0 = combine_now();
     q->args.basis.combining = q->ndirs == 0; /* columns (--incident) need little beyond the layers */
     q->args.basis.work = q->args.so.precision;
-    q->args.basis.lower = "a lower -k, --precision single or --only";
+    q->args.basis.lower = "a lower -k, --precision single or fewer --channels";
     int rc = cli_layers_load(set, ctx, sub, q->nspecs, q->specs, &q->args.basis, q->args.channels,
                              0, q->args.so.precision);
     if (rc == CLI_OK && q->verbose) {
