@@ -38,4 +38,15 @@ static inline int bsti_sink_failed(const bsti_sink *s) { return s->failed; }
 /* The callback for a stdio stream (opaque = FILE *). */
 int bsti_sink_file(const char *buf, size_t len, void *opaque);
 
+/* XML text (the writer's, xml_write.c).  Names, paths and command lines arrive as bytes while the
+ * file declares UTF-8: a byte that starts no character XML 1.0 allows is written as U+FFFD,
+ * control characters other than tab and newline as a space. */
+/* Text content or an attribute value, the XML specials escaped. */
+void bsti_sink_xml_text(bsti_sink *s, const char *text);
+/* Text inside an XML comment: "--" may not occur there, so a space goes between two '-', and a
+ * comment may not end in '-'; a newline starts a new line indented by `indent`. */
+void bsti_sink_xml_comment(bsti_sink *s, const char *text, const char *indent);
+/* indent, then <name>text</name> and a newline. */
+void bsti_sink_xml_element(bsti_sink *s, const char *indent, const char *name, const char *text);
+
 #endif

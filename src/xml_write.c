@@ -85,112 +85,6 @@ static double zero_get(const void *opaque, size_t index)
     return 0.0;
 }
 
-/* ------------------------------------------------------------------ text helpers */
-
-/* Text reaches the file from names and paths the system hands over as bytes (file names, -o,
- * --name, a command line), while the file declares UTF-8: a byte sequence that is not the UTF-8 of
- * an XML 1.0 character would leave a file no parser reads back.  Each byte of such a sequence is
- * written as U+FFFD, the replacement character; control characters other than tab and newline,
- * which XML 1.0 does not allow either, as a space. */
-#define XML_REPLACEMENT "\xEF\xBF\xBD"
-
-/* Bytes of the UTF-8 sequence at p that encodes one character XML 1.0 allows (#x9, #xA, #xD,
- * #x20-#xD7FF, #xE000-#xFFFD, #x10000-#x10FFFF), in its shortest form; 0 when it is not one. */
-static size_t xml_char_len(const char *text)
-{
-    const unsigned char *p = (const unsigned char *)text;
-    size_t n;
-    unsigned long cp, least;
-    if (p[0] < 0x80)
-        return p[0] >= 0x20 || p[0] == '\t' || p[0] == '\n' || p[0] == '\r';
-    if ((p[0] & 0xE0) == 0xC0)
-        n = 2, cp = p[0] & 0x1Fu, least = 0x80;
-    else if ((p[0] & 0xF0) == 0xE0)
-        n = 3, cp = p[0] & 0x0Fu, least = 0x800;
-    else if ((p[0] & 0xF8) == 0xF0)
-        n = 4, cp = p[0] & 0x07u, least = 0x10000;
-    else
-        return 0; /* a continuation byte, or a lead byte no UTF-8 has */
-    for (size_t i = 1; i < n; i++) {
-        if ((p[i] & 0xC0) != 0x80) /* also stops at the terminating NUL */
-            return 0;
-        cp = cp << 6 | (p[i] & 0x3Fu);
-    }
-    if (cp < least || (cp >= 0xD800 && cp <= 0xDFFF) || cp == 0xFFFE || cp == 0xFFFF || cp > 0x10FFFF)
-        return 0; /* overlong, a surrogate, a non-character XML excludes, beyond Unicode */
-    return n;
-}
-
-/* The character at *p as the file may hold it: its bytes, a space for a control character, or
- * U+FFFD for a byte that starts no valid character; *p moves past what was taken. */
-static void put_char(bsti_sink *s, const char **p)
-{
-    size_t n = xml_char_len(*p);
-    if (n) {
-        bsti_sink_put(s, *p, n);
-        *p += n;
-        return;
-    }
-    bsti_sink_puts(s, (unsigned char)**p < 0x80 ? " " : XML_REPLACEMENT);
-    (*p)++;
-}
-
-/* Text content or attribute value with the XML specials escaped. */
-static void put_escaped(bsti_sink *s, const char *text)
-{
-    for (const char *p = text; *p;) {
-        switch (*p) {
-        case '&': bsti_sink_puts(s, "&amp;"), p++; break;
-        case '<': bsti_sink_puts(s, "&lt;"), p++; break;
-        case '>': bsti_sink_puts(s, "&gt;"), p++; break;
-        case '"': bsti_sink_puts(s, "&quot;"), p++; break;
-        case '\r': bsti_sink_put(s, " ", 1), p++; break; /* a reader would make it a newline */
-        default: put_char(s, &p);
-        }
-    }
-}
-
-/* Text inside an XML comment: "--" may not occur there, so a space goes between two '-', and a
- * comment may not end in '-'.  A newline starts a new line indented by `indent`; other control
- * characters become spaces, bytes that are not UTF-8 U+FFFD (put_char). */
-static void put_comment_lines(bsti_sink *s, const char *text, const char *indent)
-{
-    char prev = 0;
-    for (const char *p = text; *p;) {
-        if (*p == '\n') {
-            if (prev == '-')
-                bsti_sink_put(s, " ", 1);
-            bsti_sink_put(s, "\n", 1);
-            bsti_sink_puts(s, indent);
-            prev = 0;
-            p++;
-            continue;
-        }
-        if (*p == '-' && prev == '-')
-            bsti_sink_put(s, " ", 1);
-        prev = *p;
-        if (*p == '\r')
-            bsti_sink_put(s, " ", 1), p++;
-        else
-            put_char(s, &p);
-    }
-    if (prev == '-')
-        bsti_sink_put(s, " ", 1);
-}
-
-static void put_comment_text(bsti_sink *s, const char *text)
-{
-    put_comment_lines(s, text, "");
-}
-
-static void element(bsti_sink *s, const char *indent, const char *name, const char *text)
-{
-    bsti_sink_puts(s, indent);
-    bsti_sink_printf(s, "<%s>", name);
-    put_escaped(s, text);
-    bsti_sink_printf(s, "</%s>\n", name);
-}
-
 /* ------------------------------------------------------------------ decisions before writing */
 
 static int validate(struct xw *w)
@@ -406,18 +300,18 @@ static void header(struct xw *w)
             snprintf(date, sizeof date, "unknown date");
     }
     bsti_sink_puts(s, "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<!--\n  Written by bsdfstack ");
-    put_comment_text(s, bst_version());
+    bsti_sink_xml_comment(s, bst_version(), "");
     bsti_sink_puts(s, " on ");
-    put_comment_text(s, date);
+    bsti_sink_xml_comment(s, date, "");
     bsti_sink_puts(s, "\n");
     if (o->command) {
         bsti_sink_puts(s, "  Command: ");
-        put_comment_text(s, o->command);
+        bsti_sink_xml_comment(s, o->command, "");
         bsti_sink_puts(s, "\n");
     }
     if (o->description) {
         bsti_sink_puts(s, "  ");
-        put_comment_lines(s, o->description, "  ");
+        bsti_sink_xml_comment(s, o->description, "  ");
         bsti_sink_puts(s, "\n");
     }
     size_t nl = o->nlayers;
@@ -426,13 +320,13 @@ static void header(struct xw *w)
         bsti_sink_puts(s, "  Layers, exterior first:\n");
         for (size_t i = 0; i < (nl ? nl : 1); i++) {
             bsti_sink_printf(s, "    %zu. ", i + 1);
-            put_comment_text(s, nl ? (o->layers[i] ? o->layers[i] : "?") : self);
+            bsti_sink_xml_comment(s, nl ? (o->layers[i] ? o->layers[i] : "?") : self, "");
             bsti_sink_puts(s, "\n");
         }
     }
     if (w->kind == BST_FILE_KLEMS) {
         bsti_sink_puts(s, "  Basis: ");
-        put_comment_text(s, bst_basis_name(b));
+        bsti_sink_xml_comment(s, bst_basis_name(b), "");
         bsti_sink_printf(s, " (%zu patches per hemisphere), matrices in Columns order\n", w->n);
     } else {
         size_t G = (size_t)1 << w->k;
@@ -456,7 +350,7 @@ static void header(struct xw *w)
             for (int c = 0; c < BST_NCOMP; c++)
                 if (w->omit[ch * BST_NCOMP + (size_t)c] == 1) {
                     bsti_sink_puts(s, "  ");
-                    put_comment_text(s, bst_layer_channel(w->l, ch));
+                    bsti_sink_xml_comment(s, bst_layer_channel(w->l, ch), "");
                     bsti_sink_printf(s, " %s: left out, the reciprocal of %s\n", block_label[c],
                                      block_label[c == BST_TF ? BST_TB : BST_TF]);
                 }
@@ -468,9 +362,9 @@ static void header(struct xw *w)
                       "<WindowElementType>System</WindowElementType>\n"
                       "<FileType>BSDF</FileType>\n<Optical>\n<Layer>\n\t<Material>\n");
     const char *name = o->name ? o->name : self[0] ? self : "bsdfstack layer";
-    element(s, "\t\t", "Name", name);
-    element(s, "\t\t", "Manufacturer", o->manufacturer ? o->manufacturer : "Unknown");
-    element(s, "\t\t", "DeviceType", o->device_type ? o->device_type : "Other");
+    bsti_sink_xml_element(s, "\t\t", "Name", name);
+    bsti_sink_xml_element(s, "\t\t", "Manufacturer", o->manufacturer ? o->manufacturer : "Unknown");
+    bsti_sink_xml_element(s, "\t\t", "DeviceType", o->device_type ? o->device_type : "Other");
     const struct { const char *tag; double v; } dims[] = {
         {"Thickness", o->thickness}, {"Width", o->width}, {"Height", o->height}};
     for (int i = 0; i < 3; i++)
@@ -480,7 +374,7 @@ static void header(struct xw *w)
     if (w->kind == BST_FILE_KLEMS) {
         bsti_sink_puts(s, "\t\t<IncidentDataStructure>Columns</IncidentDataStructure>\n"
                           "\t\t<AngleBasis>\n");
-        element(s, "\t\t\t", "AngleBasisName", bst_basis_name(b));
+        bsti_sink_xml_element(s, "\t\t\t", "AngleBasisName", bst_basis_name(b));
         for (size_t i = 0; i < b->nbands; i++) {
             double centre = (i == 0 && b->theta[0] == 0.0) ? 0.0 : 0.5 * (b->theta[i] + b->theta[i + 1]);
             bsti_sink_printf(s, "\t\t\t<AngleBasisBlock>\n\t\t\t\t<Theta>%.9g</Theta>\n"
@@ -504,18 +398,18 @@ static void block_head(struct xw *w, size_t ch, int c)
     const char *name = bst_layer_channel(w->l, ch), *det, *src = spectrum(name, &det);
     bsti_sink_puts(s, "\t<WavelengthData>\n\t\t<LayerNumber>System</LayerNumber>\n"
                       "\t\t<Wavelength unit=\"Integral\">");
-    put_escaped(s, name);
+    bsti_sink_xml_text(s, name);
     bsti_sink_puts(s, "</Wavelength>\n");
     if (src)
-        element(s, "\t\t", "SourceSpectrum", src);
+        bsti_sink_xml_element(s, "\t\t", "SourceSpectrum", src);
     if (det)
-        element(s, "\t\t", "DetectorSpectrum", det);
+        bsti_sink_xml_element(s, "\t\t", "DetectorSpectrum", det);
     bsti_sink_printf(s, "\t\t<WavelengthDataBlock>\n\t\t\t<WavelengthDataDirection>%s"
                      "</WavelengthDataDirection>\n", block_label[c]);
     if (w->kind == BST_FILE_KLEMS) {
         const char *bn = bst_basis_name(bst_layer_basis(w->l));
-        element(s, "\t\t\t", "ColumnAngleBasis", bn);
-        element(s, "\t\t\t", "RowAngleBasis", bn);
+        bsti_sink_xml_element(s, "\t\t\t", "ColumnAngleBasis", bn);
+        bsti_sink_xml_element(s, "\t\t\t", "RowAngleBasis", bn);
     } else {
         bsti_sink_puts(s, "\t\t\t<AngleBasis>LBNL/Shirley-Chiu</AngleBasis>\n");
     }
