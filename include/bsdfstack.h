@@ -569,10 +569,11 @@ double bst_plan_memory(const bst_basis *basis, size_t n, const bst_bsdf *const *
 typedef struct {
     const bst_bsdf *file; /* the file it is read from, or NULL: made */
     size_t nchannels;     /* made: its channels (0: not known, a pane) */
-    size_t dense;         /* made: components held dense, N x N doubles each */
+    size_t dense;         /* made: components held dense, N x N values of `precision` each */
     size_t factored;      /* made: components held factored over a wide map (mat.h: a venetian
                              blind's strips), the diagonal and width x width values each */
     size_t width;         /* made: that map's columns (every row holds at most that many) */
+    bst_precision precision; /* made: the dense components' (bst_venetian's precision) */
 } bst_plan_held;
 /* What the need counts beyond the base, for a message. */
 typedef struct {
@@ -946,6 +947,11 @@ typedef struct {
                              * BST_VENETIAN_CENTRE: WINDOW's model (venetian_wce.c) */
     int distribution;       /* BST_VENETIAN_CENTRE only: BST_VENETIAN_DIRECTIONAL (default)
                              * or BST_VENETIAN_UNIFORM */
+    bst_precision precision;/* of the dense components (diffuse slats with a mirror part, or
+                             * WINDOW's model): BST_DOUBLE (default), or BST_FLOAT, each converted
+                             * as it is made, so that a dense blind holds half the memory (k = 7:
+                             * 1 GiB a component); factored and sparse ones stay double.  Not a
+                             * spec key: the program sets it to its --precision. */
 } bst_venetian;
 #define BST_VENETIAN_SEGMENTS 8
 #define BST_VENETIAN_SAMPLES 32

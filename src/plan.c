@@ -219,6 +219,7 @@ static int decide(size_t n, const bst_plan_layer *layers, int per_channel, size_
 /* The sums over the layers the model counts (bst_plan_memory_held). */
 struct held_sum {
     size_t dense_files, dense_made, factored;
+    double made_dense_bytes; /* per N^2: 8 a double component made, 4 a float one */
     double sparse;   /* bytes of file components that come out sparse (value and index each) */
     double coarse;   /* bytes of coarse matrices held factored, and the largest one */
     double largest;
@@ -271,6 +272,7 @@ static double memory_of(const bst_basis *basis, size_t n, const bst_bsdf *const 
         }
         fewest(&t, h->nchannels);
         t.dense_made += h->dense;
+        t.made_dense_bytes += (double)h->dense * (h->precision == BST_FLOAT ? 4.0 : 8.0);
         t.factored += h->factored;
         if (h->factored) /* each: its diagonal and K; the map once a channel */
             t.made_small += (double)h->factored * 8.0 * (N + (double)h->width * (double)h->width) +
@@ -278,7 +280,7 @@ static double memory_of(const bst_basis *basis, size_t n, const bst_bsdf *const 
     }
     double rb = read == BST_FLOAT ? 4.0 : 8.0, wb = work == BST_FLOAT ? 4.0 : 8.0;
     bst_plan_need got = {.dense = t.dense_files + t.dense_made,
-                         .dense_bytes = cells * ((double)t.dense_files * rb + (double)t.dense_made * 8.0)};
+                         .dense_bytes = cells * ((double)t.dense_files * rb + t.made_dense_bytes)};
     double base = 64.0 * 1048576.0 + 0.5 * cells + t.sparse + t.coarse + t.made_small, bytes;
     if (got.dense) {
         double w = combining ? 3.0 * wb : 0.0;

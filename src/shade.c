@@ -254,6 +254,7 @@ static void venetian_channel(const bst_venetian *v, size_t N, bst_plan_held *h)
         h->factored += BST_NCOMP, h->width = width > h->width ? width : h->width;
     else if (diffuse)
         h->dense += BST_NCOMP;
+    h->precision = v->precision;
 }
 
 /* Whether a sheet's channel scatters: any diffuse value above 0 (sol's where not NaN). */

@@ -587,9 +587,15 @@ static int fill_layer(struct build *B, bst_layer *l, size_t nch, const size_t *c
     for (int c = 0; c < BST_NCOMP && rc >= 0; c++) {
         bst_mat *m = NULL;
         rc = component(B, c, diffuse, &m);
+        if (rc >= 0 && B->v->precision == BST_FLOAT && bst_mat_structure(m) == BST_DENSE) {
+            bst_mat *f; /* at once: one component's doubles at a time */
+            rc = bst_mat_convert(B->ctx, m, BST_DENSE, BST_FLOAT, &f);
+            bst_mat_free(m);
+            m = rc >= 0 ? f : NULL;
+        }
         for (size_t k = 1; k < nch && rc >= 0; k++) {
             bst_mat *copy;
-            rc = bst_mat_convert(B->ctx, m, bst_mat_structure(m), BST_DOUBLE, &copy);
+            rc = bst_mat_convert(B->ctx, m, bst_mat_structure(m), bst_mat_precision(m), &copy);
             if (rc >= 0)
                 rc = bst_layer_set(B->ctx, l, ch[k], (bst_comp)c, copy);
         }

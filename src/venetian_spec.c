@@ -253,6 +253,9 @@ int bst_venetian_check(bst_ctx *ctx, const bst_venetian *v)
         return ctx ? bsti_error(ctx, BST_EINVAL, "venetian: NULL argument") : BST_EINVAL;
     if (!(v->width > 0.0) || !isfinite(v->width))
         return bsti_error(ctx, BST_EINVAL, "venetian: width = %g m is not positive", v->width);
+    if (v->precision != BST_DOUBLE && v->precision != BST_FLOAT)
+        return bsti_error(ctx, BST_EINVAL, "venetian: precision = %d is not BST_DOUBLE or BST_FLOAT",
+                          (int)v->precision);
     if (!(v->spacing > 0.0) || !isfinite(v->spacing))
         return bsti_error(ctx, BST_EINVAL, "venetian: spacing = %g m is not positive", v->spacing);
     if (!(fabs(v->tilt) <= 90.0))

@@ -305,20 +305,25 @@ static double outside(double vis, double sol)
     return fmax(0.0, (sol - BST_DUAL_BAND_F * vis) / (1.0 - BST_DUAL_BAND_F));
 }
 
-/* mats[k] into channels ch[0..nch) of l (copies but for the last, which the layer takes). */
-static int put(bst_ctx *ctx, bst_layer *l, size_t nch, const size_t *ch, bst_mat **mats)
+/* mats[k] into channels ch[0..nch) of l in precision prec (copies but for the last, which the
+ * layer takes when prec is double; a float copy for each channel otherwise). */
+static int put(bst_ctx *ctx, bst_layer *l, size_t nch, const size_t *ch, bst_mat **mats,
+               bst_precision prec)
 {
     int rc = BST_OK;
-    for (int k = 0; k < BST_NCOMP && rc >= 0; k++)
+    for (int k = 0; k < BST_NCOMP && rc >= 0; k++) {
         for (size_t j = 0; j < nch && rc >= 0; j++) {
             bst_mat *m = mats[k];
-            if (j + 1 < nch)
-                rc = bst_mat_convert(ctx, mats[k], BST_DENSE, BST_DOUBLE, &m);
+            if (j + 1 < nch || prec != BST_DOUBLE)
+                rc = bst_mat_convert(ctx, mats[k], BST_DENSE, prec, &m);
             else
                 mats[k] = NULL; /* the layer's now, also on failure */
             if (rc >= 0)
                 rc = bst_layer_set(ctx, l, ch[j], (bst_comp)k, m);
         }
+        if (prec != BST_DOUBLE) /* its doubles, as soon as they are copied */
+            bst_mat_free(mats[k]), mats[k] = NULL;
+    }
     return rc;
 }
 
@@ -343,10 +348,10 @@ int bsti_vn_wce_layer(bst_ctx *ctx, const bst_venetian *v, const bst_basis *basi
                 a[q] = BST_DUAL_BAND_F * b[q] + (1.0 - BST_DUAL_BAND_F) * a[q];
         }
         if (rc >= 0)
-            rc = put(ctx, l, nsol, sol, mo);
+            rc = put(ctx, l, nsol, sol, mo, v->precision);
     }
     if (rc >= 0)
-        rc = put(ctx, l, nvis, vis, mv);
+        rc = put(ctx, l, nvis, vis, mv, v->precision);
     for (int k = 0; k < BST_NCOMP; k++)
         bst_mat_free(mv[k]), bst_mat_free(mo[k]);
     return rc;

@@ -226,6 +226,7 @@ START_TEST(test_shade_plan)
     ck_assert(h.dense == 0 && h.factored == 0); /* mirror slats: sparse */
     h = plan_of("venetian:width=16mm,spacing=14.5mm,r=0.7,rule=centre", 3, 0, NULL);
     ck_assert(h.dense == 8 && h.factored == 0); /* WINDOW's model: dense */
+    ck_assert_int_eq(h.precision, BST_DOUBLE);
     h = plan_of("perforated:x=5mm,y=5mm,radius=1mm,r=0.7", 3, 0, NULL);
     ck_assert(h.dense == 0 && h.factored == 8 && h.width == 5);
     h = plan_of("perforated:x=5mm,y=5mm,radius=1mm,r=0/0.2", 3, 1, vis);
@@ -254,6 +255,12 @@ START_TEST(test_memory_held)
                     base + cells * (8 * 8.0 + 3 * 4.0), 1e-15, 1);
     ck_assert(need.dense == 8 && need.expanded == 0);
     tu_assert_close(need.dense_bytes, 64.0 * cells, 1e-15, 1);
+    /* the same blind made in floats (bst_venetian's precision, as the program makes it under
+     * --precision single): 8 floats */
+    sp[1].precision = BST_FLOAT;
+    tu_assert_close(bst_plan_memory_held(b, 3, sp, 0, BST_FLOAT, 1, BST_FLOAT, &need),
+                    base + cells * (8 * 4.0 + 3 * 4.0), 1e-15, 1);
+    tu_assert_close(need.dense_bytes, 32.0 * cells, 1e-15, 1);
     /* and the diffuser read in single precision beside it */
     bst_plan_held sd[2] = {{.file = diff}, {.nchannels = 2, .dense = 8}};
     tu_assert_close(bst_plan_memory_held(b, 2, sd, 0, BST_FLOAT, 1, BST_DOUBLE, &need),

@@ -552,6 +552,72 @@ START_TEST(test_dual_band)
 }
 END_TEST
 
+/* precision = BST_FLOAT: a dense blind's components are floats, each the double value rounded
+ * (the default model, dual band, and WINDOW's); its sparse ones stay double; between panes in
+ * single precision the system is the one from the double blind; a precision neither is refused. */
+START_TEST(test_float_blind)
+{
+    static const char *const spec[2] = {
+        "width=16mm,spacing=14.5mm,tilt=30,rs=0.765/0.7,r=0.085/0.12,samples=4",
+        "width=16mm,spacing=14.5mm,tilt=30,r=0.6,rule=centre"};
+    bst_basis *b = sc(3);
+    size_t n = bst_basis_size(b);
+    for (int k = 0; k < 2; k++) {
+        bst_venetian v;
+        ck_assert_int_eq(bst_venetian_parse(ctx, spec[k], &v), BST_OK);
+        ck_assert_int_eq(v.precision, BST_DOUBLE);
+        bst_layer *d, *f;
+        ck_assert_int_eq(bst_venetian_layer(ctx, &v, b, 0, NULL, &d), BST_OK);
+        v.precision = BST_FLOAT;
+        ck_assert_int_eq(bst_venetian_layer(ctx, &v, b, 0, NULL, &f), BST_OK);
+        for (size_t ch = 0; ch < 2; ch++)
+            for (int c = 0; c < BST_NCOMP; c++) {
+                const bst_mat *md = bst_layer_get(d, ch, (bst_comp)c), *mf = bst_layer_get(f, ch, (bst_comp)c);
+                ck_assert_int_eq(bst_mat_structure(md), BST_DENSE);
+                ck_assert_int_eq(bst_mat_structure(mf), BST_DENSE);
+                ck_assert_int_eq(bst_mat_precision(mf), BST_FLOAT);
+                for (size_t o = 0; o < n; o++)
+                    for (size_t i = 0; i < n; i++)
+                        ck_assert(bst_mat_get(mf, o, i) == (double)(float)bst_mat_get(md, o, i));
+            }
+        bst_layer *g = tu_layer(ctx, "glass:clear-6mm", b);
+        const bst_layer *sd[3] = {g, d, g}, *sf[3] = {g, f, g};
+        bst_stack_opts o;
+        bst_stack_opts_init(&o);
+        o.precision = BST_FLOAT;
+        bst_layer *rd, *rf;
+        ck_assert_int_ge(bst_stack_combine(ctx, 3, sd, &o, &rd), 0);
+        ck_assert_int_ge(bst_stack_combine(ctx, 3, sf, &o, &rf), 0);
+        for (size_t ch = 0; ch < 2; ch++)
+            for (int c = 0; c < BST_NCOMP; c++) {
+                const bst_mat *a = bst_layer_get(rd, ch, (bst_comp)c), *x = bst_layer_get(rf, ch, (bst_comp)c);
+                double dmax = 0, vmax = 0;
+                for (size_t q = 0; q < n; q++)
+                    for (size_t i = 0; i < n; i++)
+                        dmax = fmax(dmax, fabs(bst_mat_get(a, q, i) - bst_mat_get(x, q, i))),
+                        vmax = fmax(vmax, fabs(bst_mat_get(a, q, i)));
+                ck_assert_msg(dmax <= 1e-6 * vmax, "%s %s: %g", spec[k], bst_comp_name((bst_comp)c),
+                              dmax / vmax);
+            }
+        bst_layer_free(rd), bst_layer_free(rf), bst_layer_free(g);
+        bst_layer_free(d), bst_layer_free(f);
+    }
+    /* a mirror blind is sparse, in double, whatever the precision */
+    bst_venetian v;
+    ck_assert_int_eq(bst_venetian_parse(ctx, "width=16mm,spacing=14.5mm,rs=0.9,samples=2", &v), BST_OK);
+    v.precision = BST_FLOAT;
+    bst_layer *l;
+    ck_assert_int_eq(bst_venetian_layer(ctx, &v, b, 0, NULL, &l), BST_OK);
+    ck_assert_int_eq(bst_mat_structure(bst_layer_get(l, 0, BST_TF)), BST_SPARSE);
+    ck_assert_int_eq(bst_mat_precision(bst_layer_get(l, 0, BST_TF)), BST_DOUBLE);
+    bst_layer_free(l);
+    v.precision = (bst_precision)7;
+    ck_assert_int_lt(bst_venetian_layer(ctx, &v, b, 0, NULL, &l), 0);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "precision"));
+    bst_basis_free(b);
+}
+END_TEST
+
 /* Every allocation of the layer's making fails in turn: BST_ENOMEM, no layer, nothing leaked. */
 START_TEST(test_alloc_failure)
 {
@@ -601,6 +667,7 @@ static Suite *venetian_suite(void)
     tcase_add_test(tc, test_bad_specs);
     tcase_add_test(tc, test_alloc_failure);
     tcase_add_test(tc, test_dual_band);
+    tcase_add_test(tc, test_float_blind);
     tcase_add_loop_test(tc, test_black_openness, 0, 3);
     tcase_add_loop_test(tc, test_lossless_mirror, 0, 4); /* the last in Klems full */
     tcase_add_loop_test(tc, test_closed, 0, 3);

@@ -142,7 +142,7 @@ static int read_all(bst_ctx *ctx, const char *sub, size_t n, char **specs,
     for (size_t i = 0; i < n && rc == CLI_OK; i++) {
         held[i].file = files[i];
         if (cli_is_shade(specs[i]) &&
-            cli_shade_plan(ctx, specs[i], *basis, ro->nchannels, ro->channels, &held[i]) < 0)
+            cli_shade_plan(ctx, specs[i], *basis, ro->nchannels, ro->channels, prec, &held[i]) < 0)
             rc = cli_fail_ctx(sub, specs[i], ctx);
     }
     if (rc == CLI_OK)
@@ -187,7 +187,8 @@ static void warn_rows(const char *sub, const char *what, const bst_glass *g, siz
 
 static int make_layer(bst_ctx *ctx, const char *sub, const char *what, const char *spec,
                       bst_bsdf *file, const bst_basis *basis, size_t nch, const char **chnames,
-                      int at_centre, bst_layer **out, bst_glass **pane, char **note)
+                      bst_precision prec, int at_centre, bst_layer **out, bst_glass **pane,
+                      char **note)
 {
     size_t len = strlen(spec);
     int flip = len && spec[len - 1] == '^', st;
@@ -198,7 +199,7 @@ static int make_layer(bst_ctx *ctx, const char *sub, const char *what, const cha
         st = bst_bsdf_to_layer(ctx, file, basis, &l);
         bst_bsdf_free(file);
     } else if (cli_is_shade(spec)) {
-        st = cli_shade_layer(ctx, spec, basis, nch, chnames, &l);
+        st = cli_shade_layer(ctx, spec, basis, nch, chnames, prec, &l);
     } else {
         char *gspec = strndup(spec + 6, len - 6 - (size_t)flip);
         bst_glass *g = NULL;
@@ -297,7 +298,7 @@ int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_
     snprintf(set->basis_why, sizeof set->basis_why, "%s", pick.why);
     /* 3. every layer over that basis, reversed where asked */
     for (size_t i = 0; i < n && rc == CLI_OK; i++) {
-        rc = make_layer(ctx, sub, specs[i], specs[i], files[i], set->basis, nch, chnames,
+        rc = make_layer(ctx, sub, specs[i], specs[i], files[i], set->basis, nch, chnames, prec,
                         choice->at_centre, &set->layers[i], &set->panes[i], &set->notes[i]);
         files[i] = NULL;
         if (rc == CLI_OK) {
@@ -351,7 +352,7 @@ int cli_layers_check(bst_ctx *ctx, const char *sub, size_t n, char **specs,
         /* a pane: made once here (cheap: one diagonal per component) so that its errors show now */
         bst_layer *l = NULL;
         bst_glass *pane = NULL;
-        rc = make_layer(ctx, sub, specs[i], specs[i], NULL, basis, nch, chnames, choice->at_centre,
+        rc = make_layer(ctx, sub, specs[i], specs[i], NULL, basis, nch, chnames, prec, choice->at_centre,
                         &l, &pane, NULL);
         bst_layer_free(l);
         bst_glass_free(pane);
@@ -409,7 +410,7 @@ int cli_layer_load(bst_ctx *ctx, const char *sub, const char *what, const char *
     if (rc == CLI_OK && !is_made(spec))
         rc = read_one(ctx, sub, what, spec, &ro, choice, 1, &file);
     if (rc == CLI_OK)
-        rc = make_layer(ctx, sub, what, spec, file, basis, nch, chnames, choice->at_centre, layer,
+        rc = make_layer(ctx, sub, what, spec, file, basis, nch, chnames, prec, choice->at_centre, layer,
                         pane, note);
     free(chcopy);
     return rc;

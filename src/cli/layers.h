@@ -199,15 +199,16 @@ int cli_combine_run(bst_ctx *ctx, const char *sub, const char *where, struct cli
 
 /* Shades made from their geometry (shades.c): whether spec is one (venetian:, perforated:,
  * woven:, shade:FILE); the spec parsed (a trailing ^ dropped); its layer over basis (the ^ left
- * to the caller); its check, telling the structure its layer will have.  Library statuses, the
- * message in ctx. */
+ * to the caller; a dense blind's components in precision prec, as files are read); its check,
+ * telling the structure its layer will have.  Library statuses, the message in ctx. */
 int cli_is_shade(const char *spec);
 int cli_shade_parse(bst_ctx *ctx, const char *spec, bst_shade_model *m);
 int cli_shade_layer(bst_ctx *ctx, const char *spec, const bst_basis *basis, size_t nch,
-                    const char **chnames, bst_layer **l);
+                    const char **chnames, bst_precision prec, bst_layer **l);
 int cli_shade_check(bst_ctx *ctx, const char *spec, bst_structure *structure);
-/* What its layer over basis will hold (bst_shade_model_plan), for the memory guard. */
+/* What its layer over basis in precision prec will hold (bst_shade_model_plan), for the memory
+ * guard. */
 int cli_shade_plan(bst_ctx *ctx, const char *spec, const bst_basis *basis, size_t nch,
-                   const char *const *chnames, bst_plan_held *held);
+                   const char *const *chnames, bst_precision prec, bst_plan_held *held);
 
 #endif

@@ -54,10 +54,11 @@ int cli_shade_parse(bst_ctx *ctx, const char *spec, bst_shade_model *m)
 }
 
 int cli_shade_layer(bst_ctx *ctx, const char *spec, const bst_basis *basis, size_t nch,
-                    const char **chnames, bst_layer **l)
+                    const char **chnames, bst_precision prec, bst_layer **l)
 {
     bst_shade_model m;
     int st = cli_shade_parse(ctx, spec, &m);
+    m.venetian.precision = prec;
     return st < 0 ? st : bst_shade_model_layer(ctx, &m, basis, nch, nch ? chnames : NULL, l);
 }
 
@@ -72,9 +73,10 @@ int cli_shade_check(bst_ctx *ctx, const char *spec, bst_structure *structure)
 }
 
 int cli_shade_plan(bst_ctx *ctx, const char *spec, const bst_basis *basis, size_t nch,
-                   const char *const *chnames, bst_plan_held *held)
+                   const char *const *chnames, bst_precision prec, bst_plan_held *held)
 {
     bst_shade_model m;
     int st = cli_shade_parse(ctx, spec, &m);
+    m.venetian.precision = prec;
     return st < 0 ? st : bst_shade_model_plan(ctx, &m, basis, nch, nch ? chnames : NULL, held);
 }
