@@ -30,6 +30,7 @@
 #include "ctx.h"
 #include "glass.h"
 #include "mat.h"
+#include "venetian.h"
 
 #define MM 1e-3 /* the record's lengths are millimetres, the models' metres */
 
@@ -278,11 +279,8 @@ int bst_shade_model_plan(bst_ctx *ctx, const bst_shade_model *m, const bst_basis
     out->nchannels = nchannels;
     size_t N = bst_basis_size(basis);
     const bst_venetian *v = &m->venetian;
-    bst_venetian vs = *v; /* the Solar channel's slat values, as bst_venetian_layer takes them */
-    double *sv[4] = {&vs.r_up, &vs.r_down, &vs.t, &vs.rs};
-    for (int k = 0; k < 4; k++)
-        if (!isnan(v->solar[k]))
-            *sv[k] = v->solar[k];
+    bst_venetian vs; /* the Solar channel's slat values, as bst_venetian_layer takes them */
+    bsti_vn_solar(v, &vs);
     for (size_t c = 0; c < nchannels; c++) {
         int solar = strcasecmp(channels[c], "Solar") == 0;
         double x[3];

@@ -113,6 +113,10 @@ long bsti_vn_curved_trace(const bsti_vn_geom *g, const double start[2], const do
                           long jlast, int flast, double wgt, double *dep, double sigma,
                           unsigned long seed, double out[5]);
 
+/* The slat values of a channel named Solar: v's, with solar[k] where it is not NaN, into *vs;
+ * whether any differs from v's (venetian_spec.c; bst_venetian_layer, bst_shade_model_plan). */
+int bsti_vn_solar(const bst_venetian *v, bst_venetian *vs);
+
 /* A layer of a sheet with openings (perforated.c; perforated screens, woven fabrics): share(data,
  * d) the share of the sheet open along unit direction d (even in d), averaged over each patch by
  * samples^2 directions (0: BST_VENETIAN_SAMPLES), on the diagonal of the transmissions; the rest

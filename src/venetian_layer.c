@@ -658,12 +658,8 @@ int bst_venetian_layer(bst_ctx *ctx, const bst_venetian *v, const bst_basis *bas
     if (!nchannels)
         nchannels = 2, channels = dual;
     /* the Solar channel's own slat values, where the spec gives them */
-    bst_venetian vs = *v;
-    double *sv[4] = {&vs.r_up, &vs.r_down, &vs.t, &vs.rs};
-    int differ = 0;
-    for (int k = 0; k < 4; k++)
-        if (!isnan(v->solar[k]) && v->solar[k] != *sv[k])
-            *sv[k] = v->solar[k], differ = 1;
+    bst_venetian vs;
+    int differ = bsti_vn_solar(v, &vs);
     size_t *ch = bsti_alloc_array(ctx, nchannels, sizeof *ch), nsol = 0, nvis = 0;
     bst_layer *l = NULL;
     if (!ch)

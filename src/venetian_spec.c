@@ -247,6 +247,17 @@ static int check_unit(bst_ctx *ctx, const char *key, const char *sfx, double x)
     return BST_OK;
 }
 
+int bsti_vn_solar(const bst_venetian *v, bst_venetian *vs)
+{
+    *vs = *v;
+    double *sv[4] = {&vs->r_up, &vs->r_down, &vs->t, &vs->rs};
+    int differ = 0;
+    for (int k = 0; k < 4; k++)
+        if (!isnan(v->solar[k]) && v->solar[k] != *sv[k])
+            *sv[k] = v->solar[k], differ = 1;
+    return differ;
+}
+
 int bst_venetian_check(bst_ctx *ctx, const bst_venetian *v)
 {
     if (!ctx || !v)

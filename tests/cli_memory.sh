@@ -14,10 +14,11 @@ specular='venetian:width=16mm,spacing=14.5mm,tilt=0,rs=0.765,r=0.085,roughness=0
 matte='venetian:width=16mm,spacing=14.5mm,tilt=0,r=0.7'
 screen='perforated:x=5mm,y=5mm,radius=1mm,r=0.7'
 
-# need N DENSE FACTORED WIDTH NCH UNUSED WORKBYTES: the model's bytes in GiB
+# need N DENSE FACTORED WIDTH NCH WORKBYTES [MADEBYTES]: the model's bytes in GiB (MADEBYTES: of a
+# dense made component's value, 8 unless the blind is made in floats)
 need() {
-    awk -v N="$1" -v d="$2" -v f="$3" -v w="$4" -v nch="$5" -v e="$6" -v wb="$7" 'BEGIN {
-        c = N * N; b = 64 * 1048576 + 0.5 * c + d * 8 * c
+    awk -v N="$1" -v d="$2" -v f="$3" -v w="$4" -v nch="$5" -v wb="$6" -v mb="${7:-8}" 'BEGIN {
+        c = N * N; b = 64 * 1048576 + 0.5 * c + d * mb * c
         if (f) b += f * 8 * (N + w * w) + nch * 16 * N * w
         if (d) b += c * (3 * wb > 8 ? 3 * wb : 8); else if (f) b += 8 * c + 64 * 1048576
         printf "%.6g\n", b / 1073741824 }'
@@ -34,14 +35,20 @@ expect_error "a dense made blind beyond --max-memory" \
     "k = 4 needs about [0-9.]+ GiB \(8 dense components of 0.000488 GiB and the combination's work\), more than the 0.00781 GiB --max-memory allows: use a lower -k, --precision single or fewer --channels; or raise the limit with --max-memory SIZE" -- \
     "$B" combine -k 4 --max-memory 8M glass:clear-6mm "$specular" glass:clear-6mm -o s.xml
 [ ! -e s.xml ] && pass "no output when refused" || fail "s.xml written though refused"
-want=$(need 256 8 0 0 2 0 8)
+want=$(need 256 8 0 0 2 8)
 close "$(printed)" "$want" && pass "specular blind: $(printed) GiB, the model's $want" ||
     fail "specular blind: printed $(printed) GiB, the model gives $want"
 # one channel asked: four
 "$B" combine -k 4 --channels Visible --max-memory 8M glass:clear-6mm "$specular" -o s.xml 2>"$tmpdir/err"
-want=$(need 256 4 0 0 1 0 8)
+want=$(need 256 4 0 0 1 8)
 grep -q "(4 dense components" "$tmpdir/err" && close "$(printed)" "$want" &&
     pass "--channels Visible: 4 dense components, $want GiB" || fail "--channels Visible: $(cat "$tmpdir/err")"
+# in single precision the blind is made in floats: 8 of them and the work in floats
+"$B" combine -k 4 --precision single --max-memory 8M glass:clear-6mm "$specular" -o s.xml 2>"$tmpdir/err"
+want=$(need 256 8 0 0 2 4 4)
+grep -q "(8 dense components of 0.000244 GiB" "$tmpdir/err" && close "$(printed)" "$want" &&
+    pass "--precision single: 8 float components, $want GiB" ||
+    fail "--precision single: $(cat "$tmpdir/err"), the model $want"
 # a generous limit changes nothing
 expect_status 0 "the same under a generous --max-memory" -- \
     "$B" combine -k 3 --max-memory 2G glass:clear-6mm "$specular" glass:clear-6mm -o s.xml
@@ -55,14 +62,14 @@ for prec in double single; do
     expect_error "a matte blind's factored results ($prec)" \
         "k = 4 needs about [0-9.]+ GiB \(factored results written one component at a time through a grid of 0.000488 GiB and the combination's work\), more than" -- \
         "$B" combine -k 4 --precision $prec --max-memory 1M glass:clear-6mm "$matte" glass:clear-6mm -o m.xml
-    want=$(need 256 0 8 64 2 8 $wb)
+    want=$(need 256 0 8 64 2 $wb)
     close "$(printed)" "$want" && pass "matte blind ($prec): $(printed) GiB, the model's $want" ||
         fail "matte blind ($prec): printed $(printed) GiB, the model gives $want"
     [ ! -e m.xml ] && pass "no output ($prec)" || fail "m.xml written though refused"
 done
 # written without a combination (convert): the same grid
 "$B" convert -k 4 --max-memory 1M -o m.xml "$matte" 2>"$tmpdir/err"
-want=$(need 256 0 8 64 2 8 8)
+want=$(need 256 0 8 64 2 8)
 grep -q "(factored components written one component at a time" "$tmpdir/err" && close "$(printed)" "$want" &&
     pass "convert a matte blind: $want GiB" || fail "convert a matte blind: $(cat "$tmpdir/err"), the model $want"
 expect_status 0 "a matte blind under a generous --max-memory" -- \
@@ -71,7 +78,7 @@ expect_status 0 "a matte blind under a generous --max-memory" -- \
 
 # a perforated screen: factored (the diagonal and rank <= 5 over a wide map)
 "$B" combine -k 4 --max-memory 1M glass:clear-6mm "$screen" -o p.xml 2>"$tmpdir/err"
-want=$(need 256 0 8 5 2 8 8)
+want=$(need 256 0 8 5 2 8)
 close "$(printed)" "$want" && [ ! -e p.xml ] && pass "perforated screen: $want GiB" ||
     fail "perforated screen: $(cat "$tmpdir/err"), the model $want"
 

@@ -458,10 +458,29 @@ struct text {
 static int to_text(const char *buf, size_t len, void *opaque)
 {
     struct text *t = opaque;
-    t->p = realloc(t->p, t->n + len + 1);
+    char *p = realloc(t->p, t->n + len + 1);
+    if (!p)
+        return -1;
+    t->p = p;
     memcpy(t->p + t->n, buf, len);
     t->n += len;
+    t->p[t->n] = '\0'; /* (strstr reads it) */
     return 0;
+}
+
+/* Layer a written through context ca and layer b through cb with options o: the same bytes, at
+ * least `least` of them (what: the message's words); a's text is returned, b's freed. */
+static struct text same_file(bst_ctx *ca, const bst_layer *a, bst_ctx *cb, const bst_layer *b,
+                             const bst_bsdf_write_opts *o, size_t least, const char *what)
+{
+    struct text ta = {NULL, 0}, tb = {NULL, 0};
+    ck_assert_int_eq(bst_bsdf_write_fn(ca, a, to_text, &ta, o), BST_OK);
+    ck_assert_int_eq(bst_bsdf_write_fn(cb, b, to_text, &tb, o), BST_OK);
+    ck_assert_uint_gt(ta.n, least);
+    ck_assert_uint_eq(ta.n, tb.n);
+    ck_assert_msg(memcmp(ta.p, tb.p, ta.n) == 0, "%s: the files differ", what);
+    free(tb.p);
+    return ta;
 }
 
 /* An allocator that refuses every block of at least `refuse` bytes (the writer's expansion). */
@@ -498,13 +517,8 @@ START_TEST(test_write_expanded)
         o.date = "2026-11-28T00:00:00Z";
         if (!reduce)
             o.reduce_pct = -1.0;
-        struct text a = {NULL, 0}, b = {NULL, 0};
-        ck_assert_int_eq(bst_bsdf_write_fn(ctx, sys, to_text, &a, &o), BST_OK);
-        ck_assert_int_eq(bst_bsdf_write_fn(c2, sys, to_text, &b, &o), BST_OK);
-        ck_assert_uint_gt(a.n, 100000);
-        ck_assert_uint_eq(a.n, b.n);
-        ck_assert_msg(memcmp(a.p, b.p, a.n) == 0, "reduce %d: the expanded tree differs", reduce);
-        free(a.p), free(b.p);
+        free(same_file(ctx, sys, c2, sys, &o, 100000,
+                       reduce ? "reduced, expanded tree" : "expanded tree").p);
     }
     bst_ctx_free(c2);
     bst_layer_free(sys);
@@ -579,17 +593,13 @@ START_TEST(test_wide_result)
                 o.reduce_pct = -1.0;
             if (!recip)
                 o.recip_tol = -1.0;
-            struct text a = {NULL, 0}, b = {NULL, 0};
-            ck_assert_int_eq(bst_bsdf_write_fn(ctx, sys, to_text, &a, &o), BST_OK);
-            ck_assert_int_eq(bst_bsdf_write_fn(ctx, exp, to_text, &b, &o), BST_OK);
-            ck_assert_uint_gt(a.n, 10000);
-            ck_assert_uint_eq(a.n, b.n);
-            ck_assert_msg(memcmp(a.p, b.p, a.n) == 0, "reduce %d recip %d: the files differ", reduce,
-                          recip);
+            char what[32];
+            snprintf(what, sizeof what, "reduce %d recip %d", reduce, recip);
+            struct text a = same_file(ctx, sys, ctx, exp, &o, 10000, what);
             ck_assert(strstr(a.p, "TensorTree4") != NULL); /* the rotation test: not isotropic */
             if (!recip)
                 ck_assert(strstr(a.p, "Transmission Front") != NULL);
-            free(a.p), free(b.p);
+            free(a.p);
         }
     /* refused the memory of a block of columns or of the one expanded component, the write fails
      * with a message instead of reading each value through the factors */

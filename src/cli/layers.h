@@ -27,8 +27,8 @@ void cli_basis_choice_of(const bst_basis *b, struct cli_basis_choice *choice);
  * limit and the options that lower the need, and CLI_FAIL. */
 int cli_memory_check(const char *sub, const bst_basis *basis, size_t n, bst_bsdf *const *files,
                      unsigned comps, bst_precision prec, const struct cli_basis_choice *choice);
-/* The same over layers some of which are made from specs (bst_plan_memory_held; a combination of
- * factored layers counts its results expanded, and the message says so). */
+/* The same over layers some of which are made from specs (bst_plan_memory_held; factored layers
+ * count the writer's one grid, and the message says so). */
 int cli_memory_check_held(const char *sub, const bst_basis *basis, size_t n,
                           const bst_plan_held *held, unsigned comps, bst_precision prec,
                           const struct cli_basis_choice *choice);

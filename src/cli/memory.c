@@ -45,8 +45,9 @@ static double memory_available(void)
     return avail;
 }
 
-/* What the need counts, for the message (one: a component's bytes in the read precision): "4 dense components of 0.125 GiB", "the results' 8
- * components expanded from factored layers, of 2 GiB each", ... */
+/* What the need counts, for the message (one: a component's bytes in the read precision): "4
+ * dense components of 0.125 GiB", "factored results written one component at a time through a
+ * grid of 2 GiB", ... */
 static void counted(const bst_plan_need *got, double cells, double one, int combining, char *buf,
                     size_t size)
 {

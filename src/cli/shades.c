@@ -53,12 +53,20 @@ int cli_shade_parse(bst_ctx *ctx, const char *spec, bst_shade_model *m)
     return st;
 }
 
+/* The spec parsed, a dense blind's components to be made in precision prec. */
+static int parse_at(bst_ctx *ctx, const char *spec, bst_precision prec, bst_shade_model *m)
+{
+    int st = cli_shade_parse(ctx, spec, m);
+    if (st >= 0 && m->kind == BST_SHADE_VENETIAN)
+        m->venetian.precision = prec;
+    return st;
+}
+
 int cli_shade_layer(bst_ctx *ctx, const char *spec, const bst_basis *basis, size_t nch,
                     const char **chnames, bst_precision prec, bst_layer **l)
 {
     bst_shade_model m;
-    int st = cli_shade_parse(ctx, spec, &m);
-    m.venetian.precision = prec;
+    int st = parse_at(ctx, spec, prec, &m);
     return st < 0 ? st : bst_shade_model_layer(ctx, &m, basis, nch, nch ? chnames : NULL, l);
 }
 
@@ -76,7 +84,6 @@ int cli_shade_plan(bst_ctx *ctx, const char *spec, const bst_basis *basis, size_
                    const char *const *chnames, bst_precision prec, bst_plan_held *held)
 {
     bst_shade_model m;
-    int st = cli_shade_parse(ctx, spec, &m);
-    m.venetian.precision = prec;
+    int st = parse_at(ctx, spec, prec, &m);
     return st < 0 ? st : bst_shade_model_plan(ctx, &m, basis, nch, nch ? chnames : NULL, held);
 }
