@@ -442,6 +442,7 @@ static int run(int argc, char **argv, int rank, int size)
 
 int main(int argc, char **argv)
 {
+    cli_blas_kernels(argv); /* the serial program's kernels (may run this again: before MPI) */
     cli_hold_std_fds();
     if (MPI_Init(&argc, &argv) != MPI_SUCCESS) {
         fprintf(stderr, "bsdfstack-mpi: MPI_Init failed\n");

@@ -9,6 +9,7 @@
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -265,6 +266,69 @@ void cli_blas_setup(void)
         setenv("OPENBLAS_THREAD_TIMEOUT", CLI_BLAS_SPIN, 0) == 0)
         openblas_read_env();
     cli_blas_rest();
+}
+
+/* OpenBLAS's DYNAMIC_ARCH build (Debian's) picks its kernels by the CPU's model number as it
+ * loads, and takes Prescott's (SSE3) for a model it does not know: 0.3.21 does so on this project's
+ * AVX-512 Xeons, where a 2048^3 DGEMM runs at 21 GFLOP/s with them and at 146 with SkylakeX's
+ * (bench/README.md).  It reads OPENBLAS_CORETYPE, its own way to choose, only as it loads; so where
+ * the user has not set it, OpenBLAS picked a core without AVX2 kernels and the CPU (and the
+ * system, as libgcc's cpuid check says) has AVX2 and FMA, the program sets it to the best such
+ * core this OpenBLAS holds (AVX-512 F, CD, BW, DQ and VL: SkylakeX; else Haswell) and runs itself
+ * again with the same arguments and environment.  CLI_BLAS_PICKED_ENV keeps OpenBLAS's own pick for
+ * -v.  Results change in their last bits only (another kernel's order of additions). */
+extern char *openblas_get_corename(void) __attribute__((weak));
+extern char gotoblas_SKYLAKEX[] __attribute__((weak));
+extern char gotoblas_HASWELL[] __attribute__((weak));
+#define CLI_BLAS_PICKED_ENV "BSDFSTACK_OPENBLAS_PICKED"
+
+static int blas_core_old(const char *name)
+{
+    static const char *const old[] = {"prescott", "core2", "penryn", "dunnington", "nehalem",
+                                      "atom", "sandybridge", NULL};
+    for (size_t i = 0; old[i]; i++)
+        if (strcasecmp(name, old[i]) == 0)
+            return 1;
+    return 0;
+}
+
+static const char *blas_core_better(void)
+{
+#if defined(__x86_64__) && defined(__GNUC__)
+    __builtin_cpu_init();
+    if (gotoblas_SKYLAKEX && __builtin_cpu_supports("avx512f") &&
+        __builtin_cpu_supports("avx512cd") && __builtin_cpu_supports("avx512bw") &&
+        __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl"))
+        return "SkylakeX";
+    if (gotoblas_HASWELL && __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"))
+        return "Haswell";
+#endif
+    return NULL;
+}
+
+void cli_blas_kernels(char **argv)
+{
+    if (!openblas_get_corename || getenv("OPENBLAS_CORETYPE"))
+        return;
+    const char *picked = openblas_get_corename(), *better = blas_core_better();
+    if (!picked || !better || !blas_core_old(picked))
+        return;
+    if (setenv(CLI_BLAS_PICKED_ENV, picked, 1) == 0 && setenv("OPENBLAS_CORETYPE", better, 1) == 0)
+        execv("/proc/self/exe", argv);
+    unsetenv("OPENBLAS_CORETYPE"); /* not run again: on as it is */
+    unsetenv(CLI_BLAS_PICKED_ENV);
+}
+
+void cli_blas_note(const char *sub)
+{
+    if (!openblas_get_corename)
+        return;
+    const char *picked = getenv(CLI_BLAS_PICKED_ENV), *core = openblas_get_corename();
+    if (picked && getenv("OPENBLAS_CORETYPE"))
+        fprintf(stderr, "bsdfstack %s: dense algebra: OpenBLAS's %s kernels (it picked %s for this "
+                "CPU, which has better; OPENBLAS_CORETYPE chooses)\n", sub, core, picked);
+    else
+        fprintf(stderr, "bsdfstack %s: dense algebra: OpenBLAS's %s kernels\n", sub, core);
 }
 
 ssize_t cli_read_line(const char *sub, const char *name, long ln, char **buf, size_t *cap, FILE *fp)

@@ -110,6 +110,12 @@ void cli_blas_rest(void);
 /* At the start: OpenBLAS's workers to spin about 0.3 ms after a job instead of 0.1 s, unless the
  * user's OPENBLAS_THREAD_TIMEOUT says otherwise (cli.c), then cli_blas_rest. */
 void cli_blas_setup(void);
+/* First thing in main: where OpenBLAS picked kernels without AVX2 on a CPU that has it (cli.c),
+ * and the user did not set OPENBLAS_CORETYPE, set it and run the program again (returns only when
+ * nothing is to be done or that failed). */
+void cli_blas_kernels(char **argv);
+/* -v: one line on standard error naming OpenBLAS's kernels (and its own pick, where overruled). */
+void cli_blas_note(const char *sub);
 
 /* One line of a text input (getline: any length, into *buf, its newline kept): its length, -1 at
  * the end of the input (or a read error: ferror says), or -2 after one error line "NAME:LN: a NUL

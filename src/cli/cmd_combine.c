@@ -107,6 +107,8 @@ static int write_absorptance(bst_ctx *ctx, const char *sub, const char *path, st
 static int load(bst_ctx *ctx, const char *sub, struct combine_req *q, struct cli_layers *set)
 {
     double t0 = combine_now();
+    if (q->verbose)
+        cli_blas_note(sub);
     q->args.basis.combining = q->ndirs == 0; /* columns (--incident) need little beyond the layers */
     q->args.basis.work = q->args.so.precision;
     q->args.basis.lower = "a lower -k, --precision single or fewer --channels";

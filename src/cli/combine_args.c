@@ -104,8 +104,8 @@ static const char help[] =
     "  hemispherical Tf or Rf differs from its coarse patch's by more than 0.02 is warned of\n"
     "  --threads N        threads that write trees, lay rank-3 layers onto the grid and evaluate\n"
     "                     panes of many wavelengths (default 0: one per CPU, up to 8; same bytes)\n"
-    "  -v                 print the time and peak memory of reading, of each step (with its\n"
-    "                     structures) and of writing\n"
+    "  -v                 print OpenBLAS's kernels, the time and peak memory of reading, of\n"
+    "                     each step (with its structures) and of writing\n"
     "  -o OUT             output file ('-' = standard output); a regular file is replaced\n"
     "                     atomically, a symbolic link's target is written, a device or FIFO\n"
     "                     directly (also for --absorptance)\n";

@@ -76,6 +76,7 @@ static int dispatch(int argc, char **argv, const char **sub)
 
 int main(int argc, char **argv)
 {
+    cli_blas_kernels(argv); /* (may run the program again: before anything else) */
     cli_hold_std_fds();
     cli_interrupt_setup(); /* a signal removes the temporaries of outputs being written */
     cli_blas_setup(); /* spinning from the library's start: reading comes first */
