@@ -24,6 +24,15 @@ bench_init() {
     fi
     [ -f "$ref/S1_t4k5.xml" ] || { echo "$me: no reference data in $ref (--ref DIR)" >&2; exit 2; }
     export BSDFSTACK_GLASS_DIR=${BSDFSTACK_GLASS_DIR:-$top/layers/glass}
+    # The bench programs link the library, which runs OpenBLAS's own pick of kernels; the program
+    # picks better ones where that pick has no AVX2 kernels (bsdfstack(1), OPENBLAS_CORETYPE).
+    # Export the program's, so that both measure the kernels users get.
+    if [ -z "${OPENBLAS_CORETYPE:-}" ]; then
+        local core
+        core=$("$bst" combine -v -k 1 glass:clear-6mm -o /dev/null 2>&1 |
+            sed -n "s/.*dense algebra: OpenBLAS's \([A-Za-z0-9_]*\) kernels.*/\1/p")
+        [ -n "$core" ] && export OPENBLAS_CORETYPE=$core
+    fi
     work=$(mktemp -d)
     trap 'rm -rf "$work"' EXIT
     diffuser=$ref/L_diffuser_t3k5.xml
