@@ -59,7 +59,7 @@ __version__ = text(lib.bst_version())
 
 __all__ = ["Error", "LibraryWarning", "BSDF", "Stack", "Glass", "Shade", "Comparison", "load",
            "glass", "venetian", "perforated", "woven", "shade", "combine", "columns", "Columns",
-           "compare", "version", "library_path"]
+           "compare", "version", "library_path", "blas_kernels"]
 
 
 class LibraryWarning(UserWarning):
@@ -74,6 +74,29 @@ def version():
 def library_path():
     """The path of the shared library loaded."""
     return _lib.PATH
+
+
+def blas_kernels():
+    """OpenBLAS's name of the kernels the dense work runs ('SkylakeX', 'Haswell', 'Prescott', ...),
+    or None under another BLAS.  OpenBLAS picks them by the CPU's model as it loads and falls back
+    to its SSE3 (Prescott) ones for a model it does not know (0.3.21 on recent AVX-512 Xeons,
+    about seven times slower); OPENBLAS_CORETYPE, set before Python starts, chooses.  Importing
+    the package warns once where that would help (as the program itself sets it: bsdfstack(1),
+    ENVIRONMENT)."""
+    return _lib.blas_kernels()
+
+
+def _warn_kernels():
+    better = _lib.better_kernels()
+    if better:
+        warnings.warn("OpenBLAS runs its %s kernels, which have no AVX2, on this CPU, which has "
+                      "AVX2%s: set OPENBLAS_CORETYPE=%s before Python starts for dense work up to "
+                      "seven times faster (bsdfstack(1), ENVIRONMENT)"
+                      % (_lib.blas_kernels(), " and AVX-512" if better == "SkylakeX" else "",
+                         better), RuntimeWarning, stacklevel=3)
+
+
+_warn_kernels()
 
 
 # ------------------------------------------------------------------------------------ contexts

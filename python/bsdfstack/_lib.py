@@ -37,6 +37,42 @@ def _find():
 PATH = _find()
 lib = ctypes.CDLL(PATH)
 
+# OpenBLAS's kernels without AVX2: its fallback (Prescott) for a CPU model it does not know, and
+# older cores (the program's list, src/cli/cli.c)
+_OLD_KERNELS = {"prescott", "core2", "penryn", "dunnington", "nehalem", "atom", "sandybridge"}
+
+
+def blas_kernels():
+    """OpenBLAS's name of the kernels this process runs ('SkylakeX', 'Prescott', ...), or None
+    where the library runs another BLAS."""
+    try:
+        name = ctypes.CDLL("libopenblas.so.0").openblas_get_corename
+    except (OSError, AttributeError):
+        return None
+    name.restype = c_char_p
+    return name().decode()
+
+
+def better_kernels():
+    """The OPENBLAS_CORETYPE the program would set (bsdfstack(1), ENVIRONMENT), where OpenBLAS
+    runs kernels without AVX2 and this CPU has AVX2 and FMA and the user set none: 'SkylakeX'
+    (AVX-512) or 'Haswell'; else None.  OpenBLAS reads it only as it loads, so a Python process
+    (numpy loads it first) must have it from its start."""
+    core = blas_kernels()
+    if "OPENBLAS_CORETYPE" in os.environ or not core or core.lower() not in _OLD_KERNELS:
+        return None
+    try:
+        with open("/proc/cpuinfo") as f:
+            flags = set(next((line.split(":", 1)[1].split() for line in f
+                              if line.startswith("flags")), []))
+    except OSError:
+        return None
+    if {"avx512f", "avx512cd", "avx512bw", "avx512dq", "avx512vl"} <= flags:
+        return "SkylakeX"
+    if {"avx2", "fma"} <= flags:
+        return "Haswell"
+    return None
+
 size_p = POINTER(c_size_t)
 double_p = POINTER(c_double)
 

@@ -263,3 +263,44 @@ def test_rank3_native_is_factored_at_its_own_order():
                        exact5.hemispherical(comp, theta, phi)) < 1e-12
     with pytest.raises(ValueError):
         bsdfstack.load(ref("L_diffuser_t3k5.xml"), rank3="coarse")
+
+
+def _import_in_child(coretype):
+    """Import the package in a fresh python3 (OPENBLAS_CORETYPE as given, None: unset): its
+    blas_kernels() and what it printed on standard error."""
+    import os
+    import subprocess
+    import sys
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_CORETYPE"}
+    if coretype:
+        env["OPENBLAS_CORETYPE"] = coretype
+    p = subprocess.run([sys.executable, "-c", "import bsdfstack; print(bsdfstack.blas_kernels())"],
+                       capture_output=True, text=True, env=env, check=True)
+    return p.stdout.strip(), p.stderr
+
+
+def test_blas_kernels_advice():
+    # OpenBLAS's pick without AVX2 on a CPU with AVX2 and FMA (0.3.21's Prescott on an AVX-512
+    # Xeon) is told on import, naming the setting; a user's setting is kept and told nothing
+    core, err = _import_in_child(None)
+    if core == "None":
+        pytest.skip("the library runs another BLAS than OpenBLAS")
+    try:
+        with open("/proc/cpuinfo") as f:
+            flags = set(next((line.split(":", 1)[1].split() for line in f
+                              if line.startswith("flags")), []))
+    except OSError:
+        flags = set()
+    old = core.lower() in {"prescott", "core2", "penryn", "dunnington", "nehalem", "atom",
+                           "sandybridge"}
+    if old and {"avx2", "fma"} <= flags:
+        assert "set OPENBLAS_CORETYPE=" in err, err
+        want = "SkylakeX" if {"avx512f", "avx512cd", "avx512bw", "avx512dq", "avx512vl"} <= flags \
+            else "Haswell"
+        assert "OPENBLAS_CORETYPE=%s " % want in err, err
+        chosen, err2 = _import_in_child(want)
+        assert chosen == want and "OPENBLAS_CORETYPE" not in err2, (chosen, err2)
+    else:
+        assert "OPENBLAS_CORETYPE" not in err, err
+    kept, err3 = _import_in_child(core)
+    assert kept == core and "OPENBLAS_CORETYPE" not in err3, (kept, err3)
