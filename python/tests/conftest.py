@@ -2,7 +2,6 @@
 sources are.  make check sets BSDFSTACK, BST_REFDIR, BST_SRCDIR, BST_BUILDDIR and
 BSDFSTACK_GLASS_DIR (python/tests/pytest.sh puts the build tree's package on PYTHONPATH); run by
 hand, they default to this checkout's build tree and ../shared/reference."""
-import ctypes
 import os
 import subprocess
 
@@ -25,22 +24,12 @@ def ref(name):
     return path
 
 
-def blas_core():
-    """The kernels this process's OpenBLAS runs (its pick as it loaded), or None."""
-    try:
-        name = ctypes.CDLL("libopenblas.so.0").openblas_get_corename
-    except (OSError, AttributeError):
-        return None
-    name.restype = ctypes.c_char_p
-    return name().decode()
-
-
 def run_cli(*args, check=True):
     """Run the program; (stdout, stderr, exit status).  It runs this process's OpenBLAS kernels
     (the program would choose its own where OpenBLAS's pick lacks AVX2: bsdfstack(1),
     OPENBLAS_CORETYPE), so that the two compute alike to the last bit."""
     env = dict(os.environ, SOURCE_DATE_EPOCH="0")
-    core = blas_core()
+    core = bsdfstack.blas_kernels()
     if core:
         env["OPENBLAS_CORETYPE"] = core
     p = subprocess.run([PROGRAM] + [str(a) for a in args], capture_output=True, text=True, env=env)
