@@ -121,7 +121,14 @@ int bst_ctx_threads(const bst_ctx *ctx)
 
 int bsti_ctx_workers(const bst_ctx *ctx, size_t jobs)
 {
-    if (!ctx || ctx->malloc_fn != system_malloc || jobs < 2)
+    if (!ctx || ctx->malloc_fn != system_malloc)
+        return 1;
+    return bsti_ctx_workers_no_alloc(ctx, jobs);
+}
+
+int bsti_ctx_workers_no_alloc(const bst_ctx *ctx, size_t jobs)
+{
+    if (!ctx || jobs < 2)
         return 1;
     long n = ctx->threads;
     if (n == 0)

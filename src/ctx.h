@@ -53,6 +53,9 @@ int bsti_size_mul(size_t a, size_t b, size_t *out);
  * bst_ctx_set_threads's setting (0: the online CPUs), at most BST_THREADS_MAX and jobs, 1 with a
  * custom allocator (its hooks need not be thread-safe). */
 int bsti_ctx_workers(const bst_ctx *ctx, size_t jobs);
+/* The same for threads that allocate nothing (their memory made by the caller): the allocator
+ * does not matter. */
+int bsti_ctx_workers_no_alloc(const bst_ctx *ctx, size_t jobs);
 
 /* Report progress of a long operation (no-op without a callback). */
 void bsti_progress(bst_ctx *ctx, double fraction, const char *label);

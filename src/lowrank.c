@@ -470,6 +470,12 @@ int bsti_lr_transpose(bst_ctx *ctx, const bsti_lr *f, bsti_lr **out)
     return BST_OK;
 }
 
+/* Every reader builds the value (x, y) in one order, so that all give the same bits (bsti_lr_get,
+ * _col, _row and mat_lowrank.c's column reader, bsti_lr_col_fast): the diagonal or 0 first and
+ * then, pair (i, j) by pair, v += a_i[x] s b_j[y], with
+ *   c_e = 0 + the sum over y's entries ey, in order, of K_ij[col_e, col_ey] w_ey  (for x's entry e)
+ *   s   = 0 + the sum over x's entries e, in order, of w_e c_e.
+ * Summed so, a column's c are one vector of r values for all its rows (bsti_lr_col_fast). */
 double bsti_lr_get(const bsti_lr *f, size_t x, size_t y)
 {
     const bsti_lr_map *S = f->S;
@@ -477,18 +483,19 @@ double bsti_lr_get(const bsti_lr *f, size_t x, size_t y)
     double v = f->d && x == y ? f->d[x] : 0.0;
     for (size_t i = 0; i < f->p; i++)
         for (size_t j = 0; j < f->q; j++) {
+            const double *kb = f->k + j * r * ld + i * r;
             double s = 0.0;
-            for (size_t ex = S->start[x]; ex < S->start[x + 1]; ex++)
+            for (size_t ex = S->start[x]; ex < S->start[x + 1]; ex++) {
+                double c = 0.0;
                 for (size_t ey = S->start[y]; ey < S->start[y + 1]; ey++)
-                    s += S->w[ex] * f->k[(j * r + S->col[ey]) * ld + i * r + S->col[ex]] * S->w[ey];
+                    c += kb[S->col[ey] * ld + S->col[ex]] * S->w[ey];
+                s += S->w[ex] * c;
+            }
             v += f->a[i * N + x] * s * f->b[j * N + y];
         }
     return v;
 }
 
-/* bsti_lr_col and bsti_lr_row: the value (x, y) is built as bsti_lr_get builds it, the diagonal or
- * 0 first and then, pair (i, j) by pair, v += a_i[x] s b_j[y] with s = 0 + the sum over the map's
- * entries of w K w, so that a line holds the very bits of the values one by one. */
 void bsti_lr_col(const bsti_lr *f, size_t y, double *out)
 {
     const bsti_lr_map *S = f->S;
@@ -501,21 +508,14 @@ void bsti_lr_col(const bsti_lr *f, size_t y, double *out)
         for (size_t j = 0; j < f->q; j++) {
             const double *a = f->a + i * N, *kb = f->k + j * r * ld + i * r;
             double by = f->b[j * N + y];
-            if (S->single) { /* one entry a row: s = 0 + w K w */
-                double wy = S->w[y];
-                const double *kc = kb + S->col[y] * ld;
-                for (size_t x = 0; x < N; x++) {
-                    double s = 0.0;
-                    s += S->w[x] * kc[S->col[x]] * wy;
-                    out[x] += a[x] * s * by;
-                }
-                continue;
-            }
             for (size_t x = 0; x < N; x++) {
                 double s = 0.0;
-                for (size_t ex = S->start[x]; ex < S->start[x + 1]; ex++)
+                for (size_t ex = S->start[x]; ex < S->start[x + 1]; ex++) {
+                    double c = 0.0;
                     for (size_t ey = S->start[y]; ey < S->start[y + 1]; ey++)
-                        s += S->w[ex] * kb[S->col[ey] * ld + S->col[ex]] * S->w[ey];
+                        c += kb[S->col[ey] * ld + S->col[ex]] * S->w[ey];
+                    s += S->w[ex] * c;
+                }
                 out[x] += a[x] * s * by;
             }
         }
@@ -533,23 +533,97 @@ void bsti_lr_row(const bsti_lr *f, size_t x, double *out)
         for (size_t j = 0; j < f->q; j++) {
             const double *b = f->b + j * N, *kb = f->k + j * r * ld + i * r;
             double ax = f->a[i * N + x];
-            if (S->single) {
-                double wx = S->w[x];
-                const double *kr = kb + S->col[x];
-                for (size_t y = 0; y < N; y++) {
-                    double s = 0.0;
-                    s += wx * kr[S->col[y] * ld] * S->w[y];
-                    out[y] += ax * s * b[y];
-                }
-                continue;
-            }
             for (size_t y = 0; y < N; y++) {
                 double s = 0.0;
-                for (size_t ex = S->start[x]; ex < S->start[x + 1]; ex++)
+                for (size_t ex = S->start[x]; ex < S->start[x + 1]; ex++) {
+                    double c = 0.0;
                     for (size_t ey = S->start[y]; ey < S->start[y + 1]; ey++)
-                        s += S->w[ex] * kb[S->col[ey] * ld + S->col[ex]] * S->w[ey];
+                        c += kb[S->col[ey] * ld + S->col[ex]] * S->w[ey];
+                    s += S->w[ex] * c;
+                }
                 out[y] += ax * s * b[y];
             }
+        }
+}
+
+int bsti_lr_rows_new(bst_ctx *ctx, const bsti_lr *f, bsti_lr_rows **out)
+{
+    const bsti_lr_map *S = f->S;
+    size_t N = f->N, nm = 0;
+    *out = NULL;
+    for (size_t x = 0; x < N; x++)
+        nm += S->start[x + 1] - S->start[x] > 1;
+    bsti_lr_rows *t = bsti_calloc(ctx, 1, sizeof *t);
+    if (!t)
+        return BST_ENOMEM;
+    t->ctx = ctx;
+    t->nmulti = nm;
+    t->fw = bsti_alloc_array(ctx, N, sizeof *t->fw);
+    t->s = bsti_alloc_array(ctx, N, sizeof *t->s);
+    t->c = bsti_alloc_array(ctx, f->r, sizeof *t->c);
+    t->fc = bsti_alloc_array(ctx, N + nm + 1, sizeof *t->fc);
+    if (!t->fw || !t->s || !t->c || !t->fc) {
+        bsti_lr_rows_free(t);
+        return BST_ENOMEM;
+    }
+    t->multi = t->fc + N;
+    nm = 0;
+    for (size_t x = 0; x < N; x++) {
+        size_t e = S->start[x], n = S->start[x + 1] - e;
+        t->fw[x] = n ? S->w[e] : 0.0;
+        t->fc[x] = n ? S->col[e] : 0;
+        if (n > 1)
+            t->multi[nm++] = x;
+    }
+    *out = t;
+    return BST_OK;
+}
+
+void bsti_lr_rows_free(bsti_lr_rows *t)
+{
+    if (!t)
+        return;
+    bsti_free(t->ctx, t->fw), bsti_free(t->ctx, t->s), bsti_free(t->ctx, t->c);
+    bsti_free(t->ctx, t->fc), bsti_free(t->ctx, t);
+}
+
+/* The column in passes that do not branch on a row's entries: every row's first entry (an empty
+ * row's weight 0 on c_0: 0 + 0 c_0 = +0, as the empty sum; K's values are finite), then the
+ * further entries of the rows that have them, in order, then the scalings. */
+void bsti_lr_col_fast(const bsti_lr *f, bsti_lr_rows *t, size_t y, double *out)
+{
+    const bsti_lr_map *S = f->S;
+    size_t N = f->N, r = f->r, ld = f->p * r;
+    const double *fw = t->fw;
+    const size_t *fc = t->fc;
+    double *s = t->s, *c = t->c;
+    for (size_t x = 0; x < N; x++)
+        out[x] = 0.0;
+    if (f->d)
+        out[y] = f->d[y];
+    for (size_t i = 0; i < f->p; i++)
+        for (size_t j = 0; j < f->q; j++) {
+            const double *a = f->a + i * N, *kb = f->k + j * r * ld + i * r;
+            double by = f->b[j * N + y];
+            for (size_t q = 0; q < r; q++)
+                c[q] = 0.0;
+            for (size_t ey = S->start[y]; ey < S->start[y + 1]; ey++) {
+                const double *kc = kb + S->col[ey] * ld;
+                double wy = S->w[ey];
+                for (size_t q = 0; q < r; q++)
+                    c[q] += kc[q] * wy;
+            }
+            for (size_t x = 0; x < N; x++)
+                s[x] = 0.0 + fw[x] * c[fc[x]];
+            for (size_t m = 0; m < t->nmulti; m++) {
+                size_t x = t->multi[m];
+                double v = s[x];
+                for (size_t e = S->start[x] + 1; e < S->start[x + 1]; e++)
+                    v += S->w[e] * c[S->col[e]];
+                s[x] = v;
+            }
+            for (size_t x = 0; x < N; x++)
+                out[x] += a[x] * s[x] * by;
         }
 }
 

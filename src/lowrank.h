@@ -81,10 +81,25 @@ int bsti_lr_permute_over(bst_ctx *ctx, const bsti_lr *f, const size_t *perm, con
 /* Element (i, j). */
 double bsti_lr_get(const bsti_lr *f, size_t i, size_t j);
 /* Column y (out[x] = F[x, y], N values) or row x (out[y] = F[x, y]) of F, each value the same bits
- * as bsti_lr_get gives (the same operations in the same order), at O(N p q) a line instead of
- * O(N) calls. */
+ * as bsti_lr_get gives (the same operations in the same order: lowrank.c), at O(N p q) a line
+ * instead of O(N) calls. */
 void bsti_lr_col(const bsti_lr *f, size_t y, double *out);
 void bsti_lr_row(const bsti_lr *f, size_t x, double *out);
+/* The columns of F faster, for readers of many (the writer, the checks): the map's rows laid out
+ * for passes that do not branch on a row's entries (a Klems overlap table: one entry for most
+ * cells, two to four for those on a patch's edge), with room for one column's sums.  One per
+ * thread; the same bits as bsti_lr_col. */
+typedef struct {
+    bst_ctx *ctx;
+    double *fw;           /* N: the weight of each row's first entry (0: none) */
+    size_t *fc;           /* N: its column (0: none) */
+    size_t *multi;        /* the rows of more than one entry */
+    size_t nmulti;
+    double *s, *c;        /* N and r values of room */
+} bsti_lr_rows;
+int bsti_lr_rows_new(bst_ctx *ctx, const bsti_lr *f, bsti_lr_rows **out);
+void bsti_lr_rows_free(bsti_lr_rows *t);
+void bsti_lr_col_fast(const bsti_lr *f, bsti_lr_rows *t, size_t y, double *out);
 /* Every stored value finite. */
 int bsti_lr_finite(const bsti_lr *f);
 /* Values stored: the diagonal, the scaling vectors and K. */

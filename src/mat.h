@@ -36,7 +36,7 @@ int bsti_mat_lr_of(bst_ctx *ctx, const bst_mat *m, const bsti_lr_map *S, bsti_lr
 #define BSTI_LR_DENSE_SHARE 0.5
 int bsti_mat_lr_settle(bst_ctx *ctx, bst_mat **m);
 /* A FACTORED m's N x N values into out (column-major), bsti_cols's columns (over a wide map by
- * GEMM; any other column by column through the factors with the bits bsti_lr_get gives): the tree
+ * GEMM; any other through the factors with the bits bsti_lr_get gives, on threads): the tree
  * writer streams them instead of evaluating the factors at every visit of every value, into one
  * buffer for all its components (at k = 7, 2 GiB: allocated and first touched once, not once a
  * component).  BST_ENOMEM when the reader's memory is not there. */
@@ -60,7 +60,10 @@ int bsti_mat_lr_expand(bst_ctx *ctx, const bst_mat *m, bst_precision prec, bst_m
  * columns are formed by GEMM from A K and B (held once, N (R + C) values at most): blocks of
  * bsti_cols_block columns from column 0 are bsti_mat_lr_expand's columns bit for bit (it reads
  * them so; the writer, the bounds and the metrics too), other columns to rounding (GEMM's kernels
- * depend on the shape).  m NULL or ZERO: zeros.
+ * depend on the shape).  A FACTORED matrix over another map (a prolongation, a Klems overlap
+ * table) is read column by column through the factors (bsti_lr_col_fast: bsti_lr_get's bits, a
+ * few ns a value), the columns shared out among bsti_ctx_workers_no_alloc threads (the reader's
+ * workers), each with its own layout of the map's rows.  m NULL or ZERO: zeros.
  * bsti_cols_get: columns cols[0..n-1] (cols NULL: j0..j0 + n - 1) into out (N x n, column-major),
  * at most bsti_cols_block columns (BSTI_COLS_BYTES of them) a GEMM. */
 #define BSTI_COLS_BYTES ((size_t)32 << 20)
@@ -69,6 +72,19 @@ int bsti_cols_new(bst_ctx *ctx, const bst_mat *m, size_t N, bsti_cols **out);
 size_t bsti_cols_block(const bsti_cols *c);
 void bsti_cols_get(bsti_cols *c, const size_t *cols, size_t j0, size_t n, double *out);
 void bsti_cols_free(bsti_cols *c);
+/* Units of `per` columns (unit u: cols[u per .. u per + per - 1], cols NULL: u per + 0.., n units)
+ * handed to visit(opaque, chunk, u, buf), buf the unit's columns (N x per, column-major), each as
+ * bsti_cols_get gives it, followed, when c2 is given (a reader of as many rows), by as many of
+ * c2's (cols2, NULL: the same indices).  The units form `chunks` runs of consecutive units (chunk
+ * q: units [n q / chunks, n (q + 1) / chunks)), and each run is visited in order by one thread,
+ * the runs shared out among the readers' workers (where each reads a FACTORED matrix over a map
+ * that is not wide; else all on the caller's thread): a result kept per chunk is the same whatever
+ * the number of threads.  visit may run on several threads at once, for different chunks; a
+ * non-zero return stops the visits (those under way finish).  BST_ENOMEM (nothing visited) when
+ * the buffers are not there. */
+typedef int (*bsti_cols_visit_fn)(void *opaque, size_t chunk, size_t u, const double *buf);
+int bsti_cols_visit(bsti_cols *c, const size_t *cols, bsti_cols *c2, const size_t *cols2, size_t n,
+                    size_t per, size_t chunks, bsti_cols_visit_fn visit, void *opaque);
 /* The rank of a FACTORED matrix's low-rank part (p r by q r: the larger), 0 for any other. */
 size_t bsti_mat_rank(const bst_mat *m);
 

@@ -14,6 +14,8 @@
  * operand makes a float result, as everywhere in mat.c; the factors are double. */
 #include <config.h>
 
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stdint.h>
 #include <string.h>
 
@@ -318,6 +320,9 @@ struct bsti_cols {
     size_t n;
     int rt_t;             /* Rt held as its transpose (B, N x n) */
     double *L, *Rt, *gather;
+    bsti_lr_rows **rows;  /* a FACTORED m over another map: its rows for bsti_lr_col_fast, one
+                             layout (and room) per worker */
+    int workers;
 };
 
 /* The factored reader's L and Rt (bsti_cols's comment), from the lines of K that are not zero. */
@@ -359,12 +364,30 @@ static int cols_gemm_init(bsti_cols *c)
     return rc;
 }
 
+/* A FACTORED m over another map: the rows' layout and room of each worker (bsti_ctx_workers). */
+static int cols_rows_init(bsti_cols *c)
+{
+    if (!c->m || c->m->s != BST_FACTORED)
+        return BST_OK;
+    c->workers = bsti_ctx_workers_no_alloc(c->ctx, c->block);
+    if (!(c->rows = bsti_calloc(c->ctx, (size_t)c->workers, sizeof *c->rows)))
+        return BST_ENOMEM;
+    for (int t = 0; t < c->workers; t++) {
+        int rc = bsti_lr_rows_new(c->ctx, c->m->lr, &c->rows[t]);
+        if (rc < 0)
+            return rc;
+    }
+    return BST_OK;
+}
+
 void bsti_cols_free(bsti_cols *c)
 {
     if (!c)
         return;
     bsti_free(c->ctx, c->L), bsti_free(c->ctx, c->Rt), bsti_free(c->ctx, c->gather);
-    bsti_free(c->ctx, c);
+    for (int t = 0; c->rows && t < c->workers; t++)
+        bsti_lr_rows_free(c->rows[t]);
+    bsti_free(c->ctx, c->rows), bsti_free(c->ctx, c);
 }
 
 int bsti_cols_new(bst_ctx *ctx, const bst_mat *m, size_t N, bsti_cols **out)
@@ -377,7 +400,7 @@ int bsti_cols_new(bst_ctx *ctx, const bst_mat *m, size_t N, bsti_cols **out)
     size_t fit = BSTI_COLS_BYTES / (N * sizeof(double) + 1);
     c->block = fit < 1 ? 1 : fit > N ? N : fit;
     c->gemm = bsti_mat_lr_wide(m);
-    int rc = c->gemm ? cols_gemm_init(c) : BST_OK;
+    int rc = c->gemm ? cols_gemm_init(c) : cols_rows_init(c);
     if (rc < 0) {
         bsti_cols_free(c);
         return rc;
@@ -425,11 +448,12 @@ static void cols_gemm(bsti_cols *c, const size_t *cols, size_t j0, size_t n, dou
     }
 }
 
-/* Column y of any other matrix, each value as bsti_mat_at reads it (FACTORED: bsti_lr_col). */
-static void col_plain(const bst_mat *m, size_t N, size_t y, double *out)
+/* Column y of any other matrix, each value as bsti_mat_at reads it (FACTORED: bsti_lr_col's bits,
+ * through the rows laid out for it). */
+static void col_plain(const bst_mat *m, bsti_lr_rows *rows, size_t N, size_t y, double *out)
 {
     if (m && m->s == BST_FACTORED) {
-        bsti_lr_col(m->lr, y, out);
+        bsti_lr_col_fast(m->lr, rows, y, out);
         return;
     }
     if (m && m->s == BST_DENSE && m->prec == BST_DOUBLE) {
@@ -452,6 +476,47 @@ static void col_plain(const bst_mat *m, size_t N, size_t y, double *out)
     }
 }
 
+/* Columns s0..s1 - 1 of a bsti_cols_get call, on worker t (a FACTORED m's rows[t]). */
+struct cols_part {
+    bsti_cols *c;
+    const size_t *cols;
+    size_t j0, s0, s1;
+    double *out;
+    int t, started;
+    pthread_t thread;
+};
+
+static void *cols_part_run(void *opaque)
+{
+    struct cols_part *p = opaque;
+    bsti_cols *c = p->c;
+    for (size_t s = p->s0; s < p->s1; s++)
+        col_plain(c->m, c->rows ? c->rows[p->t] : NULL, c->N, p->cols ? p->cols[s] : p->j0 + s,
+                  p->out + s * c->N);
+    return NULL;
+}
+
+/* Columns of any other matrix: a FACTORED one's shared out among the workers (each column the
+ * same bits whichever computes it). */
+static void cols_plain(bsti_cols *c, const size_t *cols, size_t j0, size_t n, double *out)
+{
+    struct cols_part part[BST_THREADS_MAX];
+    int nw = !c->rows || n < 2 ? 1 : (size_t)c->workers < n ? c->workers : (int)n;
+    for (int t = 0; t < nw; t++) {
+        part[t] = (struct cols_part){c, cols, j0, n * (size_t)t / (size_t)nw,
+                                     n * (size_t)(t + 1) / (size_t)nw, out, t, 0, 0};
+        if (t > 0)
+            part[t].started = pthread_create(&part[t].thread, NULL, cols_part_run, &part[t]) == 0;
+    }
+    cols_part_run(&part[0]);
+    for (int t = 1; t < nw; t++) {
+        if (part[t].started)
+            pthread_join(part[t].thread, NULL);
+        else
+            cols_part_run(&part[t]);
+    }
+}
+
 void bsti_cols_get(bsti_cols *c, const size_t *cols, size_t j0, size_t n, double *out)
 {
     for (size_t s0 = 0; s0 < n; s0 += c->block) {
@@ -461,9 +526,115 @@ void bsti_cols_get(bsti_cols *c, const size_t *cols, size_t j0, size_t n, double
             cols_gemm(c, cols ? cols + s0 : NULL, j0 + s0, nb, o);
             continue;
         }
-        for (size_t s = 0; s < nb; s++)
-            col_plain(c->m, c->N, cols ? cols[s0 + s] : j0 + s0 + s, o + s * c->N);
+        cols_plain(c, cols ? cols + s0 : NULL, j0 + s0, nb, o);
     }
+}
+
+struct visit {
+    bsti_cols *c[2];
+    const size_t *cols[2];
+    size_t n, per, chunks;
+    bsti_cols_visit_fn fn;
+    void *opaque;
+    atomic_size_t next;  /* the next chunk to take */
+    atomic_int stop;
+};
+
+struct visitor {
+    struct visit *v;
+    int t, started;
+    double *buf;         /* per x N values, or 2 per x N with a second reader */
+    pthread_t thread;
+};
+
+static void *visit_run(void *arg)
+{
+    struct visitor *me = arg;
+    struct visit *v = me->v;
+    size_t N = v->c[0]->N;
+    for (;;) {
+        size_t q = atomic_fetch_add(&v->next, 1);
+        if (q >= v->chunks || atomic_load(&v->stop))
+            return NULL;
+        size_t u0 = v->n * q / v->chunks, u1 = v->n * (q + 1) / v->chunks;
+        for (size_t u = u0; u < u1 && !atomic_load(&v->stop); u++) {
+            for (int r = 0; r < 2 && v->c[r]; r++) {
+                const size_t *cols = v->cols[r];
+                for (size_t s = 0; s < v->per; s++) {
+                    size_t j = u * v->per + s;
+                    col_plain(v->c[r]->m, v->c[r]->rows[me->t], N, cols ? cols[j] : j,
+                              me->buf + ((size_t)r * v->per + s) * N);
+                }
+            }
+            if (v->fn(v->opaque, q, u, me->buf))
+                atomic_store(&v->stop, 1);
+        }
+    }
+}
+
+/* bsti_cols_visit where a reader has no workers of its own: blocks of whole units on this thread. */
+static int visit_blocks(struct visit *v)
+{
+    bsti_cols *c = v->c[0];
+    size_t N = c->N, per = v->per, nr = v->c[1] ? 2 : 1;
+    size_t nu = c->block / per ? c->block / per : 1;
+    double *buf = bsti_alloc_array(c->ctx, nr * nu * per * N, sizeof *buf);
+    double *one = nr == 2 ? bsti_alloc_array(c->ctx, nr * per * N, sizeof *one) : NULL;
+    if (!buf || (nr == 2 && !one)) {
+        bsti_free(c->ctx, buf), bsti_free(c->ctx, one);
+        return BST_ENOMEM;
+    }
+    int stop = 0;
+    for (size_t q = 0; q < v->chunks && !stop; q++) {
+        size_t u0 = v->n * q / v->chunks, u1 = v->n * (q + 1) / v->chunks;
+        for (size_t b0 = u0; b0 < u1 && !stop; b0 += nu) {
+            size_t k = u1 - b0 < nu ? u1 - b0 : nu;
+            for (size_t r = 0; r < nr; r++)
+                bsti_cols_get(v->c[r], v->cols[r] ? v->cols[r] + b0 * per : NULL, b0 * per, k * per,
+                              buf + r * nu * per * N);
+            for (size_t u = 0; u < k && !stop; u++) {
+                const double *at = buf + u * per * N;
+                if (nr == 2) { /* the unit's columns of both readers side by side */
+                    memcpy(one, at, per * N * sizeof *one);
+                    memcpy(one + per * N, at + nu * per * N, per * N * sizeof *one);
+                    at = one;
+                }
+                stop = v->fn(v->opaque, q, b0 + u, at) != 0;
+            }
+        }
+    }
+    bsti_free(c->ctx, buf), bsti_free(c->ctx, one);
+    return BST_OK;
+}
+
+int bsti_cols_visit(bsti_cols *c, const size_t *cols, bsti_cols *c2, const size_t *cols2, size_t n,
+                    size_t per, size_t chunks, bsti_cols_visit_fn visit, void *opaque)
+{
+    if (!per || !n)
+        return BST_OK;
+    struct visit v = {{c, c2}, {cols, c2 && !cols2 ? cols : cols2}, n, per, chunks ? chunks : 1,
+                      visit, opaque, 0, 0};
+    if (!c->rows || (c2 && !c2->rows))
+        return visit_blocks(&v);
+    size_t nr = c2 ? 2 : 1, N = c->N;
+    int nw = c2 && c2->workers < c->workers ? c2->workers : c->workers;
+    if ((size_t)nw > v.chunks)
+        nw = (int)v.chunks;
+    struct visitor me[BST_THREADS_MAX];
+    double *buf = bsti_alloc_array(c->ctx, (size_t)nw * nr * per * N, sizeof *buf);
+    if (!buf)
+        return BST_ENOMEM;
+    for (int t = 0; t < nw; t++) {
+        me[t] = (struct visitor){&v, t, 0, buf + (size_t)t * nr * per * N, 0};
+        if (t > 0)
+            me[t].started = pthread_create(&me[t].thread, NULL, visit_run, &me[t]) == 0;
+    }
+    visit_run(&me[0]); /* (a worker that did not start leaves its chunks to the others) */
+    for (int t = 1; t < nw; t++)
+        if (me[t].started)
+            pthread_join(me[t].thread, NULL);
+    bsti_free(c->ctx, buf);
+    return BST_OK;
 }
 
 int bsti_mat_lr_expand(bst_ctx *ctx, const bst_mat *m, bst_precision prec, bst_mat **out)

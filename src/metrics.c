@@ -32,23 +32,16 @@ static double element(const bst_mat *m, size_t o, size_t i)
 }
 
 /* Column x of m (out[o] = m(o, x), row 0) or its row x (out[y] = m(x, y), row 1), n values, each as
- * element() reads it: a FACTORED m's through its factors a line at a time (bsti_lr_col, _row). */
+ * element() reads it (a FACTORED m is read through bsti_cols instead). */
 static void line_of(const bst_mat *m, int row, size_t x, size_t n, double *out)
 {
-    if (m && m->s == BST_FACTORED) {
-        if (row)
-            bsti_lr_row(m->lr, x, out);
-        else
-            bsti_lr_col(m->lr, x, out);
-        return;
-    }
     for (size_t y = 0; y < n; y++)
         out[y] = row ? element(m, x, y) : element(m, y, x);
 }
 
 /* The lines (columns, or rows when row) of a matrix (NULL: zero), a block at a time: a FACTORED
- * one over a wide map through bsti_cols (its rows as the columns of its transpose), by GEMM; any
- * other one line at a time (line_of). */
+ * one through bsti_cols (its rows as the columns of its transpose: values to rounding), by GEMM
+ * over a wide map; any other one line at a time (line_of). */
 struct lines {
     const bst_mat *m;
     bst_mat *t;     /* the transpose whose columns are m's rows */
@@ -59,7 +52,7 @@ struct lines {
 static int lines_open(bst_ctx *ctx, const bst_mat *m, int row, size_t n, struct lines *l)
 {
     *l = (struct lines){m, NULL, NULL, row};
-    if (!bsti_mat_lr_wide(m))
+    if (!m || m->s != BST_FACTORED)
         return BST_OK;
     int rc = row ? bst_mat_transpose(ctx, m, &l->t) : BST_OK;
     if (rc >= 0)
@@ -86,8 +79,8 @@ static void lines_close(struct lines *l)
     bst_mat_free(l->t);
 }
 
-/* Lines a block of x and y holds: BSTI_COLS_BYTES of them (at least one) when either is read by
- * GEMM, else one (line by line, as before: no more memory). */
+/* Lines a block of x and y holds: BSTI_COLS_BYTES of them (at least one) when either is read
+ * through bsti_cols, else one (line by line, as before: no more memory). */
 static size_t lines_block(size_t n, const struct lines *x, const struct lines *y)
 {
     if (!x->c && !y->c)
@@ -239,9 +232,65 @@ static int recip_dense(const bst_mat *tf, const bst_mat *tb, const size_t *a, si
  * column i beside Tb's row a(i), the same pairs in the same order, a block of lines at a time
  * (lines()), and *scale the largest |value| of either (every value of both is read once).  Values
  * are finite (checked before). */
+/* recip_lines of two FACTORED transmissions: Tf's columns i beside Tb's rows a(i) (the columns of
+ * its transpose) on the readers' threads (bsti_cols_visit), the largest difference of each of
+ * RECIP_CHUNKS runs of columns apart, taken in their order (the same result whatever the number
+ * of threads, and the first of equal ones, as line by line). */
+#define RECIP_CHUNKS 32
+struct recip {
+    const size_t *a;
+    size_t n;
+    double w[RECIP_CHUNKS], s[RECIP_CHUNKS];
+    size_t bi[RECIP_CHUNKS], bo[RECIP_CHUNKS];
+};
+
+static int recip_col(void *opaque, size_t q, size_t i, const double *buf)
+{
+    struct recip *r = opaque;
+    const double *xc = buf, *yr = buf + r->n;
+    const size_t *a = r->a;
+    double w = r->w[q], s = r->s[q];
+    for (size_t o = 0; o < r->n; o++) {
+        double d = fabs(xc[o] - yr[a[o]]);
+        s = fmax(s, fmax(fabs(xc[o]), fabs(yr[a[o]])));
+        if (d > w)
+            w = d, r->bi[q] = i, r->bo[q] = o;
+    }
+    r->w[q] = w, r->s[q] = s;
+    return 0;
+}
+
+static int recip_factored(bst_ctx *ctx, const bst_mat *tf, const bst_mat *tb, const size_t *a,
+                          size_t n, double *worst, double *scale, size_t *wi, size_t *wo)
+{
+    bst_mat *tt = NULL;
+    bsti_cols *cf = NULL, *cb = NULL;
+    struct recip r = {a, n, {0}, {0}, {0}, {0}};
+    int rc = bst_mat_transpose(ctx, tb, &tt);
+    if (rc >= 0)
+        rc = bsti_cols_new(ctx, tf, n, &cf);
+    if (rc >= 0)
+        rc = bsti_cols_new(ctx, tt, n, &cb);
+    if (rc >= 0)
+        rc = bsti_cols_visit(cf, NULL, cb, a, n, 1, RECIP_CHUNKS, recip_col, &r);
+    double w = 0.0, s = 0.0;
+    size_t bi = 0, bo = 0;
+    for (size_t q = 0; rc >= 0 && q < RECIP_CHUNKS; q++) {
+        s = fmax(s, r.s[q]);
+        if (r.w[q] > w)
+            w = r.w[q], bi = r.bi[q], bo = r.bo[q];
+    }
+    bsti_cols_free(cf), bsti_cols_free(cb);
+    bst_mat_free(tt);
+    *worst = w, *scale = s, *wi = bi, *wo = bo;
+    return rc;
+}
+
 static int recip_lines(bst_ctx *ctx, const bst_mat *tf, const bst_mat *tb, const size_t *a,
                        size_t n, double *worst, double *scale, size_t *wi, size_t *wo)
 {
+    if (tf && tb && tf->s == BST_FACTORED && tb->s == BST_FACTORED)
+        return recip_factored(ctx, tf, tb, a, n, worst, scale, wi, wo);
     struct lines lf, lb;
     int rc = lines_open(ctx, tf, 0, n, &lf);
     if (rc >= 0 && (rc = lines_open(ctx, tb, 1, n, &lb)) < 0)

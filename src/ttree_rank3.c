@@ -597,40 +597,60 @@ int bsti_tt3_build(bst_ctx *ctx, int k, int refine, double fa_stop, int give_up,
     return rc;
 }
 
-/* bsti_tt3_rotation_fa of a FACTORED m over a wide map, a block of columns i and their turned
- * columns at a time (bsti_cols: by GEMM, where each value through the factors costs a row's
- * entries squared); NAN when the block's memory is not there. */
-static double rotation_fa_wide(const bst_mat *m, int k, double stop)
+/* bsti_tt3_rotation_fa of a FACTORED m, by orbits of the turn: each cell of one quadrant and its
+ * three turned images, their columns read once (bsti_cols_visit: by GEMM over a wide map, where
+ * each value through the factors costs a row's entries squared, else with bsti_lr_get's bits on
+ * the reader's threads), each column compared with the next of its orbit.  NAN when the memory is
+ * not there. */
+#define ROT_CHUNKS 64
+struct rot {
+    int k;
+    size_t G, N;
+    double stop, worst[ROT_CHUNKS]; /* the least FA of each chunk of orbits */
+};
+
+static int rot_orbit(void *opaque, size_t chunk, size_t u, const double *buf)
 {
-    size_t G = (size_t)1 << k, N = G * G;
-    bsti_cols *c = NULL;
-    if (bsti_cols_new(m->ctx, m, N, &c) < 0)
-        return NAN;
-    size_t nb = bsti_cols_block(c) / 2 ? bsti_cols_block(c) / 2 : 1;
-    double *buf = bsti_alloc_array(m->ctx, 2 * nb * N, sizeof *buf), worst = buf ? 100.0 : NAN;
-    size_t *idx = bsti_alloc_array(m->ctx, 2 * nb, sizeof *idx);
-    for (size_t i0 = 0; buf && idx && i0 < N && !(worst < stop); i0 += nb) {
-        size_t n = N - i0 < nb ? N - i0 : nb;
-        for (size_t t = 0; t < n; t++)
-            idx[t] = i0 + t, idx[n + t] = bsti_sc_turn(i0 + t, 1, G);
-        bsti_cols_get(c, idx, 0, 2 * n, buf);
-        for (size_t t = 0; t < n && !(worst < stop); t++) {
-            const double *x = buf + t * N, *y = buf + (n + t) * N;
-            double diff = 0.0, sum = 0.0;
-            for (size_t o = 0; o < N; o++) {
-                size_t ro = ((G - 1 - (o & (G - 1))) << k) | (o >> k); /* bsti_sc_turn(o, 1, G) */
-                diff += fabs(x[o] - y[ro]);
-                sum += fabs(x[o]) + fabs(y[ro]);
-            }
-            if (sum > 0.0)
-                worst = fmin(worst, 100.0 * (1.0 - diff / sum));
+    struct rot *r = opaque;
+    size_t G = r->G, N = r->N;
+    int k = r->k;
+    (void)u;
+    for (int t = 0; t < 4; t++) {
+        const double *x = buf + (size_t)t * N, *y = buf + (size_t)((t + 1) % 4) * N;
+        double diff = 0.0, sum = 0.0;
+        for (size_t o = 0; o < N; o++) {
+            size_t ro = ((G - 1 - (o & (G - 1))) << k) | (o >> k); /* bsti_sc_turn(o, 1, G) */
+            diff += fabs(x[o] - y[ro]);
+            sum += fabs(x[o]) + fabs(y[ro]);
         }
+        if (sum > 0.0)
+            r->worst[chunk] = fmin(r->worst[chunk], 100.0 * (1.0 - diff / sum));
     }
-    if (!idx)
-        worst = NAN;
-    bsti_free(m->ctx, buf), bsti_free(m->ctx, idx);
+    return r->worst[chunk] < r->stop;
+}
+
+static double rotation_fa_cols(const bst_mat *m, int k, double stop)
+{
+    size_t G = (size_t)1 << k, N = G * G, h = G / 2, quarter = h * h;
+    struct rot r = {k, G, N, stop, {0}};
+    bsti_cols *c = NULL;
+    size_t *idx = bsti_alloc_array(m->ctx, 4 * quarter, sizeof *idx);
+    int rc = idx ? bsti_cols_new(m->ctx, m, N, &c) : BST_ENOMEM;
+    for (size_t q = 0; idx && q < quarter; q++) {
+        size_t i = (q / h) * G + q % h; /* cell (X, Y), X, Y < G / 2 */
+        for (int turn = 0; turn < 4; turn++, i = bsti_sc_turn(i, 1, G))
+            idx[4 * q + (size_t)turn] = i;
+    }
+    for (size_t q = 0; q < ROT_CHUNKS; q++)
+        r.worst[q] = 100.0;
+    if (rc >= 0)
+        rc = bsti_cols_visit(c, idx, NULL, NULL, quarter, 4, ROT_CHUNKS, rot_orbit, &r);
+    double worst = 100.0;
+    for (size_t q = 0; q < ROT_CHUNKS; q++)
+        worst = fmin(worst, r.worst[q]);
     bsti_cols_free(c);
-    return worst;
+    bsti_free(m->ctx, idx);
+    return rc < 0 ? NAN : worst;
 }
 
 double bsti_tt3_rotation_fa(const bst_mat *m, int k, double stop)
@@ -638,8 +658,8 @@ double bsti_tt3_rotation_fa(const bst_mat *m, int k, double stop)
     size_t G = (size_t)1 << k, N = G * G;
     if (!m || m->s == BST_ZERO || m->rows != N)
         return 100.0;
-    if (bsti_mat_lr_wide(m)) {
-        double fa = rotation_fa_wide(m, k, stop);
+    if (m->s == BST_FACTORED && k > 0) {
+        double fa = rotation_fa_cols(m, k, stop);
         if (!isnan(fa))
             return fa;
     }

@@ -154,8 +154,8 @@ int bsti_tt3_build(bst_ctx *ctx, int k, int refine, double fa_stop, int give_up,
  * the grid).  A rank-3 form is turned into itself, so by the triangle inequality a matrix whose
  * rank-3 form keeps FA >= g everywhere has a rotation FA of about 2 g - 100 or more: a cheap test
  * that rejects anisotropic layers (blinds: 10 to 50) before the rank-3 form is built.  It stops
- * at the first incident patch whose FA falls below stop and returns that FA (-INFINITY: the least
- * over all). */
+ * at the first incident patch it finds whose FA falls below stop and returns that FA (-INFINITY:
+ * the least over all); a FACTORED m's patches are taken by orbits of the turn. */
 double bsti_tt3_rotation_fa(const bst_mat *m, int k, double stop);
 
 #endif

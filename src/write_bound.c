@@ -12,24 +12,48 @@
 #include "mat.h"
 #include "write_bound.h"
 
-/* col[i] += the values of block (nr x nb, column-major) column i (row[o] += row o's; row may be
- * NULL), negatives read as 0. */
-static void sums_block(const double *block, size_t nr, size_t nb, double *col, double *row)
+/* A FACTORED m's column sums and row sums (sums() below) a column at a time on bsti_cols's threads
+ * (bsti_cols_visit); the row sums of each of SUM_CHUNKS runs of columns apart, added in their order
+ * (the same sums whatever the number of threads). */
+#define SUM_CHUNKS 16
+struct fsums {
+    size_t nr;
+    double *col, *row; /* row: SUM_CHUNKS x nr partial sums, or NULL */
+};
+
+static int fsums_col(void *opaque, size_t chunk, size_t i, const double *v)
 {
-    for (size_t i = 0; i < nb; i++)
-        for (size_t o = 0; o < nr; o++) {
-            double v = fmax(block[i * nr + o], 0.0);
-            col[i] += v;
-            if (row)
-                row[o] += v;
-        }
+    struct fsums *f = opaque;
+    double *row = f->row ? f->row + chunk * f->nr : NULL, s = 0.0;
+    for (size_t o = 0; o < f->nr; o++) {
+        double x = v[o] > 0.0 ? v[o] : 0.0;
+        s += x;
+        if (row)
+            row[o] += x;
+    }
+    f->col[i] = s;
+    return 0;
+}
+
+static int factored_sums(bst_ctx *ctx, const bst_mat *m, size_t nr, size_t n, double *col,
+                         double *row)
+{
+    bsti_cols *c = NULL;
+    struct fsums f = {nr, col, row ? bsti_calloc(ctx, SUM_CHUNKS * nr, sizeof *f.row) : NULL};
+    int rc = row && !f.row ? BST_ENOMEM : bsti_cols_new(ctx, m, nr, &c);
+    if (rc >= 0)
+        rc = bsti_cols_visit(c, NULL, NULL, NULL, n, 1, SUM_CHUNKS, fsums_col, &f);
+    for (size_t q = 0; rc >= 0 && row && q < SUM_CHUNKS; q++)
+        for (size_t o = 0; o < nr; o++)
+            row[o] += f.row[q * nr + o];
+    bsti_cols_free(c);
+    bsti_free(ctx, f.row);
+    return rc;
 }
 
 /* col[i] = sum over o of m(o, i), row[o] = sum over i (row may be NULL), negatives read as 0, as
- * a tree reader stores them; m (NULL: zeros) has nr rows and n columns; line: room for nr values
- * (a FACTORED m's column, when a block of them (bsti_cols) is not to be had). */
-static int sums(bst_ctx *ctx, const bst_mat *m, size_t nr, size_t n, double *col, double *row,
-                double *line)
+ * a tree reader stores them; m (NULL: zeros) has nr rows and n columns. */
+static int sums(bst_ctx *ctx, const bst_mat *m, size_t nr, size_t n, double *col, double *row)
 {
     memset(col, 0, n * sizeof *col);
     if (row)
@@ -42,31 +66,8 @@ static int sums(bst_ctx *ctx, const bst_mat *m, size_t nr, size_t n, double *col
             if (row)
                 row[i] = col[i];
         }
-    } else if (m->s == BST_FACTORED) { /* over a wide map a block of columns at a time by GEMM
-                                          (bsti_cols), else column by column through the factors */
-        bsti_cols *c = NULL;
-        size_t nb = 1;
-        double *buf = line;
-        if (bsti_mat_lr_wide(m)) {
-            int rc = bsti_cols_new(ctx, m, nr, &c);
-            if (rc < 0)
-                return rc;
-            nb = bsti_cols_block(c);
-            if (!(buf = bsti_alloc_array(ctx, nb * nr, sizeof *buf))) {
-                bsti_cols_free(c);
-                return BST_ENOMEM;
-            }
-        }
-        for (size_t i0 = 0; i0 < n; i0 += nb) {
-            size_t b = n - i0 < nb ? n - i0 : nb;
-            if (buf == line)
-                bsti_lr_col(m->lr, i0, line);
-            else
-                bsti_cols_get(c, NULL, i0, b, buf);
-            sums_block(buf, nr, b, col + i0, row);
-        }
-        if (buf != line)
-            bsti_free(ctx, buf), bsti_cols_free(c);
+    } else if (m->s == BST_FACTORED) {
+        return factored_sums(ctx, m, nr, n, col, row);
     } else if (m->s == BST_SPARSE) {
         const SuiteSparse_long *p = m->sp->p, *ri = m->sp->i;
         const double *x = m->sp->x;
@@ -155,16 +156,16 @@ int bsti_bounds_layer(bst_ctx *ctx, const bst_layer *l, double tol, double rho, 
     double lam = M_PI / (double)n; /* Shirley-Chiu: every patch pi / N */
     memset(b, 0, sizeof *b);
     int rc = bounds_alloc(ctx, nch, n, b);
-    double *h = rc >= 0 ? bsti_alloc_array(ctx, (BST_NCOMP + 2) * n, sizeof *h) : NULL;
+    double *h = rc >= 0 ? bsti_alloc_array(ctx, (BST_NCOMP + 1) * n, sizeof *h) : NULL;
     if (rc >= 0 && !h)
         rc = BST_ENOMEM;
     for (size_t ch = 0; rc >= 0 && ch < nch; ch++) {
         const double *hc[BST_NCOMP];
-        double *tb_rows = h + BST_NCOMP * n, *line = tb_rows + n;
+        double *tb_rows = h + BST_NCOMP * n;
         for (int c = 0; c < BST_NCOMP; c++) {
             const bst_mat *m = bst_layer_get(l, ch, (bst_comp)c);
             if (rc >= 0)
-                rc = sums(ctx, m, n, n, h + c * n, c == BST_TB && omit_tf[ch] ? tb_rows : NULL, line);
+                rc = sums(ctx, m, n, n, h + c * n, c == BST_TB && omit_tf[ch] ? tb_rows : NULL);
             for (size_t i = 0; i < n; i++)
                 h[c * n + i] *= lam;
             hc[c] = m ? h + c * n : NULL;
@@ -194,7 +195,7 @@ int bsti_bounds_layer(bst_ctx *ctx, const bst_layer *l, double tol, double rho, 
 /* Directional-hemispherical values of a front component's columns at order k (N patches) into
  * out: the fine column where there is one, the coarse patch's (hc, order kc) elsewhere. */
 static int varres_front(bst_ctx *ctx, const bst_varres *v, const bst_mat *fine, int kc,
-                        const double *hc, double *out, double *colsum, double *line)
+                        const double *hc, double *out, double *colsum)
 {
     size_t G = (size_t)1 << v->k, N = G * G, Gc = (size_t)1 << kc;
     int sh = v->k - kc;
@@ -202,7 +203,7 @@ static int varres_front(bst_ctx *ctx, const bst_varres *v, const bst_mat *fine, 
         out[i] = hc[((i / G) >> sh) * Gc + ((i % G) >> sh)];
     if (!fine || fine->rows != N || fine->cols != v->ncols)
         return BST_OK; /* (bsti_varres_init refuses it later) */
-    int rc = sums(ctx, fine, N, v->ncols, colsum, NULL, line);
+    int rc = sums(ctx, fine, N, v->ncols, colsum, NULL);
     for (size_t q = 0; rc >= 0 && q < v->ncols; q++)
         if (v->cols[q] < N)
             out[v->cols[q]] = colsum[q] * M_PI / (double)N;
@@ -218,16 +219,15 @@ int bsti_bounds_varres(bst_ctx *ctx, const bst_layer *coarse, const bst_varres *
     double lam = M_PI / (double)Nc;
     memset(b, 0, sizeof *b);
     int rc = bounds_alloc(ctx, nch, N, b);
-    double *h = rc >= 0 ? bsti_alloc_array(ctx, BST_NCOMP * Nc + 3 * N + v->ncols + 1, sizeof *h) : NULL;
+    double *h = rc >= 0 ? bsti_alloc_array(ctx, BST_NCOMP * Nc + 2 * N + v->ncols + 1, sizeof *h) : NULL;
     if (rc >= 0 && !h)
         rc = BST_ENOMEM;
     for (size_t ch = 0; rc >= 0 && ch < nch; ch++) {
         const double *hc[BST_NCOMP];
-        double *line = h + BST_NCOMP * Nc + 2 * N + v->ncols; /* N values (Nc <= N) */
         for (int c = 0; c < BST_NCOMP; c++) {
             const bst_mat *m = bst_layer_get(coarse, ch, (bst_comp)c);
             if (rc >= 0)
-                rc = sums(ctx, m, Nc, Nc, h + c * Nc, NULL, line);
+                rc = sums(ctx, m, Nc, Nc, h + c * Nc, NULL);
             for (size_t i = 0; i < Nc; i++)
                 h[c * Nc + i] *= lam;
             hc[c] = m ? h + c * Nc : NULL;
@@ -235,9 +235,9 @@ int bsti_bounds_varres(bst_ctx *ctx, const bst_layer *coarse, const bst_varres *
         double *col = b->col + ch * BST_NCOMP * N, *ft = h + BST_NCOMP * Nc, *fr = ft + N;
         double *colsum = fr + N;
         if (rc >= 0 && hc[BST_TF])
-            rc = varres_front(ctx, v, v->tf ? v->tf[ch] : NULL, kc, hc[BST_TF], ft, colsum, line);
+            rc = varres_front(ctx, v, v->tf ? v->tf[ch] : NULL, kc, hc[BST_TF], ft, colsum);
         if (rc >= 0 && hc[BST_RF])
-            rc = varres_front(ctx, v, v->rf ? v->rf[ch] : NULL, kc, hc[BST_RF], fr, colsum, line);
+            rc = varres_front(ctx, v, v->rf ? v->rf[ch] : NULL, kc, hc[BST_RF], fr, colsum);
         if (rc < 0)
             break;
         side(N, hc[BST_TF] ? ft : NULL, hc[BST_RF] ? fr : NULL, tol, rho, col + BST_TF * N,

@@ -6,6 +6,7 @@
 #include <config.h>
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -583,6 +584,108 @@ START_TEST(test_stack)
 }
 END_TEST
 
+/* The column readers for many columns: bsti_lr_col_fast gives bsti_lr_get's bits over a
+ * prolongation, a Klems-like overlap map and one with empty rows; bsti_cols_visit hands every
+ * unit over once, in order within each chunk, with the second reader's columns beside the first's
+ * (through the factors, or by GEMM over a wide map), the same per chunk on one thread and on two,
+ * and stops when asked. */
+struct vsum {
+    size_t N, per, visits;
+    double *sums;        /* chunks: the sum over its units of (u + 1) times their first value */
+    size_t *last;        /* chunks: the last unit + 1 seen (order check) */
+    const bsti_lr *f, *g;
+    const size_t *perm;
+    int bad, stop_at, gemm; /* gemm: over a wide map, the values to rounding */
+};
+
+static int vsum_visit(void *opaque, size_t q, size_t u, const double *buf)
+{
+    struct vsum *v = opaque;
+    __atomic_add_fetch(&v->visits, 1, __ATOMIC_RELAXED);
+    if (v->last[q] > u)
+        v->bad = 1;
+    v->last[q] = u + 1;
+    for (size_t s = 0; s < v->per; s++) { /* unit u: columns perm[u per + s] of f, then of g */
+        size_t j = v->perm[u * v->per + s], y = j;
+        for (size_t x = 0; x < v->N; x += 5) {
+            double a = bsti_lr_get(v->f, x, j), b = bsti_lr_get(v->g, x, y);
+            double da = buf[s * v->N + x], db = buf[(v->per + s) * v->N + x];
+            if (v->gemm ? !(fabs(a - da) <= 1e-12 * fabs(a) && fabs(b - db) <= 1e-12 * fabs(b))
+                        : memcmp(&a, &da, sizeof a) != 0 || memcmp(&b, &db, sizeof b) != 0)
+                v->bad = 1;
+        }
+        v->sums[q] += (double)(u + 1) * buf[s * v->N];
+    }
+    return v->stop_at >= 0 && u == (size_t)v->stop_at;
+}
+
+START_TEST(test_lines_fast)
+{
+    bsti_lr_map *S = _i < 2 ? map_of(_i == 0 ? 1 : 2) : overlap_map(150, 11);
+    if (_i == 2) /* rows 0, 7, 14, ... empty */
+        for (size_t x = 0, e = 0; x < S->N; x++) {
+            size_t n = x % 7 == 0 ? 0 : S->start[x + 1] - S->start[x], e0 = S->start[x];
+            S->start[x] = e;
+            for (size_t t = 0; t < n; t++, e++)
+                S->col[e] = S->col[e0 + t], S->w[e] = S->w[e0 + t];
+            if (x + 1 == S->N)
+                S->start[S->N] = e;
+        }
+    if (_i == 1) /* tagged as Klems overlaps are (case 2: untagged, a wide map, read by GEMM) */
+        snprintf(S->tag, sizeof S->tag, "test overlaps");
+    size_t N = S->N;
+    bsti_lr *f = random_lr(S, 1, 1), *g = random_lr(S, 0, 0), *f2, *g2;
+    bsti_lr_rows *rows;
+    double *line = malloc(N * sizeof *line);
+    ck_assert_int_eq(bsti_lr_rows_new(ctx, f, &rows), BST_OK);
+    for (size_t y = 0; y < N; y++) {
+        bsti_lr_col_fast(f, rows, y, line);
+        for (size_t x = 0; x < N; x++) {
+            double v = bsti_lr_get(f, x, y);
+            ck_assert_msg(memcmp(&line[x], &v, sizeof v) == 0, "column %zu row %zu", y, x);
+        }
+    }
+    bsti_lr_rows_free(rows);
+    free(line);
+    /* the visits: units of 3 columns, f's and g's at a permutation (cols2 NULL: cols) */
+    bst_mat *mf, *mg;
+    ck_assert_int_eq(bsti_lr_copy(ctx, f, &f2), BST_OK);
+    ck_assert_int_eq(bsti_lr_copy(ctx, g, &g2), BST_OK);
+    ck_assert_int_eq(bsti_mat_from_lr(ctx, f2, &mf), BST_OK);
+    ck_assert_int_eq(bsti_mat_from_lr(ctx, g2, &mg), BST_OK);
+    size_t per = 3, n = N / per, chunks = 7, *perm = malloc(N * sizeof *perm);
+    for (size_t j = 0; j < N; j++)
+        perm[j] = (j * 37 + 5) % N; /* (37 and N coprime) */
+    double sums[2][7];
+    for (int threads = 1; threads <= 2; threads++) {
+        bsti_cols *cf, *cg;
+        size_t last[7] = {0};
+        struct vsum v = {N, per, 0, sums[threads - 1], last, f, g, perm, 0, -1, _i == 2};
+        memset(v.sums, 0, sizeof sums[0]);
+        ck_assert_int_eq(bst_ctx_set_threads(ctx, threads), BST_OK);
+        ck_assert_int_eq(bsti_cols_new(ctx, mf, N, &cf), BST_OK);
+        ck_assert_int_eq(bsti_cols_new(ctx, mg, N, &cg), BST_OK);
+        ck_assert_int_eq(bsti_cols_visit(cf, perm, cg, NULL, n, per, chunks, vsum_visit, &v), BST_OK);
+        ck_assert_uint_eq(v.visits, n);
+        ck_assert_int_eq(v.bad, 0);
+        for (size_t q = 0; q < chunks; q++)
+            ck_assert_uint_eq(last[q], n * (q + 1) / chunks);
+        /* a stop at unit 2 (chunk 0): the other chunks' visits under way finish, no new ones */
+        memset(last, 0, sizeof last);
+        double scratch[7] = {0};
+        v.visits = 0, v.stop_at = 2, v.sums = scratch;
+        ck_assert_int_eq(bsti_cols_visit(cf, perm, cg, NULL, n, per, chunks, vsum_visit, &v), BST_OK);
+        ck_assert_uint_le(v.visits, 3 + (size_t)(threads - 1) * (n / chunks + 1));
+        bsti_cols_free(cf), bsti_cols_free(cg);
+    }
+    ck_assert_int_eq(memcmp(sums[0], sums[1], sizeof sums[0]), 0);
+    free(perm);
+    bst_mat_free(mf), bst_mat_free(mg);
+    bsti_lr_free(ctx, f), bsti_lr_free(ctx, g);
+    bsti_lr_map_free(ctx, S);
+}
+END_TEST
+
 static Suite *suite(void)
 {
     Suite *s = suite_create("lowrank");
@@ -596,6 +699,7 @@ static Suite *suite(void)
     tcase_add_test(tc, test_nomem);
     tcase_add_loop_test(tc, test_dispatch, TM_ZERO, TM_NKINDS);
     tcase_add_test(tc, test_stack);
+    tcase_add_loop_test(tc, test_lines_fast, 0, 3);
     suite_add_tcase(s, tc);
     return s;
 }
