@@ -122,7 +122,11 @@ static int format_digits_quick(double v, int p, char *buf, double *back)
     int bexp = (int)(bits >> 52 & 0x7ff), negative = (int)(bits >> 63);
     if (bexp == 0 || bexp == 0x7ff) /* zero, subnormal, inf, nan */
         return 0;
-    int lead = (int)floor((bexp - 1023) * 0.30102999566398120); /* log10's floor, or one less */
+    /* log10's floor, or one or two less (the loop below goes up; two passes, then the slow way):
+     * floor(e log10 2) or one less, in integers, by a factor a little below log10 2 for e >= 0
+     * (78913 / 2^18) and a little above it below 0 (315653 / 2^20) */
+    int e2 = bexp - 1023;
+    int lead = e2 >= 0 ? (e2 * 78913) >> 18 : -((-e2 * 315653 + 1048575) >> 20);
     double a = fabs(v);
     for (int pass = 0; pass < 2; pass++) {
         int s = p - 1 - lead;
@@ -133,7 +137,7 @@ static int format_digits_quick(double v, int p, char *buf, double *back)
             lead++;
             continue;
         }
-        double whole = floor(x), f = x - whole; /* exact: x >= 1 */
+        double whole = (double)(uint64_t)x, f = x - whole; /* floor (0 < x < 10^9), f exact */
         if (fabs(f - 0.5) <= 0x1p-22)
             return 0;
         uint64_t r = (uint64_t)whole + (f > 0.5);
