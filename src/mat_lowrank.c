@@ -572,36 +572,88 @@ static void *visit_run(void *arg)
     }
 }
 
-/* bsti_cols_visit where a reader has no workers of its own: blocks of whole units on this thread. */
+/* bsti_cols_visit where a reader has no workers of its own (a GEMM, a dense or sparse matrix): in
+ * rounds, each of up to nw chunks in flight gets its next units' columns, read by this thread
+ * (GEMM has its own threads), and then they are visited, a chunk on each thread.  A chunk's units
+ * are visited in order, one at a time, whichever thread takes them in a round. */
+struct bpart {
+    struct visit *v;
+    size_t q, u, k;      /* chunk q: units u .. u + k - 1 this round */
+    const double *buf;   /* their columns (with a second reader: nu per N further on) */
+    size_t stride;       /* the second reader's offset in buf */
+    double *one;         /* room for one unit of both readers side by side, or NULL */
+    int stop, started;
+    pthread_t thread;
+};
+
+static void *bpart_run(void *arg)
+{
+    struct bpart *b = arg;
+    struct visit *v = b->v;
+    size_t N = v->c[0]->N, per = v->per;
+    for (size_t t = 0; t < b->k && !b->stop && !atomic_load(&v->stop); t++) {
+        const double *at = b->buf + t * per * N;
+        if (b->one) { /* the unit's columns of both readers side by side */
+            memcpy(b->one, at, per * N * sizeof *b->one);
+            memcpy(b->one + per * N, at + b->stride, per * N * sizeof *b->one);
+            at = b->one;
+        }
+        if (v->fn(v->opaque, b->q, b->u + t, at)) {
+            b->stop = 1;
+            atomic_store(&v->stop, 1);
+        }
+    }
+    return NULL;
+}
+
 static int visit_blocks(struct visit *v)
 {
     bsti_cols *c = v->c[0];
     size_t N = c->N, per = v->per, nr = v->c[1] ? 2 : 1;
-    size_t nu = c->block / per ? c->block / per : 1;
-    double *buf = bsti_alloc_array(c->ctx, nr * nu * per * N, sizeof *buf);
-    double *one = nr == 2 ? bsti_alloc_array(c->ctx, nr * per * N, sizeof *one) : NULL;
+    int nw = bsti_ctx_workers_no_alloc(c->ctx, v->chunks);
+    size_t nu = c->block / per ? c->block / per : 1; /* units a round, shared by the chunks */
+    size_t sub = nu / (size_t)nw ? nu / (size_t)nw : 1;
+    double *buf = bsti_alloc_array(c->ctx, nr * (size_t)nw * sub * per * N, sizeof *buf);
+    double *one = nr == 2 ? bsti_alloc_array(c->ctx, (size_t)nw * 2 * per * N, sizeof *one) : NULL;
     if (!buf || (nr == 2 && !one)) {
         bsti_free(c->ctx, buf), bsti_free(c->ctx, one);
         return BST_ENOMEM;
     }
-    int stop = 0;
-    for (size_t q = 0; q < v->chunks && !stop; q++) {
-        size_t u0 = v->n * q / v->chunks, u1 = v->n * (q + 1) / v->chunks;
-        for (size_t b0 = u0; b0 < u1 && !stop; b0 += nu) {
-            size_t k = u1 - b0 < nu ? u1 - b0 : nu;
-            for (size_t r = 0; r < nr; r++)
-                bsti_cols_get(v->c[r], v->cols[r] ? v->cols[r] + b0 * per : NULL, b0 * per, k * per,
-                              buf + r * nu * per * N);
-            for (size_t u = 0; u < k && !stop; u++) {
-                const double *at = buf + u * per * N;
-                if (nr == 2) { /* the unit's columns of both readers side by side */
-                    memcpy(one, at, per * N * sizeof *one);
-                    memcpy(one + per * N, at + nu * per * N, per * N * sizeof *one);
-                    at = one;
-                }
-                stop = v->fn(v->opaque, q, b0 + u, at) != 0;
+    struct bpart part[BST_THREADS_MAX];
+    size_t next = 0, at[BST_THREADS_MAX], end[BST_THREADS_MAX], q[BST_THREADS_MAX];
+    for (int t = 0; t < nw; t++)
+        at[t] = end[t] = 0, q[t] = SIZE_MAX;
+    for (;;) {
+        int live = 0;
+        for (int t = 0; t < nw; t++) { /* each slot's chunk: its next units, or the next chunk */
+            if (at[t] == end[t] && next < v->chunks) {
+                q[t] = next++;
+                at[t] = v->n * q[t] / v->chunks, end[t] = v->n * (q[t] + 1) / v->chunks;
             }
+            size_t k = end[t] - at[t] < sub ? end[t] - at[t] : sub;
+            double *b = buf + (size_t)t * sub * per * N;
+            part[t] = (struct bpart){v, q[t], at[t], k, b, (size_t)nw * sub * per * N,
+                                     one ? one + (size_t)t * 2 * per * N : NULL, 0, 0, 0};
+            for (size_t r = 0; r < nr && k; r++)
+                bsti_cols_get(v->c[r], v->cols[r] ? v->cols[r] + at[t] * per : NULL, at[t] * per,
+                              k * per, b + r * (size_t)nw * sub * per * N);
+            at[t] += k;
+            live += k > 0;
         }
+        if (!live || atomic_load(&v->stop))
+            break;
+        for (int t = 1; t < nw; t++)
+            if (part[t].k)
+                part[t].started = pthread_create(&part[t].thread, NULL, bpart_run, &part[t]) == 0;
+        bpart_run(&part[0]);
+        for (int t = 1; t < nw; t++) {
+            if (part[t].started)
+                pthread_join(part[t].thread, NULL);
+            else if (part[t].k)
+                bpart_run(&part[t]);
+        }
+        if (atomic_load(&v->stop))
+            break;
     }
     bsti_free(c->ctx, buf), bsti_free(c->ctx, one);
     return BST_OK;
