@@ -216,6 +216,68 @@ void bsti_lr_add_block(double *dst, size_t ldd, size_t bi, size_t bj, const doub
             dst[(bj * r + c) * ldd + bi * r + q] += s * src[(j * r + c) * lds + i * r + q];
 }
 
+/* Values of A (m x n, leading dimension lda) that are not zero, counting stopped past limit. */
+static size_t nonzeros(const double *A, size_t m, size_t n, size_t lda, size_t limit)
+{
+    size_t nz = 0;
+    for (size_t j = 0; j < n && nz <= limit; j++)
+        for (size_t i = 0; i < m; i++)
+            nz += A[j * lda + i] != 0.0;
+    return nz;
+}
+
+/* A K block at most this share of whose values are not zero is multiplied as a sparse one (a clear
+ * pane's tree at a coarse order: a diagonal, a mirror, a few values more). */
+#define LR_SPARSE_SHARE (1.0 / 64.0)
+
+/* C = A B (m x n, A m x k, B k x n, column-major, leading dimensions the row counts): GEMM, unless
+ * A or B is sparse (LR_SPARSE_SHARE), then through its values that are not zero (the same sums
+ * but for their order). */
+static int lr_gemm(bst_ctx *ctx, size_t m, size_t n, size_t k, const double *A, const double *B,
+                   double *C)
+{
+    size_t la = (size_t)(LR_SPARSE_SHARE * (double)m * (double)k);
+    size_t lb = (size_t)(LR_SPARSE_SHARE * (double)k * (double)n);
+    size_t nza = nonzeros(A, m, k, m, la);
+    if (nza <= la) { /* C[:, j] = sum over l of A[:, l] B[l, j], A's values listed by column */
+        size_t *start = bsti_alloc_array(ctx, k + 1 + nza, sizeof *start), *row = start + k + 1;
+        double *val = bsti_alloc_array(ctx, nza + 1, sizeof *val);
+        if (!start || !val) {
+            bsti_free(ctx, start), bsti_free(ctx, val);
+            return BST_ENOMEM;
+        }
+        for (size_t l = 0, e = 0; l < k; l++) {
+            start[l] = e;
+            for (size_t i = 0; i < m; i++)
+                if (A[l * m + i] != 0.0)
+                    row[e] = i, val[e++] = A[l * m + i];
+            start[l + 1] = e;
+        }
+        memset(C, 0, m * n * sizeof *C);
+        for (size_t j = 0; j < n; j++)
+            for (size_t l = 0; l < k; l++) {
+                double b = B[j * k + l];
+                for (size_t e = start[l]; e < start[l + 1]; e++)
+                    C[j * m + row[e]] += val[e] * b;
+            }
+        bsti_free(ctx, start), bsti_free(ctx, val);
+    } else if (nonzeros(B, k, n, k, lb) <= lb) {
+        memset(C, 0, m * n * sizeof *C);
+        for (size_t j = 0; j < n; j++)
+            for (size_t l = 0; l < k; l++) {
+                double b = B[j * k + l];
+                if (b != 0.0)
+                    for (size_t i = 0; i < m; i++)
+                        C[j * m + i] += A[l * m + i] * b;
+            }
+    } else {
+        cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)m, (int)n, (int)k, 1.0, A,
+                    (int)m, B, (int)k, 0.0, C, (int)m);
+        bsti_flops_add(ctx, 2.0 * (double)m * (double)n * (double)k);
+    }
+    return BST_OK;
+}
+
 static void times(double *v, const double *x, const double *y, size_t N)
 {
     for (size_t n = 0; n < N; n++)
@@ -325,14 +387,11 @@ int bsti_lr_mul(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, bsti_lr **out)
         if (rc >= 0 && single) {
             bsti_lr_mul_diag_blocks(f->k, fp, f->q, g->p, r, gm, 1.0, 0, t1);
         } else if (rc >= 0) {
-            cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)fp, (int)gp, (int)fq, 1.0,
-                        f->k, (int)fp, gm, (int)fq, 0.0, t1, (int)fp);
-            bsti_flops_add(ctx, 2.0 * (double)fp * (double)gp * (double)fq);
+            rc = lr_gemm(ctx, fp, gp, fq, f->k, gm, t1);
         }
+        if (rc >= 0)
+            rc = lr_gemm(ctx, fp, gq, gp, t1, g->k, t);
         if (rc >= 0) {
-            cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)fp, (int)gq, (int)gp, 1.0,
-                        t1, (int)fp, g->k, (int)gp, 0.0, t, (int)fp);
-            bsti_flops_add(ctx, 2.0 * (double)fp * (double)gp * (double)gq);
             for (size_t i = 0; i < f->p; i++)
                 for (size_t j = 0; j < g->q; j++)
                     bsti_lr_add_block(m->k, ld, l.li_f[i], l.rj_g[j], t, fp, i, j, r, 1.0);
@@ -464,9 +523,11 @@ int bsti_lr_transpose(bst_ctx *ctx, const bsti_lr *f, bsti_lr **out)
         memcpy(m->d, f->d, N * sizeof *m->d);
     memcpy(m->a, f->b, f->q * N * sizeof *m->a);
     memcpy(m->b, f->a, f->p * N * sizeof *m->b);
-    for (size_t j = 0; j < qr; j++)
-        for (size_t i = 0; i < pr; i++)
-            m->k[i * qr + j] = f->k[j * pr + i];
+    for (size_t j0 = 0; j0 < qr; j0 += 32) /* by tiles that stay in the cache (K: up to 128 MB) */
+        for (size_t i0 = 0; i0 < pr; i0 += 32)
+            for (size_t j = j0; j < j0 + 32 && j < qr; j++)
+                for (size_t i = i0; i < i0 + 32 && i < pr; i++)
+                    m->k[i * qr + j] = f->k[j * pr + i];
     return BST_OK;
 }
 

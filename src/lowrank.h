@@ -110,7 +110,9 @@ int bsti_lr_new(bst_ctx *ctx, const bsti_lr_map *S, const double *d, const doubl
                 const double *K, const double *b, bsti_lr **out);
 void bsti_lr_free(bst_ctx *ctx, bsti_lr *m);
 
-/* *out = F G. */
+/* *out = F G.  Its K blocks are multiplied by GEMM unless one is sparse (at most 1/64 of its
+ * values not zero: a clear pane's tree at a coarse order, a diagonal or a mirror and a few values
+ * more), then through that one's values (the same sums, in another order). */
 int bsti_lr_mul(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, bsti_lr **out);
 /* *out = alpha F + beta G. */
 int bsti_lr_add(bst_ctx *ctx, double alpha, const bsti_lr *f, double beta, const bsti_lr *g,
