@@ -532,7 +532,7 @@ int bsti_lr_transpose(bst_ctx *ctx, const bsti_lr *f, bsti_lr **out)
 }
 
 /* Every reader builds the value (x, y) in one order, so that all give the same bits (bsti_lr_get,
- * _col, _row and mat_lowrank.c's column reader, bsti_lr_col_fast): the diagonal or 0 first and
+ * bsti_lr_col_fast, which mat_lowrank.c's column reader uses): the diagonal or 0 first and
  * then, pair (i, j) by pair, v += a_i[x] s b_j[y], with
  *   c_e = 0 + the sum over y's entries ey, in order, of K_ij[col_e, col_ey] w_ey  (for x's entry e)
  *   s   = 0 + the sum over x's entries e, in order, of w_e c_e.
@@ -555,56 +555,6 @@ double bsti_lr_get(const bsti_lr *f, size_t x, size_t y)
             v += f->a[i * N + x] * s * f->b[j * N + y];
         }
     return v;
-}
-
-void bsti_lr_col(const bsti_lr *f, size_t y, double *out)
-{
-    const bsti_lr_map *S = f->S;
-    size_t N = f->N, r = f->r, ld = f->p * r;
-    for (size_t x = 0; x < N; x++)
-        out[x] = 0.0;
-    if (f->d)
-        out[y] = f->d[y];
-    for (size_t i = 0; i < f->p; i++)
-        for (size_t j = 0; j < f->q; j++) {
-            const double *a = f->a + i * N, *kb = f->k + j * r * ld + i * r;
-            double by = f->b[j * N + y];
-            for (size_t x = 0; x < N; x++) {
-                double s = 0.0;
-                for (size_t ex = S->start[x]; ex < S->start[x + 1]; ex++) {
-                    double c = 0.0;
-                    for (size_t ey = S->start[y]; ey < S->start[y + 1]; ey++)
-                        c += kb[S->col[ey] * ld + S->col[ex]] * S->w[ey];
-                    s += S->w[ex] * c;
-                }
-                out[x] += a[x] * s * by;
-            }
-        }
-}
-
-void bsti_lr_row(const bsti_lr *f, size_t x, double *out)
-{
-    const bsti_lr_map *S = f->S;
-    size_t N = f->N, r = f->r, ld = f->p * r;
-    for (size_t y = 0; y < N; y++)
-        out[y] = 0.0;
-    if (f->d)
-        out[x] = f->d[x];
-    for (size_t i = 0; i < f->p; i++)
-        for (size_t j = 0; j < f->q; j++) {
-            const double *b = f->b + j * N, *kb = f->k + j * r * ld + i * r;
-            double ax = f->a[i * N + x];
-            for (size_t y = 0; y < N; y++) {
-                double s = 0.0;
-                for (size_t ex = S->start[x]; ex < S->start[x + 1]; ex++) {
-                    double c = 0.0;
-                    for (size_t ey = S->start[y]; ey < S->start[y + 1]; ey++)
-                        c += kb[S->col[ey] * ld + S->col[ex]] * S->w[ey];
-                    s += S->w[ex] * c;
-                }
-                out[y] += ax * s * b[y];
-            }
-        }
 }
 
 int bsti_lr_rows_new(bst_ctx *ctx, const bsti_lr *f, bsti_lr_rows **out)

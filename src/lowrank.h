@@ -80,15 +80,11 @@ int bsti_lr_permute_over(bst_ctx *ctx, const bsti_lr *f, const size_t *perm, con
                          bsti_lr **out);
 /* Element (i, j). */
 double bsti_lr_get(const bsti_lr *f, size_t i, size_t j);
-/* Column y (out[x] = F[x, y], N values) or row x (out[y] = F[x, y]) of F, each value the same bits
- * as bsti_lr_get gives (the same operations in the same order: lowrank.c), at O(N p q) a line
- * instead of O(N) calls. */
-void bsti_lr_col(const bsti_lr *f, size_t y, double *out);
-void bsti_lr_row(const bsti_lr *f, size_t x, double *out);
-/* The columns of F faster, for readers of many (the writer, the checks): the map's rows laid out
- * for passes that do not branch on a row's entries (a Klems overlap table: one entry for most
- * cells, two to four for those on a patch's edge), with room for one column's sums.  One per
- * thread; the same bits as bsti_lr_col. */
+/* Column y of F (out[x] = F[x, y], N values), each value the same bits as bsti_lr_get gives (the
+ * same operations in the same order: lowrank.c), at O(N p q) a column, for readers of many (the
+ * writer, the checks): the map's rows laid out (bsti_lr_rows_new) for passes that do not branch
+ * on a row's entries (a Klems overlap table: one entry for most cells, two to four for those on a
+ * patch's edge), with room for one column's sums.  One layout per thread. */
 typedef struct {
     bst_ctx *ctx;
     double *fw;           /* N: the weight of each row's first entry (0: none) */

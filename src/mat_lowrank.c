@@ -448,7 +448,7 @@ static void cols_gemm(bsti_cols *c, const size_t *cols, size_t j0, size_t n, dou
     }
 }
 
-/* Column y of any other matrix, each value as bsti_mat_at reads it (FACTORED: bsti_lr_col's bits,
+/* Column y of any other matrix, each value as bsti_mat_at reads it (FACTORED: bsti_lr_get's bits,
  * through the rows laid out for it). */
 static void col_plain(const bst_mat *m, bsti_lr_rows *rows, size_t N, size_t y, double *out)
 {

@@ -131,6 +131,24 @@ static void dense_solve(const double *m, const double *b, size_t N, int trans, d
     free(inv);
 }
 
+/* bsti_lr_col_fast's columns y = 0, step, 2 step, ... of f against bsti_lr_get, bit for bit. */
+static void check_columns(const bsti_lr *f, size_t step)
+{
+    size_t N = f->N;
+    double *line = malloc(N * sizeof *line);
+    bsti_lr_rows *rows;
+    ck_assert_int_eq(bsti_lr_rows_new(ctx, f, &rows), BST_OK);
+    for (size_t y = 0; y < N; y += step) {
+        bsti_lr_col_fast(f, rows, y, line);
+        for (size_t x = 0; x < N; x++) {
+            double v = bsti_lr_get(f, x, y);
+            ck_assert_msg(memcmp(&line[x], &v, sizeof v) == 0, "column %zu row %zu", y, x);
+        }
+    }
+    bsti_lr_rows_free(rows);
+    free(line);
+}
+
 START_TEST(test_algebra)
 {
     bsti_lr_map *S = map_of(_i / 4);
@@ -167,21 +185,7 @@ START_TEST(test_algebra)
                       rel_diff(i1->k, i0->k, ni));
         bsti_lr_free(ctx, m1), bsti_lr_free(ctx, m0), bsti_lr_free(ctx, i1), bsti_lr_free(ctx, i0);
     }
-    /* columns and rows: the bits of the values one by one */
-    double *line = malloc(N * sizeof *line);
-    for (size_t y = 0; y < N; y += 7) {
-        bsti_lr_col(f, y, line);
-        for (size_t x = 0; x < N; x++) {
-            double v = bsti_lr_get(f, x, y);
-            ck_assert_msg(memcmp(&line[x], &v, sizeof v) == 0, "column %zu row %zu", y, x);
-        }
-        bsti_lr_row(g, y, line);
-        for (size_t x = 0; x < N; x++) {
-            double v = bsti_lr_get(g, y, x);
-            ck_assert_msg(memcmp(&line[x], &v, sizeof v) == 0, "row %zu column %zu", y, x);
-        }
-    }
-    free(line);
+    check_columns(f, 7); /* the bits of the values one by one */
     /* sum */
     ck_assert_int_eq(bsti_lr_add(ctx, 0.5, f, -2.0, g, &m), BST_OK);
     for (size_t i = 0; i < N * N; i++)
@@ -635,18 +639,7 @@ START_TEST(test_lines_fast)
         snprintf(S->tag, sizeof S->tag, "test overlaps");
     size_t N = S->N;
     bsti_lr *f = random_lr(S, 1, 1), *g = random_lr(S, 0, 0), *f2, *g2;
-    bsti_lr_rows *rows;
-    double *line = malloc(N * sizeof *line);
-    ck_assert_int_eq(bsti_lr_rows_new(ctx, f, &rows), BST_OK);
-    for (size_t y = 0; y < N; y++) {
-        bsti_lr_col_fast(f, rows, y, line);
-        for (size_t x = 0; x < N; x++) {
-            double v = bsti_lr_get(f, x, y);
-            ck_assert_msg(memcmp(&line[x], &v, sizeof v) == 0, "column %zu row %zu", y, x);
-        }
-    }
-    bsti_lr_rows_free(rows);
-    free(line);
+    check_columns(f, 1);
     /* the visits: units of 3 columns, f's and g's at a permutation (cols2 NULL: cols) */
     bst_mat *mf, *mg;
     ck_assert_int_eq(bsti_lr_copy(ctx, f, &f2), BST_OK);
