@@ -2,6 +2,7 @@
  * CHOLMOD common block shared by the sparse kernels of one context. */
 #include <config.h>
 
+#include <pthread.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -124,6 +125,23 @@ int bsti_ctx_workers(const bst_ctx *ctx, size_t jobs)
     if (!ctx || ctx->malloc_fn != system_malloc)
         return 1;
     return bsti_ctx_workers_no_alloc(ctx, jobs);
+}
+
+void bsti_run_parts(void *parts, size_t size, size_t n, void *(*fn)(void *))
+{
+    pthread_t th[BSTI_RUN_PARTS_MAX];
+    int started[BSTI_RUN_PARTS_MAX] = {0};
+    char *p = parts;
+    for (size_t t = 1; t < n && t < BSTI_RUN_PARTS_MAX; t++)
+        started[t] = pthread_create(&th[t], NULL, fn, p + t * size) == 0;
+    if (n)
+        fn(p);
+    for (size_t t = 1; t < n; t++) {
+        if (t < BSTI_RUN_PARTS_MAX && started[t])
+            pthread_join(th[t], NULL);
+        else
+            fn(p + t * size);
+    }
 }
 
 int bsti_ctx_workers_no_alloc(const bst_ctx *ctx, size_t jobs)

@@ -56,6 +56,11 @@ int bsti_ctx_workers(const bst_ctx *ctx, size_t jobs);
 /* The same for threads that allocate nothing (their memory made by the caller): the allocator
  * does not matter. */
 int bsti_ctx_workers_no_alloc(const bst_ctx *ctx, size_t jobs);
+/* fn on each of n parts (parts: an array of n items of `size` bytes each): parts 1.. on threads of
+ * their own (up to BSTI_RUN_PARTS_MAX), part 0 on the caller's, then a part whose thread could
+ * not start on the caller's too; returns once all are done. */
+#define BSTI_RUN_PARTS_MAX 64
+void bsti_run_parts(void *parts, size_t size, size_t n, void *(*fn)(void *));
 
 /* Report progress of a long operation (no-op without a callback). */
 void bsti_progress(bst_ctx *ctx, double fraction, const char *label);

@@ -73,16 +73,16 @@ size_t bsti_cols_block(const bsti_cols *c);
 void bsti_cols_get(bsti_cols *c, const size_t *cols, size_t j0, size_t n, double *out);
 void bsti_cols_free(bsti_cols *c);
 /* Units of `per` columns (unit u: cols[u per .. u per + per - 1], cols NULL: u per + 0.., n units)
- * handed to visit(opaque, chunk, u, buf), buf the unit's columns (N x per, column-major), each as
- * bsti_cols_get gives it, followed, when c2 is given (a reader of as many rows), by as many of
- * c2's (cols2, NULL: the same indices).  The units form `chunks` runs of consecutive units (chunk
- * q: units [n q / chunks, n (q + 1) / chunks)), and each run is visited in order by one thread,
- * the runs shared out among the readers' workers (where each reads a FACTORED matrix over a map
- * that is not wide; else all on the caller's thread): a result kept per chunk is the same whatever
- * the number of threads.  visit may run on several threads at once, for different chunks; a
- * non-zero return stops the visits (those under way finish).  BST_ENOMEM (nothing visited) when
- * the buffers are not there. */
-typedef int (*bsti_cols_visit_fn)(void *opaque, size_t chunk, size_t u, const double *buf);
+ * handed to visit(opaque, chunk, u, buf, buf2), buf the unit's columns (N x per, column-major),
+ * each as bsti_cols_get gives it, and buf2 as many of c2's (a reader of as many rows; cols2 NULL:
+ * the same indices), NULL without c2.  The units form `chunks` runs of consecutive units (chunk
+ * q: units [n q / chunks, n (q + 1) / chunks)), and each run's units are visited in order, one at
+ * a time, the runs shared out among the readers' workers (bsti_ctx_workers_no_alloc): a result
+ * kept per chunk is the same whatever the number of threads.  visit may run on several threads at
+ * once, for different chunks; a non-zero return stops the visits (those under way finish).
+ * BST_ENOMEM (nothing visited) when the buffers are not there. */
+typedef int (*bsti_cols_visit_fn)(void *opaque, size_t chunk, size_t u, const double *buf,
+                                  const double *buf2);
 int bsti_cols_visit(bsti_cols *c, const size_t *cols, bsti_cols *c2, const size_t *cols2, size_t n,
                     size_t per, size_t chunks, bsti_cols_visit_fn visit, void *opaque);
 /* The rank of a FACTORED matrix's low-rank part (p r by q r: the larger), 0 for any other. */

@@ -14,7 +14,6 @@
  * operand makes a float result, as everywhere in mat.c; the factors are double. */
 #include <config.h>
 
-#include <pthread.h>
 #include <stdatomic.h>
 #include <stdint.h>
 #include <string.h>
@@ -482,8 +481,7 @@ struct cols_part {
     const size_t *cols;
     size_t j0, s0, s1;
     double *out;
-    int t, started;
-    pthread_t thread;
+    int t;
 };
 
 static void *cols_part_run(void *opaque)
@@ -502,19 +500,10 @@ static void cols_plain(bsti_cols *c, const size_t *cols, size_t j0, size_t n, do
 {
     struct cols_part part[BST_THREADS_MAX];
     int nw = !c->rows || n < 2 ? 1 : (size_t)c->workers < n ? c->workers : (int)n;
-    for (int t = 0; t < nw; t++) {
+    for (int t = 0; t < nw; t++)
         part[t] = (struct cols_part){c, cols, j0, n * (size_t)t / (size_t)nw,
-                                     n * (size_t)(t + 1) / (size_t)nw, out, t, 0, 0};
-        if (t > 0)
-            part[t].started = pthread_create(&part[t].thread, NULL, cols_part_run, &part[t]) == 0;
-    }
-    cols_part_run(&part[0]);
-    for (int t = 1; t < nw; t++) {
-        if (part[t].started)
-            pthread_join(part[t].thread, NULL);
-        else
-            cols_part_run(&part[t]);
-    }
+                                     n * (size_t)(t + 1) / (size_t)nw, out, t};
+    bsti_run_parts(part, sizeof *part, (size_t)nw, cols_part_run);
 }
 
 void bsti_cols_get(bsti_cols *c, const size_t *cols, size_t j0, size_t n, double *out)
@@ -542,9 +531,8 @@ struct visit {
 
 struct visitor {
     struct visit *v;
-    int t, started;
-    double *buf;         /* per x N values, or 2 per x N with a second reader */
-    pthread_t thread;
+    int t;
+    double *buf[2];      /* per x N values for each reader */
 };
 
 static void *visit_run(void *arg)
@@ -563,10 +551,10 @@ static void *visit_run(void *arg)
                 for (size_t s = 0; s < v->per; s++) {
                     size_t j = u * v->per + s;
                     col_plain(v->c[r]->m, v->c[r]->rows[me->t], N, cols ? cols[j] : j,
-                              me->buf + ((size_t)r * v->per + s) * N);
+                              me->buf[r] + s * N);
                 }
             }
-            if (v->fn(v->opaque, q, u, me->buf))
+            if (v->fn(v->opaque, q, u, me->buf[0], me->buf[1]))
                 atomic_store(&v->stop, 1);
         }
     }
@@ -579,51 +567,33 @@ static void *visit_run(void *arg)
 struct bpart {
     struct visit *v;
     size_t q, u, k;      /* chunk q: units u .. u + k - 1 this round */
-    const double *buf;   /* their columns (with a second reader: nu per N further on) */
-    size_t stride;       /* the second reader's offset in buf */
-    double *one;         /* room for one unit of both readers side by side, or NULL */
-    int stop, started;
-    pthread_t thread;
+    const double *buf[2]; /* their columns from each reader */
 };
 
 static void *bpart_run(void *arg)
 {
     struct bpart *b = arg;
     struct visit *v = b->v;
-    size_t N = v->c[0]->N, per = v->per;
-    for (size_t t = 0; t < b->k && !b->stop && !atomic_load(&v->stop); t++) {
-        const double *at = b->buf + t * per * N;
-        if (b->one) { /* the unit's columns of both readers side by side */
-            memcpy(b->one, at, per * N * sizeof *b->one);
-            memcpy(b->one + per * N, at + b->stride, per * N * sizeof *b->one);
-            at = b->one;
-        }
-        if (v->fn(v->opaque, b->q, b->u + t, at)) {
-            b->stop = 1;
+    size_t step = v->per * v->c[0]->N;
+    for (size_t t = 0; t < b->k && !atomic_load(&v->stop); t++)
+        if (v->fn(v->opaque, b->q, b->u + t, b->buf[0] + t * step, b->buf[1] ? b->buf[1] + t * step : NULL))
             atomic_store(&v->stop, 1);
-        }
-    }
     return NULL;
 }
 
 static int visit_blocks(struct visit *v)
 {
     bsti_cols *c = v->c[0];
-    size_t N = c->N, per = v->per, nr = v->c[1] ? 2 : 1;
+    size_t per = v->per, nr = v->c[1] ? 2 : 1;
     int nw = bsti_ctx_workers_no_alloc(c->ctx, v->chunks);
     size_t nu = c->block / per ? c->block / per : 1; /* units a round, shared by the chunks */
-    size_t sub = nu / (size_t)nw ? nu / (size_t)nw : 1;
-    double *buf = bsti_alloc_array(c->ctx, nr * (size_t)nw * sub * per * N, sizeof *buf);
-    double *one = nr == 2 ? bsti_alloc_array(c->ctx, (size_t)nw * 2 * per * N, sizeof *one) : NULL;
-    if (!buf || (nr == 2 && !one)) {
-        bsti_free(c->ctx, buf), bsti_free(c->ctx, one);
+    size_t sub = nu / (size_t)nw ? nu / (size_t)nw : 1, slot = sub * per * c->N;
+    double *buf = bsti_alloc_array(c->ctx, nr * (size_t)nw * slot, sizeof *buf);
+    if (!buf)
         return BST_ENOMEM;
-    }
     struct bpart part[BST_THREADS_MAX];
-    size_t next = 0, at[BST_THREADS_MAX], end[BST_THREADS_MAX], q[BST_THREADS_MAX];
-    for (int t = 0; t < nw; t++)
-        at[t] = end[t] = 0, q[t] = SIZE_MAX;
-    for (;;) {
+    size_t next = 0, at[BST_THREADS_MAX] = {0}, end[BST_THREADS_MAX] = {0}, q[BST_THREADS_MAX] = {0};
+    while (!atomic_load(&v->stop)) {
         int live = 0;
         for (int t = 0; t < nw; t++) { /* each slot's chunk: its next units, or the next chunk */
             if (at[t] == end[t] && next < v->chunks) {
@@ -631,31 +601,21 @@ static int visit_blocks(struct visit *v)
                 at[t] = v->n * q[t] / v->chunks, end[t] = v->n * (q[t] + 1) / v->chunks;
             }
             size_t k = end[t] - at[t] < sub ? end[t] - at[t] : sub;
-            double *b = buf + (size_t)t * sub * per * N;
-            part[t] = (struct bpart){v, q[t], at[t], k, b, (size_t)nw * sub * per * N,
-                                     one ? one + (size_t)t * 2 * per * N : NULL, 0, 0, 0};
-            for (size_t r = 0; r < nr && k; r++)
+            part[t] = (struct bpart){v, q[t], at[t], k, {NULL, NULL}};
+            for (size_t r = 0; r < nr && k; r++) {
+                double *b = buf + (r * (size_t)nw + (size_t)t) * slot;
                 bsti_cols_get(v->c[r], v->cols[r] ? v->cols[r] + at[t] * per : NULL, at[t] * per,
-                              k * per, b + r * (size_t)nw * sub * per * N);
+                              k * per, b);
+                part[t].buf[r] = b;
+            }
             at[t] += k;
             live += k > 0;
         }
-        if (!live || atomic_load(&v->stop))
+        if (!live)
             break;
-        for (int t = 1; t < nw; t++)
-            if (part[t].k)
-                part[t].started = pthread_create(&part[t].thread, NULL, bpart_run, &part[t]) == 0;
-        bpart_run(&part[0]);
-        for (int t = 1; t < nw; t++) {
-            if (part[t].started)
-                pthread_join(part[t].thread, NULL);
-            else if (part[t].k)
-                bpart_run(&part[t]);
-        }
-        if (atomic_load(&v->stop))
-            break;
+        bsti_run_parts(part, sizeof *part, (size_t)nw, bpart_run);
     }
-    bsti_free(c->ctx, buf), bsti_free(c->ctx, one);
+    bsti_free(c->ctx, buf);
     return BST_OK;
 }
 
@@ -668,23 +628,18 @@ int bsti_cols_visit(bsti_cols *c, const size_t *cols, bsti_cols *c2, const size_
                       visit, opaque, 0, 0};
     if (!c->rows || (c2 && !c2->rows))
         return visit_blocks(&v);
-    size_t nr = c2 ? 2 : 1, N = c->N;
+    size_t nr = c2 ? 2 : 1, slot = per * c->N;
     int nw = c2 && c2->workers < c->workers ? c2->workers : c->workers;
     if ((size_t)nw > v.chunks)
         nw = (int)v.chunks;
     struct visitor me[BST_THREADS_MAX];
-    double *buf = bsti_alloc_array(c->ctx, (size_t)nw * nr * per * N, sizeof *buf);
+    double *buf = bsti_alloc_array(c->ctx, (size_t)nw * nr * slot, sizeof *buf);
     if (!buf)
         return BST_ENOMEM;
-    for (int t = 0; t < nw; t++) {
-        me[t] = (struct visitor){&v, t, 0, buf + (size_t)t * nr * per * N, 0};
-        if (t > 0)
-            me[t].started = pthread_create(&me[t].thread, NULL, visit_run, &me[t]) == 0;
-    }
-    visit_run(&me[0]); /* (a worker that did not start leaves its chunks to the others) */
-    for (int t = 1; t < nw; t++)
-        if (me[t].started)
-            pthread_join(me[t].thread, NULL);
+    for (int t = 0; t < nw; t++)
+        me[t] = (struct visitor){&v, t, {buf + (size_t)t * nr * slot,
+                                         c2 ? buf + ((size_t)t * nr + 1) * slot : NULL}};
+    bsti_run_parts(me, sizeof *me, (size_t)nw, visit_run); /* (late runs find no chunk left) */
     bsti_free(c->ctx, buf);
     return BST_OK;
 }

@@ -228,14 +228,9 @@ static int recip_dense(const bst_mat *tf, const bst_mat *tb, const size_t *a, si
     return nan_probe == 0.0;
 }
 
-/* The element-wise loop below for transmissions of which one is FACTORED, a one-to-one: Tf's
- * column i beside Tb's row a(i), the same pairs in the same order, a block of lines at a time
- * (lines()), and *scale the largest |value| of either (every value of both is read once).  Values
- * are finite (checked before). */
-/* recip_lines of two FACTORED transmissions: Tf's columns i beside Tb's rows a(i) (the columns of
- * its transpose) on the readers' threads (bsti_cols_visit), the largest difference of each of
- * RECIP_CHUNKS runs of columns apart, taken in their order (the same result whatever the number
- * of threads, and the first of equal ones, as line by line). */
+/* The pair (Tf's column i, Tb's row a(i)) of the reciprocity check: the largest difference so far
+ * of chunk q (with its place) and the largest |value|; a run of columns apart (recip_factored's
+ * chunks), or one for all (recip_lines). */
 #define RECIP_CHUNKS 32
 struct recip {
     const size_t *a;
@@ -244,10 +239,9 @@ struct recip {
     size_t bi[RECIP_CHUNKS], bo[RECIP_CHUNKS];
 };
 
-static int recip_col(void *opaque, size_t q, size_t i, const double *buf)
+static int recip_col(void *opaque, size_t q, size_t i, const double *xc, const double *yr)
 {
     struct recip *r = opaque;
-    const double *xc = buf, *yr = buf + r->n;
     const size_t *a = r->a;
     double w = r->w[q], s = r->s[q];
     for (size_t o = 0; o < r->n; o++) {
@@ -260,6 +254,10 @@ static int recip_col(void *opaque, size_t q, size_t i, const double *buf)
     return 0;
 }
 
+/* recip_lines of two FACTORED transmissions: Tf's columns i beside Tb's rows a(i) (the columns of
+ * its transpose: values to rounding) on the readers' threads (bsti_cols_visit), chunk by chunk,
+ * the chunks' results taken in their order (the same result whatever the number of threads, and
+ * the first of equal ones, as line by line). */
 static int recip_factored(bst_ctx *ctx, const bst_mat *tf, const bst_mat *tb, const size_t *a,
                           size_t n, double *worst, double *scale, size_t *wi, size_t *wo)
 {
@@ -286,6 +284,10 @@ static int recip_factored(bst_ctx *ctx, const bst_mat *tf, const bst_mat *tb, co
     return rc;
 }
 
+/* The element-wise loop below for transmissions of which one is FACTORED, a one-to-one: Tf's
+ * column i beside Tb's row a(i), the same pairs in the same order, a block of lines at a time
+ * (lines()), and *scale the largest |value| of either (every value of both is read once).  Values
+ * are finite (checked before). */
 static int recip_lines(bst_ctx *ctx, const bst_mat *tf, const bst_mat *tb, const size_t *a,
                        size_t n, double *worst, double *scale, size_t *wi, size_t *wo)
 {
@@ -303,25 +305,17 @@ static int recip_lines(bst_ctx *ctx, const bst_mat *tf, const bst_mat *tb, const
         lines_close(&lf), lines_close(&lb);
         return BST_ENOMEM;
     }
-    double w = 0.0, s = 0.0;
-    size_t bi = 0, bo = 0;
+    struct recip r = {a, n, {0}, {0}, {0}, {0}};
     for (size_t i0 = 0; i0 < n; i0 += nb) {
         size_t k = n - i0 < nb ? n - i0 : nb;
         lines_get(&lf, NULL, i0, k, n, x); /* Tf's columns i, Tb's rows a(i) */
         lines_get(&lb, a + i0, 0, k, n, y);
-        for (size_t t = 0; t < k; t++) {
-            const double *xc = x + t * n, *yr = y + t * n;
-            for (size_t o = 0; o < n; o++) {
-                double d = fabs(xc[o] - yr[a[o]]);
-                s = fmax(s, fmax(fabs(xc[o]), fabs(yr[a[o]])));
-                if (d > w)
-                    w = d, bi = i0 + t, bo = o;
-            }
-        }
+        for (size_t t = 0; t < k; t++)
+            recip_col(&r, 0, i0 + t, x + t * n, y + t * n);
     }
     lines_close(&lf), lines_close(&lb);
     bsti_free(ctx, x);
-    *worst = w, *scale = s, *wi = bi, *wo = bo;
+    *worst = r.w[0], *scale = r.s[0], *wi = r.bi[0], *wo = r.bo[0];
     return BST_OK;
 }
 

@@ -365,10 +365,9 @@ struct worker {
     bst_ctx *ctx;
     bst_mat **acc;
     double *abs;
-    int rc, warn, started;
+    int rc, warn;
     int iterations;     /* columns: the most sweeps of a group, and the largest last change */
     double residual;
-    pthread_t thread;
 };
 
 /* Columns of one group's stack lay: iterated (bst_stack_columns) and summed with the group's
@@ -474,15 +473,7 @@ static int run_workers(bst_ctx *ctx, struct worker *wk, size_t nw)
     int threads = openblas_get_num_threads();
     if (nw > 1 && threads > 1)
         openblas_set_num_threads(1);
-    for (size_t t = 1; t < nw; t++) /* a thread that cannot start: its share runs here, below */
-        wk[t].started = pthread_create(&wk[t].thread, NULL, work, &wk[t]) == 0;
-    work(&wk[0]);
-    for (size_t t = 1; t < nw; t++) {
-        if (wk[t].started)
-            pthread_join(wk[t].thread, NULL);
-        else
-            work(&wk[t]);
-    }
+    bsti_run_parts(wk, sizeof *wk, nw, work); /* (a thread that cannot start: its share here) */
     if (nw > 1 && threads > 1)
         openblas_set_num_threads(threads);
     int warn = BST_OK;

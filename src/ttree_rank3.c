@@ -609,12 +609,12 @@ struct rot {
     double stop, worst[ROT_CHUNKS]; /* the least FA of each chunk of orbits */
 };
 
-static int rot_orbit(void *opaque, size_t chunk, size_t u, const double *buf)
+static int rot_orbit(void *opaque, size_t chunk, size_t u, const double *buf, const double *none)
 {
     struct rot *r = opaque;
     size_t G = r->G, N = r->N;
     int k = r->k;
-    (void)u;
+    (void)u, (void)none;
     for (int t = 0; t < 4; t++) {
         const double *x = buf + (size_t)t * N, *y = buf + (size_t)((t + 1) % 4) * N;
         double diff = 0.0, sum = 0.0;

@@ -21,8 +21,9 @@ struct fsums {
     double *col, *row; /* row: SUM_CHUNKS x nr partial sums, or NULL */
 };
 
-static int fsums_col(void *opaque, size_t chunk, size_t i, const double *v)
+static int fsums_col(void *opaque, size_t chunk, size_t i, const double *v, const double *none)
 {
+    (void)none;
     struct fsums *f = opaque;
     double *row = f->row ? f->row + chunk * f->nr : NULL, s = 0.0;
     for (size_t o = 0; o < f->nr; o++) {

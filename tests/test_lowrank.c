@@ -602,7 +602,7 @@ struct vsum {
     int bad, stop_at, gemm; /* gemm: over a wide map, the values to rounding */
 };
 
-static int vsum_visit(void *opaque, size_t q, size_t u, const double *buf)
+static int vsum_visit(void *opaque, size_t q, size_t u, const double *buf, const double *buf2)
 {
     struct vsum *v = opaque;
     __atomic_add_fetch(&v->visits, 1, __ATOMIC_RELAXED);
@@ -613,7 +613,7 @@ static int vsum_visit(void *opaque, size_t q, size_t u, const double *buf)
         size_t j = v->perm[u * v->per + s], y = j;
         for (size_t x = 0; x < v->N; x += 5) {
             double a = bsti_lr_get(v->f, x, j), b = bsti_lr_get(v->g, x, y);
-            double da = buf[s * v->N + x], db = buf[(v->per + s) * v->N + x];
+            double da = buf[s * v->N + x], db = buf2[s * v->N + x];
             if (v->gemm ? !(fabs(a - da) <= 1e-12 * fabs(a) && fabs(b - db) <= 1e-12 * fabs(b))
                         : memcmp(&a, &da, sizeof a) != 0 || memcmp(&b, &db, sizeof b) != 0)
                 v->bad = 1;
