@@ -47,6 +47,10 @@ struct tw {                        /* read-only while threads run (but for the m
     int top;                       /* build: the nodes of level split are done (lmean, m) */
     const double *col_budget, *row_budget; /* the bound (bsti_reduce); col_budget NULL: none */
     double task_share;             /* a task's share of each column (or row): 4^split / G^2 */
+    int plain;                     /* bsti_reduce's plain_checks */
+    double text_eps;               /* |what a reader stores - v| <= v text_eps for a value's text
+                                      (half a unit of the last digit written, relative, and the
+                                      float's roundings, with a quarter to spare) */
     double *vsum;                  /* nodes of levels >= split (index - off[split]): the sum of a
                                       candidate that passed the bound, NaN before it is checked */
 };
@@ -189,11 +193,19 @@ struct tbuf {
  * measured data repeat values (RADIANCE's blind at k = 6: a third of 5.3 million non-zero values
  * found in a table of this size). */
 #define MEMO_BITS 12
+/* Where values rarely repeat (a computed shade: fewer than 1 in MEMO_RARE of MEMO_PROBE
+ * lookups found), the memo is passed by for the next MEMO_PASS values: a miss costs its lookup
+ * and the copy into the table of text just written byte by byte. */
+#define MEMO_PROBE 1024
+#define MEMO_RARE 16
+#define MEMO_PASS (15 * MEMO_PROBE)
 struct memo {
     uint32_t key[1 << MEMO_BITS];  /* the float's bits; 0 (+0, never stored) = empty */
     unsigned char len[1 << MEMO_BITS];
     float back[1 << MEMO_BITS];    /* what a reader stores of the text */
     char text[1 << MEMO_BITS][16];
+    uint32_t probes, hits;         /* lookups since the last decision, and those found */
+    uint32_t pass;                 /* values still to pass by */
 };
 
 /* The emitting side of one task (or of the levels above them): its text and its error sums. */
@@ -208,6 +220,8 @@ struct eacc {
                                       directional-hemispherical sum so far (task side ^ 2) */
     size_t o0, o1;                 /* the region's first outgoing cell */
     size_t h0, h1, hside;          /* the region's first incident cell and side (rank 3: h0) */
+    double *pyr;                   /* a task's sums by level (bsti_tw_pyramid_room), or NULL */
+    int pyr_ready;                 /* pyr holds this task's sums */
 };
 
 static inline double *hemi_at(const struct tw *w, struct eacc *a, size_t i0, size_t i1)
@@ -229,6 +243,12 @@ size_t bsti_tw_live_cells(const struct tw *w, int l, const size_t *c);
 /* Doubles of the bound's sums over a node of level l: one a column (incident index), and one a
  * row (outgoing cell) when rows are bounded (rank 4 only). */
 size_t bsti_tw_sums_room(const struct tw *w, int l);
+/* Doubles of a task's sums by level (a rank-4 tree with direct access and a bound; else 0):
+ * for each level l of 1..split, the sums of each incident cell over the outgoing cells of each
+ * node of level l and, with row budgets, of each outgoing cell over the incident cells of each
+ * such node.  A candidate's check then reads its sums instead of its cells (the refusals cascade
+ * down the levels, and each level's rescan of the task was most of the bound's time). */
+size_t bsti_tw_pyramid_room(const struct tw *w);
 /* Does the one value of the node of level l at corner c keep every sum the bound watches within
  * its budget (bsti_reduce)?  Inside a task (a: its sums; a->hemi the errors so far of its incident
  * indices, a->erow the changes so far of its rows) the changes add to those of the task; above the

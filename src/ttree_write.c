@@ -78,8 +78,18 @@ static inline int put_value(const struct tw *w, struct memo *mm, double v, char 
     memcpy(&bits, &f, sizeof bits);
     if (!mm || bits == 0 || !isfinite(f))
         return value_text(w, v, p, back);
+    if (mm->pass) {
+        mm->pass--;
+        return value_text(w, v, p, back);
+    }
+    if (++mm->probes == MEMO_PROBE) {
+        if (mm->hits < MEMO_PROBE / MEMO_RARE)
+            mm->pass = MEMO_PASS;
+        mm->probes = mm->hits = 0;
+    }
     size_t h = (size_t)((bits * UINT32_C(2654435761)) >> (32 - MEMO_BITS));
     if (mm->key[h] == bits) {
+        mm->hits++;
         *back = mm->back[h];
         memcpy(p, mm->text[h], 16);
         return mm->len[h];
@@ -404,7 +414,7 @@ static void run_task(struct run *r, size_t t)
     const struct tw *w = r->w;
     struct slot *s = &r->slot[t % r->window];
     const struct task *tk = &r->task[t];
-    double *hemi = s->acc.hemi, *ws = s->acc.ws, *erow = s->acc.erow;
+    double *hemi = s->acc.hemi, *ws = s->acc.ws, *erow = s->acc.erow, *pyr = s->acc.pyr;
     size_t hside = s->acc.hside;
     struct memo *mm = s->acc.memo;
     memset(&s->acc, 0, sizeof s->acc);
@@ -413,6 +423,7 @@ static void run_task(struct run *r, size_t t)
     s->acc.ws = ws;
     s->acc.erow = erow;
     s->acc.hemi = hemi;
+    s->acc.pyr = pyr; /* (pyr_ready 0: built at the task's first check) */
     s->acc.hside = hside;
     s->acc.h0 = tk->c[0], s->acc.h1 = tk->c[1];
     s->acc.o0 = tk->c[w->D - 2], s->acc.o1 = tk->c[w->D - 1];
@@ -530,7 +541,9 @@ static int emit_all(const struct tw *w, int nthreads, struct eacc *top, bsti_sin
     struct memo *memo = bsti_calloc(w->ctx, r.window + 1, sizeof *memo);
     size_t room = w->col_budget ? bsti_tw_sums_room(w, w->split) : 0, nr = w->row_budget ? hs * hs : 0;
     double *ws = room ? bsti_alloc_array(w->ctx, r.window * (room + nr), sizeof *ws) : NULL;
-    int rc = r.task && r.slot && hemi && memo && (!room || ws) ? BST_OK : BST_ENOMEM;
+    size_t npyr = bsti_tw_pyramid_room(w);
+    double *pyr = npyr ? bsti_alloc_array(w->ctx, r.window * npyr, sizeof *pyr) : NULL;
+    int rc = r.task && r.slot && hemi && memo && (!room || ws) && (!npyr || pyr) ? BST_OK : BST_ENOMEM;
     if (rc == BST_OK) {
         r.ntasks = 0;
         collect(w, &r, w->k, zero, 0, 1);
@@ -541,6 +554,7 @@ static int emit_all(const struct tw *w, int nthreads, struct eacc *top, bsti_sin
             r.slot[i].acc.memo = memo ? memo + i : NULL;
             r.slot[i].acc.ws = ws ? ws + i * (room + nr) : NULL;
             r.slot[i].acc.erow = nr ? ws + i * (room + nr) + room : NULL;
+            r.slot[i].acc.pyr = pyr ? pyr + i * npyr : NULL;
         }
         top->memo = memo ? memo + r.window : NULL;
         pthread_mutex_init(&r.lock, NULL);
@@ -573,6 +587,7 @@ static int emit_all(const struct tw *w, int nthreads, struct eacc *top, bsti_sin
     bsti_free(w->ctx, hemi);
     bsti_free(w->ctx, memo);
     bsti_free(w->ctx, ws);
+    bsti_free(w->ctx, pyr);
     top->memo = NULL;
     return rc;
 }
@@ -637,6 +652,8 @@ int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, b
     w.lossless = r->pct < 0.0;
     w.col_budget = w.lossless ? NULL : r->col_budget; /* (lossless: nothing to bound) */
     w.row_budget = w.col_budget ? r->row_budget : NULL;
+    w.plain = r->plain_checks;
+    w.text_eps = 1.25 * ((w.digits > 0 ? 0.5 * pow(10.0, 1 - w.digits) : 0.0) + 0x1p-22);
     for (int i = w.D - 1; i >= 0; i--)
         w.stride[i] = i == w.D - 1 ? 1 : w.stride[i + 1] * w.G;
     for (int j = 0; j < (1 << w.D); j++)

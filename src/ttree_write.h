@@ -57,6 +57,8 @@ typedef struct {
     const double *col_budget; /* NULL: no bound; else per incident index, rank 4 G^2 (ix G + iy),
                                rank 3 G/2 (ix), directional-hemispherical units, >= 0 */
     const double *row_budget; /* rank 4, may be NULL: per outgoing cell (ox G + oy) */
+    int plain_checks;       /* tests: each candidate's sums found from its cells and tested with
+                               its text (no task sums by level, no early refusal); the same tree */
 } bsti_reduce;
 
 typedef struct {

@@ -517,7 +517,7 @@ static int write_blocks(struct xw *w)
                         t.get = zero_get;
                     if (w->v && !t.fine_in)
                         t.k = w->kc; /* coarse only (Tb, Rb): a tree of depth kc */
-                    bsti_reduce r = {o->reduce_pct, o->reduce_floor, w->digits, NULL, NULL};
+                    bsti_reduce r = {o->reduce_pct, o->reduce_floor, w->digits, NULL, NULL, 0};
                     if (w->bounds.col) {
                         r.col_budget = w->bounds.col + idx * w->bounds.n;
                         if (w->kind == BST_FILE_TT3) {

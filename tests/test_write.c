@@ -35,7 +35,7 @@ static char *tree_text(const bsti_tensor *t, double pct, bsti_tree_stats *st)
     tu_membuf m = {0};
     bsti_sink *s = malloc(sizeof *s);
     bsti_sink_init(s, tu_mem_write, &m);
-    bsti_reduce r = {pct, BST_REDUCE_FLOOR, 0, NULL, NULL};
+    bsti_reduce r = {pct, BST_REDUCE_FLOOR, 0, NULL, NULL, 0};
     int rc = bsti_ttree_write(ctx, t, &r, s, st);
     ck_assert_msg(rc == BST_OK, "tree write: %s", bst_ctx_message(ctx));
     ck_assert_int_eq(bsti_sink_flush(s), 0);
@@ -674,6 +674,74 @@ START_TEST(test_reduce)
 }
 END_TEST
 
+/* The bound's fast checks (a task's sums by level, candidates refused before their text is made)
+ * decide as the plain ones do (each candidate's sums from its cells, tested with its text): the
+ * same bytes, doubles and floats, 5 digits and shortest, 1 and 2 threads; and the bound both
+ * merges and refuses here (more blocks kept than with no bound, fewer than with no merging). */
+static char *bound_text(const bsti_tensor *t, const bsti_reduce *r, int threads, bsti_tree_stats *st)
+{
+    tu_membuf m = {0};
+    bsti_sink *s = malloc(sizeof *s); /* (a sink holds its buffer) */
+    bsti_sink_init(s, tu_mem_write, &m);
+    bst_ctx_set_threads(ctx, threads);
+    int rc = bsti_ttree_write(ctx, t, r, s, st);
+    bst_ctx_set_threads(ctx, 0);
+    ck_assert_msg(rc == BST_OK, "tree write: %s", bst_ctx_message(ctx));
+    ck_assert_int_eq(bsti_sink_flush(s), 0);
+    free(s);
+    ck_assert_ptr_nonnull(m.p);
+    return m.p;
+}
+
+START_TEST(test_bound_fast_checks)
+{
+    tu_rng r;
+    tu_rng_seed(&r, 11);
+    const int k = 5;
+    const size_t G = 32, n = G * G * G * G;
+    double *d = malloc(n * sizeof *d), col[32 * 32], row[32 * 32];
+    float *f = malloc(n * sizeof *f);
+    for (size_t q = 0; q < n; q++) { /* a broad lobe off the specular direction, noise, zeros */
+        size_t c0 = q >> 15, c1 = (q >> 10) & 31, c2 = (q >> 5) & 31, c3 = q & 31;
+        double d2 = pow((double)c0 - (double)c2 - 3, 2) + pow((double)c1 + (double)c3 - 31, 2);
+        double mean = 0.05 + 3 * exp(-d2 / 30);
+        d[q] = tu_rng_uniform(&r) < 0.05 ? 0.0 : mean * (1 + 0.2 * (tu_rng_uniform(&r) - 0.5));
+        f[q] = (float)d[q];
+    }
+    for (size_t i = 0; i < G * G; i++)
+        col[i] = 2e-3 * (1 + (double)(i % 7) / 7), row[i] = 3e-3;
+    size_t kept_free = 0;
+    for (int prec = 0; prec < 2; prec++)
+        for (int digits = 0; digits <= 5; digits += 5) {
+            bsti_tensor t = {4, k, prec ? NULL : d, prec ? f : NULL, NULL, NULL, 0, NULL};
+            bsti_reduce none = {90, BST_REDUCE_FLOOR, digits, NULL, NULL, 0};
+            bsti_tree_stats s0, s1, s2;
+            free(bound_text(&t, &none, 1, &s0));
+            kept_free = s0.blocks_kept;
+            for (int rows = 0; rows < 2; rows++) {
+                bsti_reduce plain = {90, BST_REDUCE_FLOOR, digits, col, rows ? row : NULL, 1};
+                bsti_reduce fast = plain;
+                fast.plain_checks = 0;
+                char *a = bound_text(&t, &plain, 1, &s1);
+                ck_assert_uint_gt(s1.blocks_kept, kept_free + kept_free / 10);
+                ck_assert_uint_lt(s1.blocks_kept, s1.blocks * 3 / 4);
+                for (int th = 1; th <= 2; th++) {
+                    char *b = bound_text(&t, &fast, th, &s2);
+                    ck_assert_msg(strcmp(a, b) == 0, "fast checks differ (%s, %d digits, rows %d, "
+                                  "%d threads)", prec ? "float" : "double", digits, rows, th);
+                    ck_assert_uint_eq(s1.blocks_kept, s2.blocks_kept);
+                    free(b);
+                }
+                printf("bound checks (%s, %d digits, rows %d): %zu of %zu blocks kept (%zu with no "
+                       "bound)\n", prec ? "float" : "double", digits, rows, s1.blocks_kept,
+                       s1.blocks, kept_free);
+                free(a);
+            }
+        }
+    free(d), free(f);
+}
+END_TEST
+
 /* A constant or zero tensor still reaches depth k (readers take k from the depth). */
 START_TEST(test_constant_depth)
 {
@@ -714,7 +782,7 @@ START_TEST(test_tree_errors)
     tu_membuf m = {0};
     bsti_sink *s = malloc(sizeof *s);
     bsti_sink_init(s, tu_mem_write, &m);
-    bsti_reduce r = {90, BST_REDUCE_FLOOR, 0, NULL, NULL};
+    bsti_reduce r = {90, BST_REDUCE_FLOOR, 0, NULL, NULL, 0};
     ck_assert_int_eq(bsti_ttree_write(ctx, &a, &r, s, NULL), BST_EINVAL);
     ck_assert_uint_eq(s->total, 0); /* nothing written */
     t[17] = 1e39;                   /* beyond single precision */
@@ -732,7 +800,7 @@ START_TEST(test_tree_errors)
     t[17] = 1.0;
     bsti_tensor bad = {5, 2, t, NULL, NULL, NULL, 0, NULL};
     ck_assert_int_eq(bsti_ttree_write(ctx, &bad, &r, s, NULL), BST_EINVAL);
-    bsti_reduce badr = {100, BST_REDUCE_FLOOR, 0, NULL, NULL};
+    bsti_reduce badr = {100, BST_REDUCE_FLOOR, 0, NULL, NULL, 0};
     ck_assert_int_eq(bsti_ttree_write(ctx, &a, &badr, s, NULL), BST_EINVAL);
     /* a sink that fails part way (a k = 4 tree is larger than the sink's buffer) */
     double *big = malloc(65536 * sizeof *big);
@@ -743,7 +811,7 @@ START_TEST(test_tree_errors)
     bsti_tensor b = {4, 4, big, NULL, NULL, NULL, 0, NULL};
     size_t left = 70000; /* the exact tree is about 10 times longer */
     bsti_sink_init(s, failing_after, &left);
-    bsti_reduce exact = {-1, BST_REDUCE_FLOOR, 0, NULL, NULL};
+    bsti_reduce exact = {-1, BST_REDUCE_FLOOR, 0, NULL, NULL, 0};
     int rc = bsti_ttree_write(ctx, &b, &exact, s, NULL);
     ck_assert_int_eq(rc, BST_EIO);
     /* allocation failures: every one reported, nothing leaked */
@@ -1723,6 +1791,7 @@ static Suite *suite(void)
     tcase_add_test(tc, test_examples_read_back);
     tcase_add_test(tc, test_lossless_random);
     tcase_add_test(tc, test_reduce);
+    tcase_add_test(tc, test_bound_fast_checks);
     tcase_add_test(tc, test_diagonal_shortcut);
     tcase_add_test(tc, test_constant_depth);
     tcase_add_test(tc, test_tree_errors);
