@@ -326,31 +326,27 @@ static void leaf_block(const struct tw *w, struct eacc *a, const size_t *c, int 
     memset(p, ' ', (size_t)depth);
     p += depth;
     *p++ = '{';
-    if (D == 4) {
+    if (D == 4)
         p = leaf_block4(w, a, c, vals, p);
-        nk = 0;
-    }
-    for (int j = 0; j < nk; j++) {
+    for (int j = 0; D == 3 && j < nk; j++) { /* rank 3: j's top bit is the incident cell */
         float back;
         double v = vals[j];
         *p++ = ' ';
         p += put_value(w, a->memo, clamp0(v), p, &back);
-        /* dimension 0 slowest: j's top bits are the incident cell */
-        size_t i0 = c[0] + (size_t)(j >> (D - 1)), i1 = c[1] + (size_t)((j >> 2) & 1);
+        size_t i0 = c[0] + (size_t)(j >> 2);
+        if (i0 >= w->half) /* the dead half: no data */
+            continue;
         if (v == (double)back) /* read back exactly (a float source): an error of +0 adds nothing */
-            a->sum_abs += D == 4 || i0 < w->half ? v : 0.0;
-        else if (D == 4 || i0 < w->half)
-            account(w, a, i0, i1, v, back);
-        if (a->erow && v != (double)back) /* the bound's rows (rank 4): the rounding's change */
-            a->erow[(c[2] + (size_t)((j >> 1) & 1) - a->o0) * a->hside + c[3] + (size_t)(j & 1) - a->o1] +=
-                M_PI / (double)(w->G * w->G) * ((double)back - clamp0(v));
+            a->sum_abs += v;
+        else
+            account(w, a, i0, c[1], v, back);
     }
     *p++ = ' ', *p++ = '}', *p++ = '\n';
     a->out->n = (size_t)(p - a->out->p);
     a->leaves++;
-    a->values += (size_t)1 << D;
+    a->values += (size_t)nk;
     a->blocks_kept++;
-    a->cells += (size_t)1 << D;
+    a->cells += (size_t)nk;
 }
 
 struct run;

@@ -74,8 +74,8 @@ typedef struct {
  * (G^D / (2^D - 1) floats) and, when reducing, a copy of the finest level for the percentile; the
  * text is made per subtree of at most 65536 cells on up to bst_ctx_set_threads threads (t->get
  * must then be safe to call from several threads at once), at most two such texts per thread
- * held at a time (about 1.1 MB each), and passed to out in tree order: the same bytes and
- * statistics with any thread count. */
+ * held at a time (about 1.1 MB each) with, under a rank-4 bound, the task's sums by level (about
+ * 350 KB), and passed to out in tree order: the same bytes and statistics with any thread count. */
 int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, bsti_sink *out,
                      bsti_tree_stats *stats);
 
