@@ -222,35 +222,38 @@ void *bsti_malloc(bst_ctx *ctx, size_t size)
     return p;
 }
 
+/* n * size into *total: 0, or -1 with the overflow recorded. */
+static int array_bytes(bst_ctx *ctx, size_t n, size_t size, size_t *total)
+{
+    if (!bsti_size_mul(n, size, total))
+        return 0;
+    bsti_error(ctx, BST_ENOMEM, "out of memory (%zu x %zu bytes overflows)", n, size);
+    return -1;
+}
+
 void *bsti_alloc_array(bst_ctx *ctx, size_t n, size_t size)
 {
     size_t total;
-    if (bsti_size_mul(n, size, &total)) {
-        bsti_error(ctx, BST_ENOMEM, "out of memory (%zu x %zu bytes overflows)", n, size);
-        return NULL;
-    }
-    return bsti_malloc(ctx, total);
+    return array_bytes(ctx, n, size, &total) ? NULL : bsti_malloc(ctx, total);
 }
 
 void *bsti_calloc(bst_ctx *ctx, size_t n, size_t size)
 {
-    if (ctx->malloc_fn == system_malloc) {
-        /* the system's calloc: a fresh mapping (a large block) is zero already and is not written
-         * here, so its pages are faulted in by their first real use, and those never used (a
-         * sparse factor's zeros) never are */
-        size_t total;
-        if (bsti_size_mul(n, size, &total)) {
-            bsti_error(ctx, BST_ENOMEM, "out of memory (%zu x %zu bytes overflows)", n, size);
-            return NULL;
-        }
-        void *p = calloc(total ? total : 1, 1);
-        if (!p)
-            bsti_error(ctx, BST_ENOMEM, "out of memory (allocating %zu bytes)", total);
+    size_t total;
+    if (array_bytes(ctx, n, size, &total))
+        return NULL;
+    if (ctx->malloc_fn != system_malloc) {
+        void *p = bsti_malloc(ctx, total);
+        if (p)
+            memset(p, 0, total);
         return p;
     }
-    void *p = bsti_alloc_array(ctx, n, size);
-    if (p)
-        memset(p, 0, n * size);
+    /* the system's calloc: a fresh mapping (a large block) is zero already and is not written
+     * here, so its pages are faulted in by their first real use, and those never used (a sparse
+     * factor's zeros) never are */
+    void *p = calloc(total ? total : 1, 1);
+    if (!p)
+        bsti_error(ctx, BST_ENOMEM, "out of memory (allocating %zu bytes)", total);
     return p;
 }
 

@@ -173,33 +173,33 @@ static double pyr_sums(const struct tw *w, struct eacc *a, int l, const size_t *
     return total;
 }
 
-/* Is some sum of a node (its sums cs and rs as bsti_tw_within_bound has them, v0 its mean) off
- * its budget by more than the text of v0 can mend?  Then the node is refused without making the
- * text: the value a reader stores lies within v0 w->text_eps of v0, so each change differs from
- * the one found with v0 by at most lam v0 text_eps a cell; 1e-13 of the terms covers the
- * arithmetic's own rounding.  No node this refuses would pass the exact test. */
-static int clearly_outside(const struct tw *w, struct eacc *a, size_t s, const size_t *c,
-                           const double *cs, const double *rs, size_t nin, double v0,
-                           double col_share, double row_share)
+/* Would the node's one value v move some sum the bound watches (cs and rs: the node's sums as
+ * bsti_tw_within_bound has them) off its budget by more than eps v a cell?  eps = 0: the exact
+ * test, v the value a reader stores.  eps = w->text_eps, v the node's mean before its text is
+ * made: the stored value lies within eps v of it, so a node found outside by more than that (and
+ * 1e-13 of the terms, the arithmetic's own rounding) would fail the exact test too, and is
+ * refused without making the text. */
+static int outside(const struct tw *w, struct eacc *a, size_t s, const size_t *c, const double *cs,
+                   const double *rs, size_t nin, double v, double eps, double col_share,
+                   double row_share)
 {
     size_t per = s * s, ts = a ? a->hside : 0;
     double lam = M_PI / (double)(w->G * w->G);
-    double slack_col = lam * (double)per * v0 * w->text_eps;
-    double slack_row = lam * (double)nin * v0 * w->text_eps;
-    for (size_t x = 0; x < nin; x++) {
+    double slack_col = lam * (double)per * v * eps, slack_row = lam * (double)nin * v * eps;
+    for (size_t x = 0; x < nin; x++) { /* per outgoing cells of an incident index */
         size_t i0 = c[0] + (w->D == 4 ? x / s : x), i1 = w->D == 4 ? c[1] + x % s : 0;
-        double old = a ? lam * *hemi_at(w, a, i0, i1) : 0.0;
-        double change = lam * ((double)per * v0 - cs[x]) - old;
-        double guard = 1e-13 * (lam * ((double)per * v0 + cs[x]) + fabs(old));
-        if (fabs(change) > w->col_budget[w->D == 4 ? i0 * w->G + i1 : i0] * col_share + slack_col + guard)
+        double old = a ? lam * *hemi_at(w, a, i0, i1) : 0.0; /* (hemi sums old - new) */
+        double change = lam * ((double)per * v - cs[x]) - old; /* new - old */
+        double guard = eps > 0.0 ? 1e-13 * (lam * ((double)per * v + cs[x]) + fabs(old)) : 0.0;
+        if (!(fabs(change) <= w->col_budget[w->D == 4 ? i0 * w->G + i1 : i0] * col_share + slack_col + guard))
             return 1;
     }
-    for (size_t y = 0; rs && y < per; y++) {
+    for (size_t y = 0; rs && y < per; y++) { /* (rank 4: nin incident cells, every one live) */
         size_t o0 = c[2] + y / s, o1 = c[3] + y % s;
         double old = a ? a->erow[(o0 - a->o0) * ts + o1 - a->o1] : 0.0;
-        double change = lam * ((double)nin * v0 - rs[y]) + old;
-        double guard = 1e-13 * (lam * ((double)nin * v0 + rs[y]) + fabs(old));
-        if (fabs(change) > w->row_budget[o0 * w->G + o1] * row_share + slack_row + guard)
+        double change = lam * ((double)nin * v - rs[y]) + old;
+        double guard = eps > 0.0 ? 1e-13 * (lam * ((double)nin * v + rs[y]) + fabs(old)) : 0.0;
+        if (!(fabs(change) <= w->row_budget[o0 * w->G + o1] * row_share + slack_row + guard))
             return 1;
     }
     return 0;
@@ -223,28 +223,14 @@ int bsti_tw_within_bound(const struct tw *w, struct eacc *a, double *ws, int l, 
     double lam = M_PI / (double)G2, v0 = total / (double)(nin * per);
     double col_share = a ? w->task_share : (double)per / (double)G2;
     double row_share = a ? w->task_share : (double)nin / (double)G2;
-    if (!w->plain && clearly_outside(w, a, s, c, cs, rs, nin, v0, col_share, row_share))
+    if (!w->plain && outside(w, a, s, c, cs, rs, nin, v0, w->text_eps, col_share, row_share))
         return 0;
     char text[40];
     float back;
     value_text(w, v0, text, &back); /* as leaf_merged writes it */
     double v = back;
-    for (size_t x = 0; x < nin; x++) { /* per outgoing cells of an incident index */
-        size_t i0 = c[0] + (w->D == 4 ? x / s : x), i1 = w->D == 4 ? c[1] + x % s : 0;
-        double change = lam * ((double)per * v - cs[x]); /* new - old */
-        if (a)
-            change -= lam * *hemi_at(w, a, i0, i1); /* (hemi sums old - new) */
-        if (!(fabs(change) <= w->col_budget[w->D == 4 ? i0 * w->G + i1 : i0] * col_share))
-            return 0;
-    }
-    for (size_t y = 0; rs && y < per; y++) { /* (rank 4: nin incident cells, every one live) */
-        size_t o0 = c[2] + y / s, o1 = c[3] + y % s;
-        double change = lam * ((double)nin * v - rs[y]);
-        if (a)
-            change += a->erow[(o0 - a->o0) * ts + o1 - a->o1];
-        if (!(fabs(change) <= w->row_budget[o0 * w->G + o1] * row_share))
-            return 0;
-    }
+    if (outside(w, a, s, c, cs, rs, nin, v, 0.0, col_share, row_share))
+        return 0;
     for (size_t y = 0; a && rs && y < per; y++)
         a->erow[(c[2] + y / s - a->o0) * ts + c[3] + y % s - a->o1] += lam * ((double)nin * v - rs[y]);
     return 1;

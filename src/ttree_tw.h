@@ -49,8 +49,7 @@ struct tw {                        /* read-only while threads run (but for the m
     double task_share;             /* a task's share of each column (or row): 4^split / G^2 */
     int plain;                     /* bsti_reduce's plain_checks */
     double text_eps;               /* |what a reader stores - v| <= v text_eps for a value's text
-                                      (half a unit of the last digit written, relative, and the
-                                      float's roundings, with a quarter to spare) */
+                                      (bsti_bounds_rho, with a quarter to spare) */
     double *vsum;                  /* nodes of levels >= split (index - off[split]): the sum of a
                                       candidate that passed the bound, NaN before it is checked */
 };

@@ -35,6 +35,7 @@
 #include <string.h>
 
 #include "ttree_tw.h"
+#include "write_bound.h"
 
 /* ------------------------------------------------------------------ pass 3: emit */
 
@@ -698,7 +699,7 @@ int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, b
     w.col_budget = w.lossless ? NULL : r->col_budget; /* (lossless: nothing to bound) */
     w.row_budget = w.col_budget ? r->row_budget : NULL;
     w.plain = r->plain_checks;
-    w.text_eps = 1.25 * ((w.digits > 0 ? 0.5 * pow(10.0, 1 - w.digits) : 0.0) + 0x1p-22);
+    w.text_eps = 1.25 * bsti_bounds_rho(w.digits);
     for (int i = w.D - 1; i >= 0; i--)
         w.stride[i] = i == w.D - 1 ? 1 : w.stride[i + 1] * w.G;
     for (int j = 0; j < (1 << w.D); j++)

@@ -30,17 +30,27 @@ static void teardown(void) { bst_ctx_free(ctx); }
 
 /* ------------------------------------------------------------------ helpers */
 
-static char *tree_text(const bsti_tensor *t, double pct, bsti_tree_stats *st)
+/* The tree text of t reduced by r on `threads` threads (0: the default). */
+static char *reduced_text(const bsti_tensor *t, const bsti_reduce *r, int threads,
+                          bsti_tree_stats *st)
 {
     tu_membuf m = {0};
-    bsti_sink *s = malloc(sizeof *s);
+    bsti_sink *s = malloc(sizeof *s); /* (a sink holds its buffer) */
     bsti_sink_init(s, tu_mem_write, &m);
-    bsti_reduce r = {pct, BST_REDUCE_FLOOR, 0, NULL, NULL, 0};
-    int rc = bsti_ttree_write(ctx, t, &r, s, st);
+    bst_ctx_set_threads(ctx, threads);
+    int rc = bsti_ttree_write(ctx, t, r, s, st);
+    bst_ctx_set_threads(ctx, 0);
     ck_assert_msg(rc == BST_OK, "tree write: %s", bst_ctx_message(ctx));
     ck_assert_int_eq(bsti_sink_flush(s), 0);
+    ck_assert_ptr_nonnull(m.p);
     free(s);
     return m.p;
+}
+
+static char *tree_text(const bsti_tensor *t, double pct, bsti_tree_stats *st)
+{
+    bsti_reduce r = {pct, BST_REDUCE_FLOOR, 0, NULL, NULL, 0};
+    return reduced_text(t, &r, 0, st);
 }
 
 /* An independent reader of tree text (recursive descent on the string): fills grid (G^dim values,
@@ -678,21 +688,6 @@ END_TEST
  * decide as the plain ones do (each candidate's sums from its cells, tested with its text): the
  * same bytes, doubles and floats, 5 digits and shortest, 1 and 2 threads; and the bound both
  * merges and refuses here (more blocks kept than with no bound, fewer than with no merging). */
-static char *bound_text(const bsti_tensor *t, const bsti_reduce *r, int threads, bsti_tree_stats *st)
-{
-    tu_membuf m = {0};
-    bsti_sink *s = malloc(sizeof *s); /* (a sink holds its buffer) */
-    bsti_sink_init(s, tu_mem_write, &m);
-    bst_ctx_set_threads(ctx, threads);
-    int rc = bsti_ttree_write(ctx, t, r, s, st);
-    bst_ctx_set_threads(ctx, 0);
-    ck_assert_msg(rc == BST_OK, "tree write: %s", bst_ctx_message(ctx));
-    ck_assert_int_eq(bsti_sink_flush(s), 0);
-    free(s);
-    ck_assert_ptr_nonnull(m.p);
-    return m.p;
-}
-
 START_TEST(test_bound_fast_checks)
 {
     tu_rng r;
@@ -716,17 +711,17 @@ START_TEST(test_bound_fast_checks)
             bsti_tensor t = {4, k, prec ? NULL : d, prec ? f : NULL, NULL, NULL, 0, NULL};
             bsti_reduce none = {90, BST_REDUCE_FLOOR, digits, NULL, NULL, 0};
             bsti_tree_stats s0, s1, s2;
-            free(bound_text(&t, &none, 1, &s0));
+            free(reduced_text(&t, &none, 1, &s0));
             kept_free = s0.blocks_kept;
             for (int rows = 0; rows < 2; rows++) {
                 bsti_reduce plain = {90, BST_REDUCE_FLOOR, digits, col, rows ? row : NULL, 1};
                 bsti_reduce fast = plain;
                 fast.plain_checks = 0;
-                char *a = bound_text(&t, &plain, 1, &s1);
+                char *a = reduced_text(&t, &plain, 1, &s1);
                 ck_assert_uint_gt(s1.blocks_kept, kept_free + kept_free / 10);
                 ck_assert_uint_lt(s1.blocks_kept, s1.blocks * 3 / 4);
                 for (int th = 1; th <= 2; th++) {
-                    char *b = bound_text(&t, &fast, th, &s2);
+                    char *b = reduced_text(&t, &fast, th, &s2);
                     ck_assert_msg(strcmp(a, b) == 0, "fast checks differ (%s, %d digits, rows %d, "
                                   "%d threads)", prec ? "float" : "double", digits, rows, th);
                     ck_assert_uint_eq(s1.blocks_kept, s2.blocks_kept);
