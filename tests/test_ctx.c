@@ -1,8 +1,11 @@
 /* test_ctx.c - the context: messages, status texts, allocator hooks and their failure paths. */
 #include <config.h>
 
+#include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "ctx.h"
 #include "testutil.h"
@@ -97,6 +100,61 @@ START_TEST(test_size_mul)
 }
 END_TEST
 
+/* The VmFlags of the mapping that holds address a (/proc/self/smaps), or "" where none is read. */
+static void vm_flags(uintptr_t a, char *flags, size_t room)
+{
+    flags[0] = '\0';
+    FILE *f = fopen("/proc/self/smaps", "r");
+    if (!f)
+        return;
+    char line[512];
+    int in = 0;
+    while (fgets(line, sizeof line, f)) {
+        unsigned long lo, hi;
+        if (sscanf(line, "%lx-%lx ", &lo, &hi) == 2 && strchr(line, '-') < strchr(line, ' '))
+            in = a >= lo && a < hi;
+        else if (in && !strncmp(line, "VmFlags:", 8)) {
+            snprintf(flags, room, "%s", line + 8);
+            break;
+        }
+    }
+    fclose(f);
+}
+
+/* Where the kernel offers transparent huge pages, a large block of the system's allocator asks
+ * for them (its mapping is marked hg), by bsti_malloc and by bsti_calloc; its bytes are usable and
+ * calloc's are zero. */
+START_TEST(test_huge_pages)
+{
+    bst_ctx *ctx = bst_ctx_new();
+    size_t n = (size_t)32 << 20;
+    unsigned char *p = bsti_malloc(ctx, n), *q = bsti_calloc(ctx, n, 1);
+    ck_assert_ptr_nonnull(p);
+    ck_assert_ptr_nonnull(q);
+    memset(p, 7, n);
+    ck_assert_uint_eq(p[n - 1], 7);
+    ck_assert_uint_eq(q[n / 2], 0);
+    ck_assert_uint_eq(q[n - 1], 0);
+#if defined(HAVE_MADVISE) && defined(__linux__)
+    if (access("/sys/kernel/mm/transparent_hugepage/enabled", F_OK) == 0) {
+        const unsigned char *blocks[2] = {p, q};
+        for (int b = 0; b < 2; b++) {
+            uintptr_t mid = ((uintptr_t)blocks[b] + n / 2) & ~(uintptr_t)((2u << 20) - 1);
+            char flags[256];
+            vm_flags(mid, flags, sizeof flags);
+            ck_assert_msg(strstr(flags, " hg"), "block %d's mapping is not marked for huge pages: "
+                          "VmFlags '%s'", b, flags);
+        }
+    } else
+        fprintf(stderr, "test_huge_pages: this kernel has no transparent huge pages; the blocks' "
+                "bytes checked only\n");
+#endif
+    bsti_free(ctx, p);
+    bsti_free(ctx, q);
+    bst_ctx_free(ctx);
+}
+END_TEST
+
 static Suite *ctx_suite(void)
 {
     Suite *s = suite_create("ctx");
@@ -106,6 +164,7 @@ static Suite *ctx_suite(void)
     tcase_add_test(tc, test_strerror);
     tcase_add_test(tc, test_allocator);
     tcase_add_test(tc, test_size_mul);
+    tcase_add_test(tc, test_huge_pages);
     suite_add_tcase(s, tc);
     return s;
 }
