@@ -70,11 +70,13 @@ function provenance(c,   r, any) {
         if (!any++) {
             print ""
             print "Rows recorded one run at a time by `bench/run-long` (bench/long-results.csv), each the median"
-            print "by wall time of the runs recorded (\"runs\"; \"bound\" at this report's GEMM rate):"
+            print "by wall time of the runs recorded at the newest commit recorded for it (\"runs\"; older runs,"
+            print "which measured older code, are counted as \"left out\"; \"bound\" at this report's GEMM rate):"
             print ""
         }
-        printf "* %s k = %s %s: %s run%s, %s, commit%s %s, load %s, %s\n", c == "S1" ? "S1" : v[r, 2], v[r, 3], v[r, 4],
-            v[r, 18], v[r, 18] == 1 ? "" : "s", v[r, 19], index(v[r, 20], " ") ? "s" : "", v[r, 20], v[r, 21], v[r, 22]
+        printf "* %s k = %s %s: %s run%s, %s, commit%s %s, load %s, %s%s\n", c == "S1" ? "S1" : v[r, 2], v[r, 3], v[r, 4],
+            v[r, 18], v[r, 18] == 1 ? "" : "s", v[r, 19], index(v[r, 20], " ") ? "s" : "", v[r, 20], v[r, 21], v[r, 22],
+            v[r, 23] == "" ? "" : "; left out: " v[r, 23] " (older code)"
     }
 }
 # s printed as lines of at most 100 characters, the first prefixed by p1, the others by p2
@@ -290,7 +292,10 @@ function factored_table(   r, any) {
     print "## Layers at the resolution of their information (factored)"
     print ""
     wrap("A rank-4 tree of depth 6 read at k = 7 is P M_6 P^T: the combination's dense work has the" \
-        " coarse order's size (bench/README.md, issue #31); `--dense` is the dense rows' path.", "", "")
+        " coarse order's size (bench/README.md, issue #31); `--dense` is the dense rows' path. A matte" \
+        " venetian blind made from its geometry (`venetian:width=16mm,spacing=14.5mm,tilt=45,r=0.7,t=0.05`," \
+        " issue #32) is its unobstructed light's diagonal plus the slat strips' views times their" \
+        " emissions; its stack's time is nearly all the writing of a 9 GB tree.", "", "")
     print ""
     thead("| stack | k | precision | wall s | CPU s | read s | combine s | write s | GFLOP | bound | peak MiB | file MB | runs |")
     for (r = 1; r <= n; r++)
