@@ -138,16 +138,22 @@ int bsti_mul_dense_lowrank(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, dou
 /* A SPARSE N x N m that is exactly P K P^T for the prolongation S (each pair of coarse cells holds
  * one value in all its fine pairs, or none: a sparse rank-4 tree of depth d read at k > d, a clear
  * pane's tree file say), as the factored matrix with that K (dense, r x r); BST_ENOTFOUND, with no
- * message, for any other.  Work: O(nnz + r^2), two r x r arrays. */
+ * message, for any other.  K is filled in the result's own storage; a pair is whole when every
+ * non-zero agrees with its pair's first and their count is fine^2 times the pairs that hold one
+ * (a sparse matrix stores a cell once, so no pair can hold more than fine^2).  Work: O(nnz + r^2). */
 static int sparse_lr(bst_ctx *ctx, const bst_mat *m, const bsti_lr_map *S, bsti_lr **lr)
 {
     *lr = NULL;
     if (!S->single || S->k < 0 || m->rows != S->N || m->cols != S->N)
         return BST_ENOTFOUND;
-    size_t r = S->r, fine = S->N / r; /* fine cells a coarse cell */
-    double *K = bsti_calloc(ctx, r * r, sizeof *K);
-    uint32_t *cnt = bsti_calloc(ctx, r * r, sizeof *cnt);
-    int rc = K && cnt ? BST_OK : BST_ENOMEM;
+    size_t r = S->r, fine = S->N / r, pairs = 0, values = 0; /* fine cells a coarse cell */
+    bsti_lr *f;
+    int rc = bsti_lr_alloc(ctx, S, 1, 1, 0, &f);
+    if (rc < 0)
+        return rc;
+    for (size_t x = 0; x < S->N; x++)
+        f->a[x] = f->b[x] = 1.0;
+    double *K = f->k; /* zero */
     const SuiteSparse_long *p = m->sp->p, *ri = m->sp->i;
     const double *x = m->sp->x;
     for (size_t j = 0; rc >= 0 && j < m->cols; j++)
@@ -155,16 +161,18 @@ static int sparse_lr(bst_ctx *ctx, const bst_mat *m, const bsti_lr_map *S, bsti_
             size_t c = S->col[j] * r + S->col[ri[q]];
             if (x[q] == 0.0)
                 continue;
-            if (cnt[c] > 0 && K[c] != x[q])
+            values++;
+            if (K[c] == 0.0)
+                K[c] = x[q], pairs++;
+            else if (K[c] != x[q])
                 rc = BST_ENOTFOUND;
-            K[c] = x[q], cnt[c]++;
         }
-    for (size_t c = 0; rc >= 0 && c < r * r; c++)
-        if (cnt[c] && cnt[c] != fine * fine)
-            rc = BST_ENOTFOUND;
-    if (rc >= 0)
-        rc = bsti_lr_new(ctx, S, NULL, NULL, K, NULL, lr);
-    bsti_free(ctx, K), bsti_free(ctx, cnt);
+    if (rc >= 0 && values != pairs * fine * fine)
+        rc = BST_ENOTFOUND;
+    if (rc < 0)
+        bsti_lr_free(ctx, f);
+    else
+        *lr = f;
     return rc;
 }
 

@@ -720,6 +720,47 @@ START_TEST(test_sparse_k)
 }
 END_TEST
 
+/* A sparse operand beside a factored one joins it (sparse_lr, mat_lowrank.c) exactly when it is
+ * P K P^T over the factored one's prolongation: every pair of coarse cells holds one value in all
+ * its fine pairs, or none.  _i: 0 such a matrix (the product stays FACTORED), 1 one fine pair of a
+ * block missing, 2 one fine pair of a block with another value (both made dense).  The product
+ * equals the generic one every time. */
+START_TEST(test_sparse_join)
+{
+    bsti_lr_map *S;
+    ck_assert_int_eq(bsti_lr_map_prolong(ctx, 4, 2, &S), BST_OK); /* N 256, r 16, 16 fine cells */
+    size_t N = S->N, r = S->r, nnz = 0;
+    size_t *row = malloc(N * N * sizeof *row), *col = malloc(N * N * sizeof *col);
+    double *val = malloc(N * N * sizeof *val);
+    for (size_t j = 0; j < N; j++)
+        for (size_t i = 0; i < N; i++) {
+            size_t ci = S->col[i], cj = S->col[j]; /* their coarse cells */
+            if (ci != r - 1 - cj && !(ci == 1 && cj == 0))
+                continue; /* a mirror and one value beside it */
+            if (_i == 1 && i == S->N - 1 && ci == r - 1 - cj)
+                continue;
+            row[nnz] = i, col[nnz] = j;
+            val[nnz++] = 0.05 + 0.01 * (double)cj / (double)r + (_i == 2 && nnz == 7 ? 1e-9 : 0.0);
+        }
+    bst_mat *sp, *f, *x, *want;
+    ck_assert_int_eq(bst_mat_new_sparse(ctx, N, N, nnz, row, col, val, &sp), BST_OK);
+    ck_assert_int_eq(bst_mat_structure(sp), BST_SPARSE);
+    ck_assert_int_eq(bsti_mat_from_lr(ctx, random_lr(S, 1, 0), &f), BST_OK);
+    for (int order = 0; order < 2; order++) {
+        const bst_mat *a = order ? sp : f, *b = order ? f : sp;
+        ck_assert_int_eq(bst_mat_mul(ctx, a, b, 0.0, &x), BST_OK);
+        ck_assert_int_eq(bsti_mat_mul_generic(ctx, a, b, &want), BST_OK);
+        ck_assert_msg(mat_diff(x, want) < 1e-13, "case %d, product %d: %g", _i, order, mat_diff(x, want));
+        ck_assert_msg((bst_mat_structure(x) == BST_FACTORED) == (_i == 0), "case %d, product %d: "
+                      "structure %d", _i, order, (int)bst_mat_structure(x));
+        bst_mat_free(x), bst_mat_free(want);
+    }
+    bst_mat_free(sp), bst_mat_free(f);
+    free(row), free(col), free(val);
+    bsti_lr_map_free(ctx, S);
+}
+END_TEST
+
 static Suite *suite(void)
 {
     Suite *s = suite_create("lowrank");
@@ -735,6 +776,7 @@ static Suite *suite(void)
     tcase_add_test(tc, test_stack);
     tcase_add_loop_test(tc, test_lines_fast, 0, 3);
     tcase_add_loop_test(tc, test_sparse_k, 0, 2);
+    tcase_add_loop_test(tc, test_sparse_join, 0, 3);
     suite_add_tcase(s, tc);
     return s;
 }
