@@ -230,11 +230,11 @@ static size_t nonzeros(const double *A, size_t m, size_t n, size_t lda, size_t l
  * pane's tree at a coarse order: a diagonal, a mirror, a few values more). */
 #define LR_SPARSE_SHARE (1.0 / 64.0)
 
-/* C = A B (m x n, A m x k, B k x n, column-major, leading dimensions the row counts): GEMM, unless
- * A or B is sparse (LR_SPARSE_SHARE), then through its values that are not zero (the same sums
- * but for their order). */
+/* C = A B (m x n in C's leading dimension ldc; A m x k, B k x n, column-major, their leading
+ * dimensions their row counts): GEMM, unless A or B is sparse (LR_SPARSE_SHARE), then through its
+ * values that are not zero (the same sums but for their order). */
 static int lr_gemm(bst_ctx *ctx, size_t m, size_t n, size_t k, const double *A, const double *B,
-                   double *C)
+                   double *C, size_t ldc)
 {
     size_t la = (size_t)(LR_SPARSE_SHARE * (double)m * (double)k);
     size_t lb = (size_t)(LR_SPARSE_SHARE * (double)k * (double)n);
@@ -253,26 +253,30 @@ static int lr_gemm(bst_ctx *ctx, size_t m, size_t n, size_t k, const double *A, 
                     row[e] = i, val[e++] = A[l * m + i];
             start[l + 1] = e;
         }
-        memset(C, 0, m * n * sizeof *C);
-        for (size_t j = 0; j < n; j++)
+        for (size_t j = 0; j < n; j++) {
+            double *c = C + j * ldc;
+            memset(c, 0, m * sizeof *c);
             for (size_t l = 0; l < k; l++) {
                 double b = B[j * k + l];
                 for (size_t e = start[l]; e < start[l + 1]; e++)
-                    C[j * m + row[e]] += val[e] * b;
+                    c[row[e]] += val[e] * b;
             }
+        }
         bsti_free(ctx, start), bsti_free(ctx, val);
     } else if (nonzeros(B, k, n, k, lb) <= lb) {
-        memset(C, 0, m * n * sizeof *C);
-        for (size_t j = 0; j < n; j++)
+        for (size_t j = 0; j < n; j++) {
+            double *c = C + j * ldc;
+            memset(c, 0, m * sizeof *c);
             for (size_t l = 0; l < k; l++) {
                 double b = B[j * k + l];
                 if (b != 0.0)
                     for (size_t i = 0; i < m; i++)
-                        C[j * m + i] += A[l * m + i] * b;
+                        c[i] += A[l * m + i] * b;
             }
+        }
     } else {
         cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)m, (int)n, (int)k, 1.0, A,
-                    (int)m, B, (int)k, 0.0, C, (int)m);
+                    (int)m, B, (int)k, 0.0, C, (int)ldc);
         bsti_flops_add(ctx, 2.0 * (double)m * (double)n * (double)k);
     }
     return BST_OK;
@@ -328,6 +332,42 @@ static int same_map(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g)
     return BST_OK;
 }
 
+/* The coupled term of F G, U_F (K_F V_F^T U_G K_G) V_G^T, added to m's K (leading dimension ld)
+ * at the blocks the lists give; direct: it is one block, zero so far, and the product is made
+ * there (no r x r scratch, no pass adding it). */
+static int coupled(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, struct lists *l, bsti_lr *m,
+                   size_t ld, int direct)
+{
+    size_t N = f->N, r = f->r;
+    size_t fq = f->q * r, gp = g->p * r, fp = f->p * r, gq = g->q * r;
+    int single = f->S->single; /* V_F^T U_G of diagonal blocks: no GEMM for K_F V_F^T U_G */
+    double *gm = single ? bsti_alloc_array(ctx, f->q * gp, sizeof *gm) : bsti_calloc(ctx, fq * gp, sizeof *gm);
+    double *t1 = bsti_alloc_array(ctx, fp * gp, sizeof *t1);
+    double *t = direct ? m->k + l->rj_g[0] * r * ld + l->li_f[0] * r : bsti_alloc_array(ctx, fp * gq, sizeof *t);
+    int rc = gm && t1 && t ? BST_OK : BST_ENOMEM;
+    for (size_t j = 0; rc >= 0 && j < f->q; j++)
+        for (size_t i = 0; i < g->p; i++) {
+            times(l->v, f->b + j * N, g->a + i * N, N);
+            if (single)
+                bsti_lr_gram_diag(f->S, l->v, gm + (j * g->p + i) * r);
+            else
+                bsti_lr_gram_add(f->S, l->v, gm, fq, j * r, i * r);
+        }
+    if (rc >= 0 && single)
+        bsti_lr_mul_diag_blocks(f->k, fp, f->q, g->p, r, gm, 1.0, 0, t1);
+    else if (rc >= 0)
+        rc = lr_gemm(ctx, fp, gp, fq, f->k, gm, t1, fp);
+    if (rc >= 0)
+        rc = lr_gemm(ctx, fp, gq, gp, t1, g->k, t, direct ? ld : fp);
+    for (size_t i = 0; rc >= 0 && !direct && i < f->p; i++)
+        for (size_t j = 0; j < g->q; j++)
+            bsti_lr_add_block(m->k, ld, l->li_f[i], l->rj_g[j], t, fp, i, j, r, 1.0);
+    bsti_free(ctx, gm), bsti_free(ctx, t1);
+    if (!direct)
+        bsti_free(ctx, t);
+    return rc;
+}
+
 /* F G = D_F D_G + D_F U_G K_G V_G^T + U_F K_F V_F^T D_G + U_F (K_F V_F^T U_G K_G) V_G^T. */
 int bsti_lr_mul(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, bsti_lr **out)
 {
@@ -337,7 +377,6 @@ int bsti_lr_mul(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, bsti_lr **out)
         return rc;
     size_t N = f->N, r = f->r;
     struct lists l;
-    double *gm = NULL, *t1 = NULL, *t = NULL;
     rc = lists_alloc(ctx, N, g->p + f->p, g->q + f->q, f, g, &l);
     size_t pn = 0, qn = 0;
     for (size_t i = 0; rc >= 0 && f->d && i < g->p; i++) {
@@ -360,6 +399,21 @@ int bsti_lr_mul(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, bsti_lr **out)
     }
     bsti_lr *m = *out;
     size_t ld = pn * r;
+    /* A coupled term of one block that at most one diagonal term adds to is made first, in its
+     * block: the same sums as adding it last (x + y = y + x). */
+    int direct = 0;
+    if (f->p == 1 && g->q == 1 && g->p) {
+        int hits = 0;
+        for (size_t i = 0; f->d && i < g->p; i++)
+            for (size_t j = 0; j < g->q; j++)
+                hits += l.li_g[i] == l.li_f[0] && l.rj_g[j] == l.rj_g[0];
+        for (size_t i = 0; g->d && i < f->p; i++)
+            for (size_t j = 0; j < f->q; j++)
+                hits += l.li_f[i] == l.li_f[0] && l.rj_f[j] == l.rj_g[0];
+        direct = hits <= 1;
+    }
+    if (direct)
+        rc = coupled(ctx, f, g, &l, m, ld, 1);
     if (m->d)
         times(m->d, f->d, g->d, N);
     for (size_t i = 0; f->d && i < g->p; i++)
@@ -368,36 +422,8 @@ int bsti_lr_mul(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, bsti_lr **out)
     for (size_t i = 0; g->d && i < f->p; i++)
         for (size_t j = 0; j < f->q; j++)
             bsti_lr_add_block(m->k, ld, l.li_f[i], l.rj_f[j], f->k, f->p * r, i, j, r, 1.0);
-    if (f->p && g->p) { /* the coupled term through V_F^T U_G, (f->q r) x (g->p r) */
-        size_t fq = f->q * r, gp = g->p * r, fp = f->p * r, gq = g->q * r;
-        int single = f->S->single; /* V_F^T U_G of diagonal blocks: no GEMM for K_F V_F^T U_G */
-        gm = single ? bsti_alloc_array(ctx, f->q * gp, sizeof *gm) : bsti_calloc(ctx, fq * gp, sizeof *gm);
-        t1 = bsti_alloc_array(ctx, fp * gp, sizeof *t1);
-        t = bsti_alloc_array(ctx, fp * gq, sizeof *t);
-        if (!gm || !t1 || !t)
-            rc = BST_ENOMEM;
-        for (size_t j = 0; rc >= 0 && j < f->q; j++)
-            for (size_t i = 0; i < g->p; i++) {
-                times(l.v, f->b + j * N, g->a + i * N, N);
-                if (single)
-                    bsti_lr_gram_diag(f->S, l.v, gm + (j * g->p + i) * r);
-                else
-                    bsti_lr_gram_add(f->S, l.v, gm, fq, j * r, i * r);
-            }
-        if (rc >= 0 && single) {
-            bsti_lr_mul_diag_blocks(f->k, fp, f->q, g->p, r, gm, 1.0, 0, t1);
-        } else if (rc >= 0) {
-            rc = lr_gemm(ctx, fp, gp, fq, f->k, gm, t1);
-        }
-        if (rc >= 0)
-            rc = lr_gemm(ctx, fp, gq, gp, t1, g->k, t);
-        if (rc >= 0) {
-            for (size_t i = 0; i < f->p; i++)
-                for (size_t j = 0; j < g->q; j++)
-                    bsti_lr_add_block(m->k, ld, l.li_f[i], l.rj_g[j], t, fp, i, j, r, 1.0);
-        }
-    }
-    bsti_free(ctx, gm), bsti_free(ctx, t1), bsti_free(ctx, t);
+    if (rc >= 0 && !direct && f->p && g->p)
+        rc = coupled(ctx, f, g, &l, m, ld, 0);
     lists_free(ctx, &l);
     if (rc < 0) {
         bsti_lr_free(ctx, m);
