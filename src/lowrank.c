@@ -468,6 +468,19 @@ int bsti_lr_add(bst_ctx *ctx, double alpha, const bsti_lr *f, double beta, const
     return rc;
 }
 
+void bsti_lr_scale_take(const double *dr, bsti_lr *f, const double *dc)
+{
+    size_t N = f->N;
+    for (size_t x = 0; f->d && x < N; x++)
+        f->d[x] = (dr ? dr[x] : 1.0) * f->d[x] * (dc ? dc[x] : 1.0);
+    for (size_t i = 0; dr && i < f->p; i++)
+        for (size_t x = 0; x < N; x++)
+            f->a[i * N + x] = dr[x] * f->a[i * N + x];
+    for (size_t j = 0; dc && j < f->q; j++)
+        for (size_t x = 0; x < N; x++)
+            f->b[j * N + x] = dc[x] * f->b[j * N + x];
+}
+
 int bsti_lr_scale(bst_ctx *ctx, const double *dr, const bsti_lr *f, const double *dc, bsti_lr **out)
 {
     size_t N = f->N, r = f->r;

@@ -533,6 +533,11 @@ int bsti_mat_scale(bst_ctx *ctx, const double *dr, const bst_mat *a, const doubl
 
 int bsti_mat_scale_take(bst_ctx *ctx, const double *dr, bst_mat *a, const double *dc, bst_mat **out)
 {
+    if (a->s == BST_FACTORED) { /* its diagonal and scalings; K as it is */
+        bsti_lr_scale_take(dr, a->lr, dc);
+        *out = a;
+        return BST_OK;
+    }
     if (a->s == BST_DIAG || a->s == BST_DENSE) {
         scale_values(a, dr, dc);
         *out = a;
