@@ -230,16 +230,22 @@ static size_t nonzeros(const double *A, size_t m, size_t n, size_t lda, size_t l
  * pane's tree at a coarse order: a diagonal, a mirror, a few values more). */
 #define LR_SPARSE_SHARE (1.0 / 64.0)
 
-/* C = A B (m x n in C's leading dimension ldc; A m x k, B k x n, column-major, their leading
- * dimensions their row counts): GEMM, unless A or B is sparse (LR_SPARSE_SHARE), then through its
- * values that are not zero (the same sums but for their order). */
-static int lr_gemm(bst_ctx *ctx, size_t m, size_t n, size_t k, const double *A, const double *B,
-                   double *C, size_t ldc)
+/* C = A diag(g) B (m x n in C's leading dimension ldc; A m x k, g k values or NULL for ones, B k x
+ * n, column-major, their leading dimensions their row counts): GEMM, unless A diag(g) or B is sparse
+ * (LR_SPARSE_SHARE), then through its values that are not zero (the same sums but for their
+ * order).  Each value of A diag(g) is A's times g's, as bsti_lr_mul_diag_blocks makes it: the
+ * sparse ways take them as they go, the GEMM from an m x k array of them. */
+static int lr_gemm(bst_ctx *ctx, size_t m, size_t n, size_t k, const double *A, const double *g,
+                   const double *B, double *C, size_t ldc)
 {
+#define AG(i, l) (g ? A[(l) * m + (i)] * g[l] : A[(l) * m + (i)])
     size_t la = (size_t)(LR_SPARSE_SHARE * (double)m * (double)k);
     size_t lb = (size_t)(LR_SPARSE_SHARE * (double)k * (double)n);
-    size_t nza = nonzeros(A, m, k, m, la);
-    if (nza <= la) { /* C[:, j] = sum over l of A[:, l] B[l, j], A's values listed by column */
+    size_t nza = 0;
+    for (size_t l = 0; l < k && nza <= la; l++)
+        for (size_t i = 0; i < m; i++)
+            nza += AG(i, l) != 0.0;
+    if (nza <= la) { /* C[:, j] = sum over l of A[:, l] g[l] B[l, j], their values listed by column */
         size_t *start = bsti_alloc_array(ctx, k + 1 + nza, sizeof *start), *row = start + k + 1;
         double *val = bsti_alloc_array(ctx, nza + 1, sizeof *val);
         if (!start || !val) {
@@ -249,8 +255,8 @@ static int lr_gemm(bst_ctx *ctx, size_t m, size_t n, size_t k, const double *A, 
         for (size_t l = 0, e = 0; l < k; l++) {
             start[l] = e;
             for (size_t i = 0; i < m; i++)
-                if (A[l * m + i] != 0.0)
-                    row[e] = i, val[e++] = A[l * m + i];
+                if (AG(i, l) != 0.0)
+                    row[e] = i, val[e++] = AG(i, l);
             start[l + 1] = e;
         }
         for (size_t j = 0; j < n; j++) {
@@ -271,15 +277,23 @@ static int lr_gemm(bst_ctx *ctx, size_t m, size_t n, size_t k, const double *A, 
                 double b = B[j * k + l];
                 if (b != 0.0)
                     for (size_t i = 0; i < m; i++)
-                        c[i] += A[l * m + i] * b;
+                        c[i] += AG(i, l) * b;
             }
         }
     } else {
-        cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)m, (int)n, (int)k, 1.0, A,
-                    (int)m, B, (int)k, 0.0, C, (int)ldc);
+        double *ag = NULL;
+        if (g) {
+            if (!(ag = bsti_alloc_array(ctx, m * k, sizeof *ag)))
+                return BST_ENOMEM;
+            bsti_lr_mul_diag_blocks(A, m, 1, 1, k, g, 1.0, 0, ag);
+        }
+        cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)m, (int)n, (int)k, 1.0,
+                    ag ? ag : A, (int)m, B, (int)k, 0.0, C, (int)ldc);
         bsti_flops_add(ctx, 2.0 * (double)m * (double)n * (double)k);
+        bsti_free(ctx, ag);
     }
     return BST_OK;
+#undef AG
 }
 
 static void times(double *v, const double *x, const double *y, size_t N)
@@ -341,10 +355,13 @@ static int coupled(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, struct list
     size_t N = f->N, r = f->r;
     size_t fq = f->q * r, gp = g->p * r, fp = f->p * r, gq = g->q * r;
     int single = f->S->single; /* V_F^T U_G of diagonal blocks: no GEMM for K_F V_F^T U_G */
+    /* one diagonal block between K_F and K_G: lr_gemm takes it as it goes (no K_F G array where
+     * either is sparse, a pane's) */
+    int one = single && f->q == 1 && g->p == 1;
     double *gm = single ? bsti_alloc_array(ctx, f->q * gp, sizeof *gm) : bsti_calloc(ctx, fq * gp, sizeof *gm);
-    double *t1 = bsti_alloc_array(ctx, fp * gp, sizeof *t1);
+    double *t1 = one ? NULL : bsti_alloc_array(ctx, fp * gp, sizeof *t1);
     double *t = direct ? m->k + l->rj_g[0] * r * ld + l->li_f[0] * r : bsti_alloc_array(ctx, fp * gq, sizeof *t);
-    int rc = gm && t1 && t ? BST_OK : BST_ENOMEM;
+    int rc = gm && (one || t1) && t ? BST_OK : BST_ENOMEM;
     for (size_t j = 0; rc >= 0 && j < f->q; j++)
         for (size_t i = 0; i < g->p; i++) {
             times(l->v, f->b + j * N, g->a + i * N, N);
@@ -353,12 +370,16 @@ static int coupled(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, struct list
             else
                 bsti_lr_gram_add(f->S, l->v, gm, fq, j * r, i * r);
         }
-    if (rc >= 0 && single)
-        bsti_lr_mul_diag_blocks(f->k, fp, f->q, g->p, r, gm, 1.0, 0, t1);
-    else if (rc >= 0)
-        rc = lr_gemm(ctx, fp, gp, fq, f->k, gm, t1, fp);
-    if (rc >= 0)
-        rc = lr_gemm(ctx, fp, gq, gp, t1, g->k, t, direct ? ld : fp);
+    if (rc >= 0 && one)
+        rc = lr_gemm(ctx, fp, gq, gp, f->k, gm, g->k, t, direct ? ld : fp);
+    else {
+        if (rc >= 0 && single)
+            bsti_lr_mul_diag_blocks(f->k, fp, f->q, g->p, r, gm, 1.0, 0, t1);
+        else if (rc >= 0)
+            rc = lr_gemm(ctx, fp, gp, fq, f->k, NULL, gm, t1, fp);
+        if (rc >= 0)
+            rc = lr_gemm(ctx, fp, gq, gp, t1, NULL, g->k, t, direct ? ld : fp);
+    }
     for (size_t i = 0; rc >= 0 && !direct && i < f->p; i++)
         for (size_t j = 0; j < g->q; j++)
             bsti_lr_add_block(m->k, ld, l->li_f[i], l->rj_g[j], t, fp, i, j, r, 1.0);
