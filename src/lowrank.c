@@ -572,6 +572,24 @@ int bsti_lr_copy(bst_ctx *ctx, const bsti_lr *f, bsti_lr **out)
     return bsti_lr_scale(ctx, NULL, f, NULL, out);
 }
 
+int bsti_lr_transpose_take(bsti_lr *f)
+{
+    size_t n = f->p * f->r;
+    if (f->p != f->q)
+        return -1;
+    double *t = f->a;
+    f->a = f->b, f->b = t;
+    for (size_t jb = 0; jb < n; jb += 32) /* a tile and its mirror swapped, as bsti_mat_transpose_in_place */
+        for (size_t ib = jb; ib < n; ib += 32)
+            for (size_t j = jb; j < jb + 32 && j < n; j++)
+                for (size_t i = ib == jb ? j + 1 : ib; i < ib + 32 && i < n; i++) {
+                    double v = f->k[j * n + i];
+                    f->k[j * n + i] = f->k[i * n + j];
+                    f->k[i * n + j] = v;
+                }
+    return 0;
+}
+
 int bsti_lr_transpose(bst_ctx *ctx, const bsti_lr *f, bsti_lr **out)
 {
     size_t N = f->N, pr = f->p * f->r, qr = f->q * f->r;

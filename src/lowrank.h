@@ -66,6 +66,9 @@ int bsti_lr_same_map(const bsti_lr *f, const bsti_lr *g);
 int bsti_lr_copy(bst_ctx *ctx, const bsti_lr *f, bsti_lr **out);
 /* F^T (the lists swapped, K transposed). */
 int bsti_lr_transpose(bst_ctx *ctx, const bsti_lr *f, bsti_lr **out);
+/* F := F^T in F's own storage where K is square (as many left as right scalings): 0; else -1 and
+ * F as it was. */
+int bsti_lr_transpose_take(bsti_lr *f);
 /* y = F x (trans 0) or F^T x (trans 1), N values each; work: (p + q) r values. */
 void bsti_lr_apply(const bsti_lr *f, int trans, const double *x, double *y, double *work);
 /* F'[x, y] = F[perm[x], perm[y]] for a permutation of the patches that maps the cells of each

@@ -159,6 +159,9 @@ void bsti_factor_free(bsti_factor *f);
 #define BSTI_TRANSPOSE_TILE 32
 /* m := m^T for a square DENSE m, in its own storage (the values of a transposed copy). */
 void bsti_mat_transpose_in_place(bst_mat *m);
+/* *out = m^T, m consumed: in m's own storage where it can be (a square DENSE m, a FACTORED one with
+ * a square K), else a transposed copy and m freed (also on failure). */
+int bsti_mat_transpose_take(bst_ctx *ctx, bst_mat *m, bst_mat **out);
 
 /* The FACTORED kernels (mat_lowrank.c): F G, F B and A F with B, A dense, alpha F + beta G. */
 int bsti_mul_lowrank(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out);

@@ -90,6 +90,20 @@ void bsti_mat_transpose_in_place(bst_mat *m)
     }
 }
 
+int bsti_mat_transpose_take(bst_ctx *ctx, bst_mat *m, bst_mat **out)
+{
+    if ((m->s == BST_DENSE && m->rows == m->cols) ||
+        (m->s == BST_FACTORED && bsti_lr_transpose_take(m->lr) == 0)) {
+        if (m->s == BST_DENSE)
+            bsti_mat_transpose_in_place(m);
+        *out = m;
+        return BST_OK;
+    }
+    int rc = bst_mat_transpose(ctx, m, out);
+    bst_mat_free(m);
+    return rc;
+}
+
 int bst_mat_col_weighted_sum(bst_ctx *ctx, const bst_mat *m, const double *w, double *out)
 {
     if (!ctx)

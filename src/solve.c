@@ -528,8 +528,7 @@ static int solve_one(bst_ctx *ctx, struct factor *f, int right, const bst_mat *b
     /* Y^T = (I - A)^-T B^T; each workspace freed as soon as it is dead, B^T solved in place when
      * it is dense in the factor's precision */
     bst_mat *bt = NULL, *xt = NULL;
-    rc = bst_mat_transpose(ctx, b, &bt);
-    bst_mat_free(bq);
+    rc = bq ? bsti_mat_transpose_take(ctx, bq, &bt) : bst_mat_transpose(ctx, b, &bt);
     if (rc >= 0 && f->s == BST_DENSE && bt->s == BST_DENSE && bt->prec == f->prec) {
         rc = dense_solve_in_place(f, 1, bt);
         xt = bt;
@@ -540,13 +539,8 @@ static int solve_one(bst_ctx *ctx, struct factor *f, int right, const bst_mat *b
     bst_mat_free(bt);
     if (last)
         factor_free(f);
-    if (rc >= 0 && xt->s == BST_DENSE && xt->rows == xt->cols) {
-        bsti_mat_transpose_in_place(xt);
-        *out = xt;
-        xt = NULL;
-    } else if (rc >= 0) {
-        rc = bst_mat_transpose(ctx, xt, out);
-    }
+    if (rc >= 0)
+        return bsti_mat_transpose_take(ctx, xt, out);
     bst_mat_free(xt);
     return rc;
 }

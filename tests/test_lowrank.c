@@ -781,6 +781,39 @@ START_TEST(test_scale_take)
 }
 END_TEST
 
+/* Transposing a factored matrix in its own storage (bsti_lr_transpose_take, the right solves' B and
+ * X) gives the bits of a transposed copy, across the swap's tiles of 32 (_i 6, 7: K of 64 and
+ * 128 square); a K that is not square (one left, two right scalings) is refused and left as it
+ * was. */
+START_TEST(test_transpose_take)
+{
+    bsti_lr_map *S;
+    if (_i < 6)
+        S = map_of(_i % 3);
+    else
+        ck_assert_int_eq(bsti_lr_map_prolong(ctx, 5, 3, &S), BST_OK); /* N 1024, r 64 */
+    size_t N = S->N;
+    bsti_lr *f = random_lr(S, _i % 2, _i >= 3 && _i != 6), *copy;
+    ck_assert_int_eq(bsti_lr_transpose(ctx, f, &copy), BST_OK);
+    ck_assert_int_eq(bsti_lr_transpose_take(f), 0);
+    double *want = dense_of(copy), *got = dense_of(f);
+    ck_assert_msg(memcmp(want, got, N * N * sizeof *got) == 0, "case %d: other bits", _i);
+    free(want), free(got);
+    bsti_lr_free(ctx, f), bsti_lr_free(ctx, copy);
+    bsti_lr *g; /* p 1, q 2 */
+    ck_assert_int_eq(bsti_lr_alloc(ctx, S, 1, 2, 0, &g), BST_OK);
+    random_vec(g->a, N, 0.5, 1.0), random_vec(g->b, 2 * N, 0.5, 1.0);
+    random_vec(g->k, 2 * S->r * S->r, 0.0, 0.1);
+    want = dense_of(g);
+    ck_assert_int_eq(bsti_lr_transpose_take(g), -1);
+    got = dense_of(g);
+    ck_assert_msg(memcmp(want, got, N * N * sizeof *got) == 0, "case %d: a refused one changed", _i);
+    free(want), free(got);
+    bsti_lr_free(ctx, g);
+    bsti_lr_map_free(ctx, S);
+}
+END_TEST
+
 static Suite *suite(void)
 {
     Suite *s = suite_create("lowrank");
@@ -798,6 +831,7 @@ static Suite *suite(void)
     tcase_add_loop_test(tc, test_sparse_k, 0, 2);
     tcase_add_loop_test(tc, test_sparse_join, 0, 3);
     tcase_add_loop_test(tc, test_scale_take, 0, 9);
+    tcase_add_loop_test(tc, test_transpose_take, 0, 8);
     suite_add_tcase(s, tc);
     return s;
 }
