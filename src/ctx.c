@@ -18,9 +18,10 @@
 
 /* Where Linux's transparent huge pages are offered on request (its "madvise" mode), a large
  * block of the system's allocator asks for them on the 2 MiB-aligned part of its own bytes. The
- * factored algebra makes and drops about 170 blocks of 128 MiB in one k = 7 combination: each
+ * factored algebra makes and drops dozens of blocks of 128 MiB in one k = 7 combination: each
  * fresh 4 KiB page is a fault, where a huge page is one fault for 512 of them (bench/README.md,
- * "Huge pages for large blocks"). A hint: its failure changes nothing. */
+ * "Huge pages and fewer fresh blocks in the factored algebra"). A hint: its failure changes
+ * nothing. */
 enum { HUGE_PAGE = 2u << 20, HUGE_MIN = 4u << 20 };
 
 static void *advise_huge(void *p, size_t size)

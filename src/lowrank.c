@@ -358,9 +358,11 @@ static int coupled(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, struct list
     /* one diagonal block between K_F and K_G: lr_gemm takes it as it goes (no K_F G array where
      * either is sparse, a pane's) */
     int one = single && f->q == 1 && g->p == 1;
-    double *gm = single ? bsti_alloc_array(ctx, f->q * gp, sizeof *gm) : bsti_calloc(ctx, fq * gp, sizeof *gm);
+    double *gm = single ? bsti_alloc_array(ctx, f->q * gp, sizeof *gm)
+                        : bsti_calloc(ctx, fq * gp, sizeof *gm);
     double *t1 = one ? NULL : bsti_alloc_array(ctx, fp * gp, sizeof *t1);
-    double *t = direct ? m->k + l->rj_g[0] * r * ld + l->li_f[0] * r : bsti_alloc_array(ctx, fp * gq, sizeof *t);
+    double *t = direct ? m->k + l->rj_g[0] * r * ld + l->li_f[0] * r
+                       : bsti_alloc_array(ctx, fp * gq, sizeof *t);
     int rc = gm && (one || t1) && t ? BST_OK : BST_ENOMEM;
     for (size_t j = 0; rc >= 0 && j < f->q; j++)
         for (size_t i = 0; i < g->p; i++) {
@@ -579,7 +581,8 @@ int bsti_lr_transpose_take(bsti_lr *f)
         return -1;
     double *t = f->a;
     f->a = f->b, f->b = t;
-    for (size_t jb = 0; jb < n; jb += 32) /* a tile and its mirror swapped, as bsti_mat_transpose_in_place */
+    /* a tile and its mirror swapped, as bsti_mat_transpose_in_place */
+    for (size_t jb = 0; jb < n; jb += 32)
         for (size_t ib = jb; ib < n; ib += 32)
             for (size_t j = jb; j < jb + 32 && j < n; j++)
                 for (size_t i = ib == jb ? j + 1 : ib; i < ib + 32 && i < n; i++) {
