@@ -6,7 +6,9 @@
  * The basis rule: a rank-4 tree is constant on the cells of its order and the combination keeps
  * that (a finer cell's projected solid angle is its parent's quarter, so every product and inverse
  * of replicated matrices is replicated), so the finest order among the files holds all they say;
- * above it the system is that order's, each value repeated, at up to 64 times the time an order.
+ * above it the system is that order's, each value repeated: 16 times the values to write an order
+ * (the combination holds such layers factored at their own order, issue #31; with --dense, up to
+ * 64 times the time an order).
  *
  * The spectral plan follows WINDOW and Windows-CalcEngine: a stack whose every layer is a pane with
  * spectral data, or WINDOW's dual-band material (a file layer with Solar and Visible channels), is
@@ -54,9 +56,9 @@ void bst_plan_pick_basis(size_t n, const bst_bsdf *const *files, const bst_basis
         if (all_rank4 && k > pick->finest)
             snprintf(pick->note, sizeof pick->note, "every layer is a rank-4 tensor tree of order "
                      "%d or less: -k %d gives their order-%d system, each patch's values repeated "
-                     "over its %d finer patches, in up to %.0f times the time; use -k %d, or "
+                     "over its %d finer patches, %.0f times the values to write; use -k %d, or "
                      "layers of order %d", pick->finest, k, pick->finest, 1 << (2 * (k - pick->finest)),
-                     (double)(1ull << (6 * (k - pick->finest))), pick->finest, k);
+                     (double)(1ull << (4 * (k - pick->finest))), pick->finest, k);
     } else if (pick->finest) {
         pick->k = pick->finest > BST_K_MAX ? BST_K_MAX : pick->finest;
         snprintf(pick->why, sizeof pick->why, "Shirley-Chiu k = %d, the finest tree order among "

@@ -221,7 +221,7 @@ grep -q "k = 5 needs about 0.11[0-9]* GiB (4 dense components of 0.00781 GiB" "$
 expect_status 0 "convert the blind to order 3" -- "$BSDFSTACK" convert -k 3 -o "$tmpdir/b3.xml" "$ref/L_blind0_t4k5.xml"
 expect_status 0 "convert the pane to order 3" -- "$BSDFSTACK" convert -k 3 -o "$tmpdir/g3.xml" "$ref/L_glass_t4k5.xml"
 "$BSDFSTACK" combine -k 4 --no-reduce -o "$tmpdir/s34.xml" "$tmpdir/g3.xml" "$tmpdir/b3.xml" "$tmpdir/g3.xml" 2>"$tmpdir/err"
-grep -q "warning: every layer is a rank-4 tensor tree of order 3 or less: -k 4 gives their order-3 system, each patch's values repeated over its 4 finer patches, in up to 64 times the time; use -k 3, or layers of order 4" "$tmpdir/err" \
+grep -q "warning: every layer is a rank-4 tensor tree of order 3 or less: -k 4 gives their order-3 system, each patch's values repeated over its 4 finer patches, 16 times the values to write; use -k 3, or layers of order 4" "$tmpdir/err" \
     && pass "-k above every tree's order: a warning" || fail "-k above the trees' order: $(cat "$tmpdir/err")"
 expect_status 0 "the same at -k 3" -- "$BSDFSTACK" combine -k 3 --no-reduce -o "$tmpdir/s33.xml" "$tmpdir/g3.xml" "$tmpdir/b3.xml" "$tmpdir/g3.xml"
 ! grep -q "every layer is a rank-4" "$tmpdir/err" && pass "no such warning at the trees' order" || fail "warning at the trees' order: $(cat "$tmpdir/err")"
