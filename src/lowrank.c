@@ -16,6 +16,7 @@
 
 #include "ctx.h"
 #include "lowrank.h"
+#include "mat.h"
 
 /* Two scaling vectors are one when they differ by at most this much of the larger's largest
  * value: products of the same diagonals in another order round differently (a few ulps). */
@@ -511,15 +512,12 @@ int bsti_lr_scale(bst_ctx *ctx, const double *dr, const bsti_lr *f, const double
     if (rc < 0)
         return rc;
     bsti_lr *m = *out;
-    for (size_t x = 0; m->d && x < N; x++)
-        m->d[x] = (dr ? dr[x] : 1.0) * f->d[x] * (dc ? dc[x] : 1.0);
-    for (size_t i = 0; i < f->p; i++)
-        for (size_t x = 0; x < N; x++)
-            m->a[i * N + x] = (dr ? dr[x] : 1.0) * f->a[i * N + x];
-    for (size_t j = 0; j < f->q; j++)
-        for (size_t x = 0; x < N; x++)
-            m->b[j * N + x] = (dc ? dc[x] : 1.0) * f->b[j * N + x];
+    if (f->d)
+        memcpy(m->d, f->d, N * sizeof *m->d);
+    memcpy(m->a, f->a, f->p * N * sizeof *m->a);
+    memcpy(m->b, f->b, f->q * N * sizeof *m->b);
     memcpy(m->k, f->k, f->p * r * f->q * r * sizeof *m->k);
+    bsti_lr_scale_take(dr, m, dc);
     return BST_OK;
 }
 
@@ -581,15 +579,7 @@ int bsti_lr_transpose_take(bsti_lr *f)
         return -1;
     double *t = f->a;
     f->a = f->b, f->b = t;
-    /* a tile and its mirror swapped, as bsti_mat_transpose_in_place */
-    for (size_t jb = 0; jb < n; jb += 32)
-        for (size_t ib = jb; ib < n; ib += 32)
-            for (size_t j = jb; j < jb + 32 && j < n; j++)
-                for (size_t i = ib == jb ? j + 1 : ib; i < ib + 32 && i < n; i++) {
-                    double v = f->k[j * n + i];
-                    f->k[j * n + i] = f->k[i * n + j];
-                    f->k[i * n + j] = v;
-                }
+    bsti_transpose_square(f->k, n, BST_DOUBLE);
     return 0;
 }
 

@@ -118,7 +118,7 @@ int bsti_lr_add(bst_ctx *ctx, double alpha, const bsti_lr *f, double beta, const
                 bsti_lr **out);
 /* *out = diag(dr) F diag(dc) (either NULL: identity). */
 int bsti_lr_scale(bst_ctx *ctx, const double *dr, const bsti_lr *f, const double *dc, bsti_lr **out);
-/* F := diag(dr) F diag(dc) in F's own storage (K untouched): the same bits as bsti_lr_scale. */
+/* F := diag(dr) F diag(dc) in F's own storage (K untouched); bsti_lr_scale is a copy and this. */
 void bsti_lr_scale_take(const double *dr, bsti_lr *f, const double *dc);
 /* The solves with I - F (lowrank_solve.c).  A factorization holds E^-1 = (I - D)^-1 and the LU
  * factors of the capacitance C = I - K H, H = V^T E^-1 U ((p r) x (p r)), of F (side 0) or of F^T

@@ -159,6 +159,8 @@ void bsti_factor_free(bsti_factor *f);
 #define BSTI_TRANSPOSE_TILE 32
 /* m := m^T for a square DENSE m, in its own storage (the values of a transposed copy). */
 void bsti_mat_transpose_in_place(bst_mat *m);
+/* The same for an n x n column-major array of doubles or floats (a factored matrix's K). */
+void bsti_transpose_square(void *values, size_t n, bst_precision prec);
 /* *out = m^T, m consumed: in m's own storage where it can be (a square DENSE m, a FACTORED one with
  * a square K), else a transposed copy and m freed (also on failure). */
 int bsti_mat_transpose_take(bst_ctx *ctx, bst_mat *m, bst_mat **out);

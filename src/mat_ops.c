@@ -63,22 +63,27 @@ int bst_mat_transpose(bst_ctx *ctx, const bst_mat *a, bst_mat **out)
 
 void bsti_mat_transpose_in_place(bst_mat *m)
 {
-    const size_t n = m->rows, B = BSTI_TRANSPOSE_TILE;
+    bsti_transpose_square(m->dense, m->rows, m->prec);
+}
+
+void bsti_transpose_square(void *values, size_t n, bst_precision prec)
+{
+    const size_t B = BSTI_TRANSPOSE_TILE;
     for (size_t jb = 0; jb < n; jb += B) {
         size_t je = jb + B < n ? jb + B : n;
         for (size_t ib = jb; ib < n; ib += B) { /* a tile and its mirror, swapped */
             size_t ie = ib + B < n ? ib + B : n;
             for (size_t j = jb; j < je; j++) {
                 size_t i0 = ib == jb ? j + 1 : ib; /* a diagonal tile: its lower triangle */
-                if (m->prec == BST_DOUBLE) {
-                    double *d = m->dense;
+                if (prec == BST_DOUBLE) {
+                    double *d = values;
                     for (size_t i = i0; i < ie; i++) {
                         double t = d[j * n + i];
                         d[j * n + i] = d[i * n + j];
                         d[i * n + j] = t;
                     }
                 } else {
-                    float *d = m->dense;
+                    float *d = values;
                     for (size_t i = i0; i < ie; i++) {
                         float t = d[j * n + i];
                         d[j * n + i] = d[i * n + j];
