@@ -106,6 +106,65 @@ static int g_text(uint64_t r, int lead, int prec, int negative, char *buf)
     return (int)(s - buf);
 }
 
+#if defined(__GNUC__) && defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+#define HAVE_SWAR_DIGITS 1
+/* The 8 decimal digits of n < 10^8 as byte values 0..9, the most significant at the lowest
+ * address (the word stored little-endian): n's halves of four digits in two 32-bit lanes, each
+ * split into two of two digits and each of those into two digits, every lane at once, by
+ * multiplications with reciprocals that are exact in the lanes' ranges (x / 100 = x 10486 >> 20
+ * for x < 10^4, x / 10 = x 103 >> 10 for x < 100) and masks that keep a lane's quotient from its
+ * neighbour's low bits.  tests/test_numtext.c checks it against division for every n < 10^8. */
+static inline uint64_t digits8(uint32_t n)
+{
+    uint64_t v = (uint64_t)(n / 10000) | (uint64_t)(n % 10000) << 32;
+    uint64_t hundreds = v * 10486 >> 20 & (UINT64_C(0x7f) << 32 | 0x7f);
+    uint64_t pairs2 = (v - 100 * hundreds) << 16 | hundreds; /* 16-bit lanes of two digits */
+    uint64_t tens = pairs2 * 103 >> 10 & UINT64_C(0x000f000f000f000f);
+    return tens | (pairs2 - 10 * tens) << 8;
+}
+
+
+/* g_text for r of exactly p <= 7 digits, not negative, printed without an exponent (-4 <= lead <
+ * p): the digits as one word, the last non-zero one found from the word's non-zero bytes, and the
+ * text stored 8 bytes at a time (16 bytes of room in buf). */
+static int g_text_plain(uint32_t r, int lead, int p, char *buf)
+{
+    uint64_t d = digits8(r) >> 8 * (8 - p); /* the p digits from byte 0, zero bytes above */
+    uint64_t nonzero = (d + UINT64_C(0x7f7f7f7f7f7f7f7f)) & UINT64_C(0x8080808080808080);
+    int n = (63 - __builtin_clzll(nonzero)) / 8 + 1; /* the digits %g keeps (r != 0) */
+    uint64_t text = d | UINT64_C(0x3030303030303030);
+    int len;
+    if (lead < 0) { /* 0.000ddd: the digits after "0." and -lead - 1 zeros */
+        memcpy(buf, "0.000000", 8);
+        memcpy(buf + 1 - lead, &text, 8);
+        len = 1 - lead + n;
+    } else {
+        memcpy(buf, &text, 8);
+        len = lead + 1;
+        if (n > lead + 1) { /* ddd.ddd */
+            uint64_t frac = text >> 8 * (lead + 1);
+            buf[lead + 1] = '.';
+            memcpy(buf + lead + 2, &frac, 8);
+            len = n + 1;
+        }
+    }
+    buf[len] = '\0';
+    return len;
+}
+#endif
+
+int bsti_numtext_digits8(uint32_t n, unsigned char d[8])
+{
+#ifdef HAVE_SWAR_DIGITS
+    uint64_t x = digits8(n);
+    memcpy(d, &x, 8);
+    return 1;
+#else
+    (void)n, (void)d;
+    return 0;
+#endif
+}
+
 /* printf's "%.*g" text of v != 0 with 1 <= p <= 9 significant digits, and in *back the double
  * strtod reads of it; 0 where double arithmetic cannot be sure (then the exact path decides).
  * A reduced tree's values take this way, about three times faster than the fixed-point one and
@@ -137,15 +196,23 @@ static int format_digits_quick(double v, int p, char *buf, double *back)
             lead++;
             continue;
         }
-        double whole = (double)(uint64_t)x, f = x - whole; /* floor (0 < x < 10^9), f exact */
+        /* floor (0 < x < 10^9: the signed conversions, one instruction each way), f exact */
+        int64_t whole = (int64_t)x;
+        double f = x - (double)whole;
         if (fabs(f - 0.5) <= 0x1p-22)
             return 0;
-        uint64_t r = (uint64_t)whole + (f > 0.5);
+        int64_t r = whole + (f > 0.5);
         double val = s >= 0 ? (double)r / pow10_pos[s] : (double)r * pow10_pos[-s];
         *back = negative ? -val : val;
-        if ((double)r >= pow10_pos[p]) /* 9.99996 -> 10.000: one digit up */
+        if ((double)r >= pow10_pos[p]) { /* 9.99996 -> 10.000: one digit up */
             lead++;
-        return g_text(r, lead, p, negative, buf);
+            r /= 10;
+        }
+#ifdef HAVE_SWAR_DIGITS
+        if (p <= 7 && !negative && lead >= -4 && lead < p)
+            return g_text_plain((uint32_t)r, lead, p, buf);
+#endif
+        return g_text((uint64_t)r, lead, p, negative, buf);
     }
     return 0;
 }

@@ -4,11 +4,13 @@
 #define BST_NUMTEXT_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 /* The shortest text of v that reads back (strtof) as the float nearest
  * v, in %g style: at most 15 characters plus the terminator.  digits > 0 prints that many
  * significant digits instead.  Returns the length; *back receives the value a reader stores. */
 int bsti_format_float(double v, int digits, char *buf, float *back);
+/* (buf: at least 16 bytes, which the fast path may store beyond the terminator.) */
 /* The same for doubles (strtod, at most 24 characters plus the terminator). */
 int bsti_format_double(double v, int digits, char *buf, double *back);
 /* The reference the float's text must equal (numtext.c): the fewest "%.*g" digits strtof reads
@@ -21,6 +23,10 @@ int bsti_format_float_general(float f, char *buf);
 /* The reference the double's text must equal: the fewest "%.*g" digits strtod reads back as v
  * (a binary search over printf and strtod; v finite and non-zero). */
 int bsti_format_double_search(double v, char *buf);
+
+/* For tests: the 8 decimal digits of n < 10^8 (most significant first, values 0..9) as the fixed
+ * digits' fast path makes them, and 1; 0 where that path is not built (d untouched). */
+int bsti_numtext_digits8(uint32_t n, unsigned char d[8]);
 
 /* The double strtod reads from the len characters at s (no terminator needed): *v and 1 when the
  * whole text is a decimal number, 0 when it is not (nothing else written to *v).  Plain decimals

@@ -257,6 +257,56 @@ START_TEST(test_fixed_digits)
 }
 END_TEST
 
+/* The fixed digits' fast path (numtext.c, g_text_plain): the eight digits of every n < 10^8 as
+ * division gives them, and printf's text for values printed without an exponent (1e-4 <= v <
+ * 10^p) at 1 to 7 digits: decimals with trailing zeros (0.0125, 1.5, 100), values that round up
+ * to the next power of ten (9.99996 at 5 digits), each power of ten and its neighbours. */
+START_TEST(test_fixed_digits_plain)
+{
+    unsigned char d[8];
+    if (bsti_numtext_digits8(0, d)) {
+        for (uint32_t n = 0; n < 100000000; n++) {
+            bsti_numtext_digits8(n, d);
+            uint32_t m = n;
+            for (int i = 7; i >= 0; i--, m /= 10)
+                if (d[i] != m % 10)
+                    ck_abort_msg("digits of %u: byte %d is %d, want %u", n, i, d[i], m % 10);
+        }
+    }
+    uint64_t x = 0x2545f4914f6cdd1dull;
+    long compared = 0;
+    for (int i = 0; i < 400000; i++) {
+        uint64_t bits = xorshift(&x);
+        int p = 1 + (int)(bits % 7), lead = -4 + (int)((bits >> 8) % (uint64_t)(p + 4));
+        int nd = 1 + (int)((bits >> 16) % (uint64_t)p);
+        double v;
+        if (i % 4 == 0) { /* nd digits, the rest zeros */
+            double r = (double)(pow(10, nd - 1) + (double)((bits >> 24) % (uint64_t)(9 * pow(10, nd - 1))));
+            v = r * pow(10.0, lead - nd + 1);
+        } else if (i % 4 == 1) { /* just below the next power of ten */
+            v = pow(10.0, lead + 1) * (1.0 - (double)((bits >> 24) % 10 + 1) * pow(10.0, -p - 1));
+        } else if (i % 4 == 2) { /* a power of ten, or a neighbour */
+            v = pow(10.0, lead);
+            v = (bits >> 24) % 3 == 0 ? nextafter(v, 0.0) : (bits >> 24) % 3 == 1 ? v : nextafter(v, 1e300);
+        } else {
+            v = pow(10.0, lead) * (1.0 + 9.0 * (double)(bits >> 11 & 0xfffff) / 1048576.0);
+        }
+        char got[40], want[40];
+        double back;
+        float fb;
+        bsti_format_double(v, p, got, &back);
+        snprintf(want, sizeof want, "%.*g", p, v);
+        if (strcmp(got, want) != 0 || back != strtod(want, NULL))
+            ck_abort_msg("double %a, %d digits: %s, want %s", v, p, got, want);
+        bsti_format_float(v, p, got, &fb);
+        if (strcmp(got, want) != 0 || fb != (float)strtod(want, NULL))
+            ck_abort_msg("float path %a, %d digits: %s, want %s", v, p, got, want);
+        compared++;
+    }
+    ck_assert_int_eq(compared, 400000);
+}
+END_TEST
+
 static Suite *suite(void)
 {
     Suite *s = suite_create("numtext");
@@ -270,6 +320,7 @@ static Suite *suite(void)
     tcase_add_test(tc, test_float_vs_search);
     tcase_add_test(tc, test_float_short_vs_general);
     tcase_add_test(tc, test_fixed_digits);
+    tcase_add_test(tc, test_fixed_digits_plain);
     suite_add_tcase(s, tc);
     return s;
 }
