@@ -281,6 +281,20 @@ size_t bst_basis_antipode(const bst_basis *b, size_t patch)
     return bst_basis_patch(b, d);
 }
 
+void bsti_basis_antipode_uv(const bst_basis *b, size_t patch, double *u, double *v)
+{
+    if (b->kind == BST_BASIS_SHIRLEY_CHIU) { /* the concentric map is odd: (1 - s, 1 - t) -> -p */
+        *u = 1.0 - *u;
+        *v = 1.0 - *v;
+        return;
+    }
+    size_t band = 0;
+    while (band + 1 < b->nbands && patch >= b->first[band + 1])
+        band++;
+    if (b->nphi[band] == 1) /* its own antipode (an odd band of more patches has none exactly) */
+        *v = *v < 0.5 ? *v + 0.5 : *v - 0.5;
+}
+
 size_t bsti_basis_mirror_x(const bst_basis *b, size_t patch)
 {
     double d[3];

@@ -41,6 +41,12 @@ struct bst_basis {
  * Patch centres map onto patch centres in both bases (the concentric map and the Klems azimuth
  * grid are symmetric about the Y axis), so the lookup of the mirrored centre is exact. */
 size_t bsti_basis_mirror_x(const bst_basis *b, size_t patch);
+/* Sample coordinates in patch a(patch) (a = bst_basis_antipode) of the point-reflected direction
+ * of bst_basis_sample(b, patch, u, v): (x, y) -> (-x, -y).  Shirley-Chiu (1 - u, 1 - v); Klems
+ * the same (u, v), half a turn on in a band of one patch.  A model that samples a patch's
+ * reversed directions at these coordinates averages reciprocal quantities over exactly reversed
+ * directions (venetian_layer.c). */
+void bsti_basis_antipode_uv(const bst_basis *b, size_t patch, double *u, double *v);
 
 /* Shirley-Chiu concentric map of RADIANCE: disk (x, y), x^2 + y^2 <= 1 -> square [0,1)^2, and back. */
 void bsti_sc_disk_to_square(double x, double y, double *sx, double *sy);

@@ -232,6 +232,25 @@ static int make_points(struct build *B)
     return BST_OK;
 }
 
+/* Quadrature point p of patch i as a layer direction: incident from the exterior or leaving
+ * through the interior opening (back 0, light along +Z) at the point's (u, v); incident from the
+ * interior or leaving through the exterior opening (back 1, along -Z) at the point-reflected
+ * coordinates (bsti_basis_antipode_uv).  So the directions averaged for patch a(i) on one side
+ * are exactly the reverses of those averaged for patch i on the other, and every part that is
+ * reciprocal direction by direction (the unobstructed light, the strips' first arrivals against
+ * their views) is reciprocal patch by patch: Tf(o, i) = Tb(a(i), a(o)), R(o, i) = R(a(i), a(o)).
+ * With the same (u, v) on both sides, the Halton points (not symmetric in a patch) left the
+ * unobstructed light alone 0.2 % of the largest transmission off (k = 4, black slats). */
+static void sample(const struct build *B, size_t i, size_t p, int back, double s[3])
+{
+    double u = B->pts[4 * p], v = B->pts[4 * p + 1];
+    if (back)
+        bsti_basis_antipode_uv(B->b, i, &u, &v);
+    bst_basis_sample(B->b, i, u, v, s);
+    if (back)
+        s[2] = -s[2];
+}
+
 /* One incident patch i from side col->back: its column's entries and first arrivals. */
 static int incident_patch(struct build *B, struct column *col, double *row)
 {
@@ -242,9 +261,7 @@ static int incident_patch(struct build *B, struct column *col, double *row)
     for (size_t p = 0; p < B->np; p++) {
             const double *pt = B->pts + 4 * p;
             double s[3], d[3], f;
-            bst_basis_sample(B->b, i, pt[0], pt[1], s);
-            if (col->back)
-                s[2] = -s[2];
+            sample(B, i, p, col->back, s);
             to_model(B, s, d);
             if (fabs(d[2]) < 1e-300) /* grazing: no flux crosses the blind's plane */
                 continue;
@@ -306,9 +323,7 @@ static int incident_curved(struct build *B, struct column *col)
     for (size_t p = 0; p < B->np; p++) {
         const double *pt = B->pts + 4 * p;
         double s[3], d[3], y0, z0, span, out[5];
-        bst_basis_sample(B->b, i, pt[0], pt[1], s);
-        if (col->back)
-            s[2] = -s[2];
+        sample(B, i, p, col->back, s);
         to_model(B, s, d);
         double r = hypot(d[1], d[2]), u[2] = {d[1] / r, d[2] / r};
         if (fabs(d[2]) < 1e-300)
@@ -390,9 +405,7 @@ static void trace_views(struct build *B)
         for (size_t o = 0; o < B->n; o++)
             for (size_t p = 0; p < B->np; p++) {
                     double s[3], d[3], f;
-                    bst_basis_sample(B->b, o, B->pts[4 * p], B->pts[4 * p + 1], s);
-                    if (!exit)
-                        s[2] = -s[2];
+                    sample(B, o, p, !exit, s);
                     to_model(B, s, d);
                     size_t k = table_pos(d, &f);
                     add_interp(B->see[!exit], B->ne, k, f, wq, B->view[exit] + o * B->ne);

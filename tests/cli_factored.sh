@@ -55,6 +55,13 @@ w_peak=$(awk '/: wrote / { sub(/.*peak RSS /, ""); print $1 + 0 }' "$tmpdir/err"
 awk -v r="$r_peak" -v w="$w_peak" 'BEGIN { exit !(r > 0 && w > r && w - r < 32) }' &&
     pass "peak RSS: read $r_peak MiB, written $w_peak MiB (less than 4 components more)" ||
     fail "peak RSS: read $r_peak MiB, written $w_peak MiB: 4 expanded components or more"
+# the blind samples each patch's reversed directions exactly reversed (venetian_layer.c), so its
+# stack is reciprocal within the writer's 1e-6 and is written as genBSDF writes it: Tb of each
+# channel, no Tf (read back from Tb; before: both, the blind 2e-3 off reciprocity)
+[ "$(grep -c '<WavelengthDataDirection>Transmission Front<' "$tmpdir/v.xml")" = 0 ] &&
+    [ "$(grep -c '<WavelengthDataDirection>Transmission Back<' "$tmpdir/v.xml")" = 2 ] &&
+    pass "the matte blind's stack: Tb written, Tf left to reciprocity" ||
+    fail "the matte blind's stack: Tf written beside Tb ($(grep -c WavelengthDataDirection "$tmpdir/v.xml") blocks)"
 rm -f "$tmpdir/x.xml"
 expect_status 2 "--rank3 foo" -- "$B" combine --rank3 foo -o "$tmpdir/x.xml" glass:clear-6mm "$tmpdir/i3.xml"
 [ "$(wc -l < "$tmpdir/err")" -le 2 ] && grep -q -- "--rank3 foo" "$tmpdir/err" && [ ! -e "$tmpdir/x.xml" ] &&

@@ -134,11 +134,14 @@ START_TEST(test_openness)
     ck_assert_int_eq(bst_venetian_layer(ctx, &v, b, 0, NULL, &l), BST_OK);
     size_t n = bst_basis_size(b);
     double *h = all_hemi(l);
-    for (size_t i = 0; i < n; i++) {
-        double d[3];
+    for (size_t i = 0; i < n; i++) { /* the one point: Halton's first, (1/2, 1/3), from the
+                                         exterior; its point reflection (1/2, 2/3) from the
+                                         interior (venetian_layer.c, sample) */
+        double d[3], e[3];
         bst_basis_sample(b, i, 0.5, 1.0 / 3, d);
-        double phi = atan2(d[1], d[2]);
-        double of = arc_openness(y, z, NPTS, s, phi, 0), ob = arc_openness(y, z, NPTS, s, phi, 1);
+        bst_basis_sample(b, i, 0.5, 2.0 / 3, e);
+        double phi = atan2(d[1], d[2]), phib = atan2(e[1], e[2]);
+        double of = arc_openness(y, z, NPTS, s, phi, 0), ob = arc_openness(y, z, NPTS, s, phib, 1);
         ck_assert_msg(fabs(comp_of(h, n, BST_TF, i) - of) < 1e-9 && fabs(comp_of(h, n, BST_TB, i) - ob) < 1e-9,
                       "%s patch %zu: Tf %.12g Tb %.12g, openness %.12g %.12g", spec, i,
                       comp_of(h, n, BST_TF, i), comp_of(h, n, BST_TB, i), of, ob);
