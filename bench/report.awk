@@ -297,7 +297,8 @@ function factored_table(   r, any) {
         " coarse order's size (bench/README.md, issue #31); `--dense` is the dense rows' path. A matte" \
         " venetian blind made from its geometry (`venetian:width=16mm,spacing=14.5mm,tilt=45,r=0.7,t=0.05`," \
         " issue #32) is its unobstructed light's diagonal plus the slat strips' views times their" \
-        " emissions; its stack's time is nearly all the writing of a 9 GB tree.", "", "")
+        " emissions; its stack's time is nearly all the writing of a 7.7 GB tree (Tb, Rf and Rb a" \
+        " channel: Tf is Tb's reciprocal).", "", "")
     print ""
     thead("| stack | k | precision | wall s | CPU s | read s | combine s | write s | GFLOP | bound | peak MiB | file MB | runs |")
     for (r = 1; r <= n; r++)
