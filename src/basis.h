@@ -42,8 +42,9 @@ struct bst_basis {
  * grid are symmetric about the Y axis), so the lookup of the mirrored centre is exact. */
 size_t bsti_basis_mirror_x(const bst_basis *b, size_t patch);
 /* Sample coordinates in patch a(patch) (a = bst_basis_antipode) of the point-reflected direction
- * of bst_basis_sample(b, patch, u, v): (x, y) -> (-x, -y).  Shirley-Chiu (1 - u, 1 - v); Klems
- * the same (u, v), half a turn on in a band of one patch.  A model that samples a patch's
+ * of bst_basis_sample(b, patch, u, v): (x, y) -> (-x, -y), and, the map being its own inverse,
+ * those in patch of a(patch)'s sample (u, v).  Shirley-Chiu (1 - u, 1 - v); Klems the same
+ * (u, v), half a turn on in a band of one patch.  A model that samples a patch's
  * reversed directions at these coordinates averages reciprocal quantities over exactly reversed
  * directions (venetian_layer.c). */
 void bsti_basis_antipode_uv(const bst_basis *b, size_t patch, double *u, double *v);

@@ -123,7 +123,6 @@ static inline uint64_t digits8(uint32_t n)
     return tens | (pairs2 - 10 * tens) << 8;
 }
 
-
 /* g_text for r of exactly p <= 7 digits, not negative, printed without an exponent (-4 <= lead <
  * p): the digits as one word, the last non-zero one found from the word's non-zero bytes, and the
  * text stored 8 bytes at a time (16 bytes of room in buf). */

@@ -8,10 +8,11 @@
 
 /* The shortest text of v that reads back (strtof) as the float nearest
  * v, in %g style: at most 15 characters plus the terminator.  digits > 0 prints that many
- * significant digits instead.  Returns the length; *back receives the value a reader stores. */
+ * significant digits instead.  Returns the length; *back receives the value a reader stores.
+ * buf: 16 bytes at least, all of which the fixed digits' fast path may store (past the
+ * terminator too). */
 int bsti_format_float(double v, int digits, char *buf, float *back);
-/* (buf: at least 16 bytes, which the fast path may store beyond the terminator.) */
-/* The same for doubles (strtod, at most 24 characters plus the terminator). */
+/* The same for doubles (strtod, at most 24 characters plus the terminator; 32 bytes of room). */
 int bsti_format_double(double v, int digits, char *buf, double *back);
 /* The reference the float's text must equal (numtext.c): the fewest "%.*g" digits strtof reads
  * back as f. */
