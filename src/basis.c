@@ -201,6 +201,15 @@ static size_t klems_band(const bst_basis *b, double theta)
     return i;
 }
 
+/* Band of a Klems patch. */
+static size_t patch_band(const bst_basis *b, size_t patch)
+{
+    size_t band = 0;
+    while (band + 1 < b->nbands && patch >= b->first[band + 1])
+        band++;
+    return band;
+}
+
 size_t bst_basis_patch(const bst_basis *b, const double dir[3])
 {
     double x = dir[0], y = dir[1];
@@ -228,9 +237,7 @@ void bst_basis_sample(const bst_basis *b, size_t patch, double u, double v, doub
         size_t ix = patch / b->g, iy = patch % b->g;
         bsti_sc_square_to_disk(((double)ix + u) / (double)b->g, ((double)iy + v) / (double)b->g, &x, &y);
     } else {
-        size_t band = 0;
-        while (band + 1 < b->nbands && patch >= b->first[band + 1])
-            band++;
+        size_t band = patch_band(b, patch);
         int n = b->nphi[band];
         size_t j = patch - b->first[band];
         double s0 = sin(b->theta[band] * DEG), s1 = sin(b->theta[band + 1] * DEG);
@@ -253,9 +260,7 @@ void bst_basis_center(const bst_basis *b, size_t patch, double dir[3])
     }
     /* Klems: the band's mid polar angle (0 for the first band) and the patch's central azimuth,
      * as Klems files and WINDOW define the patch direction. */
-    size_t band = 0;
-    while (band + 1 < b->nbands && patch >= b->first[band + 1])
-        band++;
+    size_t band = patch_band(b, patch);
     double theta = band == 0 && b->theta[0] == 0.0 && b->nphi[0] == 1
                        ? 0.0 : 0.5 * (b->theta[band] + b->theta[band + 1]);
     double phi = (double)(patch - b->first[band]) * 2.0 * M_PI / b->nphi[band];
@@ -268,9 +273,7 @@ size_t bst_basis_antipode(const bst_basis *b, size_t patch)
 {
     if (b->kind == BST_BASIS_SHIRLEY_CHIU)
         return b->n - 1 - patch; /* (ix, iy) -> (g-1-ix, g-1-iy) */
-    size_t band = 0;
-    while (band + 1 < b->nbands && patch >= b->first[band + 1])
-        band++;
+    size_t band = patch_band(b, patch);
     int n = b->nphi[band];
     if (n % 2 == 0)
         return b->first[band] + (patch - b->first[band] + (size_t)n / 2) % (size_t)n;
@@ -288,9 +291,7 @@ void bsti_basis_antipode_uv(const bst_basis *b, size_t patch, double *u, double 
         *v = 1.0 - *v;
         return;
     }
-    size_t band = 0;
-    while (band + 1 < b->nbands && patch >= b->first[band + 1])
-        band++;
+    size_t band = patch_band(b, patch);
     if (b->nphi[band] == 1) /* its own antipode (an odd band of more patches has none exactly) */
         *v = *v < 0.5 ? *v + 0.5 : *v - 0.5;
 }

@@ -27,6 +27,7 @@
 
 #include <cblas.h>
 
+#include "basis.h"
 #include "ctx.h"
 #include "mat.h"
 #include "venetian.h"
@@ -142,31 +143,36 @@ static size_t table_pos(const double d[3], double *f)
  * reciprocal as its exchange (matte slats, k = 4: 5e-9 of the largest transmission; 9e-7 with
  * views traced over the opening's own positions).  Rough mirror slats trace their arrivals with
  * rough facets and their views without: those keep bsti_vn_view, as do curved slats and a sheet. */
+static void node_dir(size_t k, int side, double *a, double *b)
+{
+    /* the ends are grazing in the profile plane: just inside */
+    double phi = fmin(fmax(((double)k / VN_TABLE - 0.5) * M_PI, -M_PI / 2 + 1e-9), M_PI / 2 - 1e-9);
+    *a = sin(phi), *b = side ? -cos(phi) : cos(phi);
+}
+
 static int make_tables(struct build *B)
 {
     size_t nh = BSTI_VN_DEP + B->ne, nodes = VN_TABLE + 1;
+    int traced = B->g.curved || B->g.sheet || (B->g.rs > 0 && B->v->roughness > 0);
     for (int side = 0; side < 2; side++) {
         B->hit[side] = bsti_alloc_array(B->ctx, nodes * nh, sizeof(double));
         B->see[side] = bsti_alloc_array(B->ctx, nodes * B->ne, sizeof(double));
         if (!B->hit[side] || !B->see[side])
             return BST_ENOMEM;
         for (size_t k = 0; k < nodes; k++) {
-            /* the ends are grazing in the profile plane: just inside */
-            double phi = fmin(fmax(((double)k / VN_TABLE - 0.5) * M_PI, -M_PI / 2 + 1e-9), M_PI / 2 - 1e-9);
-            double a = sin(phi), b = side ? -cos(phi) : cos(phi);
+            double a, b;
+            node_dir(k, side, &a, &b);
             if (!B->g.curved) /* curved slats trace each incident direction (incident_curved) */
                 bsti_vn_hit(&B->g, a, b, B->v->roughness / sqrt(2.0), B->hit[side] + k * nh);
-            if (B->g.curved || B->g.sheet || (B->g.rs > 0 && B->v->roughness > 0))
+            if (traced)
                 bsti_vn_view(&B->g, a, b, B->see[side] + k * B->ne);
         }
     }
-    if (B->g.curved || B->g.sheet || (B->g.rs > 0 && B->v->roughness > 0))
-        return BST_OK;
-    for (int side = 0; side < 2; side++) /* (the nodes' angles are symmetric: k <-> VN_TABLE - k) */
-        for (size_t k = 0; k < nodes; k++) {
-            double phi = fmin(fmax(((double)k / VN_TABLE - 0.5) * M_PI, -M_PI / 2 + 1e-9), M_PI / 2 - 1e-9);
-            double a = sin(phi), b = side ? -cos(phi) : cos(phi);
-            double blocked = 1.0 - bsti_vn_open(&B->g, -a, -b);
+    for (int side = 0; side < 2 && !traced; side++)
+        for (size_t k = 0; k < nodes; k++) { /* the reversed direction: node VN_TABLE - k, other side */
+            double a, b;
+            node_dir(VN_TABLE - k, 1 - side, &a, &b);
+            double blocked = 1.0 - bsti_vn_open(&B->g, a, b);
             const double *h = B->hit[1 - side] + (VN_TABLE - k) * nh + BSTI_VN_DEP;
             for (size_t e = 0; e < B->ne; e++)
                 B->see[side][k * B->ne + e] = blocked * h[e];
