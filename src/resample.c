@@ -332,26 +332,36 @@ static void collect(void *opaque, size_t row, size_t col, double v)
     c->row[c->n] = row, c->col[c->n] = col, c->val[c->n++] = v;
 }
 
+/* P K P^T on the grid of order k, P the prolongation from order d (lowrank.h), with K (4^d x 4^d)
+ * left for the caller to fill in place in *K: no second copy of the coarse matrix is made. */
+static int prolonged(bst_ctx *ctx, int k, int d, bsti_lr **lr, double **K)
+{
+    bsti_lr_map *S = NULL;
+    int rc = bsti_lr_map_prolong(ctx, k, d, &S);
+    if (rc >= 0)
+        rc = bsti_lr_alloc(ctx, S, 1, 1, 0, lr);
+    bsti_lr_map_free(ctx, S); /* the matrix holds its own reference */
+    if (rc < 0)
+        return rc;
+    for (size_t x = 0; x < (*lr)->N; x++)
+        (*lr)->a[x] = (*lr)->b[x] = 1.0;
+    *K = (*lr)->k;
+    return BST_OK;
+}
+
 /* A rank-4 tree of depth d below the grid's order k whose values fill its own order's matrix
  * M_d (or its reciprocal's): exactly P M_d P^T, P the prolongation from d to k (lowrank.h), held
  * factored at the size of its information (issue #31). */
 static int tree_factored(bst_ctx *ctx, const bsti_ttree *t, int k, int recip, int threads,
                          bst_mat **out)
 {
-    int d = t->depth;
-    size_t r = (size_t)1 << (2 * d);
-    double *K = bsti_alloc_array(ctx, r * r, sizeof *K);
-    if (!K)
-        return BST_ENOMEM;
-    bsti_ttree_fill4(t, d, recip, BST_DOUBLE, K, threads);
-    bsti_lr_map *S = NULL;
-    bsti_lr *lr = NULL;
-    int rc = bsti_lr_map_prolong(ctx, k, d, &S);
-    if (rc >= 0)
-        rc = bsti_lr_new(ctx, S, NULL, NULL, K, NULL, &lr);
-    bsti_lr_map_free(ctx, S); /* the matrix holds its own reference */
-    bsti_free(ctx, K);
-    return rc < 0 ? rc : bsti_mat_from_lr(ctx, lr, out);
+    bsti_lr *lr;
+    double *K;
+    int rc = prolonged(ctx, k, t->depth, &lr, &K);
+    if (rc < 0)
+        return rc;
+    bsti_ttree_fill4(t, t->depth, recip, BST_DOUBLE, K, threads);
+    return bsti_mat_from_lr(ctx, lr, out);
 }
 
 /* A rank-3 tree of depth d below the grid's order k, as BST_RANK3_NATIVE asks: expanded at its own
@@ -360,23 +370,18 @@ static int tree_factored(bst_ctx *ctx, const bsti_ttree *t, int k, int recip, in
  * antipode's children, so it commutes with P). */
 static int tree3_factored(bst_ctx *ctx, const bsti_ttree *t, int k, int recip, bst_mat **out)
 {
-    int d = t->depth;
-    size_t r = (size_t)1 << (2 * d);
-    double *K = bsti_alloc_array(ctx, r * r, sizeof *K);
-    if (!K)
-        return BST_ENOMEM;
-    bsti_lr_map *S = NULL;
-    bsti_lr *lr = NULL;
-    int rc = expand3(ctx, t, d, K);
-    if (rc >= 0 && recip)
-        antipode_transpose(K, r);
-    if (rc >= 0)
-        rc = bsti_lr_map_prolong(ctx, k, d, &S);
-    if (rc >= 0)
-        rc = bsti_lr_new(ctx, S, NULL, NULL, K, NULL, &lr);
-    bsti_lr_map_free(ctx, S);
-    bsti_free(ctx, K);
-    return rc < 0 ? rc : bsti_mat_from_lr(ctx, lr, out);
+    bsti_lr *lr;
+    double *K;
+    int rc = prolonged(ctx, k, t->depth, &lr, &K);
+    if (rc < 0)
+        return rc;
+    if ((rc = expand3(ctx, t, t->depth, K)) < 0) {
+        bsti_lr_free(ctx, lr);
+        return rc;
+    }
+    if (recip)
+        antipode_transpose(K, (size_t)1 << (2 * t->depth));
+    return bsti_mat_from_lr(ctx, lr, out);
 }
 
 /* Whether a rank-4 tree goes factored onto order k: coarser than k, and dense at its own order
