@@ -11,6 +11,9 @@
 #ifdef HAVE_SYS_MMAN_H
 #include <sys/mman.h>
 #endif
+#ifdef HAVE_MALLOC_H
+#include <malloc.h>
+#endif
 
 #include <cholmod.h>
 
@@ -79,6 +82,10 @@ bst_ctx *bst_ctx_new(void)
         return NULL;
     ctx->malloc_fn = system_malloc;
     ctx->free_fn = system_free;
+    if (pthread_mutex_init(&ctx->keep_lock, NULL) != 0) {
+        free(ctx);
+        return NULL;
+    }
     return ctx;
 }
 
@@ -90,6 +97,9 @@ void bst_ctx_free(bst_ctx *ctx)
         cholmod_l_finish(ctx->cholmod);
         free(ctx->cholmod);
     }
+    ctx->keep_depth = 1;
+    bsti_keep_end(ctx);
+    pthread_mutex_destroy(&ctx->keep_lock);
     free(ctx);
 }
 
@@ -240,9 +250,86 @@ int bsti_size_mul(size_t a, size_t b, size_t *out)
     return 0;
 }
 
+/* ------------------------------------------------------------------ large blocks kept */
+
+/* The kept blocks freed (the lock held). */
+static void keep_release(bst_ctx *ctx)
+{
+    for (int i = 0; i < ctx->nkept; i++)
+        free(ctx->kept[i]);
+    ctx->nkept = 0;
+}
+
+void bsti_keep_begin(bst_ctx *ctx)
+{
+    pthread_mutex_lock(&ctx->keep_lock);
+    ctx->keep_depth++;
+    pthread_mutex_unlock(&ctx->keep_lock);
+}
+
+void bsti_keep_end(bst_ctx *ctx)
+{
+    pthread_mutex_lock(&ctx->keep_lock);
+    if (ctx->keep_depth > 0 && --ctx->keep_depth == 0)
+        keep_release(ctx);
+    pthread_mutex_unlock(&ctx->keep_lock);
+}
+
+/* A kept block of size to size + size / 8 bytes, or NULL (then none is kept any more). */
+static void *keep_take(bst_ctx *ctx, size_t size)
+{
+#ifdef HAVE_MALLOC_USABLE_SIZE
+    if (size < BSTI_KEEP_MIN || ctx->malloc_fn != system_malloc)
+        return NULL;
+    void *p = NULL;
+    pthread_mutex_lock(&ctx->keep_lock);
+    for (int i = 0; i < ctx->nkept && !p; i++)
+        if (ctx->kept_size[i] >= size && ctx->kept_size[i] - size <= size / 8) {
+            p = ctx->kept[i];
+            ctx->kept[i] = ctx->kept[--ctx->nkept];
+            ctx->kept_size[i] = ctx->kept_size[ctx->nkept];
+        }
+    if (!p)
+        keep_release(ctx);
+    pthread_mutex_unlock(&ctx->keep_lock);
+    return p;
+#else
+    (void)ctx, (void)size;
+    return NULL;
+#endif
+}
+
+/* Whether p (of the system's allocator) is kept instead of freed. */
+static int keep_put(bst_ctx *ctx, void *p)
+{
+#ifdef HAVE_MALLOC_USABLE_SIZE
+    if (ctx->free_fn != system_free)
+        return 0;
+    size_t size = malloc_usable_size(p);
+    if (size < BSTI_KEEP_MIN)
+        return 0;
+    int kept = 0;
+    pthread_mutex_lock(&ctx->keep_lock);
+    if (ctx->keep_depth > 0 && ctx->nkept < (int)(sizeof ctx->kept / sizeof *ctx->kept)) {
+        ctx->kept[ctx->nkept] = p, ctx->kept_size[ctx->nkept++] = size;
+        kept = 1;
+    }
+    pthread_mutex_unlock(&ctx->keep_lock);
+    return kept;
+#else
+    (void)ctx, (void)p;
+    return 0;
+#endif
+}
+
+/* ------------------------------------------------------------------ allocation */
+
 void *bsti_malloc(bst_ctx *ctx, size_t size)
 {
-    void *p = ctx->malloc_fn(size ? size : 1, ctx->alloc_opaque);
+    void *p = keep_take(ctx, size);
+    if (p)
+        return p;
+    p = ctx->malloc_fn(size ? size : 1, ctx->alloc_opaque);
     if (!p)
         bsti_error(ctx, BST_ENOMEM, "out of memory (allocating %zu bytes)", size);
     return p;
@@ -276,8 +363,11 @@ void *bsti_calloc(bst_ctx *ctx, size_t n, size_t size)
     }
     /* the system's calloc: a fresh mapping (a large block) is zero already and is not written
      * here, so its pages are faulted in by their first real use, and those never used (a sparse
-     * factor's zeros) never are */
-    void *p = advise_huge(calloc(total ? total : 1, 1), total);
+     * factor's zeros) never are; a kept block is cleared */
+    void *p = keep_take(ctx, total);
+    if (p)
+        return memset(p, 0, total);
+    p = advise_huge(calloc(total ? total : 1, 1), total);
     if (!p)
         bsti_error(ctx, BST_ENOMEM, "out of memory (allocating %zu bytes)", total);
     return p;
@@ -285,7 +375,7 @@ void *bsti_calloc(bst_ctx *ctx, size_t n, size_t size)
 
 void bsti_free(bst_ctx *ctx, void *p)
 {
-    if (p)
+    if (p && !keep_put(ctx, p))
         ctx->free_fn(p, ctx->alloc_opaque);
 }
 

@@ -5,6 +5,7 @@
 #ifndef BST_CTX_H
 #define BST_CTX_H
 
+#include <pthread.h>
 #include <stdarg.h>
 #include <stddef.h>
 #include "bsdfstack.h"
@@ -24,6 +25,11 @@ struct bst_ctx {
     struct cholmod_common_struct *cholmod; /* started on first use, see bsti_cholmod */
     int threads;            /* bst_ctx_set_threads: 0 = one per CPU */
     double flops;           /* bsti_flops_add's count */
+    /* large freed blocks kept for reuse while keep_depth > 0 (bsti_keep_begin) */
+    pthread_mutex_t keep_lock;
+    int keep_depth, nkept;
+    void *kept[4];
+    size_t kept_size[4];
 };
 
 /* Record status and a printf-style message in ctx and return status (so: return bsti_error(...)). */
@@ -46,6 +52,16 @@ void *bsti_calloc(bst_ctx *ctx, size_t n, size_t size);
 void *bsti_alloc_array(bst_ctx *ctx, size_t n, size_t size);
 void bsti_free(bst_ctx *ctx, void *p);
 char *bsti_strdup(bst_ctx *ctx, const char *s);
+/* Between bsti_keep_begin and its bsti_keep_end (they nest), blocks of the system's allocator of
+ * BSTI_KEEP_MIN bytes or more that are freed are kept (a few) and handed to the next request of
+ * about their size instead of fresh ones: a fresh block's pages are each faulted in and cleared by
+ * the kernel at their first touch, and a k = 7 factored combination makes and drops dozens of
+ * 128 MiB blocks.  A request that finds no kept block of its size releases them all first, so
+ * the memory held never exceeds what the blocks took while they were in use; bsti_keep_end
+ * releases them.  Without malloc_usable_size (or with a custom allocator) nothing is kept. */
+#define BSTI_KEEP_MIN ((size_t)64 << 20)
+void bsti_keep_begin(bst_ctx *ctx);
+void bsti_keep_end(bst_ctx *ctx);
 /* a * b without overflow: 0 and *out set, or -1 on overflow. */
 int bsti_size_mul(size_t a, size_t b, size_t *out);
 

@@ -646,11 +646,9 @@ static int combine_channel(struct combiner *cb, const bst_layer *const *layers, 
     return rc;
 }
 
-int bsti_stack_combine_keep(bst_ctx *ctx, size_t n, const bst_layer *const *layers, bst_layer **take,
-                   const bst_stack_opts *opts_in, bst_layer **out, struct bsti_prefix *keep)
+static int combine_layers(bst_ctx *ctx, size_t n, const bst_layer *const *layers, bst_layer **take,
+                          const bst_stack_opts *opts_in, bst_layer **out, struct bsti_prefix *keep)
 {
-    if (!ctx || !out)
-        return BST_EINVAL;
     *out = NULL;
     if (n == 0 || !layers)
         return bsti_error(ctx, BST_EINVAL, "stack: no layers");
@@ -700,6 +698,17 @@ int bsti_stack_combine_keep(bst_ctx *ctx, size_t n, const bst_layer *const *laye
         return rc;
     }
     *out = res;
+    return rc;
+}
+
+int bsti_stack_combine_keep(bst_ctx *ctx, size_t n, const bst_layer *const *layers, bst_layer **take,
+                   const bst_stack_opts *opts_in, bst_layer **out, struct bsti_prefix *keep)
+{
+    if (!ctx || !out)
+        return BST_EINVAL;
+    bsti_keep_begin(ctx); /* the steps' large blocks reused (ctx.h) */
+    int rc = combine_layers(ctx, n, layers, take, opts_in, out, keep);
+    bsti_keep_end(ctx);
     return rc;
 }
 

@@ -155,6 +155,67 @@ START_TEST(test_huge_pages)
 }
 END_TEST
 
+/* Between bsti_keep_begin and bsti_keep_end a large freed block is handed to the next request of
+ * its size (calloc's cleared), at most four are kept, a request of another size releases them,
+ * and they nest; outside, and with a custom allocator, nothing is kept. */
+START_TEST(test_keep_blocks)
+{
+    bst_ctx *ctx = bst_ctx_new();
+    size_t n = BSTI_KEEP_MIN;
+    unsigned char *p = bsti_malloc(ctx, n);
+    ck_assert_ptr_nonnull(p);
+    bsti_free(ctx, p);
+    ck_assert_int_eq(ctx->nkept, 0); /* not between begin and end */
+#ifdef HAVE_MALLOC_USABLE_SIZE
+    bsti_keep_begin(ctx);
+    bsti_keep_begin(ctx);
+    p = bsti_malloc(ctx, n);
+    ck_assert_ptr_nonnull(p);
+    memset(p, 0xab, n);
+    bsti_free(ctx, p);
+    ck_assert_int_eq(ctx->nkept, 1);
+    unsigned char *q = bsti_malloc(ctx, n);
+    ck_assert_ptr_eq(q, p);
+    ck_assert_int_eq(ctx->nkept, 0);
+    bsti_free(ctx, q);
+    q = bsti_calloc(ctx, n, 1);
+    ck_assert_ptr_eq(q, p);
+    ck_assert_uint_eq(q[0], 0);
+    ck_assert_uint_eq(q[n / 2], 0);
+    ck_assert_uint_eq(q[n - 1], 0);
+    bsti_free(ctx, q);
+    unsigned char *b[5];
+    for (int i = 0; i < 5; i++)
+        ck_assert_ptr_nonnull(b[i] = bsti_malloc(ctx, n + (size_t)i * 4096));
+    for (int i = 0; i < 5; i++)
+        bsti_free(ctx, b[i]);
+    ck_assert_int_eq(ctx->nkept, 4);
+    q = bsti_malloc(ctx, 2 * n); /* no kept block of its size: they are released */
+    ck_assert_ptr_nonnull(q);
+    ck_assert_int_eq(ctx->nkept, 0);
+    bsti_free(ctx, q);
+    ck_assert_int_eq(ctx->nkept, 1);
+    bsti_keep_end(ctx);
+    ck_assert_int_eq(ctx->nkept, 1); /* nested: the outer pair still open */
+    bsti_keep_end(ctx);
+    ck_assert_int_eq(ctx->nkept, 0);
+#endif
+    bst_ctx_free(ctx);
+    /* a custom allocator's blocks are its own */
+    ctx = bst_ctx_new();
+    tu_alloc a = {.fail_at = 0};
+    ck_assert_int_eq(bst_ctx_set_allocator(ctx, tu_alloc_malloc, tu_alloc_free, &a), BST_OK);
+    bsti_keep_begin(ctx);
+    p = bsti_malloc(ctx, n);
+    ck_assert_ptr_nonnull(p);
+    bsti_free(ctx, p);
+    ck_assert_int_eq(ctx->nkept, 0);
+    ck_assert_int_eq(a.live, 0);
+    bsti_keep_end(ctx);
+    bst_ctx_free(ctx);
+}
+END_TEST
+
 static Suite *ctx_suite(void)
 {
     Suite *s = suite_create("ctx");
@@ -165,6 +226,7 @@ static Suite *ctx_suite(void)
     tcase_add_test(tc, test_allocator);
     tcase_add_test(tc, test_size_mul);
     tcase_add_test(tc, test_huge_pages);
+    tcase_add_test(tc, test_keep_blocks);
     suite_add_tcase(s, tc);
     return s;
 }
