@@ -114,7 +114,9 @@ static void vm_flags(uintptr_t a, char *flags, size_t room)
         if (sscanf(line, "%lx-%lx ", &lo, &hi) == 2 && strchr(line, '-') < strchr(line, ' '))
             in = a >= lo && a < hi;
         else if (in && !strncmp(line, "VmFlags:", 8)) {
-            snprintf(flags, room, "%s", line + 8);
+            size_t len = strlen(line + 8) < room ? strlen(line + 8) : room - 1;
+            memcpy(flags, line + 8, len);
+            flags[len] = '\0';
             break;
         }
     }

@@ -406,13 +406,13 @@ static int read_shade(bst_ctx *c, void *path)
 
 START_TEST(test_alloc_failure)
 {
-    char path[2][256]; /* tg_path's buffer is reused */
+    char path[3][256]; /* tg_path's buffer is reused */
     snprintf(path[0], sizeof path[0], "%s", write_glazing("a.json", "coated", "SI", 0));
     snprintf(path[1], sizeof path[1], "%s", write_shade("s.json", "venetian", venetian));
     tg_alloc_sweep("a glazing record", 400, tg_read_pane, path[0]);
     tg_alloc_sweep("a shading record", 400, read_shade, path[1]);
-    tg_alloc_sweep("a v2 glazing record", 400, tg_read_pane,
-                   write_glazing_v2("v2a.json", "COATED", ""));
+    snprintf(path[2], sizeof path[2], "%s", write_glazing_v2("v2a.json", "COATED", ""));
+    tg_alloc_sweep("a v2 glazing record", 400, tg_read_pane, path[2]);
 }
 END_TEST
 

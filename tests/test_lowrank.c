@@ -739,8 +739,8 @@ START_TEST(test_sparse_join)
                 continue; /* a mirror and one value beside it */
             if (_i == 1 && i == S->N - 1 && ci == r - 1 - cj)
                 continue;
-            row[nnz] = i, col[nnz] = j;
-            val[nnz++] = 0.05 + 0.01 * (double)cj / (double)r + (_i == 2 && nnz == 7 ? 1e-9 : 0.0);
+            val[nnz] = 0.05 + 0.01 * (double)cj / (double)r + (_i == 2 && nnz == 7 ? 1e-9 : 0.0);
+            row[nnz] = i, col[nnz++] = j;
         }
     bst_mat *sp, *f, *x, *want;
     ck_assert_int_eq(bst_mat_new_sparse(ctx, N, N, nnz, row, col, val, &sp), BST_OK);
