@@ -12,6 +12,7 @@
 #include "ctx.h"
 #include "layer.h"
 #include "mat.h"
+#include "write_bound.h"
 
 /* The arguments both entry points share. */
 static int check_args(bst_ctx *ctx, const bst_layer *a, const bst_layer *b, size_t ch, bst_comp c)
@@ -237,6 +238,8 @@ struct recip {
     size_t n;
     double w[RECIP_CHUNKS], s[RECIP_CHUNKS];
     size_t bi[RECIP_CHUNKS], bo[RECIP_CHUNKS];
+    bsti_tsums *sums; /* NULL, or the transmissions' sums made on the way (recip_factored) */
+    double *bcol;     /* then Tb's column sums of each chunk, RECIP_CHUNKS x n */
 };
 
 static int recip_col(void *opaque, size_t q, size_t i, const double *xc, const double *yr)
@@ -251,6 +254,17 @@ static int recip_col(void *opaque, size_t q, size_t i, const double *xc, const d
             w = d, r->bi[q] = i, r->bo[q] = o;
     }
     r->w[q] = w, r->s[q] = s;
+    if (r->sums) { /* Tf's column i, Tb's row a(i) (yr), and Tb's columns' share of that row */
+        double *bcol = r->bcol + q * r->n, fc = 0.0, br = 0.0;
+        for (size_t o = 0; o < r->n; o++) {
+            double x = xc[o] > 0.0 ? xc[o] : 0.0, y = yr[o] > 0.0 ? yr[o] : 0.0;
+            fc += x;
+            br += y;
+            bcol[o] += y;
+        }
+        r->sums->tf_col[i] = fc;
+        r->sums->tb_row[a[i]] = br;
+    }
     return 0;
 }
 
@@ -259,11 +273,14 @@ static int recip_col(void *opaque, size_t q, size_t i, const double *xc, const d
  * the chunks' results taken in their order (the same result whatever the number of threads, and
  * the first of equal ones, as line by line). */
 static int recip_factored(bst_ctx *ctx, const bst_mat *tf, const bst_mat *tb, const size_t *a,
-                          size_t n, double *worst, double *scale, size_t *wi, size_t *wo)
+                          size_t n, double *worst, double *scale, size_t *wi, size_t *wo,
+                          bsti_tsums *sums)
 {
     bst_mat *tt = NULL;
     bsti_cols *cf = NULL, *cb = NULL;
-    struct recip r = {a, n, {0}, {0}, {0}, {0}};
+    struct recip r = {a, n, {0}, {0}, {0}, {0}, sums, NULL};
+    if (sums && !(r.bcol = bsti_calloc(ctx, RECIP_CHUNKS * n, sizeof *r.bcol)))
+        return BST_ENOMEM;
     int rc = bst_mat_transpose(ctx, tb, &tt);
     if (rc >= 0)
         rc = bsti_cols_new(ctx, tf, n, &cf);
@@ -278,6 +295,15 @@ static int recip_factored(bst_ctx *ctx, const bst_mat *tf, const bst_mat *tb, co
         if (r.w[q] > w)
             w = r.w[q], bi = r.bi[q], bo = r.bo[q];
     }
+    for (size_t o = 0; rc >= 0 && sums && o < n; o++) { /* the chunks' column sums in order */
+        double c = 0.0;
+        for (size_t q = 0; q < RECIP_CHUNKS; q++)
+            c += r.bcol[q * n + o];
+        sums->tb_col[o] = c;
+    }
+    if (sums)
+        sums->have = rc >= 0;
+    bsti_free(ctx, r.bcol);
     bsti_cols_free(cf), bsti_cols_free(cb);
     bst_mat_free(tt);
     *worst = w, *scale = s, *wi = bi, *wo = bo;
@@ -289,10 +315,11 @@ static int recip_factored(bst_ctx *ctx, const bst_mat *tf, const bst_mat *tb, co
  * (lines()), and *scale the largest |value| of either (every value of both is read once).  Values
  * are finite (checked before). */
 static int recip_lines(bst_ctx *ctx, const bst_mat *tf, const bst_mat *tb, const size_t *a,
-                       size_t n, double *worst, double *scale, size_t *wi, size_t *wo)
+                       size_t n, double *worst, double *scale, size_t *wi, size_t *wo,
+                       bsti_tsums *sums)
 {
     if (tf && tb && tf->s == BST_FACTORED && tb->s == BST_FACTORED)
-        return recip_factored(ctx, tf, tb, a, n, worst, scale, wi, wo);
+        return recip_factored(ctx, tf, tb, a, n, worst, scale, wi, wo, sums);
     struct lines lf, lb;
     int rc = lines_open(ctx, tf, 0, n, &lf);
     if (rc >= 0 && (rc = lines_open(ctx, tb, 1, n, &lb)) < 0)
@@ -305,7 +332,7 @@ static int recip_lines(bst_ctx *ctx, const bst_mat *tf, const bst_mat *tb, const
         lines_close(&lf), lines_close(&lb);
         return BST_ENOMEM;
     }
-    struct recip r = {a, n, {0}, {0}, {0}, {0}};
+    struct recip r = {a, n, {0}, {0}, {0}, {0}, NULL, NULL};
     for (size_t i0 = 0; i0 < n; i0 += nb) {
         size_t k = n - i0 < nb ? n - i0 : nb;
         lines_get(&lf, NULL, i0, k, n, x); /* Tf's columns i, Tb's rows a(i) */
@@ -326,8 +353,8 @@ static int recip_lines(bst_ctx *ctx, const bst_mat *tf, const bst_mat *tb, const
  * So Tf(o, i) = Tb(a(i), a(o)).  No Lambda weights enter: both are BSDF values over one basis and
  * a patch and its antipode have the same projected solid angle (the flux form
  * Lambda_o Lambda_i Tf(o, i) = Lambda_a(i) Lambda_a(o) Tb(a(i), a(o)) is the same relation). */
-int bst_metrics_reciprocity(bst_ctx *ctx, const bst_layer *l, size_t ch, double *err,
-                            size_t *incident, size_t *outgoing)
+static int reciprocity(bst_ctx *ctx, const bst_layer *l, size_t ch, double *err, size_t *incident,
+                       size_t *outgoing, bsti_tsums *sums)
 {
     if (!ctx || !l || !err)
         return ctx ? bsti_error(ctx, BST_EINVAL, "reciprocity: NULL argument") : BST_EINVAL;
@@ -369,7 +396,7 @@ int bst_metrics_reciprocity(bst_ctx *ctx, const bst_layer *l, size_t ch, double 
         for (size_t p = 0; p < n && one_to_one; p++)
             one_to_one = a[a[p]] == p;
         if (one_to_one)
-            rc = recip_lines(ctx, tf, tb, a, n, &worst, &scale, &wi, &wo);
+            rc = recip_lines(ctx, tf, tb, a, n, &worst, &scale, &wi, &wo, sums);
         bsti_free(ctx, a);
         if (rc < 0)
             return rc;
@@ -399,4 +426,17 @@ done:
     if (outgoing)
         *outgoing = wo;
     return BST_OK;
+}
+
+int bst_metrics_reciprocity(bst_ctx *ctx, const bst_layer *l, size_t ch, double *err,
+                            size_t *incident, size_t *outgoing)
+{
+    return reciprocity(ctx, l, ch, err, incident, outgoing, NULL);
+}
+
+int bsti_reciprocity_sums(bst_ctx *ctx, const bst_layer *l, size_t ch, double *err, bsti_tsums *s)
+{
+    if (s)
+        s->have = 0;
+    return reciprocity(ctx, l, ch, err, NULL, NULL, s);
 }

@@ -151,7 +151,7 @@ void bsti_bounds_free(bst_ctx *ctx, bsti_bounds *b)
 }
 
 int bsti_bounds_layer(bst_ctx *ctx, const bst_layer *l, double tol, double rho, int *omit_tf,
-                      bsti_bounds *b)
+                      const bsti_tsums *pre, bsti_bounds *b)
 {
     size_t nch = bst_layer_nchannels(l), n = bst_basis_size(bst_layer_basis(l));
     double lam = M_PI / (double)n; /* Shirley-Chiu: every patch pi / N */
@@ -163,10 +163,17 @@ int bsti_bounds_layer(bst_ctx *ctx, const bst_layer *l, double tol, double rho, 
     for (size_t ch = 0; rc >= 0 && ch < nch; ch++) {
         const double *hc[BST_NCOMP];
         double *tb_rows = h + BST_NCOMP * n;
+        const bsti_tsums *p = pre && pre[ch].have ? &pre[ch] : NULL;
         for (int c = 0; c < BST_NCOMP; c++) {
             const bst_mat *m = bst_layer_get(l, ch, (bst_comp)c);
-            if (rc >= 0)
+            if (p && c == BST_TF) {
+                memcpy(h + c * n, p->tf_col, n * sizeof *h);
+            } else if (p && c == BST_TB) {
+                memcpy(h + c * n, p->tb_col, n * sizeof *h);
+                memcpy(tb_rows, p->tb_row, n * sizeof *h);
+            } else if (rc >= 0) {
                 rc = sums(ctx, m, n, n, h + c * n, c == BST_TB && omit_tf[ch] ? tb_rows : NULL);
+            }
             for (size_t i = 0; i < n; i++)
                 h[c * n + i] *= lam;
             hc[c] = m ? h + c * n : NULL;
@@ -283,7 +290,7 @@ void bsti_bounds_rings(int k, const double *col, double *ring)
 }
 
 int bsti_bounds_write(bst_ctx *ctx, const bst_layer *l, const bst_varres *v, double tol,
-                      double rho, int *omit, bsti_bounds *b)
+                      double rho, int *omit, const bsti_tsums *pre, bsti_bounds *b)
 {
     if (v)
         return bsti_bounds_varres(ctx, l, v, tol, rho, b);
@@ -293,7 +300,7 @@ int bsti_bounds_write(bst_ctx *ctx, const bst_layer *l, const bst_varres *v, dou
         return BST_ENOMEM;
     for (size_t ch = 0; ch < nch; ch++)
         omit_tf[ch] = omit[ch * BST_NCOMP + BST_TF] == 1;
-    int rc = bsti_bounds_layer(ctx, l, tol, rho, omit_tf, b);
+    int rc = bsti_bounds_layer(ctx, l, tol, rho, omit_tf, pre, b);
     for (size_t ch = 0; rc >= 0 && ch < nch; ch++)
         if (omit[ch * BST_NCOMP + BST_TF] == 1 && !omit_tf[ch])
             omit[ch * BST_NCOMP + BST_TF] = 0;

@@ -28,12 +28,26 @@ typedef struct {
     double *row;            /* nch * n: Tb's rows where Tf is left out (else unused) */
 } bsti_bounds;
 
+/* A channel's transmission sums, negatives read as 0 (as a tree reader stores them): Tf's column
+ * sums, Tb's column sums and row sums, n each; made by the reciprocity check on its way where
+ * both transmissions are FACTORED (have = 1; bsti_reciprocity_sums), which saves the bound an
+ * expansion of each. */
+typedef struct {
+    double *tf_col, *tb_col, *tb_row;
+    int have;
+} bsti_tsums;
+
+/* bst_metrics_reciprocity's err of channel ch, and with s (room for its three sums of n values)
+ * the sums where both transmissions are FACTORED (metrics.c). */
+int bsti_reciprocity_sums(bst_ctx *ctx, const bst_layer *l, size_t ch, double *err, bsti_tsums *s);
+
 /* Budgets of every component of layer l (Shirley-Chiu) under tolerance tol >= 0, values written
- * with relative rounding at most rho (bsti_bounds_rho).  omit_tf:
+ * with relative rounding at most rho (bsti_bounds_rho); pre (NULL, or one a channel): sums made
+ * already.  omit_tf:
  * per channel, 1 where Tf is to be left out as Tb's reciprocal; set to 0 here where reciprocity
  * alone would break the promise.  Free with bsti_bounds_free. */
 int bsti_bounds_layer(bst_ctx *ctx, const bst_layer *l, double tol, double rho, int *omit_tf,
-                      bsti_bounds *b);
+                      const bsti_tsums *pre, bsti_bounds *b);
 
 /* The same for a variable-resolution file (bst_bsdf_write_varres): Tf and Rf at the fine order
  * v->k (the fine columns at their patches, the coarse values elsewhere; b->n = 4^k), Tb and Rb
@@ -49,7 +63,7 @@ double bsti_bounds_rho(int digits);
  * (omit: nch BST_NCOMP, channel ch's component c at ch BST_NCOMP + c, 1 where it is left out as
  * the other side's reciprocal; a Tf that must be written after all is set to 0 there). */
 int bsti_bounds_write(bst_ctx *ctx, const bst_layer *l, const bst_varres *v, double tol,
-                      double rho, int *omit, bsti_bounds *b);
+                      double rho, int *omit, const bsti_tsums *pre, bsti_bounds *b);
 
 void bsti_bounds_free(bst_ctx *ctx, bsti_bounds *b);
 

@@ -69,6 +69,7 @@ struct xw {
     int digits;             /* o->digits, BST_DIGITS_AUTO resolved */
     double *ring;           /* rank 3: G/2 budgets */
     double *full;           /* a FACTORED component's values, n x n (factored_values) */
+    bsti_tsums *tsums;      /* nch: transmissions' sums from the reciprocity check (or NULL) */
 };
 
 /* ------------------------------------------------------------------ matrix access */
@@ -258,7 +259,7 @@ static int bounds(struct xw *w)
     if (w->kind == BST_FILE_TT3 && !(w->ring = bsti_alloc_array(w->ctx, G / 2, sizeof *w->ring)))
         return BST_ENOMEM;
     return bsti_bounds_write(w->ctx, w->l, w->v, w->o->reduce_tol, bsti_bounds_rho(w->digits),
-                             w->omit, &w->bounds);
+                             w->omit, w->tsums, &w->bounds);
 }
 
 /* ------------------------------------------------------------------ the pieces of the file */
@@ -618,10 +619,18 @@ static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst
                 free_t3(&w);
         }
         int may_omit = w.kind == BST_FILE_TT4 && opts->recip_tol >= 0.0 && !v;
+        /* the check's reading of both transmissions gives the bound their sums (bsti_tsums) */
+        if (rc >= 0 && may_omit && !(w.tsums = bsti_calloc(ctx, w.nch, sizeof *w.tsums)))
+            rc = BST_ENOMEM;
         for (size_t ch = 0; rc >= 0 && may_omit && ch < w.nch; ch++) {
             double err = INFINITY; /* Tf(o, i) = Tb(a(i), a(o)) within recip_tol max|T|? */
-            if (bst_layer_get(l, ch, BST_TB) && bst_layer_get(l, ch, BST_TF))
-                rc = bst_metrics_reciprocity(ctx, l, ch, &err, NULL, NULL);
+            bsti_tsums *ts = &w.tsums[ch];
+            if (!(ts->tf_col = bsti_alloc_array(ctx, 3 * w.n, sizeof *ts->tf_col)))
+                rc = BST_ENOMEM;
+            else
+                ts->tb_col = ts->tf_col + w.n, ts->tb_row = ts->tb_col + w.n;
+            if (rc >= 0 && bst_layer_get(l, ch, BST_TB) && bst_layer_get(l, ch, BST_TF))
+                rc = bsti_reciprocity_sums(ctx, l, ch, &err, ts);
             if (rc >= 0 && err <= opts->recip_tol)
                 w.omit[ch * BST_NCOMP + BST_TF] = 1; /* keep Transmission Back, as genBSDF */
         }
@@ -654,6 +663,9 @@ static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst
     bsti_bounds_free(ctx, &w.bounds);
     bsti_free(ctx, w.ring);
     bsti_free(ctx, w.full);
+    for (size_t ch = 0; w.tsums && ch < w.nch; ch++)
+        bsti_free(ctx, w.tsums[ch].tf_col);
+    bsti_free(ctx, w.tsums);
     bsti_free(ctx, w.omit);
     bsti_free(ctx, w.hemi);
     if (rc == BST_EIO)

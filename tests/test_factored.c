@@ -14,6 +14,7 @@
 
 #include "mat.h"
 #include "testutil.h"
+#include "write_bound.h"
 
 static bst_ctx *ctx;
 static char coarse3[64], coarse4[64]; /* blind0 at depth 3, blind45 at depth 4 */
@@ -584,6 +585,28 @@ START_TEST(test_wide_result)
     ck_assert_int_eq(bst_metrics_reciprocity(ctx, sys, 0, &ef, &fi, &fo), BST_OK);
     ck_assert_int_eq(bst_metrics_reciprocity(ctx, exp, 0, &ed, &di, &dout), BST_OK);
     ck_assert_msg(ef == ed && fi == di && fo == dout && ef > 0, "reciprocity %.17g vs %.17g", ef, ed);
+    /* the check's sums of the factored transmissions (the writer's bound takes them) are the
+     * expanded matrices' sums, negatives read as 0; none are made from dense ones */
+    double *ts = malloc(3 * N * sizeof *ts), es;
+    bsti_tsums sums = {ts, ts + N, ts + 2 * N, 0};
+    ck_assert_int_eq(bsti_reciprocity_sums(ctx, exp, 0, &es, &sums), BST_OK);
+    ck_assert(es == ed && !sums.have);
+    ck_assert_int_eq(bsti_reciprocity_sums(ctx, sys, 0, &es, &sums), BST_OK);
+    ck_assert(es == ef && sums.have);
+    const bst_mat *tf = bst_layer_get(exp, 0, BST_TF), *tb = bst_layer_get(exp, 0, BST_TB);
+    for (size_t j = 0; j < N; j++) {
+        double want[3] = {0.0, 0.0, 0.0}; /* Tf's column j, Tb's column j, Tb's row j */
+        for (size_t o = 0; o < N; o++) {
+            want[0] += fmax(bsti_mat_at(tf, o, j), 0.0);
+            want[1] += fmax(bsti_mat_at(tb, o, j), 0.0);
+            want[2] += fmax(bsti_mat_at(tb, j, o), 0.0);
+        }
+        const double got[3] = {sums.tf_col[j], sums.tb_col[j], sums.tb_row[j]};
+        for (int t = 0; t < 3; t++)
+            ck_assert_msg(fabs(got[t] - want[t]) <= 1e-12 * fmax(1.0, want[t]),
+                          "sum %d of line %zu: %.17g vs %.17g", t, j, got[t], want[t]);
+    }
+    free(ts);
     for (int reduce = 0; reduce < 2; reduce++)
         for (int recip = 0; recip < 2; recip++) {
             bst_bsdf_write_opts o;
