@@ -75,6 +75,8 @@ const char *bst_strerror(int status)
     }
 }
 
+static void keep_release(bst_ctx *ctx);
+
 bst_ctx *bst_ctx_new(void)
 {
     bst_ctx *ctx = calloc(1, sizeof *ctx);
@@ -97,8 +99,7 @@ void bst_ctx_free(bst_ctx *ctx)
         cholmod_l_finish(ctx->cholmod);
         free(ctx->cholmod);
     }
-    ctx->keep_depth = 1;
-    bsti_keep_end(ctx);
+    keep_release(ctx);
     pthread_mutex_destroy(&ctx->keep_lock);
     free(ctx);
 }
@@ -252,7 +253,7 @@ int bsti_size_mul(size_t a, size_t b, size_t *out)
 
 /* ------------------------------------------------------------------ large blocks kept */
 
-/* The kept blocks freed (the lock held). */
+/* The kept blocks freed (the lock held, or the context going). */
 static void keep_release(bst_ctx *ctx)
 {
     for (int i = 0; i < ctx->nkept; i++)
@@ -310,7 +311,7 @@ static int keep_put(bst_ctx *ctx, void *p)
         return 0;
     int kept = 0;
     pthread_mutex_lock(&ctx->keep_lock);
-    if (ctx->keep_depth > 0 && ctx->nkept < (int)(sizeof ctx->kept / sizeof *ctx->kept)) {
+    if (ctx->keep_depth > 0 && ctx->nkept < BSTI_KEEP_SLOTS) {
         ctx->kept[ctx->nkept] = p, ctx->kept_size[ctx->nkept++] = size;
         kept = 1;
     }

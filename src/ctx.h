@@ -14,6 +14,9 @@
 
 struct cholmod_common_struct;
 
+/* How many freed large blocks a context keeps at most (bsti_keep_begin). */
+#define BSTI_KEEP_SLOTS 4
+
 struct bst_ctx {
     int status;
     char msg[BSTI_MSG_MAX];
@@ -28,8 +31,8 @@ struct bst_ctx {
     /* large freed blocks kept for reuse while keep_depth > 0 (bsti_keep_begin) */
     pthread_mutex_t keep_lock;
     int keep_depth, nkept;
-    void *kept[4];
-    size_t kept_size[4];
+    void *kept[BSTI_KEEP_SLOTS];
+    size_t kept_size[BSTI_KEEP_SLOTS];
 };
 
 /* Record status and a printf-style message in ctx and return status (so: return bsti_error(...)). */
@@ -53,7 +56,7 @@ void *bsti_alloc_array(bst_ctx *ctx, size_t n, size_t size);
 void bsti_free(bst_ctx *ctx, void *p);
 char *bsti_strdup(bst_ctx *ctx, const char *s);
 /* Between bsti_keep_begin and its bsti_keep_end (they nest), blocks of the system's allocator of
- * BSTI_KEEP_MIN bytes or more that are freed are kept (a few) and handed to the next request of
+ * BSTI_KEEP_MIN bytes or more that are freed are kept (BSTI_KEEP_SLOTS) and handed to the next request of
  * about their size instead of fresh ones: a fresh block's pages are each faulted in and cleared by
  * the kernel at their first touch, and a k = 7 factored combination makes and drops dozens of
  * 128 MiB blocks.  A request that finds no kept block of its size releases them all first, so

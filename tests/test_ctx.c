@@ -158,8 +158,8 @@ START_TEST(test_huge_pages)
 END_TEST
 
 /* Between bsti_keep_begin and bsti_keep_end a large freed block is handed to the next request of
- * its size (calloc's cleared), at most four are kept, a request of another size releases them,
- * and they nest; outside, and with a custom allocator, nothing is kept. */
+ * its size (calloc's cleared), at most BSTI_KEEP_SLOTS are kept, a request of another size
+ * releases them, and they nest; outside, and with a custom allocator, nothing is kept. */
 START_TEST(test_keep_blocks)
 {
     bst_ctx *ctx = bst_ctx_new();
@@ -186,12 +186,12 @@ START_TEST(test_keep_blocks)
     ck_assert_uint_eq(q[n / 2], 0);
     ck_assert_uint_eq(q[n - 1], 0);
     bsti_free(ctx, q);
-    unsigned char *b[5];
-    for (int i = 0; i < 5; i++)
+    unsigned char *b[BSTI_KEEP_SLOTS + 1];
+    for (int i = 0; i <= BSTI_KEEP_SLOTS; i++)
         ck_assert_ptr_nonnull(b[i] = bsti_malloc(ctx, n + (size_t)i * 4096));
-    for (int i = 0; i < 5; i++)
+    for (int i = 0; i <= BSTI_KEEP_SLOTS; i++)
         bsti_free(ctx, b[i]);
-    ck_assert_int_eq(ctx->nkept, 4);
+    ck_assert_int_eq(ctx->nkept, BSTI_KEEP_SLOTS);
     q = bsti_malloc(ctx, 2 * n); /* no kept block of its size: they are released */
     ck_assert_ptr_nonnull(q);
     ck_assert_int_eq(ctx->nkept, 0);
