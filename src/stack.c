@@ -21,8 +21,8 @@
  * right-hand side its solution), so that a step with a dense partial system peaks at that system
  * and three N x N matrices (bench/README.md, the memory guard's model).  When both members of a pair
  * (Tf, Rb) or (Rf, Tb) are needed, one factorization serves both through W = T2 (I - A)^-1 (a right
- * solve), or, when T2 is diagonal (a pane), through two left solves scaled by T2 (W's products
- * would be dense); when one is needed, a left solve with its own right-hand side is cheaper.  The
+ * solve), or, when T2 is a pane's (diagonal, or a sparse tree: cheap_transmission), through two
+ * left solves multiplied by T2 (W's products would be dense); when one is needed, a left solve with its own right-hand side is cheaper.  The
  * absorptance rides on the combination (absorptance.c: the combination keeps what it needs). */
 #include <config.h>
 
@@ -386,6 +386,20 @@ static void form(struct combiner *cb, struct part *s, bst_comp c, double t0, str
  * diagonal pane), so that V's dense matrices are never copied just to be scaled.  Where a formula
  * nests, the innermost product is formed first and each factor goes as soon as it has been read. */
 
+/* Whether a product with the gap's transmission t costs far less than GEMM: a diagonal (a pane),
+ * or a sparse matrix of at most 1/16 of its values (a pane's tree file: its diagonal, a few values
+ * more).  Then a pair of components is cheaper from two left solves (4 N^3 flops besides the LU)
+ * and two products with t (4 nnz N, at a sparse product's speed, some 8 times slower a flop than
+ * GEMM's: below 2 N^3 at that share) than from W = t (I - A)^-1, whose right solve and products
+ * with two dense right-hand sides cost 6 N^3. */
+#define CHEAP_SHARE (1.0 / 16.0)
+static int cheap_transmission(const bst_mat *t)
+{
+    bst_structure s = bst_mat_structure(t);
+    return t && (s == BST_DIAG || (s == BST_SPARSE && (double)bst_mat_nnz(t) <=
+                                       CHEAP_SHARE * (double)bst_mat_rows(t) * (double)bst_mat_cols(t)));
+}
+
 /* L Tf1, for one of the reads of U's Tf that count_uses counted. */
 static struct term lam_tf1(struct combiner *cb, struct part *u)
 {
@@ -404,8 +418,9 @@ static struct term reflected_outwards(struct combiner *cb, struct part *v, struc
  *   Tf = Tf2 (I - A1)^-1 L Tf1,   Rb = Rb2 + Tf2 (I - A1)^-1 (L Rb1 L) Tb2.
  * One of them: a left solve with its own right-hand side.  Both: W = Tf2 (I - A1)^-1 serves the
  * two, and Rb goes first, so that its temporaries beside W are gone before Tf exists; but when Tf2
- * is diagonal (a pane), two left solves with one factorization, each then scaled by Tf2, save W's
- * dense products (2 N^3 flops each): X1 = (I - A1)^-1 L Tf1, X2 = (I - A1)^-1 (L Rb1 L) Tb2. */
+ * is a pane's (cheap_transmission), two left solves with one factorization, each then multiplied
+ * by Tf2, save W's dense products (2 N^3 flops each): X1 = (I - A1)^-1 L Tf1,
+ * X2 = (I - A1)^-1 (L Rb1 L) Tb2. */
 static void inward(struct combiner *cb, struct part *u, struct part *v, unsigned want,
                    struct part *s)
 {
@@ -421,7 +436,7 @@ static void inward(struct combiner *cb, struct part *u, struct part *v, unsigned
     } else if (want == BIT(BST_RB)) {
         struct term x = solve(cb, LEFT, a1, mul(cb, llrb1, use(v, BST_TB)), what, slot);
         form(cb, s, BST_RB, t0, add(cb, use(v, BST_RB), mul(cb, use(v, BST_TF), x)));
-    } else if (v->m[BST_TF] && bst_mat_structure(v->m[BST_TF]) == BST_DIAG) {
+    } else if (cheap_transmission(v->m[BST_TF])) {
         struct term x2, x1 = solve2(cb, a1, lam_tf1(cb, u),
                                     mul(cb, llrb1, use(v, BST_TB)), what, slot, &x2);
         struct term tf2 = use(v, BST_TF);
@@ -439,8 +454,8 @@ static void inward(struct combiner *cb, struct part *u, struct part *v, unsigned
 
 /* Light travelling outwards in the gap, A2 = L Rf2 L Rb1 = L (Rf2 (L Rb1)):
  *   Tb = Tb1 (I - A2)^-1 L Tb2,   Rf = Rf1 + Tb1 (I - A2)^-1 L Rf2 L Tf1.
- * Both: W = Tb1 (I - A2)^-1 serves the two, or, when Tb1 is diagonal, two left solves with one
- * factorization (as inward).  One of them: a left solve with its own right-hand side. */
+ * Both: W = Tb1 (I - A2)^-1 serves the two, or, when Tb1 is a pane's (cheap_transmission), two
+ * left solves with one factorization (as inward).  One of them: a left solve with its own right-hand side. */
 static void outward(struct combiner *cb, struct part *u, struct part *v, unsigned want,
                     struct part *s)
 {
@@ -449,7 +464,7 @@ static void outward(struct combiner *cb, struct part *u, struct part *v, unsigne
     double t0 = now_seconds();
     cb->flops_mark = cb->ctx->flops;
     struct term a2 = reflected_outwards(cb, v, u, BST_RB);
-    if (want == OUTWARD && u->m[BST_TB] && bst_mat_structure(u->m[BST_TB]) == BST_DIAG) {
+    if (want == OUTWARD && cheap_transmission(u->m[BST_TB])) {
         struct term x2, x1 = solve2(cb, a2, lam_times(cb, use(v, BST_TB)),
                                     reflected_outwards(cb, v, u, BST_TF), what, slot, &x2);
         struct term tb1 = use(u, BST_TB);

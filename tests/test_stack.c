@@ -102,7 +102,7 @@ START_TEST(test_panes_closed_form)
 END_TEST
 
 /* A random scattering layer over basis b.  Structure per component: 0 diagonal, 1 sparse
- * (a few lobes per column), 2 dense.  Without absorption (absorb = 0) every incident patch's
+ * (a few lobes per column), 2 dense, 3 a diagonal stored sparse (a pane's tree file).  Without absorption (absorb = 0) every incident patch's
  * hemispherical T + R is exactly 1 on both sides; otherwise 1 - absorb. */
 static bst_layer *random_layer(const bst_basis *b, int structure, double absorb, tu_rng *rng)
 {
@@ -114,7 +114,7 @@ static bst_layer *random_layer(const bst_basis *b, int structure, double absorb,
     for (int c = 0; c < BST_NCOMP; c++)
         for (size_t j = 0; j < n; j++)
             for (size_t i = 0; i < n; i++) {
-                int on = structure == 2 || (structure == 0 && i == j) ||
+                int on = structure == 2 || ((structure == 0 || structure == 3) && i == j) ||
                          (structure == 1 && (i == j || (i * 7 + j * 3) % 11 == 0));
                 a[(size_t)c * n * n + j * n + i] = on ? tu_rng_uniform(rng) : 0.0;
             }
@@ -138,6 +138,11 @@ static bst_layer *random_layer(const bst_basis *b, int structure, double absorb,
         bst_mat *t;
         ck_assert_int_eq(bst_mat_compact(ctx, m, BST_SPARSE_MAX_FILL, &t), BST_OK);
         bst_mat_free(m);
+        if (structure == 3) { /* a pane's tree file: its diagonal stored sparse */
+            ck_assert_int_eq(bst_mat_convert(ctx, t, BST_SPARSE, BST_DOUBLE, &m), BST_OK);
+            bst_mat_free(t);
+            t = m;
+        }
         ck_assert_int_eq(bst_layer_set(ctx, l, 0, (bst_comp)c, t), BST_OK);
     }
     free(a);
@@ -170,7 +175,7 @@ START_TEST(test_energy_and_dense)
     size_t n = bst_basis_size(b);
     tu_rng rng;
     tu_rng_seed(&rng, 777 + (uint64_t)_i);
-    int s[3] = {_i % 3, (_i / 3) % 3, (_i / 9) % 3};
+    int s[3] = {_i % 4, (_i / 4) % 4, (_i / 16) % 4};
     bst_layer *l[3];
     for (int k = 0; k < 3; k++)
         l[k] = random_layer(b, s[k], 0.0, &rng);
@@ -210,8 +215,8 @@ START_TEST(test_absorptance_balance)
     size_t n = bst_basis_size(b);
     tu_rng rng;
     tu_rng_seed(&rng, 31 + (uint64_t)_i);
-    bst_layer *l[3] = {random_layer(b, _i % 3, 0.12, &rng), random_layer(b, (_i + 1) % 3, 0.3, &rng),
-                       random_layer(b, (_i + 2) % 3, 0.05, &rng)};
+    bst_layer *l[3] = {random_layer(b, _i % 4, 0.12, &rng), random_layer(b, (_i + 1) % 4, 0.3, &rng),
+                       random_layer(b, (_i + 2) % 4, 0.05, &rng)};
     bst_layer *sys;
     ck_assert_int_eq(bst_stack_combine(ctx, 3, (const bst_layer *const *)l, NULL, &sys), BST_OK);
     double *af = malloc(3 * n * sizeof *af), *ab = malloc(3 * n * sizeof *ab), *t = malloc(2 * n * sizeof *t), *r = t + n;
@@ -307,6 +312,36 @@ START_TEST(test_flops)
 }
 END_TEST
 
+/* A pane given as a tree (its diagonal stored sparse) in front of a dense layer: the light going
+ * outwards takes two left solves with one factorization, each multiplied by the pane's sparse Tb
+ * (2 nnz N flops), not W = Tb1 (I - A2)^-1 and its two dense products; the light going inwards
+ * (Tf2 dense) takes W.  Dense work: 2 LU, 3 getrs of N columns and one GEMM (Rb = Rb2 + W X);
+ * sparse-dense products: A1, A2, L Rb1 L Tb2, W L Tf1, Rf2 L Tf1, Tb1 X1, Tb1 X2 (2 N^2 each). */
+START_TEST(test_flops_pane_tree)
+{
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 3, &b), BST_OK);
+    double n = (double)bst_basis_size(b);
+    tu_rng rng;
+    tu_rng_seed(&rng, 4343);
+    bst_layer *l[2] = {random_layer(b, 3, 0.1, &rng), random_layer(b, 2, 0.2, &rng)}, *s;
+    ck_assert_int_eq(bst_mat_structure(bst_layer_get(l[0], 0, BST_TB)), BST_SPARSE);
+    double flops = 0.0;
+    bst_stack_opts o;
+    bst_stack_opts_init(&o);
+    o.on_step = add_flops;
+    o.opaque = &flops;
+    ck_assert_int_eq(bst_stack_combine(ctx, 2, (const bst_layer *const *)l, &o, &s), BST_OK);
+    double lu = 2.0 / 3.0 * n * n * n - 0.5 * n * n + 5.0 / 6.0 * n;
+    double want = 2 * lu + 3 * (2 * n * n - n) * n + 2 * n * n * n + 7 * 2 * n * n;
+    ck_assert_double_le(fabs(flops - want), 1e-9 * want);
+    bst_layer_free(l[0]);
+    bst_layer_free(l[1]);
+    bst_layer_free(s);
+    bst_basis_free(b);
+}
+END_TEST
+
 /* Components freed at their last use give the same numbers: for every structure triple and every
  * subset of requested components, the consuming combination (which takes the inputs and frees
  * each at its last use), the forced-dense one (whose own copies are freed likewise) and the
@@ -316,7 +351,7 @@ START_TEST(test_consume)
 {
     bst_basis *b;
     ck_assert_int_eq(bst_basis_new_sc(ctx, 2, &b), BST_OK);
-    int s[3] = {_i % 3, (_i / 3) % 3, (_i / 9) % 3};
+    int s[3] = {_i % 4, (_i / 4) % 4, (_i / 16) % 4};
     tu_rng rng;
     bst_layer *l[3], *all;
     tu_rng_seed(&rng, 4242 + (uint64_t)_i);
@@ -559,11 +594,12 @@ static Suite *stack_suite(void)
     tcase_add_checked_fixture(tc, setup, teardown);
     tcase_set_timeout(tc, 120);
     tcase_add_test(tc, test_panes_closed_form);
-    tcase_add_loop_test(tc, test_energy_and_dense, 0, 27);
+    tcase_add_loop_test(tc, test_energy_and_dense, 0, 64);
     tcase_add_test(tc, test_only_requested);
     tcase_add_test(tc, test_flops);
-    tcase_add_loop_test(tc, test_consume, 0, 27);
-    tcase_add_loop_test(tc, test_absorptance_balance, 0, 3);
+    tcase_add_test(tc, test_flops_pane_tree);
+    tcase_add_loop_test(tc, test_consume, 0, 64);
+    tcase_add_loop_test(tc, test_absorptance_balance, 0, 4);
     tcase_add_test(tc, test_mirrors);
     tcase_add_test(tc, test_energy_warning);
     tcase_add_test(tc, test_result_energy);
