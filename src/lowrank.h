@@ -143,6 +143,9 @@ typedef struct {
 /* I - F factored on side `trans` (0: for (I - F)^-1 B, 1: for (I - F)^-T B, as a right solve
  * B (I - F)^-1 = ((I - F)^-T B^T)^T needs); F is copied. */
 int bsti_lr_factor(bst_ctx *ctx, const bsti_lr *f, int trans, bsti_lr_fact **out, double *rcond);
+/* The same of an F the caller gives up: the factorization holds F itself (transposed in its own
+ * storage for side 1 where K is square), not a copy; F is freed on failure. */
+int bsti_lr_factor_take(bst_ctx *ctx, bsti_lr *f, int trans, bsti_lr_fact **out, double *rcond);
 /* *out = (I - F)^-1 B (trans 0) or (I - F)^-T B (trans 1), B over F's map. */
 int bsti_lr_fact_solve(bst_ctx *ctx, bsti_lr_fact *fa, int trans, const bsti_lr *b, bsti_lr **out);
 /* *out = (I - F)^-1 (trans 0) or (I - F)^-T (trans 1), factored: E^-1 + E^-1 U C^-1 K V^T E^-1. */

@@ -190,28 +190,29 @@ void bsti_lr_fact_free(bst_ctx *ctx, bsti_lr_fact *fa)
     bsti_free(ctx, fa);
 }
 
-int bsti_lr_factor(bst_ctx *ctx, const bsti_lr *f, int trans, bsti_lr_fact **out, double *rcond)
+/* I - F factored on side s from m, side s's matrix (F, or F^T for side 1), which the factorization
+ * takes (freed on failure). */
+static int factor_side(bst_ctx *ctx, bsti_lr *m, int s, bsti_lr_fact **out, double *rcond)
 {
-    size_t N = f->N;
-    int s = !!trans;
-    *out = NULL;
-    if (rcond)
-        *rcond = 0.0;
+    size_t N = m->N;
     double emin = INFINITY, emax = 0.0;
     for (size_t x = 0; x < N; x++) {
-        double e = fabs(1.0 - (f->d ? f->d[x] : 0.0));
+        double e = fabs(1.0 - (m->d ? m->d[x] : 0.0));
         emin = fmin(emin, e), emax = fmax(emax, e);
     }
-    if (!(emin > 0.0) || !isfinite(emax))
+    if (!(emin > 0.0) || !isfinite(emax)) {
+        bsti_lr_free(ctx, m);
         return bsti_error(ctx, BST_ESINGULAR, "factored solve: I - D is singular");
+    }
     bsti_lr_fact *fa = bsti_calloc(ctx, 1, sizeof *fa);
-    int rc = fa ? BST_OK : BST_ENOMEM;
-    if (rc >= 0 && !(fa->einv = bsti_alloc_array(ctx, N, sizeof *fa->einv)))
-        rc = BST_ENOMEM;
-    if (rc >= 0)
-        rc = s ? bsti_lr_transpose(ctx, f, &fa->m[1]) : bsti_lr_copy(ctx, f, &fa->m[0]);
+    if (!fa) {
+        bsti_lr_free(ctx, m);
+        return BST_ENOMEM;
+    }
+    fa->m[s] = m;
+    int rc = (fa->einv = bsti_alloc_array(ctx, N, sizeof *fa->einv)) ? BST_OK : BST_ENOMEM;
     for (size_t x = 0; rc >= 0 && x < N; x++)
-        fa->einv[x] = 1.0 / (1.0 - (f->d ? f->d[x] : 0.0)); /* E^-1 */
+        fa->einv[x] = 1.0 / (1.0 - (m->d ? m->d[x] : 0.0)); /* E^-1 (F^T's D is F's) */
     if (rc >= 0)
         rc = side_factor(ctx, fa, s);
     double na = 0.0, ninv = 0.0; /* rcond = 1 / (|I - F|_1 |(I - F)^-1|_1), both estimated */
@@ -227,6 +228,32 @@ int bsti_lr_factor(bst_ctx *ctx, const bsti_lr *f, int trans, bsti_lr_fact **out
         *rcond = na > 0 && ninv > 0 ? fmin(1.0, 1.0 / (na * ninv)) : 0.0;
     *out = fa;
     return BST_OK;
+}
+
+int bsti_lr_factor(bst_ctx *ctx, const bsti_lr *f, int trans, bsti_lr_fact **out, double *rcond)
+{
+    *out = NULL;
+    if (rcond)
+        *rcond = 0.0;
+    bsti_lr *m;
+    int rc = trans ? bsti_lr_transpose(ctx, f, &m) : bsti_lr_copy(ctx, f, &m);
+    return rc < 0 ? rc : factor_side(ctx, m, !!trans, out, rcond);
+}
+
+int bsti_lr_factor_take(bst_ctx *ctx, bsti_lr *f, int trans, bsti_lr_fact **out, double *rcond)
+{
+    *out = NULL;
+    if (rcond)
+        *rcond = 0.0;
+    if (trans && bsti_lr_transpose_take(f) < 0) { /* K not square: a transposed copy */
+        bsti_lr *t;
+        int rc = bsti_lr_transpose(ctx, f, &t);
+        bsti_lr_free(ctx, f);
+        if (rc < 0)
+            return rc;
+        f = t;
+    }
+    return factor_side(ctx, f, !!trans, out, rcond);
 }
 
 /* The indices of B's left scalings among M's (li[i] = M->p for one that is not there). */
