@@ -297,6 +297,45 @@ END_TEST
  * the inverse and a product), one whose left scalings are F's right ones (the same for
  * (I - F)^-T B, the right solve's transpose), one of other scalings (through the inverse) and a
  * diagonal; each factorization also serves the other side. */
+/* A factorization that takes F (bsti_lr_factor_take: F itself, side 1 transposed in place where
+ * K is square, a transposed copy where it is not) solves as the one of a copy does, to the bit,
+ * with the same condition estimate: a square F (p = q = 1) and one of two left scalings (p = 2,
+ * q = 1: F + diag(dr) F), both sides. */
+START_TEST(test_factor_take)
+{
+    bsti_lr_map *S = map_of(_i);
+    size_t N = S->N;
+    double *dr = malloc(N * sizeof *dr);
+    random_vec(dr, N, 0.2, 0.6);
+    bsti_lr *sq = random_lr(S, 1, 0), *sc, *wide, *b = random_lr(S, 0, 1);
+    ck_assert_int_eq(bsti_lr_scale(ctx, dr, sq, NULL, &sc), BST_OK);
+    ck_assert_int_eq(bsti_lr_add(ctx, 1.0, sq, 1.0, sc, &wide), BST_OK);
+    ck_assert_uint_eq(wide->p, 2);
+    ck_assert_uint_eq(wide->q, 1);
+    const bsti_lr *fs[2] = {sq, wide};
+    for (int w = 0; w < 2; w++)
+        for (int side = 0; side < 2; side++) {
+            bsti_lr_fact *fa, *ft;
+            bsti_lr *given, *x, *y;
+            double rc1, rc2;
+            ck_assert_int_eq(bsti_lr_factor(ctx, fs[w], side, &fa, &rc1), BST_OK);
+            ck_assert_int_eq(bsti_lr_copy(ctx, fs[w], &given), BST_OK);
+            ck_assert_int_eq(bsti_lr_factor_take(ctx, given, side, &ft, &rc2), BST_OK);
+            ck_assert_double_eq(rc1, rc2);
+            ck_assert_int_eq(bsti_lr_fact_solve(ctx, fa, side, b, &x), BST_OK);
+            ck_assert_int_eq(bsti_lr_fact_solve(ctx, ft, side, b, &y), BST_OK);
+            double *dx = dense_of(x), *dy = dense_of(y);
+            ck_assert_int_eq(memcmp(dx, dy, N * N * sizeof *dx), 0);
+            free(dx), free(dy);
+            bsti_lr_free(ctx, x), bsti_lr_free(ctx, y);
+            bsti_lr_fact_free(ctx, fa), bsti_lr_fact_free(ctx, ft);
+        }
+    bsti_lr_free(ctx, sq), bsti_lr_free(ctx, sc), bsti_lr_free(ctx, wide), bsti_lr_free(ctx, b);
+    free(dr);
+    bsti_lr_map_free(ctx, S);
+}
+END_TEST
+
 START_TEST(test_solves)
 {
     bsti_lr_map *S = map_of(_i / 4);
@@ -826,6 +865,7 @@ static Suite *suite(void)
     tcase_set_timeout(tc, 120);
     tcase_add_loop_test(tc, test_algebra, 0, 12);
     tcase_add_loop_test(tc, test_solves, 0, 12);
+    tcase_add_loop_test(tc, test_factor_take, 0, 3);
     tcase_add_test(tc, test_extremes);
     tcase_add_test(tc, test_full_rank);
     tcase_add_test(tc, test_nomem);
