@@ -456,6 +456,41 @@ int bsti_lr_mul(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, bsti_lr **out)
     return rc;
 }
 
+/* The index of a vector of the list that v is a multiple of (v = c u to 1e-14 of v's largest
+ * value), its factor in *c; when none, v appended (c = 1).  A sum's terms often carry one scaling
+ * vector times a constant (Shirley-Chiu's projected solid angle is one value for every patch, so
+ * L F's left vector is the projected solid angle times F's): the constant goes into K's block
+ * instead of a block of its own, which would double the sum's rank. */
+static size_t find_multiple_or_add(double *list, size_t *n, const double *v, size_t N, double *c)
+{
+    *c = 1.0;
+    size_t same = bsti_lr_find(list, *n, v, N); /* the vector itself: K's block as it is */
+    if (same < *n)
+        return same;
+    double vmax = 0.0;
+    size_t x0 = N;
+    for (size_t x = 0; x < N; x++) {
+        vmax = fmax(vmax, fabs(v[x]));
+        if (x0 == N && v[x] != 0.0)
+            x0 = x;
+    }
+    for (size_t i = 0; x0 < N && i < *n; i++) {
+        const double *u = list + i * N;
+        if (u[x0] == 0.0)
+            continue;
+        double f = v[x0] / u[x0];
+        size_t x = 0;
+        while (x < N && fabs(f * u[x] - v[x]) <= BSTI_LR_SAME_TOL * vmax)
+            x++;
+        if (x == N) {
+            *c = f;
+            return i;
+        }
+    }
+    memcpy(list + *n * N, v, N * sizeof *v);
+    return (*n)++;
+}
+
 int bsti_lr_add(bst_ctx *ctx, double alpha, const bsti_lr *f, double beta, const bsti_lr *g,
                 bsti_lr **out)
 {
@@ -467,14 +502,20 @@ int bsti_lr_add(bst_ctx *ctx, double alpha, const bsti_lr *f, double beta, const
     struct lists l;
     rc = lists_alloc(ctx, N, f->p + g->p, f->q + g->q, f, g, &l);
     size_t pn = 0, qn = 0;
+    /* each vector's factor against the list's: F's and G's left ones, then their right ones */
+    double *c = rc >= 0 ? bsti_alloc_array(ctx, f->p + g->p + f->q + g->q + 1, sizeof *c) : NULL;
+    if (rc >= 0 && !c)
+        rc = BST_ENOMEM;
+    double *cl_f = c, *cl_g = c ? c + f->p : NULL, *cr_f = c ? cl_g + g->p : NULL;
+    double *cr_g = c ? cr_f + f->q : NULL;
     for (size_t i = 0; rc >= 0 && i < f->p; i++)
-        l.li_f[i] = bsti_lr_find_or_add(l.left, &pn, f->a + i * N, N);
+        l.li_f[i] = find_multiple_or_add(l.left, &pn, f->a + i * N, N, &cl_f[i]);
     for (size_t i = 0; rc >= 0 && i < g->p; i++)
-        l.li_g[i] = bsti_lr_find_or_add(l.left, &pn, g->a + i * N, N);
+        l.li_g[i] = find_multiple_or_add(l.left, &pn, g->a + i * N, N, &cl_g[i]);
     for (size_t j = 0; rc >= 0 && j < f->q; j++)
-        l.rj_f[j] = bsti_lr_find_or_add(l.right, &qn, f->b + j * N, N);
+        l.rj_f[j] = find_multiple_or_add(l.right, &qn, f->b + j * N, N, &cr_f[j]);
     for (size_t j = 0; rc >= 0 && j < g->q; j++)
-        l.rj_g[j] = bsti_lr_find_or_add(l.right, &qn, g->b + j * N, N);
+        l.rj_g[j] = find_multiple_or_add(l.right, &qn, g->b + j * N, N, &cr_g[j]);
     if (rc >= 0)
         rc = lr_from_lists(ctx, f->S, &l, pn, qn, f->d || g->d, out);
     if (rc >= 0) {
@@ -483,11 +524,14 @@ int bsti_lr_add(bst_ctx *ctx, double alpha, const bsti_lr *f, double beta, const
             m->d[x] = (f->d ? alpha * f->d[x] : 0.0) + (g->d ? beta * g->d[x] : 0.0);
         for (size_t i = 0; i < f->p; i++)
             for (size_t j = 0; j < f->q; j++)
-                bsti_lr_add_block(m->k, pn * r, l.li_f[i], l.rj_f[j], f->k, f->p * r, i, j, r, alpha);
+                bsti_lr_add_block(m->k, pn * r, l.li_f[i], l.rj_f[j], f->k, f->p * r, i, j, r,
+                                  alpha * cl_f[i] * cr_f[j]);
         for (size_t i = 0; i < g->p; i++)
             for (size_t j = 0; j < g->q; j++)
-                bsti_lr_add_block(m->k, pn * r, l.li_g[i], l.rj_g[j], g->k, g->p * r, i, j, r, beta);
+                bsti_lr_add_block(m->k, pn * r, l.li_g[i], l.rj_g[j], g->k, g->p * r, i, j, r,
+                                  beta * cl_g[i] * cr_g[j]);
     }
+    bsti_free(ctx, c);
     lists_free(ctx, &l);
     return rc;
 }

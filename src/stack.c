@@ -486,13 +486,88 @@ static void outward(struct combiner *cb, struct part *u, struct part *v, unsigne
     }
 }
 
+/* All four components from one of the gap's two inter-reflections, when one part is a pane (its
+ * transmission and reflection cheap_transmission) and the other is not.  With X = L Rb1 and
+ * Y = L Rf2, A1 = X Y and A2 = Y X, and the push-through identities
+ *   (I - X Y)^-1 X = X (I - Y X)^-1,   (I - X Y)^-1 = I + X (I - Y X)^-1 Y   (and X, Y swapped)
+ * turn the formulas of the other inter-reflection into products with this one's two solves, so
+ * that the step factors once: one LU (2/3 N^3) fewer than inward and outward each factoring, the
+ * solves and products as many (8 N^3 for a dense other part).  Not when the absorptance keeps each
+ * inter-reflection's factorization (keep_slot), nor for fewer than four components.
+ *
+ * U a pane, from the light going outwards:
+ *   X1 = (I - A2)^-1 L Tb2,  X2 = (I - A2)^-1 L Rf2 L Tf1,
+ *   Tb = Tb1 X1,  Rf = Rf1 + Tb1 X2,  Rb = Rb2 + Tf2 (L Rb1 X1),  Tf = Tf2 (L Tf1 + L Rb1 X2). */
+static void from_outward(struct combiner *cb, struct part *u, struct part *v, struct part *s)
+{
+    const char *what = "towards the exterior";
+    double t0 = now_seconds();
+    cb->flops_mark = cb->ctx->flops;
+    struct term a2 = reflected_outwards(cb, v, u, BST_RB);
+    struct term x2, x1 = solve2(cb, a2, lam_times(cb, use(v, BST_TB)),
+                                reflected_outwards(cb, v, u, BST_TF), what, NULL, &x2);
+    struct term tb1 = use(u, BST_TB), rb1 = use(u, BST_RB), tf2 = use(v, BST_TF);
+    form(cb, s, BST_TB, t0, mul(cb, keep(tb1), keep(x1)));
+    t0 = now_seconds();
+    form(cb, s, BST_RF, t0, add(cb, use(u, BST_RF), mul(cb, tb1, keep(x2))));
+    t0 = now_seconds();
+    form(cb, s, BST_RB, t0,
+         add(cb, use(v, BST_RB), mul(cb, keep(tf2), lam_times(cb, mul(cb, keep(rb1), x1)))));
+    t0 = now_seconds();
+    form(cb, s, BST_TF, t0,
+         mul(cb, tf2, add(cb, lam_tf1(cb, u), lam_times(cb, mul(cb, rb1, x2)))));
+}
+
+/* V a pane, from the light going inwards:
+ *   X1 = (I - A1)^-1 L Tf1,  X2 = (I - A1)^-1 (L Rb1 L) Tb2,
+ *   Tf = Tf2 X1,  Rb = Rb2 + Tf2 X2,  Tb = Tb1 (L Tb2 + L Rf2 X2),  Rf = Rf1 + Tb1 (L Rf2 X1). */
+static void from_inward(struct combiner *cb, struct part *u, struct part *v, struct part *s)
+{
+    const char *what = "towards the interior";
+    double t0 = now_seconds();
+    cb->flops_mark = cb->ctx->flops;
+    struct term llrb1 = lam_both(cb, use(u, BST_RB));
+    struct term a1 = mul(cb, keep(llrb1), use(v, BST_RF));
+    struct term x2, x1 = solve2(cb, a1, lam_tf1(cb, u), mul(cb, llrb1, use(v, BST_TB)), what,
+                                NULL, &x2);
+    struct term tf2 = use(v, BST_TF), tb1 = use(u, BST_TB);
+    form(cb, s, BST_TF, t0, mul(cb, keep(tf2), keep(x1)));
+    t0 = now_seconds();
+    form(cb, s, BST_RB, t0, add(cb, use(v, BST_RB), mul(cb, tf2, keep(x2))));
+    t0 = now_seconds();
+    form(cb, s, BST_TB, t0,
+         mul(cb, keep(tb1), add(cb, lam_times(cb, use(v, BST_TB)), lam_mul(cb, use(v, BST_RF), x2))));
+    t0 = now_seconds();
+    form(cb, s, BST_RF, t0, add(cb, use(u, BST_RF), mul(cb, tb1, lam_mul(cb, use(v, BST_RF), x1))));
+}
+
+/* Which of from_outward (1) or from_inward (2) forms `want` of U and V, or neither (0). */
+static int one_factorization(struct combiner *cb, const struct part *u, const struct part *v,
+                             unsigned want)
+{
+    if (want != BST_COMP_ALL || (cb->keep && cb->keep->fin))
+        return 0;
+    int u_pane = cheap_transmission(u->m[BST_TB]) && cheap_transmission(u->m[BST_RB]);
+    int v_pane = cheap_transmission(v->m[BST_TF]) && cheap_transmission(v->m[BST_RF]);
+    return u_pane && !v_pane ? 1 : v_pane && !u_pane ? 2 : 0;
+}
+
 /* Combine U (exterior part) and V (interior layer) into S, forming the components `want`: the
  * inward pair, then the outward one, which finds fewer of U's and V's components still held. */
 static int combine_pair(struct combiner *cb, struct part *u, struct part *v, unsigned want,
                         struct part *s)
 {
     memset(s, 0, sizeof *s);
+    int one = one_factorization(cb, u, v, want);
     count_uses(want, u, v);
+    if (one) { /* the reads from_outward and from_inward make */
+        static const int uses[2][2][BST_NCOMP] = {
+            /* U: Tf, Rf, Tb, Rb; V: Tf, Rf, Tb, Rb (bst_comp's order) */
+            {{2, 1, 1, 2}, {1, 2, 1, 1}},
+            {{1, 1, 1, 1}, {1, 3, 2, 1}}};
+        for (int c = 0; c < BST_NCOMP; c++)
+            u->uses[c] = uses[one - 1][0][c], v->uses[c] = uses[one - 1][1][c];
+    }
     /* Every read of U's Tf is of L Tf1 (the inward right-hand side, the outward L Rf2 L Tf1): an
      * owned one is scaled once, in its own storage, instead of into a copy at each read. */
     u->tf_lam = 0;
@@ -502,9 +577,13 @@ static int combine_pair(struct combiner *cb, struct part *u, struct part *v, uns
         u->own[BST_TF] = t.dies;
         u->tf_lam = 1;
     }
-    if (want & INWARD)
+    if (one == 1)
+        from_outward(cb, u, v, s);
+    else if (one == 2)
+        from_inward(cb, u, v, s);
+    if (!one && (want & INWARD))
         inward(cb, u, v, want & INWARD, s);
-    if (want & OUTWARD)
+    if (!one && (want & OUTWARD))
         outward(cb, u, v, want & OUTWARD, s);
     for (int c = 0; c < BST_NCOMP; c++) {
         s->m[c] = s->own[c];

@@ -20,6 +20,7 @@ static bst_ctx *ctx;
 static char coarse3[64], coarse4[64]; /* blind0 at depth 3, blind45 at depth 4 */
 static char iso3[64];                 /* the diffuser as a TensorTree3 of depth 3 */
 static char glass3[64];                /* the clear pane's tree at depth 3: sparse there */
+static char glass4[64];                /* and at depth 4 */
 
 /* The reference file read at order k and written as a tree of that depth and rank (every value). */
 static void make_tree(const char *ref, int k, bst_tree_rank rank, char *path)
@@ -48,11 +49,12 @@ static void setup(void)
     make_tree("L_blind45_t4k5.xml", 4, BST_RANK_4, coarse4);
     make_tree("L_diffuser_t3k5.xml", 3, BST_RANK_3, iso3);
     make_tree("L_glass_t4k5.xml", 3, BST_RANK_4, glass3);
+    make_tree("L_glass_t4k5.xml", 4, BST_RANK_4, glass4);
 }
 
 static void teardown(void)
 {
-    unlink(coarse3), unlink(coarse4), unlink(iso3), unlink(glass3);
+    unlink(coarse3), unlink(coarse4), unlink(iso3), unlink(glass3), unlink(glass4);
     bst_ctx_free(ctx);
 }
 
@@ -73,10 +75,12 @@ static bst_layer *file_layer(const char *path, const bst_basis *b)
 }
 
 static int factored_steps;
+static size_t max_rank;
 static void count_factored(const bst_stack_step *s, void *opaque)
 {
     (void)opaque;
     factored_steps += s->structure == BST_FACTORED;
+    max_rank = s->rank > max_rank ? s->rank : max_rank;
 }
 
 /* max |a - b| / max |b| of two matrices' values. */
@@ -95,7 +99,8 @@ static double rel_diff(const bst_mat *a, const bst_mat *b)
 /* The stacks (exterior first): 'g' a pane, '3' blind0 at depth 3, '4' blind45 at depth 4, 'D' the
  * blind at its own depth 5 (dense at k = 5), 'K' a Klems diffuser, 'I' the diffuser as a rank-3
  * tree of depth 3 at its own order (BST_RANK3_NATIVE), 't' the pane's tree file at depth 3
- * (sparse, P K P^T beside a factored layer), 'v' a venetian blind of matte slats (MATTE_BLIND:
+ * (sparse, P K P^T beside a factored layer), 'T' the same at depth 4 (r = N / 4, as a k = 6 file
+ * read at k = 7), 'v' a venetian blind of matte slats (MATTE_BLIND:
  * factored over its strips' map, rank 64; reversed, over the mirrored map); '^' after one:
  * reversed. */
 #define MATTE_BLIND "width=16mm,spacing=14.5mm,tilt=45,r-up=0.7,r-down=0.4,t=0.05,samples=4"
@@ -136,7 +141,7 @@ static bst_layer *sheet(const char *kind, const bst_basis *b)
 
 static const char *const stacks[] = {"g3", "3g", "g3g", "g4^g3", "gDg3", "g3^Kg", "34^", "gI^g",
                                      "t3t", "t4^gt", "gvg", "gv^g", "vgv^", "3vg", "gpg", "gw^g",
-                                     "pgw", "pv"};
+                                     "pgw", "pv", "T4^T"};
 #define NSTACKS (sizeof stacks / sizeof stacks[0])
 
 static size_t build(const char *spec, const bst_basis *b, bst_layer **layers)
@@ -154,6 +159,7 @@ static size_t build(const char *spec, const bst_basis *b, bst_layer **layers)
                       : *c == '3' ? file_layer(coarse3, b)
                       : *c == '4' ? file_layer(coarse4, b)
                       : *c == 't' ? file_layer(glass3, b)
+                      : *c == 'T' ? file_layer(glass4, b)
                       : *c == 'D' ? tu_layer(ctx, "L_blind0_t4k5.xml", b)
                       : *c == 'I' ? file_layer_rule(iso3, b, BST_RANK3_NATIVE)
                       : *c == 'v' ? matte_blind(b)
@@ -276,6 +282,7 @@ START_TEST(test_stacks)
     o.precision = prec;
     o.on_step = count_factored;
     factored_steps = 0;
+    max_rank = 0;
     bst_layer *fact, *dense;
     ck_assert_int_ge(bst_stack_combine(ctx, n, (const bst_layer *const *)layers, &o, &fact), 0);
     if (strcmp(spec, "g3") == 0 || strcmp(spec, "g3g") == 0 || strcmp(spec, "3g") == 0 ||
@@ -286,10 +293,17 @@ START_TEST(test_stacks)
         strcmp(spec, "gw^g") == 0) /* handed over factored (stack.c) */
         for (int c = 0; c < BST_NCOMP; c++)
             ck_assert(bsti_mat_lr_wide(bst_layer_get(fact, 0, (bst_comp)c)));
-    if (spec[0] == 't') { /* the sparse tree joins the factored shade (t3t: every component of
-                             every step; t4^gt: a rank reaching N / 2 turns dense) */
+    if (spec[0] == 't' || spec[0] == 'T') { /* the sparse tree joins the factored shade (t3t
+         * and T4^T: every component of every step, at the map's rank, 64 or 256: a step formed
+         * from one factorization sums terms whose scalings differ by the projected solid angle,
+         * L Tf1 + L Rb1 X2 say, in one block; at T4^T's r = N / 4 two would make N / 2, dense
+         * (bsti_mat_lr_settle); t4^gt: the glass pane's scalings make a rank of N / 2, dense) */
         ck_assert_int_eq(bst_mat_structure(bst_layer_get(layers[0], 0, BST_TF)), BST_SPARSE);
-        ck_assert_int_ge(factored_steps, strcmp(spec, "t3t") == 0 ? 4 * ((int)n - 1) : 1);
+        int all = strcmp(spec, "t4^gt") != 0;
+        ck_assert_msg(factored_steps >= (all ? 4 * ((int)n - 1) : 1), "%s: %d components factored",
+                      spec, factored_steps);
+        if (all)
+            ck_assert_uint_eq(max_rank, spec[0] == 't' ? 64 : 256);
     }
     o.force_dense = 1;
     ck_assert_int_ge(bst_stack_combine(ctx, n, (const bst_layer *const *)layers, &o, &dense), 0);

@@ -297,6 +297,36 @@ END_TEST
  * the inverse and a product), one whose left scalings are F's right ones (the same for
  * (I - F)^-T B, the right solve's transpose), one of other scalings (through the inverse) and a
  * diagonal; each factorization also serves the other side. */
+/* A sum of two terms whose scalings are one vector times constants (L F + G with Shirley-Chiu's
+ * one projected solid angle, say) keeps one block: the constants go into K.  F + diag(c) F diag(e)
+ * with constant c, e: F's p and q, the values of the dense sum (1e-13); with a c that varies, a
+ * block more. */
+START_TEST(test_add_multiple)
+{
+    bsti_lr_map *S = map_of(_i);
+    size_t N = S->N;
+    bsti_lr *f = random_lr(S, 0, _i == 1), *g, *m;
+    double *c = malloc(N * sizeof *c), *e = malloc(N * sizeof *e);
+    for (int varies = 0; varies < 2; varies++) {
+        for (size_t x = 0; x < N; x++)
+            c[x] = varies && x == N / 2 ? 0.3 : 0.7, e[x] = 2.5;
+        ck_assert_int_eq(bsti_lr_scale(ctx, c, f, e, &g), BST_OK);
+        ck_assert_int_eq(bsti_lr_add(ctx, 1.0, f, -0.5, g, &m), BST_OK);
+        ck_assert_uint_eq(m->p, f->p * (1 + varies));
+        ck_assert_uint_eq(m->q, f->q);
+        double *df = dense_of(f), *dg = dense_of(g), *dm = dense_of(m);
+        for (size_t x = 0; x < N * N; x++)
+            df[x] -= 0.5 * dg[x];
+        ck_assert_double_le(rel_diff(dm, df, N * N), 1e-13);
+        free(df), free(dg), free(dm);
+        bsti_lr_free(ctx, g), bsti_lr_free(ctx, m);
+    }
+    free(c), free(e);
+    bsti_lr_free(ctx, f);
+    bsti_lr_map_free(ctx, S);
+}
+END_TEST
+
 /* A factorization that takes F (bsti_lr_factor_take: F itself, side 1 transposed in place where
  * K is square, a transposed copy where it is not) solves as the one of a copy does, to the bit,
  * with the same condition estimate: a square F (p = q = 1) and one of two left scalings (p = 2,
@@ -866,6 +896,7 @@ static Suite *suite(void)
     tcase_add_loop_test(tc, test_algebra, 0, 12);
     tcase_add_loop_test(tc, test_solves, 0, 12);
     tcase_add_loop_test(tc, test_factor_take, 0, 3);
+    tcase_add_loop_test(tc, test_add_multiple, 0, 3);
     tcase_add_test(tc, test_extremes);
     tcase_add_test(tc, test_full_rank);
     tcase_add_test(tc, test_nomem);
