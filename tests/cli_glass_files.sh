@@ -118,7 +118,8 @@ grep -q "^layers    glass:$tmpdir/LOWE.DAT,model=uncoated, glass:lowe-6mm$" "$tm
     pass "info lists the layers and each pane's model and source" || fail "info on two.xml: $(head -6 "$tmpdir/out")"
 # a FIFO: read once by the reader, never opened again for its header (that would wait for ever)
 if mkfifo "$tmpdir/fifo" 2>/dev/null; then
-    cat "$tmpdir/two.xml" > "$tmpdir/fifo" &
+    # the writer's open waits for a reader: bounded, so that a missing reader fails, not hangs
+    timeout 60 sh -c 'cat "$1" > "$2"' sh "$tmpdir/two.xml" "$tmpdir/fifo" &
     expect_status 0 "info on a FIFO" -- timeout 60 "$B" info "$tmpdir/fifo"
     ! grep -q "^layers" "$tmpdir/out" && pass "a FIFO's header is not read again" || fail "FIFO: $(head -3 "$tmpdir/out")"
     wait
