@@ -22,8 +22,10 @@
  * and three N x N matrices (bench/README.md, the memory guard's model).  When both members of a pair
  * (Tf, Rb) or (Rf, Tb) are needed, one factorization serves both through W = T2 (I - A)^-1 (a right
  * solve), or, when T2 is a pane's (diagonal, or a sparse tree: cheap_transmission), through two
- * left solves multiplied by T2 (W's products would be dense); when one is needed, a left solve with its own right-hand side is cheaper.  The
- * absorptance rides on the combination (absorptance.c: the combination keeps what it needs). */
+ * left solves multiplied by T2 (W's products would be dense); when one is needed, a left solve
+ * with its own right-hand side is cheaper.  When all four are needed and one part is a pane, one
+ * factorization serves all four (from_outward, from_inward).  The absorptance rides on the
+ * combination (absorptance.c: the combination keeps what it needs). */
 #include <config.h>
 
 #include <math.h>
