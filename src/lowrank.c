@@ -100,6 +100,7 @@ void bsti_lr_free(bst_ctx *ctx, bsti_lr *m)
     if (!m)
         return;
     bsti_free(ctx, m->d), bsti_free(ctx, m->a), bsti_free(ctx, m->b), bsti_free(ctx, m->k);
+    bsti_free(ctx, m->ks);
     map_release(m->S);
     bsti_free(ctx, m);
 }
@@ -234,14 +235,41 @@ static size_t nonzeros(const double *A, size_t m, size_t n, size_t lda, size_t l
 /* C = A diag(g) B (m x n in C's leading dimension ldc; A m x k, g k values or NULL for ones, B k x
  * n, column-major, their leading dimensions their row counts): GEMM, unless A diag(g) or B is sparse
  * (LR_SPARSE_SHARE), then through its values that are not zero (the same sums but for their
- * order).  Each value of A diag(g) is A's times g's, as bsti_lr_mul_diag_blocks makes it: the
+ * order), taken from as or bs where given (that matrix's, bsti_lr_csc), else found by a pass over
+ * the matrix.  Each value of A diag(g) is A's times g's, as bsti_lr_mul_diag_blocks makes it: the
  * sparse ways take them as they go, the GEMM from an m x k array of them. */
 static int lr_gemm(bst_ctx *ctx, size_t m, size_t n, size_t k, const double *A, const double *g,
-                   const double *B, double *C, size_t ldc)
+                   const bsti_lr_csc *as, const double *B, const bsti_lr_csc *bs, double *C,
+                   size_t ldc)
 {
 #define AG(i, l) (g ? A[(l) * m + (i)] * g[l] : A[(l) * m + (i)])
     size_t la = (size_t)(LR_SPARSE_SHARE * (double)m * (double)k);
     size_t lb = (size_t)(LR_SPARSE_SHARE * (double)k * (double)n);
+    if (as && as->nnz <= la) { /* as below, A's values at hand */
+        for (size_t j = 0; j < n; j++) {
+            double *c = C + j * ldc;
+            memset(c, 0, m * sizeof *c);
+            for (size_t l = 0; l < k; l++) {
+                double b = B[j * k + l];
+                for (size_t e = as->start[l]; e < as->start[l + 1]; e++)
+                    c[as->row[e]] += (g ? as->val[e] * g[l] : as->val[e]) * b;
+            }
+        }
+        return BST_OK;
+    }
+    if (bs && bs->nnz <= lb) { /* as below, B's values at hand */
+        for (size_t j = 0; j < n; j++) {
+            double *c = C + j * ldc;
+            memset(c, 0, m * sizeof *c);
+            for (size_t e = bs->start[j]; e < bs->start[j + 1]; e++) {
+                size_t l = bs->row[e];
+                double b = bs->val[e];
+                for (size_t i = 0; i < m; i++)
+                    c[i] += AG(i, l) * b;
+            }
+        }
+        return BST_OK;
+    }
     size_t nza = 0;
     for (size_t l = 0; l < k && nza <= la; l++)
         for (size_t i = 0; i < m; i++)
@@ -374,14 +402,14 @@ static int coupled(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, struct list
                 bsti_lr_gram_add(f->S, l->v, gm, fq, j * r, i * r);
         }
     if (rc >= 0 && one)
-        rc = lr_gemm(ctx, fp, gq, gp, f->k, gm, g->k, t, direct ? ld : fp);
+        rc = lr_gemm(ctx, fp, gq, gp, f->k, gm, f->ks, g->k, g->ks, t, direct ? ld : fp);
     else {
         if (rc >= 0 && single)
             bsti_lr_mul_diag_blocks(f->k, fp, f->q, g->p, r, gm, 1.0, 0, t1);
         else if (rc >= 0)
-            rc = lr_gemm(ctx, fp, gp, fq, f->k, NULL, gm, t1, fp);
+            rc = lr_gemm(ctx, fp, gp, fq, f->k, NULL, f->ks, gm, NULL, t1, fp);
         if (rc >= 0)
-            rc = lr_gemm(ctx, fp, gq, gp, t1, NULL, g->k, t, direct ? ld : fp);
+            rc = lr_gemm(ctx, fp, gq, gp, t1, NULL, NULL, g->k, g->ks, t, direct ? ld : fp);
     }
     for (size_t i = 0; rc >= 0 && !direct && i < f->p; i++)
         for (size_t j = 0; j < g->q; j++)
@@ -624,6 +652,8 @@ int bsti_lr_transpose_take(bsti_lr *f)
     double *t = f->a;
     f->a = f->b, f->b = t;
     bsti_transpose_square(f->k, n, BST_DOUBLE);
+    bsti_free(f->S->ctx, f->ks);
+    f->ks = NULL;
     return 0;
 }
 

@@ -43,12 +43,23 @@ typedef struct {
     bst_ctx *ctx;
 } bsti_lr_map;
 
+/* A sparse K's values by column (r + 1 starts, then rows ascending, values not zero). */
+typedef struct {
+    size_t nnz;
+    size_t *start, *row;
+    double *val;
+} bsti_lr_csc;
+
 typedef struct {
     const bsti_lr_map *S; /* one reference held */
     size_t N, r, p, q;
     double *d;            /* N values, or NULL: no diagonal part */
     double *a, *b;        /* p and q vectors of N values (a[i * N + x]) */
     double *k;            /* (p r) x (q r), column-major */
+    bsti_lr_csc *ks;      /* K's values that are not zero, where K is known sparse (p = q = 1: a
+                             pane's tree, mat_lowrank.c's sparse_lr), for products through them
+                             (no pass over K to find them); NULL: not known.  One block, freed
+                             with F; a change of K in F's own storage drops it */
 } bsti_lr;
 
 /* An N x r map with nnz entries, rows filled by the caller (start[0] = 0, start[N] = nnz). */

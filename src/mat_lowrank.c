@@ -16,6 +16,7 @@
 
 #include <stdatomic.h>
 #include <stdint.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include <cblas.h>
@@ -135,12 +136,43 @@ int bsti_mul_dense_lowrank(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, dou
     return rc;
 }
 
+static int place_order(const void *x, const void *y)
+{
+    size_t a = *(const size_t *)x, b = *(const size_t *)y;
+    return (a > b) - (a < b);
+}
+
+/* F's K (r x r, p = q = 1) held also by column from the places at[0..n-1] of its values that are
+ * not zero (any order; sorted here: a place is column r + row). */
+static int csc_of(bst_ctx *ctx, bsti_lr *f, size_t *at, size_t n)
+{
+    size_t r = f->r;
+    size_t bytes = sizeof(bsti_lr_csc) + (r + 1 + n) * sizeof(size_t) + n * sizeof(double);
+    bsti_lr_csc *cs = bsti_malloc(ctx, bytes);
+    if (!cs)
+        return BST_ENOMEM;
+    cs->nnz = n;
+    cs->start = (size_t *)(cs + 1);
+    cs->row = cs->start + r + 1;
+    cs->val = (double *)(cs->row + n);
+    qsort(at, n, sizeof *at, place_order);
+    for (size_t c = 0, e = 0; c <= r; c++) {
+        cs->start[c] = e;
+        while (c < r && e < n && at[e] / r == c)
+            cs->row[e] = at[e] % r, cs->val[e] = f->k[at[e]], e++;
+    }
+    f->ks = cs;
+    return BST_OK;
+}
+
 /* A SPARSE N x N m that is exactly P K P^T for the prolongation S (each pair of coarse cells holds
  * one value in all its fine pairs, or none: a sparse rank-4 tree of depth d read at k > d, a clear
  * pane's tree file say), as the factored matrix with that K (dense, r x r); BST_ENOTFOUND, with no
  * message, for any other.  K is filled in the result's own storage; a pair is whole when every
  * non-zero agrees with its pair's first and their count is fine^2 times the pairs that hold one
- * (a sparse matrix stores a cell once, so no pair can hold more than fine^2).  Work: O(nnz + r^2). */
+ * (a sparse matrix stores a cell once, so no pair can hold more than fine^2).  K is also held by
+ * column (csc_of), so that its products need no pass over its r^2 values to find the few that are
+ * not zero.  Work: O(nnz + r^2) (the zeros of K: one clearing). */
 static int sparse_lr(bst_ctx *ctx, const bst_mat *m, const bsti_lr_map *S, bsti_lr **lr)
 {
     *lr = NULL;
@@ -156,6 +188,10 @@ static int sparse_lr(bst_ctx *ctx, const bst_mat *m, const bsti_lr_map *S, bsti_
     double *K = f->k; /* zero */
     const SuiteSparse_long *p = m->sp->p, *ri = m->sp->i;
     const double *x = m->sp->x;
+    size_t nnz = (size_t)p[m->cols];
+    size_t *at = bsti_alloc_array(ctx, nnz + 1, sizeof *at); /* each pair's place in K */
+    if (!at)
+        rc = BST_ENOMEM;
     for (size_t j = 0; rc >= 0 && j < m->cols; j++)
         for (SuiteSparse_long q = p[j]; q < p[j + 1] && rc >= 0; q++) {
             size_t c = S->col[j] * r + S->col[ri[q]];
@@ -163,12 +199,15 @@ static int sparse_lr(bst_ctx *ctx, const bst_mat *m, const bsti_lr_map *S, bsti_
                 continue;
             values++;
             if (K[c] == 0.0)
-                K[c] = x[q], pairs++;
+                K[c] = x[q], at[pairs++] = c;
             else if (K[c] != x[q])
                 rc = BST_ENOTFOUND;
         }
     if (rc >= 0 && values != pairs * fine * fine)
         rc = BST_ENOTFOUND;
+    if (rc >= 0) /* K's values by column for the products (lowrank.h): the places in order */
+        rc = csc_of(ctx, f, at, pairs);
+    bsti_free(ctx, at);
     if (rc < 0)
         bsti_lr_free(ctx, f);
     else
