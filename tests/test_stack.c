@@ -286,6 +286,23 @@ END_TEST
  * ((2 N^2 - N) N); two diagonal layers (panes) none at all. */
 static void add_flops(const bst_stack_step *s, void *opaque) { *(double *)opaque += s->flops; }
 
+/* The flops the steps of combining l[0], l[1] report; the system freed. */
+static double stack_flops(bst_layer *const *l)
+{
+    double flops = 0.0;
+    bst_stack_opts o;
+    bst_stack_opts_init(&o);
+    o.on_step = add_flops;
+    o.opaque = &flops;
+    bst_layer *s;
+    ck_assert_int_eq(bst_stack_combine(ctx, 2, (const bst_layer *const *)l, &o, &s), BST_OK);
+    bst_layer_free(s);
+    return flops;
+}
+
+/* An N x N LU's flops (LAWN 41). */
+static double lu_flops(double n) { return 2.0 / 3.0 * n * n * n - 0.5 * n * n + 5.0 / 6.0 * n; }
+
 START_TEST(test_flops)
 {
     bst_basis *b;
@@ -294,19 +311,12 @@ START_TEST(test_flops)
     tu_rng rng;
     tu_rng_seed(&rng, 4242);
     for (int structure = 0; structure <= 2; structure += 2) {
-        bst_layer *l[2] = {random_layer(b, structure, 0.1, &rng), random_layer(b, structure, 0.2, &rng)}, *s;
-        double flops = 0.0;
-        bst_stack_opts o;
-        bst_stack_opts_init(&o);
-        o.on_step = add_flops;
-        o.opaque = &flops;
-        ck_assert_int_eq(bst_stack_combine(ctx, 2, (const bst_layer *const *)l, &o, &s), BST_OK);
-        double lu = 2.0 / 3.0 * n * n * n - 0.5 * n * n + 5.0 / 6.0 * n;
-        double want = structure ? 8 * 2 * n * n * n + 2 * lu + 2 * (2 * n * n - n) * n : 0.0;
+        bst_layer *l[2] = {random_layer(b, structure, 0.1, &rng), random_layer(b, structure, 0.2, &rng)};
+        double flops = stack_flops(l);
+        double want = structure ? 8 * 2 * n * n * n + 2 * lu_flops(n) + 2 * (2 * n * n - n) * n : 0.0;
         ck_assert_double_le(fabs(flops - want), 1e-9 * want);
         bst_layer_free(l[0]);
         bst_layer_free(l[1]);
-        bst_layer_free(s);
     }
     bst_basis_free(b);
 }
@@ -328,22 +338,15 @@ START_TEST(test_flops_pane_tree)
     tu_rng rng;
     tu_rng_seed(&rng, 4343);
     for (int behind = 0; behind < 2; behind++) {
-        bst_layer *pane = random_layer(b, 3, 0.1, &rng), *shade = random_layer(b, 2, 0.2, &rng), *s;
+        bst_layer *pane = random_layer(b, 3, 0.1, &rng), *shade = random_layer(b, 2, 0.2, &rng);
         ck_assert_int_eq(bst_mat_structure(bst_layer_get(pane, 0, BST_TB)), BST_SPARSE);
         bst_layer *l[2] = {behind ? shade : pane, behind ? pane : shade};
-        double flops = 0.0;
-        bst_stack_opts o;
-        bst_stack_opts_init(&o);
-        o.on_step = add_flops;
-        o.opaque = &flops;
-        ck_assert_int_eq(bst_stack_combine(ctx, 2, (const bst_layer *const *)l, &o, &s), BST_OK);
-        double lu = 2.0 / 3.0 * n * n * n - 0.5 * n * n + 5.0 / 6.0 * n;
-        double want = lu + 2 * (2 * n * n - n) * n + 2 * 2 * n * n * n + 6 * 2 * n * n;
+        double flops = stack_flops(l);
+        double want = lu_flops(n) + 2 * (2 * n * n - n) * n + 2 * 2 * n * n * n + 6 * 2 * n * n;
         ck_assert_msg(fabs(flops - want) <= 1e-9 * want, "pane %s: %.0f flops, want %.0f",
                       behind ? "behind" : "in front", flops, want);
         bst_layer_free(pane);
         bst_layer_free(shade);
-        bst_layer_free(s);
     }
     bst_basis_free(b);
 }
