@@ -232,6 +232,64 @@ static size_t nonzeros(const double *A, size_t m, size_t n, size_t lda, size_t l
  * pane's tree at a coarse order: a diagonal, a mirror, a few values more). */
 #define LR_SPARSE_SHARE (1.0 / 64.0)
 
+/* C = S diag(g) B for a sparse m x k S given by column (start: k + 1, row, val; g k values or NULL
+ * for ones) and a dense k x n B: each column of C the sum, over l in order, of S's column l times
+ * g[l] B[l, j]. */
+static void sparse_times(size_t m, size_t n, size_t k, const size_t *start, const size_t *row,
+                         const double *val, const double *g, const double *B, double *C, size_t ldc)
+{
+    for (size_t j = 0; j < n; j++) {
+        double *c = C + j * ldc;
+        memset(c, 0, m * sizeof *c);
+        for (size_t l = 0; l < k; l++) {
+            double b = B[j * k + l];
+            for (size_t e = start[l]; e < start[l + 1]; e++)
+                c[row[e]] += (g ? val[e] * g[l] : val[e]) * b;
+        }
+    }
+}
+
+/* C = A diag(g) S for a dense m x k A and a sparse k x n S given by column (start: n + 1, row,
+ * val): each column of C the sum, over S's values in order, of A diag(g)'s column times the value. */
+static void times_sparse(size_t m, size_t n, const double *A, const double *g, const size_t *start,
+                         const size_t *row, const double *val, double *C, size_t ldc)
+{
+    for (size_t j = 0; j < n; j++) {
+        double *c = C + j * ldc;
+        memset(c, 0, m * sizeof *c);
+        for (size_t e = start[j]; e < start[j + 1]; e++) {
+            size_t l = row[e];
+            double b = val[e];
+            for (size_t i = 0; i < m; i++)
+                c[i] += (g ? A[l * m + i] * g[l] : A[l * m + i]) * b;
+        }
+    }
+}
+
+/* The values of the m x n M (column-major, leading dimension m) that are not zero, by column, as
+ * M's value times g[row] (g NULL: ones), into *start (n + 1, then nz rows) and *val (nz). */
+static int by_column(bst_ctx *ctx, const double *M, const double *g, size_t m, size_t n, size_t nz,
+                     size_t **start, double **val)
+{
+    *start = bsti_alloc_array(ctx, n + 1 + nz, sizeof **start);
+    *val = bsti_alloc_array(ctx, nz + 1, sizeof **val);
+    if (!*start || !*val) {
+        bsti_free(ctx, *start), bsti_free(ctx, *val);
+        return BST_ENOMEM;
+    }
+    size_t *row = *start + n + 1;
+    for (size_t j = 0, e = 0; j < n; j++) {
+        (*start)[j] = e;
+        for (size_t i = 0; i < m; i++) {
+            double v = g ? M[j * m + i] * g[j] : M[j * m + i];
+            if (v != 0.0)
+                row[e] = i, (*val)[e++] = v;
+        }
+        (*start)[j + 1] = e;
+    }
+    return BST_OK;
+}
+
 /* C = A diag(g) B (m x n in C's leading dimension ldc; A m x k, g k values or NULL for ones, B k x
  * n, column-major, their leading dimensions their row counts): GEMM, unless A diag(g) or B is sparse
  * (LR_SPARSE_SHARE), then through its values that are not zero (the same sums but for their
@@ -242,73 +300,33 @@ static int lr_gemm(bst_ctx *ctx, size_t m, size_t n, size_t k, const double *A, 
                    const bsti_lr_csc *as, const double *B, const bsti_lr_csc *bs, double *C,
                    size_t ldc)
 {
-#define AG(i, l) (g ? A[(l) * m + (i)] * g[l] : A[(l) * m + (i)])
     size_t la = (size_t)(LR_SPARSE_SHARE * (double)m * (double)k);
     size_t lb = (size_t)(LR_SPARSE_SHARE * (double)k * (double)n);
-    if (as && as->nnz <= la) { /* as below, A's values at hand */
-        for (size_t j = 0; j < n; j++) {
-            double *c = C + j * ldc;
-            memset(c, 0, m * sizeof *c);
-            for (size_t l = 0; l < k; l++) {
-                double b = B[j * k + l];
-                for (size_t e = as->start[l]; e < as->start[l + 1]; e++)
-                    c[as->row[e]] += (g ? as->val[e] * g[l] : as->val[e]) * b;
-            }
-        }
+    if (as && as->nnz <= la) {
+        sparse_times(m, n, k, as->start, as->row, as->val, g, B, C, ldc);
         return BST_OK;
     }
-    if (bs && bs->nnz <= lb) { /* as below, B's values at hand */
-        for (size_t j = 0; j < n; j++) {
-            double *c = C + j * ldc;
-            memset(c, 0, m * sizeof *c);
-            for (size_t e = bs->start[j]; e < bs->start[j + 1]; e++) {
-                size_t l = bs->row[e];
-                double b = bs->val[e];
-                for (size_t i = 0; i < m; i++)
-                    c[i] += AG(i, l) * b;
-            }
-        }
+    if (bs && bs->nnz <= lb) {
+        times_sparse(m, n, A, g, bs->start, bs->row, bs->val, C, ldc);
         return BST_OK;
     }
     size_t nza = 0;
     for (size_t l = 0; l < k && nza <= la; l++)
         for (size_t i = 0; i < m; i++)
-            nza += AG(i, l) != 0.0;
-    if (nza <= la) { /* C[:, j] = sum over l of A[:, l] g[l] B[l, j], their values listed by column */
-        size_t *start = bsti_alloc_array(ctx, k + 1 + nza, sizeof *start), *row = start + k + 1;
-        double *val = bsti_alloc_array(ctx, nza + 1, sizeof *val);
-        if (!start || !val) {
-            bsti_free(ctx, start), bsti_free(ctx, val);
-            return BST_ENOMEM;
-        }
-        for (size_t l = 0, e = 0; l < k; l++) {
-            start[l] = e;
-            for (size_t i = 0; i < m; i++)
-                if (AG(i, l) != 0.0)
-                    row[e] = i, val[e++] = AG(i, l);
-            start[l + 1] = e;
-        }
-        for (size_t j = 0; j < n; j++) {
-            double *c = C + j * ldc;
-            memset(c, 0, m * sizeof *c);
-            for (size_t l = 0; l < k; l++) {
-                double b = B[j * k + l];
-                for (size_t e = start[l]; e < start[l + 1]; e++)
-                    c[row[e]] += val[e] * b;
-            }
-        }
+            nza += (g ? A[l * m + i] * g[l] : A[l * m + i]) != 0.0;
+    size_t nzb = nza <= la ? 0 : nonzeros(B, k, n, k, lb);
+    if (nza <= la || nzb <= lb) { /* the sparse one's values listed by column */
+        size_t *start;
+        double *val;
+        int rc = nza <= la ? by_column(ctx, A, g, m, k, nza, &start, &val)
+                           : by_column(ctx, B, NULL, k, n, nzb, &start, &val);
+        if (rc < 0)
+            return rc;
+        if (nza <= la)
+            sparse_times(m, n, k, start, start + k + 1, val, NULL, B, C, ldc);
+        else
+            times_sparse(m, n, A, g, start, start + n + 1, val, C, ldc);
         bsti_free(ctx, start), bsti_free(ctx, val);
-    } else if (nonzeros(B, k, n, k, lb) <= lb) {
-        for (size_t j = 0; j < n; j++) {
-            double *c = C + j * ldc;
-            memset(c, 0, m * sizeof *c);
-            for (size_t l = 0; l < k; l++) {
-                double b = B[j * k + l];
-                if (b != 0.0)
-                    for (size_t i = 0; i < m; i++)
-                        c[i] += AG(i, l) * b;
-            }
-        }
     } else {
         double *ag = NULL;
         if (g) {
@@ -322,7 +340,6 @@ static int lr_gemm(bst_ctx *ctx, size_t m, size_t n, size_t k, const double *A, 
         bsti_free(ctx, ag);
     }
     return BST_OK;
-#undef AG
 }
 
 static void times(double *v, const double *x, const double *y, size_t N)
