@@ -105,9 +105,8 @@ void bsti_lr_free(bst_ctx *ctx, bsti_lr *m)
     bsti_free(ctx, m);
 }
 
-/* A matrix with room for p and q scalings, K zero, and a diagonal when with_d. */
-int bsti_lr_alloc(bst_ctx *ctx, const bsti_lr_map *S, size_t p, size_t q, int with_d,
-                    bsti_lr **out)
+int bsti_lr_alloc(bst_ctx *ctx, const bsti_lr_map *S, size_t p, size_t q, int with_d, int kmode,
+                  bsti_lr **out)
 {
     size_t N = S->N, r = S->r;
     bsti_lr *m = bsti_calloc(ctx, 1, sizeof *m);
@@ -119,7 +118,9 @@ int bsti_lr_alloc(bst_ctx *ctx, const bsti_lr_map *S, size_t p, size_t q, int wi
     int ok = (!with_d || (m->d = bsti_alloc_array(ctx, N, sizeof *m->d))) &&
              (m->a = bsti_alloc_array(ctx, p * N + 1, sizeof *m->a)) &&
              (m->b = bsti_alloc_array(ctx, q * N + 1, sizeof *m->b)) &&
-             (m->k = bsti_calloc(ctx, p * r * q * r + 1, sizeof *m->k));
+             (kmode == BSTI_LR_K_NONE ||
+              (m->k = kmode == BSTI_LR_K_ZERO ? bsti_calloc(ctx, p * r * q * r + 1, sizeof *m->k)
+                                              : bsti_alloc_array(ctx, p * r * q * r + 1, sizeof *m->k)));
     if (!ok) {
         bsti_lr_free(ctx, m);
         return BST_ENOMEM;
@@ -132,7 +133,7 @@ int bsti_lr_new(bst_ctx *ctx, const bsti_lr_map *S, const double *d, const doubl
                 const double *K, const double *b, bsti_lr **out)
 {
     size_t N = S->N, r = S->r, p = K ? 1 : 0;
-    int rc = bsti_lr_alloc(ctx, S, p, p, d != NULL, out);
+    int rc = bsti_lr_alloc(ctx, S, p, p, d != NULL, K ? BSTI_LR_K_FILLED : BSTI_LR_K_ZERO, out);
     if (rc < 0)
         return rc;
     bsti_lr *m = *out;
@@ -218,6 +219,29 @@ void bsti_lr_add_block(double *dst, size_t ldd, size_t bi, size_t bj, const doub
             dst[(bj * r + c) * ldd + bi * r + q] += s * src[(j * r + c) * lds + i * r + q];
 }
 
+void bsti_lr_block_put(double *dst, size_t ldd, size_t bi, size_t bj, const bsti_lr *f, size_t i,
+                       size_t j, double s, int first)
+{
+    size_t r = f->r, lds = f->p * r;
+    if (f->k && !first) {
+        bsti_lr_add_block(dst, ldd, bi, bj, f->k, lds, i, j, r, s);
+        return;
+    }
+    for (size_t c = 0; c < r; c++) {
+        double *d = dst + (bj * r + c) * ldd + bi * r;
+        if (f->k) { /* 0 + x, not x: a -0 becomes +0, as adding to a cleared block makes it */
+            const double *src = f->k + (j * r + c) * lds + i * r;
+            for (size_t q = 0; q < r; q++)
+                d[q] = 0.0 + s * src[q];
+            continue;
+        }
+        if (first)
+            memset(d, 0, r * sizeof *d);
+        for (size_t e = f->ks->start[c]; e < f->ks->start[c + 1]; e++)
+            d[f->ks->row[e]] += s * f->ks->val[e];
+    }
+}
+
 /* Values of A (m x n, leading dimension lda) that are not zero, counting stopped past limit. */
 static size_t nonzeros(const double *A, size_t m, size_t n, size_t lda, size_t limit)
 {
@@ -227,10 +251,6 @@ static size_t nonzeros(const double *A, size_t m, size_t n, size_t lda, size_t l
             nz += A[j * lda + i] != 0.0;
     return nz;
 }
-
-/* A K block at most this share of whose values are not zero is multiplied as a sparse one (a clear
- * pane's tree at a coarse order: a diagonal, a mirror, a few values more). */
-#define LR_SPARSE_SHARE (1.0 / 64.0)
 
 /* C = S diag(g) B for a sparse m x k S given by column (start: k + 1, row, val; g k values or NULL
  * for ones) and a dense k x n B: each column of C the sum, over l in order, of S's column l times
@@ -292,21 +312,21 @@ static int by_column(bst_ctx *ctx, const double *M, const double *g, size_t m, s
 
 /* C = A diag(g) B (m x n in C's leading dimension ldc; A m x k, g k values or NULL for ones, B k x
  * n, column-major, their leading dimensions their row counts): GEMM, unless A diag(g) or B is sparse
- * (LR_SPARSE_SHARE), then through its values that are not zero (the same sums but for their
+ * (BSTI_LR_SPARSE_SHARE), then through its values that are not zero (the same sums but for their
  * order), taken from as or bs where given (that matrix's, bsti_lr_csc), else found by a pass over
- * the matrix.  Each value of A diag(g) is A's times g's, as bsti_lr_mul_diag_blocks makes it: the
+ * the matrix; A or B NULL: held by as or bs alone (lowrank.h), always taken so.  Each value of A diag(g) is A's times g's, as bsti_lr_mul_diag_blocks makes it: the
  * sparse ways take them as they go, the GEMM from an m x k array of them. */
 static int lr_gemm(bst_ctx *ctx, size_t m, size_t n, size_t k, const double *A, const double *g,
                    const bsti_lr_csc *as, const double *B, const bsti_lr_csc *bs, double *C,
                    size_t ldc)
 {
-    size_t la = (size_t)(LR_SPARSE_SHARE * (double)m * (double)k);
-    size_t lb = (size_t)(LR_SPARSE_SHARE * (double)k * (double)n);
-    if (as && as->nnz <= la) {
+    size_t la = (size_t)(BSTI_LR_SPARSE_SHARE * (double)m * (double)k);
+    size_t lb = (size_t)(BSTI_LR_SPARSE_SHARE * (double)k * (double)n);
+    if (as && (as->nnz <= la || !A) && B) {
         sparse_times(m, n, k, as->start, as->row, as->val, g, B, C, ldc);
         return BST_OK;
     }
-    if (bs && bs->nnz <= lb) {
+    if (bs && (bs->nnz <= lb || !B) && A) {
         times_sparse(m, n, A, g, bs->start, bs->row, bs->val, C, ldc);
         return BST_OK;
     }
@@ -373,16 +393,35 @@ static void lists_free(bst_ctx *ctx, struct lists *l)
     bsti_free(ctx, l->left), bsti_free(ctx, l->right), bsti_free(ctx, l->v), bsti_free(ctx, l->li_f);
 }
 
-/* A new matrix holding the lists (pn, qn vectors) and, with_d, a diagonal. */
+/* A new matrix holding the lists (pn, qn vectors) and, with_d, a diagonal; K as kmode says. */
 static int lr_from_lists(bst_ctx *ctx, const bsti_lr_map *S, const struct lists *l, size_t pn,
-                         size_t qn, int with_d, bsti_lr **out)
+                         size_t qn, int with_d, int kmode, bsti_lr **out)
 {
-    int rc = bsti_lr_alloc(ctx, S, pn, qn, with_d, out);
+    int rc = bsti_lr_alloc(ctx, S, pn, qn, with_d, kmode, out);
     if (rc >= 0) {
         memcpy((*out)->a, l->left, pn * S->N * sizeof *l->left);
         memcpy((*out)->b, l->right, qn * S->N * sizeof *l->right);
     }
     return rc;
+}
+
+/* F with K as an array: F itself (*copy NULL), or, where F holds K by column alone, a copy that
+ * holds it so (*copy, to be freed). */
+static int with_k(bst_ctx *ctx, const bsti_lr *f, bsti_lr **copy)
+{
+    *copy = NULL;
+    if (f->k)
+        return BST_OK;
+    int rc = bsti_lr_alloc(ctx, f->S, f->p, f->q, f->d != NULL, BSTI_LR_K_FILLED, copy);
+    if (rc < 0)
+        return rc;
+    bsti_lr *m = *copy;
+    if (f->d)
+        memcpy(m->d, f->d, f->N * sizeof *m->d);
+    memcpy(m->a, f->a, f->p * f->N * sizeof *m->a);
+    memcpy(m->b, f->b, f->q * f->N * sizeof *m->b);
+    bsti_lr_block_put(m->k, f->p * f->r, 0, 0, f, 0, 0, 1.0, 1);
+    return BST_OK;
 }
 
 static int same_map(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g)
@@ -437,16 +476,14 @@ static int coupled(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, struct list
     return rc;
 }
 
-/* F G = D_F D_G + D_F U_G K_G V_G^T + U_F K_F V_F^T D_G + U_F (K_F V_F^T U_G K_G) V_G^T. */
-int bsti_lr_mul(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, bsti_lr **out)
+/* F G = D_F D_G + D_F U_G K_G V_G^T + U_F K_F V_F^T D_G + U_F (K_F V_F^T U_G K_G) V_G^T.  An operand
+ * holding K by column alone (lowrank.h) is taken so where the coupled term is one product through
+ * its values (one diagonal block between the two K: coupled's `one`), else as a copy with K. */
+static int mul(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, bsti_lr **out)
 {
-    *out = NULL;
-    int rc = same_map(ctx, f, g);
-    if (rc < 0)
-        return rc;
     size_t N = f->N, r = f->r;
     struct lists l;
-    rc = lists_alloc(ctx, N, g->p + f->p, g->q + f->q, f, g, &l);
+    int rc = lists_alloc(ctx, N, g->p + f->p, g->q + f->q, f, g, &l);
     size_t pn = 0, qn = 0;
     for (size_t i = 0; rc >= 0 && f->d && i < g->p; i++) {
         times(l.v, f->d, g->a + i * N, N);
@@ -460,18 +497,11 @@ int bsti_lr_mul(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, bsti_lr **out)
         times(l.v, g->d, f->b + j * N, N);
         l.rj_f[j] = bsti_lr_find_or_add(l.right, &qn, l.v, N);
     }
-    if (rc >= 0)
-        rc = lr_from_lists(ctx, f->S, &l, pn, qn, f->d && g->d, out);
-    if (rc < 0) {
-        lists_free(ctx, &l);
-        return rc;
-    }
-    bsti_lr *m = *out;
-    size_t ld = pn * r;
     /* A coupled term of one block that at most one diagonal term adds to is made first, in its
-     * block: the same sums as adding it last (x + y = y + x). */
+     * block: the same sums as adding it last (x + y = y + x); where it is K's only block, K is
+     * not cleared first. */
     int direct = 0;
-    if (f->p == 1 && g->q == 1 && g->p) {
+    if (rc >= 0 && f->p == 1 && g->q == 1 && g->p) {
         int hits = 0;
         for (size_t i = 0; f->d && i < g->p; i++)
             for (size_t j = 0; j < g->q; j++)
@@ -481,16 +511,25 @@ int bsti_lr_mul(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, bsti_lr **out)
                 hits += l.li_f[i] == l.li_f[0] && l.rj_f[j] == l.rj_g[0];
         direct = hits <= 1;
     }
+    if (rc >= 0)
+        rc = lr_from_lists(ctx, f->S, &l, pn, qn, f->d && g->d,
+                           direct && pn == 1 && qn == 1 ? BSTI_LR_K_FILLED : BSTI_LR_K_ZERO, out);
+    if (rc < 0) {
+        lists_free(ctx, &l);
+        return rc;
+    }
+    bsti_lr *m = *out;
+    size_t ld = pn * r;
     if (direct)
         rc = coupled(ctx, f, g, &l, m, ld, 1);
     if (m->d)
         times(m->d, f->d, g->d, N);
     for (size_t i = 0; f->d && i < g->p; i++)
         for (size_t j = 0; j < g->q; j++)
-            bsti_lr_add_block(m->k, ld, l.li_g[i], l.rj_g[j], g->k, g->p * r, i, j, r, 1.0);
+            bsti_lr_block_put(m->k, ld, l.li_g[i], l.rj_g[j], g, i, j, 1.0, 0);
     for (size_t i = 0; g->d && i < f->p; i++)
         for (size_t j = 0; j < f->q; j++)
-            bsti_lr_add_block(m->k, ld, l.li_f[i], l.rj_f[j], f->k, f->p * r, i, j, r, 1.0);
+            bsti_lr_block_put(m->k, ld, l.li_f[i], l.rj_f[j], f, i, j, 1.0, 0);
     if (rc >= 0 && !direct && f->p && g->p)
         rc = coupled(ctx, f, g, &l, m, ld, 0);
     lists_free(ctx, &l);
@@ -498,6 +537,23 @@ int bsti_lr_mul(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, bsti_lr **out)
         bsti_lr_free(ctx, m);
         *out = NULL;
     }
+    return rc;
+}
+
+int bsti_lr_mul(bst_ctx *ctx, const bsti_lr *f, const bsti_lr *g, bsti_lr **out)
+{
+    *out = NULL;
+    int rc = same_map(ctx, f, g);
+    if (rc < 0)
+        return rc;
+    bsti_lr *fk = NULL, *gk = NULL;
+    if ((!f->k || !g->k) && !(f->S->single && f->q == 1 && g->p == 1) &&
+        ((rc = with_k(ctx, f, &fk)) < 0 || (rc = with_k(ctx, g, &gk)) < 0)) {
+        bsti_lr_free(ctx, fk);
+        return rc;
+    }
+    rc = mul(ctx, fk ? fk : f, gk ? gk : g, out);
+    bsti_lr_free(ctx, fk), bsti_lr_free(ctx, gk);
     return rc;
 }
 
@@ -561,20 +617,26 @@ int bsti_lr_add(bst_ctx *ctx, double alpha, const bsti_lr *f, double beta, const
         l.rj_f[j] = find_multiple_or_add(l.right, &qn, f->b + j * N, N, &cr_f[j]);
     for (size_t j = 0; rc >= 0 && j < g->q; j++)
         l.rj_g[j] = find_multiple_or_add(l.right, &qn, g->b + j * N, N, &cr_g[j]);
+    /* K's only block is written by its first term, not cleared and added to; where each matrix
+     * has one term and F holds K by column alone, G's comes first (the same sums: x + y = y + x) */
+    int one = pn == 1 && qn == 1, g_first = one && !f->k && f->p * f->q == 1 && g->p * g->q == 1;
     if (rc >= 0)
-        rc = lr_from_lists(ctx, f->S, &l, pn, qn, f->d || g->d, out);
+        rc = lr_from_lists(ctx, f->S, &l, pn, qn, f->d || g->d,
+                           one ? BSTI_LR_K_FILLED : BSTI_LR_K_ZERO, out);
     if (rc >= 0) {
         bsti_lr *m = *out;
+        int first = one;
         for (size_t x = 0; m->d && x < N; x++)
             m->d[x] = (f->d ? alpha * f->d[x] : 0.0) + (g->d ? beta * g->d[x] : 0.0);
-        for (size_t i = 0; i < f->p; i++)
-            for (size_t j = 0; j < f->q; j++)
-                bsti_lr_add_block(m->k, pn * r, l.li_f[i], l.rj_f[j], f->k, f->p * r, i, j, r,
-                                  alpha * cl_f[i] * cr_f[j]);
-        for (size_t i = 0; i < g->p; i++)
-            for (size_t j = 0; j < g->q; j++)
-                bsti_lr_add_block(m->k, pn * r, l.li_g[i], l.rj_g[j], g->k, g->p * r, i, j, r,
-                                  beta * cl_g[i] * cr_g[j]);
+        for (int t = 0; t < 2; t++) {
+            const bsti_lr *h = (t == 0) != g_first ? f : g;
+            const size_t *li = h == f ? l.li_f : l.li_g, *rj = h == f ? l.rj_f : l.rj_g;
+            const double *cl = h == f ? cl_f : cl_g, *cr = h == f ? cr_f : cr_g;
+            for (size_t i = 0; i < h->p; i++)
+                for (size_t j = 0; j < h->q; j++, first = 0)
+                    bsti_lr_block_put(m->k, pn * r, li[i], rj[j], h, i, j,
+                                      (h == f ? alpha : beta) * cl[i] * cr[j], first);
+        }
     }
     bsti_free(ctx, c);
     lists_free(ctx, &l);
@@ -597,7 +659,7 @@ void bsti_lr_scale_take(const double *dr, bsti_lr *f, const double *dc)
 int bsti_lr_scale(bst_ctx *ctx, const double *dr, const bsti_lr *f, const double *dc, bsti_lr **out)
 {
     size_t N = f->N, r = f->r;
-    int rc = bsti_lr_alloc(ctx, f->S, f->p, f->q, f->d != NULL, out);
+    int rc = bsti_lr_alloc(ctx, f->S, f->p, f->q, f->d != NULL, BSTI_LR_K_FILLED, out);
     if (rc < 0)
         return rc;
     bsti_lr *m = *out;
@@ -677,7 +739,7 @@ int bsti_lr_transpose_take(bsti_lr *f)
 int bsti_lr_transpose(bst_ctx *ctx, const bsti_lr *f, bsti_lr **out)
 {
     size_t N = f->N, pr = f->p * f->r, qr = f->q * f->r;
-    int rc = bsti_lr_alloc(ctx, f->S, f->q, f->p, f->d != NULL, out);
+    int rc = bsti_lr_alloc(ctx, f->S, f->q, f->p, f->d != NULL, BSTI_LR_K_FILLED, out);
     if (rc < 0)
         return rc;
     bsti_lr *m = *out;
@@ -854,7 +916,7 @@ int bsti_lr_map_permuted(bst_ctx *ctx, const bsti_lr_map *S, const size_t *perm,
 int bsti_lr_permute_over(bst_ctx *ctx, const bsti_lr *f, const size_t *perm, const bsti_lr_map *S2,
                          bsti_lr **out)
 {
-    int rc = bsti_lr_alloc(ctx, S2, f->p, f->q, f->d != NULL, out);
+    int rc = bsti_lr_alloc(ctx, S2, f->p, f->q, f->d != NULL, BSTI_LR_K_FILLED, out);
     if (rc < 0)
         return rc;
     permute_vectors(f, perm, *out);
@@ -882,7 +944,7 @@ int bsti_lr_permute(bst_ctx *ctx, const bsti_lr *f, const size_t *perm, bsti_lr 
             cp[S->col[ex]] = S->col[ey];
     }
     if (rc >= 0)
-        rc = bsti_lr_alloc(ctx, S, f->p, f->q, f->d != NULL, out);
+        rc = bsti_lr_alloc(ctx, S, f->p, f->q, f->d != NULL, BSTI_LR_K_ZERO, out);
     if (rc >= 0) {
         bsti_lr *m = *out;
         permute_vectors(f, perm, m);

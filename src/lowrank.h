@@ -55,12 +55,20 @@ typedef struct {
     size_t N, r, p, q;
     double *d;            /* N values, or NULL: no diagonal part */
     double *a, *b;        /* p and q vectors of N values (a[i * N + x]) */
-    double *k;            /* (p r) x (q r), column-major */
+    double *k;            /* (p r) x (q r), column-major; or NULL where ks alone holds K: an
+                             operand made of a sparse matrix for one product, sum or solve
+                             (bsti_mat_lr_operand), which only bsti_lr_mul, bsti_lr_add,
+                             bsti_lr_fact_solve and bsti_lr_free take */
     bsti_lr_csc *ks;      /* K's values that are not zero, where K is known sparse (p = q = 1: a
                              pane's tree, mat_lowrank.c's sparse_lr), for products through them
                              (no pass over K to find them); NULL: not known.  One block, freed
                              with F; a change of K in F's own storage drops it */
 } bsti_lr;
+
+/* A K block at most this share of whose values are not zero is multiplied as a sparse one (a clear
+ * pane's tree at a coarse order: a diagonal, a mirror, a few values more), and an operand's K so
+ * sparse is held by column alone (bsti_mat_lr_operand). */
+#define BSTI_LR_SPARSE_SHARE (1.0 / 64.0)
 
 /* An N x r map with nnz entries, rows filled by the caller (start[0] = 0, start[N] = nnz). */
 int bsti_lr_map_new(bst_ctx *ctx, size_t N, size_t r, size_t nnz, bsti_lr_map **out);
@@ -166,8 +174,17 @@ void bsti_lr_fact_free(bst_ctx *ctx, bsti_lr_fact *fa);
 int bsti_lr_inverse(bst_ctx *ctx, const bsti_lr *f, bsti_lr **out, double *rcond);
 
 /* Shared by lowrank.c and lowrank_solve.c (not for other modules). */
-/* A matrix over S with room for p and q scalings, K zero, and a diagonal when with_d. */
-int bsti_lr_alloc(bst_ctx *ctx, const bsti_lr_map *S, size_t p, size_t q, int with_d, bsti_lr **out);
+/* A matrix over S with room for p and q scalings and a diagonal when with_d; K as kmode says: zero,
+ * filled (its values left for the caller to write, every one of them: no clearing pass), or none
+ * (k NULL: the caller sets ks). */
+enum { BSTI_LR_K_ZERO, BSTI_LR_K_FILLED, BSTI_LR_K_NONE };
+int bsti_lr_alloc(bst_ctx *ctx, const bsti_lr_map *S, size_t p, size_t q, int with_d, int kmode,
+                  bsti_lr **out);
+/* dst's r x r block (bi, bj) += s * F's block (i, j) (first: := 0 + s * F's block, the block's
+ * values not read), from K or, where F holds K by column alone, from its values (the same sums:
+ * the zeros add nothing). */
+void bsti_lr_block_put(double *dst, size_t ldd, size_t bi, size_t bj, const bsti_lr *f, size_t i,
+                       size_t j, double s, int first);
 /* The index of v (N values) among the n vectors of list (equal to 1e-14 of v's largest value), n
  * when it is not there; bsti_lr_find_or_add appends it then. */
 size_t bsti_lr_find(const double *list, size_t n, const double *v, size_t N);

@@ -286,16 +286,19 @@ static int solve_matched(bst_ctx *ctx, bsti_lr_fact *fa, int s, const bsti_lr *b
     }
     for (size_t j = 0; rc >= 0 && j < b->q; j++)
         rj[q + j] = bsti_lr_find_or_add(list, &qn, b->b + j * N, N);
+    /* K's only block (one left and one right vector) is written by its first term, not cleared */
+    int one = rc >= 0 && p == 1 && qn == 1, first = one;
     if (rc >= 0)
-        rc = bsti_lr_alloc(ctx, f->S, p, qn, b->d != NULL, out);
+        rc = bsti_lr_alloc(ctx, f->S, p, qn, b->d != NULL, one ? BSTI_LR_K_FILLED : BSTI_LR_K_ZERO,
+                           out);
     if (rc >= 0) {
         bsti_lr *m = *out;
         for (size_t i = 0; b->d && i < p; i++)
-            for (size_t j = 0; j < q; j++)
-                bsti_lr_add_block(m->k, pr, i, rj[j], f->k, pr, i, j, r, 1.0);
+            for (size_t j = 0; j < q; j++, first = 0)
+                bsti_lr_block_put(m->k, pr, i, rj[j], f, i, j, 1.0, first);
         for (size_t i = 0; i < b->p; i++)
-            for (size_t j = 0; j < b->q; j++)
-                bsti_lr_add_block(m->k, pr, li[i], rj[q + j], b->k, b->p * r, i, j, r, 1.0);
+            for (size_t j = 0; j < b->q; j++, first = 0)
+                bsti_lr_block_put(m->k, pr, li[i], rj[q + j], b, i, j, 1.0, first);
         cap_solve(ctx, fa, s, 0, m->k, qn * r);
         for (size_t x = 0; m->d && x < N; x++)
             m->d[x] = fa->einv[x] * b->d[x];

@@ -30,6 +30,10 @@ int bsti_mat_from_lr(bst_ctx *ctx, bsti_lr *lr, bst_mat **out);
  * over a prolongation S: P K P^T when it is exactly that, a sparse tree of depth below k) into
  * *lr, or BST_ENOTFOUND for another structure or sparse matrix. */
 int bsti_mat_lr_of(bst_ctx *ctx, const bst_mat *m, const bsti_lr_map *S, bsti_lr **lr);
+/* The same as an operand of one bsti_lr_mul, bsti_lr_add or bsti_lr_fact_solve: a sparse m's K,
+ * where it is sparse, held by column alone (lowrank.h), not as r^2 values (128 MiB for a pane's
+ * k = 6 tree read at k = 7, cleared and filled with a few thousand values at each use). */
+int bsti_mat_lr_operand(bst_ctx *ctx, const bst_mat *m, const bsti_lr_map *S, bsti_lr **lr);
 /* A FACTORED matrix whose low-rank part is as large as the matrix itself (BSTI_LR_DENSE_SHARE of
  * N) becomes dense: the structure by cost (a product of two such costs about as much as GEMM on
  * the dense ones and holds more); any other is kept.  *m is replaced, the old freed. */

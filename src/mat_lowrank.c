@@ -142,76 +142,83 @@ static int place_order(const void *x, const void *y)
     return (a > b) - (a < b);
 }
 
-/* F's K (r x r, p = q = 1) held also by column from the places at[0..n-1] of its values that are
- * not zero (any order; sorted here: a place is column r + row). */
-static int csc_of(bst_ctx *ctx, bsti_lr *f, size_t *at, size_t n)
-{
-    size_t r = f->r;
-    size_t bytes = sizeof(bsti_lr_csc) + (r + 1 + n) * sizeof(size_t) + n * sizeof(double);
-    bsti_lr_csc *cs = bsti_malloc(ctx, bytes);
-    if (!cs)
-        return BST_ENOMEM;
-    cs->nnz = n;
-    cs->start = (size_t *)(cs + 1);
-    cs->row = cs->start + r + 1;
-    cs->val = (double *)(cs->row + n);
-    qsort(at, n, sizeof *at, place_order);
-    for (size_t c = 0, e = 0; c <= r; c++) {
-        cs->start[c] = e;
-        while (c < r && e < n && at[e] / r == c)
-            cs->row[e] = at[e] % r, cs->val[e] = f->k[at[e]], e++;
-    }
-    f->ks = cs;
-    return BST_OK;
-}
-
 /* A SPARSE N x N m that is exactly P K P^T for the prolongation S (each pair of coarse cells holds
  * one value in all its fine pairs, or none: a sparse rank-4 tree of depth d read at k > d, a clear
- * pane's tree file say), as the factored matrix with that K (dense, r x r); BST_ENOTFOUND, with no
- * message, for any other.  K is filled in the result's own storage; a pair is whole when every
- * non-zero agrees with its pair's first and their count is fine^2 times the pairs that hold one
- * (a sparse matrix stores a cell once, so no pair can hold more than fine^2).  K is also held by
- * column (csc_of), so that its products need no pass over its r^2 values to find the few that are
- * not zero.  Work: O(nnz + r^2) (the zeros of K: one clearing). */
-static int sparse_lr(bst_ctx *ctx, const bst_mat *m, const bsti_lr_map *S, bsti_lr **lr)
+ * pane's tree file say), as the factored matrix with that K; BST_ENOTFOUND, with no message, for
+ * any other.  K is held by column (ks), so that its products need no pass over its r^2 values to
+ * find the few that are not zero, and, unless kmode is BSTI_LR_K_NONE and K is sparse
+ * (BSTI_LR_SPARSE_SHARE), as an r x r array too.  The values are gathered coarse column by coarse
+ * column: a pair is whole when its fine^2 values are all there and equal.  Work: O(nnz + N + r
+ * log r), and r^2 for the array. */
+static int sparse_lr(bst_ctx *ctx, const bst_mat *m, const bsti_lr_map *S, int kmode, bsti_lr **lr)
 {
     *lr = NULL;
     if (!S->single || S->k < 0 || m->rows != S->N || m->cols != S->N)
         return BST_ENOTFOUND;
-    size_t r = S->r, fine = S->N / r, pairs = 0, values = 0; /* fine cells a coarse cell */
-    bsti_lr *f;
-    int rc = bsti_lr_alloc(ctx, S, 1, 1, 0, &f);
-    if (rc < 0)
-        return rc;
-    for (size_t x = 0; x < S->N; x++)
-        f->a[x] = f->b[x] = 1.0;
-    double *K = f->k; /* zero */
+    size_t N = S->N, r = S->r, fine = N / r, whole = fine * fine;
     const SuiteSparse_long *p = m->sp->p, *ri = m->sp->i;
     const double *x = m->sp->x;
-    size_t nnz = (size_t)p[m->cols];
-    size_t *at = bsti_alloc_array(ctx, nnz + 1, sizeof *at); /* each pair's place in K */
-    if (!at)
-        rc = BST_ENOMEM;
-    for (size_t j = 0; rc >= 0 && j < m->cols; j++)
-        for (SuiteSparse_long q = p[j]; q < p[j + 1] && rc >= 0; q++) {
-            size_t c = S->col[j] * r + S->col[ri[q]];
-            if (x[q] == 0.0)
-                continue;
-            values++;
-            if (K[c] == 0.0)
-                K[c] = x[q], at[pairs++] = c;
-            else if (K[c] != x[q])
+    size_t nnz = (size_t)p[m->cols], pairs = 0;
+    /* the fine columns of each coarse column (by = r + 1 starts, then N columns), each coarse
+     * row's count and value in the column at hand, the rows met there */
+    size_t *by = bsti_calloc(ctx, r + 1 + N + 2 * r, sizeof *by);
+    double *val = bsti_alloc_array(ctx, r, sizeof *val);
+    bsti_lr_csc *cs = bsti_malloc(ctx, sizeof *cs + (r + 1 + nnz / whole + 1) * sizeof(size_t) +
+                                       (nnz / whole + 1) * sizeof(double));
+    int rc = by && val && cs ? BST_OK : BST_ENOMEM;
+    size_t *fc = by + r + 1, *count = fc + N, *met = count + r;
+    if (rc >= 0) {
+        cs->start = (size_t *)(cs + 1);
+        cs->row = cs->start + r + 1;
+        cs->val = (double *)(cs->row + nnz / whole + 1);
+        for (size_t j = 0; j < N; j++)
+            by[S->col[j] + 1]++;
+        for (size_t c = 0; c < r; c++)
+            by[c + 1] += by[c];
+        for (size_t j = 0, *next = met; j < N; j++) /* met: room to place them */
+            fc[by[S->col[j]] + next[S->col[j]]++] = j;
+        memset(met, 0, r * sizeof *met);
+    }
+    for (size_t c = 0; rc >= 0 && c < r; c++) {
+        size_t nmet = 0;
+        cs->start[c] = pairs;
+        for (size_t t = by[c]; t < by[c + 1] && rc >= 0; t++)
+            for (SuiteSparse_long q = p[fc[t]]; q < p[fc[t] + 1]; q++) {
+                size_t row = S->col[ri[q]];
+                if (x[q] == 0.0)
+                    continue;
+                if (!count[row]++)
+                    val[row] = x[q], met[nmet++] = row;
+                else if (val[row] != x[q])
+                    rc = BST_ENOTFOUND;
+            }
+        qsort(met, nmet, sizeof *met, place_order);
+        for (size_t e = 0; e < nmet; e++) {
+            if (count[met[e]] != whole || pairs >= nnz / whole)
                 rc = BST_ENOTFOUND;
+            else
+                cs->row[pairs] = met[e], cs->val[pairs++] = val[met[e]];
+            count[met[e]] = 0;
         }
-    if (rc >= 0 && values != pairs * fine * fine)
-        rc = BST_ENOTFOUND;
-    if (rc >= 0) /* K's values by column for the products (lowrank.h): the places in order */
-        rc = csc_of(ctx, f, at, pairs);
-    bsti_free(ctx, at);
-    if (rc < 0)
-        bsti_lr_free(ctx, f);
-    else
+    }
+    bsti_lr *f = NULL;
+    if (rc >= 0) {
+        cs->start[r] = cs->nnz = pairs;
+        if (kmode == BSTI_LR_K_NONE && (double)pairs > BSTI_LR_SPARSE_SHARE * (double)r * (double)r)
+            kmode = BSTI_LR_K_ZERO;
+        rc = bsti_lr_alloc(ctx, S, 1, 1, 0, kmode, &f);
+    }
+    if (rc >= 0) {
+        for (size_t y = 0; y < N; y++)
+            f->a[y] = f->b[y] = 1.0;
+        for (size_t c = 0; f->k && c < r; c++)
+            for (size_t e = cs->start[c]; e < cs->start[c + 1]; e++)
+                f->k[c * r + cs->row[e]] = cs->val[e];
+        f->ks = cs;
+        cs = NULL;
         *lr = f;
+    }
+    bsti_free(ctx, by), bsti_free(ctx, val), bsti_free(ctx, cs);
     return rc;
 }
 
@@ -225,7 +232,7 @@ int bsti_mul_lowrank_sparse(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, do
 {
     int left = a->s == BST_FACTORED;
     bsti_lr *ls, *lr;
-    int rc = sparse_lr(ctx, left ? b : a, (left ? a : b)->lr->S, &ls);
+    int rc = sparse_lr(ctx, left ? b : a, (left ? a : b)->lr->S, BSTI_LR_K_NONE, &ls);
     if (rc >= 0) {
         rc = left ? bsti_lr_mul(ctx, a->lr, ls, &lr) : bsti_lr_mul(ctx, ls, b->lr, &lr);
         bsti_lr_free(ctx, ls);
@@ -246,7 +253,7 @@ int bsti_add_lowrank(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, 
                      bst_mat **out)
 {
     bsti_lr *lb = NULL, *lr = NULL;
-    int rc = bsti_mat_lr_of(ctx, b, a->lr->S, &lb);
+    int rc = bsti_mat_lr_operand(ctx, b, a->lr->S, &lb);
     if (rc == BST_ENOTFOUND || (rc >= 0 && !bsti_lr_same_map(a->lr, lb))) {
         bsti_lr_free(ctx, lb);
         return bsti_mat_add_generic(ctx, alpha, a, beta, b, out);
@@ -270,16 +277,26 @@ int bsti_mat_from_lr(bst_ctx *ctx, bsti_lr *lr, bst_mat **out)
     return BST_OK;
 }
 
-int bsti_mat_lr_of(bst_ctx *ctx, const bst_mat *m, const bsti_lr_map *S, bsti_lr **lr)
+static int lr_of(bst_ctx *ctx, const bst_mat *m, const bsti_lr_map *S, int kmode, bsti_lr **lr)
 {
     *lr = NULL;
     if (m->s == BST_FACTORED)
         return bsti_lr_copy(ctx, m->lr, lr);
     if (m->s == BST_SPARSE)
-        return sparse_lr(ctx, m, S, lr);
+        return sparse_lr(ctx, m, S, kmode, lr);
     if ((m->s != BST_DIAG && m->s != BST_ZERO) || m->rows != S->N || m->cols != S->N)
         return BST_ENOTFOUND;
     return bsti_lr_new(ctx, S, m->s == BST_DIAG ? m->diag : NULL, NULL, NULL, NULL, lr);
+}
+
+int bsti_mat_lr_of(bst_ctx *ctx, const bst_mat *m, const bsti_lr_map *S, bsti_lr **lr)
+{
+    return lr_of(ctx, m, S, BSTI_LR_K_ZERO, lr);
+}
+
+int bsti_mat_lr_operand(bst_ctx *ctx, const bst_mat *m, const bsti_lr_map *S, bsti_lr **lr)
+{
+    return lr_of(ctx, m, S, BSTI_LR_K_NONE, lr);
 }
 
 size_t bsti_mat_rank(const bst_mat *m)

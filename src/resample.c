@@ -339,7 +339,7 @@ static int prolonged(bst_ctx *ctx, int k, int d, bsti_lr **lr, double **K)
     bsti_lr_map *S = NULL;
     int rc = bsti_lr_map_prolong(ctx, k, d, &S);
     if (rc >= 0)
-        rc = bsti_lr_alloc(ctx, S, 1, 1, 0, lr);
+        rc = bsti_lr_alloc(ctx, S, 1, 1, 0, BSTI_LR_K_ZERO, lr);
     bsti_lr_map_free(ctx, S); /* the matrix holds its own reference */
     if (rc < 0)
         return rc;

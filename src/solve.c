@@ -343,7 +343,7 @@ static int lowrank_solve(struct factor *f, int trans, const bst_mat *b, bst_mat 
     bsti_lr *lb = NULL, *x, *inv;
     const bsti_lr *bl = b->s == BST_FACTORED ? b->lr : NULL;
     int rc = BST_OK;
-    if (!bl && (rc = bsti_mat_lr_of(ctx, b, fl->S, &lb)) < 0 && rc != BST_ENOTFOUND)
+    if (!bl && (rc = bsti_mat_lr_operand(ctx, b, fl->S, &lb)) < 0 && rc != BST_ENOTFOUND)
         return rc;
     if (lb)
         bl = lb;

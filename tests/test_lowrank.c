@@ -830,6 +830,91 @@ START_TEST(test_sparse_join)
 }
 END_TEST
 
+/* Whether two factored matrices hold the same values, bit for bit: diagonal, scalings and K. */
+static int same_lr(const bsti_lr *x, const bsti_lr *y)
+{
+    size_t N = x->N, nk = x->p * x->r * x->q * x->r;
+    if (x->p != y->p || x->q != y->q || !x->d != !y->d || !x->k || !y->k)
+        return 0;
+    return (!x->d || memcmp(x->d, y->d, N * sizeof *x->d) == 0) &&
+           memcmp(x->a, y->a, x->p * N * sizeof *x->a) == 0 &&
+           memcmp(x->b, y->b, x->q * N * sizeof *x->b) == 0 && memcmp(x->k, y->k, nk * sizeof *x->k) == 0;
+}
+
+/* A sparse P K P^T whose K is sparse (a mirror and one value beside it, over P from order 4 to 5:
+ * r = 256, 257 values of 65536) is taken as an operand with K held by column alone
+ * (bsti_mat_lr_operand: no r x r array), and each product, sum and solve with it gives the bits
+ * the operand with its K as an array (bsti_mat_lr_of) gives, and the dense values.  _i: the factored
+ * matrix beside it has one term and a diagonal (the product through K's values), two terms (the
+ * operand made an array first), or one term whose left scaling is the operand's (the solve without
+ * an inverse). */
+START_TEST(test_sparse_operand)
+{
+    bsti_lr_map *S;
+    ck_assert_int_eq(bsti_lr_map_prolong(ctx, 5, 4, &S), BST_OK);
+    size_t N = S->N, r = S->r, nnz = 0, fine = N / r;
+    size_t *row = malloc((r + 1) * fine * fine * sizeof *row), *col = malloc((r + 1) * fine * fine * sizeof *col);
+    double *val = malloc((r + 1) * fine * fine * sizeof *val);
+    for (size_t j = 0; j < N; j++)
+        for (size_t i = 0; i < N; i++) {
+            size_t ci = S->col[i], cj = S->col[j];
+            if (ci == r - 1 - cj || (ci == 1 && cj == 0))
+                val[nnz] = 0.05 + 0.01 * (double)cj / (double)r, row[nnz] = i, col[nnz++] = j;
+        }
+    bst_mat *sp;
+    ck_assert_int_eq(bst_mat_new_sparse(ctx, N, N, nnz, row, col, val, &sp), BST_OK);
+    bsti_lr *op, *arr, *f;
+    ck_assert_int_eq(bsti_mat_lr_operand(ctx, sp, S, &op), BST_OK);
+    ck_assert_int_eq(bsti_mat_lr_of(ctx, sp, S, &arr), BST_OK);
+    ck_assert_ptr_null(op->k);
+    ck_assert_ptr_nonnull(arr->k);
+    ck_assert_uint_eq(op->ks->nnz, r + 1);
+    if (_i == 2) { /* left scaling ones, as the operand's */
+        double *K = malloc(r * r * sizeof *K), *d = malloc(N * sizeof *d), *b = malloc(N * sizeof *b);
+        random_vec(K, r * r, 0.0, 0.25 / (double)N), random_vec(d, N, 0.0, 0.3), random_vec(b, N, 0.5, 1.0);
+        ck_assert_int_eq(bsti_lr_new(ctx, S, d, NULL, K, b, &f), BST_OK);
+        free(K), free(d), free(b);
+    } else {
+        f = random_lr(S, 1, _i == 1);
+    }
+    double *dsp = dense_of(arr), *df = dense_of(f), *want = malloc(N * N * sizeof *want);
+    for (int t = 0; t < 2; t++) { /* F op, op F */
+        bsti_lr *x, *y;
+        ck_assert_int_eq(bsti_lr_mul(ctx, t ? op : f, t ? f : op, &x), BST_OK);
+        ck_assert_int_eq(bsti_lr_mul(ctx, t ? arr : f, t ? f : arr, &y), BST_OK);
+        ck_assert_msg(same_lr(x, y), "case %d, product %d: not the same bits", _i, t);
+        cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)N, (int)N, (int)N, 1.0,
+                    t ? dsp : df, (int)N, t ? df : dsp, (int)N, 0.0, want, (int)N);
+        double *got = dense_of(x);
+        ck_assert_msg(rel_diff(got, want, N * N) < 1e-13, "case %d, product %d", _i, t);
+        free(got), bsti_lr_free(ctx, x), bsti_lr_free(ctx, y);
+        ck_assert_int_eq(bsti_lr_add(ctx, 0.5, t ? op : f, -2.0, t ? f : op, &x), BST_OK);
+        ck_assert_int_eq(bsti_lr_add(ctx, 0.5, t ? arr : f, -2.0, t ? f : arr, &y), BST_OK);
+        ck_assert_msg(same_lr(x, y), "case %d, sum %d: not the same bits", _i, t);
+        for (size_t e = 0; e < N * N; e++)
+            want[e] = 0.5 * (t ? dsp : df)[e] - 2.0 * (t ? df : dsp)[e];
+        got = dense_of(x);
+        ck_assert_msg(rel_diff(got, want, N * N) < 1e-13, "case %d, sum %d", _i, t);
+        free(got), bsti_lr_free(ctx, x), bsti_lr_free(ctx, y);
+        bsti_lr_fact *fa;
+        ck_assert_int_eq(bsti_lr_factor(ctx, f, t, &fa, NULL), BST_OK);
+        ck_assert_int_eq(bsti_lr_fact_solve(ctx, fa, t, op, &x), BST_OK);
+        ck_assert_int_eq(bsti_lr_fact_solve(ctx, fa, t, arr, &y), BST_OK);
+        ck_assert_msg(same_lr(x, y), "case %d, solve %d: not the same bits", _i, t);
+        dense_solve(df, dsp, N, t, want);
+        got = dense_of(x);
+        ck_assert_msg(rel_diff(got, want, N * N) < 1e-12, "case %d, solve %d: %g", _i, t,
+                      rel_diff(got, want, N * N));
+        free(got), bsti_lr_free(ctx, x), bsti_lr_free(ctx, y);
+        bsti_lr_fact_free(ctx, fa);
+    }
+    free(dsp), free(df), free(want), free(row), free(col), free(val);
+    bsti_lr_free(ctx, op), bsti_lr_free(ctx, arr), bsti_lr_free(ctx, f);
+    bst_mat_free(sp);
+    bsti_lr_map_free(ctx, S);
+}
+END_TEST
+
 /* Scaling a factored matrix in its own storage (bsti_lr_scale_take, what the stack does at a
  * matrix's last read; bsti_lr_scale is a copy and this) gives diag(dr) F diag(dc) of F's values,
  * with either side's scaling absent. */
@@ -874,7 +959,7 @@ START_TEST(test_transpose_take)
     free(want), free(got);
     bsti_lr_free(ctx, f), bsti_lr_free(ctx, copy);
     bsti_lr *g; /* p 1, q 2 */
-    ck_assert_int_eq(bsti_lr_alloc(ctx, S, 1, 2, 0, &g), BST_OK);
+    ck_assert_int_eq(bsti_lr_alloc(ctx, S, 1, 2, 0, BSTI_LR_K_ZERO, &g), BST_OK);
     random_vec(g->a, N, 0.5, 1.0), random_vec(g->b, 2 * N, 0.5, 1.0);
     random_vec(g->k, 2 * S->r * S->r, 0.0, 0.1);
     want = dense_of(g);
@@ -905,6 +990,7 @@ static Suite *suite(void)
     tcase_add_loop_test(tc, test_lines_fast, 0, 3);
     tcase_add_loop_test(tc, test_sparse_k, 0, 2);
     tcase_add_loop_test(tc, test_sparse_join, 0, 3);
+    tcase_add_loop_test(tc, test_sparse_operand, 0, 3);
     tcase_add_loop_test(tc, test_scale_take, 0, 9);
     tcase_add_loop_test(tc, test_transpose_take, 0, 8);
     suite_add_tcase(s, tc);
