@@ -255,10 +255,11 @@ static size_t nonzeros(const double *A, size_t m, size_t n, size_t lda, size_t l
 /* C = S diag(g) B for a sparse m x k S given by column (start: k + 1, row, val; g k values or NULL
  * for ones) and a dense k x n B: each column of C the sum, over l in order, of S's column l times
  * g[l] B[l, j]. */
-static void sparse_times(size_t m, size_t n, size_t k, const size_t *start, const size_t *row,
-                         const double *val, const double *g, const double *B, double *C, size_t ldc)
+static void sparse_times(size_t m, size_t j0, size_t n, size_t k, const size_t *start,
+                         const size_t *row, const double *val, const double *g, const double *B,
+                         double *C, size_t ldc)
 {
-    for (size_t j = 0; j < n; j++) {
+    for (size_t j = j0; j < n; j++) {
         double *c = C + j * ldc;
         memset(c, 0, m * sizeof *c);
         for (size_t l = 0; l < k; l++) {
@@ -271,10 +272,11 @@ static void sparse_times(size_t m, size_t n, size_t k, const size_t *start, cons
 
 /* C = A diag(g) S for a dense m x k A and a sparse k x n S given by column (start: n + 1, row,
  * val): each column of C the sum, over S's values in order, of A diag(g)'s column times the value. */
-static void times_sparse(size_t m, size_t n, const double *A, const double *g, const size_t *start,
-                         const size_t *row, const double *val, double *C, size_t ldc)
+static void times_sparse(size_t m, size_t j0, size_t n, const double *A, const double *g,
+                         const size_t *start, const size_t *row, const double *val, double *C,
+                         size_t ldc)
 {
-    for (size_t j = 0; j < n; j++) {
+    for (size_t j = j0; j < n; j++) {
         double *c = C + j * ldc;
         memset(c, 0, m * sizeof *c);
         for (size_t e = start[j]; e < start[j + 1]; e++) {
@@ -284,6 +286,42 @@ static void times_sparse(size_t m, size_t n, const double *A, const double *g, c
                 c[i] += (g ? A[l * m + i] * g[l] : A[l * m + i]) * b;
         }
     }
+}
+
+/* Columns j0 .. j1 - 1 of sparse_times (left 1: the sparse one on the left) or times_sparse, a part
+ * for bsti_run_parts. */
+struct sparse_part {
+    int left;
+    size_t m, j0, j1, k, ldc;
+    const size_t *start, *row;
+    const double *val, *g, *A, *B;
+    double *C;
+};
+
+static void *sparse_part_run(void *arg)
+{
+    const struct sparse_part *t = arg;
+    if (t->left)
+        sparse_times(t->m, t->j0, t->j1, t->k, t->start, t->row, t->val, t->g, t->B, t->C, t->ldc);
+    else
+        times_sparse(t->m, t->j0, t->j1, t->A, t->g, t->start, t->row, t->val, t->C, t->ldc);
+    return NULL;
+}
+
+/* C = S diag(g) B (s->left) or A diag(g) S over the n columns of C, shared out by columns among the
+ * context's threads where C is large (a million values; a pane's K at k = 7 is 16.8 million): each
+ * column is its own sums, so the same bits on any number of threads.  These loops are bound by
+ * memory, which one core of a 2-core machine does not use up (bench/README.md). */
+#define LR_SPARSE_PAR_MIN ((size_t)1 << 20)
+static void sparse_product(const bst_ctx *ctx, const struct sparse_part *s, size_t n)
+{
+    struct sparse_part part[BST_THREADS_MAX];
+    size_t nw = s->m * n >= LR_SPARSE_PAR_MIN ? (size_t)bsti_ctx_workers_no_alloc(ctx, n) : 1;
+    for (size_t w = 0; w < nw; w++) {
+        part[w] = *s;
+        part[w].j0 = n * w / nw, part[w].j1 = n * (w + 1) / nw;
+    }
+    bsti_run_parts(part, sizeof *part, nw, sparse_part_run);
 }
 
 /* The values of the m x n M (column-major, leading dimension m) that are not zero, by column, as
@@ -323,11 +361,15 @@ static int lr_gemm(bst_ctx *ctx, size_t m, size_t n, size_t k, const double *A, 
     size_t la = (size_t)(BSTI_LR_SPARSE_SHARE * (double)m * (double)k);
     size_t lb = (size_t)(BSTI_LR_SPARSE_SHARE * (double)k * (double)n);
     if (as && (as->nnz <= la || !A) && B) {
-        sparse_times(m, n, k, as->start, as->row, as->val, g, B, C, ldc);
+        struct sparse_part t = {.left = 1, .m = m, .k = k, .ldc = ldc, .start = as->start,
+                                .row = as->row, .val = as->val, .g = g, .B = B, .C = C};
+        sparse_product(ctx, &t, n);
         return BST_OK;
     }
     if (bs && (bs->nnz <= lb || !B) && A) {
-        times_sparse(m, n, A, g, bs->start, bs->row, bs->val, C, ldc);
+        struct sparse_part t = {.left = 0, .m = m, .ldc = ldc, .start = bs->start, .row = bs->row,
+                                .val = bs->val, .g = g, .A = A, .C = C};
+        sparse_product(ctx, &t, n);
         return BST_OK;
     }
     size_t nza = 0;
@@ -342,10 +384,10 @@ static int lr_gemm(bst_ctx *ctx, size_t m, size_t n, size_t k, const double *A, 
                            : by_column(ctx, B, NULL, k, n, nzb, &start, &val);
         if (rc < 0)
             return rc;
-        if (nza <= la)
-            sparse_times(m, n, k, start, start + k + 1, val, NULL, B, C, ldc);
-        else
-            times_sparse(m, n, A, g, start, start + n + 1, val, C, ldc);
+        struct sparse_part t = {.left = nza <= la, .m = m, .k = k, .ldc = ldc, .start = start,
+                                .row = start + (nza <= la ? k : n) + 1, .val = val,
+                                .g = nza <= la ? NULL : g, .A = A, .B = B, .C = C};
+        sparse_product(ctx, &t, n);
         bsti_free(ctx, start), bsti_free(ctx, val);
     } else {
         double *ag = NULL;

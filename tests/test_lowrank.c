@@ -915,6 +915,34 @@ START_TEST(test_sparse_operand)
 }
 END_TEST
 
+/* Products through a sparse K large enough to be shared out among threads by columns (r = 1024:
+ * a million values a result) give the same bits on one thread and on two, sparse on the left and
+ * on the right. */
+START_TEST(test_sparse_threads)
+{
+    bsti_lr_map *S;
+    ck_assert_int_eq(bsti_lr_map_prolong(ctx, 6, 5, &S), BST_OK); /* N 4096, r 1024 */
+    size_t r = S->r;
+    double *K = calloc(r * r, sizeof *K);
+    for (size_t c = 0; c < r; c++)
+        K[c * r + (r - 1 - c)] = 0.05 + 0.01 * (double)c / (double)r;
+    bsti_lr *pane, *f = random_lr(S, 1, 0), *x[2][2];
+    ck_assert_int_eq(bsti_lr_new(ctx, S, NULL, NULL, K, NULL, &pane), BST_OK);
+    for (int t = 0; t < 2; t++) {
+        ck_assert_int_eq(bst_ctx_set_threads(ctx, t + 1), BST_OK);
+        ck_assert_int_eq(bsti_lr_mul(ctx, pane, f, &x[t][0]), BST_OK);
+        ck_assert_int_eq(bsti_lr_mul(ctx, f, pane, &x[t][1]), BST_OK);
+    }
+    for (int o = 0; o < 2; o++) {
+        ck_assert_msg(same_lr(x[0][o], x[1][o]), "product %d: other bits on two threads", o);
+        bsti_lr_free(ctx, x[0][o]), bsti_lr_free(ctx, x[1][o]);
+    }
+    bsti_lr_free(ctx, pane), bsti_lr_free(ctx, f);
+    free(K);
+    bsti_lr_map_free(ctx, S);
+}
+END_TEST
+
 /* Scaling a factored matrix in its own storage (bsti_lr_scale_take, what the stack does at a
  * matrix's last read; bsti_lr_scale is a copy and this) gives diag(dr) F diag(dc) of F's values,
  * with either side's scaling absent. */
@@ -991,6 +1019,7 @@ static Suite *suite(void)
     tcase_add_loop_test(tc, test_sparse_k, 0, 2);
     tcase_add_loop_test(tc, test_sparse_join, 0, 3);
     tcase_add_loop_test(tc, test_sparse_operand, 0, 3);
+    tcase_add_test(tc, test_sparse_threads);
     tcase_add_loop_test(tc, test_scale_take, 0, 9);
     tcase_add_loop_test(tc, test_transpose_take, 0, 8);
     suite_add_tcase(s, tc);
