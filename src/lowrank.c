@@ -352,8 +352,9 @@ static int by_column(bst_ctx *ctx, const double *M, const double *g, size_t m, s
  * n, column-major, their leading dimensions their row counts): GEMM, unless A diag(g) or B is sparse
  * (BSTI_LR_SPARSE_SHARE), then through its values that are not zero (the same sums but for their
  * order), taken from as or bs where given (that matrix's, bsti_lr_csc), else found by a pass over
- * the matrix; A or B NULL: held by as or bs alone (lowrank.h), always taken so.  Each value of A diag(g) is A's times g's, as bsti_lr_mul_diag_blocks makes it: the
- * sparse ways take them as they go, the GEMM from an m x k array of them. */
+ * the matrix; A or B NULL: held by as or bs alone (lowrank.h), always taken so.  Each value of
+ * A diag(g) is A's times g's, as bsti_lr_mul_diag_blocks makes it: the sparse ways take them as
+ * they go, the GEMM from an m x k array of them. */
 static int lr_gemm(bst_ctx *ctx, size_t m, size_t n, size_t k, const double *A, const double *g,
                    const bsti_lr_csc *as, const double *B, const bsti_lr_csc *bs, double *C,
                    size_t ldc)
@@ -661,7 +662,8 @@ int bsti_lr_add(bst_ctx *ctx, double alpha, const bsti_lr *f, double beta, const
         l.rj_g[j] = find_multiple_or_add(l.right, &qn, g->b + j * N, N, &cr_g[j]);
     /* K's only block is written by its first term, not cleared and added to; where each matrix
      * has one term and F holds K by column alone, G's comes first (the same sums: x + y = y + x) */
-    int one = pn == 1 && qn == 1, g_first = one && !f->k && f->p * f->q == 1 && g->p * g->q == 1;
+    int one = pn == 1 && qn == 1 && f->p * f->q + g->p * g->q > 0;
+    int g_first = one && !f->k && f->p * f->q == 1 && g->p * g->q == 1;
     if (rc >= 0)
         rc = lr_from_lists(ctx, f->S, &l, pn, qn, f->d || g->d,
                            one ? BSTI_LR_K_FILLED : BSTI_LR_K_ZERO, out);

@@ -287,7 +287,7 @@ static int solve_matched(bst_ctx *ctx, bsti_lr_fact *fa, int s, const bsti_lr *b
     for (size_t j = 0; rc >= 0 && j < b->q; j++)
         rj[q + j] = bsti_lr_find_or_add(list, &qn, b->b + j * N, N);
     /* K's only block (one left and one right vector) is written by its first term, not cleared */
-    int one = rc >= 0 && p == 1 && qn == 1, first = one;
+    int one = rc >= 0 && p == 1 && qn == 1 && (b->d ? q : 0) + b->p * b->q > 0, first = one;
     if (rc >= 0)
         rc = bsti_lr_alloc(ctx, f->S, p, qn, b->d != NULL, one ? BSTI_LR_K_FILLED : BSTI_LR_K_ZERO,
                            out);
