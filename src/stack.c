@@ -561,8 +561,9 @@ static int combine_pair(struct combiner *cb, struct part *u, struct part *v, uns
 {
     memset(s, 0, sizeof *s);
     int one = one_factorization(cb, u, v, want);
-    count_uses(want, u, v);
-    if (one) { /* the reads from_outward and from_inward make */
+    if (!one) {
+        count_uses(want, u, v);
+    } else { /* the reads from_outward and from_inward make */
         static const int uses[2][2][BST_NCOMP] = {
             /* U: Tf, Rf, Tb, Rb; V: Tf, Rf, Tb, Rb (bst_comp's order) */
             {{2, 1, 1, 2}, {1, 2, 1, 1}},
