@@ -127,11 +127,16 @@ int cli_out_open(struct cli_out *o, const char *sub, const char *path)
         o->fp = stdout;
         return CLI_OK;
     }
-    if (!(o->ctx = bst_ctx_new()) || !(o->path = strdup(path)) ||
-        bst_output_open(o->ctx, path, &o->out) < 0)
+    if (!(o->ctx = bst_ctx_new()) || !(o->path = strdup(path)))
+        return out_fail(o, sub);
+    cli_interrupt_opening(); /* a signal before the temporary is held waits for it */
+    int rc = bst_output_open(o->ctx, path, &o->out);
+    if (rc == BST_OK)
+        o->held = cli_interrupt_hold(bst_output_temporary(o->out)) + 1; /* a signal removes it */
+    cli_interrupt_opened();
+    if (rc < 0)
         return out_fail(o, sub);
     o->fp = bst_output_file(o->out);
-    o->held = cli_interrupt_hold(bst_output_temporary(o->out)) + 1; /* a signal removes it */
     return CLI_OK;
 }
 

@@ -5,6 +5,7 @@
 #include <errno.h>
 #include <limits.h>
 #include <signal.h>
+#include <stdatomic.h>
 #include <string.h>
 #include <sys/prctl.h>
 #include <unistd.h>
@@ -18,10 +19,16 @@ static char slot_path[CLI_INTERRUPT_SLOTS][PATH_MAX];
 static volatile sig_atomic_t slot_used[CLI_INTERRUPT_SLOTS];
 static const pid_t *volatile workers;
 static const volatile int *nworkers;
+/* An output's temporary is being made and not held yet (cli_interrupt_opening), and the signal
+ * that came meanwhile.  Atomics, not sig_atomic_t: the handler may run on any of the threads. */
+static atomic_int opening, deferred;
+#if ATOMIC_INT_LOCK_FREE != 2
+#error "interrupt.c needs lock-free atomic int (async-signal-safe)"
+#endif
 
-static void on_signal(int sig)
+/* Remove the temporaries, pass sig on to the workers, and die of it. */
+static void die_of(int sig)
 {
-    int saved = errno;
     for (int i = 0; i < CLI_INTERRUPT_SLOTS; i++)
         if (slot_used[i])
             unlink(slot_path[i]);
@@ -40,7 +47,17 @@ static void on_signal(int sig)
     sigaddset(&set, sig);
     sigprocmask(SIG_UNBLOCK, &set, NULL);
     raise(sig);
-    errno = saved; /* not reached */
+}
+
+static void on_signal(int sig)
+{
+    int saved = errno;
+    /* stored before opening is read: either this sees opening cleared (its temporary held), or
+     * cli_interrupt_opened, clearing it later, sees sig */
+    atomic_store(&deferred, sig);
+    if (!atomic_load(&opening))
+        die_of(sig);
+    errno = saved; /* deferred to cli_interrupt_opened */
 }
 
 void cli_interrupt_setup(void)
@@ -48,6 +65,7 @@ void cli_interrupt_setup(void)
     struct sigaction sa;
     memset(&sa, 0, sizeof sa);
     sa.sa_handler = on_signal;
+    sa.sa_flags = SA_RESTART; /* a deferred signal returns into the opening */
     sigemptyset(&sa.sa_mask);
     for (size_t i = 0; i < sizeof handled / sizeof handled[0]; i++)
         sigaddset(&sa.sa_mask, handled[i]); /* one handler at a time */
@@ -71,6 +89,19 @@ int cli_interrupt_hold(const char *tmp)
     return -1;
 }
 
+void cli_interrupt_opening(void)
+{
+    atomic_store(&opening, 1);
+}
+
+void cli_interrupt_opened(void)
+{
+    atomic_store(&opening, 0);
+    int sig = atomic_exchange(&deferred, 0);
+    if (sig)
+        die_of(sig);
+}
+
 void cli_interrupt_release(int slot)
 {
     if (slot >= 0 && slot < CLI_INTERRUPT_SLOTS)
@@ -86,6 +117,8 @@ void cli_interrupt_workers(const pid_t *pid, const volatile int *n)
 void cli_interrupt_worker_started(pid_t parent)
 {
     workers = NULL;
+    atomic_store(&opening, 0);
+    atomic_store(&deferred, 0);
     for (int i = 0; i < CLI_INTERRUPT_SLOTS; i++)
         slot_used[i] = 0;
     prctl(PR_SET_PDEATHSIG, SIGTERM);

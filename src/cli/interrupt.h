@@ -4,7 +4,8 @@
  * was ignored when the program started (nohup) stays ignored.
  *
  * The handler reads only what it was handed here, in fixed slots (no allocation, no locks), and
- * calls only async-signal-safe functions (unlink, kill, sigaction, sigprocmask, raise). */
+ * calls only async-signal-safe functions (unlink, kill, sigaction, sigprocmask, raise) and
+ * lock-free atomics. */
 #ifndef BST_CLI_INTERRUPT_H
 #define BST_CLI_INTERRUPT_H
 
@@ -18,6 +19,11 @@ void cli_interrupt_setup(void);
 /* A temporary to remove if a signal comes: its slot, or -1 when it could not be held (every slot
  * taken, or a path too long: it then stays behind on a signal, as before). */
 int cli_interrupt_hold(const char *tmp);
+/* Around making an output's temporary and holding it: a signal that comes between the two (the
+ * file made, not yet held) waits for cli_interrupt_opened, which then removes the temporary and
+ * dies of it.  Not nested. */
+void cli_interrupt_opening(void);
+void cli_interrupt_opened(void);
 /* The temporary of slot is renamed or removed: forget it (slot -1: nothing). */
 void cli_interrupt_release(int slot);
 /* A batch's workers, pid[0..n-1] (0: an ended one, skipped), to pass a signal on to; NULL: none.
