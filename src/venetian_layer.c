@@ -580,8 +580,49 @@ static int component_factored(struct build *B, int c, int in, int exit, bst_mat 
     return rc;
 }
 
+/* Columns a dense single-precision component is made in at a time (of doubles: 32 MiB at k = 7). */
+#define VN_FLOAT_COLS 256
+
+/* Component c dense in single precision, made in blocks of columns of doubles, each rounded once
+ * as the double path's whole matrix is: no N x N doubles (at k = 7, 2 GiB a component). */
+static int component_float(struct build *B, int c, int in, int exit, bst_mat **out)
+{
+    struct trip *t = &B->tr[c];
+    size_t n = B->n, nb = n < VN_FLOAT_COLS ? n : VN_FLOAT_COLS;
+    double *w = bsti_alloc_array(B->ctx, n * nb, sizeof *w);
+    size_t *start = bsti_alloc_array(B->ctx, n + 1, sizeof *start);
+    size_t *order = bsti_alloc_array(B->ctx, t->nnz ? t->nnz : 1, sizeof *order);
+    int rc = w && start && order ? bst_mat_new_dense(B->ctx, n, n, BST_FLOAT, out) : BST_ENOMEM;
+    if (rc >= 0) {
+        /* the sparse entries by column (a counting sort: each column's in their own order) */
+        memset(start, 0, (n + 1) * sizeof *start);
+        for (size_t k = 0; k < t->nnz; k++)
+            start[t->col[k] + 1]++;
+        for (size_t j = 0; j < n; j++)
+            start[j + 1] += start[j];
+        for (size_t k = 0; k < t->nnz; k++)
+            order[start[t->col[k]]++] = k;
+        for (size_t j = n; j > 0; j--)
+            start[j] = start[j - 1];
+        start[0] = 0;
+        float *m = bst_mat_dense_data(*out);
+        for (size_t j0 = 0; j0 < n; j0 += nb) {
+            size_t nc = n - j0 < nb ? n - j0 : nb;
+            cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, (int)n, (int)nc, (int)B->ne, 1.0,
+                        B->view[exit], (int)B->ne, B->dep[in] + j0 * B->ne, (int)B->ne, 0.0, w,
+                        (int)n);
+            for (size_t k = start[j0]; k < start[j0 + nc]; k++)
+                w[(t->col[order[k]] - j0) * n + t->row[order[k]]] += t->val[order[k]];
+            for (size_t x = 0; x < n * nc; x++)
+                m[j0 * n + x] = (float)w[x];
+        }
+    }
+    bsti_free(B->ctx, w), bsti_free(B->ctx, start), bsti_free(B->ctx, order);
+    return rc;
+}
+
 /* Component c: its sparse part, plus (diffuse slats) U_x^T Q_y: factored over B->W where there is
- * one, else as a dense matrix. */
+ * one, else as a dense matrix (in the blind's precision). */
 static int component(struct build *B, int c, int diffuse, bst_mat **out)
 {
     struct trip *t = &B->tr[c];
@@ -592,6 +633,8 @@ static int component(struct build *B, int c, int diffuse, bst_mat **out)
     int in = c == BST_TB || c == BST_RB, exit = c == BST_TF || c == BST_RB;
     if (B->W)
         return component_factored(B, c, in, exit, out);
+    if (B->v->precision == BST_FLOAT)
+        return component_float(B, c, in, exit, out);
     int rc = bst_mat_new_dense(B->ctx, n, n, BST_DOUBLE, out);
     if (rc < 0)
         return rc;
@@ -625,7 +668,8 @@ static int fill_layer(struct build *B, bst_layer *l, size_t nch, const size_t *c
     for (int c = 0; c < BST_NCOMP && rc >= 0; c++) {
         bst_mat *m = NULL;
         rc = component(B, c, diffuse, &m);
-        if (rc >= 0 && B->v->precision == BST_FLOAT && bst_mat_structure(m) == BST_DENSE) {
+        if (rc >= 0 && B->v->precision == BST_FLOAT && bst_mat_structure(m) == BST_DENSE &&
+            bst_mat_precision(m) == BST_DOUBLE) {
             bst_mat *f; /* at once: one component's doubles at a time */
             rc = bst_mat_convert(B->ctx, m, BST_DENSE, BST_FLOAT, &f);
             bst_mat_free(m);

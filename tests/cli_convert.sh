@@ -118,9 +118,12 @@ grep -q "warning: $tmpdir/neg.xml: 1 negative value read as 0" "$tmpdir/err" \
 
 # the model (src/cli/layers.c): 4 dense components and a double grid, N^2 values each, and 64 MiB
 # + N^2 / 2 bytes: 0.695 GiB at k = 6, 0.102 GiB at k = 5
-expect_error "convert --max-memory below the need" "k = 6 needs about 0.69[0-9]* GiB \(4 dense components of 0.125 GiB\), more than the 0.0977 GiB --max-memory allows: use a lower -k;" -- \
+expect_error "convert --max-memory below the need" "k = 6 needs about 0.69[0-9]* GiB \(4 dense components of 0.125 GiB\), more than the 0.0977 GiB --max-memory allows: use a lower -k, --precision single or fewer --channels;" -- \
     "$BSDFSTACK" convert -k 6 --max-memory 100M "$ref/L_diffuser_t3k5.xml" -o "$tmpdir/mem.xml"
 [ ! -e "$tmpdir/mem.xml" ] && pass "convert: no output when refused for memory" || fail "convert: output though refused"
+# --precision single: the components in floats (0.0625 GiB each), the grid still doubles: 0.445 GiB
+expect_error "convert --precision single, below the need" "k = 6 needs about 0.44[0-9]* GiB \(4 dense components of 0.0625 GiB\)" -- \
+    "$BSDFSTACK" convert -k 6 --precision single --max-memory 100M "$ref/L_diffuser_t3k5.xml" -o "$tmpdir/mem.xml"
 
 expect_error "info --max-memory below the need" "info: k = 5 needs about 0.10[0-9]* GiB \(4 dense components of 0.00781 GiB\), more than the 0.00977 GiB --max-memory allows: use 'bsdfstack convert -k K'" -- \
     "$BSDFSTACK" info --max-memory 10M "$ref/L_diffuser_t3k5.xml"

@@ -31,6 +31,26 @@ if [ -r "$BST_REFDIR/L_blind0_t4k5.xml" ]; then
         awk '{ exit !($1 >= 99) }' && pass "GA >= 99 at (45, 90)" || fail "GA: $(cat "$tmpdir/out")"
 fi
 
+# convert --precision single: a dense blind (mirror and diffuse slats) held in floats, made
+# without a double copy (four 1024 x 1024 components: 16 MiB less than in double), written as the
+# double one to 1e-5 in every directional-hemispherical value; a wrong value names the option
+dense=venetian:width=16mm,spacing=14.5mm,tilt=0,rs=0.765,r=0.085,roughness=0.02,samples=2
+for p in double single; do
+    expect_status 0 "convert --precision $p (k = 5)" -- "$BSDFSTACK" convert -v -k 5 --channels Visible \
+        --precision $p "$dense" -o "$tmpdir/p_$p.xml"
+    eval "peak_$p=\$(awk '/: wrote / { sub(/.*peak RSS /, \"\"); print \$1 + 0 }' \"\$tmpdir/err\")"
+done
+awk -v s="$peak_single" -v d="$peak_double" 'BEGIN { exit !(s > 0 && d > s + 8) }' &&
+    pass "peak RSS: single $peak_single MiB, double $peak_double MiB" ||
+    fail "peak RSS: single $peak_single MiB, double $peak_double MiB"
+expect_status 0 "compare single with double" -- "$BSDFSTACK" compare "$tmpdir/p_double.xml" "$tmpdir/p_single.xml"
+awk '/^  comp  \|hem A - hem B\|/ {on = 1; next} on && NF >= 9 { n++; if ($2 + 0 > 1e-5) bad++ }
+     END { exit !(n == 4 && bad == 0) }' "$tmpdir/out" && pass "single writes the double blind" ||
+    fail "single and double differ: $(tail -6 "$tmpdir/out")"
+expect_error "convert --precision half" "--precision half" -- "$BSDFSTACK" convert -k 3 --precision half \
+    "$dense" -o "$tmpdir/half.xml"
+[ ! -e "$tmpdir/half.xml" ] && pass "nothing written" || fail "half.xml written"
+
 expect_status 0 "glass + perforated screen + glass (k = 3)" -- "$BSDFSTACK" combine -k 3 \
     -o "$tmpdir/perf.xml" glass:clear-6mm "perforated:x=5mm,y=5mm,radius=1.5mm,thickness=1mm,r=0.7" \
     glass:clear-6mm

@@ -627,6 +627,38 @@ START_TEST(test_float_blind)
 }
 END_TEST
 
+/* A dense float blind over more patches than it is made columns at a time (k = 5: 1024 patches,
+ * four blocks of 256): every value is the double blind's within its rounding (a block's GEMM may
+ * round its doubles apart from the whole one's, by far less than a float's step), the sparse
+ * mirror part in every block. */
+START_TEST(test_float_blocks)
+{
+    bst_basis *b = sc(5);
+    size_t n = bst_basis_size(b);
+    static const char *const ch[1] = {"Visible"};
+    bst_venetian v;
+    ck_assert_int_eq(bst_venetian_parse(ctx, "width=16mm,spacing=14.5mm,tilt=20,rs=0.765,r=0.085,"
+                                             "roughness=0.02,samples=2", &v), BST_OK);
+    bst_layer *d, *f;
+    ck_assert_int_eq(bst_venetian_layer(ctx, &v, b, 1, ch, &d), BST_OK);
+    v.precision = BST_FLOAT;
+    ck_assert_int_eq(bst_venetian_layer(ctx, &v, b, 1, ch, &f), BST_OK);
+    for (int c = 0; c < BST_NCOMP; c++) {
+        const bst_mat *md = bst_layer_get(d, 0, (bst_comp)c), *mf = bst_layer_get(f, 0, (bst_comp)c);
+        ck_assert_int_eq(bst_mat_structure(mf), BST_DENSE);
+        ck_assert_int_eq(bst_mat_precision(mf), BST_FLOAT);
+        const double *x = bst_mat_dense_data((bst_mat *)md);
+        const float *y = bst_mat_dense_data((bst_mat *)mf);
+        for (size_t e = 0; e < n * n; e++)
+            ck_assert_msg(y[e] == (float)x[e] || fabs(y[e] - x[e]) <= 0x1p-23 * fabs(x[e]),
+                          "%s (%zu, %zu): %.9g against %.17g", bst_comp_name((bst_comp)c), e % n,
+                          e / n, y[e], x[e]);
+    }
+    bst_layer_free(d), bst_layer_free(f);
+    bst_basis_free(b);
+}
+END_TEST
+
 /* Every allocation of the layer's making fails in turn: BST_ENOMEM, no layer, nothing leaked. */
 START_TEST(test_alloc_failure)
 {
@@ -677,6 +709,7 @@ static Suite *venetian_suite(void)
     tcase_add_test(tc, test_alloc_failure);
     tcase_add_test(tc, test_dual_band);
     tcase_add_test(tc, test_float_blind);
+    tcase_add_test(tc, test_float_blocks);
     tcase_add_loop_test(tc, test_black_openness, 0, 3);
     tcase_add_loop_test(tc, test_lossless_mirror, 0, 4); /* the last in Klems full */
     tcase_add_loop_test(tc, test_closed, 0, 3);
