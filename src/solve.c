@@ -3,7 +3,8 @@
  * (I - A) is factored once by the structure of A and the factorization serves every column of B:
  *   ZERO   - the identity: X = B;
  *   DIAG   - elementwise: X = diag(1 / (1 - a_i)) B, keeping B's structure;
- *   SPARSE - UMFPACK LU of the sparse I - A (umfpack_dl_*), one solve per column of B;
+ *   SPARSE - UMFPACK LU of the sparse I - A (umfpack_dl_*), one solve per column of B (no
+ *            iterative refinement; the columns shared out among the context's threads);
  *   DENSE  - LAPACK getrf, then getrs on all columns at once (single precision when A or B is a
  *            dense float matrix);
  *   FACTORED - the LU of the Woodbury capacitance (lowrank_solve.c: the dense work has the coarse
@@ -50,6 +51,14 @@ cancels digits although I - A itself is well scaled.
  * (measured at n = 4096: a blind layer's step took 60 s sparse against 17 s dense). */
 #define BSTI_SPARSE_LU_MAX_FILL 0.2
 
+/* UMFPACK's iterative refinement steps in a sparse solve.  None: I - A, A the product of two
+ * reflections or transmissions of norm below 1, is diagonally dominant by columns, so its LU with
+ * UMFPACK's diagonal preference is backward stable, and refinement (a residual through A and one
+ * more solve a column at each step) only costs: bench/README.md, "Sparse solves". */
+#define BSTI_UMF_IRSTEP 0
+/* Workspace doubles per row of one sparse solve (umfpack_dl_wsolve: n, 5 n with refinement). */
+#define BSTI_UMF_W (BSTI_UMF_IRSTEP > 0 ? 5 : 1)
+
 /* Iterations of Hager's 1-norm estimator (each costs two solves). */
 #define HAGER_MAX_ITER 5
 
@@ -69,6 +78,9 @@ struct factor {
     bst_mat *lu_mat;        /* DENSE: the matrix A whose storage holds lu, when it was taken */
     lapack_int *ipiv;
     double *w1, *w2;        /* SPARSE: vectors of n */
+    double control[UMFPACK_CONTROL]; /* SPARSE: UMFPACK's settings for the solves */
+    SuiteSparse_long *wi;   /* SPARSE: the caller's thread's solve workspace (sparse_wsolve) */
+    double *w;
     bsti_lr_fact *lf;       /* FACTORED: the capacitance's LU (lowrank_solve.c) */
 };
 
@@ -87,6 +99,8 @@ static void factor_free(struct factor *f)
     bsti_free(ctx, f->ipiv);
     bsti_free(ctx, f->w1);
     bsti_free(ctx, f->w2);
+    bsti_free(ctx, f->wi);
+    bsti_free(ctx, f->w);
     bsti_lr_fact_free(ctx, f->lf);
     memset(f, 0, sizeof *f);
 }
@@ -100,14 +114,21 @@ static int umfpack_failed(bst_ctx *ctx, const char *what, int status)
     return bsti_error(ctx, BST_EINTERNAL, "UMFPACK %s failed (status %d)", what, status);
 }
 
+/* x = M^-1 b (trans 0) or M^-T b (trans 1) with the sparse factorization, through the workspace
+ * wi (n) and w (n doubles, or 5 n with iterative refinement): UMFPACK's status.  The factorization
+ * is only read, so that threads with workspaces of their own may solve at once. */
+static int sparse_wsolve(const struct factor *f, int trans, double *x, const double *b,
+                         SuiteSparse_long *wi, double *w)
+{
+    return (int)umfpack_dl_wsolve(trans ? UMFPACK_At : UMFPACK_A, f->m->p, f->m->i, f->m->x, x, b,
+                                  f->numeric, f->control, NULL, wi, w);
+}
+
 /* Solve in place with the sparse factorization: x := M^-1 x (trans 0) or M^-T x (trans 1). */
 static int sparse_apply(struct factor *f, int trans, double *x)
 {
-    SuiteSparse_long *p = f->m->p, *i = f->m->i;
-    double *ax = f->m->x;
     memcpy(f->w1, x, f->n * sizeof *x);
-    int st = umfpack_dl_solve(trans ? UMFPACK_At : UMFPACK_A, p, i, ax, x, f->w1, f->numeric,
-                              NULL, NULL);
+    int st = sparse_wsolve(f, trans, x, f->w1, f->wi, f->w);
     if (st < 0)
         return umfpack_failed(f->ctx, "solve", st);
     return BST_OK;
@@ -240,9 +261,13 @@ static int factor_sparse(bst_ctx *ctx, const bst_mat *a, bst_precision prec, str
     umfpack_dl_free_symbolic(&symbolic);
     if (st != UMFPACK_OK)
         return umfpack_failed(ctx, "numeric", st);
+    umfpack_dl_defaults(f->control);
+    f->control[UMFPACK_IRSTEP] = BSTI_UMF_IRSTEP;
     f->w1 = bsti_alloc_array(ctx, n, sizeof *f->w1);
     f->w2 = bsti_alloc_array(ctx, n, sizeof *f->w2);
-    if (!f->w1 || !f->w2)
+    f->wi = bsti_alloc_array(ctx, n, sizeof *f->wi);
+    f->w = bsti_alloc_array(ctx, BSTI_UMF_W * n, sizeof *f->w);
+    if (!f->w1 || !f->w2 || !f->wi || !f->w)
         return BST_ENOMEM;
     double inv;
     int rc = hager_inverse_norm(f, &inv);
@@ -409,6 +434,64 @@ static int dense_solve_in_place(struct factor *f, int trans, bst_mat *x)
     return BST_OK;
 }
 
+/* A sparse factorization's solves with columns j0 .. j1 - 1 of b into those of the dense x (n rows),
+ * through a right-hand side bcol (n, zero on entry and on return) and the workspace wi, w. */
+struct sparse_cols {
+    const struct factor *f;
+    int trans;
+    const bst_mat *b;
+    double *x;
+    size_t j0, j1;
+    double *bcol;
+    SuiteSparse_long *wi;
+    double *w;
+    int status;            /* UMFPACK's first failure, or 0 */
+};
+
+/* Sparse solves shared out among threads from this many result values (N x columns) on. */
+#define SPARSE_SOLVE_PAR_MIN ((double)(1 << 20))
+
+static void *sparse_cols_run(void *arg)
+{
+    struct sparse_cols *t = arg;
+    const bst_mat *b = t->b;
+    size_t n = t->f->n;
+    memset(t->bcol, 0, n * sizeof *t->bcol);
+    for (size_t j = t->j0; j < t->j1 && t->status >= 0; j++) {
+        double *col = t->bcol;
+        switch (b->s) {
+        case BST_DIAG: col[j] = b->diag[j]; break;
+        case BST_SPARSE: {
+            const SuiteSparse_long *p = b->sp->p, *ri = b->sp->i;
+            const double *bx = b->sp->x;
+            for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++)
+                col[ri[q]] = bx[q];
+            break;
+        }
+        case BST_DENSE:
+            for (size_t i = 0; i < n; i++)
+                col[i] = bsti_dense_get(b, i, j);
+            break;
+        default: break;
+        }
+        int st = sparse_wsolve(t->f, t->trans, t->x + j * n, col, t->wi, t->w);
+        if (st < 0)
+            t->status = st;
+        switch (b->s) { /* bcol back to zeros */
+        case BST_DIAG: col[j] = 0.0; break;
+        case BST_SPARSE: {
+            const SuiteSparse_long *p = b->sp->p, *ri = b->sp->i;
+            for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++)
+                col[ri[q]] = 0.0;
+            break;
+        }
+        case BST_DENSE: memset(col, 0, n * sizeof *col); break;
+        default: break;
+        }
+    }
+    return NULL;
+}
+
 /* X = M^-1 B (trans 0) or M^-T B (trans 1) for the factored M = I - A. */
 static int factor_solve(struct factor *f, int trans, const bst_mat *b, bst_mat **out)
 {
@@ -440,30 +523,35 @@ static int factor_solve(struct factor *f, int trans, const bst_mat *b, bst_mat *
         *out = x;
         return BST_OK;
     }
-    /* SPARSE factorization: column by column into a dense double result. */
+    /* SPARSE factorization: column by column into a dense double result, the columns shared out
+     * among the context's threads where there are many (each column solved alone: the same bits
+     * on any number of threads) */
     bst_mat *x;
     if ((rc = bst_mat_new_dense(ctx, n, b->cols, BST_DOUBLE, &x)) < 0)
         return rc;
-    double *xd = x->dense;
-    for (size_t j = 0; j < b->cols && rc >= 0; j++) {
-        double *col = xd + j * n;
-        switch (b->s) {
-        case BST_DIAG: col[j] = b->diag[j]; break;
-        case BST_SPARSE: {
-            const SuiteSparse_long *p = b->sp->p, *ri = b->sp->i;
-            const double *bx = b->sp->x;
-            for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++)
-                col[ri[q]] = bx[q];
-            break;
-        }
-        case BST_DENSE:
-            for (size_t i = 0; i < n; i++)
-                col[i] = bsti_dense_get(b, i, j);
-            break;
-        default: break;
-        }
-        rc = sparse_apply(f, trans, col);
+    struct sparse_cols part[BST_THREADS_MAX];
+    size_t nw = (double)n * (double)b->cols >= SPARSE_SOLVE_PAR_MIN
+                    ? (size_t)bsti_ctx_workers_no_alloc(ctx, b->cols) : 1;
+    /* workspace: a right-hand side, wi and w for each thread but the caller's (f's own) */
+    double *ws = nw > 1 ? bsti_alloc_array(ctx, (nw - 1) * (1 + BSTI_UMF_W) * n, sizeof *ws) : NULL;
+    SuiteSparse_long *wis = nw > 1 ? bsti_alloc_array(ctx, (nw - 1) * n, sizeof *wis) : NULL;
+    if (nw > 1 && (!ws || !wis)) {
+        bsti_free(ctx, ws), bsti_free(ctx, wis);
+        ws = NULL, wis = NULL, nw = 1;
     }
+    for (size_t t = 0; t < nw; t++) {
+        part[t] = (struct sparse_cols){f, trans, b, x->dense, b->cols * t / nw, b->cols * (t + 1) / nw,
+                                       f->w1, f->wi, f->w, 0};
+        if (t > 0) {
+            double *wt = ws + (t - 1) * (1 + BSTI_UMF_W) * n;
+            part[t].bcol = wt, part[t].w = wt + n, part[t].wi = wis + (t - 1) * n;
+        }
+    }
+    bsti_run_parts(part, sizeof *part, nw, sparse_cols_run);
+    bsti_free(ctx, ws), bsti_free(ctx, wis);
+    for (size_t t = 0; t < nw && rc >= 0; t++)
+        if (part[t].status < 0)
+            rc = umfpack_failed(ctx, "solve", part[t].status);
     if (rc >= 0 && b->s != BST_DENSE) { /* a sparse right-hand side may give a sparse result */
         bst_mat *c;
         rc = bst_mat_compact(ctx, x, BST_SPARSE_MAX_FILL, &c);

@@ -105,6 +105,51 @@ START_TEST(test_solve_all_pairs)
 }
 END_TEST
 
+/* A sparse A's solves with many columns (n x columns >= 2^20) are shared out among threads: one
+ * thread and two give the same bits, left and right, with a sparse, diagonal and dense B, and the
+ * dense solve's answer. */
+START_TEST(test_sparse_threads)
+{
+    static const int kinds[3] = {TM_SPARSE, TM_DIAG, TM_DENSE};
+    int kb = kinds[_i % 3], right = _i / 3;
+    size_t n = 1100;
+    tu_rng r;
+    tu_rng_seed(&r, 9100 + (uint64_t)_i);
+    /* a band of five diagonals, |A|_1 <= 0.9: its LU stays in the band (a random sparse A's would
+     * fill, and go the dense way) */
+    size_t *ri = malloc(5 * n * sizeof *ri), *ci = malloc(5 * n * sizeof *ci), nz = 0;
+    double *v = malloc(5 * n * sizeof *v);
+    for (size_t j = 0; j < n; j++)
+        for (size_t i = j >= 2 ? j - 2 : 0; i <= j + 2 && i < n; i++)
+            ri[nz] = i, ci[nz] = j, v[nz++] = 0.18 * (2.0 * tu_rng_uniform(&r) - 1.0);
+    bst_mat *a, *b = tm_random(ctx, kb, n, n, 1.0, &r);
+    ck_assert_int_eq(bst_mat_new_sparse(ctx, n, n, nz, ri, ci, v, &a), BST_OK);
+    free(ri), free(ci), free(v);
+    double *got[2];
+    for (int t = 0; t < 2; t++) {
+        ck_assert_int_eq(bst_ctx_set_threads(ctx, t + 1), BST_OK);
+        bst_mat *x;
+        int rc = right ? bst_solve_right(ctx, a, b, 0.0, &x, NULL) : bst_solve_left(ctx, a, b, 0.0, &x, NULL);
+        ck_assert_msg(rc == BST_OK, "%s", bst_ctx_message(ctx));
+        got[t] = tm_dense(ctx, x);
+        bst_mat_free(x);
+    }
+    ck_assert_int_eq(bst_ctx_set_threads(ctx, 0), BST_OK);
+    ck_assert_msg(memcmp(got[0], got[1], n * n * sizeof *got[0]) == 0, "%s B, %s: 1 and 2 threads differ",
+                  tm_kind_name[kb], right ? "right" : "left");
+    bst_mat *ad, *g;
+    ck_assert_int_eq(bst_mat_convert(ctx, a, BST_DENSE, BST_DOUBLE, &ad), BST_OK);
+    int rc = right ? bst_solve_right(ctx, ad, b, 0.0, &g, NULL) : bst_solve_left(ctx, ad, b, 0.0, &g, NULL);
+    ck_assert_int_eq(rc, BST_OK);
+    double *dg = tm_dense(ctx, g), *db = tm_dense(ctx, b);
+    double tol = 1e-12 * fmax(1.0, tm_maxabs(db, n * n));
+    ck_assert_msg(tm_maxdiff(got[0], dg, n * n) <= tol, "%s B, %s: %g from the dense solve",
+                  tm_kind_name[kb], right ? "right" : "left", tm_maxdiff(got[0], dg, n * n));
+    free(got[0]), free(got[1]), free(dg), free(db);
+    bst_mat_free(a), bst_mat_free(b), bst_mat_free(ad), bst_mat_free(g);
+}
+END_TEST
+
 /* A = s P, P a cyclic permutation (the diagonal kind uses P = I): as s -> 1 the condition estimate
  * falls monotonically, BST_WILLCOND appears, nothing becomes NaN; s = 1 is singular. */
 START_TEST(test_condition)
@@ -344,6 +389,7 @@ static Suite *solve_suite(void)
     tcase_add_loop_test(tc, test_solve_all_pairs, 0, 2 * TM_NKINDS * TM_NKINDS * (int)NSIZES);
     tcase_add_loop_test(tc, test_condition, TM_DIAG, TM_NKINDS);
     tcase_add_test(tc, test_errors);
+    tcase_add_loop_test(tc, test_sparse_threads, 0, 6);
     tcase_add_loop_test(tc, test_alloc_failure, 0, 16);
     tcase_add_loop_test(tc, test_solve_take, 0, 2 * TM_NKINDS * TM_NKINDS * (int)NTAKE);
     tcase_add_loop_test(tc, test_solve_take_left2, 0, TM_NKINDS * TM_NKINDS);
