@@ -105,48 +105,61 @@ START_TEST(test_solve_all_pairs)
 }
 END_TEST
 
-/* A sparse A's solves with many columns (n x columns >= 2^20) are shared out among threads: one
- * thread and two give the same bits, left and right, with a sparse, diagonal and dense B, and the
- * dense solve's answer. */
+/* A sparse A's solves with many columns (n x columns >= 2^20) are shared out among threads, a
+ * sparse or diagonal B's result gathered by column: one thread and two give the same bits, left
+ * and right, with a sparse, diagonal and dense B, and the dense solve's answer, in the structure
+ * the dense solve's result compacts to.  A is a band of five diagonals (its LU stays in the band;
+ * a random sparse A's would fill and go the dense way; its inverse is dense), 2 x 2 blocks on the
+ * diagonal (a sparse result) or a diagonal held sparse (a diagonal B's result is diagonal). */
 START_TEST(test_sparse_threads)
 {
     static const int kinds[3] = {TM_SPARSE, TM_DIAG, TM_DENSE};
-    int kb = kinds[_i % 3], right = _i / 3;
+    int kb = kinds[_i % 3], right = (_i / 3) % 2, ka = _i / 6;
     size_t n = 1100;
     tu_rng r;
     tu_rng_seed(&r, 9100 + (uint64_t)_i);
-    /* a band of five diagonals, |A|_1 <= 0.9: its LU stays in the band (a random sparse A's would
-     * fill, and go the dense way) */
     size_t *ri = malloc(5 * n * sizeof *ri), *ci = malloc(5 * n * sizeof *ci), nz = 0;
     double *v = malloc(5 * n * sizeof *v);
-    for (size_t j = 0; j < n; j++)
-        for (size_t i = j >= 2 ? j - 2 : 0; i <= j + 2 && i < n; i++)
+    for (size_t j = 0; j < n; j++) {
+        size_t lo = ka == 0 ? (j >= 2 ? j - 2 : 0) : ka == 1 ? j - j % 2 : j;
+        size_t hi = ka == 0 ? j + 2 : ka == 1 ? j - j % 2 + 1 : j;
+        for (size_t i = lo; i <= hi && i < n; i++) /* |A|_1 <= 0.9 */
             ri[nz] = i, ci[nz] = j, v[nz++] = 0.18 * (2.0 * tu_rng_uniform(&r) - 1.0);
+    }
     bst_mat *a, *b = tm_random(ctx, kb, n, n, 1.0, &r);
     ck_assert_int_eq(bst_mat_new_sparse(ctx, n, n, nz, ri, ci, v, &a), BST_OK);
     free(ri), free(ci), free(v);
+    ck_assert_int_eq(bst_mat_structure(a), BST_SPARSE);
     double *got[2];
+    bst_structure st[2];
     for (int t = 0; t < 2; t++) {
         ck_assert_int_eq(bst_ctx_set_threads(ctx, t + 1), BST_OK);
         bst_mat *x;
         int rc = right ? bst_solve_right(ctx, a, b, 0.0, &x, NULL) : bst_solve_left(ctx, a, b, 0.0, &x, NULL);
         ck_assert_msg(rc == BST_OK, "%s", bst_ctx_message(ctx));
         got[t] = tm_dense(ctx, x);
+        st[t] = bst_mat_structure(x);
         bst_mat_free(x);
     }
     ck_assert_int_eq(bst_ctx_set_threads(ctx, 0), BST_OK);
-    ck_assert_msg(memcmp(got[0], got[1], n * n * sizeof *got[0]) == 0, "%s B, %s: 1 and 2 threads differ",
-                  tm_kind_name[kb], right ? "right" : "left");
-    bst_mat *ad, *g;
+    ck_assert_int_eq(st[0], st[1]);
+    ck_assert_msg(memcmp(got[0], got[1], n * n * sizeof *got[0]) == 0, "A %d, %s B, %s: 1 and 2 "
+                  "threads differ", ka, tm_kind_name[kb], right ? "right" : "left");
+    bst_mat *ad, *g, *gc;
     ck_assert_int_eq(bst_mat_convert(ctx, a, BST_DENSE, BST_DOUBLE, &ad), BST_OK);
     int rc = right ? bst_solve_right(ctx, ad, b, 0.0, &g, NULL) : bst_solve_left(ctx, ad, b, 0.0, &g, NULL);
     ck_assert_int_eq(rc, BST_OK);
+    ck_assert_int_eq(bst_mat_compact(ctx, g, BST_SPARSE_MAX_FILL, &gc), BST_OK);
+    if (kb != TM_DENSE)
+        ck_assert_msg(st[0] == bst_mat_structure(gc), "A %d, %s B, %s: structure %d, the dense "
+                      "solve's compacts to %d", ka, tm_kind_name[kb], right ? "right" : "left",
+                      (int)st[0], (int)bst_mat_structure(gc));
     double *dg = tm_dense(ctx, g), *db = tm_dense(ctx, b);
     double tol = 1e-12 * fmax(1.0, tm_maxabs(db, n * n));
-    ck_assert_msg(tm_maxdiff(got[0], dg, n * n) <= tol, "%s B, %s: %g from the dense solve",
+    ck_assert_msg(tm_maxdiff(got[0], dg, n * n) <= tol, "A %d, %s B, %s: %g from the dense solve", ka,
                   tm_kind_name[kb], right ? "right" : "left", tm_maxdiff(got[0], dg, n * n));
     free(got[0]), free(got[1]), free(dg), free(db);
-    bst_mat_free(a), bst_mat_free(b), bst_mat_free(ad), bst_mat_free(g);
+    bst_mat_free(a), bst_mat_free(b), bst_mat_free(ad), bst_mat_free(g), bst_mat_free(gc);
 }
 END_TEST
 
@@ -389,7 +402,7 @@ static Suite *solve_suite(void)
     tcase_add_loop_test(tc, test_solve_all_pairs, 0, 2 * TM_NKINDS * TM_NKINDS * (int)NSIZES);
     tcase_add_loop_test(tc, test_condition, TM_DIAG, TM_NKINDS);
     tcase_add_test(tc, test_errors);
-    tcase_add_loop_test(tc, test_sparse_threads, 0, 6);
+    tcase_add_loop_test(tc, test_sparse_threads, 0, 18);
     tcase_add_loop_test(tc, test_alloc_failure, 0, 16);
     tcase_add_loop_test(tc, test_solve_take, 0, 2 * TM_NKINDS * TM_NKINDS * (int)NTAKE);
     tcase_add_loop_test(tc, test_solve_take_left2, 0, TM_NKINDS * TM_NKINDS);
