@@ -63,34 +63,6 @@ START_TEST(test_held)
 }
 END_TEST
 
-/* Between the temporary made and held: the signal waits, then the temporary goes and the process
- * dies.  Without the wait the file stays behind (the process dies before it is held). */
-START_TEST(test_opening)
-{
-    char path[4096];
-    make_file(path, sizeof path);
-    unlink(path);
-    pid_t p = fork();
-    ck_assert_int_ge(p, 0);
-    if (p == 0) {
-        signal(SIGTERM, SIG_DFL);
-        cli_interrupt_setup();
-        cli_interrupt_opening();
-        int fd = open(path, O_CREAT | O_EXCL | O_WRONLY, 0600);
-        if (fd < 0)
-            _exit(4);
-        raise(SIGTERM); /* delivered here, to this thread; it must wait */
-        if (!exists(path))
-            _exit(5);
-        cli_interrupt_hold(path);
-        cli_interrupt_opened();
-        _exit(3); /* not reached: opened dies of the signal */
-    }
-    ck_assert_int_eq(child_end(p), SIGTERM);
-    ck_assert_msg(!exists(path), "%s left behind", path);
-}
-END_TEST
-
 static void *wait_forever(void *arg)
 {
     (void)arg;
@@ -99,9 +71,11 @@ static void *wait_forever(void *arg)
     return NULL;
 }
 
-/* The same where another thread takes the signal (a BLAS worker, say) while the main thread makes
- * its temporary: the handler on that thread leaves the dying to the main thread's opened. */
-START_TEST(test_opening_other_thread)
+/* A child that makes a temporary between cli_interrupt_opening and its hold gets sig meanwhile:
+ * raised on its own thread, or (other_thread) sent to another thread alone, a BLAS worker say,
+ * whose handler leaves the dying to the main thread's cli_interrupt_opened.  The child must die
+ * of sig, its temporary removed. */
+static void signal_while_opening(int sig, int other_thread)
 {
     char path[4096];
     make_file(path, sizeof path);
@@ -109,25 +83,43 @@ START_TEST(test_opening_other_thread)
     pid_t p = fork();
     ck_assert_int_ge(p, 0);
     if (p == 0) {
-        signal(SIGHUP, SIG_DFL);
+        signal(sig, SIG_DFL);
         cli_interrupt_setup();
         pthread_t waiter;
-        if (pthread_create(&waiter, NULL, wait_forever, NULL) != 0)
+        if (other_thread && pthread_create(&waiter, NULL, wait_forever, NULL) != 0)
             _exit(6);
         cli_interrupt_opening();
         int fd = open(path, O_CREAT | O_EXCL | O_WRONLY, 0600);
         if (fd < 0)
             _exit(4);
-        pthread_kill(waiter, SIGHUP); /* to that thread alone */
-        usleep(200000); /* its handler has run (and returned) by now */
+        if (other_thread) {
+            pthread_kill(waiter, sig); /* to that thread alone */
+            usleep(200000);            /* its handler has run (and returned) by now */
+        } else {
+            raise(sig); /* delivered here, to this thread; it must wait */
+        }
         if (!exists(path))
             _exit(5);
         cli_interrupt_hold(path);
         cli_interrupt_opened();
-        _exit(3); /* not reached */
+        _exit(3); /* not reached: opened dies of the signal */
     }
-    ck_assert_int_eq(child_end(p), SIGHUP);
+    ck_assert_int_eq(child_end(p), sig);
     ck_assert_msg(!exists(path), "%s left behind", path);
+}
+
+/* Between the temporary made and held: the signal waits, then the temporary goes and the process
+ * dies.  Without the wait the file stays behind (the process dies before it is held). */
+START_TEST(test_opening)
+{
+    signal_while_opening(SIGTERM, 0);
+}
+END_TEST
+
+/* The same with the signal taken by another thread. */
+START_TEST(test_opening_other_thread)
+{
+    signal_while_opening(SIGHUP, 1);
 }
 END_TEST
 
