@@ -18,17 +18,17 @@ AC_DEFUN([BST_CHECK_HEADER_LIB], [
   CPPFLAGS=$bst_save_CPPFLAGS; LIBS=$bst_save_LIBS
 ])
 
-# BST_FIND_SUITESPARSE: CHOLMOD and UMFPACK.  SuiteSparse 5 ships no pkg-config files; Debian puts
+# BST_FIND_SUITESPARSE: CHOLMOD, UMFPACK and CXSparse.  SuiteSparse 5 ships no pkg-config files; Debian puts
 # the headers in /usr/include/suitesparse.  Sets SUITESPARSE_CFLAGS and SUITESPARSE_LIBS.
 AC_DEFUN([BST_FIND_SUITESPARSE], [
-  AC_ARG_VAR([SUITESPARSE_CFLAGS], [C compiler flags for SuiteSparse (CHOLMOD, UMFPACK)])
-  AC_ARG_VAR([SUITESPARSE_LIBS], [linker flags for SuiteSparse (CHOLMOD, UMFPACK)])
+  AC_ARG_VAR([SUITESPARSE_CFLAGS], [C compiler flags for SuiteSparse (CHOLMOD, UMFPACK, CXSparse)])
+  AC_ARG_VAR([SUITESPARSE_LIBS], [linker flags for SuiteSparse (CHOLMOD, UMFPACK, CXSparse)])
   AS_IF([test "x$SUITESPARSE_CFLAGS" = x], [
     SUITESPARSE_CFLAGS=
     for bst_dir in /usr/include/suitesparse /usr/local/include/suitesparse; do
       AS_IF([test -f "$bst_dir/cholmod.h"], [SUITESPARSE_CFLAGS="-I$bst_dir"; break])
     done])
-  AS_IF([test "x$SUITESPARSE_LIBS" = x], [SUITESPARSE_LIBS="-lumfpack -lcholmod -lsuitesparseconfig"])
+  AS_IF([test "x$SUITESPARSE_LIBS" = x], [SUITESPARSE_LIBS="-lumfpack -lcholmod -lcxsparse -lsuitesparseconfig"])
   bst_save_CPPFLAGS=$CPPFLAGS; bst_save_LIBS=$LIBS
   CPPFLAGS="$CPPFLAGS $SUITESPARSE_CFLAGS"; LIBS="$SUITESPARSE_LIBS $LIBS"
   AC_CHECK_HEADERS([cholmod.h umfpack.h], [],
@@ -37,5 +37,9 @@ AC_DEFUN([BST_FIND_SUITESPARSE], [
     [AC_MSG_ERROR([CHOLMOD library not found: install it with 'apt-get install libsuitesparse-dev'])])
   AC_CHECK_FUNC([umfpack_dl_numeric], [],
     [AC_MSG_ERROR([UMFPACK library not found: install it with 'apt-get install libsuitesparse-dev'])])
+  AC_CHECK_HEADERS([cs.h], [],
+    [AC_MSG_ERROR([CXSparse header (cs.h) not found: install it with 'apt-get install libsuitesparse-dev'])])
+  AC_CHECK_FUNC([cs_dl_spsolve], [],
+    [AC_MSG_ERROR([CXSparse library not found: install it with 'apt-get install libsuitesparse-dev'])])
   CPPFLAGS=$bst_save_CPPFLAGS; LIBS=$bst_save_LIBS
 ])

@@ -4,7 +4,9 @@
  *   ZERO   - the identity: X = B;
  *   DIAG   - elementwise: X = diag(1 / (1 - a_i)) B, keeping B's structure;
  *   SPARSE - UMFPACK LU of the sparse I - A (umfpack_dl_*), one solve per column of B (no
- *            iterative refinement; the columns shared out among the context's threads);
+ *            iterative refinement; the columns shared out among the context's threads): a dense
+ *            column by UMFPACK's solve, a sparse one through the factors by CXSparse's
+ *            cs_dl_spsolve, which visits only what the column reaches (struct reach);
  *   DENSE  - LAPACK getrf, then getrs on all columns at once (single precision when A or B is a
  *            dense float matrix);
  *   FACTORED - the LU of the Woodbury capacitance (lowrank_solve.c: the dense work has the coarse
@@ -33,6 +35,7 @@ cancels digits although I - A itself is well scaled.
 
 #include <cblas.h>
 #include <lapacke.h>
+#include <cs.h>
 #include <umfpack.h>
 
 #include "blas_threads.h"
@@ -82,10 +85,40 @@ struct factor {
     SuiteSparse_long *wi;   /* SPARSE: the caller's thread's solve workspace (sparse_wsolve) */
     double *w;
     bsti_lr_fact *lf;       /* FACTORED: the capacitance's LU (lowrank_solve.c) */
+    struct reach *reach;    /* SPARSE: the factors for solves with a sparse column, or NULL */
+    int reach_tried;        /* SPARSE: reach_new was called */
 };
+
+/* A sparse factorization's factors, P R (I - A) Q = L U (UMFPACK's, R the row scaling), as
+ * CXSparse matrices for triangular solves that visit only what a sparse right-hand side reaches
+ * (Gilbert and Peierls; cs_dl_spsolve): UMFPACK's own solve sweeps all of L and U for every
+ * column, which dominated a mirror blind's step (bench/README.md, "Sparse solves").  For side t
+ * (0: M x = b, 1: M^T x = b) the solve is first[t] (lower, its diagonal first in each column)
+ * then second[t] (upper, diagonal last): L then U, or U^T then L^T; b's row i goes to position
+ * in_pos[t][i] scaled by in_scale[t][i] (NULL: 1), and position k of the solution to row
+ * out_pos[t][k] scaled by out_scale[t][k] (NULL: 1). */
+struct reach {
+    cs_dl *first[2], *second[2];
+    SuiteSparse_long *in_pos[2], *out_pos[2];
+    double *in_scale[2], *out_scale[2];
+    cs_dl *lt, *l, *u, *ut;        /* L^T (UMFPACK's rows of L), L, U, U^T */
+    SuiteSparse_long *pinv, *qinv, *p, *q;
+    double *r, *rp;                /* r[i]: row i's scale; rp[k] = r[p[k]] */
+};
+
+static void reach_free(bst_ctx *ctx, struct reach *h)
+{
+    if (!h)
+        return;
+    cs_dl_spfree(h->lt), cs_dl_spfree(h->l), cs_dl_spfree(h->u), cs_dl_spfree(h->ut);
+    bsti_free(ctx, h->pinv), bsti_free(ctx, h->qinv), bsti_free(ctx, h->p), bsti_free(ctx, h->q);
+    bsti_free(ctx, h->r), bsti_free(ctx, h->rp);
+    bsti_free(ctx, h);
+}
 
 static void factor_free(struct factor *f)
 {
+    reach_free(f->ctx, f->reach);
     bst_ctx *ctx = f->ctx;
     bsti_free(ctx, f->d);
     if (f->m)
@@ -112,6 +145,110 @@ static int umfpack_failed(bst_ctx *ctx, const char *what, int status)
     if (status == UMFPACK_WARNING_singular_matrix)
         return bsti_error(ctx, BST_ESINGULAR, "I - A is singular (UMFPACK %s)", what);
     return bsti_error(ctx, BST_EINTERNAL, "UMFPACK %s failed (status %d)", what, status);
+}
+
+/* f's factors as a reach (f->reach), or f->reach NULL where a column of L or U lacks its diagonal
+ * where a triangular solve looks for it (UMFPACK's solve serves then). */
+static int reach_new(struct factor *f)
+{
+    bst_ctx *ctx = f->ctx;
+    SuiteSparse_long lnz, unz, nr, nc, nzud, n = (SuiteSparse_long)f->n, recip;
+    int st = (int)umfpack_dl_get_lunz(&lnz, &unz, &nr, &nc, &nzud, f->numeric);
+    if (st != UMFPACK_OK)
+        return umfpack_failed(ctx, "get_lunz", st);
+    struct reach *h = bsti_calloc(ctx, 1, sizeof *h);
+    if (!h)
+        return BST_ENOMEM;
+    h->lt = cs_dl_spalloc(n, n, lnz, 1, 0);
+    h->u = cs_dl_spalloc(n, n, unz, 1, 0);
+    h->pinv = bsti_alloc_array(ctx, (size_t)n, sizeof *h->pinv);
+    h->qinv = bsti_alloc_array(ctx, (size_t)n, sizeof *h->qinv);
+    h->p = bsti_alloc_array(ctx, (size_t)n, sizeof *h->p);
+    h->q = bsti_alloc_array(ctx, (size_t)n, sizeof *h->q);
+    h->r = bsti_alloc_array(ctx, (size_t)n, sizeof *h->r);
+    h->rp = bsti_alloc_array(ctx, (size_t)n, sizeof *h->rp);
+    int rc = h->lt && h->u && h->pinv && h->qinv && h->p && h->q && h->r && h->rp ? BST_OK : BST_ENOMEM;
+    if (rc >= 0) {
+        st = (int)umfpack_dl_get_numeric(h->lt->p, h->lt->i, h->lt->x, h->u->p, h->u->i, h->u->x,
+                                         h->p, h->q, NULL, &recip, h->r, f->numeric);
+        if (st != UMFPACK_OK)
+            rc = umfpack_failed(ctx, "get_numeric", st);
+    }
+    if (rc >= 0 && (!(h->l = cs_dl_transpose(h->lt, 1)) || !(h->ut = cs_dl_transpose(h->u, 1))))
+        rc = bsti_error(ctx, BST_ENOMEM, "out of memory (transposing a sparse factorization)");
+    int usable = rc >= 0;
+    for (SuiteSparse_long j = 0; usable && j < n; j++) /* each diagonal where cs_dl_spsolve reads it */
+        usable = h->l->p[j + 1] > h->l->p[j] && h->l->i[h->l->p[j]] == j &&
+                 h->u->p[j + 1] > h->u->p[j] && h->u->i[h->u->p[j + 1] - 1] == j &&
+                 h->ut->p[j + 1] > h->ut->p[j] && h->ut->i[h->ut->p[j]] == j &&
+                 h->lt->p[j + 1] > h->lt->p[j] && h->lt->i[h->lt->p[j + 1] - 1] == j;
+    if (!usable) {
+        reach_free(ctx, h);
+        return rc;
+    }
+    for (SuiteSparse_long i = 0; i < n; i++) {
+        h->r[i] = recip ? h->r[i] : 1.0 / h->r[i]; /* now a factor of row i */
+        h->pinv[h->p[i]] = i, h->qinv[h->q[i]] = i;
+    }
+    for (SuiteSparse_long k = 0; k < n; k++)
+        h->rp[k] = h->r[h->p[k]];
+    /* M x = b: L U (Q^T x) = P R b; M^T x = b: U^T L^T (P R^-1 x) = Q^T b */
+    h->first[0] = h->l, h->second[0] = h->u;
+    h->in_pos[0] = h->pinv, h->in_scale[0] = h->r, h->out_pos[0] = h->q, h->out_scale[0] = NULL;
+    h->first[1] = h->ut, h->second[1] = h->lt;
+    h->in_pos[1] = h->qinv, h->in_scale[1] = NULL, h->out_pos[1] = h->p, h->out_scale[1] = h->rp;
+    f->reach = h;
+    return BST_OK;
+}
+
+/* Per thread: the two triangles' column starts (cs_dl_spsolve marks visited columns in them, so
+ * each thread has its own copies), the reach stacks and values of both solves, and the scattered
+ * right-hand side, 8 n + 2 values in all (reach_room). */
+struct reach_work {
+    cs_dl g[2];
+    SuiteSparse_long *xi, *bi;
+    double *x, *bx;
+};
+static size_t reach_room(size_t n) { return 8 * n + 2; }
+
+/* The work of a thread in room (reach_room(n) values of 8 bytes) for side trans. */
+static void reach_work_init(const struct reach *h, int trans, size_t n, void *room, struct reach_work *w)
+{
+    SuiteSparse_long *l = room;
+    w->g[0] = *h->first[trans], w->g[1] = *h->second[trans];
+    w->g[0].p = l, w->g[1].p = l + n + 1;
+    memcpy(w->g[0].p, h->first[trans]->p, (n + 1) * sizeof *l);
+    memcpy(w->g[1].p, h->second[trans]->p, (n + 1) * sizeof *l);
+    w->xi = l + 2 * n + 2;          /* 2 n */
+    w->bi = w->xi + 2 * n;          /* n */
+    w->x = (double *)(w->bi + n);   /* 2 n: both solves' values */
+    w->bx = w->x + 2 * n;           /* n */
+}
+
+/* x (n values, all written) = M^-1 b or M^-T b for the sparse column b (nb entries at rows bi with
+ * values bv), through the reach. */
+static void reach_solve(const struct reach *h, int trans, struct reach_work *w, size_t n,
+                        const SuiteSparse_long *bi, const double *bv, size_t nb, double *x)
+{
+    const SuiteSparse_long *ip = h->in_pos[trans], *op = h->out_pos[trans];
+    const double *is = h->in_scale[trans], *os = h->out_scale[trans];
+    for (size_t e = 0; e < nb; e++)
+        w->bi[e] = ip[bi[e]], w->bx[e] = is ? is[bi[e]] * bv[e] : bv[e];
+    SuiteSparse_long bp[2] = {0, (SuiteSparse_long)nb};
+    cs_dl b = {(SuiteSparse_long)nb, (SuiteSparse_long)n, 1, bp, w->bi, w->bx, -1};
+    double *y = w->x, *z = w->x + n;
+    SuiteSparse_long *xi = w->xi, top = cs_dl_spsolve(&w->g[0], &b, 0, xi, y, NULL, 1);
+    /* the first solve's pattern and values, packed, are the second's right-hand side */
+    size_t m = 0;
+    for (SuiteSparse_long q = top; q < (SuiteSparse_long)n; q++)
+        w->bi[m] = xi[q], w->bx[m++] = y[xi[q]];
+    bp[1] = (SuiteSparse_long)m, b.nzmax = (SuiteSparse_long)m;
+    top = cs_dl_spsolve(&w->g[1], &b, 0, xi, z, NULL, 0);
+    memset(x, 0, n * sizeof *x);
+    for (SuiteSparse_long q = top; q < (SuiteSparse_long)n; q++) {
+        SuiteSparse_long k = xi[q];
+        x[op[k]] = os ? os[k] * z[k] : z[k];
+    }
 }
 
 /* x = M^-1 b (trans 0) or M^-T b (trans 1) with the sparse factorization, through the workspace
@@ -446,6 +583,7 @@ struct sparse_cols {
     double *bcol;
     SuiteSparse_long *wi;
     double *w;
+    void *reach_room;      /* reach_room(n) values: solve through f->reach (B not dense) */
     int status;            /* UMFPACK's first failure, or 0 */
 };
 
@@ -459,6 +597,22 @@ static void *sparse_cols_run(void *arg)
     struct sparse_cols *t = arg;
     const bst_mat *b = t->b;
     size_t n = t->f->n;
+    if (t->reach_room) { /* each column from what it reaches */
+        struct reach_work w;
+        reach_work_init(t->f->reach, t->trans, n, t->reach_room, &w);
+        for (size_t j = t->j0; j < t->j1; j++) {
+            double *x = t->x + (j - t->xj0) * n;
+            if (b->s == BST_SPARSE) {
+                const SuiteSparse_long *p = b->sp->p;
+                reach_solve(t->f->reach, t->trans, &w, n, (const SuiteSparse_long *)b->sp->i + p[j],
+                            (const double *)b->sp->x + p[j], (size_t)(p[j + 1] - p[j]), x);
+            } else {
+                SuiteSparse_long row = (SuiteSparse_long)j;
+                reach_solve(t->f->reach, t->trans, &w, n, &row, &b->diag[j], 1, x);
+            }
+        }
+        return NULL;
+    }
     memset(t->bcol, 0, n * sizeof *t->bcol);
     for (size_t j = t->j0; j < t->j1 && t->status >= 0; j++) {
         double *col = t->bcol;
@@ -598,7 +752,7 @@ static int factor_solve(struct factor *f, int trans, const bst_mat *b, bst_mat *
 {
     bst_ctx *ctx = f->ctx;
     size_t n = f->n;
-    int rc;
+    int rc = BST_OK;
     if (b->s == BST_ZERO || f->s == BST_ZERO)
         return bst_mat_convert(ctx, b, b->s, b->prec, out);
     if (f->s == BST_DIAG) {
@@ -639,14 +793,27 @@ static int factor_solve(struct factor *f, int trans, const bst_mat *b, bst_mat *
         ws = NULL, wis = NULL, nw = 1;
     }
     for (size_t t = 0; t < nw; t++) {
-        part[t] = (struct sparse_cols){f, trans, b, NULL, 0, 0, 0, f->w1, f->wi, f->w, 0};
+        part[t] = (struct sparse_cols){f, trans, b, NULL, 0, 0, 0, f->w1, f->wi, f->w, NULL, 0};
         if (t > 0) {
             double *wt = ws + (t - 1) * (1 + BSTI_UMF_W) * n;
             part[t].bcol = wt, part[t].w = wt + n, part[t].wi = wis + (t - 1) * n;
         }
     }
     bst_mat *x = NULL;
-    if (b->s != BST_DENSE) {
+    double *room = NULL;
+    if (b->s != BST_DENSE && !f->reach_tried) {
+        f->reach_tried = 1;
+        rc = reach_new(f);
+    }
+    if (rc >= 0 && b->s != BST_DENSE && f->reach) {
+        if ((room = bsti_alloc_array(ctx, nw * reach_room(n), sizeof *room)) == NULL)
+            rc = BST_ENOMEM;
+        for (size_t t = 0; room && t < nw; t++)
+            part[t].reach_room = room + t * reach_room(n);
+    }
+    if (rc < 0) {
+        /* reported */
+    } else if (b->s != BST_DENSE) {
         rc = solve_to_sparse(f, b, part, nw, &x);
     } else if ((rc = bst_mat_new_dense(ctx, n, cols, BST_DOUBLE, &x)) >= 0) {
         for (size_t t = 0; t < nw; t++)
@@ -664,7 +831,7 @@ static int factor_solve(struct factor *f, int trans, const bst_mat *b, bst_mat *
             }
         }
     }
-    bsti_free(ctx, ws), bsti_free(ctx, wis);
+    bsti_free(ctx, ws), bsti_free(ctx, wis), bsti_free(ctx, room);
     if (rc < 0) {
         bst_mat_free(x);
         return rc;
