@@ -592,6 +592,27 @@ struct sparse_cols {
 /* Columns a thread solves at a time where the result is gathered sparse (solve_to_sparse). */
 #define SPARSE_SOLVE_CHUNK 64
 
+/* Column j of b into col (n values, zero where b's column has nothing: only b's entries are
+ * written), or (put 0) those entries back to zero. */
+static void put_column(const bst_mat *b, size_t j, double *col, int put)
+{
+    switch (b->s) {
+    case BST_DIAG: col[j] = put ? b->diag[j] : 0.0; break;
+    case BST_SPARSE: {
+        const SuiteSparse_long *p = b->sp->p, *ri = b->sp->i;
+        const double *bx = b->sp->x;
+        for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++)
+            col[ri[q]] = put ? bx[q] : 0.0;
+        break;
+    }
+    case BST_DENSE:
+        for (size_t i = 0; i < b->rows; i++)
+            col[i] = put ? bsti_dense_get(b, i, j) : 0.0;
+        break;
+    default: break;
+    }
+}
+
 static void *sparse_cols_run(void *arg)
 {
     struct sparse_cols *t = arg;
@@ -615,36 +636,11 @@ static void *sparse_cols_run(void *arg)
     }
     memset(t->bcol, 0, n * sizeof *t->bcol);
     for (size_t j = t->j0; j < t->j1 && t->status >= 0; j++) {
-        double *col = t->bcol;
-        switch (b->s) {
-        case BST_DIAG: col[j] = b->diag[j]; break;
-        case BST_SPARSE: {
-            const SuiteSparse_long *p = b->sp->p, *ri = b->sp->i;
-            const double *bx = b->sp->x;
-            for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++)
-                col[ri[q]] = bx[q];
-            break;
-        }
-        case BST_DENSE:
-            for (size_t i = 0; i < n; i++)
-                col[i] = bsti_dense_get(b, i, j);
-            break;
-        default: break;
-        }
-        int st = sparse_wsolve(t->f, t->trans, t->x + (j - t->xj0) * n, col, t->wi, t->w);
+        put_column(b, j, t->bcol, 1);
+        int st = sparse_wsolve(t->f, t->trans, t->x + (j - t->xj0) * n, t->bcol, t->wi, t->w);
         if (st < 0)
             t->status = st;
-        switch (b->s) { /* bcol back to zeros */
-        case BST_DIAG: col[j] = 0.0; break;
-        case BST_SPARSE: {
-            const SuiteSparse_long *p = b->sp->p, *ri = b->sp->i;
-            for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++)
-                col[ri[q]] = 0.0;
-            break;
-        }
-        case BST_DENSE: memset(col, 0, n * sizeof *col); break;
-        default: break;
-        }
+        put_column(b, j, t->bcol, 0); /* bcol back to zeros */
     }
     return NULL;
 }
@@ -715,35 +711,28 @@ static int solve_to_sparse(struct factor *f, const bst_mat *b, struct sparse_col
     }
     bsti_free(ctx, buf);
     size_t nz = rc >= 0 ? (size_t)cp[cols] : 0;
+    cholmod_common *cc = rc >= 0 ? bsti_cholmod(ctx) : NULL;
+    cholmod_sparse *sp = cc ? cholmod_l_allocate_sparse(n, cols, nz, 1, 1, 0, CHOLMOD_REAL, cc) : NULL;
+    bst_mat *m = NULL;
     if (rc < 0) {
         /* reported */
-    } else if (nz == 0) {
-        rc = bst_mat_new_zero(ctx, n, cols, out);
-    } else if (diag_only) {
-        double *d = bsti_calloc(ctx, n, sizeof *d);
-        for (size_t j = 0; d && j < cols; j++)
-            if (cp[j + 1] > cp[j])
-                d[j] = v[cp[j]];
-        rc = d ? bst_mat_new_diag(ctx, n, d, out) : BST_ENOMEM;
-        bsti_free(ctx, d);
-    } else if ((double)nz <= BST_SPARSE_MAX_FILL * (double)n * (double)cols) {
-        cholmod_common *cc = bsti_cholmod(ctx);
-        cholmod_sparse *sp = cc ? cholmod_l_allocate_sparse(n, cols, nz, 1, 1, 0, CHOLMOD_REAL, cc) : NULL;
-        if (sp) {
-            memcpy(sp->p, cp, (cols + 1) * sizeof *cp);
-            memcpy(sp->i, ri, nz * sizeof *ri);
-            memcpy(sp->x, v, nz * sizeof *v);
-            rc = bsti_mat_from_cholmod(ctx, sp, out);
-        } else {
-            rc = cc ? bsti_mat_cholmod_failed(ctx, "allocate_sparse") : BST_ENOMEM;
-        }
-    } else if ((rc = bst_mat_new_dense(ctx, n, cols, BST_DOUBLE, out)) >= 0) {
-        double *xd = (*out)->dense;
-        for (size_t j = 0; j < cols; j++)
-            for (SuiteSparse_long q = cp[j]; q < cp[j + 1]; q++)
-                xd[j * n + (size_t)ri[q]] = v[q];
+    } else if (!sp) {
+        rc = cc ? bsti_mat_cholmod_failed(ctx, "allocate_sparse") : BST_ENOMEM;
+    } else {
+        memcpy(sp->p, cp, (cols + 1) * sizeof *cp);
+        memcpy(sp->i, ri, nz * sizeof *ri);
+        memcpy(sp->x, v, nz * sizeof *v);
+        rc = bsti_mat_from_cholmod(ctx, sp, &m);
     }
     bsti_free(ctx, v), bsti_free(ctx, ri), bsti_free(ctx, cp);
+    /* what bst_mat_compact would change (nothing, or only the diagonal, or too many values) it
+     * makes; the common sparse result is kept as gathered */
+    if (rc >= 0 && (nz == 0 || diag_only || (double)nz > BST_SPARSE_MAX_FILL * (double)n * (double)cols)) {
+        rc = bst_mat_compact(ctx, m, BST_SPARSE_MAX_FILL, out);
+        bst_mat_free(m);
+    } else if (rc >= 0) {
+        *out = m;
+    }
     return rc;
 }
 
