@@ -146,14 +146,19 @@ int bsti_mat_scale_take(bst_ctx *ctx, const double *dr, bst_mat *a, const double
  * freed once read.  Taken matrices are freed on every error path.
  * keep (may be NULL): on success the factorization of I - A is handed out there (NULL when A is
  * zero or it could not be kept), to be used with bsti_factor_solve_right and freed with
- * bsti_factor_free (the absorptance reuses the combination's, stack.c). */
+ * bsti_factor_free (the absorptance reuses the combination's, stack.c).
+ * prec: the precision of dense work (the stack's): BST_FLOAT factors a dense I - A in single
+ * precision, also that of a sparse A whose LU would fill (which bst_solve_left does in double
+ * unless A or B is dense float). */
 typedef struct factor bsti_factor;
 int bsti_solve_take(bst_ctx *ctx, int right, bst_mat *a, const bst_mat *b, bst_mat *b_own,
-                    double rcond_warn, bst_mat **out, double *rcond, bsti_factor **keep);
+                    double rcond_warn, bst_precision prec, bst_mat **out, double *rcond,
+                    bsti_factor **keep);
 /* The same as two left solves with one factorization: x1 = (I - A)^-1 b1, x2 = (I - A)^-1 b2. */
 int bsti_solve_take_left2(bst_ctx *ctx, bst_mat *a, const bst_mat *b1, bst_mat *b1_own,
-                          const bst_mat *b2, bst_mat *b2_own, double rcond_warn, bst_mat **x1,
-                          bst_mat **x2, double *rcond, bsti_factor **keep);
+                          const bst_mat *b2, bst_mat *b2_own, double rcond_warn,
+                          bst_precision prec, bst_mat **x1, bst_mat **x2, double *rcond,
+                          bsti_factor **keep);
 /* Y = B (I - A)^-1 with a kept factorization (no condition estimate); NULL-safe free. */
 int bsti_factor_solve_right(bst_ctx *ctx, bsti_factor *f, const bst_mat *b, bst_mat **y);
 void bsti_factor_free(bsti_factor *f);

@@ -8,7 +8,9 @@
  *            column by UMFPACK's solve, a sparse one through the factors by CXSparse's
  *            cs_dl_spsolve, which visits only what the column reaches (struct reach);
  *   DENSE  - LAPACK getrf, then getrs on all columns at once (single precision when A or B is a
- *            dense float matrix);
+ *            dense float matrix, or when the caller asks for single-precision dense work:
+ *            bsti_solve_take's prec, the stack's --precision, which also holds for a sparse A
+ *            too filled for UMFPACK);
  *   FACTORED - the LU of the Woodbury capacitance (lowrank_solve.c: the dense work has the coarse
  *            information's size); a B factored over A's map (or diagonal, or a sparse P K P^T)
  *            whose left scalings are A's is solved through it, any other multiplied by the
@@ -895,7 +897,8 @@ static int solve_one(bst_ctx *ctx, struct factor *f, int right, const bst_mat *b
 
 static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a, size_t nb,
                          const bst_mat *const *b, bst_mat **own_b, double rcond_warn,
-                         bst_mat **out, double *rcond_out, bsti_factor **keep)
+                         bst_precision dense_prec, bst_mat **out, double *rcond_out,
+                         bsti_factor **keep)
 {
     if (keep)
         *keep = NULL;
@@ -909,20 +912,21 @@ static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **ow
     int b_float = 0;
     for (size_t q = 0; q < nb; q++)
         b_float |= b[q]->s == BST_DENSE && b[q]->prec == BST_FLOAT;
-    bst_precision prec = (a->s == BST_DENSE && a->prec == BST_FLOAT) || b_float ? BST_FLOAT
-                                                                                : BST_DOUBLE;
+    bst_precision prec = dense_prec == BST_FLOAT || (a->s == BST_DENSE && a->prec == BST_FLOAT) ||
+                                 b_float ? BST_FLOAT : BST_DOUBLE;
     struct factor f;
     double rcond;
     bst_mat *adense = NULL;
-    int a_dense = a->s == BST_DENSE;
     rc = factor_new(ctx, a, prec, right, &f, &rcond, own_a);
-    if (rc == BSTI_USE_DENSE) { /* workspace: a dense copy of A (n^2 doubles) */
+    if (rc == BSTI_USE_DENSE) { /* workspace: a dense copy of A in the factor's precision, which
+                                   becomes I - A and its factors */
         factor_free(&f);
-        rc = bst_mat_convert(ctx, a, BST_DENSE, BST_DOUBLE, &adense);
+        rc = bst_mat_convert(ctx, a, BST_DENSE, prec, &adense);
         if (rc >= 0)
             rc = factor_new(ctx, adense, prec, right, &f, &rcond, &adense);
         bst_mat_free(adense);
     }
+    int f_dense = f.s == BST_DENSE;
     if (*own_a) {
         bst_mat_free(*own_a);
         *own_a = NULL;
@@ -955,7 +959,7 @@ static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **ow
         return rc;
     }
     /* Single precision keeps about 7 digits: warn from sqrt(eps_float) on, whatever was asked. */
-    if (prec == BST_FLOAT && a_dense)
+    if (prec == BST_FLOAT && f_dense)
         rcond_warn = fmax(rcond_warn, BSTI_RCOND_WARN_FLOAT);
     if (rcond < rcond_warn)
         return bsti_error(ctx, BST_WILLCOND, "solve: I - A is ill-conditioned (rcond %.3g < %.3g)",
@@ -972,12 +976,14 @@ static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **ow
  * freed once it has been read.  Every matrix taken is gone, or is a result, on return, whatever
  * the status. */
 static int solve_owning(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a, size_t nb,
-                        const bst_mat *const *b, bst_mat **own_b, double rcond_warn, bst_mat **out,
-                        double *rcond_out, bsti_factor **keep)
+                        const bst_mat *const *b, bst_mat **own_b, double rcond_warn,
+                        bst_precision dense_prec, bst_mat **out, double *rcond_out,
+                        bsti_factor **keep)
 {
     for (size_t q = 0; q < nb; q++)
         out[q] = NULL;
-    int rc = solve_checked(ctx, right, a, own_a, nb, b, own_b, rcond_warn, out, rcond_out, keep);
+    int rc = solve_checked(ctx, right, a, own_a, nb, b, own_b, rcond_warn, dense_prec, out,
+                           rcond_out, keep);
     bst_mat_free(*own_a); /* when an error came before the factorization */
     *own_a = NULL;
     for (size_t q = 0; own_b && q < nb; q++) { /* when an error came before it was read */
@@ -995,7 +1001,7 @@ int bst_solve_left(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double rcon
         return BST_EINVAL;
     if (!x)
         return bsti_error(ctx, BST_EINVAL, "solve: NULL result pointer");
-    return solve_owning(ctx, 0, a, &none, 1, &b, NULL, rcond_warn, x, rcond, NULL);
+    return solve_owning(ctx, 0, a, &none, 1, &b, NULL, rcond_warn, BST_DOUBLE, x, rcond, NULL);
 }
 
 int bst_solve_right(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double rcond_warn,
@@ -1006,11 +1012,12 @@ int bst_solve_right(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double rco
         return BST_EINVAL;
     if (!y)
         return bsti_error(ctx, BST_EINVAL, "solve: NULL result pointer");
-    return solve_owning(ctx, 1, a, &none, 1, &b, NULL, rcond_warn, y, rcond, NULL);
+    return solve_owning(ctx, 1, a, &none, 1, &b, NULL, rcond_warn, BST_DOUBLE, y, rcond, NULL);
 }
 
 int bsti_solve_take(bst_ctx *ctx, int right, bst_mat *a, const bst_mat *b, bst_mat *b_own,
-                    double rcond_warn, bst_mat **out, double *rcond, bsti_factor **keep)
+                    double rcond_warn, bst_precision prec, bst_mat **out, double *rcond,
+                    bsti_factor **keep)
 {
     bst_mat *own = a, *own_b[1] = {b_own};
     if (keep)
@@ -1020,12 +1027,13 @@ int bsti_solve_take(bst_ctx *ctx, int right, bst_mat *a, const bst_mat *b, bst_m
         bst_mat_free(b_own);
         return ctx ? bsti_error(ctx, BST_EINVAL, "solve: NULL result pointer") : BST_EINVAL;
     }
-    return solve_owning(ctx, right, a, &own, 1, &b, own_b, rcond_warn, out, rcond, keep);
+    return solve_owning(ctx, right, a, &own, 1, &b, own_b, rcond_warn, prec, out, rcond, keep);
 }
 
 int bsti_solve_take_left2(bst_ctx *ctx, bst_mat *a, const bst_mat *b1, bst_mat *b1_own,
-                          const bst_mat *b2, bst_mat *b2_own, double rcond_warn, bst_mat **x1,
-                          bst_mat **x2, double *rcond, bsti_factor **keep)
+                          const bst_mat *b2, bst_mat *b2_own, double rcond_warn,
+                          bst_precision prec, bst_mat **x1, bst_mat **x2, double *rcond,
+                          bsti_factor **keep)
 {
     bst_mat *own = a, *x[2] = {NULL, NULL}, *own_b[2] = {b1_own, b2_own};
     const bst_mat *b[2] = {b1, b2};
@@ -1037,7 +1045,7 @@ int bsti_solve_take_left2(bst_ctx *ctx, bst_mat *a, const bst_mat *b1, bst_mat *
         bst_mat_free(b2_own);
         return ctx ? bsti_error(ctx, BST_EINVAL, "solve: NULL result pointer") : BST_EINVAL;
     }
-    int rc = solve_owning(ctx, 0, a, &own, 2, b, own_b, rcond_warn, x, rcond, keep);
+    int rc = solve_owning(ctx, 0, a, &own, 2, b, own_b, rcond_warn, prec, x, rcond, keep);
     *x1 = x[0];
     *x2 = x[1];
     return rc;

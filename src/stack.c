@@ -23,7 +23,7 @@
  * (Tf, Rb) or (Rf, Tb) are needed, one factorization serves both through W = T2 (I - A)^-1 (a right
  * solve), or, when T2 is a pane's (diagonal, or a sparse tree: cheap_transmission), through two
  * left solves multiplied by T2 (W's products would be dense); when one is needed, a left solve
- * with its own right-hand side is cheaper.  When all four are needed and one part is a pane, one
+ * with its own right-hand side is cheaper.  When all four are needed and a part is a pane, one
  * factorization serves all four (from_outward, from_inward).  The absorptance rides on the
  * combination (absorptance.c: the combination keeps what it needs). */
 #include <config.h>
@@ -326,8 +326,8 @@ static struct term solve(struct combiner *cb, int side, struct term a, struct te
         else
             rc = copy(cb, b.m, &out);
     } else {
-        rc = bsti_solve_take(cb->ctx, side, a.dies, b.m, b.dies, cb->opts->rcond_warn, &out,
-                             &cb->rcond, slot);
+        rc = bsti_solve_take(cb->ctx, side, a.dies, b.m, b.dies, cb->opts->rcond_warn,
+                             cb->opts->precision, &out, &cb->rcond, slot);
     }
     rc = solve_status(cb, rc, what);
     return result(cb, rc, out);
@@ -354,7 +354,8 @@ static struct term solve2(struct combiner *cb, struct term a, struct term b1, st
         return r1;
     }
     rc = bsti_solve_take_left2(cb->ctx, a.dies, b1.m, b1.dies, b2.m, b2.dies,
-                               cb->opts->rcond_warn, &out1, &out2, &cb->rcond, slot);
+                               cb->opts->rcond_warn, cb->opts->precision, &out1, &out2,
+                               &cb->rcond, slot);
     rc = solve_status(cb, rc, what);
     *x2 = result(cb, rc, out2);
     return result(cb, rc, out1);
@@ -543,7 +544,17 @@ static void from_inward(struct combiner *cb, struct part *u, struct part *v, str
     form(cb, s, BST_RF, t0, add(cb, use(u, BST_RF), mul(cb, tb1, lam_mul(cb, use(v, BST_RF), x1))));
 }
 
-/* Which of from_outward (1) or from_inward (2) forms `want` of U and V, or neither (0). */
+/* Stored values of two components of a part (zero components hold none). */
+static double stored(const struct part *p, bst_comp c1, bst_comp c2)
+{
+    return (p->m[c1] ? (double)bst_mat_nnz(p->m[c1]) : 0.0) +
+           (p->m[c2] ? (double)bst_mat_nnz(p->m[c2]) : 0.0);
+}
+
+/* Which of from_outward (1) or from_inward (2) forms `want` of U and V, or neither (0).  When
+ * both parts pass for panes (a pane and a sparse mirror blind's partial stack at k = 7, whose
+ * inter-reflection may still need the dense LU), one factorization is still the cheaper: the
+ * products it adds are with cheap matrices; the one of the sparser part is taken. */
 static int one_factorization(struct combiner *cb, const struct part *u, const struct part *v,
                              unsigned want)
 {
@@ -551,7 +562,9 @@ static int one_factorization(struct combiner *cb, const struct part *u, const st
         return 0;
     int u_pane = cheap_transmission(u->m[BST_TB]) && cheap_transmission(u->m[BST_RB]);
     int v_pane = cheap_transmission(v->m[BST_TF]) && cheap_transmission(v->m[BST_RF]);
-    return u_pane && !v_pane ? 1 : v_pane && !u_pane ? 2 : 0;
+    if (u_pane && v_pane)
+        return stored(v, BST_TF, BST_RF) <= stored(u, BST_TB, BST_RB) ? 2 : 1;
+    return u_pane ? 1 : v_pane ? 2 : 0;
 }
 
 /* Combine U (exterior part) and V (interior layer) into S, forming the components `want`: the

@@ -317,7 +317,7 @@ START_TEST(test_solve_take)
     ck_assert_int_eq(bst_mat_convert(ctx, a, bst_mat_structure(a), bst_mat_precision(a), &at), BST_OK);
     ck_assert_int_eq(bst_mat_convert(ctx, b, bst_mat_structure(b), bst_mat_precision(b), &bt), BST_OK);
     double rcond;
-    rc = bsti_solve_take(ctx, right, at, bt, bt, BST_RCOND_WARN, &x, &rcond, NULL);
+    rc = bsti_solve_take(ctx, right, at, bt, bt, BST_RCOND_WARN, BST_DOUBLE, &x, &rcond, NULL);
     ck_assert_msg(rc == BST_OK, "%s A, %s B, n %zu: %s", tm_kind_name[ka], tm_kind_name[kb], n,
                   bst_ctx_message(ctx));
     ck_assert_msg(same_bits(x, ref), "%s A, %s B, n %zu, %s: not the borrowing solve's bits",
@@ -346,8 +346,8 @@ START_TEST(test_solve_take_left2)
     ck_assert_int_eq(bst_mat_convert(ctx, a, bst_mat_structure(a), bst_mat_precision(a), &at), BST_OK);
     ck_assert_int_eq(bst_mat_convert(ctx, b1, bst_mat_structure(b1), bst_mat_precision(b1), &b1t), BST_OK);
     ck_assert_int_eq(bst_mat_convert(ctx, b2, bst_mat_structure(b2), bst_mat_precision(b2), &b2t), BST_OK);
-    ck_assert_int_eq(bsti_solve_take_left2(ctx, at, b1t, b1t, b2t, b2t, BST_RCOND_WARN, &x1, &x2, NULL, NULL),
-                     BST_OK);
+    ck_assert_int_eq(bsti_solve_take_left2(ctx, at, b1t, b1t, b2t, b2t, BST_RCOND_WARN, BST_DOUBLE,
+                                           &x1, &x2, NULL, NULL), BST_OK);
     ck_assert_msg(same_bits(x1, r1) && same_bits(x2, r2), "%s A, %s B1", tm_kind_name[ka],
                   tm_kind_name[kb]);
     bst_mat_free(a), bst_mat_free(b1), bst_mat_free(b2), bst_mat_free(r1), bst_mat_free(r2);
@@ -374,7 +374,7 @@ START_TEST(test_take_alloc_failure)
         ck_assert_int_eq(bst_mat_convert(c, a, BST_DENSE, bst_mat_precision(a), &at), BST_OK);
         ck_assert_int_eq(bst_mat_convert(c, b, BST_DENSE, bst_mat_precision(b), &bt), BST_OK);
         al.fail_at = al.count + k;
-        int rc = bsti_solve_take(c, right, at, bt, bt, 0, &x, NULL, NULL);
+        int rc = bsti_solve_take(c, right, at, bt, bt, 0, BST_DOUBLE, &x, NULL, NULL);
         al.fail_at = 0;
         if (rc == BST_OK) {
             bst_mat_free(x);

@@ -102,7 +102,9 @@ START_TEST(test_panes_closed_form)
 END_TEST
 
 /* A random scattering layer over basis b.  Structure per component: 0 diagonal, 1 sparse
- * (a few lobes per column), 2 dense, 3 a diagonal stored sparse (a pane's tree file).  Without absorption (absorb = 0) every incident patch's
+ * (a few lobes per column), 2 dense, 3 a diagonal stored sparse (a pane's tree file), 4 sparse
+ * with one value in 20 (below stack.c's share for a pane, as a mirror blind's partial stack at
+ * k = 7), scattered so that the LU of its inter-reflection with a pane fills.  Without absorption (absorb = 0) every incident patch's
  * hemispherical T + R is exactly 1 on both sides; otherwise 1 - absorb. */
 static bst_layer *random_layer(const bst_basis *b, int structure, double absorb, tu_rng *rng)
 {
@@ -115,7 +117,8 @@ static bst_layer *random_layer(const bst_basis *b, int structure, double absorb,
         for (size_t j = 0; j < n; j++)
             for (size_t i = 0; i < n; i++) {
                 int on = structure == 2 || ((structure == 0 || structure == 3) && i == j) ||
-                         (structure == 1 && (i == j || (i * 7 + j * 3) % 11 == 0));
+                         (structure == 1 && (i == j || (i * 7 + j * 3) % 11 == 0)) ||
+                         (structure == 4 && (i == j || ((i * 73856093u) ^ (j * 19349663u)) % 20 == 0));
                 a[(size_t)c * n * n + j * n + i] = on ? tu_rng_uniform(rng) : 0.0;
             }
     /* Scale each incident column pair (T, R of one side) so that T + R = 1 - absorb, with T
@@ -347,6 +350,57 @@ START_TEST(test_flops_pane_tree)
                       behind ? "behind" : "in front", flops, want);
         bst_layer_free(pane);
         bst_layer_free(shade);
+    }
+    bst_basis_free(b);
+}
+END_TEST
+
+/* A pane and a thin sparse layer (one value in 20: both pass for panes, cheap_transmission) whose
+ * inter-reflection's LU would fill, so that the solve takes the dense path: the step still factors
+ * one inter-reflection (the inward one when the pane is behind, the outward one when it is in
+ * front: the sparser part's) and forms all four components from two left solves; two of its
+ * products are with the thin layer's transmission (2 nnz N flops each), the others with the
+ * pane's diagonal (not counted).  Each inter-reflection factored, as before: two LU and four
+ * getrs.  With precision single the dense work is single (the results
+ * dense float, within float rounding of double's), though every operand is a double sparse or
+ * diagonal matrix. */
+START_TEST(test_thin_sparse_pair)
+{
+    bst_basis *b;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 4, &b), BST_OK);
+    double n = (double)bst_basis_size(b);
+    tu_rng rng;
+    tu_rng_seed(&rng, 4444);
+    for (int behind = 0; behind < 2; behind++) {
+        bst_layer *pane = random_layer(b, 0, 0.1, &rng), *thin = random_layer(b, 4, 0.2, &rng);
+        const bst_mat *t = bst_layer_get(thin, 0, behind ? BST_TB : BST_TF);
+        ck_assert_int_eq(bst_mat_structure(t), BST_SPARSE);
+        ck_assert_double_lt((double)bst_mat_nnz(t), n * n / 16.0);
+        bst_layer *l[2] = {behind ? thin : pane, behind ? pane : thin};
+        double flops = stack_flops(l);
+        double want = lu_flops(n) + 2 * (2 * n * n - n) * n + 2 * 2 * (double)bst_mat_nnz(t) * n;
+        ck_assert_msg(fabs(flops - want) <= 1e-9 * want, "pane %s: %.0f flops, want %.0f",
+                      behind ? "behind" : "in front", flops, want);
+        bst_layer *sd, *sf;
+        bst_stack_opts o;
+        bst_stack_opts_init(&o);
+        ck_assert_int_eq(bst_stack_combine(ctx, 2, (const bst_layer *const *)l, &o, &sd), BST_OK);
+        o.precision = BST_FLOAT;
+        ck_assert_int_eq(bst_stack_combine(ctx, 2, (const bst_layer *const *)l, &o, &sf), BST_OK);
+        for (int c = 0; c < BST_NCOMP; c++) {
+            const bst_mat *md = bst_layer_get(sd, 0, (bst_comp)c), *mf = bst_layer_get(sf, 0, (bst_comp)c);
+            ck_assert_int_eq(bst_mat_structure(md), BST_DENSE);
+            ck_assert_int_eq(bst_mat_precision(md), BST_DOUBLE);
+            ck_assert_int_eq(bst_mat_structure(mf), BST_DENSE);
+            ck_assert_msg(bst_mat_precision(mf) == BST_FLOAT, "pane %s, %s: not single",
+                          behind ? "behind" : "in front", bst_comp_name((bst_comp)c));
+            double d = max_rel_diff(mf, md);
+            ck_assert_msg(d < 1e-5, "%s: single and double differ by %g", bst_comp_name((bst_comp)c), d);
+        }
+        bst_layer_free(sd);
+        bst_layer_free(sf);
+        bst_layer_free(pane);
+        bst_layer_free(thin);
     }
     bst_basis_free(b);
 }
@@ -608,6 +662,7 @@ static Suite *stack_suite(void)
     tcase_add_test(tc, test_only_requested);
     tcase_add_test(tc, test_flops);
     tcase_add_test(tc, test_flops_pane_tree);
+    tcase_add_test(tc, test_thin_sparse_pair);
     tcase_add_loop_test(tc, test_consume, 0, 64);
     tcase_add_loop_test(tc, test_absorptance_balance, 0, 4);
     tcase_add_test(tc, test_mirrors);
