@@ -6,8 +6,8 @@
  *   2. a DIAG operand is a row (left) or column (right) scaling of the other operand, whose
  *      structure the result keeps;
  *   3. SPARSE * SPARSE: cholmod_l_ssmult, then the drop tolerance;
- *   4. SPARSE * DENSE: A's rows times panels of B's columns, on the context's threads, O(nnz N);
- *      DENSE * SPARSE: one axpy of a dense column per non-zero of the sparse operand, O(nnz N);
+ *   4. SPARSE * DENSE and DENSE * SPARSE: the sparse operand's lines times row-major panels of
+ *      the dense one, on the context's threads, O(nnz N);
  *   5. DENSE * DENSE: GEMM (OpenBLAS), in single precision when either operand is float;
  *   6. FACTORED (D + U K V^T) with FACTORED over one map, DENSE or SPARSE (made dense): mat_lowrank.c,
  *      without the factored operand's N x N values; over two maps: the generic path.
@@ -64,80 +64,122 @@ static int mul_sparse_sparse(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, d
     return bsti_mat_from_cholmod(ctx, c, out);
 }
 
-/* Sparse * dense by panels of SPMM_PANEL columns of B, shared out among the context's threads.
- * A panel of B is copied row-major (K x SPMM_PANEL, zero-padded), and each row i of A (A's rows:
- * CHOLMOD's transpose of it) sums its non-zeros' products a_ik B(k, panel) into SPMM_PANEL
- * contiguous accumulators, which go to row i of C's panel.  The product a column at a time over
- * A's columns scatters one value per multiply-add (3 GFLOP/s on one thread: 30 s for a mirror
- * blind's sparse transmission times a dense k = 7 matrix); here each non-zero drives a contiguous
- * run the compiler vectorizes.  C(i, j) is summed over k ascending in B's precision, as that loop
- * summed it: the same bits, on any number of threads.  Workspace: A's transpose (nnz), and per
- * thread a panel of B and a row of accumulators. */
+/* Sparse * dense and dense * sparse by panels of the dense operand, shared out among the context's
+ * threads.  A panel is SPMM_PANEL columns of B (sparse A times B) or rows of A (A times sparse B),
+ * copied row-major: K x SPMM_PANEL, zero-padded, K the inner dimension.  Each line of the sparse
+ * operand (a row of A, by CHOLMOD's transpose of it; a column of B as stored) sums its non-zeros'
+ * products with rows of the panel into SPMM_PANEL contiguous accumulators, which go to a row
+ * (columns j0.., strided) or column (rows i0.., contiguous) of C.  A product a column at a time,
+ * one multiply-add per non-zero of A (or one axpy of a column of A per non-zero of B, read from
+ * memory each time), took 30 s for a mirror blind's sparse transmission times a dense k = 7
+ * matrix; here each non-zero drives a contiguous run the compiler vectorizes, over a panel that
+ * stays in cache.  C(i, j) is summed over the inner index ascending in the dense operand's
+ * precision: the same bits as the loop over the non-zeros, on any number of threads.
+ * Workspace: A's transpose (nnz, sparse * dense), and a panel a thread. */
 #define SPMM_PANEL 64
 
+/* On x86-64 with GCC's function multi-versioning, the panel kernels are also compiled for AVX2,
+ * chosen at load time where the CPU has it: the accumulators of a line then fit in the vector
+ * registers (8 of 16 in float), where baseline SSE2 code spills them.  No FMA: each multiply-add
+ * is still rounded twice, so both versions give the same bits. */
+#if defined(__x86_64__) && defined(__has_attribute)
+#if __has_attribute(target_clones)
+#define SPMM_CLONES __attribute__((target_clones("avx2", "default")))
+#endif
+#endif
+#ifndef SPMM_CLONES
+#define SPMM_CLONES
+#endif
+
 struct spmm_part {
-    const SuiteSparse_long *rp, *ci; /* A by rows: row i's columns ci[rp[i] .. rp[i + 1] - 1] */
+    const SuiteSparse_long *p, *i;  /* the sparse operand's lines: line l's inner indices
+                                       i[p[l] .. p[l + 1] - 1], values v */
     const double *v;
-    const bst_mat *b;
+    const bst_mat *d;               /* the dense operand */
     bst_mat *c;
-    size_t p0, p1;                   /* the panels [p0, p1) */
-    void *bp;                        /* K x SPMM_PANEL, row-major, B's precision */
+    int dense_left;                 /* C = D S (panels of D's rows), else C = S D (of columns) */
+    size_t p0, p1;                  /* the panels [p0, p1) */
+    void *panel;                    /* K x SPMM_PANEL, row-major, D's precision */
 };
 
-static void spmm_panel_float(const struct spmm_part *t, size_t j0, size_t w)
+/* The panel's K x w values of D (its columns or rows o .. o + w - 1), row-major, zero-padded to
+ * SPMM_PANEL; then each line's accumulators into C.  One plain kernel a precision. */
+SPMM_CLONES static void spmm_panel_float(const struct spmm_part *t, size_t o, size_t w, size_t lines)
 {
-    size_t K = t->b->rows, M = t->c->rows;
-    const float *bd = (const float *)t->b->dense + j0 * K;
-    float *bp = t->bp, *cd = (float *)t->c->dense + j0 * M;
+    const float *dd = t->d->dense;
+    float *panel = t->panel, *cd = t->c->dense;
+    size_t K = t->dense_left ? t->d->cols : t->d->rows, R = t->d->rows, M = t->c->rows;
     for (size_t k = 0; k < K; k++)
         for (size_t j = 0; j < SPMM_PANEL; j++)
-            bp[k * SPMM_PANEL + j] = j < w ? bd[j * K + k] : 0.0f;
-    for (size_t i = 0; i < M; i++) {
+            panel[k * SPMM_PANEL + j] = j >= w ? 0.0f : t->dense_left ? dd[k * R + o + j]
+                                                                      : dd[(o + j) * R + k];
+    for (size_t l = 0; l < lines; l++) {
         float acc[SPMM_PANEL] = {0};
-        for (SuiteSparse_long q = t->rp[i]; q < t->rp[i + 1]; q++) {
+        for (SuiteSparse_long q = t->p[l]; q < t->p[l + 1]; q++) {
             float a = (float)t->v[q];
-            const float *row = bp + (size_t)t->ci[q] * SPMM_PANEL;
+            const float *row = panel + (size_t)t->i[q] * SPMM_PANEL;
             for (size_t j = 0; j < SPMM_PANEL; j++)
                 acc[j] += a * row[j];
         }
         for (size_t j = 0; j < w; j++)
-            cd[j * M + i] = acc[j];
+            cd[t->dense_left ? l * M + o + j : (o + j) * M + l] = acc[j];
     }
 }
 
-static void spmm_panel_double(const struct spmm_part *t, size_t j0, size_t w)
+SPMM_CLONES static void spmm_panel_double(const struct spmm_part *t, size_t o, size_t w, size_t lines)
 {
-    size_t K = t->b->rows, M = t->c->rows;
-    const double *bd = (const double *)t->b->dense + j0 * K;
-    double *bp = t->bp, *cd = (double *)t->c->dense + j0 * M;
+    const double *dd = t->d->dense;
+    double *panel = t->panel, *cd = t->c->dense;
+    size_t K = t->dense_left ? t->d->cols : t->d->rows, R = t->d->rows, M = t->c->rows;
     for (size_t k = 0; k < K; k++)
         for (size_t j = 0; j < SPMM_PANEL; j++)
-            bp[k * SPMM_PANEL + j] = j < w ? bd[j * K + k] : 0.0;
-    for (size_t i = 0; i < M; i++) {
+            panel[k * SPMM_PANEL + j] = j >= w ? 0.0 : t->dense_left ? dd[k * R + o + j]
+                                                                     : dd[(o + j) * R + k];
+    for (size_t l = 0; l < lines; l++) {
         double acc[SPMM_PANEL] = {0};
-        for (SuiteSparse_long q = t->rp[i]; q < t->rp[i + 1]; q++) {
+        for (SuiteSparse_long q = t->p[l]; q < t->p[l + 1]; q++) {
             double a = t->v[q];
-            const double *row = bp + (size_t)t->ci[q] * SPMM_PANEL;
+            const double *row = panel + (size_t)t->i[q] * SPMM_PANEL;
             for (size_t j = 0; j < SPMM_PANEL; j++)
                 acc[j] += a * row[j];
         }
         for (size_t j = 0; j < w; j++)
-            cd[j * M + i] = acc[j];
+            cd[t->dense_left ? l * M + o + j : (o + j) * M + l] = acc[j];
     }
 }
 
 static void *spmm_run(void *arg)
 {
     const struct spmm_part *t = arg;
-    size_t cols = t->b->cols;
+    size_t span = t->dense_left ? t->d->rows : t->d->cols; /* the panels' extent */
+    size_t lines = t->dense_left ? t->c->cols : t->c->rows;
     for (size_t p = t->p0; p < t->p1; p++) {
-        size_t j0 = p * SPMM_PANEL, w = cols - j0 < SPMM_PANEL ? cols - j0 : SPMM_PANEL;
-        if (t->b->prec == BST_FLOAT)
-            spmm_panel_float(t, j0, w);
+        size_t o = p * SPMM_PANEL, w = span - o < SPMM_PANEL ? span - o : SPMM_PANEL;
+        if (t->d->prec == BST_FLOAT)
+            spmm_panel_float(t, o, w, lines);
         else
-            spmm_panel_double(t, j0, w);
+            spmm_panel_double(t, o, w, lines);
     }
     return NULL;
+}
+
+/* C = S D (dense_left 0) or D S, s the sparse operand by lines (S's rows, or its columns). */
+static int spmm(bst_ctx *ctx, const cholmod_sparse *s, const bst_mat *d, int dense_left, bst_mat *c)
+{
+    size_t span = dense_left ? d->rows : d->cols, K = dense_left ? d->cols : d->rows;
+    size_t panels = (span + SPMM_PANEL - 1) / SPMM_PANEL;
+    size_t nw = panels ? (size_t)bsti_ctx_workers_no_alloc(ctx, panels) : 0;
+    size_t es = d->prec == BST_FLOAT ? sizeof(float) : sizeof(double);
+    char *work = nw ? bsti_alloc_array(ctx, nw * K * SPMM_PANEL, es) : NULL;
+    if (nw && !work)
+        return BST_ENOMEM;
+    struct spmm_part part[BST_THREADS_MAX];
+    for (size_t t = 0; t < nw; t++)
+        part[t] = (struct spmm_part){s->p, s->i, s->x, d, c, dense_left, panels * t / nw,
+                                     panels * (t + 1) / nw, work + t * K * SPMM_PANEL * es};
+    bsti_run_parts(part, sizeof *part, nw, spmm_run);
+    bsti_free(ctx, work);
+    return BST_OK;
 }
 
 static int mul_sparse_dense(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
@@ -145,39 +187,21 @@ static int mul_sparse_dense(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, do
     (void)drop;
     bst_mat *c;
     int rc = bst_mat_new_dense(ctx, a->rows, b->cols, b->prec, &c);
-    if (rc < 0 || b->cols == 0 || a->rows == 0) {
-        *out = rc < 0 ? NULL : c;
+    if (rc < 0)
         return rc;
-    }
     bsti_flops_add(ctx, 2.0 * (double)bst_mat_nnz(a) * (double)b->cols);
     cholmod_common *cc = bsti_cholmod(ctx);
     cholmod_sparse *at = cc ? cholmod_l_transpose(a->sp, 1, cc) : NULL;
-    if (!at) {
-        bst_mat_free(c);
-        return cc ? bsti_mat_cholmod_failed(ctx, "transpose") : BST_ENOMEM;
-    }
-    size_t panels = (b->cols + SPMM_PANEL - 1) / SPMM_PANEL;
-    size_t nw = (size_t)bsti_ctx_workers_no_alloc(ctx, panels);
-    size_t es = b->prec == BST_FLOAT ? sizeof(float) : sizeof(double);
-    char *work = bsti_alloc_array(ctx, nw * b->rows * SPMM_PANEL, es);
-    if (!work) {
-        cholmod_l_free_sparse(&at, cc);
-        bst_mat_free(c);
-        return BST_ENOMEM;
-    }
-    struct spmm_part part[BST_THREADS_MAX];
-    for (size_t t = 0; t < nw; t++)
-        part[t] = (struct spmm_part){at->p, at->i, at->x, b, c, panels * t / nw,
-                                     panels * (t + 1) / nw, work + t * b->rows * SPMM_PANEL * es};
-    bsti_run_parts(part, sizeof *part, nw, spmm_run);
-    bsti_free(ctx, work);
+    rc = !cc ? BST_ENOMEM : !at ? bsti_mat_cholmod_failed(ctx, "transpose") : spmm(ctx, at, b, 0, c);
     cholmod_l_free_sparse(&at, cc);
+    if (rc < 0) {
+        bst_mat_free(c);
+        return rc;
+    }
     *out = c;
     return BST_OK;
 }
 
-/* Dense * sparse: column j of C is the sum over the non-zeros B(k, j) of B(k, j) * A(:, k), one
- * axpy per non-zero, O(nnz * rows).  Workspace: the result only. */
 static int mul_dense_sparse(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
 {
     (void)drop;
@@ -185,20 +209,11 @@ static int mul_dense_sparse(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, do
     int rc = bst_mat_new_dense(ctx, a->rows, b->cols, a->prec, &c);
     if (rc < 0)
         return rc;
-    const SuiteSparse_long *p = b->sp->p, *ri = b->sp->i;
-    const double *x = b->sp->x;
-    size_t r = a->rows;
-    bsti_flops_add(ctx, 2.0 * (double)bst_mat_nnz(b) * (double)r);
-    for (size_t j = 0; j < b->cols; j++)
-        for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++) {
-            size_t k = (size_t)ri[q];
-            if (a->prec == BST_DOUBLE)
-                cblas_daxpy((int)r, x[q], (const double *)a->dense + k * r, 1,
-                            (double *)c->dense + j * r, 1);
-            else
-                cblas_saxpy((int)r, (float)x[q], (const float *)a->dense + k * r, 1,
-                            (float *)c->dense + j * r, 1);
-        }
+    bsti_flops_add(ctx, 2.0 * (double)bst_mat_nnz(b) * (double)a->rows);
+    if ((rc = spmm(ctx, b->sp, a, 1, c)) < 0) {
+        bst_mat_free(c);
+        return rc;
+    }
     *out = c;
     return BST_OK;
 }

@@ -1,6 +1,6 @@
 /* test_mat.c - every specialized product, sum, scaling, transpose and conversion of the algebra
  * against plain dense loops, for every pair of operand structures (dense in double and float) and
- * sizes 1 .. 300; result structures; the sparse-dense product's bits on any thread count; error
+ * sizes 1 .. 300; result structures; the sparse-dense products' bits on any thread count; error
  * paths; injected allocation failures. */
 #include <config.h>
 
@@ -114,24 +114,33 @@ START_TEST(test_transpose_rect)
 }
 END_TEST
 
-/* Sparse times dense (mat_mul.c, by panels of B's columns on the context's threads): each C(i, j)
- * is the sum over A's non-zeros in row i, k ascending, of A(i, k) B(k, j) in B's precision (the
- * loop written out here), to the bit, on one thread or three, for B of fewer columns than a panel,
- * of several panels and a part, and a rectangular A. */
+/* Sparse times dense and dense times sparse (mat_mul.c, by panels of the dense operand on the
+ * context's threads): each C(i, j) is the sum over the sparse operand's non-zeros, inner index
+ * ascending, of their products in the dense operand's precision (the loop written out here), to
+ * the bit, on one thread or three, for dense operands of fewer lines than a panel, of several
+ * panels and a part, and rectangular operands. */
 START_TEST(test_spmm_same_bits)
 {
     static const size_t dims[][3] = {{150, 130, 7}, {150, 130, 200}, {64, 64, 129}};
-    const size_t m = dims[_i][0], k = dims[_i][1], p = dims[_i][2];
+    int dense_left = _i % 2;
+    size_t m = dims[_i / 2][0], k = dims[_i / 2][1], p = dims[_i / 2][2];
+    if (dense_left) { /* the dense operand's lines are A's rows: the long side first */
+        size_t x = m;
+        m = p, p = x;
+    }
     tu_rng r;
     tu_rng_seed(&r, 7100 + (uint64_t)_i);
-    bst_mat *a = tm_random(ctx, TM_SPARSE, m, k, 1.0, &r);
-    double *da = tm_dense(ctx, a);
+    bst_mat *s = dense_left ? tm_random(ctx, TM_SPARSE, k, p, 1.0, &r)
+                            : tm_random(ctx, TM_SPARSE, m, k, 1.0, &r);
+    double *ds = tm_dense(ctx, s);
     for (int kind = TM_DENSE; kind <= TM_FLOAT; kind++) {
-        bst_mat *b = tm_random(ctx, kind, k, p, 1.0, &r), *c[2];
-        double *db = tm_dense(ctx, b);
+        bst_mat *d = dense_left ? tm_random(ctx, kind, m, k, 1.0, &r)
+                                : tm_random(ctx, kind, k, p, 1.0, &r), *c[2];
+        double *dd = tm_dense(ctx, d);
         for (int t = 0; t < 2; t++) {
             ck_assert_int_eq(bst_ctx_set_threads(ctx, t ? 3 : 1), BST_OK);
-            ck_assert_int_eq(bst_mat_mul(ctx, a, b, 0.0, &c[t]), BST_OK);
+            ck_assert_int_eq(dense_left ? bst_mat_mul(ctx, d, s, 0.0, &c[t])
+                                        : bst_mat_mul(ctx, s, d, 0.0, &c[t]), BST_OK);
             ck_assert_int_eq(bst_mat_structure(c[t]), BST_DENSE);
         }
         double *dc = tm_dense(ctx, c[1]);
@@ -140,22 +149,24 @@ START_TEST(test_spmm_same_bits)
                 double want = 0.0;
                 float wantf = 0.0f;
                 for (size_t q = 0; q < k; q++) {
-                    double aiq = da[q * m + i];
-                    if (aiq != 0.0)
-                        want += aiq * db[j * k + q], wantf += (float)aiq * (float)db[j * k + q];
+                    double sv = dense_left ? ds[j * k + q] : ds[q * m + i];
+                    double dv = dense_left ? dd[q * m + i] : dd[j * k + q];
+                    if (sv != 0.0)
+                        want += sv * dv, wantf += (float)sv * (float)dv;
                 }
                 double got = dc[j * m + i], w = kind == TM_FLOAT ? (double)wantf : want;
-                ck_assert_msg(got == w, "%s B, %zu x %zu x %zu: C(%zu, %zu) = %.17g, the loop's %.17g",
+                ck_assert_msg(got == w, "%s, %s: %zu x %zu x %zu: C(%zu, %zu) = %.17g, the loop's "
+                              "%.17g", dense_left ? "dense x sparse" : "sparse x dense",
                               tm_kind_name[kind], m, k, p, i, j, got, w);
             }
         size_t bytes = m * p * (kind == TM_FLOAT ? sizeof(float) : sizeof(double));
         ck_assert_msg(memcmp(bst_mat_dense_data(c[0]), bst_mat_dense_data(c[1]), bytes) == 0,
                       "%s B: one thread and three differ", tm_kind_name[kind]);
-        free(db), free(dc);
-        bst_mat_free(b), bst_mat_free(c[0]), bst_mat_free(c[1]);
+        free(dd), free(dc);
+        bst_mat_free(d), bst_mat_free(c[0]), bst_mat_free(c[1]);
     }
-    free(da);
-    bst_mat_free(a);
+    free(ds);
+    bst_mat_free(s);
 }
 END_TEST
 
@@ -370,7 +381,7 @@ static Suite *mat_suite(void)
     tcase_add_loop_test(tc, test_add_all_pairs, 0, pairs);
     tcase_add_loop_test(tc, test_unary, 0, TM_NKINDS * (int)NSIZES);
     tcase_add_loop_test(tc, test_transpose_rect, 0, 8);
-    tcase_add_loop_test(tc, test_spmm_same_bits, 0, 3);
+    tcase_add_loop_test(tc, test_spmm_same_bits, 0, 6);
     tcase_add_test(tc, test_drop_tol);
     tcase_add_test(tc, test_errors);
     tcase_add_loop_test(tc, test_alloc_failure, 0, TM_NKINDS * TM_NKINDS);
