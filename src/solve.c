@@ -7,7 +7,8 @@
  *            iterative refinement; the columns shared out among the context's threads): a dense
  *            column by UMFPACK's solve, a sparse one through the factors by CXSparse's
  *            cs_dl_spsolve, which visits only what the column reaches (struct reach);
- *   DENSE  - LAPACK getrf, then getrs on all columns at once (single precision when A or B is a
+ *   DENSE  - LAPACK getrf, then getrs on all columns at once, or getri and products with B where B
+ *            is sparse with few values (inverse_pays) (single precision when A or B is a
  *            dense float matrix, or when the caller asks for single-precision dense work:
  *            bsti_solve_take's prec, the stack's --precision, which also holds for a sparse A
  *            too filled for UMFPACK);
@@ -895,6 +896,83 @@ static int solve_one(bst_ctx *ctx, struct factor *f, int right, const bst_mat *b
     return rc;
 }
 
+/* Sparse right-hand sides of a dense factorization: the inverse formed from the LU factors in their
+ * own storage (getri, 4/3 N^3 flops) and multiplied by each B (a dense-sparse product, 2 nnz N
+ * flops, mat_mul.c) costs less than getrs on B made dense (2 N^2 flops a column) when B's values
+ * are few: the second step of a mirror blind between panes at k = 7 has two right-hand sides of
+ * 3 and 10.5 million values, 17.6 TFLOP by getrs and 5.9 + 0.44 by the inverse.  A product's flop
+ * takes INV_SPMM_COST times a getrs flop's time (measured at N = 4096 in single precision, B of 5 %
+ * random values, two threads: getrs 183 GFLOP/s, getri 140-148, the product 26-34).  Not with a
+ * kept factorization (its later solves need the LU factors). */
+#define INV_SPMM_COST 6.0
+
+static int inverse_pays(const struct factor *f, size_t nb, const bst_mat *const *b)
+{
+    if (f->s != BST_DENSE || f->n == 0)
+        return 0;
+    double n = (double)f->n, getrs = 0.0, spmm = 0.0;
+    for (size_t q = 0; q < nb; q++) {
+        if (b[q]->s != BST_SPARSE && b[q]->s != BST_DIAG)
+            return 0;
+        getrs += 2.0 * n * n * (double)b[q]->cols;
+        spmm += INV_SPMM_COST * 2.0 * (double)bst_mat_nnz(b[q]) * n;
+    }
+    return 4.0 / 3.0 * n * n * n + spmm < getrs;
+}
+
+/* The LU factors become the inverse (I - A)^-1 in their storage (getri, after its workspace
+ * query). */
+static int dense_invert(bst_ctx *ctx, struct factor *f)
+{
+    lapack_int N = (lapack_int)f->n, lw = 0, info;
+    int dbl = f->prec == BST_DOUBLE;
+    double qd = 0.0;
+    float qf = 0.0f;
+    info = dbl ? LAPACKE_dgetri_work(LAPACK_COL_MAJOR, N, f->lu, N, f->ipiv, &qd, -1)
+               : LAPACKE_sgetri_work(LAPACK_COL_MAJOR, N, f->lu, N, f->ipiv, &qf, -1);
+    if (info == 0)
+        lw = dbl ? (lapack_int)qd : (lapack_int)qf;
+    void *w = info == 0 ? bsti_alloc_array(ctx, lw > 0 ? (size_t)lw : 1, dbl ? sizeof(double)
+                                                                             : sizeof(float))
+                        : NULL;
+    if (info == 0 && !w)
+        return BST_ENOMEM;
+    if (info == 0) {
+        double dn = (double)f->n;
+        bsti_flops_add(ctx, 4.0 / 3.0 * dn * dn * dn - dn * dn + 5.0 / 3.0 * dn); /* LAWN 41 */
+        int saved = bsti_blas_serial_begin(f->n);
+        info = dbl ? LAPACKE_dgetri_work(LAPACK_COL_MAJOR, N, f->lu, N, f->ipiv, w, lw)
+                   : LAPACKE_sgetri_work(LAPACK_COL_MAJOR, N, f->lu, N, f->ipiv, w, lw);
+        bsti_blas_serial_end(saved);
+    }
+    bsti_free(ctx, w);
+    if (info != 0)
+        return bsti_error(ctx, info > 0 ? BST_ESINGULAR : BST_EINTERNAL, "LAPACK getri: %s %d",
+                          info > 0 ? "singular at" : "argument", (int)(info > 0 ? info : -info));
+    return BST_OK;
+}
+
+/* out[q] = (I - A)^-1 b[q] or b[q] (I - A)^-1 by the inverse, the owned right-hand sides freed as
+ * read. */
+static int solve_by_inverse(bst_ctx *ctx, struct factor *f, int right, size_t nb,
+                            const bst_mat *const *b, bst_mat **own_b, bst_mat **out)
+{
+    int rc = dense_invert(ctx, f);
+    if (rc < 0)
+        return rc;
+    bst_mat inv = {.ctx = ctx, .s = BST_DENSE, .prec = f->prec, .rows = f->n, .cols = f->n,
+                   .dense = f->lu};
+    for (size_t q = 0; q < nb && rc >= 0; q++) {
+        rc = right ? bst_mat_mul(ctx, b[q], &inv, 0.0, &out[q])
+                   : bst_mat_mul(ctx, &inv, b[q], 0.0, &out[q]);
+        if (own_b) {
+            bst_mat_free(own_b[q]);
+            own_b[q] = NULL;
+        }
+    }
+    return rc;
+}
+
 static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a, size_t nb,
                          const bst_mat *const *b, bst_mat **own_b, double rcond_warn,
                          bst_precision dense_prec, bst_mat **out, double *rcond_out,
@@ -934,12 +1012,15 @@ static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **ow
     a = NULL;
     if (rcond_out)
         *rcond_out = rcond;
-    for (size_t q = 0; q < nb && rc >= 0; q++) {
-        bst_mat *bq = own_b ? own_b[q] : NULL;
-        if (own_b)
-            own_b[q] = NULL;
-        rc = solve_one(ctx, &f, right, b[q], bq, q + 1 == nb && !keep, &out[q]);
-    }
+    if (rc >= 0 && !keep && inverse_pays(&f, nb, b))
+        rc = solve_by_inverse(ctx, &f, right, nb, b, own_b, out);
+    else
+        for (size_t q = 0; q < nb && rc >= 0; q++) {
+            bst_mat *bq = own_b ? own_b[q] : NULL;
+            if (own_b)
+                own_b[q] = NULL;
+            rc = solve_one(ctx, &f, right, b[q], bq, q + 1 == nb && !keep, &out[q]);
+        }
     if (rc >= 0 && keep && f.s != BST_ZERO && (*keep = bsti_alloc_array(ctx, 1, sizeof **keep)))
         **keep = f; /* handed to the caller (bsti_factor_free) */
     else

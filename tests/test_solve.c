@@ -330,7 +330,8 @@ START_TEST(test_solve_take)
 }
 END_TEST
 
-/* bsti_solve_take_left2 with both right-hand sides taken: the bits of two bst_solve_left. */
+/* bsti_solve_take_left2 with both right-hand sides taken: the bits of two bst_solve_left, but for
+ * a sparse or diagonal B1, which alone may take another path. */
 START_TEST(test_solve_take_left2)
 {
     int ka = _i % TM_NKINDS, kb = _i / TM_NKINDS; /* B1's kind; B2 dense, in float with A or
@@ -348,8 +349,19 @@ START_TEST(test_solve_take_left2)
     ck_assert_int_eq(bst_mat_convert(ctx, b2, bst_mat_structure(b2), bst_mat_precision(b2), &b2t), BST_OK);
     ck_assert_int_eq(bsti_solve_take_left2(ctx, at, b1t, b1t, b2t, b2t, BST_RCOND_WARN, BST_DOUBLE,
                                            &x1, &x2, NULL, NULL), BST_OK);
-    ck_assert_msg(same_bits(x1, r1) && same_bits(x2, r2), "%s A, %s B1", tm_kind_name[ka],
-                  tm_kind_name[kb]);
+    if (kb == TM_SPARSE || kb == TM_DIAG) {
+        /* alone, B1 may go through the inverse of a dense factorization (solve.c, inverse_pays),
+         * beside the dense B2 through getrs: the same values to rounding */
+        double *d1 = tm_dense(ctx, x1), *e1 = tm_dense(ctx, r1);
+        double tol = 16.0 * (double)n * fmax(tm_eps(x1), tm_eps(r1)) * fmax(1.0, tm_maxabs(e1, n * n));
+        ck_assert_msg(tm_maxdiff(d1, e1, n * n) <= tol, "%s A, %s B1: %g", tm_kind_name[ka],
+                      tm_kind_name[kb], tm_maxdiff(d1, e1, n * n));
+        ck_assert(same_bits(x2, r2));
+        free(d1), free(e1);
+    } else {
+        ck_assert_msg(same_bits(x1, r1) && same_bits(x2, r2), "%s A, %s B1", tm_kind_name[ka],
+                      tm_kind_name[kb]);
+    }
     bst_mat_free(a), bst_mat_free(b1), bst_mat_free(b2), bst_mat_free(r1), bst_mat_free(r2);
     bst_mat_free(x1), bst_mat_free(x2);
 }

@@ -358,12 +358,13 @@ END_TEST
 /* A pane and a thin sparse layer (one value in 20: both pass for panes, cheap_transmission) whose
  * inter-reflection's LU would fill, so that the solve takes the dense path: the step still factors
  * one inter-reflection (the inward one when the pane is behind, the outward one when it is in
- * front: the sparser part's) and forms all four components from two left solves; two of its
- * products are with the thin layer's transmission (2 nnz N flops each), the others with the
- * pane's diagonal (not counted).  Each inter-reflection factored, as before: two LU and four
- * getrs.  With precision single the dense work is single (the results
- * dense float, within float rounding of double's), though every operand is a double sparse or
- * diagonal matrix. */
+ * front: the sparser part's) and forms all four components from two left solves.  Their
+ * right-hand sides are sparse, so the LU becomes the inverse (getri) and multiplies them (solve.c,
+ * inverse_pays; 2 nnz N flops a product); two products more are with the thin layer's
+ * transmission, the others with the pane's diagonal (not counted).  Each inter-reflection
+ * factored, as before: two LU and four getrs.  With precision single the dense work is single
+ * (the results dense float, within float rounding of double's), though every operand is a double
+ * sparse or diagonal matrix. */
 START_TEST(test_thin_sparse_pair)
 {
     bst_basis *b;
@@ -373,12 +374,17 @@ START_TEST(test_thin_sparse_pair)
     tu_rng_seed(&rng, 4444);
     for (int behind = 0; behind < 2; behind++) {
         bst_layer *pane = random_layer(b, 0, 0.1, &rng), *thin = random_layer(b, 4, 0.2, &rng);
+        /* the thin layer's transmission multiplied, and its components in the right-hand sides */
         const bst_mat *t = bst_layer_get(thin, 0, behind ? BST_TB : BST_TF);
+        const bst_mat *b1 = bst_layer_get(thin, 0, behind ? BST_TF : BST_TB);
+        const bst_mat *b2 = bst_layer_get(thin, 0, behind ? BST_RB : BST_RF);
         ck_assert_int_eq(bst_mat_structure(t), BST_SPARSE);
         ck_assert_double_lt((double)bst_mat_nnz(t), n * n / 16.0);
         bst_layer *l[2] = {behind ? thin : pane, behind ? pane : thin};
         double flops = stack_flops(l);
-        double want = lu_flops(n) + 2 * (2 * n * n - n) * n + 2 * 2 * (double)bst_mat_nnz(t) * n;
+        double getri = 4.0 / 3.0 * n * n * n - n * n + 5.0 / 3.0 * n;
+        double want = lu_flops(n) + getri + 2 * n * (double)(bst_mat_nnz(b1) + bst_mat_nnz(b2)) +
+                      2 * 2 * (double)bst_mat_nnz(t) * n;
         ck_assert_msg(fabs(flops - want) <= 1e-9 * want, "pane %s: %.0f flops, want %.0f",
                       behind ? "behind" : "in front", flops, want);
         bst_layer *sd, *sf;
