@@ -132,6 +132,10 @@ int bsti_mat_dense_pair(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, bst_ma
 /* C = diag(dr) A diag(dc) (either NULL = identity), in A's structure. */
 int bsti_mat_scale(bst_ctx *ctx, const double *dr, const bst_mat *a, const double *dc,
                    bst_mat **out);
+/* A + B taking A: a dense A in the sum's precision (float when A or a dense B is float) receives B
+ * in its own storage and is returned as *out (the same values as bst_mat_add), any other A is
+ * freed after bst_mat_add.  A is gone or is the result on return, whatever the status. */
+int bsti_mat_add_take(bst_ctx *ctx, bst_mat *a, const bst_mat *b, bst_mat **out);
 /* The same of a matrix the caller gives up: a DENSE or DIAG a is scaled in its own storage and
  * becomes *out (the same values bsti_mat_scale gives); any other is scaled into a new matrix and
  * freed, also on failure. */

@@ -124,24 +124,10 @@ static inline void dense_add_at(bst_mat *c, size_t k, double v)
         ((float *)c->dense)[k] += (float)v;
 }
 
-/* A DENSE, B any structure; float when A or a dense B is float.  Workspace: the result only
- * (A is copied into it). */
-static int add_dense(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, const bst_mat *b,
-                     bst_mat **out)
+/* C += beta B, C dense (its precision), B any structure but FACTORED. */
+static void dense_add_matrix(bst_mat *c, double beta, const bst_mat *b)
 {
-    bst_precision prec = (a->prec == BST_FLOAT || (b->s == BST_DENSE && b->prec == BST_FLOAT))
-                             ? BST_FLOAT : BST_DOUBLE;
-    bst_mat *c;
-    int rc = bsti_mat_to_dense(ctx, a, prec, &c);
-    if (rc < 0)
-        return rc;
-    size_t r = a->rows, n = r * a->cols;
-    if (prec == BST_DOUBLE)
-        for (size_t k = 0; k < n; k++)
-            ((double *)c->dense)[k] *= alpha;
-    else
-        for (size_t k = 0; k < n; k++)
-            ((float *)c->dense)[k] = (float)(((float *)c->dense)[k] * alpha);
+    size_t r = c->rows;
     switch (b->s) {
     case BST_ZERO:
         break;
@@ -168,7 +154,51 @@ static int add_dense(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, 
                 dense_add_at(c, j * r + i, beta * bst_mat_get(b, i, j));
         break;
     }
+}
+
+/* The precision of a dense sum: float when A or a dense B is float. */
+static bst_precision dense_sum_precision(const bst_mat *a, const bst_mat *b)
+{
+    return (a->prec == BST_FLOAT || (b->s == BST_DENSE && b->prec == BST_FLOAT)) ? BST_FLOAT
+                                                                                 : BST_DOUBLE;
+}
+
+/* A DENSE, B any structure.  Workspace: the result only (A is copied into it). */
+static int add_dense(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, const bst_mat *b,
+                     bst_mat **out)
+{
+    bst_precision prec = dense_sum_precision(a, b);
+    bst_mat *c;
+    int rc = bsti_mat_to_dense(ctx, a, prec, &c);
+    if (rc < 0)
+        return rc;
+    size_t n = a->rows * a->cols;
+    if (alpha != 1.0 && prec == BST_DOUBLE)
+        for (size_t k = 0; k < n; k++)
+            ((double *)c->dense)[k] *= alpha;
+    else if (alpha != 1.0)
+        for (size_t k = 0; k < n; k++)
+            ((float *)c->dense)[k] = (float)(((float *)c->dense)[k] * alpha);
+    dense_add_matrix(c, beta, b);
     *out = c;
+    return BST_OK;
+}
+
+int bsti_mat_add_take(bst_ctx *ctx, bst_mat *a, const bst_mat *b, bst_mat **out)
+{
+    *out = NULL;
+    if (!ctx || !a || !b) {
+        bst_mat_free(a);
+        return ctx ? bsti_error(ctx, BST_EINVAL, "sum: NULL matrix") : BST_EINVAL;
+    }
+    if (a->s != BST_DENSE || b->s == BST_FACTORED || a->rows != b->rows || a->cols != b->cols ||
+        dense_sum_precision(a, b) != a->prec) { /* no storage to take: the plain sum */
+        int rc = bst_mat_add(ctx, 1.0, a, 1.0, b, out);
+        bst_mat_free(a);
+        return rc;
+    }
+    dense_add_matrix(a, 1.0, b);
+    *out = a;
     return BST_OK;
 }
 

@@ -274,11 +274,18 @@ static struct term lam_mul(struct combiner *cb, struct term a, struct term b)
     return r;
 }
 
-/* r + s; a new matrix also when one of them is zero. */
+/* r + s; a new matrix also when one of them is zero; in a dense term's own storage when this read
+ * is its last (bsti_mat_add_take: no copy of an N x N result). */
 static struct term add(struct combiner *cb, struct term r, struct term s)
 {
     bst_mat *out = NULL;
     int rc = BST_OK;
+    if (cb->status >= 0 && r.m && s.m && (s.dies || r.dies)) {
+        struct term own = s.dies ? s : r, other = s.dies ? r : s;
+        rc = bsti_mat_add_take(cb->ctx, own.dies, other.m, &out);
+        bst_mat_free(other.dies);
+        return result(cb, rc, out);
+    }
     if (cb->status >= 0 && r.m && s.m)
         rc = bst_mat_add(cb->ctx, 1.0, r.m, 1.0, s.m, &out);
     else if (cb->status >= 0 && (r.m || s.m))

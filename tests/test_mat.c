@@ -114,6 +114,31 @@ START_TEST(test_transpose_rect)
 }
 END_TEST
 
+/* bsti_mat_add_take (the stack's sum with a term read for the last time): A + B with the bits of
+ * bst_mat_add for A of every kind and B of every kind; a dense A in the sum's precision is the
+ * result itself. */
+START_TEST(test_add_take)
+{
+    int ka = _i % TM_NKINDS, kb = _i / TM_NKINDS;
+    size_t n = 64;
+    tu_rng r;
+    tu_rng_seed(&r, 2500 + (uint64_t)_i);
+    bst_mat *a = tm_random(ctx, ka, n, n, 1.0, &r), *b = tm_random(ctx, kb, n, n, 1.0, &r), *ref, *c;
+    ck_assert_int_eq(bst_mat_add(ctx, 1.0, a, 1.0, b, &ref), BST_OK);
+    int in_place = ka == TM_FLOAT || (ka == TM_DENSE && kb != TM_FLOAT);
+    ck_assert_int_eq(bsti_mat_add_take(ctx, a, b, &c), BST_OK); /* a is c, or gone */
+    if (in_place)
+        ck_assert_ptr_eq(c, a);
+    ck_assert_int_eq(bst_mat_structure(c), bst_mat_structure(ref));
+    ck_assert_int_eq(bst_mat_precision(c), bst_mat_precision(ref));
+    double *dc = tm_dense(ctx, c), *dr = tm_dense(ctx, ref);
+    ck_assert_msg(memcmp(dc, dr, n * n * sizeof *dc) == 0, "%s + %s: not the bits of bst_mat_add",
+                  tm_kind_name[ka], tm_kind_name[kb]);
+    free(dc), free(dr);
+    bst_mat_free(b), bst_mat_free(c), bst_mat_free(ref);
+}
+END_TEST
+
 /* Sparse times dense and dense times sparse (mat_mul.c, by panels of the dense operand on the
  * context's threads): each C(i, j) is the sum over the sparse operand's non-zeros, inner index
  * ascending, of their products in the dense operand's precision (the loop written out here), to
@@ -381,6 +406,7 @@ static Suite *mat_suite(void)
     tcase_add_loop_test(tc, test_add_all_pairs, 0, pairs);
     tcase_add_loop_test(tc, test_unary, 0, TM_NKINDS * (int)NSIZES);
     tcase_add_loop_test(tc, test_transpose_rect, 0, 8);
+    tcase_add_loop_test(tc, test_add_take, 0, TM_NKINDS * TM_NKINDS);
     tcase_add_loop_test(tc, test_spmm_same_bits, 0, 6);
     tcase_add_test(tc, test_drop_tol);
     tcase_add_test(tc, test_errors);
