@@ -588,7 +588,10 @@ typedef struct {
  * values and the map's N x width entries of 16 bytes, once a channel), and where no layer holds
  * a dense component, the writer's one N^2 grid of doubles (it expands a factored component at a
  * time, a combination's results staying factored) and 64 MiB of column blocks (the readers of
- * such components).  A made layer's sparse parts (mirror or black slats) count as the rest.
+ * such components).  A made layer held sparse (a mirror blind, black slats) in a combination of
+ * three or more layers counts the results dense from its second step on: four N^2 of the work
+ * precision a channel, one N^2 more of work and a quarter of N^2 doubles of sparse partial
+ * stack; otherwise its sparse parts count as the rest.
  * Not counted: a wavelength-by-wavelength combination's per-channel sums (bst_plan_spectral).
  * comps selects the components read from files; *need (may be NULL) gets what was counted. */
 double bst_plan_memory_held(const bst_basis *basis, size_t n, const bst_plan_held *layers,

@@ -226,6 +226,7 @@ struct held_sum {
     double coarse;   /* bytes of coarse matrices held factored, and the largest one */
     double largest;
     double made_small; /* bytes of made layers' factored components (diagonals, K, maps) */
+    size_t sparse_made; /* made layers held sparse (a mirror blind, black slats) */
     size_t nres;     /* the fewest channels a file or made layer holds (0: none known) */
 };
 
@@ -273,6 +274,7 @@ static double memory_of(const bst_basis *basis, size_t n, const bst_bsdf *const 
             continue;
         }
         fewest(&t, h->nchannels);
+        t.sparse_made += h->nchannels && !h->dense && !h->factored; /* not a pane */
         t.dense_made += h->dense;
         t.made_dense_bytes += (double)h->dense * (h->precision == BST_FLOAT ? 4.0 : 8.0);
         t.factored += h->factored;
@@ -287,6 +289,19 @@ static double memory_of(const bst_basis *basis, size_t n, const bst_bsdf *const 
     if (got.dense) {
         double w = combining ? 3.0 * wb : 0.0;
         bytes = base + got.dense_bytes + cells * (w > 8.0 ? w : 8.0);
+    } else if (combining && n >= 3 && t.sparse_made) {
+        /* a sparse layer between two others (a mirror blind between panes): its partial stack's
+         * inter-reflection with the next layer fills, and the results are dense from that step
+         * on (stack.c): four a channel, held until written, and the last channel's step at work
+         * beside them (the inverse and the two solutions its results are formed from: one N^2
+         * more than the four), and the partial stack's sparse matrices (17 million values at
+         * k = 7, 8 % of N^2: a quarter of N^2 doubles counted).  Measured at k = 7 in single,
+         * two channels: 9.2 GiB (bench/README.md).  A sparse file (a pane's tree, a ray-traced
+         * mirror) is not counted so: its matrices may stay sparse. */
+        size_t nch = t.nres ? t.nres : 1;
+        got.dense = 4 * nch;
+        got.dense_bytes = (double)got.dense * cells * wb;
+        bytes = base + got.dense_bytes + cells * wb + 0.25 * cells * 8.0;
     } else if (t.factored) {
         /* factored layers over wide maps: a stack hands its results over factored (stack.c,
          * hand_over), their readers take blocks of columns (bsti_cols: up to 32 MiB each, two at

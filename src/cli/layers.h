@@ -32,6 +32,9 @@ int cli_memory_check(const char *sub, const bst_basis *basis, size_t n, bst_bsdf
 int cli_memory_check_held(const char *sub, const bst_basis *basis, size_t n,
                           const bst_plan_held *held, unsigned comps, bst_precision prec,
                           const struct cli_basis_choice *choice);
+/* The options that lower a command's need, for the guard's message: --precision single only where
+ * the work is not single already. */
+const char *cli_lower_hint(bst_precision work);
 /* Parse SIZE: bytes, or a number with K, M, G or T (powers of 1024); CLI_OK or a usage error. */
 int cli_parse_memory(const char *sub, const char *value, double *bytes);
 

@@ -63,6 +63,12 @@ static void counted(const bst_plan_need *got, double cells, double one, int comb
                  got->dense == 1 ? "" : "s", (got->dense ? each : one) / gib);
 }
 
+const char *cli_lower_hint(bst_precision work)
+{
+    return work == BST_FLOAT ? "a lower -k or fewer --channels"
+                             : "a lower -k, --precision single or fewer --channels";
+}
+
 int cli_memory_check_held(const char *sub, const bst_basis *basis, size_t n,
                           const bst_plan_held *held, unsigned comps, bst_precision prec,
                           const struct cli_basis_choice *choice)
