@@ -64,9 +64,9 @@ function runsof(r,   want) {
     return v[r, 18] + 0 < want + 0 ? v[r, 18] " (of " want ")" : v[r, 18]
 }
 # under a table: where the rows of CASE from long-results.csv come from
-function provenance(c,   r, any) {
+function provenance(c, c2,   r, any) { # rows of case c (or c2, where given)
     for (r = 1; r <= n; r++) {
-        if (v[r, 1] != c || v[r, 19] == "") continue
+        if ((v[r, 1] != c && (c2 == "" || v[r, 1] != c2)) || v[r, 19] == "") continue
         if (!any++) {
             print ""
             print "Rows recorded one run at a time by `bench/run-long` (bench/long-results.csv), each the median"
@@ -286,25 +286,29 @@ END {
     print "dense algebra's bound). The second plots, for S1, the least GA against the k = 6 truth"
     print "against CPU seconds: the trade itself."
 }
-# Layers held factored (issue #31: case "factored", bench/run-long's gbg), when any row was recorded
+# Layers held factored or sparse (issue #31: case "factored", bench/run-long's gbg and gvg; issue
+# #32: case "sparse", its gmg), when any row was recorded
 function factored_table(   r, any) {
-    for (r = 1; r <= n; r++) any += v[r, 1] == "factored"
+    for (r = 1; r <= n; r++) any += v[r, 1] == "factored" || v[r, 1] == "sparse"
     if (!any) return
     print ""
-    print "## Layers at the resolution of their information (factored)"
+    print "## Layers at the resolution of their information (factored, sparse)"
     print ""
     wrap("A rank-4 tree of depth 6 read at k = 7 is P M_6 P^T: the combination's dense work has the" \
         " coarse order's size (bench/README.md, issue #31); `--dense` is the dense rows' path. A matte" \
         " venetian blind made from its geometry (`venetian:width=16mm,spacing=14.5mm,tilt=45,r=0.7,t=0.05`," \
         " issue #32) is its unobstructed light's diagonal plus the slat strips' views times their" \
         " emissions; its stack's time is nearly all the writing of a 7.7 GB tree (Tb, Rf and Rb a" \
-        " channel: Tf is Tb's reciprocal).", "", "")
+        " channel: Tf is Tb's reciprocal). A mirror blind (`venetian:width=16mm,spacing=14.5mm,tilt=45," \
+        "rs=0.765,roughness=0.02`) is sparse: its first step between panes stays sparse, the second is" \
+        " dense (its inverse formed once a channel; bench/README.md, \"A mirror blind's dense second" \
+        " step\").", "", "")
     print ""
     thead("| stack | k | precision | wall s | CPU s | read s | combine s | write s | GFLOP | bound | peak MiB | file MB | runs |")
     for (r = 1; r <= n; r++)
-        if (v[r, 1] == "factored")
+        if (v[r, 1] == "factored" || v[r, 1] == "sparse")
             printf "| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", v[r, 2], v[r, 3], v[r, 4], v[r, 6], v[r, 7], v[r, 9], v[r, 10], v[r, 11], gflop(v[r, 17]), bound(v[r, 3], v[r, 10], v[r, 4], v[r, 17]), v[r, 8], v[r, 12], runsof(r)
-    provenance("factored")
+    provenance("factored", "sparse")
 }
 # The flops of each dense step (steps.csv) at the two highest orders recorded, the seconds and the
 # bound at the highest
