@@ -167,7 +167,7 @@ static void *spmm_run(void *arg)
 static int spmm(bst_ctx *ctx, const cholmod_sparse *s, const bst_mat *d, int dense_left, bst_mat *c)
 {
     size_t span = dense_left ? d->rows : d->cols, K = dense_left ? d->cols : d->rows;
-    size_t panels = (span + SPMM_PANEL - 1) / SPMM_PANEL;
+    size_t panels = K ? (span + SPMM_PANEL - 1) / SPMM_PANEL : 0; /* no inner values: C stays 0 */
     size_t nw = panels ? (size_t)bsti_ctx_workers_no_alloc(ctx, panels) : 0;
     size_t es = d->prec == BST_FLOAT ? sizeof(float) : sizeof(double);
     char *work = nw ? bsti_alloc_array(ctx, nw * K * SPMM_PANEL, es) : NULL;

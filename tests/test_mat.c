@@ -139,6 +139,30 @@ START_TEST(test_add_take)
 }
 END_TEST
 
+/* A product over an empty inner dimension is all zero, in either order of sparse and dense (the
+ * panel kernels have no panel to copy). */
+START_TEST(test_spmm_empty_inner)
+{
+    size_t none = 0;
+    double one = 1.0;
+    for (int dense_left = 0; dense_left < 2; dense_left++) {
+        bst_mat *d, *s, *c;
+        ck_assert_int_eq(bst_mat_new_dense(ctx, dense_left ? 3 : 0, dense_left ? 0 : 4, BST_FLOAT, &d),
+                         BST_OK);
+        ck_assert_int_eq(bst_mat_new_sparse(ctx, dense_left ? 0 : 3, dense_left ? 4 : 0, 0, &none,
+                                            &none, &one, &s), BST_OK);
+        ck_assert_int_eq(dense_left ? bst_mat_mul(ctx, d, s, 0.0, &c) : bst_mat_mul(ctx, s, d, 0.0, &c),
+                         BST_OK);
+        ck_assert_uint_eq(bst_mat_rows(c), 3);
+        ck_assert_uint_eq(bst_mat_cols(c), 4);
+        for (size_t j = 0; j < 4; j++)
+            for (size_t i = 0; i < 3; i++)
+                ck_assert(bst_mat_get(c, i, j) == 0.0);
+        bst_mat_free(d), bst_mat_free(s), bst_mat_free(c);
+    }
+}
+END_TEST
+
 /* Sparse times dense and dense times sparse (mat_mul.c, by panels of the dense operand on the
  * context's threads): each C(i, j) is the sum over the sparse operand's non-zeros, inner index
  * ascending, of their products in the dense operand's precision (the loop written out here), to
@@ -408,6 +432,7 @@ static Suite *mat_suite(void)
     tcase_add_loop_test(tc, test_transpose_rect, 0, 8);
     tcase_add_loop_test(tc, test_add_take, 0, TM_NKINDS * TM_NKINDS);
     tcase_add_loop_test(tc, test_spmm_same_bits, 0, 6);
+    tcase_add_test(tc, test_spmm_empty_inner);
     tcase_add_test(tc, test_drop_tol);
     tcase_add_test(tc, test_errors);
     tcase_add_loop_test(tc, test_alloc_failure, 0, TM_NKINDS * TM_NKINDS);
