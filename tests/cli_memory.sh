@@ -98,13 +98,19 @@ for prec in double single; do
         fail "mirror blind ($prec): printed $(printed) GiB, the model gives $want"
     [ ! -e r.xml ] && pass "no output ($prec)" || fail "r.xml written though refused"
 done
-# the model holds the peak it counts: the mirror stack at k = 5 in single precision
+# the model holds the peak it counts: the mirror stack at k = 5 in single precision (in the plain
+# build: under make check-asan, AddressSanitizer's shadow memory counts in the RSS, 232 MiB here)
 "$B" combine -v -k 5 --precision single glass:clear-6mm "$mirror" glass:clear-6mm -o r.xml 2>"$tmpdir/err"
 peak=$(awk '/: wrote / { sub(/.*peak RSS /, ""); print $1 + 0 }' "$tmpdir/err")
 want=$(awk -v N=1024 'BEGIN { c = N * N; printf "%.6g\n", (64 * 1048576 + 0.5 * c + 9 * c * 4 + 2 * c) / 1048576 }')
-awk -v p="$peak" -v w="$want" 'BEGIN { exit !(p > 0 && p <= w) }' &&
-    pass "mirror stack at k = 5: peak $peak MiB within the model's $want" ||
-    fail "mirror stack at k = 5: peak $peak MiB, the model $want MiB"
+if [ -n "${BST_ASAN_RUNTIME:-}" ]; then
+    [ -s r.xml ] && pass "mirror stack at k = 5 written (its peak, $peak MiB with ASan's shadow, not compared)" ||
+        fail "mirror stack at k = 5: r.xml not written"
+else
+    awk -v p="$peak" -v w="$want" 'BEGIN { exit !(p > 0 && p <= w) }' &&
+        pass "mirror stack at k = 5: peak $peak MiB within the model's $want" ||
+        fail "mirror stack at k = 5: peak $peak MiB, the model $want MiB"
+fi
 
 # a batch counts its shades too, before its first stack
 printf 'b1.xml glass:clear-6mm %s glass:clear-6mm\nb2.xml glass:clear-6mm\n' "$specular" > stacks.txt
