@@ -281,7 +281,8 @@ static struct term add(struct combiner *cb, struct term r, struct term s)
     bst_mat *out = NULL;
     int rc = BST_OK;
     if (cb->status >= 0 && r.m && s.m && (s.dies || r.dies)) {
-        struct term own = s.dies ? s : r, other = s.dies ? r : s;
+        int take_s = s.dies && (!r.dies || bst_mat_structure(s.m) == BST_DENSE);
+        struct term own = take_s ? s : r, other = take_s ? r : s; /* a dense one where both die */
         rc = bsti_mat_add_take(cb->ctx, own.dies, other.m, &out);
         bst_mat_free(other.dies);
         return result(cb, rc, out);
