@@ -108,8 +108,11 @@ typedef enum {
     BST_DIAG = 1,    /* square, only the diagonal is stored: O(N) */
     BST_SPARSE = 2,  /* compressed sparse column (CHOLMOD), always double */
     BST_DENSE = 3,   /* column-major, double or float */
-    BST_FACTORED = 4 /* D + U K V^T: a diagonal and a low-rank part over a coarse map (a tree of
-                        depth d read at a finer order is P M_d P^T exactly), double */
+    BST_FACTORED = 4, /* D + U K V^T: a diagonal and a low-rank part over a coarse map (a tree of
+                         depth d read at a finer order is P M_d P^T exactly), double */
+    BST_PLUS_LR = 5   /* B + U W^T: a diagonal, sparse or dense B and a part of small rank m, U and
+                         W dense (rows x m, cols x m, double): a venetian blind with a mirror part
+                         and diffuse slats, its strips' diffuse light of rank 2 x segments */
 } bst_structure;
 
 typedef enum { BST_DOUBLE = 0, BST_FLOAT = 1 } bst_precision;

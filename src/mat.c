@@ -47,6 +47,10 @@ void bst_mat_free(bst_mat *m)
     bsti_free(ctx, m->diag);
     bsti_free(ctx, m->dense);
     bsti_lr_free(ctx, m->lr);
+    if (m->plus) {
+        bst_mat_free(m->plus->base);
+        bsti_free(ctx, m->plus->u), bsti_free(ctx, m->plus->w), bsti_free(ctx, m->plus);
+    }
     bsti_free(ctx, m);
 }
 
@@ -196,6 +200,7 @@ size_t bst_mat_nnz(const bst_mat *m)
     case BST_SPARSE: return (size_t)((SuiteSparse_long *)m->sp->p)[m->cols];
     case BST_DENSE: return m->rows * m->cols;
     case BST_FACTORED: return bsti_lr_stored(m->lr);
+    case BST_PLUS_LR: return bst_mat_nnz(m->plus->base) + (m->rows + m->cols) * m->plus->m;
     default: return 0;
     }
 }
@@ -223,6 +228,7 @@ double bst_mat_get(const bst_mat *m, size_t i, size_t j)
         return 0.0;
     }
     case BST_FACTORED: return bsti_lr_get(m->lr, i, j);
+    case BST_PLUS_LR: return bsti_plus_get(m, i, j);
     default: return 0.0;
     }
 }
@@ -237,6 +243,8 @@ int bsti_mat_to_dense(bst_ctx *ctx, const bst_mat *m, bst_precision prec, bst_ma
 {
     if (bsti_mat_lr_wide(m)) /* by GEMM: through the factors each value costs a row's entries^2 */
         return bsti_mat_lr_expand(ctx, m, prec, out);
+    if (m->s == BST_PLUS_LR)
+        return bsti_plus_to_dense(ctx, m, prec, out);
     bst_mat *d;
     int rc = bst_mat_new_dense(ctx, m->rows, m->cols, prec, &d);
     if (rc < 0)
@@ -246,7 +254,9 @@ int bsti_mat_to_dense(bst_ctx *ctx, const bst_mat *m, bst_precision prec, bst_ma
     float *df = prec == BST_FLOAT ? d->dense : NULL;
 #define PUT(i, j, v) (dd ? (void)(dd[(j) * r + (i)] = (v)) : (void)(df[(j) * r + (i)] = (float)(v)))
     switch (m->s) {
-    case BST_ZERO: break;
+    case BST_ZERO:
+    case BST_PLUS_LR: /* above */
+        break;
     case BST_DIAG:
         for (size_t i = 0; i < r; i++)
             PUT(i, i, m->diag[i]);
@@ -304,7 +314,7 @@ int bsti_mat_to_sparse(bst_ctx *ctx, const bst_mat *m, bst_mat **out)
         cholmod_sparse *c = cholmod_l_copy_sparse(m->sp, cc);
         return c ? bsti_mat_from_cholmod(ctx, c, out) : bsti_mat_cholmod_failed(ctx, "copy_sparse");
     }
-    if (m->s == BST_FACTORED) { /* its values through a dense copy */
+    if (m->s == BST_FACTORED || m->s == BST_PLUS_LR) { /* its values through a dense copy */
         bst_mat *d;
         int rc = bsti_mat_to_dense(ctx, m, BST_DOUBLE, &d);
         if (rc >= 0)
@@ -406,7 +416,12 @@ int bst_mat_convert(bst_ctx *ctx, const bst_mat *m, bst_structure s, bst_precisi
     if (s == BST_FACTORED)
         return bsti_error(ctx, BST_EINVAL, "convert: a factored form is made from a layer's coarse "
                           "information, not from values");
-    if (m->s == BST_FACTORED && s != BST_DENSE) { /* through its values */
+    if (m->s == BST_PLUS_LR && s == BST_PLUS_LR)
+        return bsti_plus_copy(ctx, m, out);
+    if (s == BST_PLUS_LR)
+        return bsti_error(ctx, BST_EINVAL, "convert: a sparse plus low-rank form is made from a "
+                          "layer's parts, not from values");
+    if ((m->s == BST_FACTORED || m->s == BST_PLUS_LR) && s != BST_DENSE) { /* through its values */
         bst_mat *d;
         rc = bsti_mat_to_dense(ctx, m, BST_DOUBLE, &d);
         if (rc >= 0)
@@ -454,8 +469,8 @@ int bst_mat_compact(bst_ctx *ctx, const bst_mat *m, double sparse_max_fill, bst_
         return bsti_error(ctx, BST_EINVAL, "compact: NULL matrix");
     if (!(sparse_max_fill >= 0.0 && sparse_max_fill <= 1.0))
         return bsti_error(ctx, BST_EINVAL, "compact: fill fraction %g is not in [0, 1]", sparse_max_fill);
-    if (m->s == BST_FACTORED) /* already the structure of its information */
-        return bst_mat_convert(ctx, m, BST_FACTORED, BST_DOUBLE, out);
+    if (m->s == BST_FACTORED || m->s == BST_PLUS_LR) /* already the structure of its information */
+        return bst_mat_convert(ctx, m, m->s, m->prec, out);
     size_t nnz;
     int diag_only;
     census(m, &nnz, &diag_only);
@@ -522,6 +537,7 @@ int bsti_mat_scale(bst_ctx *ctx, const double *dr, const bst_mat *a, const doubl
         bsti_lr *lr;
         return (rc = bsti_lr_scale(ctx, dr, a->lr, dc, &lr)) < 0 ? rc : bsti_mat_from_lr(ctx, lr, out);
     }
+    case BST_PLUS_LR: return bsti_plus_scale(ctx, dr, a, dc, out);
     default: return bsti_error(ctx, BST_EINVAL, "scale: unknown structure");
     }
     if (rc < 0)

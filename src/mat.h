@@ -22,6 +22,21 @@ struct bst_mat {
     cholmod_sparse *sp; /* SPARSE */
     void *dense;        /* DENSE: double* or float* */
     bsti_lr *lr;        /* FACTORED */
+    struct bsti_plus *plus; /* PLUS_LR */
+};
+
+/* A PLUS_LR matrix (mat_plus.c): base + U W^T, base ZERO, DIAG, SPARSE or DENSE of the matrix's
+ * shape (its precision is the matrix's), U rows x m and W cols x m column-major doubles, m >= 1.
+ * Products, sums, scalings, transposes and the inter-reflection solves keep the form: the base
+ * through the structured kernels, the low-rank part by thin products (N m values), recompressed
+ * after each operation to its numerical rank (bsti_plus_settle); the solves by the Woodbury
+ * identity with the base's factorization, (E - U W^T)^-1 = E^-1 + E^-1 U (I - W^T E^-1 U)^-1 W^T
+ * E^-1, E = I - base.  A blind's strips keep the rank at 2 x segments through a stack, where the
+ * dense form would make every step a GEMM-bound one (issue #32). */
+struct bsti_plus {
+    bst_mat *base;
+    size_t m;
+    double *u, *w;
 };
 
 /* Wrap a factored matrix (ownership passes to the matrix, also on failure). */
@@ -89,8 +104,44 @@ typedef int (*bsti_cols_visit_fn)(void *opaque, size_t chunk, size_t u, const do
                                   const double *buf2);
 int bsti_cols_visit(bsti_cols *c, const size_t *cols, bsti_cols *c2, const size_t *cols2, size_t n,
                     size_t per, size_t chunks, bsti_cols_visit_fn visit, void *opaque);
-/* The rank of a FACTORED matrix's low-rank part (p r by q r: the larger), 0 for any other. */
+/* The rank of a FACTORED matrix's low-rank part (p r by q r: the larger), a PLUS_LR one's m, 0 for
+ * any other. */
 size_t bsti_mat_rank(const bst_mat *m);
+
+/* base + U W^T as a PLUS_LR matrix, taking base, u and w (bsti_alloc'd; also on failure); m = 0:
+ * base itself.  Not recompressed (bsti_plus_settle). */
+int bsti_mat_plus_new(bst_ctx *ctx, bst_mat *base, size_t m, double *u, double *w, bst_mat **out);
+/* *m made plain where its base is dense (U W^T added into the base's values: they are held
+ * anyway, and a dense step costs the same either way), else recompressed to its numerical rank
+ * (singular values of U W^T above BSTI_PLUS_TOL |U|_F |W|_F) and made plain where the rank left
+ * is 0 or where the thin part is as large as the dense form (m (rows + cols) >=
+ * BSTI_PLUS_DENSE_SHARE rows cols).  *m replaced, the old freed. */
+#define BSTI_PLUS_TOL 1e-13
+#define BSTI_PLUS_DENSE_SHARE 0.25
+int bsti_plus_settle(bst_ctx *ctx, bst_mat **m);
+/* The PLUS_LR kernels (mat_plus.c): a product or sum where either operand is PLUS_LR. */
+int bsti_mul_plus(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out);
+int bsti_add_plus(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, const bst_mat *b,
+                  bst_mat **out);
+/* A PLUS_LR m dense in precision prec (base converted, then U W^T added a block of columns at a
+ * time through doubles). */
+int bsti_plus_to_dense(bst_ctx *ctx, const bst_mat *m, bst_precision prec, bst_mat **out);
+/* Element (i, j), column y into out (N doubles), and a copy, transpose, scaling of a PLUS_LR m. */
+double bsti_plus_get(const bst_mat *m, size_t i, size_t j);
+int bsti_plus_copy(bst_ctx *ctx, const bst_mat *m, bst_mat **out);
+int bsti_plus_transpose(bst_ctx *ctx, const bst_mat *m, bst_mat **out);
+int bsti_plus_scale(bst_ctx *ctx, const double *dr, const bst_mat *m, const double *dc,
+                    bst_mat **out);
+/* The parts of any matrix as base + U W^T (a plain one: itself, m = 0). */
+static inline void bsti_plus_parts(const bst_mat *a, const bst_mat **base, size_t *m,
+                                   const double **u, const double **w)
+{
+    if (a->s == BST_PLUS_LR) {
+        *base = a->plus->base, *m = a->plus->m, *u = a->plus->u, *w = a->plus->w;
+    } else {
+        *base = a, *m = 0, *u = *w = NULL;
+    }
+}
 
 /* An empty matrix object of the given shape (no storage yet). */
 int bsti_mat_alloc(bst_ctx *ctx, bst_structure s, bst_precision prec, size_t rows, size_t cols,

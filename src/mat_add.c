@@ -191,7 +191,7 @@ int bsti_mat_add_take(bst_ctx *ctx, bst_mat *a, const bst_mat *b, bst_mat **out)
         bst_mat_free(a);
         return ctx ? bsti_error(ctx, BST_EINVAL, "sum: NULL matrix") : BST_EINVAL;
     }
-    if (a->s != BST_DENSE || b->s == BST_FACTORED || a->rows != b->rows || a->cols != b->cols ||
+    if (a->s != BST_DENSE || b->s == BST_FACTORED || b->s == BST_PLUS_LR || a->rows != b->rows || a->cols != b->cols ||
         dense_sum_precision(a, b) != a->prec) { /* no storage to take: the plain sum */
         int rc = bst_mat_add(ctx, 1.0, a, 1.0, b, out);
         bst_mat_free(a);
@@ -240,6 +240,8 @@ int bst_mat_add(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, const
                           b->rows, b->cols);
     if (!isfinite(alpha) || !isfinite(beta))
         return bsti_error(ctx, BST_EINVAL, "sum: non-finite coefficient");
+    if (a->s == BST_PLUS_LR || b->s == BST_PLUS_LR) /* the bases' sum, the thin parts joined */
+        return bsti_add_plus(ctx, alpha, a, beta, b, out);
     if (a->s < b->s) { /* 1. the denser operand first */
         const bst_mat *t = a;
         a = b, b = t;

@@ -301,6 +301,8 @@ int bsti_mat_lr_operand(bst_ctx *ctx, const bst_mat *m, const bsti_lr_map *S, bs
 
 size_t bsti_mat_rank(const bst_mat *m)
 {
+    if (m && m->s == BST_PLUS_LR)
+        return m->plus->m;
     if (!m || m->s != BST_FACTORED)
         return 0;
     return m->lr->r * (m->lr->p > m->lr->q ? m->lr->p : m->lr->q);
@@ -515,6 +517,17 @@ static void cols_gemm(bsti_cols *c, const size_t *cols, size_t j0, size_t n, dou
  * through the rows laid out for it). */
 static void col_plain(const bst_mat *m, bsti_lr_rows *rows, size_t N, size_t y, double *out)
 {
+    if (m && m->s == BST_PLUS_LR) { /* the base's column plus U W[y, :]^T */
+        const struct bsti_plus *p = m->plus;
+        if (p->base->s == BST_FACTORED)
+            for (size_t x = 0; x < N; x++)
+                out[x] = bst_mat_get(p->base, x, y);
+        else
+            col_plain(p->base, NULL, N, y, out);
+        for (size_t k = 0; k < p->m; k++)
+            cblas_daxpy((int)N, p->w[k * N + y], p->u + k * N, 1, out, 1);
+        return;
+    }
     if (m && m->s == BST_FACTORED) {
         bsti_lr_col_fast(m->lr, rows, y, out);
         return;

@@ -10,7 +10,8 @@
  *      the dense one, on the context's threads, O(nnz N);
  *   5. DENSE * DENSE: GEMM (OpenBLAS), in single precision when either operand is float;
  *   6. FACTORED (D + U K V^T) with FACTORED over one map, DENSE or SPARSE (made dense): mat_lowrank.c,
- *      without the factored operand's N x N values; over two maps: the generic path.
+ *      without the factored operand's N x N values; over two maps: the generic path;
+ *   7. PLUS_LR (base + U W^T) with anything: the bases' product and thin products (mat_plus.c).
  * Every pair has a kernel; the generic fallback (both operands converted to dense, GEMM) is what
  * the tests compare each kernel with (bsti_mat_mul_generic).  Precision and workspace follow the
  * conventions of mat.c: a dense float operand makes a dense result float, and each kernel's
@@ -290,5 +291,8 @@ int bst_mat_mul(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop_to
                           b->rows, b->cols);
     if (!(drop_tol >= 0.0 && drop_tol < 1.0))
         return bsti_error(ctx, BST_EINVAL, "product: drop tolerance %g is not in [0, 1)", drop_tol);
+    if (a->s == BST_PLUS_LR || b->s == BST_PLUS_LR) /* 7. mat_plus.c */
+        return a->s == BST_ZERO || b->s == BST_ZERO ? mul_zero(ctx, a, b, drop_tol, out)
+                                                    : bsti_mul_plus(ctx, a, b, drop_tol, out);
     return mul_table[a->s][b->s](ctx, a, b, drop_tol, out);
 }

@@ -24,6 +24,7 @@ int bst_mat_transpose(bst_ctx *ctx, const bst_mat *a, bst_mat **out)
         bsti_lr *lr;
         return (rc = bsti_lr_transpose(ctx, a->lr, &lr)) < 0 ? rc : bsti_mat_from_lr(ctx, lr, out);
     }
+    case BST_PLUS_LR: return bsti_plus_transpose(ctx, a, out);
     case BST_SPARSE: {
         cholmod_common *cc = bsti_cholmod(ctx);
         cholmod_sparse *t = cc ? cholmod_l_transpose(a->sp, 1, cc) : NULL;
@@ -97,6 +98,20 @@ void bsti_transpose_square(void *values, size_t n, bst_precision prec)
 
 int bsti_mat_transpose_take(bst_ctx *ctx, bst_mat *m, bst_mat **out)
 {
+    if (m->s == BST_PLUS_LR && m->rows == m->cols) { /* its base in place, U and W swapped */
+        struct bsti_plus *p = m->plus;
+        bst_mat *bt;
+        int rc = bsti_mat_transpose_take(ctx, p->base, &bt);
+        p->base = rc >= 0 ? bt : NULL;
+        double *t = p->u;
+        p->u = p->w, p->w = t;
+        if (rc < 0) {
+            bst_mat_free(m);
+            return rc;
+        }
+        *out = m;
+        return BST_OK;
+    }
     if ((m->s == BST_DENSE && m->rows == m->cols) ||
         (m->s == BST_FACTORED && bsti_lr_transpose_take(m->lr) == 0)) {
         if (m->s == BST_DENSE)
@@ -125,6 +140,21 @@ int bst_mat_col_weighted_sum(bst_ctx *ctx, const bst_mat *m, const double *w, do
         bsti_lr_apply(m->lr, 1, x, out, x + n);
         bsti_free(ctx, x);
         return BST_OK;
+    }
+    if (m->s == BST_PLUS_LR) { /* out = base^T w + W (U^T w) */
+        const struct bsti_plus *p = m->plus;
+        double *t = bsti_alloc_array(ctx, p->m, sizeof *t);
+        int rc = t ? bst_mat_col_weighted_sum(ctx, p->base, w, out) : BST_ENOMEM;
+        for (size_t k = 0; rc >= 0 && k < p->m; k++) {
+            t[k] = 0.0;
+            for (size_t i = 0; i < m->rows; i++)
+                t[k] += (w ? w[i] : 1.0) * p->u[k * m->rows + i];
+        }
+        for (size_t j = 0; rc >= 0 && j < m->cols; j++)
+            for (size_t k = 0; k < p->m; k++)
+                out[j] += p->w[k * m->cols + j] * t[k];
+        bsti_free(ctx, t);
+        return rc;
     }
     for (size_t j = 0; j < m->cols; j++) {
         double s = 0.0;
@@ -172,6 +202,14 @@ int bst_mat_to_dense_array(bst_ctx *ctx, const bst_mat *m, double *out)
     if (m->s == BST_FACTORED) {
         bsti_lr_to_dense(m->lr, out);
         return BST_OK;
+    }
+    if (m->s == BST_PLUS_LR) { /* the base's values, then U W^T added */
+        const struct bsti_plus *p = m->plus;
+        int rc = bst_mat_to_dense_array(ctx, p->base, out);
+        if (rc >= 0)
+            cblas_dgemm(CblasColMajor, CblasNoTrans, CblasTrans, (int)r, (int)m->cols, (int)p->m,
+                        1.0, p->u, (int)r, p->w, (int)m->cols, 1.0, out, (int)r);
+        return rc;
     }
     memset(out, 0, r * m->cols * sizeof(double));
     switch (m->s) {
@@ -222,6 +260,27 @@ int bst_mat_select_cols(bst_ctx *ctx, const bst_mat *m, size_t ncols, const size
                 x[cols[k]] = 0.0;
             }
         bsti_free(ctx, x);
+        if (rc >= 0)
+            *out = c;
+        return rc;
+    }
+    if (m->s == BST_PLUS_LR) { /* the base's columns, dense double, plus U W[cols, :]^T */
+        const struct bsti_plus *p = m->plus;
+        bst_mat *sel = NULL, *c = NULL;
+        double *wr = bsti_alloc_array(ctx, ncols * p->m + 1, sizeof *wr);
+        rc = wr ? bst_mat_select_cols(ctx, p->base, ncols, cols, &sel) : BST_ENOMEM;
+        if (rc >= 0)
+            rc = bsti_mat_to_dense(ctx, sel, BST_DOUBLE, &c);
+        if (rc >= 0 && ncols) {
+            for (size_t t = 0; t < p->m; t++)
+                for (size_t k = 0; k < ncols; k++)
+                    wr[t * ncols + k] = p->w[t * m->cols + cols[k]];
+            cblas_dgemm(CblasColMajor, CblasNoTrans, CblasTrans, (int)m->rows, (int)ncols,
+                        (int)p->m, 1.0, p->u, (int)m->rows, wr, (int)ncols, 1.0, c->dense,
+                        (int)m->rows);
+        }
+        bst_mat_free(sel);
+        bsti_free(ctx, wr);
         if (rc >= 0)
             *out = c;
         return rc;
@@ -291,6 +350,12 @@ int bst_mat_all_finite(const bst_mat *m)
                 return 0;
         return 1;
     case BST_FACTORED: return bsti_lr_finite(m->lr);
+    case BST_PLUS_LR:
+        for (size_t k = 0; k < (m->rows + m->cols) * m->plus->m; k++)
+            if (!isfinite(k < m->rows * m->plus->m ? m->plus->u[k]
+                                                    : m->plus->w[k - m->rows * m->plus->m]))
+                return 0;
+        return bst_mat_all_finite(m->plus->base);
     default: return 1;
     }
 }
@@ -314,7 +379,7 @@ static double factored_max_abs(const bst_mat *m)
     } else {
         for (size_t j = 0; j < n; j++)
             for (size_t i = 0; i < n; i++)
-                v = fmax(v, fabs(bsti_lr_get(m->lr, i, j)));
+                v = fmax(v, fabs(bst_mat_get(m, i, j)));
     }
     bsti_free(m->ctx, buf);
     bsti_cols_free(c);
@@ -341,6 +406,7 @@ double bst_mat_max_abs(const bst_mat *m)
                                                    : (double)((const float *)m->dense)[k]));
         break;
     case BST_FACTORED:
+    case BST_PLUS_LR:
         v = factored_max_abs(m);
         break;
     default: break;

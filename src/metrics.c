@@ -53,7 +53,7 @@ struct lines {
 static int lines_open(bst_ctx *ctx, const bst_mat *m, int row, size_t n, struct lines *l)
 {
     *l = (struct lines){m, NULL, NULL, row};
-    if (!m || m->s != BST_FACTORED)
+    if (!m || (m->s != BST_FACTORED && m->s != BST_PLUS_LR))
         return BST_OK;
     int rc = row ? bst_mat_transpose(ctx, m, &l->t) : BST_OK;
     if (rc >= 0)
@@ -386,7 +386,8 @@ static int reciprocity(bst_ctx *ctx, const bst_layer *l, size_t ch, double *err,
     if ((tf && !bst_mat_all_finite(tf)) || (tb && !bst_mat_all_finite(tb)))
         return bsti_error(ctx, BST_EINVAL, "reciprocity: channel %s holds a transmission value "
                           "that is not finite", l->channels[ch]);
-    if ((tf && tf->s == BST_FACTORED) || (tb && tb->s == BST_FACTORED)) {
+    if ((tf && (tf->s == BST_FACTORED || tf->s == BST_PLUS_LR)) ||
+        (tb && (tb->s == BST_FACTORED || tb->s == BST_PLUS_LR))) {
         size_t *a = bsti_alloc_array(ctx, n, sizeof *a);
         if (!a)
             return BST_ENOMEM;

@@ -244,15 +244,20 @@ int bst_shade_model_layer(bst_ctx *ctx, const bst_shade_model *m, const bst_basi
 }
 
 /* What one channel of a venetian blind of slat values v holds (bst_venetian_layer, make_band,
- * make_map; venetian_wce.c): 4 dense, 4 factored over the strips' map, or none (sparse). */
+ * make_map, component; venetian_wce.c): 4 dense, 4 factored over the strips' map, or none
+ * (sparse; also sparse + low rank, a mirror part and diffuse slats, whose thin factors, 2 N x
+ * 2 segments values a component, are small beside the model's base). */
 static void venetian_channel(const bst_venetian *v, size_t N, bst_plan_held *h)
 {
     int diffuse = v->r_up > 0 || v->r_down > 0 || v->t > 0;
     size_t width = 8 * (size_t)v->segments; /* [U_ext | U_int | Q_ext^T | Q_int^T] */
+    double strips = 2.0 * (double)v->segments;
     if (v->rule == BST_VENETIAN_CENTRE)
         h->dense += BST_NCOMP;
     else if (diffuse && v->rs == 0 && (double)width < BSTI_LR_DENSE_SHARE * (double)N)
         h->factored += BST_NCOMP, h->width = width > h->width ? width : h->width;
+    else if (diffuse && 2.0 * strips < BSTI_PLUS_DENSE_SHARE * (double)N)
+        ; /* PLUS_LR: counted as sparse */
     else if (diffuse)
         h->dense += BST_NCOMP;
     h->precision = v->precision;

@@ -912,6 +912,14 @@ static int inverse_pays(const struct factor *f, size_t nb, const bst_mat *const 
         return 0;
     double n = (double)f->n, getrs = 0.0, spmm = 0.0;
     for (size_t q = 0; q < nb; q++) {
+        size_t thin = b[q]->rows < b[q]->cols ? b[q]->rows : b[q]->cols;
+        if (b[q]->s == BST_DENSE && thin < f->n / 16) {
+            /* a thin one (a PLUS_LR operand's factors: solve_plus): GEMM by the inverse costs
+               about what getrs does */
+            getrs += 2.0 * n * n * (double)thin;
+            spmm += 2.0 * n * n * (double)thin;
+            continue;
+        }
         if (b[q]->s != BST_SPARSE && b[q]->s != BST_DIAG)
             return 0;
         getrs += 2.0 * n * n * (double)b[q]->cols;
@@ -1048,6 +1056,191 @@ static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **ow
     return BST_OK;
 }
 
+/* PLUS_LR operands (mat.h), A = A0 + Ua Wa^T and B = B0 + Ub Wb^T (a plain one with m = 0), by
+ * the Woodbury identity with E = I - A0 factored once (solve_checked) for the bases and the thin
+ * parts together, C = I - Wa^T E^-1 Ua (ma x ma) the capacitance:
+ *   left:  X = X0 + [Zb | Z] [Wb | H^T]^T,  X0 = E^-1 B0, Zb = E^-1 Ub, Z = E^-1 Ua,
+ *          H = C^-1 (Wa^T X0 + (Wa^T Zb) Wb^T);
+ *   right: Y = Y0 + [Ub | Y0 Ua + Ub (Rb Ua)] [Rb^T | (C^-1 Rw)^T]^T,  Y0 = B0 E^-1,
+ *          Rb = Wb^T E^-1, Rw = Wa^T E^-1 (and C = I - Rw Ua).
+ * The thin right-hand sides ride with the bases' (columns [Ua | Ub..] of a left solve, rows
+ * [Wa^T; Wb^T..] of a right one).  *own_a and own_b[q] (NULL, or the matrix itself) are taken: a
+ * taken PLUS_LR's base is given to the bases' solve (a dense one becomes its own factors).
+ * *rcond: the lesser of E's estimate and C's (LAPACK gecon). */
+static int solve_plus(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a, size_t nb,
+                      const bst_mat *const *b, bst_mat **own_b, double rcond_warn,
+                      bst_precision dense_prec, bst_mat **out, double *rcond_out)
+{
+    enum { NB_MAX = 2 };
+    const bst_mat *a0, *b0[NB_MAX + 1];
+    const double *ua, *wa, *ub[NB_MAX], *wb[NB_MAX];
+    size_t n = a->rows, ma, mb[NB_MAX], off[NB_MAX], mt;
+    if (nb > NB_MAX)
+        return bsti_error(ctx, BST_EINTERNAL, "solve: %zu right-hand sides", nb);
+    bsti_plus_parts(a, &a0, &ma, &ua, &wa);
+    mt = ma;
+    bst_mat *own0 = NULL, *own_b0[NB_MAX + 1] = {NULL, NULL, NULL}, *x[NB_MAX + 1] = {NULL, NULL, NULL};
+    if (*own_a == a && a->s == BST_PLUS_LR) /* its base to the bases' solve */
+        own0 = a->plus->base, a->plus->base = NULL;
+    for (size_t q = 0; q < nb; q++) {
+        bsti_plus_parts(b[q], &b0[q], &mb[q], &ub[q], &wb[q]);
+        off[q] = mt, mt += mb[q];
+        if (own_b && own_b[q] == b[q] && b[q]->s == BST_PLUS_LR)
+            own_b0[q] = b[q]->plus->base, b[q]->plus->base = NULL;
+    }
+    bst_mat *thin = NULL, *none = NULL;
+    double *t = NULL, *c = bsti_alloc_array(ctx, ma * ma + 1, sizeof *c);
+    lapack_int *piv = bsti_alloc_array(ctx, ma + 1, sizeof *piv);
+    int rc = c && piv ? BST_OK : BST_ENOMEM, warn = 0;
+    if (rc >= 0 && mt && (rc = bst_mat_new_dense(ctx, right ? mt : n, right ? n : mt, BST_DOUBLE,
+                                                  &thin)) >= 0) {
+        double *v = thin->dense;
+        for (size_t q = 0; q <= nb; q++) { /* q = nb: A's own */
+            size_t m = q < nb ? mb[q] : ma, o = q < nb ? off[q] : 0;
+            const double *f = q < nb ? (right ? wb[q] : ub[q]) : (right ? wa : ua);
+            for (size_t k = 0; k < m; k++)
+                for (size_t i = 0; i < n; i++) {
+                    if (right)
+                        v[i * mt + o + k] = f[k * n + i];
+                    else
+                        v[(o + k) * n + i] = f[k * n + i];
+                }
+        }
+        b0[nb] = thin, own_b0[nb] = thin;
+    }
+    double rcond = 1.0, rc_c = 1.0;
+    if (rc >= 0) { /* the bases and the thin parts, one factorization of E */
+        rc = solve_checked(ctx, right, a0, own0 ? &own0 : &none, nb + (mt > 0), b0,
+                           own_b0, rcond_warn, dense_prec, x, &rcond, NULL);
+        thin = NULL; /* taken */
+        if (rc > 0)
+            warn = rc, rc = BST_OK;
+    }
+    bst_mat_free(own0);
+    for (size_t q = 0; q <= nb; q++)
+        bst_mat_free(own_b0[q]);
+    if (rc >= 0 && mt) { /* the thin solutions as doubles: n x mt (left), mt x n (right) */
+        if (!(t = bsti_alloc_array(ctx, n * mt, sizeof *t)))
+            rc = BST_ENOMEM;
+        else
+            rc = bst_mat_to_dense_array(ctx, x[nb], t);
+    }
+    if (rc >= 0 && ma) { /* C = I - Wa^T E^-1 Ua, its LU and condition */
+        if (right)
+            cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)ma, (int)ma, (int)n, -1.0,
+                        t, (int)mt, ua, (int)n, 0.0, c, (int)ma);
+        else
+            cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, (int)ma, (int)ma, (int)n, -1.0, wa,
+                        (int)n, t, (int)n, 0.0, c, (int)ma);
+        for (size_t k = 0; k < ma; k++)
+            c[k * ma + k] += 1.0;
+        double cn = LAPACKE_dlange(LAPACK_COL_MAJOR, '1', (lapack_int)ma, (lapack_int)ma, c, (lapack_int)ma);
+        lapack_int info = LAPACKE_dgetrf(LAPACK_COL_MAJOR, (lapack_int)ma, (lapack_int)ma, c,
+                                         (lapack_int)ma, piv);
+        if (info == 0)
+            info = LAPACKE_dgecon(LAPACK_COL_MAJOR, '1', (lapack_int)ma, c, (lapack_int)ma, cn, &rc_c);
+        if (info > 0 || !(rc_c > 0.0))
+            rc = bsti_error(ctx, BST_ESINGULAR, "solve: I - A is singular (its low-rank part's "
+                            "capacitance)");
+        else if (info < 0)
+            rc = bsti_error(ctx, BST_EINTERNAL, "solve: LAPACK getrf/gecon %d", (int)info);
+    }
+    for (size_t q = 0; q < nb && rc >= 0; q++) {
+        size_t m = mb[q] + ma;
+        double *u = bsti_alloc_array(ctx, n * m + 1, sizeof *u), *w = bsti_alloc_array(ctx, n * m + 1, sizeof *w);
+        double *g = bsti_alloc_array(ctx, n * ma + ma * mb[q] + 1, sizeof *g), *core = g + n * ma;
+        rc = u && w && g ? BST_OK : BST_ENOMEM;
+        const double *tb = t ? (right ? t + off[q] : t + off[q] * n) : NULL;
+        if (rc >= 0 && !right) {
+            /* U' = [Zb | Z], W' = [Wb | H^T], H^T = (X0^T Wa + Wb (Zb^T Wa)) C^-T */
+            memcpy(u, tb, n * mb[q] * sizeof *u);
+            memcpy(w, wb[q], n * mb[q] * sizeof *w);
+            if (ma) {
+                memcpy(u + n * mb[q], t, n * ma * sizeof *u);
+                bst_mat *wat = NULL, *gt = NULL;
+                bst_mat wam = {.ctx = ctx, .s = BST_DENSE, .prec = BST_DOUBLE, .rows = n, .cols = ma,
+                               .dense = (void *)wa};
+                rc = bst_mat_transpose(ctx, &wam, &wat); /* Wa^T (ma x n) */
+                if (rc >= 0)
+                    rc = bst_mat_mul(ctx, wat, x[q], 0.0, &gt); /* G = Wa^T X0 (ma x n) */
+                if (rc >= 0)
+                    rc = bst_mat_to_dense_array(ctx, gt, g);
+                bst_mat_free(wat), bst_mat_free(gt);
+                if (rc >= 0 && mb[q]) { /* G += (Wa^T Zb) Wb^T */
+                    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, (int)ma, (int)mb[q], (int)n,
+                                1.0, wa, (int)n, tb, (int)n, 0.0, core, (int)ma);
+                    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasTrans, (int)ma, (int)n, (int)mb[q],
+                                1.0, core, (int)ma, wb[q], (int)n, 1.0, g, (int)ma);
+                }
+                if (rc >= 0 && LAPACKE_dgetrs(LAPACK_COL_MAJOR, 'N', (lapack_int)ma, (lapack_int)n,
+                                              c, (lapack_int)ma, piv, g, (lapack_int)ma) != 0)
+                    rc = bsti_error(ctx, BST_EINTERNAL, "solve: LAPACK getrs");
+                for (size_t k = 0; rc >= 0 && k < ma; k++) /* W'[:, mb + k] = H[k, :]^T */
+                    for (size_t i = 0; i < n; i++)
+                        w[(mb[q] + k) * n + i] = g[i * ma + k];
+            }
+        } else if (rc >= 0) {
+            /* U' = [Ub | Y0 Ua + Ub (Rb Ua)], W' = [Rb^T | (C^-1 Rw)^T] */
+            memcpy(u, ub[q], n * mb[q] * sizeof *u);
+            for (size_t k = 0; k < mb[q]; k++)
+                for (size_t i = 0; i < n; i++)
+                    w[k * n + i] = tb[i * mt + k];
+            if (ma) {
+                bst_mat uam = {.ctx = ctx, .s = BST_DENSE, .prec = BST_DOUBLE, .rows = n, .cols = ma,
+                               .dense = (void *)ua};
+                bst_mat *q0 = NULL;
+                rc = bst_mat_mul(ctx, x[q], &uam, 0.0, &q0); /* Y0 Ua (n x ma) */
+                if (rc >= 0)
+                    rc = bst_mat_to_dense_array(ctx, q0, u + n * mb[q]);
+                bst_mat_free(q0);
+                if (rc >= 0 && mb[q]) {
+                    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)mb[q], (int)ma, (int)n,
+                                1.0, tb, (int)mt, ua, (int)n, 0.0, core, (int)mb[q]);
+                    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)n, (int)ma, (int)mb[q],
+                                1.0, ub[q], (int)n, core, (int)mb[q], 1.0, u + n * mb[q], (int)n);
+                }
+                for (size_t k = 0; rc >= 0 && k < ma; k++) /* Rw's rows */
+                    for (size_t i = 0; i < n; i++)
+                        g[i * ma + k] = t[i * mt + k];
+                if (rc >= 0 && LAPACKE_dgetrs(LAPACK_COL_MAJOR, 'N', (lapack_int)ma, (lapack_int)n,
+                                              c, (lapack_int)ma, piv, g, (lapack_int)ma) != 0)
+                    rc = bsti_error(ctx, BST_EINTERNAL, "solve: LAPACK getrs");
+                for (size_t k = 0; rc >= 0 && k < ma; k++)
+                    for (size_t i = 0; i < n; i++)
+                        w[(mb[q] + k) * n + i] = g[i * ma + k];
+            }
+        }
+        bsti_free(ctx, g);
+        bst_mat *r = x[q];
+        x[q] = NULL;
+        if (rc >= 0 && (rc = bsti_mat_plus_new(ctx, r, m, u, w, &out[q])) >= 0)
+            rc = bsti_plus_settle(ctx, &out[q]);
+        else if (rc < 0)
+            bst_mat_free(r), bsti_free(ctx, u), bsti_free(ctx, w);
+    }
+    for (size_t q = 0; q <= nb; q++)
+        bst_mat_free(x[q]);
+    bsti_free(ctx, t), bsti_free(ctx, c), bsti_free(ctx, piv);
+    rcond = fmin(rcond, rc_c);
+    if (rcond_out)
+        *rcond_out = rcond;
+    for (size_t q = 0; q < nb && rc >= 0; q++)
+        if (!bst_mat_all_finite(out[q]))
+            rc = bsti_error(ctx, BST_ESINGULAR, "solve: the result is not finite (I - A is "
+                            "singular to working precision, rcond %.3g)", rcond);
+    if (rc < 0) {
+        for (size_t q = 0; q < nb; q++) {
+            bst_mat_free(out[q]);
+            out[q] = NULL;
+        }
+        return rc;
+    }
+    if (rc_c < rcond_warn)
+        return bsti_error(ctx, BST_WILLCOND, "solve: I - A is ill-conditioned (rcond %.3g < %.3g, "
+                          "its low-rank part)", rc_c, rcond_warn);
+    return warn;
+}
+
 /* The solve with nb right-hand sides b[0..nb-1] (one factorization for all: out[q] = (I - A)^-1
  * b[q], or b[q] (I - A)^-1); *own_a (NULL or a itself) is taken: a dense A becomes its own
  * factorization (factor_new), any other is freed as soon as I - A is factored, so that A, its
@@ -1063,7 +1256,15 @@ static int solve_owning(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own
 {
     for (size_t q = 0; q < nb; q++)
         out[q] = NULL;
-    int rc = solve_checked(ctx, right, a, own_a, nb, b, own_b, rcond_warn, dense_prec, out,
+    int plus = a && a->s == BST_PLUS_LR, rc;
+    for (size_t q = 0; q < nb; q++)
+        plus |= b[q] && b[q]->s == BST_PLUS_LR;
+    if (keep)
+        *keep = NULL;
+    if (plus && (rc = check_operands(ctx, right, a, nb, b, rcond_warn)) >= 0) /* not kept */
+        rc = solve_plus(ctx, right, a, own_a, nb, b, own_b, rcond_warn, dense_prec, out, rcond_out);
+    else if (!plus)
+        rc = solve_checked(ctx, right, a, own_a, nb, b, own_b, rcond_warn, dense_prec, out,
                            rcond_out, keep);
     bst_mat_free(*own_a); /* when an error came before the factorization */
     *own_a = NULL;

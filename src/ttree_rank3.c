@@ -658,7 +658,7 @@ double bsti_tt3_rotation_fa(const bst_mat *m, int k, double stop)
     size_t G = (size_t)1 << k, N = G * G;
     if (!m || m->s == BST_ZERO || m->rows != N)
         return 100.0;
-    if (m->s == BST_FACTORED && k > 0) {
+    if ((m->s == BST_FACTORED || m->s == BST_PLUS_LR) && k > 0) {
         double fa = rotation_fa_cols(m, k, stop);
         if (!isnan(fa))
             return fa;

@@ -13,7 +13,8 @@
  * FACTORED (lowrank.h): diag(S) + W K W^T over one map W = [U_ext | U_int | Q_ext^T | Q_int^T]
  * (N x 8m) shared by the four components, K selecting the blocks, so that the stack keeps such
  * a blind at the size of its strips (issue #31/#32).  Otherwise a component with diffuse slats is
- * dense, one with mirror or black slats sparse.
+ * PLUS_LR (mat.h: S + U_x^T Q_y as they are, where 2m is small beside N) or dense, one with mirror
+ * or black slats sparse.
  * Incident patches are averaged over samples x samples directions uniform in projected solid
  * angle (bst_basis_sample), outgoing patches' views the same way.  Curved slats (g.curved) take
  * the same path except for S and the first arrivals: rays traced per incident direction
@@ -580,6 +581,31 @@ static int component_factored(struct build *B, int c, int in, int exit, bst_mat 
     return rc;
 }
 
+/* Component c as PLUS_LR (mat.h): its sparse part plus U W^T, U = the strips' views from the
+ * outgoing patches of its exit side (N x 2m), W = their emissions for its incident side: a blind
+ * with a mirror part and diffuse slats, N^2 values dense (2 GiB at k = 7), 2 N 2m so. */
+static int component_plus(struct build *B, int c, int in, int exit, bst_mat **out)
+{
+    struct trip *t = &B->tr[c];
+    size_t n = B->n, ne = B->ne;
+    bst_mat *base = NULL;
+    double *u = bsti_alloc_array(B->ctx, n * ne, sizeof *u), *w = bsti_alloc_array(B->ctx, n * ne, sizeof *w);
+    int rc = u && w ? BST_OK : BST_ENOMEM;
+    if (rc >= 0)
+        rc = t->nnz ? bst_mat_new_sparse(B->ctx, n, n, t->nnz, t->row, t->col, t->val, &base)
+                    : bst_mat_new_zero(B->ctx, n, n, &base);
+    if (rc < 0) {
+        bsti_free(B->ctx, u), bsti_free(B->ctx, w);
+        return rc;
+    }
+    for (size_t x = 0; x < n; x++) /* view and dep are ne x n, column x a patch's */
+        for (size_t e = 0; e < ne; e++) {
+            u[e * n + x] = B->view[exit][x * ne + e];
+            w[e * n + x] = B->dep[in][x * ne + e];
+        }
+    return bsti_mat_plus_new(B->ctx, base, ne, u, w, out);
+}
+
 /* Columns a dense single-precision component is made in at a time (of doubles: 32 MiB at k = 7). */
 #define VN_FLOAT_COLS 256
 
@@ -633,6 +659,8 @@ static int component(struct build *B, int c, int diffuse, bst_mat **out)
     int in = c == BST_TB || c == BST_RB, exit = c == BST_TF || c == BST_RB;
     if (B->W)
         return component_factored(B, c, in, exit, out);
+    if ((double)B->ne * 2.0 * (double)n < BSTI_PLUS_DENSE_SHARE * (double)n * (double)n)
+        return component_plus(B, c, in, exit, out);
     if (B->v->precision == BST_FLOAT)
         return component_float(B, c, in, exit, out);
     int rc = bst_mat_new_dense(B->ctx, n, n, BST_DOUBLE, out);

@@ -67,7 +67,7 @@ static int sums(bst_ctx *ctx, const bst_mat *m, size_t nr, size_t n, double *col
             if (row)
                 row[i] = col[i];
         }
-    } else if (m->s == BST_FACTORED) {
+    } else if (m->s == BST_FACTORED || m->s == BST_PLUS_LR) {
         return factored_sums(ctx, m, nr, n, col, row);
     } else if (m->s == BST_SPARSE) {
         const SuiteSparse_long *p = m->sp->p, *ri = m->sp->i;

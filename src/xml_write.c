@@ -456,10 +456,12 @@ static void klems_data(struct xw *w, const bst_mat *m, bst_bsdf_write_block *rep
  * again each time); NULL when that memory is not there. */
 static const double *factored_values(struct xw *w, const bst_mat *m)
 {
-    if (!m || m->s != BST_FACTORED)
+    if (!m || (m->s != BST_FACTORED && m->s != BST_PLUS_LR))
         return NULL;
     if (!w->full && !(w->full = bsti_alloc_array(w->ctx, w->n * w->n, sizeof *w->full)))
         return NULL;
+    if (m->s == BST_PLUS_LR) /* its base's values, then U W^T by GEMM */
+        return bst_mat_to_dense_array(w->ctx, m, w->full) >= 0 ? w->full : NULL;
     return bsti_mat_lr_values(w->ctx, m, w->full) >= 0 ? w->full : NULL;
 }
 

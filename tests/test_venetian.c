@@ -630,7 +630,8 @@ END_TEST
 /* A dense float blind over more patches than it is made columns at a time (k = 5: 1024 patches,
  * four blocks of 256): every value is the double blind's within its rounding (a block's GEMM may
  * round its doubles apart from the whole one's, by far less than a float's step), the sparse
- * mirror part in every block. */
+ * mirror part in every block.  (Dense: 2 x 64 strips make a rank of N / 8, too large for the
+ * sparse + low-rank form, which the default 8 segments take.) */
 START_TEST(test_float_blocks)
 {
     bst_basis *b = sc(5);
@@ -638,7 +639,7 @@ START_TEST(test_float_blocks)
     static const char *const ch[1] = {"Visible"};
     bst_venetian v;
     ck_assert_int_eq(bst_venetian_parse(ctx, "width=16mm,spacing=14.5mm,tilt=20,rs=0.765,r=0.085,"
-                                             "roughness=0.02,samples=2", &v), BST_OK);
+                                             "roughness=0.02,samples=2,segments=64", &v), BST_OK);
     bst_layer *d, *f;
     ck_assert_int_eq(bst_venetian_layer(ctx, &v, b, 1, ch, &d), BST_OK);
     v.precision = BST_FLOAT;

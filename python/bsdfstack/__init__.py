@@ -429,10 +429,12 @@ class BSDF:
         return out
 
     def structure(self, comp, channel=None):
-        """How the library stores a component: "zero", "diagonal", "sparse", "dense" or "factored"
-        (a coarse tree read at a finer order: its coarse matrix and the prolongation)."""
+        """How the library stores a component: "zero", "diagonal", "sparse", "dense", "factored"
+        (a coarse tree read at a finer order: its coarse matrix and the prolongation) or
+        "sparse+low-rank" (a venetian blind with a mirror part and diffuse slats)."""
         m = self._component(comp, channel)[2]
-        return ("zero", "diagonal", "sparse", "dense", "factored")[lib.bst_mat_structure(m)]
+        return ("zero", "diagonal", "sparse", "dense", "factored",
+                "sparse+low-rank")[lib.bst_mat_structure(m)]
 
     def hemispherical(self, comp, theta=None, phi=None, channel=None):
         """Directional-hemispherical value of comp (T for Tf/Tb, R for Rf/Rb): sum over the

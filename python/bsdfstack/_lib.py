@@ -252,7 +252,7 @@ for _name, (_res, _args) in _PROTOTYPES.items():
     _f.argtypes = _args
 
 # include/bsdfstack.h's enumerations and defaults
-BST_ZERO, BST_DIAG, BST_SPARSE, BST_DENSE, BST_FACTORED = 0, 1, 2, 3, 4
+BST_ZERO, BST_DIAG, BST_SPARSE, BST_DENSE, BST_FACTORED, BST_PLUS_LR = 0, 1, 2, 3, 4, 5
 BST_DOUBLE, BST_FLOAT = 0, 1
 BST_BASIS_SHIRLEY_CHIU, BST_BASIS_KLEMS = 0, 1
 BST_FILE_KLEMS = 0

@@ -35,11 +35,12 @@ static void verbose_step(const bst_stack_step *s, void *opaque)
 {
     (void)opaque;
     steps_flops += s->flops;
-    static const char *const names[] = {"zero", "diagonal", "sparse", "dense", "factored"};
+    static const char *const names[] = {"zero", "diagonal", "sparse", "dense", "factored",
+                                        "sparse+low-rank"};
     struct rusage ru;
     getrusage(RUSAGE_SELF, &ru);
     char rank[32] = "";
-    if (s->structure == BST_FACTORED)
+    if (s->structure == BST_FACTORED || s->structure == BST_PLUS_LR)
         snprintf(rank, sizeof rank, " rank %zu", s->rank);
     fprintf(stderr, "bsdfstack combine: layers 1-%zu %s %s: %s%s, %zu stored, %.3f s, %.3g GFLOP, "
             "rcond %.3g, peak RSS %.1f MiB\n", s->step + 1, s->channel, bst_comp_name(s->comp),
