@@ -3,7 +3,7 @@
 # lib.sh - what bench/run and bench/run-long share, sourced by both (bash): how a run is timed
 # (`measure`), how S1's accuracy is computed (`ga`), how a row of results.csv is written (`row`),
 # and the command line of each configuration they both measure (`case_s1`, `case_gdg`, `case_dd`,
-# `case_gbg`, `case_gvg`, `case_gmg`),
+# `case_gbg`, `case_gvg`, `case_gmg`, `case_grg`),
 # so that a row recorded one run at a time by run-long is measured exactly as bench/run's rows.
 #
 # The caller sets, before bench_init: me (its name, for messages), bst, ref, runs; and csv before
@@ -122,6 +122,13 @@ case_gmg() { # pane + a mirror venetian blind made from its geometry + pane (iss
     measure "$id" combine -v -k "$1" --precision "$2" -o "$work/$id.xml" glass:clear-6mm \
         venetian:width=16mm,spacing=14.5mm,tilt=45,rs=0.765,roughness=0.02 glass:clear-6mm
     row sparse "pane+mirror venetian+pane" "$1" "$2" - "$id"
+}
+case_grg() { # pane + the reference blind's geometry (mirror and diffuse slats) + pane (issue #32):
+    # sparse + rank 16, then dense
+    local id=grg_k$1_$2
+    measure "$id" combine -v -k "$1" --precision "$2" -o "$work/$id.xml" glass:clear-6mm \
+        venetian:width=16mm,spacing=14.5mm,tilt=45,rs=0.765,r=0.085,roughness=0.02 glass:clear-6mm
+    row sparse "pane+mirror and diffuse venetian+pane" "$1" "$2" - "$id"
 }
 case_dd() { # diffuser + diffuser, dense
     measure "dd_k$1_$2" combine -v -k "$1" --precision "$2" -o "$work/dd_k$1_$2.xml" "$diffuser" "$diffuser"

@@ -287,7 +287,7 @@ END {
     print "against CPU seconds: the trade itself."
 }
 # Layers held factored or sparse (issue #31: case "factored", bench/run-long's gbg and gvg; issue
-# #32: case "sparse", its gmg), when any row was recorded
+# #32: case "sparse", its gmg and grg), when any row was recorded
 function factored_table(   r, any) {
     for (r = 1; r <= n; r++) any += v[r, 1] == "factored" || v[r, 1] == "sparse"
     if (!any) return
@@ -302,7 +302,9 @@ function factored_table(   r, any) {
         " channel: Tf is Tb's reciprocal). A mirror blind (`venetian:width=16mm,spacing=14.5mm,tilt=45," \
         "rs=0.765,roughness=0.02`) is sparse: its first step between panes stays sparse, the second is" \
         " dense (its inverse formed once a channel; bench/README.md, \"A mirror blind's dense second" \
-        " step\").", "", "")
+        " step\"). The reference blind's geometry (`rs=0.765,r=0.085,roughness=0.02`: mirror and diffuse" \
+        " slats) is that sparse part plus its strips' diffuse light of rank 16, kept so through the" \
+        " stack (bench/README.md, \"Mirror and diffuse slats\").", "", "")
     print ""
     thead("| stack | k | precision | wall s | CPU s | read s | combine s | write s | GFLOP | bound | peak MiB | file MB | runs |")
     for (r = 1; r <= n; r++)
