@@ -1080,13 +1080,19 @@ static int solve_plus(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a
     bsti_plus_parts(a, &a0, &ma, &ua, &wa);
     mt = ma;
     bst_mat *own0 = NULL, *own_b0[NB_MAX + 1] = {NULL, NULL, NULL}, *x[NB_MAX + 1] = {NULL, NULL, NULL};
-    if (*own_a == a && a->s == BST_PLUS_LR) /* its base to the bases' solve */
+    /* taken operands pass on to the bases' solve: a PLUS_LR one's base (its factors are read
+       below, the shell freed by the caller), a plain one itself */
+    if (*own_a == a && a->s == BST_PLUS_LR)
         own0 = a->plus->base, a->plus->base = NULL;
+    else if (*own_a == a)
+        own0 = *own_a, *own_a = NULL;
     for (size_t q = 0; q < nb; q++) {
         bsti_plus_parts(b[q], &b0[q], &mb[q], &ub[q], &wb[q]);
         off[q] = mt, mt += mb[q];
         if (own_b && own_b[q] == b[q] && b[q]->s == BST_PLUS_LR)
             own_b0[q] = b[q]->plus->base, b[q]->plus->base = NULL;
+        else if (own_b && own_b[q] == b[q])
+            own_b0[q] = own_b[q], own_b[q] = NULL;
     }
     bst_mat *thin = NULL, *none = NULL;
     double *t = NULL, *c = bsti_alloc_array(ctx, ma * ma + 1, sizeof *c);

@@ -259,6 +259,15 @@ START_TEST(test_solve)
     ck_assert_int_eq(solve(ctx, a0d, bd, 0.0, &x0d, NULL), BST_OK);
     double *r0 = tm_dense(ctx, x0d);
     ck_assert_double_le(rel_err(x, r0, N, N), tol);
+    bst_mat_free(x);
+    /* the same with both taken (a plain A passes on to the bases' solve) */
+    bst_mat *a0c, *bc0;
+    ck_assert_int_eq(bst_mat_convert(ctx, a->plus->base, a->plus->base->s, a->plus->base->prec, &a0c),
+                     BST_OK);
+    ck_assert_int_eq(bsti_plus_copy(ctx, b, &bc0), BST_OK);
+    ck_assert_int_eq(bsti_solve_take(ctx, right, a0c, bc0, bc0, 0.0, BST_DOUBLE, &x, NULL, NULL),
+                     BST_OK);
+    ck_assert_double_le(rel_err(x, r0, N, N), tol);
     bst_mat_free(x), bst_mat_free(a0d), bst_mat_free(x0d);
     free(r0);
     if (!right) { /* two right-hand sides, both taken, A taken, a kept factorization asked */
