@@ -367,40 +367,38 @@ static int dup_into(bst_ctx *ctx, const double *x, size_t n, double **out)
     return BST_OK;
 }
 
+/* base (made by the caller, status rc) + copies of u (nu values) and w (nw values), rank m; base and
+ * the copies freed on failure. */
+static int plus_of_copies(bst_ctx *ctx, int rc, bst_mat *base, size_t m, const double *u, size_t nu,
+                          const double *w, size_t nw, bst_mat **out)
+{
+    double *cu = NULL, *cw = NULL;
+    if (rc >= 0)
+        rc = dup_into(ctx, u, nu, &cu);
+    if (rc >= 0)
+        rc = dup_into(ctx, w, nw, &cw);
+    if (rc < 0) {
+        bst_mat_free(base);
+        bsti_free(ctx, cu), bsti_free(ctx, cw);
+        return rc;
+    }
+    return bsti_mat_plus_new(ctx, base, m, cu, cw, out);
+}
+
 int bsti_plus_copy(bst_ctx *ctx, const bst_mat *m, bst_mat **out)
 {
     const struct bsti_plus *p = m->plus;
     bst_mat *base = NULL;
-    double *u = NULL, *w = NULL;
     int rc = bst_mat_convert(ctx, p->base, p->base->s, p->base->prec, &base);
-    if (rc >= 0)
-        rc = dup_into(ctx, p->u, m->rows * p->m, &u);
-    if (rc >= 0)
-        rc = dup_into(ctx, p->w, m->cols * p->m, &w);
-    if (rc < 0) {
-        bst_mat_free(base);
-        bsti_free(ctx, u), bsti_free(ctx, w);
-        return rc;
-    }
-    return bsti_mat_plus_new(ctx, base, p->m, u, w, out);
+    return plus_of_copies(ctx, rc, base, p->m, p->u, m->rows * p->m, p->w, m->cols * p->m, out);
 }
 
 int bsti_plus_transpose(bst_ctx *ctx, const bst_mat *m, bst_mat **out)
 {
     const struct bsti_plus *p = m->plus;
     bst_mat *base = NULL;
-    double *u = NULL, *w = NULL;
     int rc = bst_mat_transpose(ctx, p->base, &base);
-    if (rc >= 0)
-        rc = dup_into(ctx, p->w, m->cols * p->m, &u);
-    if (rc >= 0)
-        rc = dup_into(ctx, p->u, m->rows * p->m, &w);
-    if (rc < 0) {
-        bst_mat_free(base);
-        bsti_free(ctx, u), bsti_free(ctx, w);
-        return rc;
-    }
-    return bsti_mat_plus_new(ctx, base, p->m, u, w, out);
+    return plus_of_copies(ctx, rc, base, p->m, p->w, m->cols * p->m, p->u, m->rows * p->m, out);
 }
 
 int bsti_plus_scale(bst_ctx *ctx, const double *dr, const bst_mat *m, const double *dc,
@@ -408,22 +406,15 @@ int bsti_plus_scale(bst_ctx *ctx, const double *dr, const bst_mat *m, const doub
 {
     const struct bsti_plus *p = m->plus;
     bst_mat *base = NULL;
-    double *u = NULL, *w = NULL;
     int rc = bsti_mat_scale(ctx, dr, p->base, dc, &base);
-    if (rc >= 0)
-        rc = dup_into(ctx, p->u, m->rows * p->m, &u);
-    if (rc >= 0)
-        rc = dup_into(ctx, p->w, m->cols * p->m, &w);
-    if (rc < 0) {
-        bst_mat_free(base);
-        bsti_free(ctx, u), bsti_free(ctx, w);
+    if ((rc = plus_of_copies(ctx, rc, base, p->m, p->u, m->rows * p->m, p->w, m->cols * p->m, out)) < 0)
         return rc;
-    }
-    for (size_t k = 0; dr && k < p->m; k++)
+    struct bsti_plus *q = (*out)->plus;
+    for (size_t k = 0; dr && k < q->m; k++)
         for (size_t i = 0; i < m->rows; i++)
-            u[k * m->rows + i] *= dr[i];
-    for (size_t k = 0; dc && k < p->m; k++)
+            q->u[k * m->rows + i] *= dr[i];
+    for (size_t k = 0; dc && k < q->m; k++)
         for (size_t j = 0; j < m->cols; j++)
-            w[k * m->cols + j] *= dc[j];
-    return bsti_mat_plus_new(ctx, base, p->m, u, w, out);
+            q->w[k * m->cols + j] *= dc[j];
+    return BST_OK;
 }

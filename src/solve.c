@@ -981,6 +981,21 @@ static int solve_by_inverse(bst_ctx *ctx, struct factor *f, int right, size_t nb
     return rc;
 }
 
+/* The results' last check: each finite, else BST_ESINGULAR naming rcond; on an error (rc or this
+ * one) every result freed.  rc or the error. */
+static int results_checked(bst_ctx *ctx, int rc, size_t nb, bst_mat **out, double rcond)
+{
+    for (size_t q = 0; q < nb && rc >= 0; q++)
+        if (!bst_mat_all_finite(out[q]))
+            rc = bsti_error(ctx, BST_ESINGULAR, "solve: the result is not finite (I - A is "
+                            "singular to working precision, rcond %.3g)", rcond);
+    for (size_t q = 0; q < nb && rc < 0; q++) {
+        bst_mat_free(out[q]);
+        out[q] = NULL;
+    }
+    return rc;
+}
+
 static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a, size_t nb,
                          const bst_mat *const *b, bst_mat **own_b, double rcond_warn,
                          bst_precision dense_prec, bst_mat **out, double *rcond_out,
@@ -1036,17 +1051,8 @@ static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **ow
     rcond = fmin(rcond, 1.0); /* rounding in the estimate may exceed the bound 1 */
     if (rcond_out)
         *rcond_out = rcond;
-    for (size_t q = 0; q < nb && rc >= 0; q++)
-        if (!bst_mat_all_finite(out[q]))
-            rc = bsti_error(ctx, BST_ESINGULAR, "solve: the result is not finite (I - A is "
-                            "singular to working precision, rcond %.3g)", rcond);
-    if (rc < 0) {
-        for (size_t q = 0; q < nb; q++) {
-            bst_mat_free(out[q]);
-            out[q] = NULL;
-        }
+    if ((rc = results_checked(ctx, rc, nb, out, rcond)) < 0)
         return rc;
-    }
     /* Single precision keeps about 7 digits: warn from sqrt(eps_float) on, whatever was asked. */
     if (prec == BST_FLOAT && f_dense)
         rcond_warn = fmax(rcond_warn, BSTI_RCOND_WARN_FLOAT);
@@ -1230,17 +1236,8 @@ static int solve_plus(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a
     rcond = fmin(rcond, rc_c);
     if (rcond_out)
         *rcond_out = rcond;
-    for (size_t q = 0; q < nb && rc >= 0; q++)
-        if (!bst_mat_all_finite(out[q]))
-            rc = bsti_error(ctx, BST_ESINGULAR, "solve: the result is not finite (I - A is "
-                            "singular to working precision, rcond %.3g)", rcond);
-    if (rc < 0) {
-        for (size_t q = 0; q < nb; q++) {
-            bst_mat_free(out[q]);
-            out[q] = NULL;
-        }
+    if ((rc = results_checked(ctx, rc, nb, out, rcond)) < 0)
         return rc;
-    }
     if (rc_c < rcond_warn)
         return bsti_error(ctx, BST_WILLCOND, "solve: I - A is ill-conditioned (rcond %.3g < %.3g, "
                           "its low-rank part)", rc_c, rcond_warn);
