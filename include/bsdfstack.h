@@ -577,6 +577,8 @@ typedef struct {
                              blind's strips), the diagonal and width x width values each */
     size_t width;         /* made: that map's columns (every row holds at most that many) */
     bst_precision precision; /* made: the dense components' (bst_venetian's precision) */
+    size_t plus;          /* made: components held sparse plus low rank (BST_PLUS_LR: a venetian
+                             blind with a mirror part and diffuse slats), counted as sparse */
 } bst_plan_held;
 /* What the need counts beyond the base, for a message. */
 typedef struct {
@@ -591,10 +593,11 @@ typedef struct {
  * values and the map's N x width entries of 16 bytes, once a channel), and where no layer holds
  * a dense component, the writer's one N^2 grid of doubles (it expands a factored component at a
  * time, a combination's results staying factored) and 64 MiB of column blocks (the readers of
- * such components).  A made layer held sparse (a mirror blind, black slats) in a combination of
- * three or more layers counts the results dense from its second step on: four N^2 of the work
- * precision a channel, one N^2 more of work and a quarter of N^2 doubles of sparse partial
- * stack; otherwise its sparse parts count as the rest.
+ * such components).  A made layer held sparse (a mirror blind, black slats) or sparse plus low
+ * rank in a combination of three or more layers counts the results dense from its second step
+ * on: four N^2 of the work precision a channel, one N^2 more of work and a quarter of N^2 doubles
+ * of sparse partial stack; otherwise its sparse parts count as the rest, and sparse plus low-rank
+ * components (written as factored ones are) the writer's grid and column blocks.
  * Not counted: a wavelength-by-wavelength combination's per-channel sums (bst_plan_spectral).
  * comps selects the components read from files; *need (may be NULL) gets what was counted. */
 double bst_plan_memory_held(const bst_basis *basis, size_t n, const bst_plan_held *layers,

@@ -227,6 +227,7 @@ struct held_sum {
     double largest;
     double made_small; /* bytes of made layers' factored components (diagonals, K, maps) */
     size_t sparse_made; /* made layers held sparse (a mirror blind, black slats) */
+    size_t plus;     /* made components held sparse plus low rank */
     size_t nres;     /* the fewest channels a file or made layer holds (0: none known) */
 };
 
@@ -274,10 +275,12 @@ static double memory_of(const bst_basis *basis, size_t n, const bst_bsdf *const 
             continue;
         }
         fewest(&t, h->nchannels);
-        t.sparse_made += h->nchannels && !h->dense && !h->factored; /* not a pane */
+        /* not a pane; a channel sparse plus low rank beside a factored one counts too */
+        t.sparse_made += h->nchannels && (h->plus || (!h->dense && !h->factored));
         t.dense_made += h->dense;
         t.made_dense_bytes += (double)h->dense * (h->precision == BST_FLOAT ? 4.0 : 8.0);
         t.factored += h->factored;
+        t.plus += h->plus;
         if (h->factored) /* each: its diagonal and K; the map once a channel */
             t.made_small += (double)h->factored * 8.0 * (N + (double)h->width * (double)h->width) +
                             (double)(h->nchannels ? h->nchannels : 1) * 16.0 * N * (double)h->width;
@@ -302,11 +305,12 @@ static double memory_of(const bst_basis *basis, size_t n, const bst_bsdf *const 
         got.dense = 4 * nch;
         got.dense_bytes = (double)got.dense * cells * wb;
         bytes = base + got.dense_bytes + cells * wb + 0.25 * cells * 8.0;
-    } else if (t.factored) {
+    } else if (t.factored || t.plus) {
         /* factored layers over wide maps: a stack hands its results over factored (stack.c,
          * hand_over), their readers take blocks of columns (bsti_cols: up to 32 MiB each, two at
          * a time), and the writer expands one component at a time into one grid of doubles
-         * (xml_write.c), combined or not */
+         * (xml_write.c), combined or not; so it does sparse plus low-rank ones (a pane and a
+         * blind of mirror and diffuse slats, or the blind alone) */
         got.expanded = 1;
         got.expanded_bytes = 8.0 * cells;
         bytes = base + got.expanded_bytes + 64.0 * 1048576.0 + (combining ? 3.0 * t.largest : 0.0);

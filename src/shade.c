@@ -257,7 +257,7 @@ static void venetian_channel(const bst_venetian *v, size_t N, bst_plan_held *h)
     else if (diffuse && v->rs == 0 && (double)width < BSTI_LR_DENSE_SHARE * (double)N)
         h->factored += BST_NCOMP, h->width = width > h->width ? width : h->width;
     else if (diffuse && 2.0 * strips < BSTI_PLUS_DENSE_SHARE * (double)N)
-        ; /* PLUS_LR: counted as sparse */
+        h->plus += BST_NCOMP; /* PLUS_LR */
     else if (diffuse)
         h->dense += BST_NCOMP;
     h->precision = v->precision;

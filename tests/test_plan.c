@@ -169,14 +169,15 @@ START_TEST(test_memory)
 END_TEST
 
 /* The components of l that are dense and factored, all channels together. */
-static void count_made(const bst_layer *l, size_t *dense, size_t *factored)
+static void count_made(const bst_layer *l, size_t *dense, size_t *factored, size_t *plus)
 {
-    *dense = *factored = 0;
+    *dense = *factored = *plus = 0;
     for (size_t ch = 0; ch < bst_layer_nchannels(l); ch++)
         for (int c = 0; c < BST_NCOMP; c++) {
             bst_structure s = bst_mat_structure(bst_layer_get(l, ch, (bst_comp)c));
             *dense += s == BST_DENSE;
             *factored += s == BST_FACTORED;
+            *plus += s == BST_PLUS_LR;
         }
 }
 
@@ -195,12 +196,12 @@ static bst_plan_held plan_of(const char *spec, int k, size_t nch, const char *co
     ck_assert_uint_eq(h.nchannels, nch ? nch : 2);
     {
         bst_layer *l;
-        size_t dense, factored;
+        size_t dense, factored, plus;
         ck_assert_int_eq(bst_shade_model_layer(ctx, &m, b, nch, names, &l), BST_OK);
-        count_made(l, &dense, &factored);
-        ck_assert_msg(dense == h.dense && factored == h.factored, "%s at k = %d: made %zu dense "
-                      "%zu factored, planned %zu and %zu", spec, k, dense, factored, h.dense,
-                      h.factored);
+        count_made(l, &dense, &factored, &plus);
+        ck_assert_msg(dense == h.dense && factored == h.factored && plus == h.plus, "%s at k = %d: "
+                      "made %zu dense %zu factored %zu sparse + low rank, planned %zu, %zu and %zu",
+                      spec, k, dense, factored, plus, h.dense, h.factored, h.plus);
         bst_layer_free(l);
     }
     bst_basis_free(b);
@@ -221,10 +222,10 @@ START_TEST(test_shade_plan)
     h = plan_of("venetian:width=16mm,spacing=14.5mm,r=0.7,segments=2", 3, 1, vis);
     ck_assert(h.dense == 0 && h.factored == 4 && h.width == 16); /* N = 64: 16 < N / 2 */
     h = plan_of("venetian:width=16mm,spacing=14.5mm,r=0.7,rs=0/0.3", 4, 2, both);
-    ck_assert(h.dense == 0 && h.factored == 4); /* the Solar channel has a mirror part: sparse +
-                                                   rank 16 (N = 256: 2 x 16 < N / 4) */
+    ck_assert(h.dense == 0 && h.factored == 4 && h.plus == 4); /* the Solar channel has a mirror
+                                                   part: sparse + rank 16 (N = 256: 2 x 16 < N / 4) */
     h = plan_of("venetian:width=16mm,spacing=14.5mm,rs=0.765,r=0.085", 4, 0, NULL);
-    ck_assert(h.dense == 0 && h.factored == 0); /* the same in both channels */
+    ck_assert(h.dense == 0 && h.factored == 0 && h.plus == 8); /* the same in both channels */
     h = plan_of("venetian:width=16mm,spacing=14.5mm,rs=0.9", 3, 0, NULL);
     ck_assert(h.dense == 0 && h.factored == 0); /* mirror slats: sparse */
     h = plan_of("venetian:width=16mm,spacing=14.5mm,r=0.7,rule=centre", 3, 0, NULL);
