@@ -1165,8 +1165,10 @@ static int solve_plus(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a
         const double *tb = t ? (right ? t + off[q] : t + off[q] * n) : NULL;
         if (rc >= 0 && !right) {
             /* U' = [Zb | Z], W' = [Wb | H^T], H^T = (X0^T Wa + Wb (Zb^T Wa)) C^-T */
-            memcpy(u, tb, n * mb[q] * sizeof *u);
-            memcpy(w, wb[q], n * mb[q] * sizeof *w);
+            if (mb[q]) { /* (a plain B: none) */
+                memcpy(u, tb, n * mb[q] * sizeof *u);
+                memcpy(w, wb[q], n * mb[q] * sizeof *w);
+            }
             if (ma) {
                 memcpy(u + n * mb[q], t, n * ma * sizeof *u);
                 bst_mat *wat = NULL, *gt = NULL;
@@ -1193,7 +1195,8 @@ static int solve_plus(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a
             }
         } else if (rc >= 0) {
             /* U' = [Ub | Y0 Ua + Ub (Rb Ua)], W' = [Rb^T | (C^-1 Rw)^T] */
-            memcpy(u, ub[q], n * mb[q] * sizeof *u);
+            if (mb[q])
+                memcpy(u, ub[q], n * mb[q] * sizeof *u);
             for (size_t k = 0; k < mb[q]; k++)
                 for (size_t i = 0; i < n; i++)
                     w[k * n + i] = tb[i * mt + k];
