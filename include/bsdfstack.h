@@ -596,8 +596,9 @@ typedef struct {
  * such components).  A made layer held sparse (a mirror blind, black slats) or sparse plus low
  * rank in a combination of three or more layers counts the results dense from its second step
  * on: four N^2 of the work precision a channel, one N^2 more of work and a quarter of N^2 doubles
- * of sparse partial stack; otherwise its sparse parts count as the rest, and sparse plus low-rank
- * components (written as factored ones are) the writer's grid and column blocks.
+ * of sparse partial stack; otherwise its sparse parts and those of the results formed from it
+ * count a quarter of N^2 doubles a channel, and sparse plus low-rank components (written as
+ * factored ones are) the writer's grid and column blocks.
  * Not counted: a wavelength-by-wavelength combination's per-channel sums (bst_plan_spectral).
  * comps selects the components read from files; *need (may be NULL) gets what was counted. */
 double bst_plan_memory_held(const bst_basis *basis, size_t n, const bst_plan_held *layers,

@@ -260,6 +260,16 @@ static void count_file(const bst_bsdf *f, unsigned comps, int k, double cells, s
         }
 }
 
+/* A made layer held sparse (or sparse plus low rank) where its results stay so: its sparse parts
+ * and those of the results formed from it, a quarter of N^2 doubles a channel (beside a pane at
+ * k = 7 the reference blind's geometry holds 19 million values a channel in the results, 7 % of
+ * N^2; the mirror blind's 0.6 GiB a channel, README.md). */
+static void bytes_sparse_made(const struct held_sum *t, double cells, double *base)
+{
+    if (t->sparse_made)
+        *base += (double)(t->nres ? t->nres : 1) * 0.25 * cells * 8.0;
+}
+
 /* The model over layers[i], or files[i] where layers is NULL (either may be NULL). */
 static double memory_of(const bst_basis *basis, size_t n, const bst_bsdf *const *files,
                         const bst_plan_held *layers, unsigned comps, bst_precision read,
@@ -306,6 +316,7 @@ static double memory_of(const bst_basis *basis, size_t n, const bst_bsdf *const 
         got.dense_bytes = (double)got.dense * cells * wb;
         bytes = base + got.dense_bytes + cells * wb + 0.25 * cells * 8.0;
     } else if (t.factored || t.plus) {
+        bytes_sparse_made(&t, cells, &base);
         /* factored layers over wide maps: a stack hands its results over factored (stack.c,
          * hand_over), their readers take blocks of columns (bsti_cols: up to 32 MiB each, two at
          * a time), and the writer expands one component at a time into one grid of doubles
@@ -317,6 +328,7 @@ static double memory_of(const bst_basis *basis, size_t n, const bst_bsdf *const 
     } else {
         /* a factored combination works on coarse matrices: about three at a time; the tree
          * writer expands one factored component (xml_write.c) */
+        bytes_sparse_made(&t, cells, &base);
         bytes = base + (combining ? 3.0 * t.largest : 0.0) + (t.coarse > 0 ? 8.0 * cells : 0.0);
     }
     if (need)
