@@ -1228,10 +1228,10 @@ static int solve_plus(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a
         bsti_free(ctx, g);
         bst_mat *r = x[q];
         x[q] = NULL;
-        if (rc >= 0 && (rc = bsti_mat_plus_new(ctx, r, m, u, w, &out[q])) >= 0)
-            rc = bsti_plus_settle(ctx, &out[q]);
-        else if (rc < 0)
+        if (rc < 0) /* (bsti_mat_plus_new takes r, u and w, also on failure) */
             bst_mat_free(r), bsti_free(ctx, u), bsti_free(ctx, w);
+        else if ((rc = bsti_mat_plus_new(ctx, r, m, u, w, &out[q])) >= 0)
+            rc = bsti_plus_settle(ctx, &out[q]);
     }
     for (size_t q = 0; q <= nb; q++)
         bst_mat_free(x[q]);

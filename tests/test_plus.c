@@ -320,6 +320,65 @@ START_TEST(test_singular)
 }
 END_TEST
 
+/* Every allocation of each operation failed in turn (a diagonal base: all of its memory through
+ * the context's allocator): BST_ENOMEM, no result, nothing leaked; then it succeeds. */
+START_TEST(test_nomem)
+{
+    bst_ctx *c = bst_ctx_new(), *save = ctx;
+    tu_alloc al = {0};
+    ck_assert_int_eq(bst_ctx_set_allocator(c, tu_alloc_malloc, tu_alloc_free, &al), BST_OK);
+    ctx = c;
+    tu_rng r;
+    tu_rng_seed(&r, 5);
+    double *ra, *rb, *rd, dr[N];
+    bst_mat *a = operand(TM_DIAG, 3, 0.5 / N, &r, &ra), *b = operand(TM_DIAG, 2, 1.0, &r, &rb);
+    bst_mat *d = operand(TM_DIAG, 0, 1.0, &r, &rd);
+    for (size_t i = 0; i < N; i++)
+        dr[i] = 0.5 + tu_rng_uniform(&r);
+    for (int op = 0; op < 9; op++) {
+        long base = al.live;
+        for (long k = 1;; k++) {
+            al.fail_at = al.count + k;
+            bst_mat *m = (bst_mat *)1, *m2 = (bst_mat *)1, *ac = NULL, *bc = NULL;
+            int rc = op == 0   ? bst_mat_mul(c, a, b, 0.0, &m)
+                     : op == 1 ? bst_mat_mul(c, d, a, 0.0, &m)
+                     : op == 2 ? bst_mat_add(c, 1.0, a, 2.0, b, &m)
+                     : op == 3 ? bst_mat_scale(c, dr, a, dr, &m)
+                     : op == 4 ? bst_mat_transpose(c, a, &m)
+                     : op == 5 ? bst_mat_convert(c, a, BST_DENSE, BST_FLOAT, &m)
+                     : op == 6 ? bst_solve_left(c, a, b, 0.0, &m, NULL)
+                     : op == 7 ? bst_solve_right(c, a, b, 0.0, &m, NULL)
+                               : BST_OK;
+            if (op == 8) { /* taken operands, two right-hand sides */
+                rc = bsti_plus_copy(c, a, &ac);
+                if (rc >= 0 && (rc = bsti_plus_copy(c, b, &bc)) < 0)
+                    bst_mat_free(ac);
+                if (rc >= 0)
+                    rc = bsti_solve_take_left2(c, ac, bc, bc, d, NULL, 0.0, BST_DOUBLE, &m, &m2,
+                                               NULL, NULL);
+                else
+                    m = m2 = NULL;
+            }
+            al.fail_at = 0;
+            if (rc == BST_OK) {
+                bst_mat_free(m);
+                if (op == 8)
+                    bst_mat_free(m2);
+                break;
+            }
+            ck_assert_int_eq(rc, BST_ENOMEM);
+            ck_assert_ptr_null(m);
+            ck_assert_int_eq(al.live, base);
+            ck_assert_int_lt(k, 400);
+        }
+    }
+    bst_mat_free(a), bst_mat_free(b), bst_mat_free(d);
+    free(ra), free(rb), free(rd);
+    ctx = save;
+    bst_ctx_free(c);
+}
+END_TEST
+
 static Suite *plus_suite(void)
 {
     Suite *s = suite_create("plus");
@@ -331,6 +390,7 @@ static Suite *plus_suite(void)
     tcase_add_test(tc, test_rank);
     tcase_add_loop_test(tc, test_solve, 0, 16);
     tcase_add_test(tc, test_singular);
+    tcase_add_test(tc, test_nomem);
     suite_add_tcase(s, tc);
     return s;
 }
