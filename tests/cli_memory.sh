@@ -62,7 +62,7 @@ for prec in double single; do
     wb=8; [ "$prec" = single ] && wb=4
     rm -f m.xml
     expect_error "a matte blind's factored results ($prec)" \
-        "k = 4 needs about [0-9.]+ GiB \(factored results written one component at a time through a grid of 0.000488 GiB and the combination's work\), more than" -- \
+        "k = 4 needs about [0-9.]+ GiB \(factored results written one component at a time through a grid of 0.000488 GiB and the combination's work\), more than the 0.000977 GiB --max-memory allows: use a lower -k or fewer --channels; or raise" -- \
         "$B" combine -k 4 --precision $prec --max-memory 1M glass:clear-6mm "$matte" glass:clear-6mm -o m.xml
     want=$(need 256 0 8 64 2 $wb)
     close "$(printed)" "$want" && pass "matte blind ($prec): $(printed) GiB, the model's $want" ||
@@ -83,6 +83,12 @@ expect_status 0 "a matte blind under a generous --max-memory" -- \
 want=$(need 256 0 8 5 2 8)
 close "$(printed)" "$want" && [ ! -e p.xml ] && pass "perforated screen: $want GiB" ||
     fail "perforated screen: $(cat "$tmpdir/err"), the model $want"
+
+# a mirror blind beside one pane: its results stay sparse, no dense component, and the
+# precision does not lower the need (not offered)
+expect_error "a mirror blind beside a pane" \
+    "k = 4 needs about [0-9.]+ GiB \(no dense component and the combination's work\), more than the 0.000977 GiB --max-memory allows: use a lower -k or fewer --channels; or raise" -- \
+    "$B" combine -k 4 --max-memory 1M glass:clear-6mm 'venetian:width=16mm,spacing=14.5mm,tilt=45,rs=0.765,roughness=0.02' -o t.xml
 
 # a blind of mirror and diffuse slats beside one pane, or alone: sparse plus rank 16, its
 # results too, written through the writer's one grid of doubles as factored ones are (and its

@@ -45,11 +45,10 @@ static double memory_available(void)
     return avail;
 }
 
-/* What the need counts, for the message (one: a component's bytes in the read precision): "4
- * dense components of 0.125 GiB", "factored results written one component at a time through a
- * grid of 2 GiB", ... */
-static void counted(const bst_plan_need *got, double cells, double one, int combining, char *buf,
-                    size_t size)
+/* What the need counts, for the message: "4 dense components of 0.125 GiB", "factored results
+ * written one component at a time through a grid of 2 GiB", "no dense component" (diagonal and
+ * sparse ones alone), ... */
+static void counted(const bst_plan_need *got, double cells, int combining, char *buf, size_t size)
 {
     double gib = 1073741824.0, each = got->dense ? got->dense_bytes / (double)got->dense : 0;
     if (got->expanded)
@@ -58,9 +57,11 @@ static void counted(const bst_plan_need *got, double cells, double one, int comb
     else if (got->dense && each != 4.0 * cells && each != 8.0 * cells) /* files' floats, made doubles */
         snprintf(buf, size, "%zu dense components, %.3g GiB in all", got->dense,
                  got->dense_bytes / gib);
+    else if (!got->dense)
+        snprintf(buf, size, "no dense component");
     else
         snprintf(buf, size, "%zu dense component%s of %.3g GiB", got->dense,
-                 got->dense == 1 ? "" : "s", (got->dense ? each : one) / gib);
+                 got->dense == 1 ? "" : "s", each / gib);
 }
 
 const char *cli_lower_hint(bst_precision work)
@@ -85,13 +86,16 @@ int cli_memory_check_held(const char *sub, const bst_basis *basis, size_t n,
         snprintf(where, sizeof where, "k = %d", bst_basis_order(basis));
     else
         snprintf(where, sizeof where, "%s", bst_basis_name(basis));
-    /* none counted: the size of one in the read precision */
-    counted(&got, cells, cells * (prec == BST_FLOAT ? 4.0 : 8.0), choice->combining, what, sizeof what);
+    counted(&got, cells, choice->combining, what, sizeof what);
+    /* where no component is dense, the need is the writer's grid of doubles and sparse parts,
+       which --precision does not lower */
+    const char *lower = got.dense ? choice->lower : NULL;
+    if (!got.dense)
+        lower = cli_lower_hint(BST_FLOAT);
     return cli_fail(sub, "%s needs about %.3g GiB (%s%s), more than the %.3g GiB %s: use %s; or "
                     "raise the limit with --max-memory SIZE", where, need / gib, what,
                     choice->combining ? " and the combination's work" : "", limit / gib,
-                    choice->max_memory > 0 ? "--max-memory allows" : "available",
-                    choice->lower ? choice->lower : "a lower -k");
+                    choice->max_memory > 0 ? "--max-memory allows" : "available", lower);
 }
 
 int cli_memory_check(const char *sub, const bst_basis *basis, size_t n, bst_bsdf *const *files,
