@@ -119,6 +119,18 @@ int bsti_mat_plus_new(bst_ctx *ctx, bst_mat *base, size_t m, double *u, double *
 #define BSTI_PLUS_TOL 1e-13
 #define BSTI_PLUS_DENSE_SHARE 0.25
 int bsti_plus_settle(bst_ctx *ctx, bst_mat **m);
+/* Whether a low-rank part of rank m is held apart from a rows x cols base (its thin factors below
+ * BSTI_PLUS_DENSE_SHARE of the dense form): the test of bsti_plus_settle, of the venetian layer
+ * and of its plan (shade.c), which must agree. */
+static inline int bsti_plus_fits(size_t rows, size_t cols, size_t m)
+{
+    return (double)m * (double)(rows + cols) < BSTI_PLUS_DENSE_SHARE * (double)rows * (double)cols;
+}
+/* Thin products through the structured ones (a dense float A gives float rounding): out
+ * (a->rows x m) = A X for X a->cols x m, and out (a->cols x m) = A^T X for X a->rows x m (GEMM on
+ * a dense double A, else (X^T A)^T), all column-major doubles. */
+int bsti_mul_thin(bst_ctx *ctx, const bst_mat *a, const double *x, size_t m, double *out);
+int bsti_mul_thin_t(bst_ctx *ctx, const bst_mat *a, const double *x, size_t m, double *out);
 /* The PLUS_LR kernels (mat_plus.c): a product or sum where either operand is PLUS_LR. */
 int bsti_mul_plus(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out);
 int bsti_add_plus(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, const bst_mat *b,

@@ -40,9 +40,7 @@ int bsti_mat_plus_new(bst_ctx *ctx, bst_mat *base, size_t m, double *u, double *
     }
     struct bsti_plus *p = bsti_calloc(ctx, 1, sizeof *p);
     bst_mat *r = NULL;
-    int rc = p ? bsti_mat_alloc(ctx, BST_PLUS_LR, base->s == BST_DENSE ? base->prec : BST_DOUBLE,
-                                base->rows, base->cols, &r)
-               : BST_ENOMEM;
+    int rc = p ? bsti_mat_alloc(ctx, BST_PLUS_LR, BST_DOUBLE, base->rows, base->cols, &r) : BST_ENOMEM;
     if (rc < 0) {
         bsti_free(ctx, p), bsti_free(ctx, u), bsti_free(ctx, w);
         bst_mat_free(base);
@@ -50,41 +48,14 @@ int bsti_mat_plus_new(bst_ctx *ctx, bst_mat *base, size_t m, double *u, double *
     }
     p->base = base, p->m = m, p->u = u, p->w = w;
     r->plus = p;
-    r->prec = base->s == BST_DENSE ? base->prec : BST_DOUBLE; /* (bsti_mat_alloc: DENSE's alone) */
+    r->prec = base->s == BST_DENSE ? base->prec : BST_DOUBLE; /* (bsti_mat_alloc sets DENSE's alone) */
     *out = r;
     return BST_OK;
 }
 
 /* ------------------------------------------------------------------ thin products */
 
-/* A dense matrix's values as doubles into out (rows x cols), any other through a dense copy. */
-static int values_into(bst_ctx *ctx, const bst_mat *y, double *out)
-{
-    size_t n = y->rows * y->cols;
-    if (y->s == BST_ZERO) {
-        memset(out, 0, n * sizeof *out);
-        return BST_OK;
-    }
-    if (y->s == BST_DENSE && y->prec == BST_DOUBLE) {
-        memcpy(out, y->dense, n * sizeof *out);
-        return BST_OK;
-    }
-    if (y->s == BST_DENSE) {
-        for (size_t k = 0; k < n; k++)
-            out[k] = ((const float *)y->dense)[k];
-        return BST_OK;
-    }
-    bst_mat *d;
-    int rc = bsti_mat_to_dense(ctx, y, BST_DOUBLE, &d);
-    if (rc >= 0)
-        memcpy(out, d->dense, n * sizeof *out);
-    bst_mat_free(d);
-    return rc;
-}
-
-/* out (a->rows x m) = A X, X a->cols x m (column-major doubles), through the structured product
- * (a dense float A gives float rounding). */
-static int mul_thin(bst_ctx *ctx, const bst_mat *a, const double *x, size_t m, double *out)
+int bsti_mul_thin(bst_ctx *ctx, const bst_mat *a, const double *x, size_t m, double *out)
 {
     bst_mat xm = {.ctx = ctx, .s = BST_DENSE, .prec = BST_DOUBLE, .rows = a->cols, .cols = m,
                   .dense = (void *)x};
@@ -92,13 +63,12 @@ static int mul_thin(bst_ctx *ctx, const bst_mat *a, const double *x, size_t m, d
     int rc = bst_mat_mul(ctx, a, &xm, 0.0, &y);
     if (rc < 0)
         return rc;
-    rc = values_into(ctx, y, out);
+    rc = bst_mat_to_dense_array(ctx, y, out);
     bst_mat_free(y);
     return rc;
 }
 
-/* out (a->cols x m) = A^T X, X a->rows x m: GEMM on a dense double A, else (X^T A)^T. */
-static int mul_thin_t(bst_ctx *ctx, const bst_mat *a, const double *x, size_t m, double *out)
+int bsti_mul_thin_t(bst_ctx *ctx, const bst_mat *a, const double *x, size_t m, double *out)
 {
     size_t r = a->rows, c = a->cols;
     if (a->s == BST_DENSE && a->prec == BST_DOUBLE) {
@@ -119,7 +89,7 @@ static int mul_thin_t(bst_ctx *ctx, const bst_mat *a, const double *x, size_t m,
         rc = bst_mat_mul(ctx, &xm, a, 0.0, &y);
     }
     if (rc >= 0)
-        rc = values_into(ctx, y, yt);
+        rc = bst_mat_to_dense_array(ctx, y, yt);
     if (rc >= 0)
         for (size_t j = 0; j < c; j++)
             for (size_t k = 0; k < m; k++)
@@ -222,8 +192,7 @@ int bsti_plus_settle(bst_ctx *ctx, bst_mat **pm)
         bst_mat_free(m);
         return BST_OK;
     }
-    if ((double)p->m * (double)(m->rows + m->cols) <
-        BSTI_PLUS_DENSE_SHARE * (double)m->rows * (double)m->cols)
+    if (bsti_plus_fits(m->rows, m->cols, p->m))
         return BST_OK;
     bst_mat *d;
     if ((rc = bsti_plus_to_dense(ctx, m, m->prec, &d)) < 0)
@@ -264,7 +233,7 @@ int bsti_mul_plus(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop,
     double *core = bsti_alloc_array(ctx, ma * mb + 1, sizeof *core);
     int rc = u && w && core ? bst_mat_mul(ctx, ab, bb, drop, &base) : BST_ENOMEM;
     if (rc >= 0 && mb) { /* U'[:, :mb] = A Ub + Ua (Wa^T Ub), W'[:, :mb] = Wb */
-        rc = mul_thin(ctx, ab, ub, mb, u);
+        rc = bsti_mul_thin(ctx, ab, ub, mb, u);
         if (rc >= 0 && ma) {
             cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, (int)ma, (int)mb, (int)n, 1.0, wa,
                         (int)n, ub, (int)n, 0.0, core, (int)ma);
@@ -275,7 +244,7 @@ int bsti_mul_plus(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop,
     }
     if (rc >= 0 && ma) { /* U'[:, mb:] = Ua, W'[:, mb:] = B^T Wa */
         memcpy(u + r * mb, ua, r * ma * sizeof *u);
-        rc = mul_thin_t(ctx, bb, wa, ma, w + c * mb);
+        rc = bsti_mul_thin_t(ctx, bb, wa, ma, w + c * mb);
     }
     bsti_free(ctx, core);
     return plus_settled(ctx, rc, base, m, u, w, out);

@@ -251,12 +251,11 @@ static void venetian_channel(const bst_venetian *v, size_t N, bst_plan_held *h)
 {
     int diffuse = v->r_up > 0 || v->r_down > 0 || v->t > 0;
     size_t width = 8 * (size_t)v->segments; /* [U_ext | U_int | Q_ext^T | Q_int^T] */
-    double strips = 2.0 * (double)v->segments;
     if (v->rule == BST_VENETIAN_CENTRE)
         h->dense += BST_NCOMP;
     else if (diffuse && v->rs == 0 && (double)width < BSTI_LR_DENSE_SHARE * (double)N)
         h->factored += BST_NCOMP, h->width = width > h->width ? width : h->width;
-    else if (diffuse && 2.0 * strips < BSTI_PLUS_DENSE_SHARE * (double)N)
+    else if (diffuse && bsti_plus_fits(N, N, 2 * (size_t)v->segments)) /* 2 strips a segment */
         h->plus += BST_NCOMP; /* PLUS_LR */
     else if (diffuse)
         h->dense += BST_NCOMP;

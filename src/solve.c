@@ -1160,7 +1160,8 @@ static int solve_plus(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a
     for (size_t q = 0; q < nb && rc >= 0; q++) {
         size_t m = mb[q] + ma;
         double *u = bsti_alloc_array(ctx, n * m + 1, sizeof *u), *w = bsti_alloc_array(ctx, n * m + 1, sizeof *w);
-        double *g = bsti_alloc_array(ctx, n * ma + ma * mb[q] + 1, sizeof *g), *core = g + n * ma;
+        double *g = bsti_alloc_array(ctx, 2 * n * ma + ma * mb[q] + 1, sizeof *g), *gt = g + n * ma,
+               *core = gt + n * ma;
         rc = u && w && g ? BST_OK : BST_ENOMEM;
         const double *tb = t ? (right ? t + off[q] : t + off[q] * n) : NULL;
         if (rc >= 0 && !right) {
@@ -1171,15 +1172,10 @@ static int solve_plus(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a
             }
             if (ma) {
                 memcpy(u + n * mb[q], t, n * ma * sizeof *u);
-                bst_mat *wat = NULL, *gt = NULL;
-                bst_mat wam = {.ctx = ctx, .s = BST_DENSE, .prec = BST_DOUBLE, .rows = n, .cols = ma,
-                               .dense = (void *)wa};
-                rc = bst_mat_transpose(ctx, &wam, &wat); /* Wa^T (ma x n) */
-                if (rc >= 0)
-                    rc = bst_mat_mul(ctx, wat, x[q], 0.0, &gt); /* G = Wa^T X0 (ma x n) */
-                if (rc >= 0)
-                    rc = bst_mat_to_dense_array(ctx, gt, g);
-                bst_mat_free(wat), bst_mat_free(gt);
+                rc = bsti_mul_thin_t(ctx, x[q], wa, ma, gt); /* G^T = X0^T Wa (n x ma) */
+                for (size_t k = 0; rc >= 0 && k < ma; k++)
+                    for (size_t i = 0; i < n; i++)
+                        g[i * ma + k] = gt[k * n + i];
                 if (rc >= 0 && mb[q]) { /* G += (Wa^T Zb) Wb^T */
                     cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, (int)ma, (int)mb[q], (int)n,
                                 1.0, wa, (int)n, tb, (int)n, 0.0, core, (int)ma);
@@ -1201,13 +1197,7 @@ static int solve_plus(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a
                 for (size_t i = 0; i < n; i++)
                     w[k * n + i] = tb[i * mt + k];
             if (ma) {
-                bst_mat uam = {.ctx = ctx, .s = BST_DENSE, .prec = BST_DOUBLE, .rows = n, .cols = ma,
-                               .dense = (void *)ua};
-                bst_mat *q0 = NULL;
-                rc = bst_mat_mul(ctx, x[q], &uam, 0.0, &q0); /* Y0 Ua (n x ma) */
-                if (rc >= 0)
-                    rc = bst_mat_to_dense_array(ctx, q0, u + n * mb[q]);
-                bst_mat_free(q0);
+                rc = bsti_mul_thin(ctx, x[q], ua, ma, u + n * mb[q]); /* Y0 Ua (n x ma) */
                 if (rc >= 0 && mb[q]) {
                     cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)mb[q], (int)ma, (int)n,
                                 1.0, tb, (int)mt, ua, (int)n, 0.0, core, (int)mb[q]);

@@ -581,19 +581,25 @@ static int component_factored(struct build *B, int c, int in, int exit, bst_mat 
     return rc;
 }
 
+/* Component c's sparse part alone (zero where it has none). */
+static int sparse_part(struct build *B, int c, bst_mat **out)
+{
+    const struct trip *t = &B->tr[c];
+    return t->nnz ? bst_mat_new_sparse(B->ctx, B->n, B->n, t->nnz, t->row, t->col, t->val, out)
+                  : bst_mat_new_zero(B->ctx, B->n, B->n, out);
+}
+
 /* Component c as PLUS_LR (mat.h): its sparse part plus U W^T, U = the strips' views from the
  * outgoing patches of its exit side (N x 2m), W = their emissions for its incident side: a blind
  * with a mirror part and diffuse slats, N^2 values dense (2 GiB at k = 7), 2 N 2m so. */
 static int component_plus(struct build *B, int c, int in, int exit, bst_mat **out)
 {
-    struct trip *t = &B->tr[c];
     size_t n = B->n, ne = B->ne;
     bst_mat *base = NULL;
     double *u = bsti_alloc_array(B->ctx, n * ne, sizeof *u), *w = bsti_alloc_array(B->ctx, n * ne, sizeof *w);
     int rc = u && w ? BST_OK : BST_ENOMEM;
     if (rc >= 0)
-        rc = t->nnz ? bst_mat_new_sparse(B->ctx, n, n, t->nnz, t->row, t->col, t->val, &base)
-                    : bst_mat_new_zero(B->ctx, n, n, &base);
+        rc = sparse_part(B, c, &base);
     if (rc < 0) {
         bsti_free(B->ctx, u), bsti_free(B->ctx, w);
         return rc;
@@ -648,18 +654,18 @@ static int component_float(struct build *B, int c, int in, int exit, bst_mat **o
 }
 
 /* Component c: its sparse part, plus (diffuse slats) U_x^T Q_y: factored over B->W where there is
- * one, else as a dense matrix (in the blind's precision). */
+ * one, else sparse plus low rank where the rank is small beside N, else as a dense matrix (in the
+ * blind's precision). */
 static int component(struct build *B, int c, int diffuse, bst_mat **out)
 {
     struct trip *t = &B->tr[c];
     size_t n = B->n;
     if (!diffuse)
-        return t->nnz ? bst_mat_new_sparse(B->ctx, n, n, t->nnz, t->row, t->col, t->val, out)
-                      : bst_mat_new_zero(B->ctx, n, n, out);
+        return sparse_part(B, c, out);
     int in = c == BST_TB || c == BST_RB, exit = c == BST_TF || c == BST_RB;
     if (B->W)
         return component_factored(B, c, in, exit, out);
-    if ((double)B->ne * 2.0 * (double)n < BSTI_PLUS_DENSE_SHARE * (double)n * (double)n)
+    if (bsti_plus_fits(n, n, B->ne))
         return component_plus(B, c, in, exit, out);
     if (B->v->precision == BST_FLOAT)
         return component_float(B, c, in, exit, out);

@@ -243,6 +243,18 @@ START_TEST(test_solve)
     double *rx = tm_dense(ctx, xd);
     ck_assert_msg(rel_err(x, rx, N, N) <= tol, "%s %s: %g", tm_kind_name[ka], right ? "right" : "left",
                   rel_err(x, rx, N, N));
+    /* and its residual, formed here: (I - A) X - B, or X (I - A) - B */
+    double *xv = tm_dense(ctx, x), *ax = malloc(N * N * sizeof *ax);
+    if (right)
+        tm_gemm(N, N, N, xv, ra, ax);
+    else
+        tm_gemm(N, N, N, ra, xv, ax);
+    double res = 0, big = tm_maxabs(rb, N * N);
+    for (size_t k = 0; k < N * N; k++)
+        res = fmax(res, fabs(xv[k] - ax[k] - rb[k]));
+    ck_assert_msg(res <= tol * big, "%s %s residual: %g", tm_kind_name[ka], right ? "right" : "left",
+                  res / big);
+    free(xv), free(ax);
     /* sparse bases keep the form; a dense one takes the low-rank part into its values
        (bsti_plus_settle) */
     if (ka == TM_DIAG && kb == TM_SPARSE) /* (a random sparse E^-1 fills) */
