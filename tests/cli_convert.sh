@@ -128,6 +128,9 @@ expect_error "convert --precision single, below the need" "k = 6 needs about 0.4
 expect_error "info --max-memory below the need" "info: k = 5 needs about 0.10[0-9]* GiB \(4 dense components of 0.00781 GiB\), more than the 0.00977 GiB --max-memory allows: use 'bsdfstack convert -k K'" -- \
     "$BSDFSTACK" info --max-memory 10M "$ref/L_diffuser_t3k5.xml"
 [ ! -s "$tmpdir/out" ] && pass "info prints nothing when refused" || fail "info printed though refused"
+# a sparse file (the clear pane's tree): no dense component, and info's own advice still
+expect_error "info --max-memory below the need, a sparse file" "info: k = 5 needs about [0-9.]+ GiB \(no dense component\), more than the 0.000977 GiB --max-memory allows: use 'bsdfstack convert -k K'" -- \
+    "$BSDFSTACK" info --max-memory 1M "$ref/L_glass_t4k5.xml"
 
 # SOURCE_DATE_EPOCH fixes the header's date, so that two conversions give the same bytes but for the
 # recorded command line (the output's name)

@@ -347,7 +347,6 @@ static int run(int argc, char **argv, int rank, int size)
     }
     b.args.basis.combining = 1;
     b.args.basis.work = b.args.so.precision;
-    b.args.basis.lower = cli_lower_hint(b.args.so.precision);
 
     /* rank 0 reads and checks the file and every layer; the others get its text and the basis */
     char *text = NULL;

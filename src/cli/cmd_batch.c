@@ -677,7 +677,6 @@ int cmd_batch(int argc, char **argv)
         rc = CLI_FAIL;
     b.args.basis.combining = 1;
     b.args.basis.work = b.args.so.precision;
-    b.args.basis.lower = cli_lower_hint(b.args.so.precision);
     if (rc == CLI_OK)
         rc = cli_layers_load(&b.all, ctx, sub, b.nspecs, b.specs, &b.args.basis, b.args.channels, 0,
                              b.args.so.precision);

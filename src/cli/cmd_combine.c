@@ -112,7 +112,6 @@ static int load(bst_ctx *ctx, const char *sub, struct combine_req *q, struct cli
         cli_blas_note(sub);
     q->args.basis.combining = q->ndirs == 0; /* columns (--incident) need little beyond the layers */
     q->args.basis.work = q->args.so.precision;
-    q->args.basis.lower = cli_lower_hint(q->args.so.precision);
     int rc = cli_layers_load(set, ctx, sub, q->nspecs, q->specs, &q->args.basis, q->args.channels,
                              0, q->args.so.precision);
     if (rc == CLI_OK && q->verbose) {

@@ -188,7 +188,6 @@ static int parse(int argc, char **argv, struct convert_req *q)
         return CLI_FAIL;
     if (reduce_set && q->no_reduce)
         return cli_usage(sub, "--reduce and --no-reduce exclude each other");
-    q->basis.lower = cli_lower_hint(q->precision);
     if (q->rank && q->basis.klems)
         return cli_usage(sub, "--rank applies to tensor trees, not to --klems");
     return CLI_OK;

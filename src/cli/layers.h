@@ -12,7 +12,8 @@ struct cli_basis_choice {
     double max_memory; /* --max-memory (bytes); 0 = the memory available now */
     int combining;     /* 1: the layers are combined next, in `work` precision */
     bst_precision work;
-    const char *lower; /* the options that lower the need, for the message; NULL = "-k" */
+    const char *lower; /* the options that lower the need, for the message; NULL: a lower -k,
+                          --precision single (where it lowers the need) or fewer --channels */
     int at_centre;     /* --glass-rule centre: panes at patch centres (WINDOW's), 0: averages */
     bst_rank3_rule rank3; /* --rank3: how rank-3 trees meet a finer grid (bst_bsdf_set_rank3_rule) */
 };
@@ -32,9 +33,6 @@ int cli_memory_check(const char *sub, const bst_basis *basis, size_t n, bst_bsdf
 int cli_memory_check_held(const char *sub, const bst_basis *basis, size_t n,
                           const bst_plan_held *held, unsigned comps, bst_precision prec,
                           const struct cli_basis_choice *choice);
-/* The options that lower a command's need, for the guard's message: --precision single only where
- * the work is not single already. */
-const char *cli_lower_hint(bst_precision work);
 /* Parse SIZE: bytes, or a number with K, M, G or T (powers of 1024); CLI_OK or a usage error. */
 int cli_parse_memory(const char *sub, const char *value, double *bytes);
 

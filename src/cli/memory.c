@@ -64,9 +64,12 @@ static void counted(const bst_plan_need *got, double cells, int combining, char 
                  got->dense == 1 ? "" : "s", each / gib);
 }
 
-const char *cli_lower_hint(bst_precision work)
+/* The options that lower a combination's or conversion's need, in precision prec: --precision
+ * single only where dense components count (factored or sparse results and the writer's grid of
+ * doubles are the same in either precision). */
+static const char *lower_hint(bst_precision prec)
 {
-    return work == BST_FLOAT ? "a lower -k or fewer --channels"
+    return prec == BST_FLOAT ? "a lower -k or fewer --channels"
                              : "a lower -k, --precision single or fewer --channels";
 }
 
@@ -87,11 +90,7 @@ int cli_memory_check_held(const char *sub, const bst_basis *basis, size_t n,
     else
         snprintf(where, sizeof where, "%s", bst_basis_name(basis));
     counted(&got, cells, choice->combining, what, sizeof what);
-    /* where no component is dense, the need is the writer's grid of doubles and sparse parts,
-       which --precision does not lower */
-    const char *lower = got.dense ? choice->lower : NULL;
-    if (!got.dense)
-        lower = cli_lower_hint(BST_FLOAT);
+    const char *lower = choice->lower ? choice->lower : lower_hint(got.dense ? prec : BST_FLOAT);
     return cli_fail(sub, "%s needs about %.3g GiB (%s%s), more than the %.3g GiB %s: use %s; or "
                     "raise the limit with --max-memory SIZE", where, need / gib, what,
                     choice->combining ? " and the combination's work" : "", limit / gib,
