@@ -290,6 +290,9 @@ typedef struct {
                                solves, sparse by dense products; LAPACK Working Note 41's counts),
                                O(N^2) element-wise work not counted; see bsdfstack-combine(1) */
     size_t rank;            /* BST_FACTORED: the rank of the low-rank part, else 0 */
+    int mirror;             /* 1: a dense factorization of the step was split in two halves by
+                               the layers' mirror symmetry about x = 0 (a quarter of its flops;
+                               bsdfstack-combine(1)), else 0 */
 } bst_stack_step;
 
 typedef struct {
@@ -300,7 +303,8 @@ typedef struct {
                                for some incident patch (or the system's T or R is below
                                -energy_tol), default BST_ENERGY_TOL */
     int strict;             /* 1: ill-conditioning and energy imbalance are errors, default 0 */
-    int force_dense;        /* 1: convert every matrix to dense first (the baseline), default 0 */
+    int force_dense;        /* 1: convert every matrix to dense first and split no solve by
+                               mirror symmetry (the baseline), default 0 */
     bst_precision precision;/* precision of dense work, default BST_DOUBLE */
     /* Called after each component of each step (for -v); may be NULL. */
     void (*on_step)(const bst_stack_step *step, void *opaque);

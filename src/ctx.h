@@ -28,6 +28,8 @@ struct bst_ctx {
     struct cholmod_common_struct *cholmod; /* started on first use, see bsti_cholmod */
     int threads;            /* bst_ctx_set_threads: 0 = one per CPU */
     double flops;           /* bsti_flops_add's count */
+    int no_mirror;          /* 1: no mirror split of dense solves (mirror.h; the stack's --dense) */
+    double mirror_splits;   /* dense factorizations split by mirror symmetry so far */
     /* large freed blocks kept for reuse while keep_depth > 0 (bsti_keep_begin) */
     pthread_mutex_t keep_lock;
     int keep_depth, nkept;

@@ -44,6 +44,7 @@ cancels digits although I - A itself is well scaled.
 #include "blas_threads.h"
 #include "ctx.h"
 #include "mat.h"
+#include "mirror.h"
 
 /* Factorizations up to this many rows run on one OpenBLAS thread (see dense_factor). */
 #define BSTI_LU_SERIAL_MAX 512
@@ -83,6 +84,8 @@ struct factor {
     void *lu;               /* DENSE: LU factors (double or float) */
     bst_mat *lu_mat;        /* DENSE: the matrix A whose storage holds lu, when it was taken */
     lapack_int *ipiv;
+    size_t mirror_g;        /* DENSE: lu holds the mirror split's halves (mirror.h) of this side,
+                               0: the whole matrix */
     double *w1, *w2;        /* SPARSE: vectors of n */
     double control[UMFPACK_CONTROL]; /* SPARSE: UMFPACK's settings for the solves */
     SuiteSparse_long *wi;   /* SPARSE: the caller's thread's solve workspace (sparse_wsolve) */
@@ -419,6 +422,50 @@ static int factor_sparse(bst_ctx *ctx, const bst_mat *a, bst_precision prec, str
     return BST_OK;
 }
 
+/* The first (half 0) or the second half's block of a mirror-split dense factorization (mirror.h):
+ * the top-left quarter, or the bottom-right one. */
+static void *block(const struct factor *f, int half)
+{
+    size_t h = f->n / 2, off = half ? h * f->n + h : 0;
+    return f->prec == BST_DOUBLE ? (void *)((double *)f->lu + off) : (void *)((float *)f->lu + off);
+}
+
+/* LU (getrf) and condition estimate (gecon against scale) of the n x n block a (leading dimension
+ * lda) in precision prec. */
+static int lu_block(bst_ctx *ctx, bst_precision prec, size_t n, size_t lda, void *a,
+                    lapack_int *ipiv, double scale, double *rcond)
+{
+    lapack_int N = (lapack_int)n, LDA = (lapack_int)lda, info;
+    /* OpenBLAS's threaded getrf spends small factorizations in thread hand-offs (N = 145: 60%
+     * of a Klems spectral stack's run in dgetrf_parallel): below BSTI_LU_SERIAL_MAX rows, one
+     * thread.  (OpenBLAS's thread count is process-wide: set back at once.) */
+    int threads = openblas_get_num_threads();
+    if (n <= BSTI_LU_SERIAL_MAX && threads > 1)
+        openblas_set_num_threads(1);
+    double dn = (double)n;
+    bsti_flops_add(ctx, 2.0 / 3.0 * dn * dn * dn - 0.5 * dn * dn + 5.0 / 6.0 * dn);
+    if (prec == BST_DOUBLE) {
+        info = LAPACKE_dgetrf_work(LAPACK_COL_MAJOR, N, N, a, LDA, ipiv);
+        if (info == 0)
+            info = LAPACKE_dgecon(LAPACK_COL_MAJOR, '1', N, a, LDA, scale, rcond);
+    } else {
+        float rc32 = 0.0f;
+        info = LAPACKE_sgetrf_work(LAPACK_COL_MAJOR, N, N, a, LDA, ipiv);
+        if (info == 0)
+            info = LAPACKE_sgecon(LAPACK_COL_MAJOR, '1', N, a, LDA, (float)scale, &rc32);
+        *rcond = rc32;
+    }
+    if (n <= BSTI_LU_SERIAL_MAX && threads > 1)
+        openblas_set_num_threads(threads);
+    if (info > 0 || *rcond == 0.0) {
+        *rcond = 0.0;
+        return bsti_error(ctx, BST_ESINGULAR, "I - A is singular (zero pivot %d)", (int)info);
+    }
+    if (info < 0)
+        return bsti_error(ctx, BST_EINTERNAL, "LAPACK getrf/gecon: argument %d", (int)-info);
+    return BST_OK;
+}
+
 static int factor_dense(bst_ctx *ctx, const bst_mat *a, bst_precision prec, struct factor *f,
                         double *rcond, bst_mat **take)
 {
@@ -452,36 +499,25 @@ static int factor_dense(bst_ctx *ctx, const bst_mat *a, bst_precision prec, stru
         return bsti_error(ctx, BST_ESINGULAR, "I - A has non-finite elements");
     if (n == 0)
         return BST_OK;
-    lapack_int N = (lapack_int)n, info;
+    size_t g = ctx->no_mirror ? 0 : bsti_mirror_side(n);
+    if (g && bsti_mirror_holds(f->lu, prec, n, g)) {
+        f->mirror_g = g;
+        ctx->mirror_splits++;
+        bsti_mirror_matrix(f->lu, prec, n, g, 1);
+    }
     double scale = fmax(1.0, f->anorm);
-    /* OpenBLAS's threaded getrf spends small factorizations in thread hand-offs (N = 145: 60%
-     * of a Klems spectral stack's run in dgetrf_parallel): below BSTI_LU_SERIAL_MAX rows, one
-     * thread.  (OpenBLAS's thread count is process-wide: set back at once.) */
-    int threads = openblas_get_num_threads();
-    if (n <= BSTI_LU_SERIAL_MAX && threads > 1)
-        openblas_set_num_threads(1);
-    double dn = (double)n;
-    bsti_flops_add(ctx, 2.0 / 3.0 * dn * dn * dn - 0.5 * dn * dn + 5.0 / 6.0 * dn);
-    if (prec == BST_DOUBLE) {
-        info = LAPACKE_dgetrf_work(LAPACK_COL_MAJOR, N, N, f->lu, N, f->ipiv);
-        if (info == 0)
-            info = LAPACKE_dgecon(LAPACK_COL_MAJOR, '1', N, f->lu, N, scale, rcond);
-    } else {
-        float rc32 = 0.0f;
-        info = LAPACKE_sgetrf_work(LAPACK_COL_MAJOR, N, N, f->lu, N, f->ipiv);
-        if (info == 0)
-            info = LAPACKE_sgecon(LAPACK_COL_MAJOR, '1', N, f->lu, N, (float)scale, &rc32);
-        *rcond = rc32;
-    }
-    if (n <= BSTI_LU_SERIAL_MAX && threads > 1)
-        openblas_set_num_threads(threads);
-    if (info > 0 || *rcond == 0.0) {
+    if (!f->mirror_g)
+        return lu_block(ctx, prec, n, n, f->lu, f->ipiv, scale, rcond);
+    /* the halves: rcond from the larger of their inverses' norms, a bound within a factor 2 of
+       the whole inverse's (mirror.h) */
+    size_t h = n / 2;
+    double rc2;
+    int rc = lu_block(ctx, prec, h, n, f->lu, f->ipiv, scale, rcond);
+    if (rc >= 0 && (rc = lu_block(ctx, prec, h, n, block(f, 1), f->ipiv + h, scale, &rc2)) >= 0)
+        *rcond = fmin(*rcond, rc2);
+    if (rc < 0)
         *rcond = 0.0;
-        return bsti_error(ctx, BST_ESINGULAR, "I - A is singular (zero pivot %d)", (int)info);
-    }
-    if (info < 0)
-        return bsti_error(ctx, BST_EINTERNAL, "LAPACK getrf/gecon: argument %d", (int)-info);
-    return BST_OK;
+    return rc;
 }
 
 /* I - A factored by its capacitance (lowrank_solve.c), on the side of a left (right 0) or right
@@ -555,23 +591,44 @@ static int factor_new(bst_ctx *ctx, const bst_mat *a, bst_precision prec, int ri
     return by_structure[a->s](ctx, a, prec, f, rcond, take);
 }
 
-/* x := M^-1 x or M^-T x with the dense factorization; x is dense in the factor's precision. */
-static int dense_solve_in_place(struct factor *f, int trans, bst_mat *x)
+/* x (n x nrhs, leading dimension n) := M^-1 x or M^-T x with the LU factors lu of an n x n block
+ * (leading dimension lda). */
+static int getrs_block(struct factor *f, int trans, size_t n, size_t lda, void *lu,
+                       lapack_int *ipiv, size_t nrhs, size_t ldx, void *x)
 {
-    lapack_int N = (lapack_int)f->n, nrhs = (lapack_int)x->cols, info = 0;
-    if (f->n && x->cols) {
-        char t = trans ? 'T' : 'N';
-        bsti_flops_add(f->ctx, (2.0 * (double)f->n - 1.0) * (double)f->n * (double)x->cols);
-        int saved = bsti_blas_serial_begin(f->n);
-        if (f->prec == BST_DOUBLE)
-            info = LAPACKE_dgetrs_work(LAPACK_COL_MAJOR, t, N, nrhs, f->lu, N, f->ipiv, x->dense, N);
-        else
-            info = LAPACKE_sgetrs_work(LAPACK_COL_MAJOR, t, N, nrhs, f->lu, N, f->ipiv, x->dense, N);
-        bsti_blas_serial_end(saved);
-    }
+    lapack_int N = (lapack_int)n, NR = (lapack_int)nrhs, info;
+    char t = trans ? 'T' : 'N';
+    bsti_flops_add(f->ctx, (2.0 * (double)n - 1.0) * (double)n * (double)nrhs);
+    int saved = bsti_blas_serial_begin(n);
+    if (f->prec == BST_DOUBLE)
+        info = LAPACKE_dgetrs_work(LAPACK_COL_MAJOR, t, N, NR, lu, (lapack_int)lda, ipiv, x,
+                                   (lapack_int)ldx);
+    else
+        info = LAPACKE_sgetrs_work(LAPACK_COL_MAJOR, t, N, NR, lu, (lapack_int)lda, ipiv, x,
+                                   (lapack_int)ldx);
+    bsti_blas_serial_end(saved);
     if (info != 0)
         return bsti_error(f->ctx, BST_EINTERNAL, "LAPACK getrs: argument %d", (int)-info);
     return BST_OK;
+}
+
+/* x := M^-1 x or M^-T x with the dense factorization; x is dense in the factor's precision.  A
+ * mirror-split factorization solves x's pair sums and differences with its halves (mirror.h). */
+static int dense_solve_in_place(struct factor *f, int trans, bst_mat *x)
+{
+    size_t n = f->n, g = f->mirror_g, h = n / 2;
+    if (!n || !x->cols)
+        return BST_OK;
+    if (!g)
+        return getrs_block(f, trans, n, n, f->lu, f->ipiv, x->cols, n, x->dense);
+    bsti_mirror_rows(x->dense, f->prec, n, g, x->cols, 1);
+    size_t es = f->prec == BST_DOUBLE ? sizeof(double) : sizeof(float);
+    int rc = getrs_block(f, trans, h, n, f->lu, f->ipiv, x->cols, n, x->dense);
+    if (rc >= 0)
+        rc = getrs_block(f, trans, h, n, block(f, 1), f->ipiv + h, x->cols, n,
+                         (char *)x->dense + h * es);
+    bsti_mirror_rows(x->dense, f->prec, n, g, x->cols, 0);
+    return rc;
 }
 
 /* A sparse factorization's solves with columns j0 .. j1 - 1 of b into those of the dense x (n rows),
@@ -925,19 +982,22 @@ static int inverse_pays(const struct factor *f, size_t nb, const bst_mat *const 
         getrs += 2.0 * n * n * (double)b[q]->cols;
         spmm += INV_SPMM_COST * 2.0 * (double)bst_mat_nnz(b[q]) * n;
     }
+    if (f->mirror_g) /* two halves: the inverse a quarter, the triangular solves half */
+        return 1.0 / 3.0 * n * n * n + spmm < 0.5 * getrs;
     return 4.0 / 3.0 * n * n * n + spmm < getrs;
 }
 
-/* The LU factors become the inverse (I - A)^-1 in their storage (getri, after its workspace
- * query). */
-static int dense_invert(bst_ctx *ctx, struct factor *f)
+/* The LU factors of the n x n block lu (leading dimension lda) become its inverse (getri, after
+ * its workspace query). */
+static int getri_block(bst_ctx *ctx, bst_precision prec, size_t n, size_t lda, void *lu,
+                       lapack_int *ipiv)
 {
-    lapack_int N = (lapack_int)f->n, lw = 0, info;
-    int dbl = f->prec == BST_DOUBLE;
+    lapack_int N = (lapack_int)n, LDA = (lapack_int)lda, lw = 0, info;
+    int dbl = prec == BST_DOUBLE;
     double qd = 0.0;
     float qf = 0.0f;
-    info = dbl ? LAPACKE_dgetri_work(LAPACK_COL_MAJOR, N, f->lu, N, f->ipiv, &qd, -1)
-               : LAPACKE_sgetri_work(LAPACK_COL_MAJOR, N, f->lu, N, f->ipiv, &qf, -1);
+    info = dbl ? LAPACKE_dgetri_work(LAPACK_COL_MAJOR, N, lu, LDA, ipiv, &qd, -1)
+               : LAPACKE_sgetri_work(LAPACK_COL_MAJOR, N, lu, LDA, ipiv, &qf, -1);
     if (info == 0)
         lw = dbl ? (lapack_int)qd : (lapack_int)qf;
     void *w = info == 0 ? bsti_alloc_array(ctx, lw > 0 ? (size_t)lw : 1, dbl ? sizeof(double)
@@ -946,11 +1006,11 @@ static int dense_invert(bst_ctx *ctx, struct factor *f)
     if (info == 0 && !w)
         return BST_ENOMEM;
     if (info == 0) {
-        double dn = (double)f->n;
+        double dn = (double)n;
         bsti_flops_add(ctx, 4.0 / 3.0 * dn * dn * dn - dn * dn + 5.0 / 3.0 * dn); /* LAWN 41 */
-        int saved = bsti_blas_serial_begin(f->n);
-        info = dbl ? LAPACKE_dgetri_work(LAPACK_COL_MAJOR, N, f->lu, N, f->ipiv, w, lw)
-                   : LAPACKE_sgetri_work(LAPACK_COL_MAJOR, N, f->lu, N, f->ipiv, w, lw);
+        int saved = bsti_blas_serial_begin(n);
+        info = dbl ? LAPACKE_dgetri_work(LAPACK_COL_MAJOR, N, lu, LDA, ipiv, w, lw)
+                   : LAPACKE_sgetri_work(LAPACK_COL_MAJOR, N, lu, LDA, ipiv, w, lw);
         bsti_blas_serial_end(saved);
     }
     bsti_free(ctx, w);
@@ -958,6 +1018,23 @@ static int dense_invert(bst_ctx *ctx, struct factor *f)
         return bsti_error(ctx, info > 0 ? BST_ESINGULAR : BST_EINTERNAL, "LAPACK getri: %s %d",
                           info > 0 ? "singular at" : "argument", (int)(info > 0 ? info : -info));
     return BST_OK;
+}
+
+/* The LU factors become the inverse (I - A)^-1 in their storage; a mirror-split factorization's
+ * halves are inverted and joined into the whole inverse. */
+static int dense_invert(bst_ctx *ctx, struct factor *f)
+{
+    size_t n = f->n, h = n / 2;
+    if (!f->mirror_g)
+        return getri_block(ctx, f->prec, n, n, f->lu, f->ipiv);
+    int rc = getri_block(ctx, f->prec, h, n, f->lu, f->ipiv);
+    if (rc >= 0)
+        rc = getri_block(ctx, f->prec, h, n, block(f, 1), f->ipiv + h);
+    if (rc >= 0) {
+        bsti_mirror_matrix(f->lu, f->prec, n, f->mirror_g, 0);
+        f->mirror_g = 0;
+    }
+    return rc;
 }
 
 /* out[q] = (I - A)^-1 b[q] or b[q] (I - A)^-1 by the inverse, the owned right-hand sides freed as

@@ -113,6 +113,7 @@ struct combiner {
     size_t step;
     const char *channel;
     double flops_mark; /* ctx->flops when the component being formed began */
+    double mirror_mark; /* ctx->mirror_splits then */
     struct bsti_prefix *keep; /* the absorptance's: factorizations kept (keep_slot), else NULL */
 };
 
@@ -374,7 +375,9 @@ static void form(struct combiner *cb, struct part *s, bst_comp c, double t0, str
 {
     s->own[c] = t.dies;
     double flops = cb->ctx->flops - cb->flops_mark;
+    int mirror = cb->ctx->mirror_splits > cb->mirror_mark;
     cb->flops_mark = cb->ctx->flops;
+    cb->mirror_mark = cb->ctx->mirror_splits;
     if (!cb->opts->on_step || cb->status < 0)
         return;
     bst_stack_step st = {
@@ -387,6 +390,7 @@ static void form(struct combiner *cb, struct part *s, bst_comp c, double t0, str
         .rcond = cb->rcond,
         .flops = flops,
         .rank = bsti_mat_rank(t.m),
+        .mirror = mirror,
     };
     cb->opts->on_step(&st, cb->opts->opaque);
 }
@@ -439,6 +443,7 @@ static void inward(struct combiner *cb, struct part *u, struct part *v, unsigned
     bsti_factor **slot = keep_slot(cb, GAP_INWARD);
     double t0 = now_seconds();
     cb->flops_mark = cb->ctx->flops;
+    cb->mirror_mark = cb->ctx->mirror_splits;
     struct term llrb1 = lam_both(cb, use(u, BST_RB));
     struct term a1 = mul(cb, want & BIT(BST_RB) ? keep(llrb1) : llrb1, use(v, BST_RF));
     if (want == BIT(BST_TF)) {
@@ -474,6 +479,7 @@ static void outward(struct combiner *cb, struct part *u, struct part *v, unsigne
     bsti_factor **slot = keep_slot(cb, GAP_OUTWARD);
     double t0 = now_seconds();
     cb->flops_mark = cb->ctx->flops;
+    cb->mirror_mark = cb->ctx->mirror_splits;
     struct term a2 = reflected_outwards(cb, v, u, BST_RB);
     if (want == OUTWARD && cheap_transmission(u->m[BST_TB])) {
         struct term x2, x1 = solve2(cb, a2, lam_times(cb, use(v, BST_TB)),
@@ -514,6 +520,7 @@ static void from_outward(struct combiner *cb, struct part *u, struct part *v, st
     const char *what = "towards the exterior";
     double t0 = now_seconds();
     cb->flops_mark = cb->ctx->flops;
+    cb->mirror_mark = cb->ctx->mirror_splits;
     struct term a2 = reflected_outwards(cb, v, u, BST_RB);
     struct term x2, x1 = solve2(cb, a2, lam_times(cb, use(v, BST_TB)),
                                 reflected_outwards(cb, v, u, BST_TF), what, NULL, &x2);
@@ -537,6 +544,7 @@ static void from_inward(struct combiner *cb, struct part *u, struct part *v, str
     const char *what = "towards the interior";
     double t0 = now_seconds();
     cb->flops_mark = cb->ctx->flops;
+    cb->mirror_mark = cb->ctx->mirror_splits;
     struct term llrb1 = lam_both(cb, use(u, BST_RB));
     struct term a1 = mul(cb, keep(llrb1), use(v, BST_RF));
     struct term x2, x1 = solve2(cb, a1, lam_tf1(cb, u), mul(cb, llrb1, use(v, BST_TB)), what,
@@ -825,7 +833,10 @@ int bsti_stack_combine_keep(bst_ctx *ctx, size_t n, const bst_layer *const *laye
     if (!ctx || !out)
         return BST_EINVAL;
     bsti_keep_begin(ctx); /* the steps' large blocks reused (ctx.h) */
+    int no_mirror = ctx->no_mirror;
+    ctx->no_mirror |= opts_in && opts_in->force_dense; /* the baseline splits nothing */
     int rc = combine_layers(ctx, n, layers, take, opts_in, out, keep);
+    ctx->no_mirror = no_mirror;
     bsti_keep_end(ctx);
     return rc;
 }

@@ -258,23 +258,60 @@ static int make_points(struct build *B)
     return BST_OK;
 }
 
+/* Whether patch i's quadrature points are mirrored (u -> 1 - u; a vertical blind's v -> 1 - v)
+ * on side `back`: on a Shirley-Chiu basis those of the half of the square beyond the slats'
+ * axis, so that the directions averaged for a patch and for its mirror image about the plane
+ * through the normal and the slats (mirror.h: x = 0 for a horizontal blind) are each other's
+ * images, the layer's matrices commute with that mirror to rounding, and a stack of such layers
+ * and panes has its dense solves split in halves (solve.c).  On the back the rule of the
+ * point-reflected patch a(i), whose coordinates sample() reflects: the opposite half. */
+static int mirrored(const struct build *B, size_t i, int back)
+{
+    if (bst_basis_order(B->b) == 0)
+        return 0;
+    size_t g = (size_t)1 << bst_basis_order(B->b), c = B->v->vertical ? i % g : i / g;
+    return (c >= g / 2) != (back != 0);
+}
+
+/* Patch i's mirror image (mirrored()), the representative of the pair: min(i, image). */
+static size_t pair_first(const struct build *B, size_t i)
+{
+    if (bst_basis_order(B->b) == 0)
+        return i;
+    size_t g = (size_t)1 << bst_basis_order(B->b), ix = i / g, iy = i % g;
+    size_t m = B->v->vertical ? ix * g + (g - 1 - iy) : (g - 1 - ix) * g + iy;
+    return m < i ? m : i;
+}
+
 /* Quadrature point p of patch i as a layer direction: incident from the exterior or leaving
- * through the interior opening (back 0, light along +Z) at the point's (u, v); incident from the
- * interior or leaving through the exterior opening (back 1, along -Z) at the point-reflected
- * coordinates (bsti_basis_antipode_uv).  So the directions averaged for patch a(i) on one side
- * are exactly the reverses of those averaged for patch i on the other, and every part that is
- * reciprocal direction by direction (the unobstructed light, the strips' first arrivals against
- * their views) is reciprocal patch by patch: Tf(o, i) = Tb(a(i), a(o)), R(o, i) = R(a(i), a(o)).
- * With the same (u, v) on both sides, the Halton points (not symmetric in a patch) left the
- * unobstructed light alone 0.2 % of the largest transmission off (k = 4, black slats). */
-static void sample(const struct build *B, size_t i, size_t p, int back, double s[3])
+ * through the interior opening (back 0, light along +Z) at the point's (u, v) (mirrored on half
+ * the patches: mirrored()); incident from the interior or leaving through the exterior opening
+ * (back 1, along -Z) at the point-reflected coordinates (bsti_basis_antipode_uv).  So the
+ * directions averaged for patch a(i) on one side are exactly the reverses of those averaged for
+ * patch i on the other, and every part that is reciprocal direction by direction (the
+ * unobstructed light, the strips' first arrivals against their views) is reciprocal patch by
+ * patch: Tf(o, i) = Tb(a(i), a(o)), R(o, i) = R(a(i), a(o)).  With the same (u, v) on both sides,
+ * the Halton points (not symmetric in a patch) left the unobstructed light alone 0.2 % of the
+ * largest transmission off (k = 4, black slats).  *lobe (may be NULL): the point's Gaussian
+ * point for the slats' roughness (spread()), its component along the slats mirrored with the
+ * direction. */
+static void sample(const struct build *B, size_t i, size_t p, int back, double s[3], double lobe[2])
 {
     double u = B->pts[4 * p], v = B->pts[4 * p + 1];
+    int m = mirrored(B, i, back);
+    if (m && B->v->vertical)
+        v = 1.0 - v;
+    else if (m)
+        u = 1.0 - u;
     if (back)
         bsti_basis_antipode_uv(B->b, i, &u, &v);
     bst_basis_sample(B->b, i, u, v, s);
     if (back)
         s[2] = -s[2];
+    if (lobe) {
+        lobe[0] = m ? -B->pts[4 * p + 2] : B->pts[4 * p + 2];
+        lobe[1] = B->pts[4 * p + 3];
+    }
 }
 
 /* One incident patch i from side col->back: its column's entries and first arrivals. */
@@ -285,9 +322,8 @@ static int incident_patch(struct build *B, struct column *col, double *row)
     double *dep = B->dep[col->back] + i * B->ne;
     col->n = 0;
     for (size_t p = 0; p < B->np; p++) {
-            const double *pt = B->pts + 4 * p;
-            double s[3], d[3], f;
-            sample(B, i, p, col->back, s);
+            double s[3], d[3], f, lobe[2];
+            sample(B, i, p, col->back, s, lobe);
             to_model(B, s, d);
             if (fabs(d[2]) < 1e-300) /* grazing: no flux crosses the blind's plane */
                 continue;
@@ -298,9 +334,9 @@ static int incident_patch(struct build *B, struct column *col, double *row)
             col_add(B, col, d, !col->back, open * wq);
             double hit = (1.0 - open) * wq;
             if (row[BSTI_VN_EVEN] > 0)
-                spread(B, d, 0, row[BSTI_VN_EVEN_N] / row[BSTI_VN_EVEN], hit * row[BSTI_VN_EVEN], pt + 2, row + BSTI_VN_EVEN_W, col);
+                spread(B, d, 0, row[BSTI_VN_EVEN_N] / row[BSTI_VN_EVEN], hit * row[BSTI_VN_EVEN], lobe, row + BSTI_VN_EVEN_W, col);
             if (row[BSTI_VN_ODD] > 0)
-                spread(B, d, 1, row[BSTI_VN_ODD_N] / row[BSTI_VN_ODD], hit * row[BSTI_VN_ODD], pt + 2, row + BSTI_VN_ODD_W, col);
+                spread(B, d, 1, row[BSTI_VN_ODD_N] / row[BSTI_VN_ODD], hit * row[BSTI_VN_ODD], lobe, row + BSTI_VN_ODD_W, col);
             for (size_t e = 0; e < B->ne; e++)
                 dep[e] += hit * row[BSTI_VN_DEP + e];
         }
@@ -347,9 +383,8 @@ static int incident_curved(struct build *B, struct column *col)
     double *dep = B->dep[col->back] + i * B->ne;
     size_t nt = 0;
     for (size_t p = 0; p < B->np; p++) {
-        const double *pt = B->pts + 4 * p;
-        double s[3], d[3], y0, z0, span, out[5];
-        sample(B, i, p, col->back, s);
+        double s[3], d[3], y0, z0, span, out[5], lobe[2];
+        sample(B, i, p, col->back, s, lobe);
         to_model(B, s, d);
         double r = hypot(d[1], d[2]), u[2] = {d[1] / r, d[2] / r};
         if (fabs(d[2]) < 1e-300)
@@ -361,12 +396,12 @@ static int incident_curved(struct build *B, struct column *col)
         double off = radical_inverse(p + 1, 11);
         for (size_t k = 0; k < nr; k++) {
             double start[2] = {y0 + span * ((double)k + off) / (double)nr, z0};
-            unsigned long seed = ((2 * i + (size_t)col->back) * B->np + p) * nr + k;
+            unsigned long seed = ((2 * pair_first(B, i) + (size_t)col->back) * B->np + p) * nr + k;
             long n = bsti_vn_curved_trace(&B->g, start, u, LONG_MIN, 0, hit, dep, sigma, seed, out);
             double e[3] = {d[0], r * out[1], r * out[2]}, dir[3];
             memcpy(dir, e, sizeof dir);
             if (B->v->roughness > 0 && n > 0) {
-                double s1 = B->v->roughness * sqrt((double)n / 2) * pt[2], len = sqrt(1 + s1 * s1);
+                double s1 = B->v->roughness * sqrt((double)n / 2) * lobe[0], len = sqrt(1 + s1 * s1);
                 double nl[3] = {0.0, out[3], out[4]}, once[3];
                 double nf[3] = {s1 / len, out[3] / len, out[4] / len};
                 reflect(e, nl, once);
@@ -431,7 +466,7 @@ static void trace_views(struct build *B)
         for (size_t o = 0; o < B->n; o++)
             for (size_t p = 0; p < B->np; p++) {
                     double s[3], d[3], f;
-                    sample(B, o, p, !exit, s);
+                    sample(B, o, p, !exit, s, NULL);
                     to_model(B, s, d);
                     size_t k = table_pos(d, &f);
                     add_interp(B->see[!exit], B->ne, k, f, wq, B->view[exit] + o * B->ne);

@@ -42,9 +42,10 @@ static void verbose_step(const bst_stack_step *s, void *opaque)
     char rank[32] = "";
     if (s->structure == BST_FACTORED || s->structure == BST_PLUS_LR)
         snprintf(rank, sizeof rank, " rank %zu", s->rank);
-    fprintf(stderr, "bsdfstack combine: layers 1-%zu %s %s: %s%s, %zu stored, %.3f s, %.3g GFLOP, "
+    fprintf(stderr, "bsdfstack combine: layers 1-%zu %s %s: %s%s, %zu stored, %.3f s, %.3g GFLOP%s, "
             "rcond %.3g, peak RSS %.1f MiB\n", s->step + 1, s->channel, bst_comp_name(s->comp),
-            names[s->structure], rank, s->nnz, s->seconds, s->flops * 1e-9, s->rcond,
+            names[s->structure], rank, s->nnz, s->seconds, s->flops * 1e-9,
+            s->mirror ? " (mirror halves)" : "", s->rcond,
             ru.ru_maxrss / 1024.0);
 }
 

@@ -1,0 +1,48 @@
+/* mirror.h - the mirror split of a dense inter-reflection solve.
+ *
+ * A horizontal venetian blind, a pane, a diffuser: a layer whose geometry is symmetric about the
+ * plane x = 0 (through the normal and the slats' direction) has matrices that commute with the
+ * permutation S of that mirror, exact at every Shirley-Chiu order: cell (ix, iy), index
+ * ix 2^k + iy (basis.h), goes to (2^k - 1 - ix, iy), which pairs each cell p of the first half
+ * (ix < 2^(k-1), index below n/2) with a cell S p of the second.  A stack of such layers has them
+ * too, and so has each I - A it solves with.  Ordered by pairs, such a matrix is [[A, B], [B, A]],
+ * and the sums and differences of paired values split it into two independent halves,
+ *   P = A + B (on x_p + x_Sp)   and   M = A - B (on x_p - x_Sp),
+ * so that an LU, a solve or an inverse costs two of n/2: a quarter of the flops and a few O(n^2)
+ * passes (bench/README.md, "Mirror-symmetric stacks").  The split is held in the matrix's own
+ * storage: P in the top-left quarter (rows and columns p < n/2), M's value of pair (p, q) at
+ * (S p, S q), the bottom-right quarter in S's order (a reordering of M by one permutation on both
+ * sides, which products, LU and solves carry through); a vector's sum of pair p at p and its
+ * difference at S p.  The two other quarters are left as they were (not read).
+ *
+ * Whether a matrix has the symmetry is read from its values, not assumed from its layers: every
+ * pair of values S maps onto each other must agree to BSTI_MIRROR_TOL (double) or
+ * BSTI_MIRROR_TOL_FLOAT (float) of its largest magnitude.  Those that agree to rounding (a stack
+ * computed without the split) are made exactly symmetric (each of P and M from the average of
+ * its two readings), a change far below the solve's own rounding. */
+#ifndef BST_MIRROR_H
+#define BST_MIRROR_H
+
+#include <stddef.h>
+#include "bsdfstack.h"
+
+#define BSTI_MIRROR_TOL 1e-12
+#define BSTI_MIRROR_TOL_FLOAT 1e-6
+/* The smallest n split: below it the passes cost more than the halves save. */
+#define BSTI_MIRROR_MIN_N 256
+
+/* g (the square's cells a side) when n = g^2 with g a power of two >= 2 and n at least
+ * BSTI_MIRROR_MIN_N, else 0. */
+size_t bsti_mirror_side(size_t n);
+/* Whether the n x n column-major matrix a (double or float by prec, leading dimension n) commutes
+ * with S of side g (bsti_mirror_side) to the tolerance above. */
+int bsti_mirror_holds(const void *a, bst_precision prec, size_t n, size_t g);
+/* a (as above) made P and M in its own storage (split 1), or P^-1 and M^-1 (or any pair of
+ * halves) made the whole matrix again (split 0): each pair of paired values set to
+ * (P + M) / 2 and (P - M) / 2. */
+void bsti_mirror_matrix(void *a, bst_precision prec, size_t n, size_t g, int split);
+/* The rows of x (n x ncols, column-major, leading dimension n) made sums and differences of
+ * pairs (split 1), or halves again (split 0: x_p = (s + d) / 2, x_Sp = (s - d) / 2). */
+void bsti_mirror_rows(void *x, bst_precision prec, size_t n, size_t g, size_t ncols, int split);
+
+#endif
