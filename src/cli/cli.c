@@ -410,6 +410,13 @@ void cli_patch_direction(const bst_basis *b, size_t p, double *theta, double *ph
         *phi += 360;
 }
 
+size_t cli_incident_patch(const bst_basis *b, double theta, double phi)
+{
+    double t = fmin(theta, 90 - 1e-7) * M_PI / 180, p = phi * M_PI / 180;
+    double d[3] = {sin(t) * cos(p) + 1e-9, sin(t) * sin(p) + 1e-9, cos(t)};
+    return bst_basis_patch(b, d);
+}
+
 int cli_parse_precision(const char *sub, const char *s, bst_precision *prec)
 {
     if (strcmp(s, "double") == 0)

@@ -139,6 +139,10 @@ int cli_parse_incident(const char *sub, const char *s, double dir[2]);
 /* Theta and phi (degrees, phi in [0, 360)) of the centre of patch p of b (bst_basis_center): the
  * exit direction of every TSV the program writes. */
 void cli_patch_direction(const bst_basis *b, size_t p, double *theta, double *phi);
+/* The incident patch of b for light propagating at (theta, phi) (degrees; theta clamped below 90):
+ * a direction on a patch boundary takes the patch on its +x, +y side (1e-9 added to x and y), the
+ * rule of info's table, which plot's map and curves share. */
+size_t cli_incident_patch(const bst_basis *b, double theta, double phi);
 
 /* Print a subcommand's help text (the same text as its man page's synopsis and options). */
 void cli_print_help(FILE *fp, const char *text);

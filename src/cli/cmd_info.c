@@ -384,9 +384,7 @@ int cmd_info(int argc, char **argv)
             for (int p = 0; p <= 90; p += 90) {
                 if (t == 0 && p)
                     continue;
-                double d[3] = {sin(t * M_PI / 180) * cos(p * M_PI / 180) + 1e-9,
-                               sin(t * M_PI / 180) * sin(p * M_PI / 180) + 1e-9, cos(t * M_PI / 180)};
-                size_t j = bst_basis_patch(basis, d);
+                size_t j = cli_incident_patch(basis, t, p);
                 char v[4][32];
                 printf("%5d %4d %s %s %s %s\n", t, p, value(v[0], 8, h[j]),
                        value(v[1], 7, h[n + j]), value(v[2], 7, h[2 * n + j]),

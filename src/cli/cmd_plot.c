@@ -4,9 +4,10 @@
  * exit hemisphere as a disk with a colour scale (drawing: hemimap.c), from a BSDF XML file or
  * from a column of the TSV `combine --incident` writes (incident_table.c).  Incidence directions
  * are those the light propagates in, as in `compare` and `info`.  A PNG of a file is evaluated
- * pixel by pixel exactly as RADIANCE's libBSDF evaluates the file; SVG and PDF draw the cells of
- * the file's own basis (Klems patches, or Shirley-Chiu cells at the tree's order) with the value
- * at each cell's centre, and so does every format for a table, which holds only those values.
+ * pixel by pixel exactly as RADIANCE's libBSDF evaluates the file, for light from the incident
+ * patch info's table takes (incidence()); SVG and PDF draw the cells of the file's own basis
+ * (Klems patches, or Shirley-Chiu cells at the tree's order) with the value at each cell's
+ * centre, and so does every format for a table, which holds only those values.
  *
  * The curves (--curve): directional-hemispherical values against incidence theta, plot_curve.c. */
 #include <config.h>
@@ -47,7 +48,8 @@ static const char help[] =
     "                     list, e.g. Tf,Rf for T and R of front incidence (default Tf)\n"
     "  --incident T,P     direction the incident light propagates in, degrees (default 0,0; for a\n"
     "                     table its first direction): theta from the normal of the incidence\n"
-    "                     side, phi from +X towards +Y\n"
+    "                     side, phi from +X towards +Y; a patch boundary takes the patch on the\n"
+    "                     +x, +y side, as in info's table\n"
     "  --channel NAME     spectral channel (default: the file's first; with --curve every channel,\n"
     "                     one chart each)\n"
     "  --dsf              plot the DSF, BSDF x cos(theta_out), the light's distribution\n"
@@ -121,6 +123,26 @@ struct map_data {
     struct plot *eval;        /* a file: pixel by pixel; NULL: by cell */
 };
 
+/* Where the light comes from (in, towards the source) for the incidence o asks.  A Klems matrix
+ * or a rank-4 tree holds one value per incident patch of its own basis, so the light comes from
+ * the centre of the patch info's table takes (cli_incident_patch).  The direction asked would do
+ * off the patch boundaries, but 0,0 and the planes phi = 0, 90 lie on them: a transmission the
+ * file stores only for the other side is read with in and out exchanged, and the boundary,
+ * exchanged, is taken to the patch mirrored through the normal; a centre's image lies inside the
+ * antipodal patch, the one reciprocity pairs with it.  A rank-3 tree turns with the incidence
+ * azimuth: the direction asked. */
+static void incidence(const bst_bsdf *b, const bst_basis *basis, const struct map_opts *o,
+                      double in[3])
+{
+    double t = o->incident[0] * M_PI / 180, f = o->incident[1] * M_PI / 180;
+    double d[3] = {sin(t) * cos(f), sin(t) * sin(f), cos(t)}; /* the light's propagation */
+    if (bst_bsdf_kind(b) != BST_FILE_TT3)
+        bst_basis_center(basis, cli_incident_patch(basis, o->incident[0], o->incident[1]), d);
+    /* front (Tf, Rf) light travels towards +Z */
+    int front = o->comp == BST_TF || o->comp == BST_RF;
+    in[0] = -d[0], in[1] = -d[1], in[2] = (front ? -1 : 1) * d[2];
+}
+
 /* The cells' values of a file: at each cell's centre, as libBSDF evaluates the file. */
 static int file_cells(const char *sub, const char *path, const struct map_opts *o, bst_ctx *ctx,
                       bst_bsdf **b, bst_basis **sc_basis, struct plot *p, struct map_data *md)
@@ -136,17 +158,14 @@ static int file_cells(const char *sub, const char *path, const struct map_opts *
         if (p->ch == bst_bsdf_nchannels(*b))
             return cli_fail(sub, "%s: no channel '%s' in the file", path, o->channel);
     }
-    /* incidence side: front (Tf, Rf) light travels towards +Z; in points back at the source */
-    int front = o->comp == BST_TF || o->comp == BST_RF;
-    double t = o->incident[0] * M_PI / 180, f = o->incident[1] * M_PI / 180;
-    p->in[0] = -sin(t) * cos(f), p->in[1] = -sin(t) * sin(f), p->in[2] = -(front ? 1 : -1) * cos(t);
-    p->exit_sign = (o->comp == BST_TF || o->comp == BST_RB) ? 1 : -1;
     md->basis = bst_bsdf_klems_basis(*b);
     if (!md->basis) {
         if (bst_basis_new_sc(ctx, bst_bsdf_order(*b), sc_basis) < 0)
             return cli_fail_ctx(sub, path, ctx);
         md->basis = *sc_basis;
     }
+    incidence(*b, md->basis, o, p->in);
+    p->exit_sign = (o->comp == BST_TF || o->comp == BST_RB) ? 1 : -1;
     size_t n = bst_basis_size(md->basis);
     if (!(md->cell = malloc(n * sizeof *md->cell)))
         return cli_fail(sub, "out of memory");

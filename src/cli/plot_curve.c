@@ -7,7 +7,7 @@
  * azimuth phi the direction (theta, phi) crosses a sequence of incident patches; the curve is
  * the step function that holds each patch's value over the theta range the plane spends in it,
  * which is all the file says.  A direction on a patch boundary takes the patch on its +x, +y
- * side, exactly as info's table does (1e-9 added to x and y), so that the steps agree with it. */
+ * side, exactly as info's table does (cli_incident_patch), so that the steps agree with it. */
 #include <config.h>
 
 #include <math.h>
@@ -42,18 +42,10 @@ struct curves {
     size_t n, cap;
 };
 
-/* The incident patch of the propagation direction (theta, phi), boundaries to the +x, +y side. */
-static size_t patch_at(const bst_basis *basis, double theta, double phi)
-{
-    double t = fmin(theta, 90 - 1e-7) * M_PI / 180, p = phi * M_PI / 180;
-    double d[3] = {sin(t) * cos(p) + 1e-9, sin(t) * sin(p) + 1e-9, cos(t)};
-    return bst_basis_patch(basis, d);
-}
-
 /* The patches along the plane, as steps with the values h (one per patch). */
 static int make_steps(const bst_basis *basis, double phi, const double *h, struct curve *c)
 {
-    size_t cap = 64, prev = patch_at(basis, 0, phi);
+    size_t cap = 64, prev = cli_incident_patch(basis, 0, phi);
     double start = 0, lo = 0;
     c->n = 0;
     if (!(c->s = malloc(cap * sizeof *c->s)))
@@ -61,13 +53,14 @@ static int make_steps(const bst_basis *basis, double phi, const double *h, struc
     int nscan = (int)lround(90 / SCAN_STEP);
     for (int i = 1; i <= nscan + 1; i++) {
         double hi = i <= nscan ? i * SCAN_STEP : 90;
-        size_t p = i <= nscan ? patch_at(basis, hi, phi) : (size_t)-1; /* the end closes the last */
+        /* the end closes the last */
+        size_t p = i <= nscan ? cli_incident_patch(basis, hi, phi) : (size_t)-1;
         while (p != prev) {
             double a = lo, b = hi; /* prev at a, another patch at b */
             if (p != (size_t)-1)
                 while (b - a > BOUNDARY_TOL) {
                     double m = 0.5 * (a + b);
-                    if (patch_at(basis, m, phi) == prev)
+                    if (cli_incident_patch(basis, m, phi) == prev)
                         a = m;
                     else
                         b = m;
@@ -82,7 +75,7 @@ static int make_steps(const bst_basis *basis, double phi, const double *h, struc
             if (p == (size_t)-1)
                 return 0;
             start = lo = b;
-            prev = patch_at(basis, b, phi);
+            prev = cli_incident_patch(basis, b, phi);
         }
         lo = hi;
     }
