@@ -811,7 +811,8 @@ int bst_glass_optics_spectral(const bst_glass *g, double lambda_um, double theta
 #define BST_GLASS_LAYER_ROWS 5000
 int bst_glass_set_layer_rows(bst_ctx *ctx, bst_glass *g, size_t max);
 size_t bst_glass_layer_nodes(const bst_glass *g, size_t ch, size_t *rows);
-/* Add a band channel (Visible, Solar, CIE-X, CIE-Y, CIE-Z) to a spectral pane (see glass_band.c). */
+/* Add a band channel (Visible, Solar, CIE-X, CIE-Y, CIE-Z) to a spectral pane (see glass_band.c);
+ * BST_EFORMAT, the pane unchanged, when its data do not reach both ends of the band (1e-6 um). */
 int bst_glass_add_channel(bst_ctx *ctx, bst_glass *g, const char *name);
 /* The integration grid (um) of a band channel, NULL for other channels. */
 const double *bst_glass_channel_grid(const bst_glass *g, size_t ch, size_t *n);

@@ -174,7 +174,9 @@ int bsti_glass_read_glazing_v2(bst_ctx *ctx, const char *path, bst_glass *g, str
  * where: for messages. */
 int bsti_glass_band_average(bst_ctx *ctx, const struct bsti_glass_data *d, const char *dir,
                             const char *band, const char *where, double v[4]);
-/* Add band b as a channel of spectral pane g (where: for messages); complete or absent. */
+/* Add band b as a channel of spectral pane g (where: for messages); complete or absent.  Data that
+ * do not reach both ends of the band (to 1e-6 um) are refused, here and in
+ * bsti_glass_band_average, with one line: where, the range the data cover and the band's. */
 int bsti_glass_add_band(bst_ctx *ctx, bst_glass *g, const char *where,
                         const struct bsti_glass_band *b);
 

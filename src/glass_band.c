@@ -10,6 +10,11 @@
  * Shirley (JCGT 2(2), 2013), on the photopic grid; each channel is normalised by its own sum of S D,
  * so a grey pane has X = Y = Z (equal-energy white, as RADIANCE's colour).  The folded weights make
  * a channel a weighted sum of the model (glass.c) over wavelength nodes.
+ * The data must reach both ends of each band they are averaged over (to the same 1e-6 um): data
+ * that cover part of a band are refused, not averaged over that part as if it were the band.  WCE
+ * has no such check (it sums the data's own intervals inside the band, and holds the end values
+ * constant beyond the data on other grids), and WINDOW's standards files define a band by its ends
+ * alone (W5_NFRC_2003.std: Solar 0.3..2.5 um), with no rule for data that stop short of them.
  *
  * Tables (a pane's data, the band spectra in the catalogue directory) are whitespace-separated
  * text with the wavelength in micrometres first; a table in nanometres fails with a clear message.
@@ -28,7 +33,8 @@
 #include "ctx.h"
 #include "glass.h"
 
-/* Slack on the band limits when an integration interval counts (WCE's choice, um). */
+/* Slack on the band limits when an integration interval counts (WCE's choice, um), and when data
+ * reach a band's end (rounding: an Optics file's nanometres converted, say). */
 #define BAND_SLACK 1e-6
 /* Spectral data: a row's T + R may exceed 1 by this much (rounding in published tables). */
 #define DATA_SUM_TOL 1e-6
@@ -346,24 +352,37 @@ static void own_grid(const bst_glass *g, const struct bsti_glass_data *d,
     *m = b->solar ? d->n : g->photopic.n;
 }
 
+/* Whether data d reach both ends of band b (to BAND_SLACK); one line naming where, the data's
+ * range and the band's when they do not.  A band value from part of the band would pass for the
+ * whole band's: beyond the data, P would be their end values held constant (the photopic grid) or
+ * left out of the average (Solar, on the data's own wavelengths). */
+static int band_covered(bst_ctx *ctx, const struct bsti_glass_data *d, const char *where,
+                        const struct bsti_glass_band *b)
+{
+    if (d->wl[0] > b->lo + BAND_SLACK || d->wl[d->n - 1] < b->hi - BAND_SLACK)
+        return bsti_error(ctx, BST_EFORMAT, "%s: the data cover %g..%g um; the %s band needs "
+                          "%g..%g um", where, d->wl[0], d->wl[d->n - 1], b->name, b->lo, b->hi);
+    return BST_OK;
+}
+
 /* The weights w[0..m-1] of band b on that grid (own_grid): the band's average of P is
  * sum_k w[k] P(own[k]), P the data interpolated linearly; one line naming where when the data do
- * not reach the band. */
+ * not cover the band (band_covered). */
 static int own_weights(bst_ctx *ctx, const bst_glass *g, const struct bsti_glass_data *d,
                        const char *where, const struct bsti_glass_band *b, double *w)
 {
     const double *own;
     size_t m;
     own_grid(g, d, b, &own, &m);
-    if (d->wl[0] > b->hi || d->wl[d->n - 1] < b->lo)
-        return bsti_error(ctx, BST_EFORMAT, "%s: the data (%g..%g um) cover none of %s's range "
-                          "%g..%g um", where, d->wl[0], d->wl[d->n - 1], b->name, b->lo, b->hi);
+    int rc = band_covered(ctx, d, where, b);
+    if (rc < 0)
+        return rc;
     double *sd = bsti_alloc_array(ctx, m, sizeof *sd);
     if (!sd)
         return BST_ENOMEM;
     for (size_t k = 0; k < m; k++)
         sd[k] = band_sd(g, b, own[k]);
-    int rc = trapezoid(own, sd, m, b->lo, b->hi, w);
+    rc = trapezoid(own, sd, m, b->lo, b->hi, w);
     bsti_free(ctx, sd);
     if (rc < 0)
         return bsti_error(ctx, BST_EFORMAT, "%s: no interval of the data's wavelengths lies in "
@@ -384,9 +403,10 @@ static int fill_band(bst_ctx *ctx, bst_glass *g, const char *where,
     own_grid(g, d, b, &own, &m);
     const double *ig = b->solar ? g->solar.x : g->photopic.x;
     size_t mg = b->solar ? g->solar.n : g->photopic.n;
-    if (d->wl[0] > b->hi || d->wl[d->n - 1] < b->lo) /* before the channel is made */
-        return own_weights(ctx, g, d, where, b, NULL);
-    int rc = bsti_glass_channel_new(ctx, g, where, b->name, m);
+    int rc = band_covered(ctx, d, where, b); /* before the channel is made */
+    if (rc < 0)
+        return rc;
+    rc = bsti_glass_channel_new(ctx, g, where, b->name, m);
     if (rc < 0)
         return rc;
     struct bsti_glass_channel *c = &g->ch[g->nch];

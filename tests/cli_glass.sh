@@ -88,6 +88,20 @@ printf '0.4 0.8 0.8 0.08\n0.5 0.8 0.8 0.08 0.08\n' > "$tmpdir/short.tsv"
 expect_exit 1 "malformed spectral file" "short.tsv: line 1: column 5" -- "$BSDFSTACK" glass "$tmpdir/short.tsv"
 printf '300 0.8 0.8 0.08 0.08\n400 0.8 0.8 0.08 0.08\n' > "$tmpdir/nm.tsv"
 expect_exit 1 "nanometres" "micrometres" -- "$BSDFSTACK" glass "$tmpdir/nm.tsv"
+# a table short of a band it is averaged over: one line naming the file, the range it covers and the
+# band's, exit 1, and no output file (NFRC 103 cut at 0.78 um gave Solar T 0.8425 for 0.7707 and cut
+# below 0.6 um Visible 0.8690 for 0.8836, silently)
+awk '!/^[0-9]/ || $1 <= 0.78' "$BSDFSTACK_GLASS_DIR/spectral_NFRC_103.tsv" > "$tmpdir/partial2.tsv"
+awk '!/^[0-9]/ || $1 >= 0.6' "$BSDFSTACK_GLASS_DIR/spectral_NFRC_103.tsv" > "$tmpdir/partial6.tsv"
+expect_exit 1 "table short of the Solar band" \
+    "^bsdfstack glass: .*/partial2\.tsv: the data cover 0\.3\.\.0\.78 um; the Solar band needs 0\.3\.\.2\.5 um$" \
+    -- "$BSDFSTACK" glass "glass:$tmpdir/partial2.tsv"
+expect_exit 1 "table short of the Visible band" \
+    "/partial6\.tsv: the data cover 0\.6\.\.2\.5 um; the Visible band needs 0\.38\.\.0\.78 um$" \
+    -- "$BSDFSTACK" glass "glass:$tmpdir/partial6.tsv"
+expect_exit 1 "combine: a table short of the Solar band" "/partial2\.tsv: the data cover 0\.3\.\.0\.78 um" \
+    -- "$BSDFSTACK" combine -k 2 -o "$tmpdir/partial.xml" "glass:$tmpdir/partial2.tsv" glass:nfrc-103
+[ ! -e "$tmpdir/partial.xml" ] && pass "combine: no output file" || fail "combine wrote $tmpdir/partial.xml"
 expect_exit 1 "unknown channel" "no channel NIR" -- "$BSDFSTACK" glass --channels NIR clear-6mm
 expect_exit 1 "missing catalogue" "cannot open the glass catalogue" -- env BSDFSTACK_GLASS_DIR="$tmpdir/none" "$BSDFSTACK" glass --list
 # From the build tree, with no BSDFSTACK_GLASS_DIR, the program finds the source tree's catalogue
