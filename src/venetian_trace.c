@@ -226,10 +226,108 @@ void bsti_vn_view(const bsti_vn_geom *g, double a, double b, double *view)
                &eb);
 }
 
+/* Flat slats' exchange, exactly: between two parallel mirrors a path of k arrivals is a straight
+ * line in the unfolded channel, whose images of the slats are parallel lines H apart, the i-th
+ * the source's slat (i even) or the other one (i odd), each keeping its extent along the slats
+ * (reflection across a line parallel to them keeps that coordinate).  Light from a Lambertian
+ * strip of a long slat reaches line k over D = k H with flux D^2 / (2 r^3) per unit lengths of
+ * both (r^2 = D^2 + v^2, v the path's run along the slats), and arrives on strip e of line k
+ * where it crossed lines 1 .. k - 1 within their slats (else it left by an opening: the channel
+ * between two slats is convex).  With u0 the start and v the run, line i is crossed at
+ * u0 + v i / k: each line bounds u0 by an interval moving linearly with v, so the admissible
+ * length of u0 is piecewise linear in v, with its corners among the crossings of the bounds, and
+ * each piece integrates in closed form against D^2 / (2 r^3): antiderivatives v / (2 r) and
+ * -D^2 / (2 r).  Of the lines between, only the first two and last two bind (each class has one
+ * interval, moving by i / k).  The sampled exchange it replaces (64 positions x 64 angles a
+ * strip, midpoints) missed half of what escapes from strips deep in a nearly closed channel,
+ * which lossless slats turned into energy gained (1.2 % of T + R at tilt 80, width 30 mm). */
+struct bound {
+    double lo, hi, slope; /* u0 in [lo - slope v, hi - slope v] */
+};
+
+/* Integral over v of the admissible u0 length times D^2 / (2 r^3). */
+static double unfolded_flux(const struct bound *b, int nb, double D)
+{
+    double cand[2 * 6 * 6 + 2];
+    int nc = 0;
+    for (int i = 0; i < 2 * nb; i++) /* every crossing of two bounds (lower or upper) */
+        for (int j = i + 1; j < 2 * nb; j++) {
+            double ci = i < nb ? b[i].lo : b[i - nb].hi, si = b[i % nb].slope;
+            double cj = j < nb ? b[j].lo : b[j - nb].hi, sj = b[j % nb].slope;
+            if (si != sj)
+                cand[nc++] = (ci - cj) / (si - sj);
+        }
+    for (int i = 1; i < nc; i++) /* insertion sort: a few dozen values */
+        for (int j = i; j > 0 && cand[j] < cand[j - 1]; j--) {
+            double t = cand[j];
+            cand[j] = cand[j - 1], cand[j - 1] = t;
+        }
+    double sum = 0.0, D2 = D * D;
+    for (int c = 0; c + 1 < nc; c++) {
+        double v[2] = {cand[c], cand[c + 1]}, len[2];
+        if (!(v[1] > v[0]))
+            continue;
+        for (int e = 0; e < 2; e++) {
+            double lo = -INFINITY, hi = INFINITY;
+            for (int i = 0; i < nb; i++) {
+                lo = fmax(lo, b[i].lo - b[i].slope * v[e]);
+                hi = fmin(hi, b[i].hi - b[i].slope * v[e]);
+            }
+            len[e] = hi - lo;
+        }
+        if (len[0] <= 0 && len[1] <= 0)
+            continue;
+        if (len[0] < 0 || len[1] < 0) { /* a corner met to rounding: the piece ends at the zero */
+            int neg = len[1] < 0;
+            v[neg] = v[0] + (v[1] - v[0]) * len[0] / (len[0] - len[1]);
+            len[neg] = 0.0;
+            if (!(v[1] > v[0]))
+                continue;
+        }
+        double beta = (len[1] - len[0]) / (v[1] - v[0]), alpha = len[0] - beta * v[0];
+        double r0 = sqrt(D2 + v[0] * v[0]), r1 = sqrt(D2 + v[1] * v[1]);
+        sum += alpha * 0.5 * (v[1] / r1 - v[0] / r0) - beta * 0.5 * D2 * (1.0 / r1 - 1.0 / r0);
+    }
+    return sum;
+}
+
+static void exchange_flat(const bsti_vn_geom *g, double *gm)
+{
+    const size_t n = 2 * (size_t)g->m;
+    const double H = g->s * g->cb, shift = g->s * g->sb, L = g->w / g->m;
+    const double ext_lo[2] = {0.0, shift}; /* each slat's extent along the slats */
+    for (size_t j = 0; j < n; j++) {
+        int fj = j >= (size_t)g->m;
+        double u0 = ext_lo[fj] + L * (double)(j % (size_t)g->m), weight = 1.0;
+        for (long k = 1; k <= BSTI_VN_MAX_BOUNCES && weight > BSTI_VN_MIN_FLUX; k++) {
+            int fe = (fj + (int)(k % 2)) % 2;
+            struct bound b[6];
+            int nb = 0;
+            b[nb++] = (struct bound){u0, u0 + L, 0.0};
+            for (long i = 1; i < k; i++) { /* the lines between: the first and last two bind */
+                if (i > 2 && i < k - 2)
+                    continue;
+                double lo = ext_lo[(fj + (int)(i % 2)) % 2], t = (double)i / (double)k;
+                b[nb++] = (struct bound){lo, lo + g->w, t};
+            }
+            double total = 0.0;
+            for (int m = 0; m < g->m; m++) {
+                double lo = ext_lo[fe] + L * m;
+                b[nb] = (struct bound){lo, lo + L, 1.0};
+                double f = weight * unfolded_flux(b, nb + 1, (double)k * H) / L;
+                gm[((size_t)fe * g->m + m) * n + j] += f;
+                total += f;
+            }
+            if (total <= 0.0) /* nothing reaches line k: nor any further */
+                break;
+            weight *= g->rs;
+        }
+    }
+}
+
 void bsti_vn_exchange(const bsti_vn_geom *g, double *gm)
 {
     const size_t n = 2 * (size_t)g->m;
-    const int np = BSTI_VN_EXCHANGE_POSITIONS;
     if (g->curved) {
         bsti_vn_curved_exchange(g, gm);
         return;
@@ -237,23 +335,5 @@ void bsti_vn_exchange(const bsti_vn_geom *g, double *gm)
     memset(gm, 0, n * n * sizeof *gm);
     if (g->sheet) /* a plane sees none of itself */
         return;
-    double col[2 * 1000];
-    for (size_t j = 0; j < n; j++) {
-        int face = j >= (size_t)g->m;
-        double sign = face ? -1.0 : 1.0, m = (double)(j % (size_t)g->m);
-        memset(col, 0, n * sizeof *col);
-        for (int p = 0; p < np; p++) {
-            double t = g->w * (m + (p + 0.5) / np) / g->m; /* along the strip */
-            double y = (face ? g->s : 0.0) + t * g->sb, z = g->ze + t * g->cb;
-            /* Lambertian emission of a long strip: uniform in sin(alpha) of the profile angle */
-            for (int q = 0; q < np; q++) {
-                double sa = -1.0 + 2.0 * (q + 0.5) / np, ca = sqrt(1.0 - sa * sa);
-                double a = sign * ca * g->nA[0] + sa * g->sb, b = sign * ca * g->nA[1] + sa * g->cb;
-                double left, ea, eb;
-                trace2(g, y, z, a, b, 1.0 / ((double)np * np), col, &left, 0.0, 0, 0.0, &ea, &eb);
-            }
-        }
-        for (size_t e = 0; e < n; e++)
-            gm[e * n + j] = col[e];
-    }
+    exchange_flat(g, gm);
 }

@@ -11,6 +11,7 @@
  *   directions from both sides, and directional-hemispherical T and R of every incident patch up
  *   to 70 deg against the ray-traced layers; the tilt-0 blind at k = 6, and between two panes
  *   against the ray-traced system S1;
+ * - the strips' exchange against Hottel's crossed strings, and reciprocal;
  * - radiosity energy and segment convergence, dual-band channels, allocation failure;
  * - bad specs name their key. */
 #include <config.h>
@@ -182,9 +183,60 @@ START_TEST(test_reciprocity)
 }
 END_TEST
 
+/* The strips' exchange of flat slats against Hottel's crossed strings (diffuse slats: the flux
+ * from strip j reaching strip e of the facing slat is ((d(j1, e2) + d(j2, e1)) - (d(j1, e1) +
+ * d(j2, e2))) / (2 L), the channel between two slats being convex), and reciprocal (strips of
+ * one length: G symmetric) with mirror parts too. */
+static double dist2(const double a[2], const double b[2]) { return hypot(a[0] - b[0], a[1] - b[1]); }
+
+START_TEST(test_exchange)
+{
+    static const char *const specs[] = {"width=16mm,spacing=14.5mm,tilt=0,r=1",
+                                        "width=30mm,spacing=14.5mm,tilt=80,r=1",
+                                        "width=16mm,spacing=14.5mm,tilt=-35,r=0.3,segments=5",
+                                        "width=16mm,spacing=14.5mm,tilt=45,r=0.2,rs=0.8",
+                                        "width=30mm,spacing=14.5mm,tilt=70,r=0.05,rs=0.95"};
+    bst_venetian v;
+    ck_assert_int_eq(bst_venetian_parse(ctx, specs[_i], &v), BST_OK);
+    bsti_vn_geom g;
+    bsti_vn_geom_init(&g, &v);
+    size_t n = 2 * (size_t)g.m;
+    double *gm = calloc(n * n, sizeof *gm), worst = 0.0, asym = 0.0, big = 0.0;
+    bsti_vn_exchange(&g, gm);
+    for (size_t j = 0; j < n; j++)
+        for (size_t e = 0; e < n; e++) {
+            big = fmax(big, gm[e * n + j]);
+            asym = fmax(asym, fabs(gm[e * n + j] - gm[j * n + e]));
+            if (v.rs > 0)
+                continue;
+            double p[2][2][2]; /* the ends of strips j and e */
+            for (int q = 0; q < 2; q++)
+                for (int k = 0; k < 2; k++) {
+                    size_t x = k ? e : j;
+                    double t = g.w * (double)(x % (size_t)g.m + (size_t)q) / g.m;
+                    p[k][q][0] = (x >= (size_t)g.m ? g.s : 0.0) + t * g.sb;
+                    p[k][q][1] = g.ze + t * g.cb;
+                }
+            double f = (j >= (size_t)g.m) == (e >= (size_t)g.m)
+                           ? 0.0
+                           : (dist2(p[0][0], p[1][1]) + dist2(p[0][1], p[1][0]) -
+                              dist2(p[0][0], p[1][0]) - dist2(p[0][1], p[1][1])) /
+                                 (2 * g.w / g.m);
+            worst = fmax(worst, fabs(gm[e * n + j] - f));
+        }
+    printf("%s: exchange %.2g from crossed strings, %.2g from symmetric (largest %.3g)\n",
+           specs[_i], worst, asym, big);
+    ck_assert_double_le(worst, 1e-13);
+    ck_assert_double_le(asym, 1e-13 * big);
+    free(gm);
+}
+END_TEST
+
 /* The radiosity between slat strips: lossless white slats (r = 1, or r + t = 1) conserve energy to
- * the quadrature of the strips' exchange and views (measured 9e-4 at k = 4 with 32 x 32 directions
- * a patch, 3e-3 with 8 x 8), and the segment count converges (white slats, tilt 45, k = 4, against
+ * the quadrature of the strips' views (the exchange is exact: test_exchange), measured 3.4e-4 at
+ * k = 4 with the default 16 x 16 directions a patch, steep tilts and overlapping slats included
+ * (the exchange sampled by 64 x 64 midpoints a strip, which this replaced, made 1.2 % at tilt 80
+ * with width 30 mm); and the segment count converges (white slats, tilt 45, k = 4, against
  * 64 segments: 0.133 at 1 segment, 0.028 at 2, 0.0040 at 5, 0.0015 at 8, 0.0004 at 16; the
  * reference blinds' r = 0.085: 0.015 at 1, 0.0002 at 8). */
 static double *all_hemi(const char *spec, const bst_basis *b)
@@ -201,18 +253,24 @@ static double *all_hemi(const char *spec, const bst_basis *b)
 
 START_TEST(test_radiosity)
 {
+    static const char *const lossless[] = {
+        "width=16mm,spacing=14.5mm,tilt=0,r=1", "width=16mm,spacing=14.5mm,tilt=45,r=0.5,t=0.5",
+        "width=30mm,spacing=14.5mm,tilt=80,r=1", "width=16mm,spacing=14.5mm,tilt=-80,t=1",
+        "width=30mm,spacing=14.5mm,tilt=70,r=0.3,rs=0.7"};
     bst_basis *b = sc(4);
     size_t n = bst_basis_size(b);
-    double *w = all_hemi("width=16mm,spacing=14.5mm,tilt=0,r=1", b), worst = 0;
-    double *wt = all_hemi("width=16mm,spacing=14.5mm,tilt=45,r=0.5,t=0.5", b);
-    for (size_t i = 0; i < n; i++)
-        for (int side = 0; side < 2; side++) {
-            double tr = side ? w[2 * n + i] + w[3 * n + i] : w[i] + w[n + i];
-            double trt = side ? wt[2 * n + i] + wt[3 * n + i] : wt[i] + wt[n + i];
-            worst = fmax(worst, fmax(fabs(tr - 1), fabs(trt - 1)));
-        }
+    double worst = 0;
+    for (size_t s = 0; s < sizeof lossless / sizeof lossless[0]; s++) {
+        double *w = all_hemi(lossless[s], b);
+        for (size_t i = 0; i < n; i++)
+            for (int side = 0; side < 2; side++) {
+                double tr = side ? w[2 * n + i] + w[3 * n + i] : w[i] + w[n + i];
+                worst = fmax(worst, fabs(tr - 1));
+            }
+        free(w);
+    }
     printf("lossless diffuse slats: |T + R - 1| at most %.2g\n", worst);
-    ck_assert_msg(worst < 2e-3, "diffuse slats lose or make %g", worst);
+    ck_assert_msg(worst < 6e-4, "diffuse slats lose or make %g", worst);
     double *s8 = all_hemi("width=16mm,spacing=14.5mm,tilt=45,r=0.7,t=0.1,samples=8", b);
     double *s32 = all_hemi("width=16mm,spacing=14.5mm,tilt=45,r=0.7,t=0.1,samples=8,segments=32", b);
     double d = 0;
@@ -220,7 +278,7 @@ START_TEST(test_radiosity)
         d = fmax(d, fabs(s8[i] - s32[i]));
     printf("8 segments against 32: %.2g\n", d);
     ck_assert_msg(d < 2.5e-3, "8 segments differ from 32 by %g", d);
-    free(w), free(wt), free(s8), free(s32);
+    free(s8), free(s32);
     bst_basis_free(b);
 }
 END_TEST
@@ -713,6 +771,7 @@ static Suite *venetian_suite(void)
     tcase_add_test(tc, test_float_blocks);
     tcase_add_loop_test(tc, test_black_openness, 0, 3);
     tcase_add_loop_test(tc, test_lossless_mirror, 0, 4); /* the last in Klems full */
+    tcase_add_loop_test(tc, test_exchange, 0, 5);
     tcase_add_loop_test(tc, test_closed, 0, 3);
     tcase_add_loop_test(tc, test_reciprocity, 0, 8);
     tcase_add_test(tc, test_radiosity);
