@@ -16,15 +16,20 @@ size_t bsti_mirror_side(size_t n)
     return g * g == n ? g : 0;
 }
 
-/* S p for p < n / 2: the cell of column ix = p / g mirrored to column g - 1 - ix. */
-static inline size_t partner(size_t g, size_t p)
+/* The image of cell p in the mirror of the axis (0: x -> -x, 1: y -> -y), and whether p is the
+ * first of its pair (ix, or iy, below g / 2). */
+static inline size_t image(size_t g, size_t p, int axis)
 {
-    size_t ix = p / g;
-    return p + (g - 1 - 2 * ix) * g;
+    size_t ix = p / g, iy = p % g;
+    return axis ? ix * g + (g - 1 - iy) : (g - 1 - ix) * g + iy;
 }
+static inline int first(size_t g, size_t p, int axis) { return (axis ? p % g : p / g) < g / 2; }
+
+/* Q p: the cell (iy, ix) of cell (ix, iy), the square turned over its diagonal. */
+static inline size_t turned(size_t g, size_t p) { return (p % g) * g + p / g; }
 
 #define MIRROR_KERNELS(T, SUF)                                                                   \
-    static int holds_##SUF(const T *a, size_t n, size_t g, double tol)                            \
+    static int holds_##SUF(const T *a, size_t n, size_t g, int axis, double tol)                  \
     {                                                                                             \
         double big = 0.0;                                                                         \
         for (size_t i = 0; i < n * n; i++) {                                                      \
@@ -34,11 +39,14 @@ static inline size_t partner(size_t g, size_t p)
             big = v > big ? v : big;                                                              \
         }                                                                                         \
         double t = tol * big;                                                                     \
-        size_t h = n / 2;                                                                         \
-        for (size_t q = 0; q < h; q++) {                                                          \
-            const T *cq = a + q * n, *csq = a + partner(g, q) * n;                                \
-            for (size_t p = 0; p < h; p++) {                                                      \
-                size_t sp = partner(g, p);                                                        \
+        for (size_t q = 0; q < n; q++) {                                                          \
+            if (!first(g, q, axis))                                                               \
+                continue;                                                                         \
+            const T *cq = a + q * n, *csq = a + image(g, q, axis) * n;                            \
+            for (size_t p = 0; p < n; p++) {                                                      \
+                if (!first(g, p, axis))                                                           \
+                    continue;                                                                     \
+                size_t sp = image(g, p, axis);                                                    \
                 if (fabs((double)cq[p] - (double)csq[sp]) > t ||                                  \
                     fabs((double)csq[p] - (double)cq[sp]) > t)                                    \
                     return 0;                                                                     \
@@ -46,13 +54,34 @@ static inline size_t partner(size_t g, size_t p)
         }                                                                                         \
         return 1;                                                                                 \
     }                                                                                             \
+    static void turn_##SUF(T *a, size_t n, size_t g, size_t ncols, int cols)                      \
+    {                                                                                             \
+        for (size_t j = 0; j < ncols; j++) { /* rows p <-> Q p in every column */                 \
+            T *c = a + j * n;                                                                     \
+            for (size_t p = 0; p < n; p++) {                                                      \
+                size_t qp = turned(g, p);                                                         \
+                if (qp > p) {                                                                     \
+                    T x = c[p];                                                                   \
+                    c[p] = c[qp], c[qp] = x;                                                      \
+                }                                                                                 \
+            }                                                                                     \
+        }                                                                                         \
+        for (size_t j = 0; cols && j < n; j++) { /* columns j <-> Q j */                          \
+            size_t qj = turned(g, j);                                                             \
+            if (qj > j)                                                                           \
+                for (size_t i = 0; i < n; i++) {                                                  \
+                    T x = a[j * n + i];                                                           \
+                    a[j * n + i] = a[qj * n + i], a[qj * n + i] = x;                              \
+                }                                                                                 \
+        }                                                                                         \
+    }                                                                                             \
     static void matrix_##SUF(T *a, size_t n, size_t g, int split)                                 \
     {                                                                                             \
         size_t h = n / 2;                                                                         \
         for (size_t q = 0; q < h; q++) {                                                          \
-            T *cq = a + q * n, *csq = a + partner(g, q) * n;                                      \
+            T *cq = a + q * n, *csq = a + image(g, q, 0) * n;                                      \
             for (size_t p = 0; p < h; p++) {                                                      \
-                size_t sp = partner(g, p);                                                        \
+                size_t sp = image(g, p, 0);                                                        \
                 if (split) {                                                                      \
                     double s = 0.5 * ((double)cq[p] + (double)csq[sp]);                           \
                     double d = 0.5 * ((double)csq[p] + (double)cq[sp]);                           \
@@ -73,7 +102,7 @@ static inline size_t partner(size_t g, size_t p)
         for (size_t j = 0; j < ncols; j++) {                                                      \
             T *c = x + j * n;                                                                     \
             for (size_t p = 0; p < h; p++) {                                                      \
-                size_t sp = partner(g, p);                                                        \
+                size_t sp = image(g, p, 0);                                                        \
                 double u = (double)c[p], v = (double)c[sp];                                       \
                 c[p] = (T)(k * (u + v));                                                          \
                 c[sp] = (T)(k * (u - v));                                                         \
@@ -84,10 +113,18 @@ static inline size_t partner(size_t g, size_t p)
 MIRROR_KERNELS(double, d)
 MIRROR_KERNELS(float, f)
 
-int bsti_mirror_holds(const void *a, bst_precision prec, size_t n, size_t g)
+int bsti_mirror_holds(const void *a, bst_precision prec, size_t n, size_t g, int axis)
 {
-    return prec == BST_DOUBLE ? holds_d(a, n, g, BSTI_MIRROR_TOL)
-                              : holds_f(a, n, g, BSTI_MIRROR_TOL_FLOAT);
+    return prec == BST_DOUBLE ? holds_d(a, n, g, axis, BSTI_MIRROR_TOL)
+                              : holds_f(a, n, g, axis, BSTI_MIRROR_TOL_FLOAT);
+}
+
+void bsti_mirror_turn(void *a, bst_precision prec, size_t n, size_t g, size_t ncols, int cols)
+{
+    if (prec == BST_DOUBLE)
+        turn_d(a, n, g, ncols, cols);
+    else
+        turn_f(a, n, g, ncols, cols);
 }
 
 void bsti_mirror_matrix(void *a, bst_precision prec, size_t n, size_t g, int split)

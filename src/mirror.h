@@ -19,7 +19,9 @@
  * pair of values S maps onto each other must agree to BSTI_MIRROR_TOL (double) or
  * BSTI_MIRROR_TOL_FLOAT (float) of its largest magnitude.  Those that agree to rounding (a stack
  * computed without the split) are made exactly symmetric (each of P and M from the average of
- * its two readings), a change far below the solve's own rounding. */
+ * its two readings), a change far below the solve's own rounding.  A matrix symmetric about
+ * y = 0 instead (a vertical blind's stack) is first turned over the square's diagonal
+ * (bsti_mirror_turn), which makes that symmetry S's. */
 #ifndef BST_MIRROR_H
 #define BST_MIRROR_H
 
@@ -35,8 +37,13 @@
  * BSTI_MIRROR_MIN_N, else 0. */
 size_t bsti_mirror_side(size_t n);
 /* Whether the n x n column-major matrix a (double or float by prec, leading dimension n) commutes
- * with S of side g (bsti_mirror_side) to the tolerance above. */
-int bsti_mirror_holds(const void *a, bst_precision prec, size_t n, size_t g);
+ * with the mirror of the axis (0: S, x -> -x; 1: y -> -y, (ix, iy) -> (ix, 2^k - 1 - iy)) of side
+ * g (bsti_mirror_side) to the tolerance above. */
+int bsti_mirror_holds(const void *a, bst_precision prec, size_t n, size_t g, int axis);
+/* The rows (cols 0: of ncols columns) or the rows and the columns (cols 1, ncols = n) of a
+ * exchanged by Q, (ix, iy) <-> (iy, ix), its own inverse: Q M Q commutes with S where M commutes
+ * with the y mirror (a vertical blind's), so that the split serves both. */
+void bsti_mirror_turn(void *a, bst_precision prec, size_t n, size_t g, size_t ncols, int cols);
 /* a (as above) made P and M in its own storage (split 1), or P^-1 and M^-1 (or any pair of
  * halves) made the whole matrix again (split 0): each pair of paired values set to
  * (P + M) / 2 and (P - M) / 2. */

@@ -86,6 +86,7 @@ struct factor {
     lapack_int *ipiv;
     size_t mirror_g;        /* DENSE: lu holds the mirror split's halves (mirror.h) of this side,
                                0: the whole matrix */
+    int mirror_turned;      /* DENSE: and was turned first (bsti_mirror_turn: the y mirror's) */
     double *w1, *w2;        /* SPARSE: vectors of n */
     double control[UMFPACK_CONTROL]; /* SPARSE: UMFPACK's settings for the solves */
     SuiteSparse_long *wi;   /* SPARSE: the caller's thread's solve workspace (sparse_wsolve) */
@@ -500,9 +501,12 @@ static int factor_dense(bst_ctx *ctx, const bst_mat *a, bst_precision prec, stru
     if (n == 0)
         return BST_OK;
     size_t g = ctx->no_mirror ? 0 : bsti_mirror_side(n);
-    if (g && bsti_mirror_holds(f->lu, prec, n, g)) {
+    if (g && (bsti_mirror_holds(f->lu, prec, n, g, 0) ||
+              (f->mirror_turned = bsti_mirror_holds(f->lu, prec, n, g, 1)))) {
         f->mirror_g = g;
         ctx->mirror_splits++;
+        if (f->mirror_turned)
+            bsti_mirror_turn(f->lu, prec, n, g, n, 1);
         bsti_mirror_matrix(f->lu, prec, n, g, 1);
     }
     double scale = fmax(1.0, f->anorm);
@@ -621,6 +625,8 @@ static int dense_solve_in_place(struct factor *f, int trans, bst_mat *x)
         return BST_OK;
     if (!g)
         return getrs_block(f, trans, n, n, f->lu, f->ipiv, x->cols, n, x->dense);
+    if (f->mirror_turned)
+        bsti_mirror_turn(x->dense, f->prec, n, g, x->cols, 0);
     bsti_mirror_rows(x->dense, f->prec, n, g, x->cols, 1);
     size_t es = f->prec == BST_DOUBLE ? sizeof(double) : sizeof(float);
     int rc = getrs_block(f, trans, h, n, f->lu, f->ipiv, x->cols, n, x->dense);
@@ -628,6 +634,8 @@ static int dense_solve_in_place(struct factor *f, int trans, bst_mat *x)
         rc = getrs_block(f, trans, h, n, block(f, 1), f->ipiv + h, x->cols, n,
                          (char *)x->dense + h * es);
     bsti_mirror_rows(x->dense, f->prec, n, g, x->cols, 0);
+    if (f->mirror_turned)
+        bsti_mirror_turn(x->dense, f->prec, n, g, x->cols, 0);
     return rc;
 }
 
@@ -1032,7 +1040,9 @@ static int dense_invert(bst_ctx *ctx, struct factor *f)
         rc = getri_block(ctx, f->prec, h, n, block(f, 1), f->ipiv + h);
     if (rc >= 0) {
         bsti_mirror_matrix(f->lu, f->prec, n, f->mirror_g, 0);
-        f->mirror_g = 0;
+        if (f->mirror_turned)
+            bsti_mirror_turn(f->lu, f->prec, n, f->mirror_g, n, 1);
+        f->mirror_g = 0, f->mirror_turned = 0;
     }
     return rc;
 }

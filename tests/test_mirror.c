@@ -1,7 +1,8 @@
 /* test_mirror.c - the mirror split of dense solves (mirror.h, solve.c): the kernels (which
  * matrices have the symmetry, the split and join as exact inverses), the solves of mirror-
  * symmetric I - A against the same solves unsplit and against plain dense residuals, both sides,
- * both precisions, every kind of right-hand side, a kept factorization, a singular half; and
+ * both precisions, every kind of right-hand side, both mirrors (y's through the turned square), a
+ * kept factorization, a singular half; and
  * the stacks: a venetian blind's layer commutes with its mirror (a physical symmetry: its model
  * sampled a patch and its image at unrelated points until session 53), and a pane + blind + pane
  * split gives what the unsplit baseline (--dense) gives. */
@@ -21,20 +22,22 @@ static bst_ctx *ctx;
 static void setup(void) { ctx = bst_ctx_new(); }
 static void teardown(void) { bst_ctx_free(ctx); }
 
-/* S of side g: (ix, iy) -> (g - 1 - ix, iy), index ix g + iy. */
+/* S of side g: (ix, iy) -> (g - 1 - ix, iy), index ix g + iy; the y mirror (ix, g - 1 - iy). */
 static size_t mir(size_t g, size_t p) { return (g - 1 - p / g) * g + p % g; }
+static size_t mir_y(size_t g, size_t p) { return p / g * g + g - 1 - p % g; }
 
-/* A random n x n (n = g^2) column-major matrix commuting with S: (M + S M S) / 2, scaled to
- * |M|_1 = norm. */
-static double *symmetric(size_t g, double norm, tu_rng *r)
+/* A random n x n (n = g^2) column-major matrix commuting with S (axis 0) or the y mirror (axis 1):
+ * (M + S M S) / 2, scaled to |M|_1 = norm. */
+static double *symmetric_about(size_t g, int axis, double norm, tu_rng *r)
 {
+    size_t (*im)(size_t, size_t) = axis ? mir_y : mir;
     size_t n = g * g;
     double *m = malloc(n * n * sizeof *m), *s = malloc(n * n * sizeof *s);
     for (size_t i = 0; i < n * n; i++)
         m[i] = tu_rng_uniform(r) - 0.5;
     for (size_t q = 0; q < n; q++)
         for (size_t p = 0; p < n; p++)
-            s[q * n + p] = 0.5 * (m[q * n + p] + m[mir(g, q) * n + mir(g, p)]);
+            s[q * n + p] = 0.5 * (m[q * n + p] + m[im(g, q) * n + im(g, p)]);
     double big = 0.0;
     for (size_t q = 0; q < n; q++) {
         double c = 0.0;
@@ -47,6 +50,7 @@ static double *symmetric(size_t g, double norm, tu_rng *r)
     free(m);
     return s;
 }
+static double *symmetric(size_t g, double norm, tu_rng *r) { return symmetric_about(g, 0, norm, r); }
 
 static bst_mat *dense_of(const double *v, size_t rows, size_t cols, bst_precision prec)
 {
@@ -82,26 +86,38 @@ START_TEST(test_kernels)
     double *a = symmetric(g, 0.9, &r), *b = malloc(n * n * sizeof *b);
     float *af = malloc(n * n * sizeof *af);
     double big = tm_maxabs(a, n * n);
-    ck_assert(bsti_mirror_holds(a, BST_DOUBLE, n, g));
+    ck_assert(bsti_mirror_holds(a, BST_DOUBLE, n, g, 0));
     memcpy(b, a, n * n * sizeof *b);
     b[7 * n + 200] += 1e-10 * big;
-    ck_assert(!bsti_mirror_holds(b, BST_DOUBLE, n, g));
+    ck_assert(!bsti_mirror_holds(b, BST_DOUBLE, n, g, 0));
     b[7 * n + 200] = a[7 * n + 200] + 1e-13 * big;
-    ck_assert(bsti_mirror_holds(b, BST_DOUBLE, n, g));
+    ck_assert(bsti_mirror_holds(b, BST_DOUBLE, n, g, 0));
     b[7 * n + 200] = NAN;
-    ck_assert(!bsti_mirror_holds(b, BST_DOUBLE, n, g));
+    ck_assert(!bsti_mirror_holds(b, BST_DOUBLE, n, g, 0));
     for (size_t i = 0; i < n * n; i++)
         af[i] = (float)a[i];
-    ck_assert(bsti_mirror_holds(af, BST_FLOAT, n, g));
+    ck_assert(bsti_mirror_holds(af, BST_FLOAT, n, g, 0));
     af[3] += (float)(1e-4 * big);
-    ck_assert(!bsti_mirror_holds(af, BST_FLOAT, n, g));
+    ck_assert(!bsti_mirror_holds(af, BST_FLOAT, n, g, 0));
+    /* the y mirror: held about its own axis, not S's; turned over the diagonal (its own inverse),
+       S's */
+    double *ay = symmetric_about(g, 1, 0.9, &r);
+    ck_assert(bsti_mirror_holds(ay, BST_DOUBLE, n, g, 1));
+    ck_assert(!bsti_mirror_holds(ay, BST_DOUBLE, n, g, 0));
+    memcpy(b, ay, n * n * sizeof *b);
+    bsti_mirror_turn(b, BST_DOUBLE, n, g, n, 1);
+    ck_assert(bsti_mirror_holds(b, BST_DOUBLE, n, g, 0));
+    ck_assert_double_eq(b[(3 * g + 5) * n + 7 * g + 2], ay[(5 * g + 3) * n + 2 * g + 7]);
+    bsti_mirror_turn(b, BST_DOUBLE, n, g, n, 1);
+    ck_assert(memcmp(b, ay, n * n * sizeof *b) == 0);
+    free(ay);
     /* a matrix commuting with the other mirror (y) only */
     for (size_t q = 0; q < n; q++)
         for (size_t p = 0; p < n; p++) {
             size_t py = p / g * g + g - 1 - p % g, qy = q / g * g + g - 1 - q % g;
             b[q * n + p] = a[q * n + p] + a[qy * n + py] + (double)(p % 5) * (double)(q % 3);
         }
-    ck_assert(!bsti_mirror_holds(b, BST_DOUBLE, n, g));
+    ck_assert(!bsti_mirror_holds(b, BST_DOUBLE, n, g, 0));
 
     memcpy(b, a, n * n * sizeof *b);
     bsti_mirror_matrix(b, BST_DOUBLE, n, g, 1);
@@ -140,16 +156,16 @@ static bst_mat *rhs(int k, size_t n, bst_precision prec, tu_rng *r)
     return m;
 }
 
-/* _i: side (right), precision, kind of B.  The split solve against the unsplit one and against
+/* _i: side (right), precision, kind of B, mirror (x, y).  The split solve against the unsplit one and against
  * the residual of plain dense arithmetic. */
 START_TEST(test_solves)
 {
-    int right = _i & 1, k = (_i >> 2) & 3;
+    int right = _i & 1, k = (_i >> 2) & 3, axis = _i >> 4;
     bst_precision prec = _i & 2 ? BST_FLOAT : BST_DOUBLE;
     tu_rng r;
     tu_rng_seed(&r, 100 + (uint64_t)_i);
     size_t g = 16, n = g * g;
-    double *av = symmetric(g, 0.9, &r);
+    double *av = symmetric_about(g, axis, 0.9, &r);
     bst_mat *a = dense_of(av, n, n, BST_DOUBLE), *b = rhs(k, n, prec, &r);
     if (right && k == 3) { /* a thin right-hand side of a right solve: 5 x n */
         bst_mat *bt;
@@ -303,20 +319,23 @@ static void on_step(const bst_stack_step *s, void *opaque)
     saw_mirror |= s->mirror;
 }
 
-/* A pane on each side of a mirror and diffuse blind at k = 4: the second step's dense solve split
+/* A pane on each side of a mirror and diffuse blind at k = 4, horizontal (x mirror) or vertical
+ * (y mirror, the solve turned first): the second step's dense solve split
  * (-v's flag), the system's every value as the unsplit --dense baseline's to 1e-11 of the
  * largest, double; 2e-5 single. */
 START_TEST(test_stack)
 {
-    bst_precision prec = _i ? BST_FLOAT : BST_DOUBLE;
+    bst_precision prec = _i & 1 ? BST_FLOAT : BST_DOUBLE;
+    const char *spec = _i & 2 ? "width=16mm,spacing=14.5mm,tilt=45,rs=0.765,r=0.085,roughness=0.02,"
+                                "vertical"
+                              : "width=16mm,spacing=14.5mm,tilt=45,rs=0.765,r=0.085,roughness=0.02";
     const char *ch = "Visible";
     bst_basis *basis;
     ck_assert_int_eq(bst_basis_new_sc(ctx, 4, &basis), BST_OK);
     size_t n = bst_basis_size(basis);
     bst_venetian v;
     bst_layer *blind, *pane, *sys[2];
-    ck_assert_int_eq(bst_venetian_parse(ctx, "width=16mm,spacing=14.5mm,tilt=45,rs=0.765,r=0.085,"
-                                             "roughness=0.02", &v), BST_OK);
+    ck_assert_int_eq(bst_venetian_parse(ctx, spec, &v), BST_OK);
     ck_assert_int_eq(bst_venetian_layer(ctx, &v, basis, 1, &ch, &blind), BST_OK);
     ck_assert_int_eq(bst_layer_new(ctx, basis, 1, &ch, &pane), BST_OK);
     double *t = malloc(n * sizeof *t), *rf = malloc(n * sizeof *rf);
@@ -366,11 +385,11 @@ static Suite *mirror_suite(void)
     tcase_set_timeout(tc, 120);
     tcase_add_test(tc, test_side);
     tcase_add_test(tc, test_kernels);
-    tcase_add_loop_test(tc, test_solves, 0, 16);
+    tcase_add_loop_test(tc, test_solves, 0, 32);
     tcase_add_test(tc, test_kept_and_plain);
     tcase_add_test(tc, test_singular_half);
     tcase_add_test(tc, test_venetian_symmetry);
-    tcase_add_loop_test(tc, test_stack, 0, 2);
+    tcase_add_loop_test(tc, test_stack, 0, 4);
     suite_add_tcase(s, tc);
     return s;
 }
