@@ -64,6 +64,21 @@ expect_status 0 "glass t0/r0 spec" -- "$BSDFSTACK" glass t0=0.8,r0=0.08,r0b=0.1
 awk -F'\t' '$2 == 0 && $1 == "Visible" { exit !($5 == "0.080000" && $6 == "0.100000") }' "$tmpdir/out" \
     && pass "asymmetric pane" || fail "asymmetric pane: $(grep -m1 '^Visible' "$tmpdir/out")"
 
+# SPEC^ (and glass:SPEC^): the pane reversed as combine installs it, its back side to the exterior:
+# Tf <-> Tb, Rf <-> Rb, Af <-> Ab in every row, the slab's sides swapped in the # lines
+expect_status 0 "glass t0/r0 spec reversed" -- "$BSDFSTACK" glass 't0=0.8,r0=0.08,r0b=0.1^'
+awk -F'\t' '$2 == 0 && $1 == "Visible" { exit !($5 == "0.100000" && $6 == "0.080000") }' "$tmpdir/out" \
+    && grep -q '^# reversed (^)' "$tmpdir/out" \
+    && grep -q '^# Visible: n 1.6356, tau0 0.8994 (front); n 1.5533, tau0 0.8793 (back)$' "$tmpdir/out" \
+    && pass "asymmetric pane reversed, its slab's sides too" || fail "asymmetric pane reversed: $(head -6 "$tmpdir/out")"
+for spec in lowe-6mm glass:solarcontrol-6mm; do
+    "$BSDFSTACK" glass "$spec" | awk -F'\t' '!/^#/ && $1 != "channel"' > "$tmpdir/plain"
+    expect_status 0 "glass $spec^" -- "$BSDFSTACK" glass "$spec^"
+    awk -F'\t' -v OFS='\t' '!/^#/ && $1 != "channel" { print $1, $2, $4, $3, $6, $5, $8, $7 }' "$tmpdir/out" \
+        | cmp -s - "$tmpdir/plain" && [ "$(wc -l < "$tmpdir/plain")" -eq 42 ] \
+        && pass "$spec^: sides swapped in every row" || fail "$spec^: $(head -12 "$tmpdir/out")"
+done
+
 # a spectral file by path, and a catalogue directory of one's own
 mkdir "$tmpdir/cat"
 cp "$BSDFSTACK_GLASS_DIR"/*.tsv "$tmpdir/cat/"

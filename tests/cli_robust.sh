@@ -181,6 +181,6 @@ line=$(grep 'T + R' "$tmpdir/err")
     && pass "the energy warning is short: $line" || fail "energy warning: $(head -c 300 "$tmpdir/err")"
 expect_status 0 "info on a layer holding 1e300" -- "$B" info "$d/huge.xml"
 [ "$(awk '!/^file/ { if (length($0) > m) m = length($0) } END { print m }' "$tmpdir/out")" -lt 100 ] \
-    && grep -Eq 'largest T \+ R = [0-9.]+e\+[0-9]+' "$tmpdir/out" && pass "info prints 1e300 briefly" \
+    && grep -Eq 'largest Tf = [0-9.]+e\+[0-9]+' "$tmpdir/out" && pass "info prints 1e300 briefly" \
     || fail "info: $(head -c 300 "$tmpdir/out")"
 finish

@@ -141,9 +141,7 @@ static uint64_t line_key(const struct batch *b, const struct batch_line *sl)
         if (strncmp(spec, "glass:", 6) == 0)
             spec += 6;
         char file[4096];
-        size_t len = strlen(spec);
-        if (len && spec[len - 1] == '^')
-            len--;
+        size_t len = cli_spec_reversed(spec, NULL);
         struct stat st;
         if (len < sizeof file) {
             memcpy(file, spec, len);

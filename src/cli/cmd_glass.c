@@ -11,6 +11,7 @@
 #include <string.h>
 
 #include "cli.h"
+#include "layers.h"
 
 static const char help[] =
     "Usage: bsdfstack glass [--channels NAMES] SPEC\n"
@@ -21,7 +22,9 @@ static const char help[] =
     "angular model and why, and what its file says of it).\n"
     "\n"
     "SPEC (optionally prefixed by glass:, optionally followed by ,model=uncoated|coated and, for a\n"
-    "FILE, ,rows=all|N: its layers sum every wavelength, or group them past N instead of 5000):\n"
+    "FILE, ,rows=all|N: its layers sum every wavelength, or group them past N instead of 5000;\n"
+    "a trailing ^ reverses the pane, as in combine: its back side faces the exterior, so that\n"
+    "Tf, Rf, Af are the pane's back-side values and Tb, Rb, Ab its front's):\n"
     "  NAME                      a pane of the catalogue (see --list, bsdfstack-glass(5))\n"
     "  FILE                      normal-incidence spectral data: bsdfstack's table (wavelength in\n"
     "                            um, Tf, Tb, Rf, Rb), an Optics / IGDB text file (CLEAR_6.DAT) or\n"
@@ -89,10 +92,12 @@ static int list_catalogue(const char *sub, bst_ctx *ctx, const char *dir)
 }
 
 /* Describe the pane and the slab (or the coated model's reference glass) behind each channel in
- * # lines. */
-static void describe(const bst_glass *g, size_t nch, const size_t *idx)
+ * # lines; flip: the pane reversed (front and back swapped). */
+static void describe(const bst_glass *g, size_t nch, const size_t *idx, int flip)
 {
     printf("# %s\n", bst_glass_description(g));
+    if (flip)
+        printf("# reversed (^): the pane's back side faces the exterior; front below is its back\n");
     cli_glass_describe(stdout, g, "# ");
     int coated = bst_glass_get_model(g) == BST_GLASS_COATED;
     size_t nw = bst_glass_nwavelengths(g);
@@ -102,12 +107,13 @@ static void describe(const bst_glass *g, size_t nch, const size_t *idx)
                coated ? "the correlations scale the data" : "n and tau0 follow from the data");
     for (size_t c = 0; c < nch; c++) {
         double nf, tf, nb, tb, t0f, t0b;
-        if (!nw && coated && bst_glass_optics(g, idx[c], 0.0, &t0f, &t0b, NULL, NULL) >= 0)
+        if (!nw && coated && bst_glass_optics(g, idx[c], 0.0, flip ? &t0b : &t0f, flip ? &t0f : &t0b,
+                                             NULL, NULL) >= 0)
             printf("# %s: reference glass %s (front), %s (back): clear where T0 > %g\n",
                    bst_glass_channel(g, idx[c]), t0f > BST_GLASS_COATED_CLEAR_T0 ? "clear" : "bronze",
                    t0b > BST_GLASS_COATED_CLEAR_T0 ? "clear" : "bronze", BST_GLASS_COATED_CLEAR_T0);
-        else if (!nw && bst_glass_slab(g, idx[c], NAN, 0, &nf, &tf) >= 0 &&
-                 bst_glass_slab(g, idx[c], NAN, 1, &nb, &tb) >= 0)
+        else if (!nw && bst_glass_slab(g, idx[c], NAN, flip, &nf, &tf) >= 0 &&
+                 bst_glass_slab(g, idx[c], NAN, !flip, &nb, &tb) >= 0)
             printf("# %s: n %.4f, tau0 %.4f (front); n %.4f, tau0 %.4f (back)\n",
                    bst_glass_channel(g, idx[c]), nf, tf, nb, tb);
     }
@@ -147,15 +153,19 @@ int cmd_glass(int argc, char **argv)
         bst_ctx_free(ctx);
         return rc;
     }
-    const char *spec = argv[optind];
-    if (strncmp(spec, "glass:", 6) == 0)
-        spec += 6;
+    const char *arg = argv[optind];
+    if (strncmp(arg, "glass:", 6) == 0)
+        arg += 6;
+    int flip; /* SPEC^: the pane reversed, as combine reads the ^ */
+    char *spec = strndup(arg, cli_spec_reversed(arg, &flip));
     bst_glass *g;
-    if (bst_glass_parse(ctx, spec, dir, &g) < 0) {
-        int rc = cli_fail_ctx(sub, NULL, ctx);
+    if (!spec || bst_glass_parse(ctx, spec, dir, &g) < 0) {
+        int rc = spec ? cli_fail_ctx(sub, NULL, ctx) : cli_fail(sub, "out of memory");
+        free(spec);
         bst_ctx_free(ctx);
         return rc;
     }
+    free(spec);
     /* the channels to print, in order */
     size_t idx[16], nch = 0;
     int rc = CLI_OK;
@@ -180,13 +190,14 @@ int cmd_glass(int argc, char **argv)
             idx[nch] = nch;
     }
     if (rc == CLI_OK) {
-        describe(g, nch, idx);
+        describe(g, nch, idx, flip);
         printf("channel\ttheta\tTf\tTb\tRf\tRb\tAf\tAb\n");
         static const double extra[] = {89.0, 89.9, 90.0};
         for (size_t k = 0; k < nch; k++)
             for (int i = 0; i < 21; i++) {
                 double d = i < 18 ? 5.0 * i : extra[i - 18], t, tb, rf, rb;
-                bst_glass_optics(g, idx[k], d == 90.0 ? M_PI / 2 : d * M_PI / 180, &t, &tb, &rf, &rb);
+                bst_glass_optics(g, idx[k], d == 90.0 ? M_PI / 2 : d * M_PI / 180, flip ? &tb : &t,
+                                 flip ? &t : &tb, flip ? &rb : &rf, flip ? &rf : &rb);
                 printf("%s\t%g\t%.6f\t%.6f\t%.6f\t%.6f\t%.6f\t%.6f\n", bst_glass_channel(g, idx[k]), d,
                        t, tb, rf, rb, 1 - t - rf, 1 - tb - rb);
             }

@@ -15,16 +15,19 @@
 #include "layers.h"
 
 static const char help[] =
-    "Usage: bsdfstack info [--max-memory SIZE] [--reference REF] FILE\n"
-    "       bsdfstack info glass:SPEC | shade:FILE.json[,KEYS] | venetian:KEYS | ...\n"
-    "Prints the basis and channels of a BSDF XML file, which components it stores, the\n"
-    "directional-hemispherical transmittance T and reflectance R for front (exterior) and back\n"
-    "incidence at theta = 0, 15, 30, 45, 60, 75 degrees (propagation azimuth 0 and 90), and the\n"
-    "energy balance: the largest T + R over all incident patches of each side, and the\n"
-    "reciprocity error of the transmissions: the largest |Tf(o,i) - Tb(a(i),a(o))| (a: the\n"
-    "antipodal patch) relative to the largest T, and the patches (incident -> outgoing) where\n"
-    "it is largest.  The file is taken whole at its own basis; --max-memory SIZE (16G, 800M;\n"
-    "default: the memory available now) refuses it first when the estimate exceeds SIZE.\n"
+    "Usage: bsdfstack info [--max-memory SIZE] [--reference REF] FILE[^]\n"
+    "       bsdfstack info glass:SPEC[^] | shade:FILE.json[,KEYS][^] | venetian:KEYS[^] | ...\n"
+    "Prints the basis and channels of a BSDF XML file, which components it stores (Tf(derived):\n"
+    "made from the other transmission by reciprocity; Rf(absent): not in the file, read as zero,\n"
+    "its values printed as '-'), the directional-hemispherical transmittance T and reflectance R\n"
+    "for front (exterior) and back incidence at theta = 0, 15, 30, 45, 60, 75 degrees\n"
+    "(propagation azimuth 0 and 90), and the energy balance: the largest T + R over all incident\n"
+    "patches of each side (the largest T or R alone, and which is absent, where the file lacks\n"
+    "one; nothing where it lacks both), and the reciprocity error of the transmissions: the\n"
+    "largest |Tf(o,i) - Tb(a(i),a(o))| (a: the antipodal patch) relative to the largest T, and\n"
+    "the patches (incident -> outgoing) where it is largest.  The file is taken whole at its\n"
+    "own basis; --max-memory SIZE (16G, 800M; default: the memory available now) refuses it\n"
+    "first when the estimate exceeds SIZE.\n"
     "--reference REF (a BSDF file or glass: spec, read at FILE's basis): for each channel of\n"
     "FILE (REF must hold it) and each component, the largest difference of a directional-\n"
     "hemispherical value over every incident patch, where it is, and the least flux\n"
@@ -39,7 +42,10 @@ static const char help[] =
     "shade:FILE.json[,KEYS] (an IGSDB shading record, bsdfstack-glass(5)): the product, its\n"
     "kind, geometry and material (band values Tf Tb Rf Rb, specular and diffuse), and the model\n"
     "its layer is made from, as the venetian:, perforated: or woven: spec that makes the same\n"
-    "layer (KEYS override the record's values); venetian:KEYS and the others: that model.\n";
+    "layer (KEYS override the record's values); venetian:KEYS and the others: that model.\n"
+    "A trailing ^ (FILE^, glass:SPEC^, venetian:KEYS^, ...) takes the layer reversed, as\n"
+    "combine does: its back side faces the exterior, and front values are its back side's.\n"
+    "FILE - (standard input) is not supported.\n";
 
 /* The layers a file written by bsdfstack records in its header comment ("layers (exterior first):
  * ..." and one "layer N SPEC: ..." line per pane), printed as "layers    ..." lines; nothing for
@@ -81,19 +87,26 @@ static void print_recorded_layers(const char *path)
     fclose(fp);
 }
 
-/* `info glass:SPEC`: what the pane is and where its model comes from, and its T and R by angle. */
+/* `info glass:SPEC`: what the pane is and where its model comes from, and its T and R by angle;
+ * glass:SPEC^, the pane reversed (its back side to the exterior), as combine installs it. */
 static int info_pane(const char *sub, const char *spec)
 {
     bst_ctx *ctx = cli_ctx_new(sub);
     if (!ctx)
         return CLI_FAIL;
+    int flip;
+    char *gspec = strndup(spec + 6, cli_spec_reversed(spec, &flip) - 6);
     bst_glass *g = NULL;
-    if (bst_glass_parse(ctx, spec + 6, getenv("BSDFSTACK_GLASS_DIR"), &g) < 0) {
-        int rc = cli_fail_ctx(sub, NULL, ctx);
+    if (!gspec || bst_glass_parse(ctx, gspec, getenv("BSDFSTACK_GLASS_DIR"), &g) < 0) {
+        int rc = gspec ? cli_fail_ctx(sub, NULL, ctx) : cli_fail(sub, "out of memory");
+        free(gspec);
         bst_ctx_free(ctx);
         return rc;
     }
+    free(gspec);
     printf("pane      %s\n", spec);
+    if (flip)
+        printf("reversed  its back side faces the exterior: front below is the pane's back side\n");
     printf("          %s\n", bst_glass_description(g));
     cli_glass_describe(stdout, g, "          ");
     size_t nw = bst_glass_nwavelengths(g);
@@ -109,7 +122,10 @@ static int info_pane(const char *sub, const char *spec)
         for (int t = 0; t <= 75; t += 15) {
             double tf, tb, rf, rb;
             bst_glass_optics(g, ch, t * M_PI / 180, &tf, &tb, &rf, &rb);
-            printf("%5d %8.4f %7.4f %7.4f %7.4f\n", t, tf, rf, tb, rb);
+            if (flip) /* a pane is isotropic: reversed, its sides swap */
+                printf("%5d %8.4f %7.4f %7.4f %7.4f\n", t, tb, rb, tf, rf);
+            else
+                printf("%5d %8.4f %7.4f %7.4f %7.4f\n", t, tf, rf, tb, rb);
         }
     }
     bst_glass_free(g);
@@ -195,24 +211,49 @@ static int info_shade(const char *sub, const char *spec)
         return rc;
     }
     char text[1024];
+    int flip;
+    cli_spec_reversed(spec, &flip);
     bst_shade_model_spec(&m, text, sizeof text);
-    printf("model     %s\n", text);
+    printf("model     %s%s\n", text, flip ? "^" : "");
+    if (flip) /* the ^ as combine reads it (bst_layer_flip of the model's layer) */
+        printf("reversed  the layer made from this model, its back side to the exterior\n");
     printf("channel   Visible, Solar (a value A/B: A for Visible, B for Solar)\n");
     bst_ctx_free(ctx);
     return CLI_OK;
 }
 
-/* The reciprocity line of channel ch of layer l, read from b (bst_metrics_reciprocity). */
-static void print_reciprocity(bst_ctx *ctx, const bst_bsdf *b, const bst_layer *l, size_t ch)
+/* What a file holds of a component: stored, derived (a transmission the reader makes from the
+ * other side's by reciprocity, as every TensorTree4 file expects) or absent (the reader takes it
+ * as zero: nothing is known of it). */
+enum comp_state { STORED, DERIVED, ABSENT };
+static const char *const state_mark[] = {"", "(derived)", "(absent)"};
+
+/* The state of component c of the channel named `name` in file b, read reversed (flip: the file's
+ * back side to the exterior, so that its Tb is the layer's Tf, and so on) or not. */
+static enum comp_state comp_state(const bst_bsdf *b, const char *name, int flip, int c)
+{
+    if (flip)
+        c = c == BST_TF ? BST_TB : c == BST_TB ? BST_TF : c == BST_RF ? BST_RB : BST_RF;
+    int other = c == BST_TF ? BST_TB : c == BST_TB ? BST_TF : -1;
+    for (size_t k = 0; k < bst_bsdf_nchannels(b); k++)
+        if (strcmp(bst_bsdf_channel(b, k), name) == 0)
+            return bst_bsdf_stored(b, k, (bst_comp)c) ? STORED
+                   : other >= 0 && bst_bsdf_stored(b, k, (bst_comp)other) ? DERIVED : ABSENT;
+    return ABSENT;
+}
+
+/* The reciprocity line of channel ch of layer l; st: the channel's component states. */
+static void print_reciprocity(bst_ctx *ctx, const bst_layer *l, size_t ch, const enum comp_state st[])
 {
     const bst_basis *basis = bst_layer_basis(l);
     double err, din[3], dout[3];
     size_t i, o;
-    int derived = 0;
-    for (size_t k = 0; k < bst_bsdf_nchannels(b); k++)
-        if (strcmp(bst_bsdf_channel(b, k), bst_layer_channel(l, ch)) == 0)
-            derived = !bst_bsdf_stored(b, k, BST_TF) || !bst_bsdf_stored(b, k, BST_TB);
-    if (derived) { /* exactly reciprocal by construction (and finite, as read): no N^2 passes */
+    if (st[BST_TF] == ABSENT) { /* then Tb too: neither is there to derive the other from */
+        printf("reciprocity not computed (neither Tf nor Tb is in the file)\n");
+        return;
+    }
+    if (st[BST_TF] == DERIVED || st[BST_TB] == DERIVED) {
+        /* exactly reciprocal by construction (and finite, as read): no N^2 passes */
         printf("reciprocity 0 (one transmission is derived from the other)\n");
         return;
     }
@@ -286,10 +327,40 @@ static int print_against(bst_ctx *ctx, const char *sub, const char *path, const 
  * 1e300 say, as %.4g: one short line rather than 300 digits. */
 #define INFO_FIXED_MAX 1e6
 
+/* v in width columns; NaN (a component not in the file) as "-". */
 static const char *value(char buf[32], int width, double v)
 {
-    snprintf(buf, 32, fabs(v) < INFO_FIXED_MAX ? "%*.4f" : "%*.4g", width, v);
+    if (isnan(v))
+        snprintf(buf, 32, "%*s", width, "-");
+    else
+        snprintf(buf, 32, fabs(v) < INFO_FIXED_MAX ? "%*.4f" : "%*.4g", width, v);
     return buf;
+}
+
+/* The energy line of one side: the largest T + R over the incident patches (h: that side's T, then
+ * its R, n values each; st: their states).  A component not in the file is not summed as zero:
+ * the line says which is missing, and gives the largest of the other alone. */
+static void print_energy(const bst_basis *basis, size_t n, int side, const double *h,
+                         const enum comp_state st[2])
+{
+    const char *name = side ? "back " : "front", *t = side ? "Tb" : "Tf", *r = side ? "Rb" : "Rf";
+    if (st[0] == ABSENT && st[1] == ABSENT) {
+        printf("energy    %s: not computed (neither %s nor %s is in the file)\n", name, t, r);
+        return;
+    }
+    int tw = st[0] != ABSENT, rw = st[1] != ABSENT; /* the terms summed */
+    size_t worst = 0;
+    for (size_t j = 0; j < n; j++)
+        if (tw * h[j] + rw * h[n + j] > tw * h[worst] + rw * h[n + worst])
+            worst = j;
+    double s = tw * h[worst] + rw * h[n + worst], d[3];
+    char v[32], missing[32] = "";
+    bst_basis_center(basis, worst, d);
+    if (!tw || !rw) /* T alone (or R alone) is a lower bound of T + R: past 1, T + R is too */
+        snprintf(missing, sizeof missing, "; %s absent", tw ? r : t);
+    printf("energy    %s: largest %s = %s at patch %zu (theta %.1f deg%s)%s\n", name,
+           tw && rw ? "T + R" : tw ? t : r, value(v, 0, s), worst, acos(d[2]) * 180 / M_PI, missing,
+           s > 1.0 + BST_ENERGY_TOL ? "  ** exceeds 1 **" : "");
 }
 
 int cmd_info(int argc, char **argv)
@@ -301,15 +372,23 @@ int cmd_info(int argc, char **argv)
     }
     struct cli_basis_choice limit = {.lower = "'bsdfstack convert -k K' to a coarser file first"};
     const char *ref = NULL;
-    while (argc >= 4 && (strcmp(argv[1], "--max-memory") == 0 || strcmp(argv[1], "--reference") == 0)) {
+    while (argc >= 2 && (strcmp(argv[1], "--max-memory") == 0 || strcmp(argv[1], "--reference") == 0)) {
+        if (argc < 3)
+            return cli_usage(sub, "option '%s' needs a value", argv[1]);
         if (argv[1][2] == 'r')
             ref = argv[2];
         else if (cli_parse_memory(sub, argv[2], &limit.max_memory) != CLI_OK)
             return CLI_USAGE;
         argv += 2, argc -= 2;
     }
-    if (argc != 2 || argv[1][0] == '-')
-        return cli_usage(sub, argc < 2 ? "no file given" : "one file expected");
+    if (argc < 2)
+        return cli_usage(sub, "no file given");
+    if (argc > 2)
+        return cli_usage(sub, "one file expected");
+    if (strcmp(argv[1], "-") == 0)
+        return cli_usage(sub, "'-': reading standard input is not supported: name a file");
+    if (argv[1][0] == '-')
+        return cli_usage(sub, "unknown option '%s'", argv[1]);
     const char *path = argv[1];
     if (strncmp(path, "glass:", 6) == 0) {
         if (ref)
@@ -326,57 +405,76 @@ int cmd_info(int argc, char **argv)
         return CLI_FAIL;
     bst_bsdf *b = NULL;
     bst_layer *l = NULL;
-    int st = bst_bsdf_read(ctx, path, NULL, &b);
+    /* FILE^: the layer reversed (its back side to the exterior), as combine installs it */
+    int flip;
+    char *file = strndup(path, cli_spec_reversed(path, &flip));
+    int st = file ? bst_bsdf_read(ctx, file, NULL, &b) : BST_ENOMEM;
     if (st < 0) {
-        int rc = cli_fail_ctx(sub, NULL, ctx);
+        int rc = file ? cli_fail_ctx(sub, NULL, ctx) : cli_fail(sub, "out of memory");
+        free(file);
         bst_ctx_free(ctx);
         return rc;
     }
-    cli_warn_bsdf(sub, path, b);
+    cli_warn_bsdf(sub, file, b);
     bst_ctx_clear(ctx);
     /* the file is taken whole at its own basis: refuse before printing when that cannot fit */
     bst_basis *own = NULL;
     if (bst_bsdf_kind(b) != BST_FILE_KLEMS && bst_basis_new_sc(ctx, bst_bsdf_order(b), &own) < 0) {
-        bst_bsdf_free(b), bst_ctx_free(ctx);
+        bst_bsdf_free(b), bst_ctx_free(ctx), free(file);
         return cli_fail(sub, "out of memory");
     }
     int fits = cli_memory_check(sub, own ? own : bst_bsdf_klems_basis(b), 1, &b, 0, BST_DOUBLE, &limit);
     bst_basis_free(own);
     if (fits != CLI_OK) {
-        bst_bsdf_free(b), bst_ctx_free(ctx);
+        bst_bsdf_free(b), bst_ctx_free(ctx), free(file);
         return fits;
     }
     static const char *const kinds[] = {"Klems matrix", "", "", "TensorTree3 (isotropic)", "TensorTree4"};
-    printf("file      %s\nformat    %s", path, kinds[bst_bsdf_kind(b)]);
+    printf("file      %s\nformat    %s", file, kinds[bst_bsdf_kind(b)]);
     if (bst_bsdf_kind(b) != BST_FILE_KLEMS)
         printf(", order k = %d (%d x %d cells per hemisphere)\n", bst_bsdf_order(b),
                1 << bst_bsdf_order(b), 1 << bst_bsdf_order(b));
     else
         printf(", %s, %zu patches\n", bst_basis_name(bst_bsdf_klems_basis(b)),
                bst_basis_size(bst_bsdf_klems_basis(b)));
-    print_recorded_layers(path);
+    if (flip)
+        printf("reversed  its back side faces the exterior: front below is the file's back side\n");
+    print_recorded_layers(file);
     for (size_t ch = 0; ch < bst_bsdf_nchannels(b); ch++) {
         printf("channel   %s:", bst_bsdf_channel(b, ch));
         for (int c = 0; c < BST_NCOMP; c++)
-            printf(" %s%s", bst_comp_name((bst_comp)c), bst_bsdf_stored(b, ch, (bst_comp)c) ? "" : "(derived)");
+            printf(" %s%s", bst_comp_name((bst_comp)c),
+                   state_mark[comp_state(b, bst_bsdf_channel(b, ch), flip, c)]);
         printf("\n");
     }
     if (bst_bsdf_to_layer(ctx, b, NULL, &l) < 0) {
-        int rc = cli_fail_ctx(sub, path, ctx);
-        bst_bsdf_free(b);
-        bst_ctx_free(ctx);
+        int rc = cli_fail_ctx(sub, file, ctx);
+        bst_bsdf_free(b), bst_ctx_free(ctx), free(file);
         return rc;
+    }
+    if (flip) {
+        bst_layer *f = NULL;
+        int rc = bst_layer_flip(ctx, l, &f) < 0 ? cli_fail_ctx(sub, path, ctx) : CLI_OK;
+        bst_layer_free(l);
+        l = f;
+        if (rc != CLI_OK) {
+            bst_bsdf_free(b), bst_ctx_free(ctx), free(file);
+            return rc;
+        }
     }
     const bst_basis *basis = bst_layer_basis(l);
     size_t n = bst_basis_size(basis);
     double *h = malloc(4 * n * sizeof *h);
     if (!h) {
-        bst_layer_free(l), bst_bsdf_free(b), bst_ctx_free(ctx);
+        bst_layer_free(l), bst_bsdf_free(b), bst_ctx_free(ctx), free(file);
         return cli_fail(sub, "out of memory");
     }
     for (size_t ch = 0; ch < bst_layer_nchannels(l); ch++) {
-        for (int c = 0; c < BST_NCOMP; c++)
+        enum comp_state cs[BST_NCOMP];
+        for (int c = 0; c < BST_NCOMP; c++) {
+            cs[c] = comp_state(b, bst_layer_channel(l, ch), flip, c);
             bst_layer_hemispherical(ctx, l, ch, (bst_comp)c, h + (size_t)c * n);
+        }
         printf("\n%s: directional-hemispherical values (incident patch of the propagation direction)\n",
                bst_layer_channel(l, ch));
         printf("theta  phi   T_front R_front  T_back  R_back\n");
@@ -386,26 +484,17 @@ int cmd_info(int argc, char **argv)
                     continue;
                 size_t j = cli_incident_patch(basis, t, p);
                 char v[4][32];
-                printf("%5d %4d %s %s %s %s\n", t, p, value(v[0], 8, h[j]),
-                       value(v[1], 7, h[n + j]), value(v[2], 7, h[2 * n + j]),
-                       value(v[3], 7, h[3 * n + j]));
+                for (int c = 0; c < BST_NCOMP; c++)
+                    value(v[c], c ? 7 : 8, cs[c] == ABSENT ? NAN : h[(size_t)c * n + j]);
+                printf("%5d %4d %s %s %s %s\n", t, p, v[0], v[1], v[2], v[3]);
             }
-        for (int side = 0; side < 2; side++) {
-            size_t worst = 0;
-            for (size_t j = 0; j < n; j++)
-                if (h[2 * side * n + j] + h[(2 * side + 1) * n + j] > h[2 * side * n + worst] + h[(2 * side + 1) * n + worst])
-                    worst = j;
-            double s = h[2 * side * n + worst] + h[(2 * side + 1) * n + worst], d[3];
-            char v[32];
-            bst_basis_center(basis, worst, d);
-            printf("energy    %s: largest T + R = %s at patch %zu (theta %.1f deg)%s\n",
-                   side ? "back " : "front", value(v, 0, s), worst, acos(d[2]) * 180 / M_PI,
-                   s > 1.0 + BST_ENERGY_TOL ? "  ** exceeds 1 **" : "");
-        }
-        print_reciprocity(ctx, b, l, ch);
+        for (int side = 0; side < 2; side++)
+            print_energy(basis, n, side, h + 2 * side * n, cs + 2 * side);
+        print_reciprocity(ctx, l, ch, cs);
     }
     int rc = ref ? print_against(ctx, sub, path, ref, l) : CLI_OK;
     free(h);
+    free(file);
     bst_layer_free(l);
     bst_bsdf_free(b);
     bst_ctx_free(ctx);

@@ -69,6 +69,15 @@ void cli_warn_zero_components(const char *sub, const char *path, const bst_bsdf 
 }
 
 
+size_t cli_spec_reversed(const char *spec, int *reversed)
+{
+    size_t len = strlen(spec);
+    int r = len > 0 && spec[len - 1] == '^';
+    if (reversed)
+        *reversed = r;
+    return len - (size_t)r;
+}
+
 static int is_glass(const char *spec)
 {
     return strncmp(spec, "glass:", 6) == 0;
@@ -87,12 +96,9 @@ static int read_one(bst_ctx *ctx, const char *sub, const char *what, const char 
                     const bst_bsdf_read_opts *ro, const struct cli_basis_choice *choice, int quiet,
                     bst_bsdf **file)
 {
-    char *path = strdup(spec);
+    char *path = strndup(spec, cli_spec_reversed(spec, NULL));
     if (!path)
         return cli_fail(sub, "out of memory");
-    size_t len = strlen(path);
-    if (len && path[len - 1] == '^')
-        path[len - 1] = '\0';
     int rc = CLI_OK, st = bst_bsdf_read(ctx, path, ro, file);
     if (st < 0)
         rc = cli_fail_ctx(sub, what, ctx);
@@ -190,8 +196,8 @@ static int make_layer(bst_ctx *ctx, const char *sub, const char *what, const cha
                       bst_precision prec, int at_centre, bst_layer **out, bst_glass **pane,
                       char **note)
 {
-    size_t len = strlen(spec);
-    int flip = len && spec[len - 1] == '^', st;
+    int flip, st;
+    size_t len = cli_spec_reversed(spec, &flip);
     bst_layer *l = NULL;
     *out = NULL;
     *pane = NULL;
@@ -201,7 +207,7 @@ static int make_layer(bst_ctx *ctx, const char *sub, const char *what, const cha
     } else if (cli_is_shade(spec)) {
         st = cli_shade_layer(ctx, spec, basis, nch, chnames, prec, &l);
     } else {
-        char *gspec = strndup(spec + 6, len - 6 - (size_t)flip);
+        char *gspec = strndup(spec + 6, len - 6);
         bst_glass *g = NULL;
         st = gspec ? bst_glass_parse(ctx, gspec, getenv("BSDFSTACK_GLASS_DIR"), &g) : BST_ENOMEM;
         /* a spectral pane is averaged over any further band asked for (CIE-X, ...) */

@@ -5,6 +5,11 @@
 
 #include "bsdfstack.h"
 
+/* A layer spec ending in ^ is the layer reversed (back side to the exterior: bst_layer_flip).
+ * The length of spec without that ^, and in *reversed (when not NULL) 1 when it has one, else 0:
+ * every command that takes layer specs reads the ^ here. */
+size_t cli_spec_reversed(const char *spec, int *reversed);
+
 /* How layers are loaded: the basis, and the memory they and what follows may take. */
 struct cli_basis_choice {
     int k;             /* Shirley-Chiu order, 0 = not given */

@@ -45,9 +45,7 @@ static int scatters(const bst_shade_model *m)
 /* The spec (a trailing ^ dropped) parsed into *m. */
 int cli_shade_parse(bst_ctx *ctx, const char *spec, bst_shade_model *m)
 {
-    size_t len = strlen(spec);
-    int flip = len > 0 && spec[len - 1] == '^';
-    char *d = strndup(spec, len - (size_t)flip);
+    char *d = strndup(spec, cli_spec_reversed(spec, NULL));
     int st = d ? bst_shade_parse(ctx, d, getenv("BSDFSTACK_GLASS_DIR"), m) : BST_ENOMEM;
     free(d);
     return st;
