@@ -172,6 +172,16 @@ static const unsigned char char_class[256] = {
     ['{'] = CH_OPEN, ['}'] = CH_CLOSE,
 };
 
+int bsti_value_check(bst_ctx *ctx, double v, const char *what)
+{
+    if (!isfinite(v))
+        return bsti_error(ctx, BST_EFORMAT, "%s is not finite", what);
+    if (fabs(v) > FLT_MAX)
+        return bsti_error(ctx, BST_EFORMAT, "%s exceeds the single-precision range (%.4g) in "
+                          "which BSDF values are held", what, (double)FLT_MAX);
+    return BST_OK;
+}
+
 /* The number of the len characters at s; s is p->tok or the text fed (read in place). */
 static int number(bsti_tparse *p, const char *s, size_t len)
 {
@@ -184,11 +194,11 @@ static int number(bsti_tparse *p, const char *s, size_t len)
         p->tok[len] = '\0';
         if (!ok)
             return bsti_error(p->ctx, BST_EFORMAT, "'%s' is not a number", p->tok);
-        if (!isfinite(v))
-            return bsti_error(p->ctx, BST_EFORMAT, "value '%s' is not finite", p->tok);
-        if (fabs(v) > FLT_MAX)
-            return bsti_error(p->ctx, BST_EFORMAT, "value '%s' exceeds the single-precision range "
-                              "(%.4g) in which tensor trees are held", p->tok, (double)FLT_MAX);
+        char what[sizeof p->tok + 16];
+        snprintf(what, sizeof what, "value '%s'", p->tok);
+        int st = bsti_value_check(p->ctx, v, what);
+        if (st < 0)
+            return st;
         if (p->top == 0)
             return bsti_error(p->ctx, BST_EFORMAT, "number '%s' outside any tree node", p->tok);
         return bsti_error(p->ctx, BST_EFORMAT, "a tree node mixes values and child nodes");

@@ -32,6 +32,15 @@ typedef struct bsti_ttree {
     int negatives;            /* count of negative numbers read as 0 */
 } bsti_ttree;
 
+/* The bound on a value a BSDF file may hold, for both readers (trees and Klems matrices): finite
+ * and at most FLT_MAX in magnitude, since tensor trees are held in single precision and every
+ * file bsdfstack writes is too (a Klems value past it could only fail later, at the writer, with
+ * a message naming the output).  BST_OK when v is within it; else BST_EFORMAT with "WHAT is not
+ * finite" or "WHAT exceeds the single-precision range (3.403e+38) in which BSDF values are held"
+ * in ctx (what: the value as the file spells it, "value '1e300'"; no file name, the caller
+ * prefixes it). */
+int bsti_value_check(bst_ctx *ctx, double v, const char *what);
+
 /* Streaming builder: feed text in chunks of any size (tokens may straddle chunks). */
 typedef struct bsti_tparse bsti_tparse;
 int bsti_tparse_new(bst_ctx *ctx, int dim, bsti_tparse **out);

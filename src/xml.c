@@ -244,8 +244,10 @@ static void klems_number(struct reader *r)
         fail(r, BST_EFORMAT, "<ScatteringData>: '%s' is not a number", r->tok);
         return;
     }
-    if (!isfinite(v)) {
-        fail(r, BST_EFORMAT, "<ScatteringData>: value no. %zu, '%s', is not finite", r->nkm + 1, r->tok);
+    char what[sizeof r->tok + 48];
+    snprintf(what, sizeof what, "value no. %zu, '%s',", r->nkm + 1, r->tok);
+    if (bsti_value_check(r->ctx, v, what) < 0) { /* the trees' bound (ttree.h) */
+        fail_ctx(r, BST_EFORMAT, "ScatteringData");
         return;
     }
     if (r->nkm >= r->kmax) {

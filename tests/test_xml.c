@@ -819,6 +819,19 @@ START_TEST(test_read_notes)
     ck_assert_int_eq(bst_bsdf_read(ctx, p, NULL, &b), BST_EFORMAT);
     ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "value no. 1, 'nan', is not finite"));
     unlink(p);
+    /* so is one past the trees' single-precision bound (it failed later, at the writer, naming the
+     * output), and one just inside it is read */
+    memcpy(sd, "1e39", 4);
+    p = write_tmp(kl, len);
+    ck_assert_int_eq(bst_bsdf_read(ctx, p, NULL, &b), BST_EFORMAT);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), p));
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "value no. 1, '1e39', exceeds the single-precision range"));
+    unlink(p);
+    memcpy(sd, "3e38", 4);
+    p = write_tmp(kl, len);
+    ck_assert_int_ge(bst_bsdf_read(ctx, p, NULL, &b), 0);
+    bst_bsdf_free(b);
+    unlink(p);
     /* two layers in one file */
     char *lay = strstr(kl, "<Layer>"), *end = strstr(kl, "</Layer>") + strlen("</Layer>");
     size_t ll = (size_t)(end - lay);
