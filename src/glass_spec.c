@@ -133,9 +133,10 @@ static int parse_params(bst_ctx *ctx, const char *where, const char *text,
         default: bad = parse_number(val, &x) || !(x >= 0.0 && x <= 1.0); break; /* tn, t0 */
         }
         if (bad)
-            return bsti_error(ctx, BST_EINVAL, "%s: %s=%s is not a valid value (d: a length below "
-                              "1 m such as 6mm; n: 1..5; tn, t0: 0..1; k: >= 0 per metre such as "
-                              "25/m; r0, r0b: 0..1)", where, key, val);
+            return bsti_error(ctx, BST_EINVAL, "%s: %s=%s is not a valid value (d: a length in "
+                              "[0, 1 m) such as 6mm; n: in (1, 5); tn, t0: in [0, 1]; k: >= 0 per "
+                              "metre such as 25/m; r0, r0b: in [0, 1), as a slab reflecting all "
+                              "would need an infinite index)", where, key, val);
         v[i] = x;
     }
     double t0 = v[T0], r0f = v[R0], r0b = v[R0B];

@@ -96,6 +96,14 @@ expect_status 0 "own catalogue listed" -- env BSDFSTACK_GLASS_DIR="$tmpdir/cat" 
 expect_exit 1 "unknown pane" "no such pane" -- "$BSDFSTACK" glass clear-7mm
 expect_exit 1 "bad value" "tn=2 is not a valid value" -- "$BSDFSTACK" glass d=6mm,n=1.5,tn=2
 expect_exit 1 "NaN index" "n=nan is not a valid value" -- "$BSDFSTACK" glass d=6mm,n=nan,tn=0.8
+# R0 = 1 (a perfect mirror) would need an infinite index: the message gives the range as it is
+# (it said "r0, r0b: 0..1", a range holding 1); just below 1 the model holds, with no NaN
+expect_exit 1 "r0=1" "r0=1 is not a valid value \(.*r0, r0b: in \[0, 1\), as a slab reflecting all" -- \
+    "$BSDFSTACK" glass t0=0,r0=1
+expect_exit 1 "r0b=1" "r0b=1 is not a valid value .*; n: in \(1, 5\); tn, t0: in \[0, 1\];" -- \
+    "$BSDFSTACK" glass t0=0,r0=0.5,r0b=1
+expect_status 0 "r0=0.999999" -- "$BSDFSTACK" glass t0=0,r0=0.999999
+msg=$(rows_ok "$tmpdir/out" 2) && ! grep -qi nan "$tmpdir/out" && pass "a near-mirror's table" || fail "near-mirror: $msg"
 expect_exit 1 "negative thickness" "d=-6mm" -- "$BSDFSTACK" glass d=-6mm,n=1.5,k=20
 expect_exit 1 "malformed spec" "not key=value" -- "$BSDFSTACK" glass d=6mm,n
 expect_exit 1 "missing file" "cannot open" -- "$BSDFSTACK" glass "$tmpdir/none.tsv"
