@@ -470,8 +470,9 @@ const char *bst_bsdf_channel(const bst_bsdf *b, size_t ch);
 /* 1 when the file stores the component (0 when it is derived or zero). */
 int bst_bsdf_stored(const bst_bsdf *b, size_t ch, bst_comp c);
 /* f(in, out) (1/sr) as libBSDF evaluates it (less its 2e-4 perturbation); in towards the source,
- * out along the scattered light, unit vectors in the file's frame; the signs of their z pick the
- * component (Tf: in_z < 0 < out_z, Tb: out_z < 0 < in_z, Rf: both < 0, Rb: both > 0). */
+ * out along the scattered light, vectors in the file's frame of any finite, non-zero length
+ * (normalised here; BST_EINVAL otherwise); the signs of their z pick the component (Tf: in_z < 0
+ * < out_z, Tb: out_z < 0 < in_z, Rf: both < 0, Rb: both > 0). */
 int bst_bsdf_eval(bst_ctx *ctx, const bst_bsdf *b, size_t ch, const double in[3],
                   const double out[3], double *value);
 /* The file's BSDF as a layer over target (NULL: the file's own basis), each component in its

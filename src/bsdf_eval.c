@@ -44,6 +44,24 @@ static double eval_comp(const bst_bsdf *b, size_t ch, int c, const double in[3],
     return 0.0;
 }
 
+/* u = x / |x|, scaled by its largest component first, so that no square overflows (1e200) or
+ * underflows (a subnormal component); 0 when x is not finite or is zero. */
+static int unit(const double x[3], double u[3])
+{
+    double m = fmax(fabs(x[0]), fmax(fabs(x[1]), fabs(x[2])));
+    if (!(m > 0 && isfinite(m)) || !isfinite(x[0] + x[1] + x[2]))
+        return 0;
+    double l = 0;
+    for (int i = 0; i < 3; i++) {
+        u[i] = x[i] / m;
+        l += u[i] * u[i]; /* 1..3 */
+    }
+    l = sqrt(l);
+    for (int i = 0; i < 3; i++)
+        u[i] /= l;
+    return 1;
+}
+
 int bst_bsdf_eval(bst_ctx *ctx, const bst_bsdf *b, size_t ch, const double in_raw[3],
                   const double out_raw[3], double *value)
 {
@@ -51,13 +69,9 @@ int bst_bsdf_eval(bst_ctx *ctx, const bst_bsdf *b, size_t ch, const double in_ra
         return ctx ? bsti_error(ctx, BST_EINVAL, "eval: NULL argument") : BST_EINVAL;
     if (ch >= b->nch)
         return bsti_error(ctx, BST_EINVAL, "eval: channel %zu of %zu", ch, b->nch);
-    double in[3], out[3], li = 0, lo = 0;
-    for (int i = 0; i < 3; i++)
-        li += in_raw[i] * in_raw[i], lo += out_raw[i] * out_raw[i];
-    if (!(li > 0 && lo > 0 && isfinite(li) && isfinite(lo)))
+    double in[3], out[3];
+    if (!unit(in_raw, in) || !unit(out_raw, out))
         return bsti_error(ctx, BST_EINVAL, "eval: direction vectors must be finite and non-zero");
-    for (int i = 0; i < 3; i++)
-        in[i] = in_raw[i] / sqrt(li), out[i] = out_raw[i] / sqrt(lo);
     if (in[2] == 0.0 || out[2] == 0.0)
         return bsti_error(ctx, BST_EINVAL, "eval: a direction lies in the surface plane (z = 0)");
     int c = in[2] < 0 ? (out[2] > 0 ? BST_TF : BST_RF) : (out[2] < 0 ? BST_TB : BST_RB);

@@ -17,6 +17,15 @@ done
 echo "0 0 0 0" | "$BSDFSTACK" query --degrees Tf "$ref/L_glass_t4k5.xml" > "$tmpdir/got"
 awk '{ exit !($1 > 250 && $1 < 320) }' "$tmpdir/got" && pass "--degrees Tf at normal incidence" || fail "--degrees: $(cat "$tmpdir/got")"
 
+# vectors of any finite, non-zero length give the value of the unit ones: 1e200 (whose squares
+# overflowed: "must be finite and non-zero") and subnormal components (whose squares underflow)
+printf '1 0 -1 0 0 1\n1e200 0 -1e200 0 0 1\n1e-310 0 -1e-310 0 0 4.9e-324\n-0.5 0.25 -0.75 0.25 0.5 0.75\n-5e-321 2.5e-321 -7.5e-321 2.5e300 5e300 7.5e300\n' > "$tmpdir/scaled"
+expect_status 0 "query: huge and subnormal direction vectors" -- \
+    sh -c '"$1" query "$2" < "$3"' sh "$BSDFSTACK" "$ref/L_blind45_t4k5.xml" "$tmpdir/scaled"
+awk 'NR == 1 || NR == 4 { v = $1 } NR == 2 || NR == 3 || NR == 5 { if ($1 != v) bad = 1 } END { exit bad || NR != 5 }' \
+    "$tmpdir/out" && pass "each scaled pair gives the unit pair's value" || fail "scaled vectors: $(cat "$tmpdir/out")"
+echo "0 0 0 0 0 1" | expect_error "a zero vector" "line 1: .*finite and non-zero" -- "$BSDFSTACK" query "$ref/L_glass_t4k5.xml"
+
 printf '<?xml version="1.0"?>\n<WindowElement><Optical>\n' > "$tmpdir/trunc.xml"
 expect_error "truncated file" "trunc.xml: .*(malformed|truncated)" -- "$BSDFSTACK" query "$tmpdir/trunc.xml"
 expect_error "missing file" "nothere.xml: cannot open" -- "$BSDFSTACK" query "$tmpdir/nothere.xml"

@@ -49,6 +49,13 @@ static double check_query_table(const char *xml, const char *table)
                                      &in[1], &in[2], &out[0], &out[1], &out[2], &ref) != 9)
             continue;
         ck_assert_int_eq(bst_bsdf_eval(ctx, b, 0, in, out, &got), BST_OK);
+        /* the same directions at 2^1000 times the length (exact): their squares overflow, the
+         * value must not change */
+        double bin[3], bout[3], big;
+        for (int i = 0; i < 3; i++)
+            bin[i] = ldexp(in[i], 1000), bout[i] = ldexp(out[i], 1000);
+        ck_assert_int_eq(bst_bsdf_eval(ctx, b, 0, bin, bout, &big), BST_OK);
+        ck_assert_double_eq(big, got);
         double dev = fabs(got - ref) / fmax(fabs(ref), 1e-6);
         ck_assert_msg(dev <= QUERY_RTOL, "%s row %zu (%s %s): %g vs libBSDF %g", xml, rows + 1,
                       comp, kind, got, ref);
@@ -123,8 +130,22 @@ START_TEST(test_worked_examples)
         ck_assert_int_eq(bst_bsdf_eval(ctx, b, 0, ex[i].in, ex[i].out, &v), BST_OK);
         ck_assert_msg(fabs(v - ex[i].want) <= QUERY_RTOL * ex[i].want, "%s example %zu: %g vs %g",
                       ex[i].file, i, v, ex[i].want);
+        /* the same directions at 2^-1040 times their length: subnormal components (about 32
+         * significant bits, well inside these points' cells), whose squares underflow to 0 */
+        double tin[3], tout[3], tiny;
+        for (int k = 0; k < 3; k++)
+            tin[k] = ldexp(ex[i].in[k], -1040), tout[k] = ldexp(ex[i].out[k], -1040);
+        ck_assert_int_eq(bst_bsdf_eval(ctx, b, 0, tin, tout, &tiny), BST_OK);
+        ck_assert_double_eq(tiny, v);
         bst_bsdf_free(b);
     }
+    /* a zero or non-finite direction is refused */
+    bst_bsdf *b = read_ok(tu_ref(ex[0].file));
+    double v, zero[3] = {0, 0, 0}, inf[3] = {INFINITY, 0, -1}, nan3[3] = {NAN, 0, -1};
+    ck_assert_int_eq(bst_bsdf_eval(ctx, b, 0, zero, ex[0].out, &v), BST_EINVAL);
+    ck_assert_int_eq(bst_bsdf_eval(ctx, b, 0, ex[0].in, inf, &v), BST_EINVAL);
+    ck_assert_int_eq(bst_bsdf_eval(ctx, b, 0, nan3, ex[0].out, &v), BST_EINVAL);
+    bst_bsdf_free(b);
 }
 END_TEST
 
