@@ -114,6 +114,26 @@ static int open_direct(bst_output *o)
     return BST_OK;
 }
 
+/* Why the temporary beside o->target could not be made (err: mkstemp's errno), naming the call
+ * that failed: the temporary is created, not PATH, so "PATH: No such file or directory" for a PATH
+ * that exists misled.  ENOENT is a missing directory, or one whose file system makes no new files
+ * (/proc, where only the existing entries are): the message says which. */
+static int temporary_error(bst_output *o, int err)
+{
+    char dir[4096], note[sizeof dir + 64] = "";
+    const char *slash = strrchr(o->target, '/');
+    size_t dirlen = slash ? (size_t)(slash - o->target) + (slash == o->target) : 1;
+    snprintf(dir, sizeof dir, "%.*s", (int)dirlen, slash ? o->target : ".");
+    struct stat st;
+    if (err == ENOENT && stat(dir, &st) != 0)
+        return bsti_error(o->ctx, BST_EIO, "%s: cannot create output file: %s: %s", o->path, dir,
+                          strerror(errno));
+    if (err == ENOENT && S_ISDIR(st.st_mode))
+        snprintf(note, sizeof note, " (%s exists, but its file system makes no new files)", dir);
+    return bsti_error(o->ctx, BST_EIO, "%s: cannot create output file: its temporary %s"
+                      OUTPUT_TMP_SUFFIX ": %s%s", o->path, o->target, strerror(err), note);
+}
+
 /* A temporary beside o->target, with the permissions (and owner) of old, the regular file it will
  * replace, or those of a new file when old is NULL. */
 static int open_temporary(bst_output *o, const struct stat *old)
@@ -142,9 +162,10 @@ static int open_temporary(bst_output *o, const struct stat *old)
         fd = -1, err = EAGAIN;
     }
     if (fd < 0) {
+        int rc = temporary_error(o, err);
         bsti_free(o->ctx, o->tmp);
         o->tmp = NULL;
-        return bsti_error(o->ctx, BST_EIO, "%s: cannot create output file: %s", o->path, strerror(err));
+        return rc;
     }
     if (old) {
         /* best effort: only root may give the file away; chown before chmod, which it may clear */

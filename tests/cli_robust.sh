@@ -120,6 +120,24 @@ expect_error "a directory as --absorptance" "$d: is a directory" -- pane --absor
 expect_error "an empty output name" "empty output file name" -- pane -o ''
 [ ! -e "$d/e.xml" ] && pass "no system file beside a refused absorptance" || fail "e.xml written"
 
+# --- an output whose temporary cannot be made: the message names the call that failed and why
+# (-o /proc/version said "/proc/version: cannot create output file: No such file or directory", of
+# a file that is there: ENOENT was the temporary's, in a file system that makes no new files)
+if [ -f /proc/version ]; then
+    expect_error "-o /proc/version" "^bsdfstack combine: /proc/version: cannot create output file: its temporary /proc/version\.tmpXXXXXX: No such file or directory \(/proc exists, but its file system makes no new files\)$" \
+        -- pane -o /proc/version
+fi
+expect_error "-o in a missing directory" "^bsdfstack combine: $d/nodir/x\.xml: cannot create output file: $d/nodir: No such file or directory$" \
+    -- pane -o "$d/nodir/x.xml"
+mkdir "$d/ro" && chmod 555 "$d/ro"
+if [ "$(id -u)" -ne 0 ]; then
+    expect_error "-o in a read-only directory" "$d/ro/x\.xml: cannot create output file: its temporary $d/ro/x\.xml\.tmpXXXXXX: Permission denied$" \
+        -- pane -o "$d/ro/x.xml"
+else
+    echo "skipped: a read-only directory (root writes there)"
+fi
+chmod 755 "$d/ro" && rm -rf "$d/ro"
+
 # --- failures leave nothing: not a file, not a temporary; an old file keeps its content
 expect_error "bad input" "nothere.xml: cannot open" -- "$B" combine -o "$d/f.xml" glass:clear-6mm "$d/nothere.xml"
 [ ! -e "$d/f.xml" ] && pass "bad input: no output file" || fail "bad input left f.xml"
