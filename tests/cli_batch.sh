@@ -53,8 +53,20 @@ grep -q "1 of 3 stacks failed" err && pass "the count of failures" || fail "stde
 # everything is checked before any work: nothing is written
 rm -f d.xml f.xml
 printf 'd.xml glass:clear-6mm\nf.xml glass:clear-6mm %s/none.xml\n' "$tmpdir" > missing.txt
-expect_error "missing layer file" "none.xml: cannot open" -- "$B" batch missing.txt
+expect_error "missing layer file" "^bsdfstack batch: missing\.txt:2: $tmpdir/none\.xml: cannot open" -- "$B" batch missing.txt
 [ ! -f d.xml ] && pass "nothing written" || fail "d.xml written although a layer is missing"
+# a bad layer is named with the line that first gives it, the spec once
+printf '# panes
+d.xml glass:clear-6mm
+
+f.xml glass:clear-5mm
+g.xml glass:clear-5mm
+' > nopane.txt
+expect_error "unknown pane, by line" "^bsdfstack batch: nopane\.txt:4: glass:clear-5mm: no such pane" -- "$B" batch nopane.txt
+printf 'd.xml venetian:width=3
+' > noshade.txt
+expect_error "a shade's error, by line" "^bsdfstack batch: noshade\.txt:1: venetian:width=3: venetian: spacing missing" -- \
+    "$B" batch -k 1 noshade.txt
 printf 'd.xml glass:clear-6mm\nlonely.xml\n' > bad.txt
 expect_error "a line without layers" "bad.txt:2: no layers" -- "$B" batch bad.txt
 printf 'd.xml glass:clear-6mm\nd.xml glass:lowiron-6mm\n' > dup.txt
@@ -63,6 +75,11 @@ printf '# nothing\n\n' > empty.txt
 expect_error "no stacks" "no stacks" -- "$B" batch empty.txt
 expect_error "no batch file" "cannot open" -- "$B" batch nothere.txt
 expect_error "no argument" "no batch file given" -- "$B" batch
+expect_status 2 "an empty batch file name: a usage error" -- "$B" batch ''
+grep -q "batch: the batch file '': an empty file name" "$tmpdir/err" && pass "it says so" || fail "batch '': $(cat "$tmpdir/err")"
+expect_status 2 "--summary '': a usage error" -- "$B" batch --summary '' d.txt
+expect_status 2 "--channels '': a usage error" -- "$B" batch --channels '' d.txt
+grep -q "batch: --channels '': no channel named" "$tmpdir/err" && pass "it says so" || fail "batch --channels: $(cat "$tmpdir/err")"
 
 # -j 2 writes the same files as -j 1, byte for byte: the header's date comes from
 # SOURCE_DATE_EPOCH, and the recorded command leaves -j, --summary and --resume out

@@ -111,6 +111,7 @@ printf 'd.xml glass:clear-6mm\nf.xml glass:clear-6mm %s/none.xml\n' "$tmpdir" > 
 run_mpi 2 missing.txt > out 2> err
 st=$?
 [ "$st" -eq 1 ] && [ "$(grep -c 'none.xml: cannot open' err)" -eq 1 ] && [ ! -f d.xml ] && pass "a missing layer: one error line, nothing written" || fail "missing layer: exit $st, $(cat err)"
+grep -q "missing\.txt:2: $tmpdir/none\.xml: cannot open" err && pass "it names the batch line" || fail "missing layer: $(cat err)"
 run_mpi 2 -j 2 ../a.txt > out 2> err
 st=$?
 [ "$st" -eq 2 ] && [ "$(grep -c 'mpirun -n N' err)" -eq 1 ] && pass "-j is refused once" || fail "-j: exit $st, $(cat err)"

@@ -117,7 +117,21 @@ expect_status 0 "a new file under umask 027" -- sh -c 'umask 027; exec "$@"' sh 
 # --- a directory, an empty name
 expect_error "a directory as output" "$d: is a directory" -- pane -o "$d"
 expect_error "a directory as --absorptance" "$d: is a directory" -- pane --absorptance "$d" -o "$d/e.xml"
-expect_error "an empty output name" "empty output file name" -- pane -o ''
+expect_error "an empty output name" "combine: -o '': an empty file name" -- pane -o ''
+# an empty name or list is a usage error, exit 2, as other malformed values are (-o '' exited 1;
+# --channels '' was taken as every channel, compare --channel '' as the first)
+for args in "combine -k 1 -o '' glass:clear-6mm" "combine -k 1 --absorptance '' -o $d/x.xml glass:clear-6mm" \
+    "combine -k 1 --incident-file '' -o $d/x.tsv glass:clear-6mm" "convert -o '' $f" "convert -o $d/x.xml ''" \
+    "view -o '' $f" "combine -k 1 --channels '' -o $d/x.xml glass:clear-6mm" \
+    "combine -k 1 --channels Visible,,Solar -o $d/x.xml glass:clear-6mm" "convert --channels , -o $d/x.xml $f" \
+    "compare -k 1 --channel '' glass:clear-6mm glass:clear-4mm" \
+    "plot --curve --tsv '' -o $d/x.svg $f" "plot -o '' $f"; do
+    eval "set -- $args"
+    expect_status 2 "$args: exit 2" -- "$B" "$@"
+    [ "$(grep -vc "^Try 'bsdfstack" "$tmpdir/err")" -eq 1 ] && grep -Eq "(an empty file name|no channel named|an empty channel name)$" "$tmpdir/err" \
+        && pass "one line saying so" || fail "$args: $(cat "$tmpdir/err")"
+done
+[ ! -e "$d/x.xml" ] && [ ! -e "$d/x.tsv" ] && pass "nothing written" || fail "written: $(ls "$d")"
 [ ! -e "$d/e.xml" ] && pass "no system file beside a refused absorptance" || fail "e.xml written"
 
 # --- an output whose temporary cannot be made: the message names the call that failed and why

@@ -8,6 +8,7 @@
 
 #include <stdarg.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -192,6 +193,31 @@ int batch_file_parse(FILE *fp, const char *path, struct batch_file *bf, char **e
         rc = failf(err, "%s: no stacks: give one line OUT LAYER LAYER... per stack", path);
     free(buf);
     return rc;
+}
+
+char **batch_file_places(const struct batch_file *bf, const char *path)
+{
+    size_t each = strlen(path) + 24; /* ":" and a line number */
+    if (bf->nspecs > ((size_t)-1 / 2) / (each + sizeof(char *)))
+        return NULL;
+    char **place = malloc(bf->nspecs * (sizeof *place + each) + 1);
+    if (!place)
+        return NULL;
+    char *text = (char *)(place + bf->nspecs);
+    for (size_t i = 0; i < bf->nspecs; i++)
+        place[i] = NULL;
+    for (size_t l = 0; l < bf->nlines; l++) /* lines in file order: the first to name it */
+        for (size_t j = 0; j < bf->lines[l].n; j++) {
+            size_t i = bf->lines[l].layer[j];
+            if (!place[i]) {
+                place[i] = text + i * each;
+                snprintf(place[i], each, "%s:%zu", path, bf->lines[l].lineno);
+            }
+        }
+    for (size_t i = 0; i < bf->nspecs; i++) /* every spec is some line's: not reached */
+        if (!place[i])
+            place[i] = (char *)path;
+    return place;
 }
 
 void batch_file_free(struct batch_file *bf)

@@ -28,6 +28,10 @@ struct batch_file {
  * could not be allocated).  bf holds whatever was read either way; release it with
  * batch_file_free. */
 int batch_file_parse(FILE *fp, const char *path, struct batch_file *bf, char **err);
+/* For each distinct layer spec i, "PATH:LINE" of the first line naming it (the place its
+ * messages name: cli_basis_choice.where), as an array of bf->nspecs strings in one allocation
+ * (free() it); NULL when out of memory. */
+char **batch_file_places(const struct batch_file *bf, const char *path);
 /* Release what batch_file_parse allocated; bf may be zeroed or NULL. */
 void batch_file_free(struct batch_file *bf);
 

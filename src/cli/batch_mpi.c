@@ -367,9 +367,15 @@ static int run(int argc, char **argv, int rank, int size)
         rc = batch_clean_temporaries(ctx, &b, bf.lines, bf.nlines);
     if (rank == 0 && rc == CLI_OK && !(structure = calloc(bf.nspecs, sizeof *structure)))
         rc = cli_fail(sub, "out of memory");
-    if (rank == 0 && rc == CLI_OK)
-        rc = cli_layers_check(ctx, sub, bf.nspecs, bf.specs, &b.args.basis, b.args.channels,
-                              b.args.so.precision, &pick, structure);
+    if (rank == 0 && rc == CLI_OK) { /* a layer's messages name the line that first gives it */
+        char **places = batch_file_places(&bf, b.path);
+        b.args.basis.where = places;
+        rc = places ? cli_layers_check(ctx, sub, bf.nspecs, bf.specs, &b.args.basis, b.args.channels,
+                                       b.args.so.precision, &pick, structure)
+                    : cli_fail(sub, "out of memory");
+        b.args.basis.where = NULL;
+        free(places);
+    }
     struct cli_out sum;
     memset(&sum, 0, sizeof sum);
     if (rank == 0 && rc == CLI_OK && summary)

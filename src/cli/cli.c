@@ -48,11 +48,17 @@ int cli_fail_ctx(const char *sub, const char *what, bst_ctx *ctx)
     const char *msg = bst_ctx_message(ctx);
     if (!msg || !*msg)
         msg = bst_strerror(bst_ctx_status(ctx));
-    /* the library often names the file or spec itself: name it once */
-    size_t wl = what ? strlen(what) : 0;
-    if (wl && !(strncmp(msg, what, wl) == 0 && msg[wl] == ':'))
-        return cli_fail(sub, "%s: %s", what, msg);
-    return cli_fail(sub, "%s", msg);
+    /* the library often names the file or spec itself: name it once, also after the place it was
+     * given ("FILE:LINE: SPEC", a batch line) */
+    if (!what || !*what)
+        return cli_fail(sub, "%s", msg);
+    const char *last = what;
+    for (const char *p = strstr(what, ": "); p; p = strstr(p + 2, ": "))
+        last = p + 2;
+    size_t wl = strlen(last);
+    if (strncmp(msg, last, wl) == 0 && msg[wl] == ':')
+        return cli_fail(sub, "%.*s%s", (int)(last - what), what, msg);
+    return cli_fail(sub, "%s: %s", what, msg);
 }
 
 void cli_warn_bsdf(const char *sub, const char *path, const bst_bsdf *b)
@@ -389,6 +395,25 @@ int cli_parse_comps(const char *sub, const char *list, unsigned *comps)
     }
     free(copy);
     return *comps ? CLI_OK : cli_usage(sub, "--only: no component given");
+}
+
+int cli_parse_path(const char *sub, const char *what, const char *path)
+{
+    return *path ? CLI_OK : cli_usage(sub, "%s '': an empty file name", what);
+}
+
+int cli_parse_channels(const char *sub, const char *opt, const char *list)
+{
+    if (!*list)
+        return cli_usage(sub, "%s '': no channel named", opt);
+    for (const char *p = list;; p++) {
+        size_t n = strcspn(p, ",");
+        if (n == 0)
+            return cli_usage(sub, "%s '%s': an empty channel name", opt, list);
+        if (!p[n])
+            return CLI_OK;
+        p += n;
+    }
 }
 
 int cli_parse_incident(const char *sub, const char *s, double dir[2])

@@ -49,7 +49,8 @@ int cli_usage(const char *sub, const char *fmt, ...)
     __attribute__((format(printf, 2, 3)))
 #endif
     ;
-/* Report a library error from ctx ("bsdfstack SUB: WHAT: message").  Returns CLI_FAIL. */
+/* Report a library error from ctx ("bsdfstack SUB: WHAT: message"; WHAT once where the message
+ * starts with it, or with its part after the last ": ").  Returns CLI_FAIL. */
 int cli_fail_ctx(const char *sub, const char *what, bst_ctx *ctx);
 /* Print library warnings held by ctx after a call that returned status > 0. */
 /* What the reader read other than the file states (a tree averaged to BST_K_MAX, negative
@@ -133,6 +134,14 @@ int cli_threads_arg(int argc, char **argv, int *i);
  * CLI_OK or a usage error (printed). */
 int cli_parse_comps(const char *sub, const char *list, unsigned *comps);
 int cli_parse_precision(const char *sub, const char *s, bst_precision *prec);
+/* A file named by an option or argument (what: "-o", "--absorptance", "the input file"): CLI_OK,
+ * or the usage error "WHAT '': an empty file name" (printed), as every other malformed option
+ * value is one (exit 2; it failed with 1, after the work where the output was opened last). */
+int cli_parse_path(const char *sub, const char *what, const char *path);
+/* --channels NAMES (comma-separated) or --channel NAME: CLI_OK, or a usage error when the value
+ * names no channel or holds an empty name ("", ",", "Visible,,Solar"): it was taken as "every
+ * channel" or as the first. */
+int cli_parse_channels(const char *sub, const char *opt, const char *list);
 /* --incident THETA,PHI (degrees, 0 <= THETA < 90) into dir[0], dir[1]; CLI_OK or a usage error. */
 int cli_parse_incident(const char *sub, const char *s, double dir[2]);
 

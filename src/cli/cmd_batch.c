@@ -579,7 +579,11 @@ int batch_options(int argc, char **argv, struct batch *b, int *jobs, const char 
             if (cli_parse_int(optarg, jobs) != 0 || *jobs < 1)
                 return cli_usage(sub, "-j %s: give a whole number of stacks at once, 1 or more", optarg);
             break;
-        case O_SUMMARY: *summary = optarg; break;
+        case O_SUMMARY:
+            if (cli_parse_path(sub, "--summary", optarg) != CLI_OK)
+                return CLI_USAGE;
+            *summary = optarg;
+            break;
         case O_RESUME: b->resume = 1; break;
         case 'h':
         case O_HELP: fputs(mpi_help ? mpi_help : help, stdout); return -1;
@@ -590,6 +594,8 @@ int batch_options(int argc, char **argv, struct batch *b, int *jobs, const char 
     if (argc - optind != 1)
         return cli_usage(sub, argc - optind < 1 ? "no batch file given" : "one batch file expected");
     b->path = argv[optind];
+    if (cli_parse_path(sub, "the batch file", b->path) != CLI_OK)
+        return CLI_USAGE;
     char early[64];
     const char *epoch_date; /* a malformed SOURCE_DATE_EPOCH fails before the first stack */
     return cli_source_date(sub, early, sizeof early, &epoch_date);
@@ -675,9 +681,16 @@ int cmd_batch(int argc, char **argv)
         rc = CLI_FAIL;
     b.args.basis.combining = 1;
     b.args.basis.work = b.args.so.precision;
+    /* a layer's messages name the line that first gives it */
+    char **places = rc == CLI_OK ? batch_file_places(&bf, b.path) : NULL;
+    if (rc == CLI_OK && !places)
+        rc = cli_fail(sub, "out of memory");
+    b.args.basis.where = places;
     if (rc == CLI_OK)
         rc = cli_layers_load(&b.all, ctx, sub, b.nspecs, b.specs, &b.args.basis, b.args.channels, 0,
                              b.args.so.precision);
+    b.args.basis.where = NULL;
+    free(places);
     if (rc == CLI_OK && b.resume) /* what a killed run left behind */
         rc = batch_clean_temporaries(ctx, &b, b.lines, b.nlines);
     struct cli_out sum;

@@ -333,7 +333,10 @@ static int parse(int argc, char **argv, struct compare_req *q)
         switch (c) {
         case 'k':
         case 'K': rc = cli_parse_basis_option(sub, c, optarg, &q->choice); break;
-        case 'c': q->channel = optarg; break;
+        case 'c':
+            q->channel = optarg;
+            rc = cli_parse_channels(sub, "--channel", optarg);
+            break;
         case 'o': rc = cli_parse_comps(sub, optarg, &q->comps); break;
         case 'i':
             if (q->ndirs == MAX_DIRS)

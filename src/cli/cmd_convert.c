@@ -181,6 +181,9 @@ static int parse(int argc, char **argv, struct convert_req *q)
         return cli_usage(sub, argc - optind < 1 ? "no input file given" : "one input file expected");
     if (!q->out)
         return cli_usage(sub, "no output file given (-o OUT, or -o - for standard output)");
+    if (cli_parse_path(sub, "-o", q->out) != CLI_OK || cli_parse_path(sub, "the input file", argv[optind]) != CLI_OK ||
+        (q->channels && cli_parse_channels(sub, "--channels", q->channels) != CLI_OK))
+        return CLI_USAGE;
     q->in = argv[optind];
     char early[64];
     const char *epoch_date;

@@ -375,13 +375,15 @@ static int option(const char *sub, int c, const char *arg, struct plot_req *q)
             return cli_usage(sub, "--phi %s: give an azimuth in degrees, -360 to 360", arg);
         q->curve_only = "--phi";
         break;
-    case O_TSV: q->cv.tsvpath = arg, q->curve_only = "--tsv"; break;
+    case O_TSV:
+        q->cv.tsvpath = arg, q->curve_only = "--tsv";
+        return cli_parse_path(sub, "--tsv", arg);
     case O_MAXMEM:
         if (cli_parse_memory(sub, arg, &q->cv.max_memory) != CLI_OK)
             return CLI_USAGE;
         q->curve_only = "--max-memory";
         break;
-    case 'o': q->m.outpath = arg; break;
+    case 'o': q->m.outpath = arg; return cli_parse_path(sub, "-o", arg);
     default: return -1;
     }
     return CLI_OK;

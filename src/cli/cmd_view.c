@@ -385,7 +385,11 @@ int cmd_view(int argc, char **argv)
             if (cli_parse_memory(sub, optarg, &o.max_memory) != CLI_OK)
                 return CLI_USAGE;
             break;
-        case 'o': o.outpath = optarg; break;
+        case 'o':
+            if (cli_parse_path(sub, "-o", optarg) != CLI_OK)
+                return CLI_USAGE;
+            o.outpath = optarg;
+            break;
         case 'h': fputs(help, stdout); return CLI_OK;
         case ':': return cli_usage(sub, "option %s needs a value", argv[optind - 1]);
         default: return cli_usage(sub, "unknown option '%s'", argv[optind - 1]);

@@ -205,11 +205,11 @@ static int add_direction(const char *sub, const char *opt, const char *s, double
 static int own_option(const char *sub, int c, const char *arg, struct combine_req *q)
 {
     switch (c) {
-    case 'o': q->outpath = arg; return CLI_OK;
+    case 'o': q->outpath = arg; return cli_parse_path(sub, "-o", arg);
     case 'v': q->verbose = 1; return CLI_OK;
-    case O_ABS: q->abspath = arg; return CLI_OK;
+    case O_ABS: q->abspath = arg; return cli_parse_path(sub, "--absorptance", arg);
     case O_INCIDENT: return add_direction(sub, "--incident", arg, &q->dirs, &q->ndirs, &q->dcap);
-    case O_INCFILE: q->dirfile = arg; return CLI_OK;
+    case O_INCFILE: q->dirfile = arg; return cli_parse_path(sub, "--incident-file", arg);
     case O_FINE: {
         double t, p;
         char extra;
@@ -218,7 +218,7 @@ static int own_option(const char *sub, int c, const char *arg, struct combine_re
                              "(theta >= 90); give front incidence, 0 <= THETA < 90", arg);
         return add_direction(sub, "--fine-incident", arg, &q->fine, &q->nfine, &q->fcap);
     }
-    case O_FINEFILE: q->finefile = arg; return CLI_OK;
+    case O_FINEFILE: q->finefile = arg; return cli_parse_path(sub, "--fine-incident-file", arg);
     case O_COARSEK:
         if (cli_parse_int(arg, &q->kc) != 0 || q->kc < BST_K_MIN || q->kc >= BST_K_MAX)
             return cli_usage(sub, "--coarse-k %s: give an order from %d to %d", arg, BST_K_MIN,

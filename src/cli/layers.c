@@ -89,6 +89,17 @@ static int is_made(const char *spec)
     return is_glass(spec) || cli_is_shade(spec);
 }
 
+/* The name messages about spec i go by: what (NULL: the message names the spec itself), after
+ * the place the spec was given (choice->where, "FILE:LINE") where there is one; in buf. */
+static const char *named(const struct cli_basis_choice *choice, size_t i, const char *what,
+                         char *buf, size_t size)
+{
+    if (!choice || !choice->where)
+        return what;
+    snprintf(buf, size, "%s%s%s", choice->where[i], what ? ": " : "", what ? what : "");
+    return buf;
+}
+
 /* Read the file a spec names (a trailing ^ dropped) into *file, printing the reader's warnings
  * unless quiet, and give it the choice's rank-3 rule (choice may be NULL: the default).  Messages
  * name `what`, or the file when what is NULL. */
@@ -123,9 +134,11 @@ static int read_all(bst_ctx *ctx, const char *sub, size_t n, char **specs,
                     bst_precision prec, bst_bsdf **files, bst_basis **basis, struct cli_basis_pick *pick)
 {
     int rc = CLI_OK;
+    char what[4200];
     for (size_t i = 0; i < n && rc == CLI_OK; i++)
         if (!is_made(specs[i]))
-            rc = read_one(ctx, sub, NULL, specs[i], ro, choice, 0, &files[i]);
+            rc = read_one(ctx, sub, named(choice, i, NULL, what, sizeof what), specs[i], ro, choice,
+                          0, &files[i]);
     if (rc != CLI_OK)
         return rc;
     bst_plan_basis plan; /* the library's rule (plan.c) */
@@ -149,7 +162,7 @@ static int read_all(bst_ctx *ctx, const char *sub, size_t n, char **specs,
         held[i].file = files[i];
         if (cli_is_shade(specs[i]) &&
             cli_shade_plan(ctx, specs[i], *basis, ro->nchannels, ro->channels, prec, &held[i]) < 0)
-            rc = cli_fail_ctx(sub, specs[i], ctx);
+            rc = cli_fail_ctx(sub, named(choice, i, specs[i], what, sizeof what), ctx);
     }
     if (rc == CLI_OK)
         rc = cli_memory_check_held(sub, *basis, n, held, ro->comps, prec, choice);
@@ -303,9 +316,11 @@ int cli_layers_load(struct cli_layers *set, bst_ctx *ctx, const char *sub, size_
         goto out;
     snprintf(set->basis_why, sizeof set->basis_why, "%s", pick.why);
     /* 3. every layer over that basis, reversed where asked */
+    char what[4200];
     for (size_t i = 0; i < n && rc == CLI_OK; i++) {
-        rc = make_layer(ctx, sub, specs[i], specs[i], files[i], set->basis, nch, chnames, prec,
-                        choice->at_centre, &set->layers[i], &set->panes[i], &set->notes[i]);
+        rc = make_layer(ctx, sub, named(choice, i, specs[i], what, sizeof what), specs[i], files[i],
+                        set->basis, nch, chnames, prec, choice->at_centre, &set->layers[i],
+                        &set->panes[i], &set->notes[i]);
         files[i] = NULL;
         if (rc == CLI_OK) {
             set->npanes += set->panes[i] != NULL;
@@ -350,16 +365,17 @@ int cli_layers_check(bst_ctx *ctx, const char *sub, size_t n, char **specs,
             structure[i] = fill > BST_SPARSE_MAX_FILL ? BST_DENSE : fill > 0 ? BST_SPARSE : BST_DIAG;
             continue;
         }
+        char what[4200];
         if (cli_is_shade(specs[i])) { /* its errors show now; dense when it scatters */
             if (cli_shade_check(ctx, specs[i], &structure[i]) < 0)
-                rc = cli_fail_ctx(sub, specs[i], ctx);
+                rc = cli_fail_ctx(sub, named(choice, i, specs[i], what, sizeof what), ctx);
             continue;
         }
         /* a pane: made once here (cheap: one diagonal per component) so that its errors show now */
         bst_layer *l = NULL;
         bst_glass *pane = NULL;
-        rc = make_layer(ctx, sub, specs[i], specs[i], NULL, basis, nch, chnames, prec, choice->at_centre,
-                        &l, &pane, NULL);
+        rc = make_layer(ctx, sub, named(choice, i, specs[i], what, sizeof what), specs[i], NULL, basis,
+                        nch, chnames, prec, choice->at_centre, &l, &pane, NULL);
         bst_layer_free(l);
         bst_glass_free(pane);
         structure[i] = BST_DIAG;

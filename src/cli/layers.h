@@ -21,6 +21,8 @@ struct cli_basis_choice {
                           --precision single (where it lowers the need) or fewer --channels */
     int at_centre;     /* --glass-rule centre: panes at patch centres (WINDOW's), 0: averages */
     bst_rank3_rule rank3; /* --rank3: how rank-3 trees meet a finer grid (bst_bsdf_set_rank3_rule) */
+    char *const *where;   /* where[i]: the place spec i was given ("FILE:LINE" of a batch line),
+                             put before the messages about it; NULL: none */
 };
 
 /* The choice that loads layers over basis b itself (a Shirley-Chiu order or a named Klems basis). */

@@ -57,7 +57,7 @@ int cli_stack_option(const char *sub, int c, const char *arg, struct cli_stack_a
     case 'k':
     case CLI_O_KLEMS: return cli_parse_basis_option(sub, c == 'k' ? 'k' : 'K', arg, &a->basis);
     case CLI_O_ONLY: return cli_parse_comps(sub, arg, &a->so.comps);
-    case CLI_O_CHANNELS: a->channels = arg; return CLI_OK;
+    case CLI_O_CHANNELS: a->channels = arg; return cli_parse_channels(sub, "--channels", arg);
     case CLI_O_PRECISION: return cli_parse_precision(sub, arg, &a->so.precision);
     case CLI_O_DROP:
         if (cli_parse_double(arg, &a->so.drop_tol) || a->so.drop_tol < 0 || a->so.drop_tol >= 1)
