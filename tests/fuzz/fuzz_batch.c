@@ -2,7 +2,8 @@
  * on any bytes, read through a memory stream as the program reads its file.
  *
  * Checked: a parsed file has stack lines, each with an output file and layers whose indices name
- * distinct specs, no output twice, increasing line numbers; a failure has one line of text.
+ * distinct specs, no output twice, increasing line numbers, and each spec the place "fuzz.txt:N"
+ * of a line naming it (batch_file_places); a failure has one line of text.
  * Seeds: corpus/batch. */
 #include <config.h>
 
@@ -39,6 +40,16 @@ static void check_file(const struct batch_file *bf)
     for (size_t i = 1; i < bf->nspecs; i++)
         fuzz_require(strcmp(specs[i - 1], specs[i]) != 0, "distinct layer specs");
     free(specs);
+    char **places = batch_file_places(bf, "fuzz.txt");
+    fuzz_require(places, "the layers' places");
+    for (size_t i = 0; i < bf->lines[0].n; i++) { /* the first line's layers are its own */
+        char want[48];
+        snprintf(want, sizeof want, "fuzz.txt:%zu", bf->lines[0].lineno);
+        fuzz_require(strcmp(places[bf->lines[0].layer[i]], want) == 0, "a layer's first line");
+    }
+    for (size_t i = 0; i < bf->nspecs; i++)
+        fuzz_require(strncmp(places[i], "fuzz.txt:", 9) == 0, "a place for every layer");
+    free(places);
 }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
