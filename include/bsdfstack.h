@@ -61,7 +61,10 @@ enum bst_status {
     BST_ENOTIMPL = -10,  /* valid input that this version cannot model yet (e.g. a geometric shade) */
     BST_WILLCOND = 1,    /* warning: ill-conditioned solve, see the returned rcond */
     BST_WENERGY = 2,     /* warning: energy imbalance beyond tolerance in an input */
-    BST_WDATA = 3        /* warning: input data repaired or completed (e.g. reciprocity used) */
+    BST_WDATA = 3,       /* warning: input data repaired or completed (e.g. reciprocity used) */
+    BST_WACCURACY = 4    /* warning: a file written as asked (values cut to few digits) moves a
+                            directional-hemispherical value beyond the tolerance; the message
+                            says by how much */
 };
 
 /* Short text of a status code ("out of memory", ...); never NULL. */
@@ -657,6 +660,11 @@ typedef struct {
     double hemi_error;      /* largest change of a directional-hemispherical value */
     double iso_fa;          /* rank 3: least FA (%) between the component and its rank-3 form;
                                NaN otherwise */
+    /* Appended (libtool 7:0:0 continued): */
+    double recip_error;     /* rank 4, a transmission whose other side is left out as its
+                               reciprocal: the largest change of the left-out one's directional-
+                               hemispherical value as a reader rebuilds it (this block's sums over
+                               incidence); NaN otherwise */
 } bst_bsdf_write_block;
 
 /* Output callback: write len bytes, return 0 on success. */
@@ -671,7 +679,16 @@ typedef struct {
                                (rttree_reduce's rule, which may change hemispherical values) */
     int digits;             /* significant digits of every value; 0 = as many as needed to read
                                back exactly (float for trees, double for Klems); BST_DIGITS_AUTO
-                               (default): 0, but BST_REDUCE_DIGITS in a reduced tree */
+                               (default): 0, but in a reduced tree BST_REDUCE_DIGITS, or more where
+                               a tight reduce_tol needs them.  A reduced tree under reduce_tol keeps
+                               its promise with any digits asked: where rounding to them alone
+                               could move a directional-hemispherical value beyond its budget, the
+                               write fails (BST_EINVAL, nothing written) naming the fewest digits
+                               that keep it.  Elsewhere (Klems, no reduction, reduce_tol INFINITY)
+                               digits > 0 are written as asked, and the write returns
+                               BST_WACCURACY where they moved a directional-hemispherical value
+                               (measured as written) by more than reduce_tol (BST_REDUCE_TOL when
+                               INFINITY) */
     double iso_fa_min;      /* default BST_ISO_FA_MIN */
     double recip_tol;       /* default BST_RECIP_TOL; < 0 always writes both transmissions */
     int iso_refine;         /* rank 3 built from the layer: corrections of the rank-3 tensor
@@ -698,7 +715,8 @@ typedef struct {
 void bst_bsdf_write_opts_init(bst_bsdf_write_opts *opts);
 
 /* Write layer (opts NULL = defaults) to a stream, a callback or a file; _path writes through
- * bst_output (below): the file appears only on success.  Memory: bsdfstack-convert(1). */
+ * bst_output (below): the file appears only on success (BST_WACCURACY is a success: the file is
+ * written as asked, the message says what it moved).  Memory: bsdfstack-convert(1). */
 int bst_bsdf_write(bst_ctx *ctx, const bst_layer *layer, FILE *fp, const bst_bsdf_write_opts *opts);
 int bst_bsdf_write_fn(bst_ctx *ctx, const bst_layer *layer, bst_bsdf_write_sink fn, void *opaque,
                       const bst_bsdf_write_opts *opts);

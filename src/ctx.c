@@ -71,6 +71,7 @@ const char *bst_strerror(int status)
     case BST_WILLCOND: return "ill-conditioned solve";
     case BST_WENERGY: return "energy imbalance";
     case BST_WDATA: return "input data completed or repaired";
+    case BST_WACCURACY: return "the file written moves hemispherical values beyond the tolerance";
     default: return status < 0 ? "unknown error" : "unknown warning";
     }
 }

@@ -52,6 +52,7 @@ struct tw {                        /* read-only while threads run (but for the m
                                       (bsti_bounds_rho, with a quarter to spare) */
     double *vsum;                  /* nodes of levels >= split (index - off[split]): the sum of a
                                       candidate that passed the bound, NaN before it is checked */
+    int rows;                      /* rank 4, bsti_reduce's measure_rows: eacc's rerr kept */
 };
 
 /* ------------------------------------------------------------------ tensor access */
@@ -217,6 +218,8 @@ struct eacc {
     double *ws;                    /* the bound's sums over a candidate (sums_room doubles) */
     double *erow;                  /* the bound's rows: change of each outgoing cell's
                                       directional-hemispherical sum so far (task side ^ 2) */
+    double *rerr;                  /* w->rows: per outgoing cell of the region (origin o0, o1, side
+                                      hside), the sum of the errors, as hemi; else NULL */
     size_t o0, o1;                 /* the region's first outgoing cell */
     size_t h0, h1, hside;          /* the region's first incident cell and side (rank 3: h0) */
     double *pyr;                   /* a task's sums by level (bsti_tw_pyramid_room), or NULL */

@@ -151,6 +151,8 @@ static double region_pass(const struct tw *w, struct eacc *a, int l, const size_
                     const double *pd = w->d ? w->d + base : NULL;
                     const float *pf = w->f ? w->f + base : NULL;
                     if (acct) {
+                        double *rp = a->rerr ? &a->rerr[(c[2] + x2 - a->o0) * a->hside + c[3] - a->o1]
+                                             : NULL; /* (rank 4 only) */
                         for (size_t x = 0; x < s; x++) {
                             double v = pd ? pd[x] : (double)pf[x], e = v - back;
                             a->sum_abs += fabs(v);
@@ -158,6 +160,8 @@ static double region_pass(const struct tw *w, struct eacc *a, int l, const size_
                             if (fabs(e) > a->max_error)
                                 a->max_error = fabs(e);
                             *hp += e;
+                            if (rp)
+                                rp[x] += e;
                         }
                     } else {
                         for (size_t x = 0; x < s; x++)
@@ -171,9 +175,11 @@ static double region_pass(const struct tw *w, struct eacc *a, int l, const size_
                 for (size_t x3 = 0; x3 < e1; x3++) {
                     size_t cc[4] = {i0, c[1] + x1, c[2] + x2, c[3] + x3};
                     double v = cell(w, cc);
-                    if (acct)
+                    if (acct) {
                         account(w, a, i0, cc[1], v, back);
-                    else
+                        if (a->rerr)
+                            a->rerr[(cc[2] - a->o0) * a->hside + cc[3] - a->o1] += v - back;
+                    } else
                         sum += clamp0(v);
                     n++;
                 }
@@ -265,6 +271,9 @@ static void leaf_merged(const struct tw *w, struct eacc *a, int l, const size_t 
             for (size_t x = 0; x < (w->D == 4 ? s : ni); x++)
                 for (size_t y = 0; y < (w->D == 4 ? s : 1); y++)
                     *hemi_at(w, a, c[0] + x, c[1] + y) += e * (double)per;
+            for (size_t x = 0; a->rerr && x < s; x++) /* every outgoing cell: ni incident cells */
+                for (size_t y = 0; y < s; y++)
+                    a->rerr[(c[2] + x - a->o0) * a->hside + c[3] + y - a->o1] += e * (double)ni;
         }
     } else if (!constant || first != 0.0) { /* (constant zero regions, the bulk, make no error) */
         region_pass(w, a, l, c, 1, back, NULL);
@@ -280,6 +289,7 @@ static char *leaf_block4(const struct tw *w, struct eacc *a, const size_t *c, co
 {
     double sum_abs = a->sum_abs, sum_err = a->sum_err, max_error = a->max_error;
     double *hp[4], h[4], *ep[4] = {NULL, NULL, NULL, NULL}, e[4] = {0, 0, 0, 0};
+    double *rp[4] = {NULL, NULL, NULL, NULL}, re[4] = {0, 0, 0, 0};
     double lam = M_PI / (double)(w->G * w->G);
     for (int q = 0; q < 4; q++) { /* incident cells (dimension 0 first), outgoing cells alike */
         hp[q] = hemi_at(w, a, c[0] + (size_t)(q >> 1), c[1] + (size_t)(q & 1));
@@ -287,6 +297,10 @@ static char *leaf_block4(const struct tw *w, struct eacc *a, const size_t *c, co
         if (a->erow) {
             ep[q] = &a->erow[(c[2] + (size_t)(q >> 1) - a->o0) * a->hside + c[3] + (size_t)(q & 1) - a->o1];
             e[q] = *ep[q];
+        }
+        if (a->rerr) {
+            rp[q] = &a->rerr[(c[2] + (size_t)(q >> 1) - a->o0) * a->hside + c[3] + (size_t)(q & 1) - a->o1];
+            re[q] = *rp[q];
         }
     }
     for (int j = 0; j < 16; j++) { /* dimension 0 slowest: j's top two bits, the incident cell */
@@ -306,12 +320,15 @@ static char *leaf_block4(const struct tw *w, struct eacc *a, const size_t *c, co
         h[j >> 2] += err;
         if (ep[0]) /* the bound's rows: the rounding's change */
             e[j & 3] += lam * ((double)back - clamp0(v));
+        re[j & 3] += err; /* (kept only with rp) */
     }
     a->sum_abs = sum_abs, a->sum_err = sum_err, a->max_error = max_error;
     for (int q = 0; q < 4; q++) {
         *hp[q] = h[q];
         if (ep[q])
             *ep[q] = e[q];
+        if (rp[q])
+            *rp[q] = re[q];
     }
     return p;
 }
@@ -461,6 +478,7 @@ static void run_task(struct run *r, size_t t)
     struct slot *s = &r->slot[t % r->window];
     const struct task *tk = &r->task[t];
     double *hemi = s->acc.hemi, *ws = s->acc.ws, *erow = s->acc.erow, *pyr = s->acc.pyr;
+    double *rerr = s->acc.rerr;
     size_t hside = s->acc.hside;
     struct memo *mm = s->acc.memo;
     memset(&s->acc, 0, sizeof s->acc);
@@ -468,6 +486,7 @@ static void run_task(struct run *r, size_t t)
     s->acc.memo = mm;
     s->acc.ws = ws;
     s->acc.erow = erow;
+    s->acc.rerr = rerr;
     s->acc.hemi = hemi;
     s->acc.pyr = pyr; /* (pyr_ready 0: built at the task's first check) */
     s->acc.hside = hside;
@@ -476,6 +495,8 @@ static void run_task(struct run *r, size_t t)
     memset(hemi, 0, (w->D == 4 ? hside * hside : hside) * sizeof *hemi);
     if (erow)
         memset(erow, 0, hside * hside * sizeof *erow);
+    if (rerr)
+        memset(rerr, 0, hside * hside * sizeof *rerr);
     s->text.n = 0;
     prefetch_region(w, w->split, tk->c);
     emit(w, &s->acc, NULL, w->split, tk->c, tk->depth, tk->on_path);
@@ -548,6 +569,9 @@ static void consume(struct run *r, int depth)
     for (size_t x = 0; x < b->hside && (w->D == 4 || b->h0 + x < w->half); x++)
         for (size_t y = 0; y < (w->D == 4 ? b->hside : 1); y++)
             *hemi_at(w, a, b->h0 + x, b->h1 + y) += b->hemi[x * (w->D == 4 ? b->hside : 1) + y];
+    for (size_t x = 0; b->rerr && x < b->hside; x++) /* (a->rerr: the whole tree's, origin 0) */
+        for (size_t y = 0; y < b->hside; y++)
+            a->rerr[(b->o0 + x) * a->hside + b->o1 + y] += b->rerr[x * b->hside + y];
     progress(r, b->cells);
     pthread_mutex_lock(&r->lock);
     s->done = 0;
@@ -584,12 +608,14 @@ static int emit_all(const struct tw *w, int nthreads, struct eacc *top, bsti_sin
     r.task = bsti_alloc_array(w->ctx, ntasks + 1, sizeof *r.task);
     r.slot = bsti_calloc(w->ctx, r.window, sizeof *r.slot);
     double *hemi = bsti_alloc_array(w->ctx, r.window * nh, sizeof *hemi);
+    double *rerr = w->rows ? bsti_alloc_array(w->ctx, r.window * hs * hs, sizeof *rerr) : NULL;
     struct memo *memo = bsti_calloc(w->ctx, r.window + 1, sizeof *memo);
     size_t room = w->col_budget ? bsti_tw_sums_room(w, w->split) : 0, nr = w->row_budget ? hs * hs : 0;
     double *ws = room ? bsti_alloc_array(w->ctx, r.window * (room + nr), sizeof *ws) : NULL;
     size_t npyr = bsti_tw_pyramid_room(w);
     double *pyr = npyr ? bsti_alloc_array(w->ctx, r.window * npyr, sizeof *pyr) : NULL;
-    int rc = r.task && r.slot && hemi && memo && (!room || ws) && (!npyr || pyr) ? BST_OK : BST_ENOMEM;
+    int rc = r.task && r.slot && hemi && memo && (!room || ws) && (!npyr || pyr) &&
+             (!w->rows || rerr) ? BST_OK : BST_ENOMEM;
     if (rc == BST_OK) {
         r.ntasks = 0;
         collect(w, &r, w->k, zero, 0, 1);
@@ -600,6 +626,7 @@ static int emit_all(const struct tw *w, int nthreads, struct eacc *top, bsti_sin
             r.slot[i].acc.memo = memo ? memo + i : NULL;
             r.slot[i].acc.ws = ws ? ws + i * (room + nr) : NULL;
             r.slot[i].acc.erow = nr ? ws + i * (room + nr) + room : NULL;
+            r.slot[i].acc.rerr = rerr ? rerr + i * hs * hs : NULL;
             r.slot[i].acc.pyr = pyr ? pyr + i * npyr : NULL;
         }
         top->memo = memo ? memo + r.window : NULL;
@@ -631,6 +658,7 @@ static int emit_all(const struct tw *w, int nthreads, struct eacc *top, bsti_sin
     bsti_free(w->ctx, r.task);
     bsti_free(w->ctx, r.slot);
     bsti_free(w->ctx, hemi);
+    bsti_free(w->ctx, rerr);
     bsti_free(w->ctx, memo);
     bsti_free(w->ctx, ws);
     bsti_free(w->ctx, pyr);
@@ -699,6 +727,7 @@ int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, b
     w.col_budget = w.lossless ? NULL : r->col_budget; /* (lossless: nothing to bound) */
     w.row_budget = w.col_budget ? r->row_budget : NULL;
     w.plain = r->plain_checks;
+    w.rows = w.D == 4 && r->measure_rows;
     w.text_eps = 1.25 * bsti_bounds_rho(w.digits);
     for (int i = w.D - 1; i >= 0; i--)
         w.stride[i] = i == w.D - 1 ? 1 : w.stride[i + 1] * w.G;
@@ -723,6 +752,7 @@ int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, b
     size_t nsplit = w.split ? w.off[w.split + 1] - w.off[w.split] : 0;
     int nthreads = bsti_ctx_workers(ctx, nsplit);
     double *hemi = bsti_calloc(ctx, nin, sizeof *hemi);
+    double *rerr = w.rows ? bsti_calloc(ctx, w.G * w.G, sizeof *rerr) : NULL;
     w.m = bsti_calloc(ctx, nodes, sizeof *w.m);
     w.lmean = nsplit ? bsti_alloc_array(ctx, nsplit, sizeof *w.lmean) : NULL;
     size_t nkept = w.col_budget && w.split ? nodes - w.off[w.split] : 0;
@@ -730,8 +760,9 @@ int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, b
     w.task_share = w.split ? (double)((size_t)1 << 2 * w.split) / (double)(w.G * w.G) : 1.0;
     size_t nr = w.row_budget && !w.split ? w.G * w.G : 0; /* one level: the top is the task */
     double *ws = w.col_budget ? bsti_alloc_array(ctx, bsti_tw_sums_room(&w, w.k) + nr, sizeof *ws) : NULL;
-    if (!w.m || !hemi || (nsplit && !w.lmean) || (nkept && !w.vsum) || (w.col_budget && !ws)) {
-        bsti_free(ctx, w.m), bsti_free(ctx, hemi), bsti_free(ctx, w.lmean);
+    if (!w.m || !hemi || (nsplit && !w.lmean) || (nkept && !w.vsum) || (w.col_budget && !ws) ||
+        (w.rows && !rerr)) {
+        bsti_free(ctx, w.m), bsti_free(ctx, hemi), bsti_free(ctx, w.lmean), bsti_free(ctx, rerr);
         bsti_free(ctx, w.vsum), bsti_free(ctx, ws);
         return BST_ENOMEM;
     }
@@ -758,6 +789,7 @@ int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, b
         memset(&top, 0, sizeof top);
         top.out = &text;
         top.hemi = hemi;
+        top.rerr = rerr;
         top.ws = ws;
         top.erow = nr ? ws + bsti_tw_sums_room(&w, w.k) : NULL;
         if (top.erow)
@@ -780,6 +812,10 @@ int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, b
         for (size_t i = 0; i < nin; i++)
             worst = fmax(worst, fabs(hemi[i]));
         st->hemi_error = worst * M_PI / (double)(w.G * w.G); /* outgoing cell: pi / G^2 sr */
+        worst = 0.0;
+        for (size_t o = 0; rerr && o < w.G * w.G; o++)
+            worst = fmax(worst, fabs(rerr[o]));
+        st->row_error = worst * M_PI / (double)(w.G * w.G); /* incident cell: the same */
         bsti_progress(ctx, 1.0, "writing a tensor tree");
     }
     bsti_free(ctx, w.m);
@@ -787,5 +823,6 @@ int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, b
     bsti_free(ctx, w.vsum);
     bsti_free(ctx, ws);
     bsti_free(ctx, hemi);
+    bsti_free(ctx, rerr);
     return rc;
 }

@@ -59,6 +59,8 @@ typedef struct {
     const double *row_budget; /* rank 4, may be NULL: per outgoing cell (ox G + oy) */
     int plain_checks;       /* tests: each candidate's sums found from its cells and tested with
                                its text (no task sums by level, no early refusal); the same tree */
+    int measure_rows;       /* rank 4: measure each outgoing cell's change too (stats->row_error:
+                               a transmission whose reciprocal a reader takes for the other side) */
 } bsti_reduce;
 
 typedef struct {
@@ -67,6 +69,9 @@ typedef struct {
     int negatives;          /* negative values written as 0 (as every tree reader reads them) */
     double threshold;
     double l1_error, max_error, hemi_error; /* as bst_bsdf_write_block */
+    double row_error;       /* with measure_rows: the largest change of an outgoing cell's sum over
+                               incidence, times pi / G^2 (its reciprocal's directional-
+                               hemispherical change); else 0 */
 } bsti_tree_stats;
 
 /* Write the tree of t to out.  Fails with BST_EINVAL (nothing written) when a value is not finite,

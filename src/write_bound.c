@@ -111,10 +111,29 @@ double bsti_bounds_rho(int digits)
     return digits > 0 ? 0.5 * pow(10.0, 1 - digits) + FLT_EPSILON : FLT_EPSILON / 2;
 }
 
-/* One side: t and r the directional-hemispherical values of its transmission and reflection
- * (NULL: absent), n patches; their budgets into bt and br (those of an absent one are left). */
-static void side(size_t n, const double *t, const double *r, double tol, double rho, double *bt,
-                 double *br)
+int bsti_bounds_digits(double afford, int from)
+{
+    for (int d = from < 1 ? 1 : from; d <= 9; d++)
+        if (bsti_bounds_rho(d) <= afford)
+            return d;
+    return 0;
+}
+
+/* Budget b before rounding at patch i of channel ch's component c, whose own value is h. */
+static void afford(bsti_bounds *B, size_t ch, int c, size_t i, double h, double b)
+{
+    if (h > 0.0 && b / h < B->afford) {
+        B->afford = b / h;
+        B->afford_ch = ch, B->afford_c = c, B->afford_i = i;
+        B->afford_h = h, B->afford_b = b;
+    }
+}
+
+/* One side of channel ch: t and r the directional-hemispherical values of its transmission ct and
+ * reflection cr (NULL: absent), n patches; their budgets into bt and br (those of an absent one
+ * are left). */
+static void side(bsti_bounds *B, size_t ch, int ct, int cr, size_t n, const double *t,
+                 const double *r, double tol, double rho, double *bt, double *br)
 {
     double smax = 0.0, m = (t ? 1.0 : 0.0) + (r ? 1.0 : 0.0);
     if (m == 0.0)
@@ -124,10 +143,14 @@ static void side(size_t n, const double *t, const double *r, double tol, double 
     for (size_t i = 0; i < n; i++) {
         double slack = smax - (t ? t[i] : 0.0) - (r ? r[i] : 0.0);
         double b = fmin(tol, (tol + slack) / m);
-        if (t)
+        if (t) {
             bt[i] = fmax(0.0, b - rho * t[i]);
-        if (r)
+            afford(B, ch, ct, i, t[i], b);
+        }
+        if (r) {
             br[i] = fmax(0.0, b - rho * r[i]);
+            afford(B, ch, cr, i, r[i], b);
+        }
     }
 }
 
@@ -135,6 +158,7 @@ static int bounds_alloc(bst_ctx *ctx, size_t nch, size_t n, bsti_bounds *b)
 {
     b->nch = nch;
     b->n = n;
+    b->afford = INFINITY;
     b->col = bsti_calloc(ctx, nch * BST_NCOMP * n, sizeof *b->col);
     b->row = bsti_calloc(ctx, nch * n, sizeof *b->row);
     if (b->col && b->row)
@@ -181,8 +205,10 @@ int bsti_bounds_layer(bst_ctx *ctx, const bst_layer *l, double tol, double rho, 
         if (rc < 0)
             break;
         double *col = b->col + ch * BST_NCOMP * n, *row = b->row + ch * n;
-        side(n, hc[BST_TF], hc[BST_RF], tol, rho, col + BST_TF * n, col + BST_RF * n);
-        side(n, hc[BST_TB], hc[BST_RB], tol, rho, col + BST_TB * n, col + BST_RB * n);
+        side(b, ch, BST_TF, BST_RF, n, hc[BST_TF], hc[BST_RF], tol, rho, col + BST_TF * n,
+             col + BST_RF * n);
+        side(b, ch, BST_TB, BST_RB, n, hc[BST_TB], hc[BST_RB], tol, rho, col + BST_TB * n,
+             col + BST_RB * n);
         if (!omit_tf[ch] || !hc[BST_TF] || !hc[BST_TB])
             continue;
         for (size_t i = 0; i < n && omit_tf[ch]; i++) {
@@ -248,9 +274,10 @@ int bsti_bounds_varres(bst_ctx *ctx, const bst_layer *coarse, const bst_varres *
             rc = varres_front(ctx, v, v->rf ? v->rf[ch] : NULL, kc, hc[BST_RF], fr, colsum);
         if (rc < 0)
             break;
-        side(N, hc[BST_TF] ? ft : NULL, hc[BST_RF] ? fr : NULL, tol, rho, col + BST_TF * N,
-             col + BST_RF * N);
-        side(Nc, hc[BST_TB], hc[BST_RB], tol, rho, col + BST_TB * N, col + BST_RB * N);
+        side(b, ch, BST_TF, BST_RF, N, hc[BST_TF] ? ft : NULL, hc[BST_RF] ? fr : NULL, tol, rho,
+             col + BST_TF * N, col + BST_RF * N);
+        side(b, ch, BST_TB, BST_RB, Nc, hc[BST_TB], hc[BST_RB], tol, rho, col + BST_TB * N,
+             col + BST_RB * N);
         /* a front component with no fine columns is written at order kc: the least of each
          * coarse patch's fine budgets */
         for (int c = BST_TF; c <= BST_RF; c++) {

@@ -10,7 +10,10 @@
  *   Smax, each gets b(i) = min(tol, (tol + Smax - S(i)) / m);
  * - each is then lowered by rho H(i), H(i) the component's own value and rho the largest relative
  *   rounding of a value's text (the writer counts the rounding it has made when it merges, but not
- *   that of the values it keeps after its last merge);
+ *   that of the values it keeps after its last merge); where rho H(i) exceeds b(i), no merge can
+ *   make up for it and the promise fails whatever the tree: the least b(i) / H(i) over every
+ *   component and patch (afford) is the coarsest rounding that keeps it, and the writer takes
+ *   more digits or refuses (xml_write.c) where rho would exceed it;
  * - a rank-4 Tf left out of the file is read as Tb's reciprocal (CONVENTIONS.md 1,
  *   Tf(o, i) = Tb(a(i), a(o))), so Tf's value at front patch i is Tb's row a(i) summed over
  *   incidence: that row gets Tf's budget less what reciprocity itself changes there, |Tf's column
@@ -26,6 +29,13 @@ typedef struct {
     size_t nch, n;          /* channels, patches */
     double *col;            /* nch * BST_NCOMP * n: channel ch, component c at (ch BST_NCOMP + c) n */
     double *row;            /* nch * n: Tb's rows where Tf is left out (else unused) */
+    /* The largest relative rounding of every value that keeps every budget: the least b(i) / H(i)
+     * (budget before rounding over the component's own value; INFINITY where every H is 0), and
+     * where it is least: channel, component, patch (of the order its budgets have), H and b. */
+    double afford;
+    size_t afford_ch, afford_i;
+    int afford_c;
+    double afford_h, afford_b;
 } bsti_bounds;
 
 /* A channel's transmission sums, negatives read as 0 (as a tree reader stores them): Tf's column
@@ -58,6 +68,10 @@ int bsti_bounds_varres(bst_ctx *ctx, const bst_layer *coarse, const bst_varres *
 /* The largest relative change of a value written with `digits` significant digits of its float
  * (0: the shortest text of the float). */
 double bsti_bounds_rho(int digits);
+
+/* The fewest significant digits d in [from, 9] with bsti_bounds_rho(d) <= afford, or 0 (the
+ * shortest text of the float) when there is none. */
+int bsti_bounds_digits(double afford, int from);
 
 /* The one a writer takes: bsti_bounds_varres with v, else bsti_bounds_layer with omit's Tf flags
  * (omit: nch BST_NCOMP, channel ch's component c at ch BST_NCOMP + c, 1 where it is left out as

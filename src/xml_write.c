@@ -68,6 +68,10 @@ struct xw {
     bsti_bounds bounds;     /* a reduced tree's budgets (col NULL: no bound) */
     int digits;             /* o->digits, BST_DIGITS_AUTO resolved */
     double *ring;           /* rank 3: G/2 budgets */
+    double worst;           /* the largest change of a directional-hemispherical value measured
+                               as written (blocks' hemi_error and recip_error), and where */
+    size_t worst_ch;
+    int worst_c;
     double *full;           /* a FACTORED component's values, n x n (factored_values) */
     bsti_tsums *tsums;      /* nch: transmissions' sums from the reciprocity check (or NULL) */
 };
@@ -152,6 +156,13 @@ static void free_t3(struct xw *w)
     bsti_free(w->ctx, w->iso);
     w->t3 = NULL;
     w->iso = NULL;
+}
+
+/* The tolerance on directional-hemispherical values a file keeps where no bound is asked for
+ * (reduce_tol INFINITY): the default one. */
+static double hemi_tol(const bst_bsdf_write_opts *o)
+{
+    return isfinite(o->reduce_tol) ? o->reduce_tol : BST_REDUCE_TOL;
 }
 
 /* Rank-3 tensors of every component; *isotropic = 0 when one fails the check (unless rank 3 is
@@ -252,14 +263,69 @@ done:
 }
 
 /* The budgets of a reduced tree (write_bound.h); a Tf that reciprocity alone would move beyond
- * its budget is written after all. */
+ * its budget is written after all.  Rounding every value to w->digits moves a patch's
+ * directional-hemispherical value H by up to rho H, which no merge makes up for where that exceeds
+ * the patch's budget (the bound's afford): the default digits become as many as the tolerance
+ * needs; digits asked for are refused there, naming the fewest that keep it. */
 static int bounds(struct xw *w)
 {
-    size_t G = (size_t)1 << w->k;
+    size_t G = (size_t)1 << w->k, nomit = w->nch * BST_NCOMP;
     if (w->kind == BST_FILE_TT3 && !(w->ring = bsti_alloc_array(w->ctx, G / 2, sizeof *w->ring)))
         return BST_ENOMEM;
-    return bsti_bounds_write(w->ctx, w->l, w->v, w->o->reduce_tol, bsti_bounds_rho(w->digits),
-                             w->omit, w->tsums, &w->bounds);
+    int *omit = bsti_alloc_array(w->ctx, nomit, sizeof *omit); /* before the bound clears any */
+    if (!omit)
+        return BST_ENOMEM;
+    memcpy(omit, w->omit, nomit * sizeof *omit);
+    double rho = bsti_bounds_rho(w->digits);
+    int rc = bsti_bounds_write(w->ctx, w->l, w->v, w->o->reduce_tol, rho, w->omit, w->tsums,
+                               &w->bounds);
+    const bsti_bounds *b = &w->bounds;
+    if (rc >= 0 && w->digits > 0 && rho > b->afford) {
+        int d = bsti_bounds_digits(b->afford, w->digits + 1);
+        if (w->o->digits != BST_DIGITS_AUTO) {
+            char fewest[64];
+            if (d)
+                snprintf(fewest, sizeof fewest, "%d digits or more keep it", d);
+            else
+                snprintf(fewest, sizeof fewest, "only exact values keep it");
+            rc = bsti_error(w->ctx, BST_EINVAL, "writing BSDF XML: values rounded to %d "
+                            "significant digit%s could move %s %s's directional-hemispherical "
+                            "value at patch %zu (%.4g) by up to %.2g, more than the %.2g the "
+                            "tolerance %g leaves it: %s, or a larger tolerance", w->digits,
+                            w->digits == 1 ? "" : "s", bst_layer_channel(w->l, b->afford_ch),
+                            bst_comp_name((bst_comp)b->afford_c), b->afford_i, b->afford_h,
+                            rho * b->afford_h, b->afford_b, w->o->reduce_tol, fewest);
+        } else {
+            bsti_bounds_free(w->ctx, &w->bounds);
+            memcpy(w->omit, omit, nomit * sizeof *omit);
+            w->digits = d;
+            rc = bsti_bounds_write(w->ctx, w->l, w->v, w->o->reduce_tol, bsti_bounds_rho(d),
+                                   w->omit, w->tsums, &w->bounds);
+        }
+    }
+    bsti_free(w->ctx, omit);
+    return rc;
+}
+
+/* What the file moves beyond the tolerance that the bound does not rule out, as options asked it
+ * (bst_bsdf_write_opts' digits): digits asked for where no bound holds them (Klems, no reduction,
+ * reduce_tol INFINITY), measured as written.  BST_WACCURACY with the largest change, else
+ * BST_OK. */
+static int accuracy(struct xw *w)
+{
+    double tol = hemi_tol(w->o);
+    char msg[768] = "";
+    size_t len = 0;
+    int reduced = w->kind != BST_FILE_KLEMS && w->o->reduce_pct >= 0.0;
+    if (w->o->digits > 0 && !w->bounds.col && w->worst > tol && len < sizeof msg)
+        len += (size_t)snprintf(msg + len, sizeof msg - len, "%svalues rounded to %d significant "
+                                "digit%s%s move %s %s's directional-hemispherical values by up to "
+                                "%.3g as written, more than the tolerance %g", len ? "; " : "",
+                                w->digits, w->digits == 1 ? "" : "s",
+                                reduced ? " (and reduced with no bound)" : "",
+                                bst_layer_channel(w->l, w->worst_ch),
+                                bst_comp_name((bst_comp)w->worst_c), w->worst, tol);
+    return len ? bsti_error(w->ctx, BST_WACCURACY, "writing BSDF XML: %s", msg) : BST_OK;
 }
 
 /* ------------------------------------------------------------------ the pieces of the file */
@@ -477,6 +543,7 @@ static int write_blocks(struct xw *w)
             rep.comp = (bst_comp)c;
             rep.kind = w->kind;
             rep.iso_fa = w->kind == BST_FILE_TT3 ? w->iso[idx] : NAN;
+            rep.recip_error = NAN;
             if (!w->omit[idx]) {
                 rep.written = 1;
                 const bst_mat *m = bst_layer_get(w->l, ch, (bst_comp)c);
@@ -520,7 +587,10 @@ static int write_blocks(struct xw *w)
                         t.get = zero_get;
                     if (w->v && !t.fine_in)
                         t.k = w->kc; /* coarse only (Tb, Rb): a tree of depth kc */
-                    bsti_reduce r = {o->reduce_pct, o->reduce_floor, w->digits, NULL, NULL, 0};
+                    bsti_reduce r = {o->reduce_pct, o->reduce_floor, w->digits, NULL, NULL, 0, 0};
+                    /* a Tf left out is read back from Tb's rows: measured too */
+                    int recip = c == BST_TB && w->omit[ch * BST_NCOMP + BST_TF] == 1;
+                    r.measure_rows = recip;
                     if (w->bounds.col) {
                         r.col_budget = w->bounds.col + idx * w->bounds.n;
                         if (w->kind == BST_FILE_TT3) {
@@ -544,7 +614,13 @@ static int write_blocks(struct xw *w)
                     rep.l1_error = st.l1_error;
                     rep.max_error = st.max_error;
                     rep.hemi_error = st.hemi_error;
+                    if (recip)
+                        rep.recip_error = st.row_error;
                 }
+                if (rep.hemi_error > w->worst)
+                    w->worst = rep.hemi_error, w->worst_ch = ch, w->worst_c = c;
+                if (rep.recip_error > w->worst) /* (NaN: none) */
+                    w->worst = rep.recip_error, w->worst_ch = ch, w->worst_c = BST_TF;
                 rep.bytes = w->out->total - before;
                 block_tail(w->out);
             }
@@ -661,6 +737,8 @@ static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst
         if (bsti_sink_flush(s) != 0)
             rc = BST_EIO;
     }
+    if (rc >= 0)
+        rc = accuracy(&w);
     free_t3(&w);
     bsti_bounds_free(ctx, &w.bounds);
     bsti_free(ctx, w.ring);

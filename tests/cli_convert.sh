@@ -132,6 +132,47 @@ expect_error "info --max-memory below the need" "info: k = 5 needs about 0.10[0-
 expect_error "info --max-memory below the need, a sparse file" "info: k = 5 needs about [0-9.]+ GiB \(no dense component\), more than the 0.000977 GiB --max-memory allows: use 'bsdfstack convert -k K'" -- \
     "$BSDFSTACK" info --max-memory 1M "$ref/L_glass_t4k5.xml"
 
+# The file keeps what users compute with: every incident patch's hemispherical T and R within
+# --reduce-tol of the layer's, as `compare` reads both files.  RADIANCE's 45-degree blind at k = 4
+# (totals up to 0.99).  In a reduced tree, --digits whose rounding alone could move a total beyond
+# the tolerance is refused (before: 1 digit moved Tf by 0.114, 2 by 0.014, with no word); 4 digits
+# keep it.
+blind="$ref/L_blind45_t4k5.xml"
+# largest_change A B [OPTS]: the largest |hem A - hem B| over the four components, compare's table
+largest_change() {
+    "$BSDFSTACK" compare ${3:-} "$1" "$2" 2>/dev/null | awk '/^Over every incident patch/ { t = 1; next }
+        t && $1 ~ /^[TR][fb]$/ { if ($2 > m) m = $2 } END { printf "%.6f\n", m }'
+}
+# stated PATTERN: the number after PATTERN in the last warning
+stated() { grep -o "$1 [0-9.e+-]*" "$tmpdir/err" | tail -1 | awk '{ print $NF }'; }
+for d in 1 2 3; do
+    expect_status 1 "convert --digits $d, reduced: refused" -- "$BSDFSTACK" convert -k 4 --digits $d -o "$tmpdir/dg$d.xml" "$blind"
+    grep -Eq "dg$d.xml: writing BSDF XML: values rounded to $d significant digits? could move Visible [TR][fb]'s directional-hemispherical value at patch [0-9]+ \(0\.[0-9]+\) by up to [0-9.e-]+, more than the 0\.001 the tolerance 0\.002 leaves it: 4 digits or more keep it" "$tmpdir/err" \
+        && pass "--digits $d: one line naming the fewest digits that keep the tolerance" || fail "--digits $d: $(cat "$tmpdir/err")"
+    [ ! -e "$tmpdir/dg$d.xml" ] || fail "--digits $d left a file"
+done
+expect_status 0 "convert --digits 4, reduced" -- "$BSDFSTACK" convert -k 4 --digits 4 -o "$tmpdir/dg4.xml" "$blind"
+expect_status 0 "--digits 4: within 0.002 of the input read at k = 4" -- "$BSDFSTACK" compare -k 4 --fail-hem 0.002 "$blind" "$tmpdir/dg4.xml"
+# Where no bound holds the digits (--no-reduce, Klems), they are written as asked and the change
+# they make, measured as written, is stated in a warning: the largest change compare finds, Tf (read
+# back as Tb's reciprocal) included.
+expect_status 0 "convert --no-reduce --digits 2" -- "$BSDFSTACK" convert -v -k 4 --no-reduce --digits 2 -o "$tmpdir/nd2.xml" "$blind"
+want=$(largest_change "$blind" "$tmpdir/nd2.xml" "-k 4")
+got=$(stated "by up to")
+grep -q "warning: $tmpdir/nd2.xml: writing BSDF XML: values rounded to 2 significant digits move Visible [TR][fb]'s directional-hemispherical values by up to [0-9.]* as written, more than the tolerance 0.002" "$tmpdir/err" &&
+    awk -v a="$got" -v b="$want" 'BEGIN { d = a - b; exit !(b > 0.01 && d < 1e-4 && d > -1e-4) }' \
+    && pass "--no-reduce --digits 2: warns of $got, compare finds $want" || fail "--no-reduce --digits 2: stated '$got', compare $want: $(cat "$tmpdir/err")"
+tf_want=$("$BSDFSTACK" compare -k 4 "$blind" "$tmpdir/nd2.xml" | awk '/^Over every/ { t = 1 } t && $1 == "Tf" { print $2 }')
+tf_got=$(stated "Tf as its reciprocal")
+awk -v a="$tf_got" -v b="$tf_want" 'BEGIN { d = a - b; exit !(b > 0.005 && d < 1e-4 && d > -1e-4) }' \
+    && pass "-v: Tf left out, measured on Tb's rows: $tf_got, compare $tf_want" || fail "-v Tf as its reciprocal '$tf_got', compare '$tf_want'"
+expect_status 0 "convert --klems=quarter --digits 2" -- "$BSDFSTACK" convert --klems=quarter --digits 2 -o "$tmpdir/kd2.xml" "$blind"
+want=$(largest_change "$blind" "$tmpdir/kd2.xml" "--klems=quarter")
+got=$(stated "by up to")
+awk -v a="$got" -v b="$want" 'BEGIN { d = a - b; exit !(b > 0.005 && d < 1e-4 && d > -1e-4) }' \
+    && pass "Klems --digits 2: warns of $got, compare finds $want" || fail "Klems --digits 2: stated '$got', compare $want: $(cat "$tmpdir/err")"
+expect_status 0 "convert --no-reduce --digits 9: no warning" -- "$BSDFSTACK" convert -k 4 --no-reduce --digits 9 -o "$tmpdir/nd9.xml" "$blind"
+grep -q "digits move" "$tmpdir/err" && fail "--digits 9 warned: $(cat "$tmpdir/err")"
 # SOURCE_DATE_EPOCH fixes the header's date, so that two conversions give the same bytes but for the
 # recorded command line (the output's name)
 for f in e1 e2; do

@@ -49,7 +49,7 @@ static char *reduced_text(const bsti_tensor *t, const bsti_reduce *r, int thread
 
 static char *tree_text(const bsti_tensor *t, double pct, bsti_tree_stats *st)
 {
-    bsti_reduce r = {pct, BST_REDUCE_FLOOR, 0, NULL, NULL, 0};
+    bsti_reduce r = {pct, BST_REDUCE_FLOOR, 0, NULL, NULL, 0, 0};
     return reduced_text(t, &r, 0, st);
 }
 
@@ -709,12 +709,12 @@ START_TEST(test_bound_fast_checks)
     for (int prec = 0; prec < 2; prec++)
         for (int digits = 0; digits <= 5; digits += 5) {
             bsti_tensor t = {4, k, prec ? NULL : d, prec ? f : NULL, NULL, NULL, 0, NULL};
-            bsti_reduce none = {90, BST_REDUCE_FLOOR, digits, NULL, NULL, 0};
+            bsti_reduce none = {90, BST_REDUCE_FLOOR, digits, NULL, NULL, 0, 0};
             bsti_tree_stats s0, s1, s2;
             free(reduced_text(&t, &none, 1, &s0));
             kept_free = s0.blocks_kept;
             for (int rows = 0; rows < 2; rows++) {
-                bsti_reduce plain = {90, BST_REDUCE_FLOOR, digits, col, rows ? row : NULL, 1};
+                bsti_reduce plain = {90, BST_REDUCE_FLOOR, digits, col, rows ? row : NULL, 1, 0};
                 bsti_reduce fast = plain;
                 fast.plain_checks = 0;
                 char *a = reduced_text(&t, &plain, 1, &s1);
@@ -777,7 +777,7 @@ START_TEST(test_tree_errors)
     tu_membuf m = {0};
     bsti_sink *s = malloc(sizeof *s);
     bsti_sink_init(s, tu_mem_write, &m);
-    bsti_reduce r = {90, BST_REDUCE_FLOOR, 0, NULL, NULL, 0};
+    bsti_reduce r = {90, BST_REDUCE_FLOOR, 0, NULL, NULL, 0, 0};
     ck_assert_int_eq(bsti_ttree_write(ctx, &a, &r, s, NULL), BST_EINVAL);
     ck_assert_uint_eq(s->total, 0); /* nothing written */
     t[17] = 1e39;                   /* beyond single precision */
@@ -795,7 +795,7 @@ START_TEST(test_tree_errors)
     t[17] = 1.0;
     bsti_tensor bad = {5, 2, t, NULL, NULL, NULL, 0, NULL};
     ck_assert_int_eq(bsti_ttree_write(ctx, &bad, &r, s, NULL), BST_EINVAL);
-    bsti_reduce badr = {100, BST_REDUCE_FLOOR, 0, NULL, NULL, 0};
+    bsti_reduce badr = {100, BST_REDUCE_FLOOR, 0, NULL, NULL, 0, 0};
     ck_assert_int_eq(bsti_ttree_write(ctx, &a, &badr, s, NULL), BST_EINVAL);
     /* a sink that fails part way (a k = 4 tree is larger than the sink's buffer) */
     double *big = malloc(65536 * sizeof *big);
@@ -806,7 +806,7 @@ START_TEST(test_tree_errors)
     bsti_tensor b = {4, 4, big, NULL, NULL, NULL, 0, NULL};
     size_t left = 70000; /* the exact tree is about 10 times longer */
     bsti_sink_init(s, failing_after, &left);
-    bsti_reduce exact = {-1, BST_REDUCE_FLOOR, 0, NULL, NULL, 0};
+    bsti_reduce exact = {-1, BST_REDUCE_FLOOR, 0, NULL, NULL, 0, 0};
     int rc = bsti_ttree_write(ctx, &b, &exact, s, NULL);
     ck_assert_int_eq(rc, BST_EIO);
     /* allocation failures: every one reported, nothing leaked */
@@ -1247,6 +1247,69 @@ START_TEST(test_rank3_auto)
     bst_layer_free(l3), bst_layer_free(l4), bst_bsdf_free(b3), bst_bsdf_free(b4);
     bst_layer_free(l), bst_bsdf_free(b);
     unlink(p3), unlink(p4);
+}
+END_TEST
+
+/* The largest change of a directional-hemispherical value of channel 0's component c, f against l. */
+static double hemi_change(const bst_layer *l, const bst_layer *f, bst_comp c)
+{
+    size_t n = bst_basis_size(bst_layer_basis(l));
+    double *h = malloc(2 * n * sizeof *h), worst = 0.0;
+    ck_assert_ptr_nonnull(h);
+    ck_assert_int_eq(bst_layer_hemispherical(ctx, l, 0, c, h), BST_OK);
+    ck_assert_int_eq(bst_layer_hemispherical(ctx, f, 0, c, h + n), BST_OK);
+    for (size_t i = 0; i < n; i++)
+        worst = fmax(worst, fabs(h[n + i] - h[i]));
+    free(h);
+    return worst;
+}
+
+/* Digits asked for where no bound holds them (no reduction; a Klems file) are written as asked,
+ * and what they move is measured as written: the write returns BST_WACCURACY when that exceeds
+ * the tolerance, and each block's hemi_error (Tb's recip_error for the Tf a reader rebuilds from
+ * it) is the change the file reads back with against the layer.  The 45-degree blind at k = 4 and
+ * its Klems file, with 2 digits (changes of about 0.01) and with 9 (none). */
+START_TEST(test_digits_measured)
+{
+    bst_basis *g;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 4, &g), BST_OK);
+    for (int klems = 0; klems < 2; klems++) {
+        bst_bsdf *b = read_ok(tu_ref(klems ? "L_blind45_t4k5_klems.xml" : "L_blind45_t4k5.xml"));
+        bst_layer *l = layer_of(b, klems ? NULL : g);
+        for (int digits = 2; digits <= 9; digits += 7) {
+            bst_bsdf_write_opts o;
+            bst_bsdf_write_opts_init(&o);
+            struct reports rep = {.n = 0};
+            o.reduce_pct = -1, o.digits = digits, o.on_block = collect, o.opaque = &rep;
+            char *path = tmp_path("digits");
+            int rc = bst_bsdf_write_path(ctx, l, path, &o);
+            const char *msg = bst_ctx_message(ctx);
+            if (digits == 2)
+                ck_assert_msg(rc == BST_WACCURACY && strstr(msg, "values rounded to 2 significant digits move"),
+                              "%d: %s", rc, msg);
+            else
+                ck_assert_msg(rc == BST_OK, "%d: %s", rc, msg);
+            bst_bsdf *f = read_ok(path);
+            bst_layer *back = layer_of(f, NULL);
+            double worst = 0.0;
+            for (int c = 0; c < 4; c++) {
+                double moved = hemi_change(l, back, (bst_comp)c);
+                const bst_bsdf_write_block *r = &rep.b[c];
+                /* a Tf left out is Tb's reciprocal: its change is measured on Tb's rows */
+                double stated = r->written ? r->hemi_error : rep.b[BST_TB].recip_error;
+                printf("blind 45%s, %d digits, %s: moves by %.3e, stated %.3e\n", klems ? " Klems" : "",
+                       digits, bst_comp_name((bst_comp)c), moved, stated);
+                ck_assert_double_le(fabs(stated - moved), 1e-6 * (1.0 + moved));
+                worst = fmax(worst, moved);
+            }
+            ck_assert(digits == 2 ? worst > 0.005 : worst < 1e-6);
+            ck_assert(klems || (!rep.b[BST_TF].written && !isnan(rep.b[BST_TB].recip_error)));
+            bst_layer_free(back), bst_bsdf_free(f);
+            unlink(path);
+        }
+        bst_layer_free(l), bst_bsdf_free(b);
+    }
+    bst_basis_free(g);
 }
 END_TEST
 
@@ -1806,6 +1869,7 @@ static Suite *suite(void)
     tcase_add_loop_test(tc, test_reference_hemi, 0, 4);
     tcase_add_loop_test(tc, test_reference_klems, 0, 4);
     tcase_add_test(tc, test_rank3_auto);
+    tcase_add_test(tc, test_digits_measured);
     tcase_add_test(tc, test_channels_metadata);
     tcase_add_test(tc, test_non_utf8_text);
     tcase_add_test(tc, test_reduced_round_trip);

@@ -30,7 +30,7 @@ static char *tree_text(const bsti_tensor *t, double pct, int threads, bsti_tree_
     tu_membuf m = {0};
     bsti_sink *s = malloc(sizeof *s);
     bsti_sink_init(s, tu_mem_write, &m);
-    bsti_reduce r = {pct, BST_REDUCE_FLOOR, 0, NULL, NULL, 0};
+    bsti_reduce r = {pct, BST_REDUCE_FLOOR, 0, NULL, NULL, 0, 0};
     int rc = bsti_ttree_write(ctx, t, &r, s, st);
     ck_assert_msg(rc == BST_OK, "tree write: %s", bst_ctx_message(ctx));
     ck_assert_int_eq(bsti_sink_flush(s), 0);
@@ -373,7 +373,7 @@ START_TEST(test_alloc_failure)
         tu_membuf m = {0};
         bsti_sink s;
         bsti_sink_init(&s, tu_mem_write, &m);
-        bsti_reduce red = {90, BST_REDUCE_FLOOR, 0, NULL, NULL, 0};
+        bsti_reduce red = {90, BST_REDUCE_FLOOR, 0, NULL, NULL, 0, 0};
         int rc = bsti_ttree_write(ctx, &x, &red, &s, &st);
         ck_assert_int_eq(a.live, 0);
         if (a.count < fail) { /* no allocation failed: done */

@@ -45,7 +45,10 @@ static const char help[] =
     "      --no-reduce      write every tree value (only exactly constant regions merged)\n"
     "      --rank 3|4       force a TensorTree3 or TensorTree4 (default: by an isotropy test)\n"
     "      --digits N|exact significant digits per value, or as many as read back exactly\n"
-    "                       (default: exact, but 5 in a reduced tree)\n"
+    "                       (default: exact, but 5 in a reduced tree, more if the tolerance\n"
+    "                       needs them); in a reduced tree, N whose rounding could move a\n"
+    "                       hemispherical T or R beyond the tolerance is refused; elsewhere\n"
+    "                       a warning states what N moved beyond it\n"
     "      --channels NAMES only these spectral channels (comma-separated)\n"
     "      --precision P    double (default) or single: the precision in which a resampled\n"
     "                       file's dense components and a made shade's dense ones are held\n"
@@ -93,6 +96,10 @@ static void report(const bst_bsdf_write_block *b, void *opaque)
     if (b->kind != BST_FILE_KLEMS)
         fprintf(stderr, ", %zu leaves, error L1 %.2e, largest %.2e 1/sr, hemispherical %.2e",
                 b->leaves, b->l1_error, b->max_error, b->hemi_error);
+    else
+        fprintf(stderr, ", hemispherical error %.2e", b->hemi_error);
+    if (!isnan(b->recip_error))
+        fprintf(stderr, ", Tf as its reciprocal %.2e", b->recip_error);
     if (!isnan(b->iso_fa))
         fprintf(stderr, ", rank-3 flux accordance %.2f %%", b->iso_fa);
     fputc('\n', stderr);
@@ -308,6 +315,7 @@ static int write_out(bst_ctx *ctx, const char *sub, struct convert_req *q, const
     free(command);
     if (st < 0)
         return cli_out_fail_ctx(&co, sub, ctx);
+    cli_warn_ctx(sub, q->out, st, ctx); /* BST_WACCURACY: written as asked, by how much it moved */
     long pos = co.fp ? ftell(co.fp) : -1;
     int rc = cli_out_commit(&co, sub);
     if (rc == CLI_OK && q->verbose.on) { /* the write's time (its decisions included), as combine -v */

@@ -49,6 +49,7 @@ static int write_any(bst_ctx *ctx, const char *sub, const bst_layer *l, const bs
         if (st < 0) {
             rc = cli_out_fail_ctx(&out, sub, ctx);
         } else {
+            cli_warn_ctx(sub, path, st, ctx); /* (BST_WACCURACY: the file as asked) */
             rc = cli_out_commit(&out, sub);
         }
     }
