@@ -62,9 +62,9 @@ enum bst_status {
     BST_WILLCOND = 1,    /* warning: ill-conditioned solve, see the returned rcond */
     BST_WENERGY = 2,     /* warning: energy imbalance beyond tolerance in an input */
     BST_WDATA = 3,       /* warning: input data repaired or completed (e.g. reciprocity used) */
-    BST_WACCURACY = 4    /* warning: a file written as asked (values cut to few digits) moves a
-                            directional-hemispherical value beyond the tolerance; the message
-                            says by how much */
+    BST_WACCURACY = 4    /* warning: a file written as asked (a forced TensorTree3, values cut to
+                            few digits) moves a directional-hemispherical value beyond the
+                            tolerance; the message says by how much */
 };
 
 /* Short text of a status code ("out of memory", ...); never NULL. */
@@ -661,6 +661,10 @@ typedef struct {
     double iso_fa;          /* rank 3: least FA (%) between the component and its rank-3 form;
                                NaN otherwise */
     /* Appended (libtool 7:0:0 continued): */
+    double iso_hemi;        /* rank 3: the largest change of a directional-hemispherical value
+                               between the component and its rank-3 form as read back (the step
+                               iso_fa measures; the tree's own error, hemi_error, comes on top);
+                               NaN otherwise (rank 4, or copied from a rank-3 file) */
     double recip_error;     /* rank 4, a transmission whose other side is left out as its
                                reciprocal: the largest change of the left-out one's directional-
                                hemispherical value as a reader rebuilds it (this block's sums over
@@ -671,7 +675,10 @@ typedef struct {
 typedef int (*bst_bsdf_write_sink)(const char *buf, size_t len, void *opaque);
 
 typedef struct {
-    bst_tree_rank rank;     /* trees: AUTO (default), or force rank 3 or 4 */
+    bst_tree_rank rank;     /* trees: AUTO (default), or force rank 3 or 4; a forced rank 3 whose
+                               rank-3 form moves a directional-hemispherical value by more than
+                               reduce_tol (BST_REDUCE_TOL when INFINITY) is written, and the write
+                               returns BST_WACCURACY with the largest change in the message */
     double reduce_pct;      /* trees: culling percentile in [0, 100); < 0 = no reduction;
                                default BST_REDUCE_PCT */
     double reduce_floor;    /* default BST_REDUCE_FLOOR */

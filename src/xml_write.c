@@ -60,6 +60,8 @@ struct xw {
     bst_file_kind kind;
     double **t3;            /* rank 3: nch * BST_NCOMP tensors of (G/2) N values */
     double *iso;            /* rank 3: the FA of each */
+    double *iso_hemi;       /* rank 3: the largest change of a directional-hemispherical value
+                               between each and the component (NaN: not measured) */
     int *omit;              /* nch * BST_NCOMP: 1 = left out (reciprocal) */
     double *hemi;           /* Klems: n values, the hemispherical error per incident patch */
     const bst_varres *v;    /* variable resolution: fine columns over the coarse layer l, w->k
@@ -154,8 +156,9 @@ static void free_t3(struct xw *w)
         bsti_free(w->ctx, w->t3[i]);
     bsti_free(w->ctx, w->t3);
     bsti_free(w->ctx, w->iso);
+    bsti_free(w->ctx, w->iso_hemi);
     w->t3 = NULL;
-    w->iso = NULL;
+    w->iso = w->iso_hemi = NULL;
 }
 
 /* The tolerance on directional-hemispherical values a file keeps where no bound is asked for
@@ -163,6 +166,14 @@ static void free_t3(struct xw *w)
 static double hemi_tol(const bst_bsdf_write_opts *o)
 {
     return isfinite(o->reduce_tol) ? o->reduce_tol : BST_REDUCE_TOL;
+}
+
+/* Does a component's rank-3 form keep it (fa, hemi: bsti_tt3_job's fa_min and hemi_max): flux
+ * accordance iso_fa_min or more at every incident patch, and every directional-hemispherical value
+ * within the tolerance (NaN: not measured to the end, so not kept)? */
+static int iso_keeps(const bst_bsdf_write_opts *o, double fa, double hemi)
+{
+    return fa >= o->iso_fa_min && hemi <= hemi_tol(o);
 }
 
 /* Rank-3 tensors of every component; *isotropic = 0 when one fails the check (unless rank 3 is
@@ -195,8 +206,8 @@ static int t3_wide(struct xw *w, const bst_mat *m, size_t idx, int *isotropic)
                         &job);
     bst_mat_free(d);
     if (rc >= 0)
-        w->iso[idx] = job.fa_min;
-    if (rc >= 0 && job.fa_min < o->iso_fa_min)
+        w->iso[idx] = job.fa_min, w->iso_hemi[idx] = job.hemi_max;
+    if (rc >= 0 && !iso_keeps(o, job.fa_min, job.hemi_max))
         *isotropic = 0;
     return rc;
 }
@@ -207,7 +218,8 @@ static int build_t3(struct xw *w, int *isotropic)
     size_t G = (size_t)1 << w->k, N = G * G, total = w->nch * BST_NCOMP, nj = 0;
     *isotropic = 1;
     if (!(w->t3 = bsti_calloc(w->ctx, total, sizeof *w->t3)) ||
-        !(w->iso = bsti_alloc_array(w->ctx, total, sizeof *w->iso)))
+        !(w->iso = bsti_alloc_array(w->ctx, total, sizeof *w->iso)) ||
+        !(w->iso_hemi = bsti_alloc_array(w->ctx, total, sizeof *w->iso_hemi)))
         return BST_ENOMEM;
     size_t map[64];
     int from_file = w->nch <= 64 && source_usable(w, o->rank3_source, map);
@@ -218,7 +230,7 @@ static int build_t3(struct xw *w, int *isotropic)
         for (int c = 0; rc >= 0 && c < BST_NCOMP; c++) {
             size_t idx = ch * BST_NCOMP + (size_t)c;
             const bst_mat *m = bst_layer_get(w->l, ch, (bst_comp)c);
-            w->iso[idx] = NAN; /* from the file, or absent: not measured */
+            w->iso[idx] = w->iso_hemi[idx] = NAN; /* from the file, or absent: not measured */
             if (!(w->t3[idx] = bsti_alloc_array(w->ctx, N * (G / 2), sizeof **w->t3))) {
                 rc = BST_ENOMEM;
             } else if (from_file) {
@@ -252,7 +264,8 @@ static int build_t3(struct xw *w, int *isotropic)
                             BSTI_TT3_TABLE_BYTES, 0, nj, jobs);
         for (size_t j = 0; rc >= 0 && j < nj; j++) {
             w->iso[at[j]] = jobs[j].fa_min;
-            if (jobs[j].fa_min < o->iso_fa_min)
+            w->iso_hemi[at[j]] = jobs[j].hemi_max;
+            if (!iso_keeps(o, jobs[j].fa_min, jobs[j].hemi_max))
                 *isotropic = 0;
         }
     }
@@ -308,14 +321,29 @@ static int bounds(struct xw *w)
 }
 
 /* What the file moves beyond the tolerance that the bound does not rule out, as options asked it
- * (bst_bsdf_write_opts' digits): digits asked for where no bound holds them (Klems, no reduction,
- * reduce_tol INFINITY), measured as written.  BST_WACCURACY with the largest change, else
- * BST_OK. */
+ * (bst_bsdf_write_opts' rank and digits): a TensorTree3's rank-3 form (forced: by default a layer
+ * is rank 3 only where that keeps the tolerance), and digits asked for where no bound holds them
+ * (Klems, no reduction, reduce_tol INFINITY), measured as written.  BST_WACCURACY with the
+ * largest change, else BST_OK. */
 static int accuracy(struct xw *w)
 {
     double tol = hemi_tol(w->o);
     char msg[768] = "";
     size_t len = 0;
+    if (w->kind == BST_FILE_TT3 && w->iso_hemi) {
+        double worst = 0.0;
+        size_t at = 0;
+        for (size_t i = 0; i < w->nch * BST_NCOMP; i++)
+            if (w->iso_hemi[i] > worst) /* (NaN: copied from a rank-3 file, or absent) */
+                worst = w->iso_hemi[i], at = i;
+        if (worst > tol)
+            len += (size_t)snprintf(msg, sizeof msg, "a TensorTree3 of this layer, which is not "
+                                    "isotropic, moves %s %s's directional-hemispherical values by "
+                                    "up to %.3g (flux accordance down to %.1f %%), more than the "
+                                    "tolerance %g",
+                                    bst_layer_channel(w->l, at / BST_NCOMP),
+                                    bst_comp_name((bst_comp)(at % BST_NCOMP)), worst, w->iso[at], tol);
+    }
     int reduced = w->kind != BST_FILE_KLEMS && w->o->reduce_pct >= 0.0;
     if (w->o->digits > 0 && !w->bounds.col && w->worst > tol && len < sizeof msg)
         len += (size_t)snprintf(msg + len, sizeof msg - len, "%svalues rounded to %d significant "
@@ -543,6 +571,7 @@ static int write_blocks(struct xw *w)
             rep.comp = (bst_comp)c;
             rep.kind = w->kind;
             rep.iso_fa = w->kind == BST_FILE_TT3 ? w->iso[idx] : NAN;
+            rep.iso_hemi = w->kind == BST_FILE_TT3 ? w->iso_hemi[idx] : NAN;
             rep.recip_error = NAN;
             if (!w->omit[idx]) {
                 rep.written = 1;
@@ -594,7 +623,12 @@ static int write_blocks(struct xw *w)
                     if (w->bounds.col) {
                         r.col_budget = w->bounds.col + idx * w->bounds.n;
                         if (w->kind == BST_FILE_TT3) {
+                            /* the rank-3 form has moved each patch by up to iso_hemi already: the
+                             * tree gets what is left (measured against the layer, not the form) */
+                            double lost = isnan(w->iso_hemi[idx]) ? 0.0 : w->iso_hemi[idx];
                             bsti_bounds_rings(w->k, r.col_budget, w->ring);
+                            for (size_t x = 0; x < ((size_t)1 << w->k) / 2; x++)
+                                w->ring[x] = fmax(0.0, w->ring[x] - lost);
                             r.col_budget = w->ring;
                         }
                         if (c == BST_TB && w->omit[ch * BST_NCOMP + BST_TF] == 1)

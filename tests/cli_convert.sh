@@ -173,6 +173,20 @@ awk -v a="$got" -v b="$want" 'BEGIN { d = a - b; exit !(b > 0.005 && d < 1e-4 &&
     && pass "Klems --digits 2: warns of $got, compare finds $want" || fail "Klems --digits 2: stated '$got', compare $want: $(cat "$tmpdir/err")"
 expect_status 0 "convert --no-reduce --digits 9: no warning" -- "$BSDFSTACK" convert -k 4 --no-reduce --digits 9 -o "$tmpdir/nd9.xml" "$blind"
 grep -q "digits move" "$tmpdir/err" && fail "--digits 9 warned: $(cat "$tmpdir/err")"
+# --rank 3 forces a TensorTree3: the blind is written as asked, with a warning stating what its
+# rank-3 form moves (before: Tf moved by 0.68 with no word); the diffuser (isotropic) forced at
+# k = 4 moves under the tolerance and says nothing.
+expect_status 0 "convert --rank 3, an anisotropic blind" -- "$BSDFSTACK" convert -k 4 --rank 3 -o "$tmpdir/b3.xml" "$blind"
+grep -q 'TensorTree3' "$tmpdir/b3.xml" || fail "--rank 3 writes a TensorTree3"
+want=$(largest_change "$blind" "$tmpdir/b3.xml" "-k 4")
+got=$(stated "by up to")
+grep -q "warning: $tmpdir/b3.xml: writing BSDF XML: a TensorTree3 of this layer, which is not isotropic, moves Visible [TR][fb]'s directional-hemispherical values by up to [0-9.]* (flux accordance down to [0-9.]* %), more than the tolerance 0.002" "$tmpdir/err" &&
+    awk -v a="$got" -v b="$want" 'BEGIN { d = a - b; exit !(b > 0.5 && d < 0.002 && d > -0.002) }' \
+    && pass "--rank 3: warns of $got, compare finds $want" || fail "--rank 3: stated '$got', compare $want: $(cat "$tmpdir/err")"
+expect_status 0 "convert --rank 3, the diffuser at k = 4" -- "$BSDFSTACK" convert -k 4 --rank 3 -o "$tmpdir/d3.xml" "$ref/L_diffuser_t3k5.xml"
+[ ! -s "$tmpdir/err" ] && pass "the diffuser in rank 3: no warning" || fail "the diffuser in rank 3: $(cat "$tmpdir/err")"
+expect_status 0 "--rank 3 diffuser: within 0.002 of the input read at k = 4" -- "$BSDFSTACK" compare -k 4 --fail-hem 0.002 "$ref/L_diffuser_t3k5.xml" "$tmpdir/d3.xml"
+
 # SOURCE_DATE_EPOCH fixes the header's date, so that two conversions give the same bytes but for the
 # recorded command line (the output's name)
 for f in e1 e2; do

@@ -471,9 +471,10 @@ class BSDF:
         alone); rank: "auto", 3 or 4; digits: significant digits (0: enough to read back
         exactly; None: exact, but 5 in a reduced tree, more where reduce_tol needs them; digits
         whose rounding could move a reduced tree's hemispherical T or R beyond reduce_tol raise
-        Error); date: the header's date (default: $SOURCE_DATE_EPOCH when set, else now).  Digits
-        where no bound holds them (reduce None, Klems) that move a hemispherical T or R beyond
-        the tolerance are written with a LibraryWarning stating the change."""
+        Error); date: the header's date (default: $SOURCE_DATE_EPOCH when set, else now).  A
+        forced rank 3, or digits where no bound holds them (reduce None, Klems), that move a
+        hemispherical T or R beyond the tolerance are written with a LibraryWarning stating the
+        change."""
         opts = _lib.WriteOpts()
         lib.bst_bsdf_write_opts_init(ctypes.byref(opts))
         opts.reduce_pct = -1.0 if reduce is None or reduce is False else float(reduce)

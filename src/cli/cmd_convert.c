@@ -43,7 +43,9 @@ static const char help[] =
     "                       T and R stay within T of the unreduced values (default 0.002;\n"
     "                       none: the percentile alone, as rttree_reduce)\n"
     "      --no-reduce      write every tree value (only exactly constant regions merged)\n"
-    "      --rank 3|4       force a TensorTree3 or TensorTree4 (default: by an isotropy test)\n"
+    "      --rank 3|4       force a TensorTree3 or TensorTree4 (default: by an isotropy test);\n"
+    "                       a forced TensorTree3 that moves a hemispherical T or R by more than\n"
+    "                       the tolerance is written with a warning saying by how much\n"
     "      --digits N|exact significant digits per value, or as many as read back exactly\n"
     "                       (default: exact, but 5 in a reduced tree, more if the tolerance\n"
     "                       needs them); in a reduced tree, N whose rounding could move a\n"
@@ -102,6 +104,8 @@ static void report(const bst_bsdf_write_block *b, void *opaque)
         fprintf(stderr, ", Tf as its reciprocal %.2e", b->recip_error);
     if (!isnan(b->iso_fa))
         fprintf(stderr, ", rank-3 flux accordance %.2f %%", b->iso_fa);
+    if (!isnan(b->iso_hemi))
+        fprintf(stderr, " (hemispherical %.2e)", b->iso_hemi);
     fputc('\n', stderr);
 }
 
