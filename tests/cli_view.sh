@@ -52,6 +52,10 @@ expect_error "a file too large for --max-size" 'max-size' -- "$B" view --max-siz
 expect_error "too large for the memory allowed" 'needs about' -- "$B" view --max-memory 1M -o "$tmpdir/e/p.html" \
     "$ref/L_blind45_t4k5.xml"
 expect_error "a pane" 'glass:' -- "$B" view -o "$tmpdir/e/p.html" glass:clear-6mm
+"$B" combine -k 3 --incident 0,0 -o "$tmpdir/inc.tsv" glass:clear-6mm > /dev/null 2>&1 ||
+    fail "combine --incident for view's table check"
+expect_error "a table of combine --incident" 'inc\.tsv: view reads BSDF XML files.*bsdfstack plot' -- \
+    "$B" view -o "$tmpdir/e/p.html" "$tmpdir/inc.tsv"
 expect_error "no file" 'no file' -- "$B" view -o "$tmpdir/e/p.html"
 expect_error "a bad --max-size" 'max-size' -- "$B" view --max-size lots "$ref/L_blind45_t4k5_klems.xml"
 expect_error "a bad --incident" 'incident' -- "$B" view --incident 95,0 "$ref/L_blind45_t4k5_klems.xml"

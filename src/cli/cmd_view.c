@@ -17,6 +17,7 @@
 #include <string.h>
 
 #include "cli.h"
+#include "incident_table.h"
 #include "layers.h"
 #include "view.h"
 
@@ -67,6 +68,9 @@ static int read_files(bst_ctx *ctx, const char *sub, struct cli_view *v)
         if (strncmp(vf->path, "glass:", 6) == 0)
             return cli_fail(sub, "%s: view reads BSDF files (a pane: bsdfstack glass, or combine "
                             "it into a file first)", vf->path);
+        if (cli_incident_table_is(vf->path))
+            return cli_fail(sub, "%s: view reads BSDF XML files; a table of 'combine --incident' "
+                            "is drawn by 'bsdfstack plot %s'", vf->path, vf->path);
         if (bst_bsdf_read(ctx, vf->path, &ro, &vf->b) < 0)
             return cli_fail_ctx(sub, vf->path, ctx);
         cli_warn_bsdf(sub, vf->path, vf->b);
