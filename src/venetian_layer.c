@@ -524,7 +524,11 @@ static int radiosity(struct build *B)
         bsti_free(B->ctx, gm), bsti_free(B->ctx, a), bsti_free(B->ctx, em);
         return BST_ENOMEM;
     }
-    bsti_vn_exchange(&B->g, gm);
+    if (B->v->r_up > 0 || B->v->r_down > 0 || B->v->t > 0)
+        bsti_vn_exchange(&B->g, gm);
+    else /* nothing emitted diffusely: the exchange would be multiplied by zero (and between
+            lossless mirrors, rs = 1, its series of bounces has no finite sum) */
+        memset(gm, 0, ne * ne * sizeof *gm);
     for (size_t e = 0; e < ne; e++)
         em[e] = e < m ? B->v->r_up : B->v->r_down;
     /* E = diag(r) + t P, P the face behind (strip e of one face <-> strip e of the other) */
