@@ -131,6 +131,14 @@ static inline int bsti_plus_fits(size_t rows, size_t cols, size_t m)
  * a dense double A, else (X^T A)^T), all column-major doubles. */
 int bsti_mul_thin(bst_ctx *ctx, const bst_mat *a, const double *x, size_t m, double *out);
 int bsti_mul_thin_t(bst_ctx *ctx, const bst_mat *a, const double *x, size_t m, double *out);
+/* C = D S (dense_left 1) or S D (0) by the panel kernel of mat_mul.c, on the context's threads:
+ * s the sparse operand by lines (S's columns for D S, its rows, as a transpose, for S D), values
+ * double; D dense in precision prec, d_rows x d_cols with leading dimension ldd; C in prec,
+ * leading dimension ldc, every value of its d_rows x s->ncol (D S) or s->ncol x d_cols (S D)
+ * written.  Blocks of larger matrices, such as a mirror split's halves (mirror_mul.c), are
+ * operands as they lie.  Workspace: a K x 64 panel a thread (K the inner dimension). */
+int bsti_spmm(bst_ctx *ctx, const cholmod_sparse *s, bst_precision prec, const void *d, size_t ldd,
+              size_t d_rows, size_t d_cols, int dense_left, void *c, size_t ldc);
 /* The PLUS_LR kernels (mat_plus.c): a product or sum where either operand is PLUS_LR. */
 int bsti_mul_plus(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out);
 int bsti_add_plus(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, const bst_mat *b,

@@ -96,8 +96,10 @@ struct spmm_part {
     const SuiteSparse_long *p, *i;  /* the sparse operand's lines: line l's inner indices
                                        i[p[l] .. p[l + 1] - 1], values v */
     const double *v;
-    const bst_mat *d;               /* the dense operand */
-    bst_mat *c;
+    const void *dd;                 /* the dense operand D, leading dimension ldd, K x span
+                                       (D S: span rows, K columns; S D: K rows, span columns) */
+    void *cd;                       /* C, leading dimension ldc */
+    size_t ldd, ldc, K, span, lines;
     int dense_left;                 /* C = D S (panels of D's rows), else C = S D (of columns) */
     size_t p0, p1;                  /* the panels [p0, p1) */
     void *panel;                    /* K x SPMM_PANEL, row-major, D's precision */
@@ -105,79 +107,67 @@ struct spmm_part {
 
 /* The panel's K x w values of D (its columns or rows o .. o + w - 1), row-major, zero-padded to
  * SPMM_PANEL; then each line's accumulators into C.  One plain kernel a precision. */
-SPMM_CLONES static void spmm_panel_float(const struct spmm_part *t, size_t o, size_t w, size_t lines)
-{
-    const float *dd = t->d->dense;
-    float *panel = t->panel, *cd = t->c->dense;
-    size_t K = t->dense_left ? t->d->cols : t->d->rows, R = t->d->rows, M = t->c->rows;
-    for (size_t k = 0; k < K; k++)
-        for (size_t j = 0; j < SPMM_PANEL; j++)
-            panel[k * SPMM_PANEL + j] = j >= w ? 0.0f : t->dense_left ? dd[k * R + o + j]
-                                                                      : dd[(o + j) * R + k];
-    for (size_t l = 0; l < lines; l++) {
-        float acc[SPMM_PANEL] = {0};
-        for (SuiteSparse_long q = t->p[l]; q < t->p[l + 1]; q++) {
-            float a = (float)t->v[q];
-            const float *row = panel + (size_t)t->i[q] * SPMM_PANEL;
-            for (size_t j = 0; j < SPMM_PANEL; j++)
-                acc[j] += a * row[j];
-        }
-        for (size_t j = 0; j < w; j++)
-            cd[t->dense_left ? l * M + o + j : (o + j) * M + l] = acc[j];
+#define SPMM_PANEL_KERNEL(T, SUF)                                                                \
+    SPMM_CLONES static void spmm_panel_##SUF(const struct spmm_part *t, size_t o, size_t w)      \
+    {                                                                                            \
+        const T *dd = t->dd;                                                                     \
+        T *panel = t->panel, *cd = t->cd;                                                        \
+        size_t K = t->K, R = t->ldd, M = t->ldc;                                                 \
+        for (size_t k = 0; k < K; k++)                                                           \
+            for (size_t j = 0; j < SPMM_PANEL; j++)                                              \
+                panel[k * SPMM_PANEL + j] = j >= w ? (T)0 : t->dense_left ? dd[k * R + o + j]    \
+                                                                          : dd[(o + j) * R + k]; \
+        for (size_t l = 0; l < t->lines; l++) {                                                  \
+            T acc[SPMM_PANEL] = {0};                                                             \
+            for (SuiteSparse_long q = t->p[l]; q < t->p[l + 1]; q++) {                           \
+                T a = (T)t->v[q];                                                                \
+                const T *row = panel + (size_t)t->i[q] * SPMM_PANEL;                             \
+                for (size_t j = 0; j < SPMM_PANEL; j++)                                          \
+                    acc[j] += a * row[j];                                                        \
+            }                                                                                    \
+            for (size_t j = 0; j < w; j++)                                                       \
+                cd[t->dense_left ? l * M + o + j : (o + j) * M + l] = acc[j];                    \
+        }                                                                                        \
     }
-}
+SPMM_PANEL_KERNEL(float, float)
+SPMM_PANEL_KERNEL(double, double)
 
-SPMM_CLONES static void spmm_panel_double(const struct spmm_part *t, size_t o, size_t w, size_t lines)
-{
-    const double *dd = t->d->dense;
-    double *panel = t->panel, *cd = t->c->dense;
-    size_t K = t->dense_left ? t->d->cols : t->d->rows, R = t->d->rows, M = t->c->rows;
-    for (size_t k = 0; k < K; k++)
-        for (size_t j = 0; j < SPMM_PANEL; j++)
-            panel[k * SPMM_PANEL + j] = j >= w ? 0.0 : t->dense_left ? dd[k * R + o + j]
-                                                                     : dd[(o + j) * R + k];
-    for (size_t l = 0; l < lines; l++) {
-        double acc[SPMM_PANEL] = {0};
-        for (SuiteSparse_long q = t->p[l]; q < t->p[l + 1]; q++) {
-            double a = t->v[q];
-            const double *row = panel + (size_t)t->i[q] * SPMM_PANEL;
-            for (size_t j = 0; j < SPMM_PANEL; j++)
-                acc[j] += a * row[j];
-        }
-        for (size_t j = 0; j < w; j++)
-            cd[t->dense_left ? l * M + o + j : (o + j) * M + l] = acc[j];
-    }
-}
+struct spmm_run_arg {
+    struct spmm_part part;
+    int single;
+};
 
 static void *spmm_run(void *arg)
 {
-    const struct spmm_part *t = arg;
-    size_t span = t->dense_left ? t->d->rows : t->d->cols; /* the panels' extent */
-    size_t lines = t->dense_left ? t->c->cols : t->c->rows;
+    const struct spmm_run_arg *r = arg;
+    const struct spmm_part *t = &r->part;
     for (size_t p = t->p0; p < t->p1; p++) {
-        size_t o = p * SPMM_PANEL, w = span - o < SPMM_PANEL ? span - o : SPMM_PANEL;
-        if (t->d->prec == BST_FLOAT)
-            spmm_panel_float(t, o, w, lines);
+        size_t o = p * SPMM_PANEL, w = t->span - o < SPMM_PANEL ? t->span - o : SPMM_PANEL;
+        if (r->single)
+            spmm_panel_float(t, o, w);
         else
-            spmm_panel_double(t, o, w, lines);
+            spmm_panel_double(t, o, w);
     }
     return NULL;
 }
 
-/* C = S D (dense_left 0) or D S, s the sparse operand by lines (S's rows, or its columns). */
-static int spmm(bst_ctx *ctx, const cholmod_sparse *s, const bst_mat *d, int dense_left, bst_mat *c)
+int bsti_spmm(bst_ctx *ctx, const cholmod_sparse *s, bst_precision prec, const void *d, size_t ldd,
+              size_t d_rows, size_t d_cols, int dense_left, void *c, size_t ldc)
 {
-    size_t span = dense_left ? d->rows : d->cols, K = dense_left ? d->cols : d->rows;
+    size_t span = dense_left ? d_rows : d_cols, K = dense_left ? d_cols : d_rows;
     size_t panels = K ? (span + SPMM_PANEL - 1) / SPMM_PANEL : 0; /* no inner values: C stays 0 */
     size_t nw = panels ? (size_t)bsti_ctx_workers_no_alloc(ctx, panels) : 0;
-    size_t es = d->prec == BST_FLOAT ? sizeof(float) : sizeof(double);
+    size_t es = prec == BST_FLOAT ? sizeof(float) : sizeof(double);
     char *work = nw ? bsti_alloc_array(ctx, nw * K * SPMM_PANEL, es) : NULL;
     if (nw && !work)
         return BST_ENOMEM;
-    struct spmm_part part[BST_THREADS_MAX];
+    bsti_flops_add(ctx, 2.0 * (double)(s->ncol ? ((const SuiteSparse_long *)s->p)[s->ncol] : 0) *
+                            (double)span);
+    struct spmm_run_arg part[BST_THREADS_MAX];
     for (size_t t = 0; t < nw; t++)
-        part[t] = (struct spmm_part){s->p, s->i, s->x, d, c, dense_left, panels * t / nw,
-                                     panels * (t + 1) / nw, work + t * K * SPMM_PANEL * es};
+        part[t] = (struct spmm_run_arg){{s->p, s->i, s->x, d, c, ldd, ldc, K, span, s->ncol,
+                                         dense_left, panels * t / nw, panels * (t + 1) / nw,
+                                         work + t * K * SPMM_PANEL * es}, prec == BST_FLOAT};
     bsti_run_parts(part, sizeof *part, nw, spmm_run);
     bsti_free(ctx, work);
     return BST_OK;
@@ -190,10 +180,11 @@ static int mul_sparse_dense(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, do
     int rc = bst_mat_new_dense(ctx, a->rows, b->cols, b->prec, &c);
     if (rc < 0)
         return rc;
-    bsti_flops_add(ctx, 2.0 * (double)bst_mat_nnz(a) * (double)b->cols);
     cholmod_common *cc = bsti_cholmod(ctx);
     cholmod_sparse *at = cc ? cholmod_l_transpose(a->sp, 1, cc) : NULL;
-    rc = !cc ? BST_ENOMEM : !at ? bsti_mat_cholmod_failed(ctx, "transpose") : spmm(ctx, at, b, 0, c);
+    rc = !cc ? BST_ENOMEM : !at ? bsti_mat_cholmod_failed(ctx, "transpose")
+                          : bsti_spmm(ctx, at, b->prec, b->dense, b->rows, b->rows, b->cols, 0,
+                                      c->dense, c->rows);
     cholmod_l_free_sparse(&at, cc);
     if (rc < 0) {
         bst_mat_free(c);
@@ -210,8 +201,8 @@ static int mul_dense_sparse(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, do
     int rc = bst_mat_new_dense(ctx, a->rows, b->cols, a->prec, &c);
     if (rc < 0)
         return rc;
-    bsti_flops_add(ctx, 2.0 * (double)bst_mat_nnz(b) * (double)a->rows);
-    if ((rc = spmm(ctx, b->sp, a, 1, c)) < 0) {
+    if ((rc = bsti_spmm(ctx, b->sp, a->prec, a->dense, a->rows, a->rows, a->cols, 1, c->dense,
+                        c->rows)) < 0) {
         bst_mat_free(c);
         return rc;
     }

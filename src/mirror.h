@@ -52,4 +52,14 @@ void bsti_mirror_matrix(void *a, bst_precision prec, size_t n, size_t g, int spl
  * pairs (split 1), or halves again (split 0: x_p = (s + d) / 2, x_Sp = (s - d) / 2). */
 void bsti_mirror_rows(void *x, bst_precision prec, size_t n, size_t g, size_t ncols, int split);
 
+/* bsti_mirror_mul's answer for a right-hand side without the symmetry (not a status of the API):
+ * the caller joins the inverse (bsti_mirror_matrix) and multiplies by the whole. */
+#define BSTI_MIRROR_ASYM 1
+/* *out = X B (right 0) or B X, X the n x n inverse held as its split's inverted halves in inv
+ * (precision prec, side g, turned: of Q (I - A) Q), by mirror_mul.c: B sparse or diagonal and
+ * commuting with the mirror (read from its values), or thin and dense (n x m, or m x n when
+ * right).  BST_OK, BSTI_MIRROR_ASYM (nothing made), or an error. */
+int bsti_mirror_mul(bst_ctx *ctx, void *inv, bst_precision prec, size_t n, size_t g, int turn,
+                    int right, const bst_mat *b, bst_mat **out);
+
 #endif

@@ -990,8 +990,9 @@ static int inverse_pays(const struct factor *f, size_t nb, const bst_mat *const 
         getrs += 2.0 * n * n * (double)b[q]->cols;
         spmm += INV_SPMM_COST * 2.0 * (double)bst_mat_nnz(b[q]) * n;
     }
-    if (f->mirror_g) /* two halves: the inverse a quarter, the triangular solves half */
-        return 1.0 / 3.0 * n * n * n + spmm < 0.5 * getrs;
+    if (f->mirror_g) /* two halves: the inverse a quarter, the triangular solves and the
+                        products half (mirror_mul.c) */
+        return 1.0 / 3.0 * n * n * n + 0.5 * spmm < 0.5 * getrs;
     return 4.0 / 3.0 * n * n * n + spmm < getrs;
 }
 
@@ -1029,7 +1030,7 @@ static int getri_block(bst_ctx *ctx, bst_precision prec, size_t n, size_t lda, v
 }
 
 /* The LU factors become the inverse (I - A)^-1 in their storage; a mirror-split factorization's
- * halves are inverted and joined into the whole inverse. */
+ * halves are inverted and stay split (join_inverse makes them the whole). */
 static int dense_invert(bst_ctx *ctx, struct factor *f)
 {
     size_t n = f->n, h = n / 2;
@@ -1038,28 +1039,38 @@ static int dense_invert(bst_ctx *ctx, struct factor *f)
     int rc = getri_block(ctx, f->prec, h, n, f->lu, f->ipiv);
     if (rc >= 0)
         rc = getri_block(ctx, f->prec, h, n, block(f, 1), f->ipiv + h);
-    if (rc >= 0) {
-        bsti_mirror_matrix(f->lu, f->prec, n, f->mirror_g, 0);
-        if (f->mirror_turned)
-            bsti_mirror_turn(f->lu, f->prec, n, f->mirror_g, n, 1);
-        f->mirror_g = 0, f->mirror_turned = 0;
-    }
     return rc;
 }
 
+static void join_inverse(struct factor *f)
+{
+    if (!f->mirror_g)
+        return;
+    bsti_mirror_matrix(f->lu, f->prec, f->n, f->mirror_g, 0);
+    if (f->mirror_turned)
+        bsti_mirror_turn(f->lu, f->prec, f->n, f->mirror_g, f->n, 1);
+    f->mirror_g = 0, f->mirror_turned = 0;
+}
+
 /* out[q] = (I - A)^-1 b[q] or b[q] (I - A)^-1 by the inverse, the owned right-hand sides freed as
- * read. */
+ * read: by its halves while each b[q] has the mirror symmetry or is thin (mirror_mul.c, half the
+ * product's flops), else by the whole. */
 static int solve_by_inverse(bst_ctx *ctx, struct factor *f, int right, size_t nb,
                             const bst_mat *const *b, bst_mat **own_b, bst_mat **out)
 {
     int rc = dense_invert(ctx, f);
-    if (rc < 0)
-        return rc;
-    bst_mat inv = {.ctx = ctx, .s = BST_DENSE, .prec = f->prec, .rows = f->n, .cols = f->n,
-                   .dense = f->lu};
     for (size_t q = 0; q < nb && rc >= 0; q++) {
-        rc = right ? bst_mat_mul(ctx, b[q], &inv, 0.0, &out[q])
-                   : bst_mat_mul(ctx, &inv, b[q], 0.0, &out[q]);
+        rc = BSTI_MIRROR_ASYM;
+        if (f->mirror_g)
+            rc = bsti_mirror_mul(ctx, f->lu, f->prec, f->n, f->mirror_g, f->mirror_turned, right,
+                                 b[q], &out[q]);
+        if (rc == BSTI_MIRROR_ASYM) {
+            join_inverse(f);
+            bst_mat inv = {.ctx = ctx, .s = BST_DENSE, .prec = f->prec, .rows = f->n,
+                           .cols = f->n, .dense = f->lu};
+            rc = right ? bst_mat_mul(ctx, b[q], &inv, 0.0, &out[q])
+                       : bst_mat_mul(ctx, &inv, b[q], 0.0, &out[q]);
+        }
         if (own_b) {
             bst_mat_free(own_b[q]);
             own_b[q] = NULL;

@@ -2,7 +2,8 @@
  * matrices have the symmetry, the split and join as exact inverses), the solves of mirror-
  * symmetric I - A against the same solves unsplit and against plain dense residuals, both sides,
  * both precisions, every kind of right-hand side, both mirrors (y's through the turned square), a
- * kept factorization, a singular half; and
+ * kept factorization, a singular half; products with an inverse kept in halves (mirror_mul.c)
+ * against the whole's; and
  * the stacks: a venetian blind's layer commutes with its mirror (a physical symmetry: its model
  * sampled a patch and its image at unrelated points until session 53), and a pane + blind + pane
  * split gives what the unsplit baseline (--dense) gives. */
@@ -208,6 +209,89 @@ START_TEST(test_solves)
 }
 END_TEST
 
+/* Products with an inverse kept in halves (mirror_mul.c), _i: side (right), precision, kind of B
+ * (0 sparse, 1 diagonal, 2 thin dense), mirror (x, y): against X B (or B X) of the whole X in
+ * plain dense arithmetic; a sparse B one value off its symmetry is left to the whole
+ * (BSTI_MIRROR_ASYM, nothing made). */
+START_TEST(test_halves_product)
+{
+    int right = _i & 1, k = (_i >> 2) % 3, axis = _i / 12;
+    bst_precision prec = _i & 2 ? BST_FLOAT : BST_DOUBLE;
+    size_t (*im)(size_t, size_t) = axis ? mir_y : mir;
+    tu_rng r;
+    tu_rng_seed(&r, 300 + (uint64_t)_i);
+    size_t g = 16, n = g * g, m = 5;
+    double *xv = symmetric_about(g, axis, 3.0, &r);
+    bst_mat *inv = dense_of(xv, n, n, prec), *b;
+    void *iv = bst_mat_dense_data(inv);
+    if (axis)
+        bsti_mirror_turn(iv, prec, n, g, n, 1);
+    bsti_mirror_matrix(iv, prec, n, g, 1);
+    size_t br = n, bc = n;
+    double *bv;
+    if (k == 0) { /* sparse: a symmetric matrix, a fifth of its pairs of values kept */
+        bv = symmetric_about(g, axis, 1.0, &r);
+        for (size_t q = 0; q < n; q++)
+            for (size_t p = 0; p < n; p++) {
+                size_t cp = p < im(g, p) ? p : im(g, p), cq = p < im(g, p) ? q : im(g, q);
+                if ((cp * 7919 + cq * 104729) % 5)
+                    bv[q * n + p] = 0.0;
+            }
+        bst_mat *d = dense_of(bv, n, n, BST_DOUBLE);
+        ck_assert_int_eq(bst_mat_convert(ctx, d, BST_SPARSE, BST_DOUBLE, &b), BST_OK);
+        bst_mat_free(d);
+    } else if (k == 1) {
+        double *dg = malloc(n * sizeof *dg);
+        for (size_t p = 0; p < n; p++)
+            dg[p] = 0.1 + (double)(p < im(g, p) ? p : im(g, p)) / (double)n;
+        ck_assert_int_eq(bst_mat_new_diag(ctx, n, dg, &b), BST_OK);
+        bv = calloc(n * n, sizeof *bv);
+        for (size_t p = 0; p < n; p++)
+            bv[p * n + p] = dg[p];
+        free(dg);
+    } else {
+        br = right ? m : n, bc = right ? n : m;
+        bv = malloc(n * m * sizeof *bv);
+        for (size_t i = 0; i < n * m; i++)
+            bv[i] = tu_rng_uniform(&r) - 0.5;
+        b = dense_of(bv, br, bc, BST_DOUBLE);
+    }
+    bst_mat *out = NULL;
+    int rc = bsti_mirror_mul(ctx, iv, prec, n, g, axis, right, b, &out);
+    ck_assert_msg(rc == BST_OK, "%d %s", rc, bst_ctx_message(ctx));
+    size_t rows = right ? br : n, cols = right ? n : bc;
+    ck_assert_uint_eq(bst_mat_rows(out), rows);
+    ck_assert_uint_eq(bst_mat_cols(out), cols);
+    double *want = malloc(rows * cols * sizeof *want), *got = tm_dense(ctx, out);
+    if (prec == BST_FLOAT) /* X as it was stored */
+        for (size_t i = 0; i < n * n; i++)
+            xv[i] = (float)xv[i];
+    if (right)
+        tm_gemm(br, n, n, bv, xv, want);
+    else
+        tm_gemm(n, n, bc, xv, bv, want);
+    double big = tm_maxabs(want, rows * cols), tol = prec == BST_DOUBLE ? 1e-13 : 1e-5;
+    ck_assert_msg(tm_maxdiff(got, want, rows * cols) <= tol * big, "%g of %g",
+                  tm_maxdiff(got, want, rows * cols), big);
+    bst_mat_free(out), free(got);
+    if (k == 0) { /* one value moved off its image */
+        size_t p = 3, q = 0;
+        while (bv[q * n + p] == 0.0)
+            q++;
+        bv[q * n + p] *= 1.0 + 1e-4;
+        bst_mat *d = dense_of(bv, n, n, BST_DOUBLE), *bs;
+        ck_assert_int_eq(bst_mat_convert(ctx, d, BST_SPARSE, BST_DOUBLE, &bs), BST_OK);
+        out = NULL;
+        ck_assert_int_eq(bsti_mirror_mul(ctx, iv, prec, n, g, axis, right, bs, &out),
+                         BSTI_MIRROR_ASYM);
+        ck_assert_ptr_null(out);
+        bst_mat_free(d), bst_mat_free(bs);
+    }
+    free(want), free(bv), free(xv);
+    bst_mat_free(b), bst_mat_free(inv);
+}
+END_TEST
+
 /* A matrix without the symmetry is not split; a kept split factorization serves the later right
  * solves (the absorptance's). */
 START_TEST(test_kept_and_plain)
@@ -386,6 +470,7 @@ static Suite *mirror_suite(void)
     tcase_add_test(tc, test_side);
     tcase_add_test(tc, test_kernels);
     tcase_add_loop_test(tc, test_solves, 0, 32);
+    tcase_add_loop_test(tc, test_halves_product, 0, 24);
     tcase_add_test(tc, test_kept_and_plain);
     tcase_add_test(tc, test_singular_half);
     tcase_add_test(tc, test_venetian_symmetry);

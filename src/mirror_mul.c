@@ -1,0 +1,245 @@
+/* mirror_mul.c - products with a mirror-split inverse, its halves kept (mirror.h).
+ *
+ * The inverse (I - A)^-1 of a mirror-symmetric stack, formed in halves (P^-1 and M^-1 in the
+ * matrix's own storage, solve.c), multiplies sparse right-hand sides that have the symmetry too
+ * (the second step of pane + blind + pane: the first pair's transmission and back reflection),
+ * and the thin factors of a low-rank part, which need not.  A product of two matrices that commute
+ * with S splits like each of them, (X B)_P = X_P B_P and (X B)_M = X_M B_M, so that a product
+ * with the halves costs half the product with the whole inverse (two of n / 2 x n / 2 by a half
+ * of B's values each), and the result is joined as the inverse would have been (its P in the
+ * top-left quarter, its M in the bottom-right, in S's order).  B's halves come from its columns
+ * of the first half, B_P(p, q) = B(p, q) + B(S p, q) and B_M(p, q) = B(p, q) - B(S p, q), after
+ * every value was checked against its mirror image to the solve's tolerance (mirror.h): a B
+ * without the symmetry is left to the whole inverse (BSTI_MIRROR_ASYM).  Thin operands (n x m or
+ * m x n) are split by rows (or columns), multiplied by the halves (GEMM) and joined.
+ * A y-mirror stack's inverse was turned over the diagonal (bsti_mirror_turn, Q): B is read as
+ * Q B Q and the result turned back. */
+#include <config.h>
+
+#include <float.h>
+#include <math.h>
+#include <string.h>
+
+#include <cblas.h>
+
+#include "ctx.h"
+#include "mat.h"
+#include "mirror.h"
+
+static inline size_t image(size_t g, size_t p, int axis)
+{
+    size_t ix = p / g, iy = p % g;
+    return axis ? ix * g + (g - 1 - iy) : (g - 1 - ix) * g + iy;
+}
+static inline size_t turned(size_t g, size_t p) { return (p % g) * g + p / g; }
+
+/* B(row, col) of a sorted, packed CHOLMOD matrix (0 where none is stored). */
+static double value_at(const cholmod_sparse *b, size_t row, size_t col)
+{
+    const SuiteSparse_long *p = b->p, *i = b->i;
+    const double *x = b->x;
+    SuiteSparse_long lo = p[col], hi = p[col + 1] - 1, r = (SuiteSparse_long)row;
+    while (lo <= hi) {
+        SuiteSparse_long mid = lo + (hi - lo) / 2;
+        if (i[mid] == r)
+            return x[mid];
+        if (i[mid] < r)
+            lo = mid + 1;
+        else
+            hi = mid - 1;
+    }
+    return 0.0;
+}
+
+/* Whether every value of b agrees with its mirror image (the axis's) to tol of the largest. */
+static int sparse_holds(const cholmod_sparse *b, size_t g, int axis, double tol)
+{
+    const SuiteSparse_long *p = b->p, *i = b->i;
+    const double *x = b->x;
+    size_t n = b->ncol;
+    double big = 0.0;
+    for (SuiteSparse_long q = 0; q < p[n]; q++) {
+        double v = fabs(x[q]);
+        if (!(v <= DBL_MAX))
+            return 0;
+        big = v > big ? v : big;
+    }
+    double t = tol * big;
+    for (size_t j = 0; j < n; j++) {
+        size_t sj = image(g, j, axis);
+        for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++)
+            if (fabs(x[q] - value_at(b, image(g, (size_t)i[q], axis), sj)) > t)
+                return 0;
+    }
+    return 1;
+}
+
+/* B's halves P and M (n/2 x n/2, in the split's orders: P by pair p, M by S p - n/2) from its
+ * columns j whose image Q j (turned) or j lies in the first half; by_rows: their transposes (a
+ * right product's lines are B's rows). */
+static int sparse_halves(bst_ctx *ctx, const cholmod_sparse *b, size_t g, int turn, int by_rows,
+                         cholmod_sparse **hp, cholmod_sparse **hm)
+{
+    cholmod_common *cc = bsti_cholmod(ctx);
+    if (!cc)
+        return BST_ENOMEM;
+    const SuiteSparse_long *p = b->p, *i = b->i;
+    const double *x = b->x;
+    size_t n = b->ncol, h = n / 2, nz = 0;
+    for (size_t j = 0; j < n; j++)
+        if ((turn ? turned(g, j) : j) < h)
+            nz += (size_t)(p[j + 1] - p[j]);
+    cholmod_triplet *tp = cholmod_l_allocate_triplet(h, h, nz, 0, CHOLMOD_REAL, cc);
+    cholmod_triplet *tm = cholmod_l_allocate_triplet(h, h, nz, 0, CHOLMOD_REAL, cc);
+    if (!tp || !tm) {
+        cholmod_l_free_triplet(&tp, cc), cholmod_l_free_triplet(&tm, cc);
+        return bsti_mat_cholmod_failed(ctx, "allocate_triplet");
+    }
+    SuiteSparse_long *pi = tp->i, *pj = tp->j, *mi = tm->i, *mj = tm->j;
+    double *px = tp->x, *mx = tm->x;
+    size_t k = 0;
+    for (size_t j = 0; j < n; j++) {
+        size_t col = turn ? turned(g, j) : j;
+        if (col >= h)
+            continue;
+        size_t mcol = image(g, col, 0) - h;
+        for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++, k++) {
+            size_t row = turn ? turned(g, (size_t)i[q]) : (size_t)i[q];
+            double sign = 1.0;
+            if (row >= h)
+                row = image(g, row, 0), sign = -1.0;
+            size_t mrow = image(g, row, 0) - h;
+            pi[k] = (SuiteSparse_long)(by_rows ? col : row);
+            pj[k] = (SuiteSparse_long)(by_rows ? row : col);
+            mi[k] = (SuiteSparse_long)(by_rows ? mcol : mrow);
+            mj[k] = (SuiteSparse_long)(by_rows ? mrow : mcol);
+            px[k] = x[q], mx[k] = sign * x[q];
+        }
+    }
+    tp->nnz = tm->nnz = k;
+    *hp = cholmod_l_triplet_to_sparse(tp, k, cc);
+    *hm = *hp ? cholmod_l_triplet_to_sparse(tm, k, cc) : NULL;
+    cholmod_l_free_triplet(&tp, cc), cholmod_l_free_triplet(&tm, cc);
+    if (!*hp || !*hm) {
+        cholmod_l_free_sparse(hp, cc), cholmod_l_free_sparse(hm, cc);
+        return bsti_mat_cholmod_failed(ctx, "triplet_to_sparse");
+    }
+    return BST_OK;
+}
+
+/* The first (0) or second half's block of an n x n split matrix a: its top-left or bottom-right
+ * quarter. */
+static void *quarter(void *a, bst_precision prec, size_t n, int half)
+{
+    size_t off = half ? (n / 2) * n + n / 2 : 0;
+    return prec == BST_DOUBLE ? (void *)((double *)a + off) : (void *)((float *)a + off);
+}
+
+static int mul_sparse(bst_ctx *ctx, void *inv, bst_precision prec, size_t n, size_t g, int turn,
+                      int right, const cholmod_sparse *b, bst_mat **out)
+{
+    double tol = prec == BST_DOUBLE ? BSTI_MIRROR_TOL : BSTI_MIRROR_TOL_FLOAT;
+    if (b->nrow != n || b->ncol != n || !b->packed || !b->sorted)
+        return BSTI_MIRROR_ASYM;
+    if (!sparse_holds(b, g, turn, tol))
+        return BSTI_MIRROR_ASYM;
+    cholmod_sparse *hp = NULL, *hm = NULL;
+    bst_mat *c = NULL;
+    int rc = sparse_halves(ctx, b, g, turn, right, &hp, &hm);
+    if (rc >= 0)
+        rc = bst_mat_new_dense(ctx, n, n, prec, &c);
+    for (int half = 0; half < 2 && rc >= 0; half++)
+        rc = bsti_spmm(ctx, half ? hm : hp, prec, quarter(inv, prec, n, half), n, n / 2, n / 2,
+                       !right, quarter(c->dense, prec, n, half), n);
+    cholmod_common *cc = bsti_cholmod(ctx);
+    cholmod_l_free_sparse(&hp, cc), cholmod_l_free_sparse(&hm, cc);
+    if (rc < 0) {
+        bst_mat_free(c);
+        return rc;
+    }
+    bsti_mirror_matrix(c->dense, prec, n, g, 0);
+    if (turn)
+        bsti_mirror_turn(c->dense, prec, n, g, n, 1);
+    *out = c;
+    return BST_OK;
+}
+
+/* A thin operand: n x m (left) or m x n (right, through its transpose). */
+static int mul_thin(bst_ctx *ctx, void *inv, bst_precision prec, size_t n, size_t g, int turn,
+                    int right, const bst_mat *b, bst_mat **out)
+{
+    size_t m = right ? b->rows : b->cols, h = n / 2, es = prec == BST_DOUBLE ? sizeof(double)
+                                                                              : sizeof(float);
+    char *t = bsti_alloc_array(ctx, n * m + 1, es), *r = bsti_alloc_array(ctx, n * m + 1, es);
+    if (!t || !r) {
+        bsti_free(ctx, t), bsti_free(ctx, r);
+        return BST_ENOMEM;
+    }
+    for (size_t k = 0; k < m; k++) /* t (n x m) = B, or B^T, in prec */
+        for (size_t i = 0; i < n; i++) {
+            size_t at = right ? i * b->rows + k : k * n + i;
+            double v = b->prec == BST_DOUBLE ? ((const double *)b->dense)[at]
+                                             : (double)((const float *)b->dense)[at];
+            if (prec == BST_DOUBLE)
+                ((double *)t)[k * n + i] = v;
+            else
+                ((float *)t)[k * n + i] = (float)v;
+        }
+    if (turn)
+        bsti_mirror_turn(t, prec, n, g, m, 0);
+    bsti_mirror_rows(t, prec, n, g, m, 1);
+    CBLAS_TRANSPOSE tr = right ? CblasTrans : CblasNoTrans;
+    for (int half = 0; half < 2; half++) {
+        size_t off = half ? h : 0;
+        if (prec == BST_DOUBLE)
+            cblas_dgemm(CblasColMajor, tr, CblasNoTrans, (int)h, (int)m, (int)h, 1.0,
+                        quarter(inv, prec, n, half), (int)n, (double *)t + off, (int)n, 0.0,
+                        (double *)r + off, (int)n);
+        else
+            cblas_sgemm(CblasColMajor, tr, CblasNoTrans, (int)h, (int)m, (int)h, 1.0f,
+                        quarter(inv, prec, n, half), (int)n, (float *)t + off, (int)n, 0.0f,
+                        (float *)r + off, (int)n);
+    }
+    bsti_flops_add(ctx, 4.0 * (double)h * (double)h * (double)m);
+    bsti_free(ctx, t);
+    bsti_mirror_rows(r, prec, n, g, m, 0);
+    if (turn)
+        bsti_mirror_turn(r, prec, n, g, m, 0);
+    bst_mat *c;
+    int rc = bst_mat_new_dense(ctx, right ? m : n, right ? n : m, prec, &c);
+    if (rc >= 0) {
+        if (!right)
+            memcpy(c->dense, r, n * m * es);
+        else
+            for (size_t k = 0; k < m; k++) /* C = R^T */
+                for (size_t i = 0; i < n; i++) {
+                    if (prec == BST_DOUBLE)
+                        ((double *)c->dense)[i * m + k] = ((double *)r)[k * n + i];
+                    else
+                        ((float *)c->dense)[i * m + k] = ((float *)r)[k * n + i];
+                }
+        *out = c;
+    }
+    bsti_free(ctx, r);
+    return rc;
+}
+
+int bsti_mirror_mul(bst_ctx *ctx, void *inv, bst_precision prec, size_t n, size_t g, int turn,
+                    int right, const bst_mat *b, bst_mat **out)
+{
+    if (b->rows != n && b->cols != n)
+        return BSTI_MIRROR_ASYM;
+    if (b->s == BST_SPARSE)
+        return mul_sparse(ctx, inv, prec, n, g, turn, right, b->sp, out);
+    if (b->s == BST_DIAG) {
+        bst_mat *s = NULL;
+        int rc = bst_mat_convert(ctx, b, BST_SPARSE, BST_DOUBLE, &s);
+        if (rc >= 0)
+            rc = mul_sparse(ctx, inv, prec, n, g, turn, right, s->sp, out);
+        bst_mat_free(s);
+        return rc;
+    }
+    if (b->s == BST_DENSE && (right ? b->cols : b->rows) == n)
+        return mul_thin(ctx, inv, prec, n, g, turn, right, b, out);
+    return BSTI_MIRROR_ASYM;
+}
