@@ -8,7 +8,8 @@
  *            column by UMFPACK's solve, a sparse one through the factors by CXSparse's
  *            cs_dl_spsolve, which visits only what the column reaches (struct reach);
  *   DENSE  - LAPACK getrf, then getrs on all columns at once, or getri and products with B where B
- *            is sparse with few values (inverse_pays) (single precision when A or B is a
+ *            is sparse with few values (inverse_pays); a mirror-symmetric I - A in two halves
+ *            (mirror.h), its inverse's products too (mirror_mul.c) (single precision when A or B is a
  *            dense float matrix, or when the caller asks for single-precision dense work:
  *            bsti_solve_take's prec, the stack's --precision, which also holds for a sparse A
  *            too filled for UMFPACK);
