@@ -35,6 +35,7 @@ struct bsti_tparse {
     int closed_root;
     char tok[TT_TOKEN_MAX + 1];
     int ntok;
+    size_t failed_at; /* the offset in the last chunk fed of what failed in it */
 };
 
 static int grow(bst_ctx *ctx, void **p, size_t *cap, size_t need, size_t elem)
@@ -227,6 +228,7 @@ static int too_long(bsti_tparse *p)
 int bsti_tparse_feed(bsti_tparse *p, const char *s, size_t len)
 {
     const unsigned char *c = (const unsigned char *)s, *end = c + len;
+    p->failed_at = 0;
     if (p->ntok) { /* the rest of a token cut at the end of the last chunk */
         const unsigned char *q = c;
         while (q < end && char_class[*q] == CH_TOKEN)
@@ -251,6 +253,7 @@ int bsti_tparse_feed(bsti_tparse *p, const char *s, size_t len)
             c++;
             continue;
         }
+        const unsigned char *at = c;
         int rc;
         if (cls == CH_OPEN) {
             rc = open_node(p);
@@ -263,8 +266,10 @@ int bsti_tparse_feed(bsti_tparse *p, const char *s, size_t len)
             while (q < end && char_class[*q] == CH_TOKEN)
                 q++;
             size_t n = (size_t)(q - c);
-            if (n > TT_TOKEN_MAX)
+            if (n > TT_TOKEN_MAX) {
+                p->failed_at = (size_t)(at - (const unsigned char *)s);
                 return too_long(p);
+            }
             if (q == end) { /* it may go on in the next chunk */
                 memcpy(p->tok, c, n);
                 p->ntok = (int)n;
@@ -273,11 +278,15 @@ int bsti_tparse_feed(bsti_tparse *p, const char *s, size_t len)
             rc = number(p, (const char *)c, n);
             c = q;
         }
-        if (rc < 0)
+        if (rc < 0) {
+            p->failed_at = (size_t)(at - (const unsigned char *)s);
             return rc;
+        }
     }
     return BST_OK;
 }
+
+size_t bsti_tparse_failed_at(const bsti_tparse *p) { return p->failed_at; }
 
 int bsti_tparse_finish(bsti_tparse *p, bsti_ttree **out)
 {

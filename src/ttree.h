@@ -46,6 +46,9 @@ typedef struct bsti_tparse bsti_tparse;
 int bsti_tparse_new(bst_ctx *ctx, int dim, bsti_tparse **out);
 /* Returns < 0 with a message (no file name; the caller prefixes it) on a syntax error. */
 int bsti_tparse_feed(bsti_tparse *p, const char *text, size_t len);
+/* After a failed bsti_tparse_feed: the offset in its text of the token or brace that failed (0
+ * for a token begun in an earlier chunk), for the caller's line number. */
+size_t bsti_tparse_failed_at(const bsti_tparse *p);
 /* Completes the tree; the parser is freed whatever the outcome. */
 int bsti_tparse_finish(bsti_tparse *p, bsti_ttree **out);
 void bsti_tparse_free(bsti_tparse *p);

@@ -66,6 +66,8 @@ struct reader {
     size_t nkm, kmax, kcap; /* values read, the basis's n * n, room in km */
     char tok[64];
     int ntok;
+    int tok_line;           /* the line where the Klems token in tok began */
+    int at_line;            /* a failure's line, where not the parser's (0) */
     size_t negatives; /* Klems values below 0, read as 0 */
     int layers;       /* <Layer> elements seen */
     int kind;         /* bst_file_kind of the first <ScatteringData>, -1 before it */
@@ -105,7 +107,8 @@ static int fail(struct reader *r, int status, const char *fmt, ...)
     va_end(ap);
     one_line(msg);
     r->status = bsti_error(r->ctx, status, "%s: line %d: %s", r->path,
-                           r->pctxt ? xmlSAX2GetLineNumber(r->pctxt) : 0, msg);
+                           r->at_line ? r->at_line
+                                      : r->pctxt ? xmlSAX2GetLineNumber(r->pctxt) : 0, msg);
     if (r->pctxt)
         xmlStopParser(r->pctxt);
     return r->status;
@@ -239,6 +242,7 @@ static void klems_number(struct reader *r)
     r->tok[r->ntok] = '\0';
     size_t len = (size_t)r->ntok;
     r->ntok = 0;
+    r->at_line = r->tok_line; /* the value's own line in what fails below */
     double v;
     if (!bsti_parse_double(r->tok, len, &v)) {
         fail(r, BST_EFORMAT, "<ScatteringData>: '%s' is not a number", r->tok);
@@ -271,24 +275,40 @@ static void klems_number(struct reader *r)
         r->negatives++;
     }
     r->km[r->nkm++] = v;
+    r->at_line = 0;
 }
 
 static void data_chars(struct reader *r, const char *s, size_t len)
 {
     if (r->skip || r->status < 0)
         return;
+    /* libxml2 hands the text over in chunks of some hundred lines, its line count at the chunk's
+       end: a token's line is that less the line breaks after it */
+    int line = r->pctxt ? xmlSAX2GetLineNumber(r->pctxt) : 0;
     if (r->tp) {
         int rc = bsti_tparse_feed(r->tp, s, len);
-        if (rc < 0)
+        if (rc < 0) {
+            for (size_t i = bsti_tparse_failed_at(r->tp); i < len; i++)
+                line -= s[i] == '\n';
+            r->at_line = line;
             fail_ctx(r, rc, "ScatteringData");
+        }
         return;
     }
+    for (size_t i = 0; i < len; i++)
+        line -= s[i] == '\n';
     for (size_t i = 0; i < len && r->status >= 0; i++) {
         char c = s[i];
+        line += c == '\n';
         if (c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == ',') {
             if (r->ntok)
                 klems_number(r);
-        } else if (r->ntok >= (int)sizeof r->tok - 1) {
+            continue;
+        }
+        if (!r->ntok)
+            r->tok_line = line;
+        if (r->ntok >= (int)sizeof r->tok - 1) {
+            r->at_line = r->tok_line;
             fail(r, BST_EFORMAT, "<ScatteringData>: a token longer than %zu characters", sizeof r->tok - 1);
         } else {
             r->tok[r->ntok++] = c;

@@ -619,6 +619,51 @@ END_TEST
     "</WavelengthDataBlock></WavelengthData>"
 #define MIX_TAIL "%s</Layer></Optical></WindowElement>\n"
 
+/* A bad value's message names its own line: libxml2 hands <ScatteringData>'s text over in chunks
+ * of some hundred lines, and the line it counts is the chunk's end (session 53's review found
+ * line 550 for a value on line 200).  The first number on line L of a real file (a Klems matrix,
+ * a tensor tree) made 'bogus'. */
+START_TEST(test_error_lines)
+{
+    static const struct { const char *file; int line; } at[] = {
+        {"L_glass_t4k5_klems.xml", 111}, {"L_glass_t4k5_klems.xml", 200},
+        {"L_glass_t4k5_klems.xml", 5000}, {"L_glass_t4k5_klems.xml", 21279},
+        {"L_blind0_t4k5.xml", 40}, {"L_blind0_t4k5.xml", 3000}, {"L_blind0_t4k5.xml", 46000},
+    };
+    for (size_t k = 0; k < sizeof at / sizeof at[0]; k++) {
+        FILE *fp = fopen(tu_ref(at[k].file), "rb");
+        ck_assert_ptr_nonnull(fp);
+        fseek(fp, 0, SEEK_END);
+        size_t len = (size_t)ftell(fp);
+        rewind(fp);
+        char *text = malloc(len + 8);
+        ck_assert_uint_eq(fread(text, 1, len, fp), len);
+        fclose(fp);
+        char *c = text;
+        for (int l = 1; l < at[k].line; l++)
+            c = strchr(c, '\n') + 1;
+        char *line = c;
+        c += strcspn(c, "0123456789");
+        size_t n = strspn(c, "0123456789.e+-");
+        ck_assert_uint_gt(n, 0);
+        ck_assert_ptr_null(memchr(line, '\n', (size_t)(c - line))); /* still on line L */
+        memmove(c + 5, c + n, len - (size_t)(c + n - text));
+        memcpy(c, "bogus", 5);
+        len = len - n + 5;
+        const char *p = write_tmp(text, len);
+        bst_bsdf *b;
+        int rc = bst_bsdf_read(ctx, p, NULL, &b);
+        ck_assert_msg(rc == BST_EFORMAT, "%s line %d: read %d", at[k].file, at[k].line, rc);
+        char want[64];
+        snprintf(want, sizeof want, ": line %d: ", at[k].line);
+        ck_assert_msg(strstr(bst_ctx_message(ctx), want) && strstr(bst_ctx_message(ctx), "bogus"),
+                      "%s line %d: '%s'", at[k].file, at[k].line, bst_ctx_message(ctx));
+        unlink(p);
+        free(text);
+    }
+}
+END_TEST
+
 START_TEST(test_mixed_kinds)
 {
     static const char klems16[] = "0.1 0.1 0.1 0.1 0.1 0.1 0.1 0.1 0.1 0.1 0.1 0.1 0.1 0.1 0.1 0.1";
@@ -1010,6 +1055,7 @@ static Suite *xml_suite(void)
     tcase_add_test(tc, test_klems_resampling_energy);
     tcase_add_test(tc, test_to_layer_single);
     tcase_add_test(tc, test_bad_files);
+    tcase_add_test(tc, test_error_lines);
     tcase_add_test(tc, test_mixed_kinds);
     tcase_add_test(tc, test_what_a_file_is);
     tcase_add_test(tc, test_klems_huge_basis);
