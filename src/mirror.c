@@ -16,29 +16,16 @@ size_t bsti_mirror_side(size_t n)
     return g * g == n ? g : 0;
 }
 
-/* The image of cell p in the mirror of the axis (0: x -> -x, 1: y -> -y), and whether p is the
- * first of its pair (ix, or iy, below g / 2). */
-static inline size_t image(size_t g, size_t p, int axis)
-{
-    size_t ix = p / g, iy = p % g;
-    return axis ? ix * g + (g - 1 - iy) : (g - 1 - ix) * g + iy;
-}
-static inline int first(size_t g, size_t p, int axis) { return (axis ? p % g : p / g) < g / 2; }
-
-/* Q p: the cell (iy, ix) of cell (ix, iy), the square turned over its diagonal. */
-static inline size_t turned(size_t g, size_t p) { return (p % g) * g + p / g; }
+#define image bsti_mirror_image
+#define first bsti_mirror_first
+#define turned bsti_mirror_turned
 
 #define MIRROR_KERNELS(T, SUF)                                                                   \
     static int holds_##SUF(const T *a, size_t n, size_t g, int axis, double tol)                  \
     {                                                                                             \
-        double big = 0.0;                                                                         \
-        for (size_t i = 0; i < n * n; i++) {                                                      \
-            double v = fabs((double)a[i]);                                                        \
-            if (!(v <= DBL_MAX)) /* NaN or infinite: no comparison means anything */              \
-                return 0;                                                                         \
-            big = v > big ? v : big;                                                              \
-        }                                                                                         \
-        double t = tol * big;                                                                     \
+        /* one pass: each value is read once, as one of a pair (the largest |value| and the      \
+           largest difference gathered together, compared at the end) */                          \
+        double big = 0.0, diff = 0.0;                                                             \
         for (size_t q = 0; q < n; q++) {                                                          \
             if (!first(g, q, axis))                                                               \
                 continue;                                                                         \
@@ -47,12 +34,18 @@ static inline size_t turned(size_t g, size_t p) { return (p % g) * g + p / g; }
                 if (!first(g, p, axis))                                                           \
                     continue;                                                                     \
                 size_t sp = image(g, p, axis);                                                    \
-                if (fabs((double)cq[p] - (double)csq[sp]) > t ||                                  \
-                    fabs((double)csq[p] - (double)cq[sp]) > t)                                    \
+                double u = (double)cq[p], v = (double)csq[sp], w = (double)csq[p],                \
+                       x = (double)cq[sp];                                                        \
+                double m = fmax(fmax(fabs(u), fabs(v)), fmax(fabs(w), fabs(x)));                  \
+                double d = fmax(fabs(u - v), fabs(w - x));                                        \
+                if (!(fabs(u) + fabs(v) + fabs(w) + fabs(x) <= DBL_MAX)) /* NaN or infinite (fmax   \
+                    drops NaN): no comparison means anything */                                   \
                     return 0;                                                                     \
+                big = m > big ? m : big;                                                          \
+                diff = d > diff ? d : diff;                                                       \
             }                                                                                     \
         }                                                                                         \
-        return 1;                                                                                 \
+        return diff <= tol * big;                                                                 \
     }                                                                                             \
     static void turn_##SUF(T *a, size_t n, size_t g, size_t ncols, int cols)                      \
     {                                                                                             \

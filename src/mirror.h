@@ -33,6 +33,20 @@
 /* The smallest n split: below it the passes cost more than the halves save. */
 #define BSTI_MIRROR_MIN_N 256
 
+/* The image of cell p (index ix g + iy) in the mirror of the axis (0: x -> -x, 1: y -> -y), whether
+ * p is the first of its pair (ix, or iy, below g / 2), and Q p, the cell (iy, ix) (the square
+ * turned over its diagonal). */
+static inline size_t bsti_mirror_image(size_t g, size_t p, int axis)
+{
+    size_t ix = p / g, iy = p % g;
+    return axis ? ix * g + (g - 1 - iy) : (g - 1 - ix) * g + iy;
+}
+static inline int bsti_mirror_first(size_t g, size_t p, int axis)
+{
+    return (axis ? p % g : p / g) < g / 2;
+}
+static inline size_t bsti_mirror_turned(size_t g, size_t p) { return (p % g) * g + p / g; }
+
 /* g (the square's cells a side) when n = g^2 with g a power of two >= 2 and n at least
  * BSTI_MIRROR_MIN_N, else 0. */
 size_t bsti_mirror_side(size_t n);

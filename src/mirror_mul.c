@@ -26,12 +26,8 @@
 #include "mat.h"
 #include "mirror.h"
 
-static inline size_t image(size_t g, size_t p, int axis)
-{
-    size_t ix = p / g, iy = p % g;
-    return axis ? ix * g + (g - 1 - iy) : (g - 1 - ix) * g + iy;
-}
-static inline size_t turned(size_t g, size_t p) { return (p % g) * g + p / g; }
+#define image bsti_mirror_image
+#define turned bsti_mirror_turned
 
 /* B(row, col) of a sorted, packed CHOLMOD matrix (0 where none is stored). */
 static double value_at(const cholmod_sparse *b, size_t row, size_t col)

@@ -31,6 +31,7 @@
 #include "basis.h"
 #include "ctx.h"
 #include "mat.h"
+#include "mirror.h"
 #include "venetian.h"
 
 struct trip {
@@ -269,8 +270,7 @@ static int mirrored(const struct build *B, size_t i, int back)
 {
     if (bst_basis_order(B->b) == 0)
         return 0;
-    size_t g = (size_t)1 << bst_basis_order(B->b), c = B->v->vertical ? i % g : i / g;
-    return (c >= g / 2) != (back != 0);
+    return !bsti_mirror_first((size_t)1 << bst_basis_order(B->b), i, B->v->vertical) != (back != 0);
 }
 
 /* Patch i's mirror image (mirrored()), the representative of the pair: min(i, image). */
@@ -278,8 +278,7 @@ static size_t pair_first(const struct build *B, size_t i)
 {
     if (bst_basis_order(B->b) == 0)
         return i;
-    size_t g = (size_t)1 << bst_basis_order(B->b), ix = i / g, iy = i % g;
-    size_t m = B->v->vertical ? ix * g + (g - 1 - iy) : (g - 1 - ix) * g + iy;
+    size_t m = bsti_mirror_image((size_t)1 << bst_basis_order(B->b), i, B->v->vertical);
     return m < i ? m : i;
 }
 

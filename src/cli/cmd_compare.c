@@ -246,9 +246,7 @@ static int compare_tsv(const char *sub, bst_ctx *ctx, char **specs, const int is
                 bst_layer_get(b, 0, comp) ? "" : ": absent from B");
         fprintf(rep, "  theta    phi  patch       GA      FA    hem A    hem B\n");
         for (size_t q = 0; q < m && rc == CLI_OK; q++) {
-            double th = d[q][0] * M_PI / 180, ph = d[q][1] * M_PI / 180;
-            double v[3] = {sin(th) * cos(ph) + 1e-9, sin(th) * sin(ph) + 1e-9, cos(th)};
-            size_t j = bst_basis_patch(t.basis, v);
+            size_t j = cli_incident_patch(t.basis, d[q][0], d[q][1]);
             /* every TSV side must hold this column */
             for (int i = 0; i < 2 && rc == CLI_OK; i++)
                 if (is_tsv[i] && !has_column(&tt[i], channel, comp, j))
@@ -415,9 +413,7 @@ static int compare_comp(bst_ctx *ctx, const char *sub, struct compare_req *q, FI
             in_a ? "" : ": absent from A", in_b ? "" : ": absent from B");
     fprintf(rep, "  theta    phi  patch       GA      FA    hem A    hem B\n");
     for (size_t k = 0; k < q->ndirs; k++) {
-        double t = q->dirs[k][0] * M_PI / 180, p = q->dirs[k][1] * M_PI / 180;
-        double d[3] = {sin(t) * cos(p) + 1e-9, sin(t) * sin(p) + 1e-9, cos(t)};
-        size_t j = bst_basis_patch(basis, d);
+        size_t j = cli_incident_patch(basis, q->dirs[k][0], q->dirs[k][1]);
         fprintf(rep, "%7.2f %6.2f %6zu %8.3f %7.2f %8.4f %8.4f\n", q->dirs[k][0], q->dirs[k][1], j,
                 v->ga[j], v->fa[j], v->ha[j], v->hb[j]);
         *below |= v->ga[j] < q->fail_below;

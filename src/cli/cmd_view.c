@@ -232,9 +232,7 @@ static int pick_columns(const char *sub, const struct view_opts *o, const bst_ba
         return cli_fail(sub, "out of memory");
     *n = 0;
     for (size_t i = 0; i < o->nincident; i++) {
-        double t = o->incident[i][0] * M_PI / 180, p = o->incident[i][1] * M_PI / 180;
-        double d[3] = {sin(t) * cos(p) + 1e-9, sin(t) * sin(p) + 1e-9, cos(t)};
-        size_t j = bst_basis_patch(basis, d), k = 0;
+        size_t j = cli_incident_patch(basis, o->incident[i][0], o->incident[i][1]), k = 0;
         while (k < *n && (*cols)[k] != j)
             k++;
         if (k == *n)

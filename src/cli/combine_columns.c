@@ -18,11 +18,8 @@ static int write_columns(bst_ctx *ctx, const char *sub, FILE *fp, const struct c
                          const double (*dirs)[2], int verbose)
 {
     size_t N = bst_basis_size(set->basis), cols[COLUMN_BATCH];
-    for (size_t q = 0; q < ndirs; q++) { /* off cell boundaries onto the +x, +y side, as compare */
-        double t = dirs[q][0] * M_PI / 180, p = dirs[q][1] * M_PI / 180;
-        double d[3] = {sin(t) * cos(p) + 1e-9, sin(t) * sin(p) + 1e-9, cos(t)};
-        cols[q] = bst_basis_patch(set->basis, d);
-    }
+    for (size_t q = 0; q < ndirs; q++) /* off cell boundaries onto the +x, +y side, as compare */
+        cols[q] = cli_incident_patch(set->basis, dirs[q][0], dirs[q][1]);
     int rc = CLI_OK;
     for (size_t ch = 0; rc == CLI_OK && ch < bst_layer_nchannels(set->layers[0]); ch++) {
         const char *name = bst_layer_channel(set->layers[0], ch);

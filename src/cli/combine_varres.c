@@ -30,11 +30,8 @@ static int fine_patches(const char *sub, bst_ctx *ctx, int k, size_t ndirs, cons
         bst_basis_free(b);
         return cli_fail(sub, "out of memory");
     }
-    for (size_t q = 0; q < ndirs; q++) { /* off cell boundaries onto the +x, +y side, as --incident */
-        double t = dirs[q][0] * M_PI / 180, p = dirs[q][1] * M_PI / 180;
-        double d[3] = {sin(t) * cos(p) + 1e-9, sin(t) * sin(p) + 1e-9, cos(t)};
-        c[q] = bst_basis_patch(b, d);
-    }
+    for (size_t q = 0; q < ndirs; q++) /* off cell boundaries onto the +x, +y side, as --incident */
+        c[q] = cli_incident_patch(b, dirs[q][0], dirs[q][1]);
     qsort(c, ndirs, sizeof *c, cmp_size);
     for (size_t q = 0; q < ndirs; q++)
         if (m == 0 || c[q] != c[m - 1])

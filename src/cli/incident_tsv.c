@@ -131,9 +131,8 @@ static int check_directions(const char *sub, const char *path, FILE *fp, const s
             break;
         }
         if (r.patch_out == 0) {
-            direction(r.theta, r.phi, d);
-            d[0] += 1e-9, d[1] += 1e-9; /* as combine: off cell boundaries to the +x, +y side */
-            if (bst_basis_patch(t->basis, d) != r.patch_in) {
+            /* as combine: off cell boundaries to the +x, +y side */
+            if (cli_incident_patch(t->basis, r.theta, r.phi) != r.patch_in) {
                 rc = cli_fail(sub, "%s:%ld: incidence (%g, %g) does not lie in patch %zu", path, ln,
                               r.theta, r.phi, r.patch_in);
                 break;
