@@ -129,6 +129,18 @@ START_TEST(test_values)
         memcpy(rt + k * N, ref + cols[k] * N, N * sizeof *rt);
     ck_assert_double_le(rel_err(c, rt, N, 4), tol);
     bst_mat_free(c);
+    /* the column reader (bsti_cols: the writer's sums and reciprocity), in blocks by GEMM, and
+       a selection of columns; and its visits, a column at a time */
+    bsti_cols *rd;
+    double *got = malloc(N * N * sizeof *got);
+    ck_assert_int_eq(bsti_cols_new(ctx, a, N, &rd), BST_OK);
+    bsti_cols_get(rd, NULL, 0, N, got);
+    ck_assert_double_le(tm_maxdiff(got, ref, N * N), tol * tm_maxabs(ref, N * N));
+    bsti_cols_get(rd, cols, 0, 4, got);
+    for (size_t k = 0; k < 4; k++)
+        ck_assert_double_le(tm_maxdiff(got + k * N, ref + cols[k] * N, N), tol * tm_maxabs(ref, N * N));
+    bsti_cols_free(rd);
+    free(got);
     /* the largest |value|, its count of stored values, finiteness */
     ck_assert(fabs(bst_mat_max_abs(a) - tm_maxabs(ref, N * N)) <= tol * tm_maxabs(ref, N * N));
     ck_assert(bst_mat_all_finite(a));
