@@ -56,9 +56,17 @@ struct build {
     double *view[2];/* ne x n: column o = strips seen from outgoing patch o at the exterior /
                      * interior opening */
     double *hit[2], *see[2]; /* tables of bsti_vn_hit and bsti_vn_view rows, light along +Z / -Z */
-    double *acc;    /* curved slats: 2 n flux sums of one column (reflected, transmitted) */
-    size_t *touched;/* and the entries of acc in use, in the order first met */
     bsti_lr_map *W; /* the factored components' map, or NULL: dense */
+};
+
+/* One worker's room and results in trace_incident: its columns' entries (tr, appended to the
+ * build's in the workers' order, so that any number of threads gives the same matrices) and, for
+ * curved slats, 2 n flux sums of one column (reflected, transmitted) with the entries in use in
+ * the order first met. */
+struct worker {
+    struct trip tr[BST_NCOMP];
+    double *acc;
+    size_t *touched;
 };
 
 /* The entries of one incident column, summed over its directions. */
@@ -152,6 +160,31 @@ static void node_dir(size_t k, int side, double *a, double *b)
     *a = sin(phi), *b = side ? -cos(phi) : cos(phi);
 }
 
+/* Nodes [k0, k1) of both sides' tables (node k of side s as s (VN_TABLE + 1) + k). */
+struct nodes_part {
+    struct build *B;
+    size_t k0, k1;
+};
+
+static void *nodes_run(void *arg)
+{
+    const struct nodes_part *t = arg;
+    struct build *B = t->B;
+    size_t nh = BSTI_VN_DEP + B->ne, nodes = VN_TABLE + 1;
+    int traced = B->g.curved || B->g.sheet || (B->g.rs > 0 && B->v->roughness > 0);
+    for (size_t q = t->k0; q < t->k1; q++) {
+        size_t side = q / nodes, k = q % nodes;
+        double a, b;
+        node_dir(k, (int)side, &a, &b);
+        if (!B->g.curved) /* curved slats trace each incident direction (incident_curved) */
+            bsti_vn_hit(&B->g, a, b, B->v->roughness / sqrt(2.0), B->hit[side] + k * nh);
+        if (traced)
+            bsti_vn_view(&B->g, a, b, B->see[side] + k * B->ne);
+    }
+    return NULL;
+}
+
+/* The tables, their nodes shared out among the context's threads (each node traced alone). */
 static int make_tables(struct build *B)
 {
     size_t nh = BSTI_VN_DEP + B->ne, nodes = VN_TABLE + 1;
@@ -161,15 +194,12 @@ static int make_tables(struct build *B)
         B->see[side] = bsti_alloc_array(B->ctx, nodes * B->ne, sizeof(double));
         if (!B->hit[side] || !B->see[side])
             return BST_ENOMEM;
-        for (size_t k = 0; k < nodes; k++) {
-            double a, b;
-            node_dir(k, side, &a, &b);
-            if (!B->g.curved) /* curved slats trace each incident direction (incident_curved) */
-                bsti_vn_hit(&B->g, a, b, B->v->roughness / sqrt(2.0), B->hit[side] + k * nh);
-            if (traced)
-                bsti_vn_view(&B->g, a, b, B->see[side] + k * B->ne);
-        }
     }
+    struct nodes_part part[BST_THREADS_MAX];
+    size_t jobs = 2 * nodes, nw = (size_t)bsti_ctx_workers_no_alloc(B->ctx, jobs);
+    for (size_t t = 0; t < nw; t++)
+        part[t] = (struct nodes_part){B, jobs * t / nw, jobs * (t + 1) / nw};
+    bsti_run_parts(part, sizeof *part, nw, nodes_run);
     for (int side = 0; side < 2 && !traced; side++)
         for (size_t k = 0; k < nodes; k++) { /* the reversed direction: node VN_TABLE - k, other side */
             double a, b;
@@ -313,8 +343,9 @@ static void sample(const struct build *B, size_t i, size_t p, int back, double s
     }
 }
 
-/* One incident patch i from side col->back: its column's entries and first arrivals. */
-static int incident_patch(struct build *B, struct column *col, double *row)
+/* One incident patch i from side col->back: its column's entries (into the worker's tr) and
+ * first arrivals. */
+static int incident_patch(struct build *B, struct column *col, double *row, struct trip *tr)
 {
     const double wq = 1.0 / (double)B->np;
     const size_t nh = BSTI_VN_DEP + B->ne, i = col->i;
@@ -341,22 +372,23 @@ static int incident_patch(struct build *B, struct column *col, double *row)
         }
     int rc = BST_OK;
     for (size_t a = 0; a < col->n && rc >= 0; a++)
-        rc = trip_add(B->ctx, &B->tr[col->comp[a]], col->row[a], i, col->val[a]);
+        rc = trip_add(B->ctx, &tr[col->comp[a]], col->row[a], i, col->val[a]);
     return rc;
 }
 
 /* Flux x of a column leaving along the model direction dir (out of the interior side when
- * interior) into B->acc (incident_curved). */
-static void acc_add(struct build *B, size_t *nt, const double dir[3], int interior, double x)
+ * interior) into the worker's acc (incident_curved). */
+static void acc_add(const struct build *B, struct worker *w, size_t *nt, const double dir[3],
+                    int interior, double x)
 {
     double d[3];
     to_model(B, dir, d);
     size_t row = bst_basis_patch(B->b, d), a = 2 * row + (interior != 0);
     if (x == 0.0 || row >= B->n)
         return;
-    if (B->acc[a] == 0.0)
-        B->touched[(*nt)++] = a;
-    B->acc[a] += x / bst_basis_lambda(B->b)[row];
+    if (w->acc[a] == 0.0)
+        w->touched[(*nt)++] = a;
+    w->acc[a] += x / bst_basis_lambda(B->b)[row];
 }
 
 /* The Halton sequence's radical inverse of k in base `base`. */
@@ -375,7 +407,7 @@ static double radical_inverse(size_t k, size_t base)
  * (stratified, offset by a fifth Halton dimension), each followed with its own rough facets to
  * where it leaves; out of the profile plane a path of n bounces is turned as by one facet of its
  * last bounce tilted along X with n times the variance (as spread() does for flat slats). */
-static int incident_curved(struct build *B, struct column *col)
+static int incident_curved(struct build *B, struct column *col, struct worker *w)
 {
     const double wq = 1.0 / (double)B->np, sigma = B->v->roughness / sqrt(2.0);
     const size_t i = col->i, nr = BSTI_VN_CURVED_RAYS;
@@ -389,7 +421,7 @@ static int incident_curved(struct build *B, struct column *col)
         if (fabs(d[2]) < 1e-300)
             continue;
         double open = bsti_vn_open(&B->g, d[1], d[2]), hit = (1.0 - open) * wq / (double)nr;
-        acc_add(B, &nt, d, !col->back, open * wq);
+        acc_add(B, w, &nt, d, !col->back, open * wq);
         if (open >= 1.0 || !bsti_vn_curved_entries(&B->g, u[0], u[1], &y0, &z0, &span))
             continue;
         double off = radical_inverse(p + 1, 11);
@@ -408,68 +440,149 @@ static int incident_curved(struct build *B, struct column *col)
                 if ((dir[2] > 0) != (e[2] > 0))
                     memcpy(dir, e, sizeof dir);
             }
-            acc_add(B, &nt, dir, e[2] > 0, out[0]);
+            acc_add(B, w, &nt, dir, e[2] > 0, out[0]);
         }
     }
     int rc = BST_OK;
     for (size_t k = 0; k < nt; k++) {
-        size_t a = B->touched[k], row = a / 2;
+        size_t a = w->touched[k], row = a / 2;
         int c = a % 2 ? (col->back ? BST_RB : BST_TF) : (col->back ? BST_TB : BST_RF);
         if (rc >= 0)
-            rc = trip_add(B->ctx, &B->tr[c], row, i, B->acc[a]);
-        B->acc[a] = 0.0;
+            rc = trip_add(B->ctx, &w->tr[c], row, i, w->acc[a]);
+        w->acc[a] = 0.0;
     }
     return rc;
 }
 
-/* The direct and mirrored parts of every column and the first arrivals, both sides. */
-static int trace_incident(struct build *B)
+/* Columns q0..q1 - 1 of trace_incident (side q / n, patch q % n) on one thread. */
+struct incident_part {
+    struct build *B;
+    size_t q0, q1;
+    struct worker w;
+    int rc;
+};
+
+static void *incident_run(void *arg)
 {
+    struct incident_part *t = arg;
+    struct build *B = t->B;
     struct column col = {0};
+    double *row = NULL;
+    int rc = BST_OK;
     if (B->g.curved) {
-        B->acc = bsti_alloc_array(B->ctx, 2 * B->n, sizeof *B->acc);
-        B->touched = bsti_alloc_array(B->ctx, 2 * B->n, sizeof *B->touched);
-        if (!B->acc || !B->touched)
-            return BST_ENOMEM;
-        memset(B->acc, 0, 2 * B->n * sizeof *B->acc);
-        int rc = BST_OK;
-        for (int back = 0; back < 2 && rc >= 0; back++)
-            for (size_t i = 0; i < B->n && rc >= 0; i++) {
-                col.back = back, col.i = i;
-                rc = incident_curved(B, &col);
-            }
-        return rc;
+        t->w.acc = bsti_calloc(B->ctx, 2 * B->n, sizeof *t->w.acc);
+        t->w.touched = bsti_alloc_array(B->ctx, 2 * B->n, sizeof *t->w.touched);
+        rc = t->w.acc && t->w.touched ? BST_OK : BST_ENOMEM;
+    } else {
+        col.cap = 3 * B->np + 1; /* open, even, odd per direction */
+        col.row = bsti_alloc_array(B->ctx, col.cap, sizeof *col.row);
+        col.comp = bsti_alloc_array(B->ctx, col.cap, sizeof *col.comp);
+        col.val = bsti_alloc_array(B->ctx, col.cap, sizeof *col.val);
+        row = bsti_alloc_array(B->ctx, BSTI_VN_DEP + B->ne, sizeof *row);
+        rc = col.row && col.comp && col.val && row ? BST_OK : BST_ENOMEM;
     }
-    col.cap = 3 * B->np + 1; /* open, even, odd per direction */
-    col.row = bsti_alloc_array(B->ctx, col.cap, sizeof *col.row);
-    col.comp = bsti_alloc_array(B->ctx, col.cap, sizeof *col.comp);
-    col.val = bsti_alloc_array(B->ctx, col.cap, sizeof *col.val);
-    double *row = bsti_alloc_array(B->ctx, BSTI_VN_DEP + B->ne, sizeof *row);
-    int rc = col.row && col.comp && col.val && row ? BST_OK : BST_ENOMEM;
-    for (int back = 0; back < 2 && rc >= 0; back++)
-        for (size_t i = 0; i < B->n && rc >= 0; i++) {
-            col.back = back, col.i = i;
-            rc = incident_patch(B, &col, row);
-        }
+    for (size_t q = t->q0; q < t->q1 && rc >= 0; q++) {
+        col.back = q >= B->n, col.i = q % B->n;
+        rc = B->g.curved ? incident_curved(B, &col, &t->w) : incident_patch(B, &col, row, t->w.tr);
+    }
     bsti_free(B->ctx, col.row), bsti_free(B->ctx, col.comp), bsti_free(B->ctx, col.val);
     bsti_free(B->ctx, row);
+    bsti_free(B->ctx, t->w.acc), bsti_free(B->ctx, t->w.touched);
+    t->rc = rc;
+    return NULL;
+}
+
+/* src's entries appended to dst's (then src freed). */
+static int trip_append(bst_ctx *ctx, struct trip *dst, struct trip *src)
+{
+    int rc = BST_OK;
+    if (!dst->nnz) { /* taken whole */
+        bsti_free(ctx, dst->row), bsti_free(ctx, dst->col), bsti_free(ctx, dst->val);
+        *dst = *src;
+        memset(src, 0, sizeof *src);
+        return BST_OK;
+    }
+    if (src->nnz) {
+        size_t cap = dst->nnz + src->nnz;
+        size_t *r = bsti_alloc_array(ctx, cap, sizeof *r), *c = bsti_alloc_array(ctx, cap, sizeof *c);
+        double *v = bsti_alloc_array(ctx, cap, sizeof *v);
+        if (r && c && v) {
+            memcpy(r, dst->row, dst->nnz * sizeof *r), memcpy(r + dst->nnz, src->row, src->nnz * sizeof *r);
+            memcpy(c, dst->col, dst->nnz * sizeof *c), memcpy(c + dst->nnz, src->col, src->nnz * sizeof *c);
+            memcpy(v, dst->val, dst->nnz * sizeof *v), memcpy(v + dst->nnz, src->val, src->nnz * sizeof *v);
+            bsti_free(ctx, dst->row), bsti_free(ctx, dst->col), bsti_free(ctx, dst->val);
+            *dst = (struct trip){r, c, v, cap, cap};
+        } else {
+            bsti_free(ctx, r), bsti_free(ctx, c), bsti_free(ctx, v);
+            rc = BST_ENOMEM;
+        }
+    }
+    bsti_free(ctx, src->row), bsti_free(ctx, src->col), bsti_free(ctx, src->val);
+    memset(src, 0, sizeof *src);
     return rc;
+}
+
+/* The direct and mirrored parts of every column and the first arrivals, both sides: the 2 n
+ * columns shared out among the context's threads in runs, each column traced alone (its own
+ * first arrivals, and seeds from its own indices), the runs' entries joined in their order. */
+static int trace_incident(struct build *B)
+{
+    struct incident_part part[BST_THREADS_MAX];
+    size_t jobs = 2 * B->n, nw = (size_t)bsti_ctx_workers(B->ctx, jobs);
+    for (size_t t = 0; t < nw; t++)
+        part[t] = (struct incident_part){.B = B, .q0 = jobs * t / nw, .q1 = jobs * (t + 1) / nw};
+    bsti_run_parts(part, sizeof *part, nw, incident_run);
+    int rc = BST_OK;
+    for (size_t t = 0; t < nw; t++) {
+        if (part[t].rc < 0 && rc >= 0)
+            rc = part[t].rc;
+        for (int c = 0; c < BST_NCOMP; c++) {
+            int st = rc >= 0 ? trip_append(B->ctx, &B->tr[c], &part[t].w.tr[c]) : BST_OK;
+            if (rc < 0) { /* only freed */
+                struct trip *x = &part[t].w.tr[c];
+                bsti_free(B->ctx, x->row), bsti_free(B->ctx, x->col), bsti_free(B->ctx, x->val);
+            }
+            if (st < 0)
+                rc = st;
+        }
+    }
+    return rc;
+}
+
+/* Outgoing patches [q0, q1) of trace_views (exit q / n, patch q % n). */
+struct views_part {
+    struct build *B;
+    size_t q0, q1;
+};
+
+static void *views_run(void *arg)
+{
+    const struct views_part *t = arg;
+    struct build *B = t->B;
+    double wq = 1.0 / (double)B->np;
+    for (size_t q = t->q0; q < t->q1; q++) {
+        int exit = q >= B->n;
+        size_t o = q % B->n;
+        for (size_t p = 0; p < B->np; p++) {
+            double s[3], d[3], f;
+            sample(B, o, p, !exit, s, NULL);
+            to_model(B, s, d);
+            size_t k = table_pos(d, &f);
+            add_interp(B->see[!exit], B->ne, k, f, wq, B->view[exit] + o * B->ne);
+        }
+    }
+    return NULL;
 }
 
 /* The strips' views from every outgoing patch of both openings (view[1]: the interior one, whose
- * light travels along +Z: table side 0). */
+ * light travels along +Z: table side 0), the patches shared out among the context's threads. */
 static void trace_views(struct build *B)
 {
-    double wq = 1.0 / (double)B->np;
-    for (int exit = 0; exit < 2; exit++)
-        for (size_t o = 0; o < B->n; o++)
-            for (size_t p = 0; p < B->np; p++) {
-                    double s[3], d[3], f;
-                    sample(B, o, p, !exit, s, NULL);
-                    to_model(B, s, d);
-                    size_t k = table_pos(d, &f);
-                    add_interp(B->see[!exit], B->ne, k, f, wq, B->view[exit] + o * B->ne);
-                }
+    struct views_part part[BST_THREADS_MAX];
+    size_t jobs = 2 * B->n, nw = (size_t)bsti_ctx_workers_no_alloc(B->ctx, jobs);
+    for (size_t t = 0; t < nw; t++)
+        part[t] = (struct views_part){B, jobs * t / nw, jobs * (t + 1) / nw};
+    bsti_run_parts(part, sizeof *part, nw, views_run);
 }
 
 /* x := A^-1 x for the ne x ne matrix a (destroyed) and nrhs columns x (ne x nrhs, column-major),
@@ -727,7 +840,6 @@ static void build_free(struct build *B)
         bsti_free(B->ctx, B->hit[s]), bsti_free(B->ctx, B->see[s]);
     }
     bsti_free(B->ctx, B->pts);
-    bsti_free(B->ctx, B->acc), bsti_free(B->ctx, B->touched);
     bsti_lr_map_free(B->ctx, B->W);
 }
 

@@ -12,7 +12,8 @@
  *   to 70 deg against the ray-traced layers; the tilt-0 blind at k = 6, and between two panes
  *   against the ray-traced system S1;
  * - the strips' exchange against Hottel's crossed strings, and reciprocal;
- * - radiosity energy and segment convergence, dual-band channels, allocation failure;
+ * - radiosity energy and segment convergence, dual-band channels, allocation failure, the same
+ *   bits on one thread and on three;
  * - bad specs name their key. */
 #include <config.h>
 
@@ -719,6 +720,36 @@ START_TEST(test_float_blocks)
 END_TEST
 
 /* Every allocation of the layer's making fails in turn: BST_ENOMEM, no layer, nothing leaked. */
+/* The layer's columns, tables and views are traced on the context's threads (each column alone,
+ * the runs' entries joined in order): one thread and three give the same bits, flat mirror and
+ * diffuse slats, curved ones (per-thread ray sums), a vertical matte blind. */
+START_TEST(test_threads)
+{
+    static const char *const specs[] = {
+        "width=16mm,spacing=14.5mm,tilt=45,rs=0.765,r=0.085,roughness=0.02",
+        "width=16mm,spacing=14.5mm,tilt=30,curvature=30mm,rs=0.5,r=0.3,roughness=0.05",
+        "width=16mm,spacing=14.5mm,tilt=45,r=0.7,t=0.05,vertical"};
+    bst_basis *b = sc(4);
+    size_t n = bst_basis_size(b);
+    bst_layer *l[2];
+    for (int t = 0; t < 2; t++) {
+        ck_assert_int_eq(bst_ctx_set_threads(ctx, t ? 3 : 1), BST_OK);
+        l[t] = blind(specs[_i], b);
+    }
+    double *x = malloc(n * n * sizeof *x), *y = malloc(n * n * sizeof *y);
+    for (size_t ch = 0; ch < bst_layer_nchannels(l[0]); ch++)
+        for (int c = 0; c < BST_NCOMP; c++) {
+            ck_assert_int_eq(bst_mat_to_dense_array(ctx, bst_layer_get(l[0], ch, (bst_comp)c), x), BST_OK);
+            ck_assert_int_eq(bst_mat_to_dense_array(ctx, bst_layer_get(l[1], ch, (bst_comp)c), y), BST_OK);
+            ck_assert_msg(memcmp(x, y, n * n * sizeof *x) == 0, "%s: channel %zu component %d differs",
+                          specs[_i], ch, c);
+        }
+    free(x), free(y);
+    bst_layer_free(l[0]), bst_layer_free(l[1]);
+    bst_basis_free(b);
+}
+END_TEST
+
 START_TEST(test_alloc_failure)
 {
     long n = tu_venetian_alloc_failures("width=16mm,spacing=14.5mm,tilt=30,rs=0.7,r=0.1,samples=2,segments=2");
@@ -766,6 +797,7 @@ static Suite *venetian_suite(void)
     tcase_set_timeout(tc, 600);
     tcase_add_test(tc, test_bad_specs);
     tcase_add_test(tc, test_alloc_failure);
+    tcase_add_loop_test(tc, test_threads, 0, 3);
     tcase_add_test(tc, test_dual_band);
     tcase_add_test(tc, test_float_blind);
     tcase_add_test(tc, test_float_blocks);
