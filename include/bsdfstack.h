@@ -807,6 +807,13 @@ void bst_output_abort(bst_output *o);
 const char *bst_glass_catalogue_dir(void);
 /* Parse a spec; catalogue_dir NULL = bst_glass_catalogue_dir(). */
 int bst_glass_parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, bst_glass **out);
+/* The same for a caller that knows the channels it will take: spectral data named without bands
+ * (glass:FILE, or a catalogue's "spectral FILE" line) are averaged over those of
+ * channels[0..nchannels) that are spectral bands (Visible, Solar, CIE-X, CIE-Y, CIE-Z) instead
+ * of Visible and Solar, so that data covering only the visible serve a Visible-only stack.  With
+ * no band among the channels, as bst_glass_parse. */
+int bst_glass_parse_bands(bst_ctx *ctx, const char *spec, const char *catalogue_dir,
+                          size_t nchannels, const char *const *channels, bst_glass **out);
 void bst_glass_free(bst_glass *g);
 size_t bst_glass_nchannels(const bst_glass *g);
 const char *bst_glass_channel(const bst_glass *g, size_t ch);

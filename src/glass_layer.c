@@ -609,7 +609,7 @@ int bst_glass_layer_from_spec(bst_ctx *ctx, const char *spec, const char *catalo
     if (out)
         *out = NULL;
     bst_glass *g;
-    int rc = bst_glass_parse(ctx, spec, catalogue_dir, &g);
+    int rc = bst_glass_parse_bands(ctx, spec, catalogue_dir, channels ? nchannels : 0, channels, &g);
     if (rc < 0)
         return rc;
     /* a spectral pane is averaged over any further band the caller asks for (CIE-X, ...) */

@@ -202,15 +202,16 @@ static int add_inline(bst_ctx *ctx, bst_glass *g, const char *where, const char 
     return bsti_glass_channel_commit(ctx, g, rc);
 }
 
-/* A spectral data file and the bands to average it over (space-separated names; "" = Visible
- * and Solar). */
+/* A spectral data file and the bands to average it over (space-separated names; "" = the
+ * caller's bands, deflt, or, without them (NULL), Visible and Solar). */
 static int add_spectral(bst_ctx *ctx, bst_glass *g, const char *where, const char *path,
-                        const char *dir, char *names)
+                        const char *dir, char *names, const char *deflt)
 {
     if (g->data.n)
         return bsti_error(ctx, BST_EINVAL, "%s: a second spectral data file", where);
     int rc = bsti_glass_load_spectral(ctx, g, path, dir);
-    char def[] = "Visible Solar";
+    char def[64];
+    snprintf(def, sizeof def, "%s", deflt ? deflt : "Visible Solar");
     char *save = NULL;
     for (char *b = strtok_r(*names ? names : def, " \t", &save); b && rc >= 0;
          b = strtok_r(NULL, " \t", &save)) {
@@ -239,7 +240,7 @@ static int parse_model(const char *v, bst_glass_model *m)
  * [BAND...]" (FILE relative to the catalogue directory); "type TYPE"; "model MODEL" (*model, -1
  * when the file gives none); "CHANNEL key=value,...". */
 static int read_catalogue(bst_ctx *ctx, bst_glass *g, const char *path, const char *name,
-                          const char *dir, int *model)
+                          const char *dir, const char *bands, int *model)
 {
     int rc = BST_OK;
     FILE *fp = fopen(path, "r");
@@ -297,7 +298,7 @@ static int read_catalogue(bst_ctx *ctx, bst_glass *g, const char *path, const ch
                 rc = bsti_error(ctx, BST_EINVAL, "%s: the data file's path is longer than %zu "
                                 "characters", where, sizeof data - 1);
             else
-                rc = add_spectral(ctx, g, where, data, dir, names);
+                rc = add_spectral(ctx, g, where, data, dir, names, bands);
         } else {
             rc = add_inline(ctx, g, where, s, rest);
         }
@@ -413,7 +414,10 @@ static int names_file(const char *spec, const char *dir)
     return access(path, F_OK) != 0 && access(spec, R_OK) == 0;
 }
 
-int bst_glass_parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, bst_glass **out)
+/* bst_glass_parse, with the bands a spectral data file named without any is averaged over
+ * (space-separated, NULL: Visible and Solar). */
+static int parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, const char *bands,
+                 bst_glass **out)
 {
     if (!ctx || !spec || !out)
         return ctx ? bsti_error(ctx, BST_EINVAL, "glass: NULL argument") : BST_EINVAL;
@@ -450,7 +454,7 @@ int bst_glass_parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, b
             rc = BST_ENOMEM;
     } else if (names_file(body, dir)) {
         char none[1] = "", desc[800];
-        rc = add_spectral(ctx, g, where, body, dir, none);
+        rc = add_spectral(ctx, g, where, body, dir, none, bands);
         /* the product's name where the file gives one */
         snprintf(desc, sizeof desc, "%s%s%s%s", g->meta.product_name,
                  *g->meta.product_name ? " (" : "", body, *g->meta.product_name ? ")" : "");
@@ -467,7 +471,7 @@ int bst_glass_parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, b
                 rc = bsti_error(ctx, BST_EINVAL, "%s: the catalogue file's path is longer than %zu "
                                 "characters", where, sizeof path - 1);
             else
-                rc = read_catalogue(ctx, g, path, body, dir, &cat_model);
+                rc = read_catalogue(ctx, g, path, body, dir, bands, &cat_model);
         }
         if (rc >= 0 && !g->description && !(g->description = bsti_strdup(ctx, body)))
             rc = BST_ENOMEM;
@@ -481,4 +485,31 @@ int bst_glass_parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, b
     }
     *out = g;
     return BST_OK;
+}
+
+int bst_glass_parse(bst_ctx *ctx, const char *spec, const char *catalogue_dir, bst_glass **out)
+{
+    return parse(ctx, spec, catalogue_dir, NULL, out);
+}
+
+int bst_glass_parse_bands(bst_ctx *ctx, const char *spec, const char *catalogue_dir,
+                          size_t nchannels, const char *const *channels, bst_glass **out)
+{
+    if (nchannels && !channels)
+        return ctx ? bsti_error(ctx, BST_EINVAL, "glass: NULL argument") : BST_EINVAL;
+    char bands[64] = "";
+    const struct bsti_glass_band *seen[BSTI_GLASS_MAX_CH];
+    size_t ns = 0;
+    for (size_t c = 0; c < nchannels; c++) {
+        const struct bsti_glass_band *b = bsti_glass_find_band(channels[c]);
+        size_t k = 0;
+        while (k < ns && seen[k] != b)
+            k++;
+        if (!b || k < ns || ns == BSTI_GLASS_MAX_CH || strlen(bands) + strlen(channels[c]) + 2 > sizeof bands)
+            continue;
+        seen[ns++] = b;
+        snprintf(bands + strlen(bands), sizeof bands - strlen(bands), "%s%s", *bands ? " " : "",
+                 channels[c]);
+    }
+    return parse(ctx, spec, catalogue_dir, *bands ? bands : NULL, out);
 }

@@ -125,6 +125,17 @@ expect_exit 1 "table short of the Visible band" \
 expect_exit 1 "combine: a table short of the Solar band" "/partial2\.tsv: the data cover 0\.3\.\.0\.78 um" \
     -- "$BSDFSTACK" combine -k 2 -o "$tmpdir/partial.xml" "glass:$tmpdir/partial2.tsv" glass:nfrc-103
 [ ! -e "$tmpdir/partial.xml" ] && pass "combine: no output file" || fail "combine wrote $tmpdir/partial.xml"
+# data that cover the visible only serve what asks for the visible only (--channels), and are
+# refused where Solar is wanted, asked for or by default
+awk '!/^[0-9]/ || ($1 >= 0.38 && $1 <= 0.78)' "$BSDFSTACK_GLASS_DIR/spectral_NFRC_103.tsv" > "$tmpdir/vis.tsv"
+expect_status 0 "--channels Visible: visible-only data" -- "$BSDFSTACK" glass --channels Visible "glass:$tmpdir/vis.tsv"
+"$BSDFSTACK" glass --channels Visible nfrc-103 > "$tmpdir/full-vis"
+cmp -s <(grep -v '^#' "$tmpdir/out") <(grep -v '^#' "$tmpdir/full-vis") && pass "the visible-only table's Visible is NFRC 103's" || fail "visible-only data: Visible differs from NFRC 103's"
+expect_exit 1 "glass: visible-only data, Solar by default" "/vis\.tsv: the data cover 0\.38\.\.0\.78 um; the Solar band needs" -- "$BSDFSTACK" glass "glass:$tmpdir/vis.tsv"
+expect_exit 1 "glass: visible-only data, Solar asked" "the Solar band needs" -- "$BSDFSTACK" glass --channels Visible,Solar "glass:$tmpdir/vis.tsv"
+expect_status 0 "combine --channels Visible: visible-only data" -- "$BSDFSTACK" combine -k 2 --channels Visible -o "$tmpdir/vis.xml" "glass:$tmpdir/vis.tsv" glass:clear-6mm
+expect_exit 1 "combine: visible-only data, Solar by default" "the Solar band needs" -- "$BSDFSTACK" combine -k 2 -o "$tmpdir/vis2.xml" "glass:$tmpdir/vis.tsv" glass:clear-6mm
+[ ! -e "$tmpdir/vis2.xml" ] && pass "combine: no output file" || fail "combine wrote $tmpdir/vis2.xml"
 expect_exit 1 "unknown channel" "no channel NIR" -- "$BSDFSTACK" glass --channels NIR clear-6mm
 expect_exit 1 "missing catalogue" "cannot open the glass catalogue" -- env BSDFSTACK_GLASS_DIR="$tmpdir/none" "$BSDFSTACK" glass --list
 # From the build tree, with no BSDFSTACK_GLASS_DIR, the program finds the source tree's catalogue

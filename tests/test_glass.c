@@ -1067,7 +1067,28 @@ START_TEST(test_band_coverage)
                                  "the data cover 0.38..0.78 um; the Solar band needs 0.3..2.5 um"));
     ck_assert_uint_eq(bst_glass_nchannels(vis), 4);
     ck_assert_int_eq(bst_glass_find_channel(vis, "Solar"), -1);
-    bst_glass_free(vis), bst_glass_free(full);
+    bst_glass_free(vis);
+    /* the same data as a file spec: refused for Visible and Solar (bst_glass_parse), taken by a
+       caller that asks for the bands they cover (bst_glass_parse_bands), with NFRC 103's values */
+    snprintf(cmd, sizeof cmd, "%s/vis.tsv", tmp);
+    ck_assert_int_eq(bst_glass_parse(ctx, cmd, tmp, &vis), BST_EFORMAT);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "the Solar band needs 0.3..2.5 um"));
+    static const char *const vis_only[] = {"Visible", "Tvis-extra", "visible", "CIE-X"};
+    ck_assert_int_eq(bst_glass_parse_bands(ctx, cmd, tmp, 4, vis_only, &vis), BST_OK);
+    ck_assert_uint_eq(bst_glass_nchannels(vis), 2); /* Visible and CIE-X, once each */
+    ck_assert_str_eq(bst_glass_channel(vis, 0), "Visible");
+    for (double a = 0; a <= 90; a += 7.5) {
+        double v[4], w[4];
+        bst_glass_optics(vis, 0, deg(a), &v[0], &v[1], &v[2], &v[3]);
+        bst_glass_optics(full, fv, deg(a), &w[0], &w[1], &w[2], &w[3]);
+        for (int q = 0; q < 4; q++)
+            ck_assert_double_eq(v[q], w[q]);
+    }
+    bst_glass_free(vis);
+    static const char *const both[] = {"Visible", "Solar"};
+    ck_assert_int_eq(bst_glass_parse_bands(ctx, cmd, tmp, 2, both, &vis), BST_EFORMAT);
+    ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "the Solar band needs 0.3..2.5 um"));
+    bst_glass_free(full);
 
     /* the ends to 1e-6 um: within it a grey pane is the grey inline pane, past it refused */
     static const struct { double lo, hi; int ok; } ends[] = {

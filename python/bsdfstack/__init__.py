@@ -703,20 +703,28 @@ class Glass(_Source):
     """A pane from a glass spec (bsdfstack-glass(5)): a catalogue name ("clear-6mm",
     "nfrc-102"), a spectral data file (bsdfstack's table, an Optics file, an IGSDB record), or an
     inline pane ("d=6mm,n=1.52,tn=0.89"); ",model=coated" or ",model=uncoated" after any of them
-    chooses the angular model."""
+    chooses the angular model.  channels: the bands that spectral data without bands of their own
+    are averaged over (default Visible and Solar), e.g. ["Visible"] for data that cover only the
+    visible (bst_glass_parse_bands)."""
 
-    def __init__(self, spec, catalogue=None):
+    def __init__(self, spec, catalogue=None, channels=None):
         _Source.__init__(self)
         if spec.startswith("glass:"):
             spec = spec[6:]
         self.spec = spec
         self.catalogue = catalogue if catalogue is not None else os.environ.get("BSDFSTACK_GLASS_DIR")
+        self.bands = None if channels is None else [str(x) for x in channels]
         self._g = self._parse()
 
     def _parse(self):
         out = ctypes.c_void_p()
         with self._ctx as c:
-            st = lib.bst_glass_parse(c, cstr(self.spec), cstr(self.catalogue), ctypes.byref(out))
+            if self.bands:
+                names = (ctypes.c_char_p * len(self.bands))(*[cstr(x) for x in self.bands])
+                st = lib.bst_glass_parse_bands(c, cstr(self.spec), cstr(self.catalogue),
+                                               len(self.bands), names, ctypes.byref(out))
+            else:
+                st = lib.bst_glass_parse(c, cstr(self.spec), cstr(self.catalogue), ctypes.byref(out))
             if st < 0 and out.value:
                 lib.bst_glass_free(out.value)
             self._ctx.check(st)
@@ -968,12 +976,13 @@ def load(path, channels=None, only=None, progress=None, rank3="exact"):
     return File(path, channels, only, progress, rank3)
 
 
-def glass(spec, catalogue=None):
+def glass(spec, catalogue=None, channels=None):
     """A pane: glass("clear-6mm"), glass("nfrc-102"), glass("d=6mm,n=1.52,tn=0.89"),
     glass("CLEAR_6.DAT"), glass("lowe-6mm,model=uncoated").
     catalogue: the directory of .glass files (default $BSDFSTACK_GLASS_DIR, else the
-    library's)."""
-    return Glass(spec, catalogue)
+    library's); channels: the bands spectral data without bands of their own are averaged over
+    (glass("vis.tsv", channels=["Visible"]) for data that cover only the visible)."""
+    return Glass(spec, catalogue, channels)
 
 
 def _as_layer(x):

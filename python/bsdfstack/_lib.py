@@ -228,6 +228,8 @@ _PROTOTYPES = {
     "bst_bsdf_write_opts_init": (None, [POINTER(WriteOpts)]),
     "bst_bsdf_write_path": (c_int, [c_void_p, c_void_p, c_char_p, POINTER(WriteOpts)]),
     "bst_glass_parse": (c_int, [c_void_p, c_char_p, c_char_p, POINTER(c_void_p)]),
+    "bst_glass_parse_bands": (c_int, [c_void_p, c_char_p, c_char_p, c_size_t, POINTER(c_char_p),
+                                      POINTER(c_void_p)]),
     "bst_glass_free": (None, [c_void_p]),
     "bst_glass_nchannels": (c_size_t, [c_void_p]),
     "bst_glass_channel": (c_char_p, [c_void_p, c_size_t]),

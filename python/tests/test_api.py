@@ -228,6 +228,19 @@ def test_glass_model_source_metadata(tmp_path):
                           "emissivity_front": 0.84, "emissivity_back": 0.04}
 
 
+def test_glass_visible_only_data(tmp_path):
+    """Spectral data that cover only the visible: refused for Visible and Solar (the default),
+    taken when the channels asked for are bands they cover (bst_glass_parse_bands)."""
+    f = tmp_path / "vis.tsv"
+    f.write_text("".join("%.2f 0.85 0.84 0.08 0.09\n" % (0.38 + 0.01 * i) for i in range(41)))
+    with pytest.raises(bsdfstack.Error, match="the Solar band needs 0.3..2.5 um"):
+        bsdfstack.glass(str(f))
+    g = bsdfstack.glass(str(f), channels=["Visible"])
+    assert g.channels == ("Visible",)
+    with pytest.raises(bsdfstack.Error, match="the Solar band needs"):
+        bsdfstack.glass(str(f), channels=["Visible", "Solar"])
+
+
 def test_glass_many_rows_grouped(tmp_path):
     """A pane of 6000 rows: its Solar layer sums 5000 groups of adjacent wavelengths, with a
     LibraryWarning that says so; ",rows=all" sums each, without it, and the two layers' patch

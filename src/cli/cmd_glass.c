@@ -158,9 +158,19 @@ int cmd_glass(int argc, char **argv)
         arg += 6;
     int flip; /* SPEC^: the pane reversed, as combine reads the ^ */
     char *spec = strndup(arg, cli_spec_reversed(arg, &flip));
+    /* the bands asked for: spectral data without bands are averaged over those */
+    const char *asked[16];
+    size_t nasked = 0;
+    char *names = channels ? strdup(channels) : NULL, *save = NULL;
+    for (char *t = names ? strtok_r(names, ",", &save) : NULL; t && nasked < 16;
+         t = strtok_r(NULL, ",", &save))
+        asked[nasked++] = t;
     bst_glass *g;
-    if (!spec || bst_glass_parse(ctx, spec, dir, &g) < 0) {
-        int rc = spec ? cli_fail_ctx(sub, NULL, ctx) : cli_fail(sub, "out of memory");
+    int room = spec && (!channels || names);
+    int parsed = room ? bst_glass_parse_bands(ctx, spec, dir, nasked, asked, &g) : BST_ENOMEM;
+    free(names);
+    if (parsed < 0) {
+        int rc = room ? cli_fail_ctx(sub, NULL, ctx) : cli_fail(sub, "out of memory");
         free(spec);
         bst_ctx_free(ctx);
         return rc;

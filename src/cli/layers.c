@@ -222,7 +222,11 @@ static int make_layer(bst_ctx *ctx, const char *sub, const char *what, const cha
     } else {
         char *gspec = strndup(spec + 6, len - 6);
         bst_glass *g = NULL;
-        st = gspec ? bst_glass_parse(ctx, gspec, getenv("BSDFSTACK_GLASS_DIR"), &g) : BST_ENOMEM;
+        /* spectral data without bands averaged over the bands asked for (Visible alone: data
+           that cover only the visible) */
+        st = gspec ? bst_glass_parse_bands(ctx, gspec, getenv("BSDFSTACK_GLASS_DIR"), nch,
+                                           chnames, &g)
+                   : BST_ENOMEM;
         /* a spectral pane is averaged over any further band asked for (CIE-X, ...) */
         for (size_t c = 0; st >= 0 && c < nch; c++)
             if (bst_glass_find_channel(g, chnames[c]) < 0 && bst_glass_nwavelengths(g) &&
