@@ -516,21 +516,10 @@ static void cols_gemm(bsti_cols *c, const size_t *cols, size_t j0, size_t n, dou
     }
 }
 
-/* Column y of any other matrix, each value as bsti_mat_at reads it (FACTORED: bsti_lr_get's bits,
- * through the rows laid out for it). */
+/* Column y of any other matrix (not PLUS_LR: cols_plus), each value as bsti_mat_at reads it
+ * (FACTORED: bsti_lr_get's bits, through the rows laid out for it). */
 static void col_plain(const bst_mat *m, bsti_lr_rows *rows, size_t N, size_t y, double *out)
 {
-    if (m && m->s == BST_PLUS_LR) { /* the base's column plus U W[y, :]^T */
-        const struct bsti_plus *p = m->plus;
-        if (p->base->s == BST_FACTORED)
-            for (size_t x = 0; x < N; x++)
-                out[x] = bst_mat_get(p->base, x, y);
-        else
-            col_plain(p->base, NULL, N, y, out);
-        for (size_t k = 0; k < p->m; k++)
-            cblas_daxpy((int)N, p->w[k * N + y], p->u + k * N, 1, out, 1);
-        return;
-    }
     if (m && m->s == BST_FACTORED) {
         bsti_lr_col_fast(m->lr, rows, y, out);
         return;
@@ -586,7 +575,8 @@ static void cols_plain(bsti_cols *c, const size_t *cols, size_t j0, size_t n, do
     bsti_run_parts(part, sizeof *part, (size_t)nw, cols_part_run);
 }
 
-/* Columns of a PLUS_LR reader: the base's, then U W[cols, :]^T added by one GEMM a block.  A
+/* Columns of a PLUS_LR reader (it has no rows of its own: read on the caller's thread): the
+ * base's (a FACTORED base value by value), then U W[cols, :]^T added by one GEMM a block.  A
  * column at a time (m axpys of N from memory, on one thread) took 253 s to write a k = 7 blind
  * of rank 16 alone: its columns are read in each of the writer's passes. */
 static void cols_plus(bsti_cols *c, const size_t *cols, size_t j0, size_t n, double *out)

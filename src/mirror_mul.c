@@ -26,9 +26,6 @@
 #include "mat.h"
 #include "mirror.h"
 
-#define image bsti_mirror_image
-#define turned bsti_mirror_turned
-
 /* B(row, col) of a sorted, packed CHOLMOD matrix (0 where none is stored). */
 static double value_at(const cholmod_sparse *b, size_t row, size_t col)
 {
@@ -62,9 +59,9 @@ static int sparse_holds(const cholmod_sparse *b, size_t g, int axis, double tol)
     }
     double t = tol * big;
     for (size_t j = 0; j < n; j++) {
-        size_t sj = image(g, j, axis);
+        size_t sj = bsti_mirror_image(g, j, axis);
         for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++)
-            if (fabs(x[q] - value_at(b, image(g, (size_t)i[q], axis), sj)) > t)
+            if (fabs(x[q] - value_at(b, bsti_mirror_image(g, (size_t)i[q], axis), sj)) > t)
                 return 0;
     }
     return 1;
@@ -83,7 +80,7 @@ static int sparse_halves(bst_ctx *ctx, const cholmod_sparse *b, size_t g, int tu
     const double *x = b->x;
     size_t n = b->ncol, h = n / 2, nz = 0;
     for (size_t j = 0; j < n; j++)
-        if ((turn ? turned(g, j) : j) < h)
+        if ((turn ? bsti_mirror_turned(g, j) : j) < h)
             nz += (size_t)(p[j + 1] - p[j]);
     cholmod_triplet *tp = cholmod_l_allocate_triplet(h, h, nz, 0, CHOLMOD_REAL, cc);
     cholmod_triplet *tm = cholmod_l_allocate_triplet(h, h, nz, 0, CHOLMOD_REAL, cc);
@@ -95,16 +92,16 @@ static int sparse_halves(bst_ctx *ctx, const cholmod_sparse *b, size_t g, int tu
     double *px = tp->x, *mx = tm->x;
     size_t k = 0;
     for (size_t j = 0; j < n; j++) {
-        size_t col = turn ? turned(g, j) : j;
+        size_t col = turn ? bsti_mirror_turned(g, j) : j;
         if (col >= h)
             continue;
-        size_t mcol = image(g, col, 0) - h;
+        size_t mcol = bsti_mirror_image(g, col, 0) - h;
         for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++, k++) {
-            size_t row = turn ? turned(g, (size_t)i[q]) : (size_t)i[q];
+            size_t row = turn ? bsti_mirror_turned(g, (size_t)i[q]) : (size_t)i[q];
             double sign = 1.0;
             if (row >= h)
-                row = image(g, row, 0), sign = -1.0;
-            size_t mrow = image(g, row, 0) - h;
+                row = bsti_mirror_image(g, row, 0), sign = -1.0;
+            size_t mrow = bsti_mirror_image(g, row, 0) - h;
             pi[k] = (SuiteSparse_long)(by_rows ? col : row);
             pj[k] = (SuiteSparse_long)(by_rows ? row : col);
             mi[k] = (SuiteSparse_long)(by_rows ? mcol : mrow);

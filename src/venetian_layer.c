@@ -109,6 +109,12 @@ static int trip_add(bst_ctx *ctx, struct trip *t, size_t row, size_t col, double
     return BST_OK;
 }
 
+static void trip_free(bst_ctx *ctx, struct trip *t)
+{
+    bsti_free(ctx, t->row), bsti_free(ctx, t->col), bsti_free(ctx, t->val);
+    memset(t, 0, sizeof *t);
+}
+
 /* Flux x of column col leaving along the model direction dir (out of the interior side when
  * interior): into the entry of its patch and component. */
 static void col_add(const struct build *B, struct column *col, const double dir[3], int interior,
@@ -160,19 +166,38 @@ static void node_dir(size_t k, int side, double *a, double *b)
     *a = sin(phi), *b = side ? -cos(phi) : cos(phi);
 }
 
-/* Nodes [k0, k1) of both sides' tables (node k of side s as s (VN_TABLE + 1) + k). */
-struct nodes_part {
+/* Whether the views are traced (bsti_vn_view) rather than taken from the reversed direction's
+ * first arrivals (above). */
+static int views_traced(const struct build *B)
+{
+    return B->g.curved || B->g.sheet || (B->g.rs > 0 && B->v->roughness > 0);
+}
+
+/* Jobs [q0, q1) of a loop whose jobs are traced alone and write only their own results (the
+ * tables' nodes, the outgoing views), on one of the context's threads. */
+struct range_part {
     struct build *B;
-    size_t k0, k1;
+    size_t q0, q1;
 };
 
+/* fn on the jobs 0 .. jobs - 1, shared out in runs among the context's threads. */
+static void run_ranges(struct build *B, size_t jobs, void *(*fn)(void *))
+{
+    struct range_part part[BST_THREADS_MAX];
+    size_t nw = (size_t)bsti_ctx_workers_no_alloc(B->ctx, jobs);
+    for (size_t t = 0; t < nw; t++)
+        part[t] = (struct range_part){B, jobs * t / nw, jobs * (t + 1) / nw};
+    bsti_run_parts(part, sizeof *part, nw, fn);
+}
+
+/* Table nodes (node k of side s as job s (VN_TABLE + 1) + k). */
 static void *nodes_run(void *arg)
 {
-    const struct nodes_part *t = arg;
+    const struct range_part *t = arg;
     struct build *B = t->B;
     size_t nh = BSTI_VN_DEP + B->ne, nodes = VN_TABLE + 1;
-    int traced = B->g.curved || B->g.sheet || (B->g.rs > 0 && B->v->roughness > 0);
-    for (size_t q = t->k0; q < t->k1; q++) {
+    int traced = views_traced(B);
+    for (size_t q = t->q0; q < t->q1; q++) {
         size_t side = q / nodes, k = q % nodes;
         double a, b;
         node_dir(k, (int)side, &a, &b);
@@ -188,18 +213,14 @@ static void *nodes_run(void *arg)
 static int make_tables(struct build *B)
 {
     size_t nh = BSTI_VN_DEP + B->ne, nodes = VN_TABLE + 1;
-    int traced = B->g.curved || B->g.sheet || (B->g.rs > 0 && B->v->roughness > 0);
+    int traced = views_traced(B);
     for (int side = 0; side < 2; side++) {
         B->hit[side] = bsti_alloc_array(B->ctx, nodes * nh, sizeof(double));
         B->see[side] = bsti_alloc_array(B->ctx, nodes * B->ne, sizeof(double));
         if (!B->hit[side] || !B->see[side])
             return BST_ENOMEM;
     }
-    struct nodes_part part[BST_THREADS_MAX];
-    size_t jobs = 2 * nodes, nw = (size_t)bsti_ctx_workers_no_alloc(B->ctx, jobs);
-    for (size_t t = 0; t < nw; t++)
-        part[t] = (struct nodes_part){B, jobs * t / nw, jobs * (t + 1) / nw};
-    bsti_run_parts(part, sizeof *part, nw, nodes_run);
+    run_ranges(B, 2 * nodes, nodes_run);
     for (int side = 0; side < 2 && !traced; side++)
         for (size_t k = 0; k < nodes; k++) { /* the reversed direction: node VN_TABLE - k, other side */
             double a, b;
@@ -497,7 +518,7 @@ static int trip_append(bst_ctx *ctx, struct trip *dst, struct trip *src)
 {
     int rc = BST_OK;
     if (!dst->nnz) { /* taken whole */
-        bsti_free(ctx, dst->row), bsti_free(ctx, dst->col), bsti_free(ctx, dst->val);
+        trip_free(ctx, dst);
         *dst = *src;
         memset(src, 0, sizeof *src);
         return BST_OK;
@@ -517,8 +538,7 @@ static int trip_append(bst_ctx *ctx, struct trip *dst, struct trip *src)
             rc = BST_ENOMEM;
         }
     }
-    bsti_free(ctx, src->row), bsti_free(ctx, src->col), bsti_free(ctx, src->val);
-    memset(src, 0, sizeof *src);
+    trip_free(ctx, src);
     return rc;
 }
 
@@ -537,27 +557,19 @@ static int trace_incident(struct build *B)
         if (part[t].rc < 0 && rc >= 0)
             rc = part[t].rc;
         for (int c = 0; c < BST_NCOMP; c++) {
-            int st = rc >= 0 ? trip_append(B->ctx, &B->tr[c], &part[t].w.tr[c]) : BST_OK;
-            if (rc < 0) { /* only freed */
-                struct trip *x = &part[t].w.tr[c];
-                bsti_free(B->ctx, x->row), bsti_free(B->ctx, x->col), bsti_free(B->ctx, x->val);
-            }
-            if (st < 0)
-                rc = st;
+            if (rc < 0)
+                trip_free(B->ctx, &part[t].w.tr[c]);
+            else
+                rc = trip_append(B->ctx, &B->tr[c], &part[t].w.tr[c]);
         }
     }
     return rc;
 }
 
-/* Outgoing patches [q0, q1) of trace_views (exit q / n, patch q % n). */
-struct views_part {
-    struct build *B;
-    size_t q0, q1;
-};
-
+/* Outgoing patches of trace_views (exit q / n, patch q % n). */
 static void *views_run(void *arg)
 {
-    const struct views_part *t = arg;
+    const struct range_part *t = arg;
     struct build *B = t->B;
     double wq = 1.0 / (double)B->np;
     for (size_t q = t->q0; q < t->q1; q++) {
@@ -578,11 +590,7 @@ static void *views_run(void *arg)
  * light travels along +Z: table side 0), the patches shared out among the context's threads. */
 static void trace_views(struct build *B)
 {
-    struct views_part part[BST_THREADS_MAX];
-    size_t jobs = 2 * B->n, nw = (size_t)bsti_ctx_workers_no_alloc(B->ctx, jobs);
-    for (size_t t = 0; t < nw; t++)
-        part[t] = (struct views_part){B, jobs * t / nw, jobs * (t + 1) / nw};
-    bsti_run_parts(part, sizeof *part, nw, views_run);
+    run_ranges(B, 2 * B->n, views_run);
 }
 
 /* x := A^-1 x for the ne x ne matrix a (destroyed) and nrhs columns x (ne x nrhs, column-major),
@@ -834,7 +842,7 @@ static int component(struct build *B, int c, int diffuse, bst_mat **out)
 static void build_free(struct build *B)
 {
     for (int c = 0; c < BST_NCOMP; c++)
-        bsti_free(B->ctx, B->tr[c].row), bsti_free(B->ctx, B->tr[c].col), bsti_free(B->ctx, B->tr[c].val);
+        trip_free(B->ctx, &B->tr[c]);
     for (int s = 0; s < 2; s++) {
         bsti_free(B->ctx, B->dep[s]), bsti_free(B->ctx, B->view[s]);
         bsti_free(B->ctx, B->hit[s]), bsti_free(B->ctx, B->see[s]);

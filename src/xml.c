@@ -278,6 +278,15 @@ static void klems_number(struct reader *r)
     r->at_line = 0;
 }
 
+/* Line breaks in s[from .. len). */
+static int breaks(const char *s, size_t from, size_t len)
+{
+    int n = 0;
+    for (size_t i = from; i < len; i++)
+        n += s[i] == '\n';
+    return n;
+}
+
 static void data_chars(struct reader *r, const char *s, size_t len)
 {
     if (r->skip || r->status < 0)
@@ -288,15 +297,12 @@ static void data_chars(struct reader *r, const char *s, size_t len)
     if (r->tp) {
         int rc = bsti_tparse_feed(r->tp, s, len);
         if (rc < 0) {
-            for (size_t i = bsti_tparse_failed_at(r->tp); i < len; i++)
-                line -= s[i] == '\n';
-            r->at_line = line;
+            r->at_line = line - breaks(s, bsti_tparse_failed_at(r->tp), len);
             fail_ctx(r, rc, "ScatteringData");
         }
         return;
     }
-    for (size_t i = 0; i < len; i++)
-        line -= s[i] == '\n';
+    line -= breaks(s, 0, len);
     for (size_t i = 0; i < len && r->status >= 0; i++) {
         char c = s[i];
         line += c == '\n';

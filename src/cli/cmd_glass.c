@@ -158,44 +158,33 @@ int cmd_glass(int argc, char **argv)
         arg += 6;
     int flip; /* SPEC^: the pane reversed, as combine reads the ^ */
     char *spec = strndup(arg, cli_spec_reversed(arg, &flip));
-    /* the bands asked for: spectral data without bands are averaged over those */
+    /* the channels to print, in order; spectral data without bands are averaged over those */
     const char *asked[16];
     size_t nasked = 0;
     char *names = channels ? strdup(channels) : NULL, *save = NULL;
-    for (char *t = names ? strtok_r(names, ",", &save) : NULL; t && nasked < 16;
-         t = strtok_r(NULL, ",", &save))
-        asked[nasked++] = t;
-    bst_glass *g;
-    int room = spec && (!channels || names);
-    int parsed = room ? bst_glass_parse_bands(ctx, spec, dir, nasked, asked, &g) : BST_ENOMEM;
-    free(names);
-    if (parsed < 0) {
-        int rc = room ? cli_fail_ctx(sub, NULL, ctx) : cli_fail(sub, "out of memory");
-        free(spec);
-        bst_ctx_free(ctx);
-        return rc;
+    int rc = !spec || (channels && !names) ? cli_fail(sub, "out of memory") : CLI_OK;
+    for (char *t = names ? strtok_r(names, ",", &save) : NULL; t && rc == CLI_OK;
+         t = strtok_r(NULL, ",", &save)) {
+        if (nasked == sizeof asked / sizeof asked[0])
+            rc = cli_fail(sub, "--channels: too many channels");
+        else
+            asked[nasked++] = t;
     }
+    if (rc == CLI_OK && channels && nasked == 0)
+        rc = cli_usage(sub, "--channels: no channel named");
+    bst_glass *g = NULL;
+    if (rc == CLI_OK && bst_glass_parse_bands(ctx, spec, dir, nasked, asked, &g) < 0)
+        rc = cli_fail_ctx(sub, NULL, ctx);
     free(spec);
-    /* the channels to print, in order */
     size_t idx[16], nch = 0;
-    int rc = CLI_OK;
-    if (channels) {
-        char *copy = strdup(channels), *save = NULL;
-        for (char *t = copy ? strtok_r(copy, ",", &save) : NULL; t && rc == CLI_OK;
-             t = strtok_r(NULL, ",", &save)) {
-            if (nch == sizeof idx / sizeof idx[0])
-                rc = cli_fail(sub, "--channels: too many channels");
-            else if (bst_glass_find_channel(g, t) < 0 && bst_glass_add_channel(ctx, g, t) < 0)
+    if (rc == CLI_OK && channels) {
+        for (size_t k = 0; k < nasked && rc == CLI_OK; k++) {
+            if (bst_glass_find_channel(g, asked[k]) < 0 && bst_glass_add_channel(ctx, g, asked[k]) < 0)
                 rc = cli_fail_ctx(sub, NULL, ctx);
             else
-                idx[nch++] = (size_t)bst_glass_find_channel(g, t);
+                idx[nch++] = (size_t)bst_glass_find_channel(g, asked[k]);
         }
-        if (!copy)
-            rc = cli_fail(sub, "out of memory");
-        else if (rc == CLI_OK && nch == 0)
-            rc = cli_usage(sub, "--channels: no channel named");
-        free(copy);
-    } else {
+    } else if (rc == CLI_OK) {
         for (nch = 0; nch < bst_glass_nchannels(g) && nch < sizeof idx / sizeof idx[0]; nch++)
             idx[nch] = nch;
     }
@@ -213,6 +202,7 @@ int cmd_glass(int argc, char **argv)
             }
     }
     bst_glass_free(g);
+    free(names);
     bst_ctx_free(ctx);
     return rc;
 }
