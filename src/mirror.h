@@ -26,6 +26,9 @@
 #define BST_MIRROR_H
 
 #include <stddef.h>
+
+#include <cholmod.h>
+
 #include "bsdfstack.h"
 
 #define BSTI_MIRROR_TOL 1e-12
@@ -75,5 +78,14 @@ void bsti_mirror_rows(void *x, bst_precision prec, size_t n, size_t g, size_t nc
  * right).  BST_OK, BSTI_MIRROR_ASYM (nothing made), or an error. */
 int bsti_mirror_mul(bst_ctx *ctx, void *inv, bst_precision prec, size_t n, size_t g, int turn,
                     int right, const bst_mat *b, bst_mat **out);
+
+/* I - A for a sparse A (n = g^2 patches, packed and sorted) that commutes with the mirror of the
+ * x axis, or of the y axis (then *turned = 1: Q (I - A) Q's), written split as
+ * bsti_mirror_matrix(split 1) would leave the dense I - A: P in lu's top-left quarter, M in its
+ * bottom-right one (n x n, precision prec; the other quarters not touched), from A's columns of the
+ * first half.  BST_OK, or BSTI_MIRROR_ASYM (nothing written) when A lacks the symmetry to the
+ * split's tolerance. */
+int bsti_mirror_split_sparse(const cholmod_sparse *a, bst_precision prec, size_t g, void *lu,
+                             int *turned);
 
 #endif

@@ -67,6 +67,25 @@ static int sparse_holds(const cholmod_sparse *b, size_t g, int axis, double tol)
     return 1;
 }
 
+/* Where value (row, column j) of a matrix that commutes with the mirror goes in its split: for a
+ * column whose image (Q j when turned, else j) lies in the first half, 1 or -1 (the sign it takes
+ * in M) with its place in P, (*pr, *pc), both in the first half, and in M, (*mr, *mc) = (S *pr,
+ * S *pc), both in the second; 0 for any other column (its values are its image's). */
+static int split_place(size_t g, int turn, size_t j, size_t row, size_t *pr, size_t *pc, size_t *mr,
+                       size_t *mc)
+{
+    size_t h = g * g / 2, col = turn ? bsti_mirror_turned(g, j) : j;
+    if (col >= h)
+        return 0;
+    int sign = 1;
+    row = turn ? bsti_mirror_turned(g, row) : row;
+    if (row >= h)
+        row = bsti_mirror_image(g, row, 0), sign = -1;
+    *pr = row, *pc = col;
+    *mr = bsti_mirror_image(g, row, 0), *mc = bsti_mirror_image(g, col, 0);
+    return sign;
+}
+
 /* B's halves P and M (n/2 x n/2, in the split's orders: P by pair p, M by S p - n/2) from its
  * columns j whose image Q j (turned) or j lies in the first half; by_rows: their transposes (a
  * right product's lines are B's rows). */
@@ -91,24 +110,20 @@ static int sparse_halves(bst_ctx *ctx, const cholmod_sparse *b, size_t g, int tu
     SuiteSparse_long *pi = tp->i, *pj = tp->j, *mi = tm->i, *mj = tm->j;
     double *px = tp->x, *mx = tm->x;
     size_t k = 0;
-    for (size_t j = 0; j < n; j++) {
-        size_t col = turn ? bsti_mirror_turned(g, j) : j;
-        if (col >= h)
-            continue;
-        size_t mcol = bsti_mirror_image(g, col, 0) - h;
-        for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++, k++) {
-            size_t row = turn ? bsti_mirror_turned(g, (size_t)i[q]) : (size_t)i[q];
-            double sign = 1.0;
-            if (row >= h)
-                row = bsti_mirror_image(g, row, 0), sign = -1.0;
-            size_t mrow = bsti_mirror_image(g, row, 0) - h;
+    for (size_t j = 0; j < n; j++)
+        for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++) {
+            size_t row, col, mrow, mcol;
+            int sign = split_place(g, turn, j, (size_t)i[q], &row, &col, &mrow, &mcol);
+            if (!sign) /* a column of the second half: its values are its image's */
+                break;
+            mrow -= h, mcol -= h;
             pi[k] = (SuiteSparse_long)(by_rows ? col : row);
             pj[k] = (SuiteSparse_long)(by_rows ? row : col);
             mi[k] = (SuiteSparse_long)(by_rows ? mcol : mrow);
             mj[k] = (SuiteSparse_long)(by_rows ? mrow : mcol);
             px[k] = x[q], mx[k] = sign * x[q];
+            k++;
         }
-    }
     tp->nnz = tm->nnz = k;
     *hp = cholmod_l_triplet_to_sparse(tp, k, cc);
     *hm = *hp ? cholmod_l_triplet_to_sparse(tm, k, cc) : NULL;
@@ -117,6 +132,49 @@ static int sparse_halves(bst_ctx *ctx, const cholmod_sparse *b, size_t g, int tu
         cholmod_l_free_sparse(hp, cc), cholmod_l_free_sparse(hm, cc);
         return bsti_mat_cholmod_failed(ctx, "triplet_to_sparse");
     }
+    return BST_OK;
+}
+
+#define SPLIT_KERNEL(T, SUF)                                                                     \
+    static void split_sparse_##SUF(const cholmod_sparse *a, size_t g, int turn, T *lu)            \
+    {                                                                                             \
+        const SuiteSparse_long *p = a->p, *i = a->i;                                              \
+        const double *x = a->x;                                                                   \
+        size_t n = a->ncol, h = n / 2;                                                            \
+        for (size_t j = 0; j < h; j++) {                                                          \
+            memset(lu + j * n, 0, h * sizeof(T));                                                 \
+            memset(lu + (h + j) * n + h, 0, h * sizeof(T));                                       \
+        }                                                                                         \
+        for (size_t j = 0; j < n; j++)                                                            \
+            for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++) {                                  \
+                size_t row, col, mrow, mcol;                                                      \
+                int sign = split_place(g, turn, j, (size_t)i[q], &row, &col, &mrow, &mcol);       \
+                if (!sign) /* a column of the second half: its values are its image's */          \
+                    break;                                                                        \
+                lu[col * n + row] -= (T)x[q];                                                     \
+                lu[mcol * n + mrow] -= (T)(sign * x[q]);                                          \
+            }                                                                                     \
+        for (size_t j = 0; j < n; j++)                                                            \
+            lu[j * n + j] += (T)1;                                                                \
+    }
+SPLIT_KERNEL(double, d)
+SPLIT_KERNEL(float, f)
+
+int bsti_mirror_split_sparse(const cholmod_sparse *a, bst_precision prec, size_t g, void *lu,
+                             int *turned)
+{
+    size_t n = a->ncol;
+    double tol = prec == BST_DOUBLE ? BSTI_MIRROR_TOL : BSTI_MIRROR_TOL_FLOAT;
+    if (a->nrow != n || n != g * g || !a->packed || !a->sorted)
+        return BSTI_MIRROR_ASYM;
+    int turn = 0;
+    if (!sparse_holds(a, g, 0, tol) && !(turn = sparse_holds(a, g, 1, tol)))
+        return BSTI_MIRROR_ASYM;
+    if (prec == BST_DOUBLE)
+        split_sparse_d(a, g, turn, lu);
+    else
+        split_sparse_f(a, g, turn, lu);
+    *turned = turn;
     return BST_OK;
 }
 

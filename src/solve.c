@@ -468,6 +468,8 @@ static int lu_block(bst_ctx *ctx, bst_precision prec, size_t n, size_t lda, void
     return BST_OK;
 }
 
+static int lu_dense(bst_ctx *ctx, struct factor *f, double *rcond);
+
 static int factor_dense(bst_ctx *ctx, const bst_mat *a, bst_precision prec, struct factor *f,
                         double *rcond, bst_mat **take)
 {
@@ -510,6 +512,50 @@ static int factor_dense(bst_ctx *ctx, const bst_mat *a, bst_precision prec, stru
             bsti_mirror_turn(f->lu, prec, n, g, n, 1);
         bsti_mirror_matrix(f->lu, prec, n, g, 1);
     }
+    return lu_dense(ctx, f, rcond);
+}
+
+/* A sparse A whose LU would be nearly dense (factor_sparse's BSTI_USE_DENSE) and that commutes with
+ * the mirror: I - A made dense as its split's halves straight from A's values (mirror_mul.c), where
+ * a dense copy of A, I - A formed from it, its symmetry read and its halves made were four passes
+ * over N^2 values (about 3 s at k = 7), and the quarters off the halves were never needed; then
+ * the halves' LU.  BSTI_USE_DENSE when that does not apply (no mirror split, no symmetry, a value
+ * not finite: the dense path then tells). */
+static int factor_split_sparse(bst_ctx *ctx, const bst_mat *a, bst_precision prec,
+                               struct factor *f, double *rcond)
+{
+    size_t n = a->rows, g = ctx->no_mirror ? 0 : bsti_mirror_side(n);
+    memset(f, 0, sizeof *f);
+    f->ctx = ctx, f->s = BST_DENSE, f->n = n, f->prec = prec;
+    *rcond = 1.0;
+    if (!g || a->s != BST_SPARSE)
+        return BSTI_USE_DENSE;
+    const SuiteSparse_long *p = a->sp->p, *ri = a->sp->i;
+    const double *x = a->sp->x;
+    for (size_t j = 0; j < n; j++) { /* |I - A|_1 */
+        double s = 1.0;
+        for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++)
+            s += (size_t)ri[q] == j ? fabs(1.0 - x[q]) - 1.0 : fabs(x[q]);
+        if (!isfinite(s))
+            return BSTI_USE_DENSE;
+        f->anorm = fmax(f->anorm, s);
+    }
+    size_t es = prec == BST_DOUBLE ? sizeof(double) : sizeof(float);
+    if (!(f->ipiv = bsti_alloc_array(ctx, n, sizeof *f->ipiv)) ||
+        !(f->lu = bsti_alloc_array(ctx, n * n, es)))
+        return BST_ENOMEM;
+    if (bsti_mirror_split_sparse(a->sp, prec, g, f->lu, &f->mirror_turned) != BST_OK)
+        return BSTI_USE_DENSE;
+    f->mirror_g = g;
+    ctx->mirror_splits++;
+    return lu_dense(ctx, f, rcond);
+}
+
+/* The LU of a dense factor's I - A in f->lu, whole or as its split's two halves, and *rcond. */
+static int lu_dense(bst_ctx *ctx, struct factor *f, double *rcond)
+{
+    bst_precision prec = f->prec;
+    size_t n = f->n;
     double scale = fmax(1.0, f->anorm);
     if (!f->mirror_g)
         return lu_block(ctx, prec, n, n, f->lu, f->ipiv, scale, rcond);
@@ -1118,6 +1164,10 @@ static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **ow
     double rcond;
     bst_mat *adense = NULL;
     rc = factor_new(ctx, a, prec, right, &f, &rcond, own_a);
+    if (rc == BSTI_USE_DENSE) {
+        factor_free(&f);
+        rc = factor_split_sparse(ctx, a, prec, &f, &rcond);
+    }
     if (rc == BSTI_USE_DENSE) { /* workspace: a dense copy of A in the factor's precision, which
                                    becomes I - A and its factors */
         factor_free(&f);

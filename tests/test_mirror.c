@@ -1,6 +1,7 @@
 /* test_mirror.c - the mirror split of dense solves (mirror.h, solve.c): the kernels (which
  * matrices have the symmetry, the split and join as exact inverses), the solves of mirror-
  * symmetric I - A against the same solves unsplit and against plain dense residuals, both sides,
+ * a sparse A made dense as its halves at once,
  * both precisions, every kind of right-hand side, both mirrors (y's through the turned square), a
  * kept factorization, a singular half; products with an inverse kept in halves (mirror_mul.c)
  * against the whole's; and
@@ -204,6 +205,59 @@ START_TEST(test_solves)
     else
         tm_gemm(n, n, cols, e, x0, res);
     ck_assert_double_le(tm_maxdiff(res, bv, rows * cols), tol * scale);
+    free(x0), free(x1), free(bv), free(e), free(res), free(av);
+    bst_mat_free(x[0]), bst_mat_free(x[1]), bst_mat_free(a), bst_mat_free(b);
+}
+END_TEST
+
+/* A sparse A whose LU would fill (factor_sparse's BSTI_USE_DENSE): I - A made dense as its halves
+ * straight from the sparse values (bsti_mirror_split_sparse), _i: side (right), precision, mirror
+ * (x, y), and whether one value is moved off the symmetry (then solved whole).  Against the
+ * unsplit solve of the same A made dense, and the residual of plain dense arithmetic. */
+START_TEST(test_sparse_split)
+{
+    int right = _i & 1, axis = (_i >> 2) & 1, off = _i >> 3;
+    bst_precision prec = _i & 2 ? BST_FLOAT : BST_DOUBLE;
+    tu_rng r;
+    tu_rng_seed(&r, 300 + (uint64_t)_i);
+    size_t g = 16, n = g * g;
+    double *av = symmetric_about(g, axis, 0.9, &r);
+    for (size_t i = 0; i < n * n; i++) /* about 40 % of the values kept: images alike */
+        if (fabs(av[i]) < 0.3 * 0.9 / (0.25 * (double)n))
+            av[i] = 0.0;
+    size_t (*im)(size_t, size_t) = axis ? mir_y : mir;
+    av[7 * n + 7] = av[im(g, 7) * n + im(g, 7)] = 0.0; /* a diagonal value missing */
+    av[3 * n + 7] = av[im(g, 3) * n + im(g, 7)] = 0.0;
+    if (off)
+        av[5 * n + 9] += 1e-3;
+    bst_mat *a = dense_of(av, n, n, BST_DOUBLE), *b = rhs(0, n, prec, &r), *x[2];
+    double rcond[2], splits[2];
+    for (int no = 0; no < 2; no++) {
+        ctx->no_mirror = no;
+        double s0 = ctx->mirror_splits;
+        bst_mat *acopy;
+        ck_assert_int_eq(bst_mat_convert(ctx, a, no ? BST_DENSE : BST_SPARSE,
+                                         no ? prec : BST_DOUBLE, &acopy), BST_OK);
+        int rc = bsti_solve_take(ctx, right, acopy, b, NULL, 0.0, prec, &x[no], &rcond[no], NULL);
+        ck_assert_msg(rc == BST_OK, "%s", bst_ctx_message(ctx));
+        splits[no] = ctx->mirror_splits - s0;
+    }
+    ck_assert_double_eq(splits[0], off ? 0.0 : 1.0);
+    ck_assert_double_eq(splits[1], 0.0);
+    ck_assert_double_ge(rcond[0], rcond[1] / 6);
+    ck_assert_double_le(rcond[0], rcond[1] * 6);
+    double *x0 = tm_dense(ctx, x[0]), *x1 = tm_dense(ctx, x[1]), *bv = tm_dense(ctx, b);
+    double scale = tm_maxabs(x1, n * n), tol = prec == BST_DOUBLE ? 1e-13 : 2e-5;
+    ck_assert_msg(tm_maxdiff(x0, x1, n * n) <= tol * scale, "split %g from unsplit",
+                  tm_maxdiff(x0, x1, n * n) / scale);
+    double *e = malloc(n * n * sizeof *e), *res = malloc(n * n * sizeof *res);
+    for (size_t i = 0; i < n * n; i++)
+        e[i] = (i % (n + 1) == 0) - av[i];
+    if (right)
+        tm_gemm(n, n, n, x0, e, res);
+    else
+        tm_gemm(n, n, n, e, x0, res);
+    ck_assert_double_le(tm_maxdiff(res, bv, n * n), tol * scale);
     free(x0), free(x1), free(bv), free(e), free(res), free(av);
     bst_mat_free(x[0]), bst_mat_free(x[1]), bst_mat_free(a), bst_mat_free(b);
 }
@@ -470,6 +524,7 @@ static Suite *mirror_suite(void)
     tcase_add_test(tc, test_side);
     tcase_add_test(tc, test_kernels);
     tcase_add_loop_test(tc, test_solves, 0, 32);
+    tcase_add_loop_test(tc, test_sparse_split, 0, 16);
     tcase_add_loop_test(tc, test_halves_product, 0, 24);
     tcase_add_test(tc, test_kept_and_plain);
     tcase_add_test(tc, test_singular_half);
