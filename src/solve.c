@@ -1045,16 +1045,61 @@ static int inverse_pays(const struct factor *f, size_t nb, const bst_mat *const 
 
 /* The LU factors of the n x n block lu (leading dimension lda) become its inverse (getri, after
  * its workspace query). */
+/* getri's own algorithm with wider blocks, for n >= GETRI_OWN_MIN: inv(U) by trtri, then
+ * X L = inv(U) solved for X = A^-1 a block of GETRI_NB columns at a time from the right (each
+ * block's GEMM with all the columns right of it, then a triangular solve with L's diagonal block),
+ * and the columns interchanged back.  LAPACK's getri takes blocks of 64 (ILAENV), whose thin GEMMs
+ * ran at 123 GFLOP/s on a k = 7 half (n = 8192 at leading dimension 16384, single precision, this
+ * machine's two cores), against 183-190 here with blocks of 512 to 1024 (bench/README.md).
+ * work: n x GETRI_NB values. */
+#define GETRI_OWN_MIN 2048
+#define GETRI_NB 512
+#define GETRI_KERNEL(T, P)                                                                        \
+    static lapack_int getri_own_##P(size_t n, size_t lda, T *a, const lapack_int *ipiv, T *work) \
+    {                                                                                              \
+        lapack_int info = LAPACKE_##P##trtri(LAPACK_COL_MAJOR, 'U', 'N', (lapack_int)n, a,         \
+                                             (lapack_int)lda);                                     \
+        if (info != 0)                                                                             \
+            return info;                                                                           \
+        for (size_t j = (n - 1) / GETRI_NB * GETRI_NB;; j -= GETRI_NB) {                           \
+            size_t jb = n - j < GETRI_NB ? n - j : GETRI_NB;                                       \
+            for (size_t c = j; c < j + jb; c++) /* L's block column, zeroed in a */                \
+                for (size_t i = c + 1; i < n; i++) {                                               \
+                    work[(c - j) * n + i] = a[c * lda + i];                                        \
+                    a[c * lda + i] = 0;                                                            \
+                }                                                                                  \
+            if (j + jb < n)                                                                        \
+                cblas_##P##gemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)n, (int)jb,        \
+                                (int)(n - j - jb), -1, a + (j + jb) * lda, (int)lda,               \
+                                work + j + jb, (int)n, 1, a + j * lda, (int)lda);                  \
+            cblas_##P##trsm(CblasColMajor, CblasRight, CblasLower, CblasNoTrans, CblasUnit,        \
+                            (int)n, (int)jb, 1, work + j, (int)n, a + j * lda, (int)lda);          \
+            if (j == 0)                                                                            \
+                break;                                                                             \
+        }                                                                                          \
+        for (size_t j = n - 1; j-- > 0;) {                                                         \
+            size_t jp = (size_t)ipiv[j] - 1;                                                       \
+            if (jp != j)                                                                           \
+                cblas_##P##swap((int)n, a + j * lda, 1, a + jp * lda, 1);                          \
+        }                                                                                          \
+        return 0;                                                                                  \
+    }
+GETRI_KERNEL(double, d)
+GETRI_KERNEL(float, s)
+
 static int getri_block(bst_ctx *ctx, bst_precision prec, size_t n, size_t lda, void *lu,
                        lapack_int *ipiv)
 {
-    lapack_int N = (lapack_int)n, LDA = (lapack_int)lda, lw = 0, info;
-    int dbl = prec == BST_DOUBLE;
+    lapack_int N = (lapack_int)n, LDA = (lapack_int)lda, lw = 0, info = 0;
+    int dbl = prec == BST_DOUBLE, own = n >= GETRI_OWN_MIN;
     double qd = 0.0;
     float qf = 0.0f;
-    info = dbl ? LAPACKE_dgetri_work(LAPACK_COL_MAJOR, N, lu, LDA, ipiv, &qd, -1)
-               : LAPACKE_sgetri_work(LAPACK_COL_MAJOR, N, lu, LDA, ipiv, &qf, -1);
-    if (info == 0)
+    if (own)
+        lw = (lapack_int)(n * GETRI_NB);
+    else
+        info = dbl ? LAPACKE_dgetri_work(LAPACK_COL_MAJOR, N, lu, LDA, ipiv, &qd, -1)
+                   : LAPACKE_sgetri_work(LAPACK_COL_MAJOR, N, lu, LDA, ipiv, &qf, -1);
+    if (info == 0 && !own)
         lw = dbl ? (lapack_int)qd : (lapack_int)qf;
     void *w = info == 0 ? bsti_alloc_array(ctx, lw > 0 ? (size_t)lw : 1, dbl ? sizeof(double)
                                                                              : sizeof(float))
@@ -1065,8 +1110,11 @@ static int getri_block(bst_ctx *ctx, bst_precision prec, size_t n, size_t lda, v
         double dn = (double)n;
         bsti_flops_add(ctx, 4.0 / 3.0 * dn * dn * dn - dn * dn + 5.0 / 3.0 * dn); /* LAWN 41 */
         int saved = bsti_blas_serial_begin(n);
-        info = dbl ? LAPACKE_dgetri_work(LAPACK_COL_MAJOR, N, lu, LDA, ipiv, w, lw)
-                   : LAPACKE_sgetri_work(LAPACK_COL_MAJOR, N, lu, LDA, ipiv, w, lw);
+        if (own)
+            info = dbl ? getri_own_d(n, lda, lu, ipiv, w) : getri_own_s(n, lda, lu, ipiv, w);
+        else
+            info = dbl ? LAPACKE_dgetri_work(LAPACK_COL_MAJOR, N, lu, LDA, ipiv, w, lw)
+                       : LAPACKE_sgetri_work(LAPACK_COL_MAJOR, N, lu, LDA, ipiv, w, lw);
         bsti_blas_serial_end(saved);
     }
     bsti_free(ctx, w);

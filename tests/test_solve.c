@@ -2,7 +2,8 @@
  * against plain dense arithmetic, agreement with the dense generic solve, the condition estimate
  * as A approaches a singular I - A, singular cases, errors and injected allocation failures; the
  * solves that take their operands (bsti_solve_take*, the stack's): the same bits as the borrowing
- * ones, a dense right-hand side solved in its own storage, nothing leaked on any path. */
+ * ones, a dense right-hand side solved in its own storage, nothing leaked on any path; the blocked
+ * inverse of large dense factors against getrs. */
 #include <config.h>
 
 #include <float.h>
@@ -330,6 +331,42 @@ START_TEST(test_solve_take)
 }
 END_TEST
 
+/* A dense I - A of n >= 2048 inverted by solve.c's own blocked getri (blocks of 512 from the right,
+ * the last one partial here), for a diagonal right-hand side (the inverse pays): against getrs's
+ * solve of the same B made dense.  _i: side, precision; in double A = I + R (R random: I - A pivots
+ * in every column), in single a contraction (no warning of condition). */
+START_TEST(test_own_getri)
+{
+    int right = _i & 1;
+    bst_precision prec = _i & 2 ? BST_FLOAT : BST_DOUBLE;
+    size_t n = 2100;
+    tu_rng r;
+    tu_rng_seed(&r, 8300 + (uint64_t)_i);
+    double *av = malloc(n * n * sizeof *av);
+    for (size_t i = 0; i < n * n; i++)
+        av[i] = (tu_rng_uniform(&r) - 0.5) * (prec == BST_DOUBLE ? 1.0 : 0.9 / (0.5 * (double)n));
+    for (size_t i = 0; prec == BST_DOUBLE && i < n; i++)
+        av[i * n + i] += 1.0;
+    bst_mat *a, *b = tm_random(ctx, TM_DIAG, n, n, 1.0, &r), *bd, *x[2];
+    ck_assert_int_eq(bst_mat_new_dense(ctx, n, n, BST_DOUBLE, &a), BST_OK);
+    memcpy(bst_mat_dense_data(a), av, n * n * sizeof *av);
+    ck_assert_int_eq(bst_mat_convert(ctx, b, BST_DENSE, BST_DOUBLE, &bd), BST_OK);
+    for (int k = 0; k < 2; k++) {
+        bst_mat *ak;
+        ck_assert_int_eq(bst_mat_convert(ctx, a, BST_DENSE, prec, &ak), BST_OK);
+        int rc = bsti_solve_take(ctx, right, ak, k ? bd : b, NULL, 0.0, prec, &x[k], NULL, NULL);
+        ck_assert_msg(rc == BST_OK, "%s", bst_ctx_message(ctx));
+    }
+    double *x0 = tm_dense(ctx, x[0]), *x1 = tm_dense(ctx, x[1]);
+    double scale = tm_maxabs(x1, n * n), tol = prec == BST_DOUBLE ? 1e-10 : 1e-5;
+    ck_assert_msg(tm_maxdiff(x0, x1, n * n) <= tol * scale, "%s, %s: inverse %g from getrs",
+                  right ? "right" : "left", prec == BST_DOUBLE ? "double" : "single",
+                  tm_maxdiff(x0, x1, n * n) / scale);
+    free(x0), free(x1), free(av);
+    bst_mat_free(a), bst_mat_free(b), bst_mat_free(bd), bst_mat_free(x[0]), bst_mat_free(x[1]);
+}
+END_TEST
+
 /* bsti_solve_take_left2 with both right-hand sides taken: the bits of two bst_solve_left, but for
  * a sparse or diagonal B1, which alone may take another path. */
 START_TEST(test_solve_take_left2)
@@ -418,6 +455,7 @@ static Suite *solve_suite(void)
     tcase_add_loop_test(tc, test_alloc_failure, 0, 16);
     tcase_add_loop_test(tc, test_solve_take, 0, 2 * TM_NKINDS * TM_NKINDS * (int)NTAKE);
     tcase_add_loop_test(tc, test_solve_take_left2, 0, TM_NKINDS * TM_NKINDS);
+    tcase_add_loop_test(tc, test_own_getri, 0, 4);
     tcase_add_loop_test(tc, test_take_alloc_failure, 0, 8);
     suite_add_tcase(s, tc);
     return s;
