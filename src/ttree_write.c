@@ -150,19 +150,24 @@ static double region_pass(const struct tw *w, struct eacc *a, int l, const size_
                                   (w->D == 4 ? (c[2] + x2) * w->stride[2] + c[3] : c[2]);
                     const double *pd = w->d ? w->d + base : NULL;
                     const float *pf = w->f ? w->f + base : NULL;
-                    if (acct) {
+                    if (acct) { /* the sums in locals for the row (same order, same bits): through
+                                   a, each addition was a load and a store */
                         double *rp = a->rerr ? &a->rerr[(c[2] + x2 - a->o0) * a->hside + c[3] - a->o1]
                                              : NULL; /* (rank 4 only) */
+                        double sum_abs = a->sum_abs, sum_err = a->sum_err, max_error = a->max_error;
+                        double h = *hp;
                         for (size_t x = 0; x < s; x++) {
                             double v = pd ? pd[x] : (double)pf[x], e = v - back;
-                            a->sum_abs += fabs(v);
-                            a->sum_err += fabs(e);
-                            if (fabs(e) > a->max_error)
-                                a->max_error = fabs(e);
-                            *hp += e;
+                            sum_abs += fabs(v);
+                            sum_err += fabs(e);
+                            if (fabs(e) > max_error)
+                                max_error = fabs(e);
+                            h += e;
                             if (rp)
                                 rp[x] += e;
                         }
+                        a->sum_abs = sum_abs, a->sum_err = sum_err, a->max_error = max_error;
+                        *hp = h;
                     } else {
                         for (size_t x = 0; x < s; x++)
                             sum += clamp0(pd ? pd[x] : (double)pf[x]);
@@ -450,6 +455,91 @@ struct run {
 };
 
 /* The nodes of level split the emitter reaches, in tree order. */
+/* The bound checks collect makes of nodes of levels >= split (each a pass over the node's cells:
+ * about half of a dense k = 7 component's writing, on the calling thread alone), made first on
+ * nthreads threads, a level at a time from the root down the nodes collect will reach: a node's
+ * check (bsti_tw_within_bound without a task's sums) reads the tensor and writes only the node's
+ * kept sum or its negated measure, so collect then finds every answer kept, and the bytes are
+ * those of one thread. */
+struct pre_node {
+    size_t c[4];
+    int on_path;
+};
+
+struct pre_part {
+    const struct tw *w;
+    const struct pre_node *nodes;
+    const size_t *check;        /* indices into nodes of the candidates to check */
+    size_t i0, i1;              /* check[i0 .. i1 - 1] */
+    int l;
+    double *ws;                 /* bsti_tw_sums_room(w, l) values of room */
+};
+
+static void *pre_run(void *arg)
+{
+    const struct pre_part *p = arg;
+    const struct tw *w = p->w;
+    for (size_t i = p->i0; i < p->i1; i++) {
+        const struct pre_node *nd = &p->nodes[p->check[i]];
+        size_t q = node_index(w, p->l, nd->c);
+        double sum, *kept = &w->vsum[q - w->off[w->split]];
+        if (bsti_tw_within_bound(w, NULL, p->ws, p->l, nd->c, &sum))
+            *kept = sum;
+        else
+            w->m[q] = -w->m[q];
+    }
+    return NULL;
+}
+
+/* BST_OK or BST_ENOMEM (nothing checked then: collect checks on its own). */
+static int precheck(const struct tw *w, int nthreads)
+{
+    if (nthreads < 2 || !w->split || !w->col_budget)
+        return BST_OK;
+    size_t most = w->off[w->split + 1] - w->off[w->split], room = bsti_tw_sums_room(w, w->k);
+    struct pre_node *cur = bsti_alloc_array(w->ctx, most, sizeof *cur);
+    struct pre_node *next = bsti_alloc_array(w->ctx, most, sizeof *next);
+    size_t *check = bsti_alloc_array(w->ctx, most, sizeof *check);
+    double *ws = bsti_alloc_array(w->ctx, (size_t)nthreads * room, sizeof *ws);
+    int rc = cur && next && check && ws ? BST_OK : BST_ENOMEM;
+    size_t ncur = 1;
+    if (rc == BST_OK)
+        cur[0] = (struct pre_node){{0, 0, 0, 0}, 1};
+    for (int l = w->k; rc == BST_OK && l >= w->split && ncur; l--) {
+        size_t nc = 0;
+        for (size_t i = 0; i < ncur; i++) {
+            size_t q = node_index(w, l, cur[i].c);
+            if (candidate(w, w->m[q], cur[i].on_path) && w->m[q] != 0.0f &&
+                isnan(w->vsum[q - w->off[w->split]]))
+                check[nc++] = i;
+        }
+        size_t np = nc < (size_t)nthreads ? nc : (size_t)nthreads;
+        struct pre_part part[BST_THREADS_MAX];
+        for (size_t t = 0; t < np; t++)
+            part[t] = (struct pre_part){w, cur, check, nc * t / np, nc * (t + 1) / np, l,
+                                        ws + t * room};
+        if (np)
+            bsti_run_parts(part, sizeof *part, np, pre_run);
+        if (l == w->split)
+            break;
+        size_t nn = 0;
+        for (size_t i = 0; i < ncur; i++) {
+            if (candidate(w, w->m[node_index(w, l, cur[i].c)], cur[i].on_path))
+                continue; /* merged: collect does not go below it */
+            for (int j = 0; j < (1 << w->D); j++) {
+                struct pre_node *ch = &next[nn++];
+                for (int d = 0; d < 4; d++)
+                    ch->c[d] = cur[i].c[d] + (d < w->D ? (size_t)((j >> d) & 1) << (l - 1) : 0);
+                ch->on_path = cur[i].on_path && j == 0;
+            }
+        }
+        struct pre_node *x = cur;
+        cur = next, next = x, ncur = nn;
+    }
+    bsti_free(w->ctx, cur), bsti_free(w->ctx, next), bsti_free(w->ctx, check), bsti_free(w->ctx, ws);
+    return rc;
+}
+
 static void collect(const struct tw *w, struct run *r, int l, const size_t *c, int depth, int on_path)
 {
     double sum;
@@ -599,6 +689,8 @@ static int emit_all(const struct tw *w, int nthreads, struct eacc *top, bsti_sin
         bsti_sink_put(out, top->out->p, top->out->n);
         return BST_OK;
     }
+    if (precheck(w, nthreads) != BST_OK)
+        return BST_ENOMEM;
     collect(w, &r, w->k, zero, 0, 1);
     size_t ntasks = r.ntasks;
     r.window = (size_t)nthreads * WINDOW;

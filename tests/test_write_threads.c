@@ -23,14 +23,15 @@ static const int thread_counts[] = {1, 2, 3, 8};
 #define NCOUNTS (sizeof thread_counts / sizeof thread_counts[0])
 
 /* The tree text of t written with `threads` threads (the caller frees it). */
-static char *tree_text(const bsti_tensor *t, double pct, int threads, bsti_tree_stats *st)
+static char *tree_text_bounded(const bsti_tensor *t, double pct, const double *col,
+                               const double *row, int threads, bsti_tree_stats *st)
 {
     bst_ctx *ctx = bst_ctx_new();
     ck_assert_int_eq(bst_ctx_set_threads(ctx, threads), BST_OK);
     tu_membuf m = {0};
     bsti_sink *s = malloc(sizeof *s);
     bsti_sink_init(s, tu_mem_write, &m);
-    bsti_reduce r = {pct, BST_REDUCE_FLOOR, 0, NULL, NULL, 0, 0};
+    bsti_reduce r = {pct, BST_REDUCE_FLOOR, 0, col, row, 0, 0};
     int rc = bsti_ttree_write(ctx, t, &r, s, st);
     ck_assert_msg(rc == BST_OK, "tree write: %s", bst_ctx_message(ctx));
     ck_assert_int_eq(bsti_sink_flush(s), 0);
@@ -38,6 +39,11 @@ static char *tree_text(const bsti_tensor *t, double pct, int threads, bsti_tree_
     free(s);
     bst_ctx_free(ctx);
     return m.p;
+}
+
+static char *tree_text(const bsti_tensor *t, double pct, int threads, bsti_tree_stats *st)
+{
+    return tree_text_bounded(t, pct, NULL, NULL, threads, st);
 }
 
 /* ------------------------------------------------------------------ an independent emitter */
@@ -256,6 +262,41 @@ START_TEST(test_tree_threads)
 }
 END_TEST
 
+/* Budgets (columns, and rows too): the checks of nodes above the threads' subtrees, made on all
+ * threads before the text (ttree_write.c, precheck), give one thread's text.  A smooth tensor whose
+ * large nodes are candidates, some within their budgets and some not (budgets generous for the first
+ * half of the incident cells, tiny for the rest), beside noise.  _i: rows, k. */
+START_TEST(test_bound_threads)
+{
+    int rows = _i & 1, k = 5 + (_i >> 1);
+    size_t G = (size_t)1 << k, n = G * G * G * G;
+    tu_rng r;
+    tu_rng_seed(&r, 77 + (uint64_t)_i);
+    double *t = malloc(n * sizeof *t), *col = malloc(G * G * sizeof *col);
+    double *row = malloc(G * G * sizeof *row);
+    for (size_t q = 0; q < n; q++) {
+        size_t c0 = q / (G * G * G), c2 = q / G % G;
+        double u = tu_rng_uniform(&r);
+        t[q] = c0 < 3 * G / 4 ? 1.0 + 1e-4 * (double)((q ^ (q >> 7)) % 13) + 0.01 * (double)c2 / (double)G
+                              : exp(6 * u - 3);
+    }
+    for (size_t i = 0; i < G * G; i++)
+        col[i] = row[i] = i < G * G / 2 ? 1e-2 : 1e-9;
+    bsti_tensor access = {4, k, t, NULL, NULL, NULL, 0, NULL};
+    bsti_tree_stats s1, sn;
+    char *one = tree_text_bounded(&access, 90, col, rows ? row : NULL, 1, &s1);
+    for (size_t c = 1; c < NCOUNTS; c++) {
+        char *many = tree_text_bounded(&access, 90, col, rows ? row : NULL, thread_counts[c], &sn);
+        ck_assert_msg(strcmp(one, many) == 0, "k %d rows %d: %d threads write other text", k, rows,
+                      thread_counts[c]);
+        assert_same_stats(&s1, &sn);
+        free(many);
+    }
+    ck_assert_uint_lt(s1.leaves, n / 16); /* large nodes merged */
+    free(one), free(t), free(col), free(row);
+}
+END_TEST
+
 /* A variable-resolution tree (function access, the percentile over the blocks touching the fine
  * incident cells) and a diagonal one: the same with every thread count. */
 START_TEST(test_fine_in_and_diagonal)
@@ -398,6 +439,7 @@ static Suite *suite(void)
     Suite *s = suite_create("write_threads");
     TCase *tc = tcase_create("core");
     tcase_set_timeout(tc, 120);
+    tcase_add_loop_test(tc, test_bound_threads, 0, 4);
     tcase_add_loop_test(tc, test_tree_threads, 0, 12);
     tcase_add_test(tc, test_fine_in_and_diagonal);
     tcase_add_loop_test(tc, test_xml_threads, 0, 2);
