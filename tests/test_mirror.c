@@ -158,6 +158,31 @@ static bst_mat *rhs(int k, size_t n, bst_precision prec, tu_rng *r)
     return m;
 }
 
+/* A split solve x[0] against the unsplit x[1] of the same I - A (A's values av, n x n) and B:
+ * their condition estimates within a factor 6 (the halves' bound within a factor 2 of the whole
+ * inverse's norm, mirror.h, and gecon's within 3), the solutions to 1e-13 (double) or 2e-5
+ * (single) of the largest, and the residual (I - A) X - B (left) or Y (I - A) - B (right). */
+static void check_split_solve(int right, bst_precision prec, size_t n, const double *av,
+                              const bst_mat *b, bst_mat *const *x, const double *rcond)
+{
+    ck_assert_double_ge(rcond[0], rcond[1] / 6);
+    ck_assert_double_le(rcond[0], rcond[1] * 6);
+    size_t rows = bst_mat_rows(x[0]), cols = bst_mat_cols(x[0]);
+    double *x0 = tm_dense(ctx, x[0]), *x1 = tm_dense(ctx, x[1]), *bv = tm_dense(ctx, b);
+    double scale = tm_maxabs(x1, rows * cols), tol = prec == BST_DOUBLE ? 1e-13 : 2e-5;
+    ck_assert_msg(tm_maxdiff(x0, x1, rows * cols) <= tol * scale, "split %g from unsplit",
+                  tm_maxdiff(x0, x1, rows * cols) / scale);
+    double *e = malloc(n * n * sizeof *e), *res = malloc(rows * cols * sizeof *res);
+    for (size_t i = 0; i < n * n; i++)
+        e[i] = (i % (n + 1) == 0) - av[i];
+    if (right)
+        tm_gemm(rows, n, n, x0, e, res);
+    else
+        tm_gemm(n, n, cols, e, x0, res);
+    ck_assert_double_le(tm_maxdiff(res, bv, rows * cols), tol * scale);
+    free(x0), free(x1), free(bv), free(e), free(res);
+}
+
 /* _i: side (right), precision, kind of B, mirror (x, y).  The split solve against the unsplit one and against
  * the residual of plain dense arithmetic. */
 START_TEST(test_solves)
@@ -188,24 +213,8 @@ START_TEST(test_solves)
     }
     ck_assert_double_eq(splits[0], 1.0);
     ck_assert_double_eq(splits[1], 0.0);
-    /* the estimates bound the same norm within a factor 2 (mirror.h) and 3 (gecon's) */
-    ck_assert_double_ge(rcond[0], rcond[1] / 6);
-    ck_assert_double_le(rcond[0], rcond[1] * 6);
-    size_t rows = bst_mat_rows(x[0]), cols = bst_mat_cols(x[0]);
-    double *x0 = tm_dense(ctx, x[0]), *x1 = tm_dense(ctx, x[1]), *bv = tm_dense(ctx, b);
-    double scale = tm_maxabs(x1, rows * cols), tol = prec == BST_DOUBLE ? 1e-13 : 2e-5;
-    ck_assert_msg(tm_maxdiff(x0, x1, rows * cols) <= tol * scale, "split %g from unsplit",
-                  tm_maxdiff(x0, x1, rows * cols) / scale);
-    /* residual: (I - A) X - B (left) or Y (I - A) - B (right) */
-    double *e = malloc(n * n * sizeof *e), *res = malloc(rows * cols * sizeof *res);
-    for (size_t i = 0; i < n * n; i++)
-        e[i] = (i % (n + 1) == 0) - av[i];
-    if (right)
-        tm_gemm(rows, n, n, x0, e, res);
-    else
-        tm_gemm(n, n, cols, e, x0, res);
-    ck_assert_double_le(tm_maxdiff(res, bv, rows * cols), tol * scale);
-    free(x0), free(x1), free(bv), free(e), free(res), free(av);
+    check_split_solve(right, prec, n, av, b, x, rcond);
+    free(av);
     bst_mat_free(x[0]), bst_mat_free(x[1]), bst_mat_free(a), bst_mat_free(b);
 }
 END_TEST
@@ -244,21 +253,8 @@ START_TEST(test_sparse_split)
     }
     ck_assert_double_eq(splits[0], off ? 0.0 : 1.0);
     ck_assert_double_eq(splits[1], 0.0);
-    ck_assert_double_ge(rcond[0], rcond[1] / 6);
-    ck_assert_double_le(rcond[0], rcond[1] * 6);
-    double *x0 = tm_dense(ctx, x[0]), *x1 = tm_dense(ctx, x[1]), *bv = tm_dense(ctx, b);
-    double scale = tm_maxabs(x1, n * n), tol = prec == BST_DOUBLE ? 1e-13 : 2e-5;
-    ck_assert_msg(tm_maxdiff(x0, x1, n * n) <= tol * scale, "split %g from unsplit",
-                  tm_maxdiff(x0, x1, n * n) / scale);
-    double *e = malloc(n * n * sizeof *e), *res = malloc(n * n * sizeof *res);
-    for (size_t i = 0; i < n * n; i++)
-        e[i] = (i % (n + 1) == 0) - av[i];
-    if (right)
-        tm_gemm(n, n, n, x0, e, res);
-    else
-        tm_gemm(n, n, n, e, x0, res);
-    ck_assert_double_le(tm_maxdiff(res, bv, n * n), tol * scale);
-    free(x0), free(x1), free(bv), free(e), free(res), free(av);
+    check_split_solve(right, prec, n, av, b, x, rcond);
+    free(av);
     bst_mat_free(x[0]), bst_mat_free(x[1]), bst_mat_free(a), bst_mat_free(b);
 }
 END_TEST
