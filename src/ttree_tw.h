@@ -53,6 +53,16 @@ struct tw {                        /* read-only while threads run (but for the m
     double *vsum;                  /* nodes of levels >= split (index - off[split]): the sum of a
                                       candidate that passed the bound, NaN before it is checked */
     int rows;                      /* rank 4, bsti_reduce's measure_rows: eacc's rerr kept */
+    struct up_acct *up;            /* nodes of levels >= split (as vsum) that passed the bound:
+                                      the errors their one-value leaf makes (ttree_write.c,
+                                      precheck), or NULL */
+};
+
+/* The error sums of a node's one-value leaf (eacc's, over the node's cells alone): hemi per
+ * incident index of the node, rerr per outgoing cell (w->rows); hemi NULL: not made. */
+struct up_acct {
+    double sum_abs, sum_err, max_error;
+    double *hemi, *rerr;
 };
 
 /* ------------------------------------------------------------------ tensor access */

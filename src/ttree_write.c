@@ -280,6 +280,18 @@ static void leaf_merged(const struct tw *w, struct eacc *a, int l, const size_t 
                 for (size_t y = 0; y < s; y++)
                     a->rerr[(c[2] + x - a->o0) * a->hside + c[3] + y - a->o1] += e * (double)ni;
         }
+    } else if (!constant && w->up && l >= w->split && w->up[node_index(w, l, c) - w->off[w->split]].hemi) {
+        const struct up_acct *u = &w->up[node_index(w, l, c) - w->off[w->split]];
+        size_t s = (size_t)1 << l;
+        a->sum_abs += u->sum_abs;
+        a->sum_err += u->sum_err;
+        a->max_error = fmax(a->max_error, u->max_error);
+        for (size_t x = 0; x < s && (w->D == 4 || c[0] + x < w->half); x++)
+            for (size_t y = 0; y < (w->D == 4 ? s : 1); y++)
+                *hemi_at(w, a, c[0] + x, c[1] + y) += u->hemi[x * (w->D == 4 ? s : 1) + y];
+        for (size_t x = 0; u->rerr && a->rerr && x < s; x++)
+            for (size_t y = 0; y < s; y++)
+                a->rerr[(c[2] + x - a->o0) * a->hside + c[3] + y - a->o1] += u->rerr[x * s + y];
     } else if (!constant || first != 0.0) { /* (constant zero regions, the bulk, make no error) */
         region_pass(w, a, l, c, 1, back, NULL);
     }
@@ -473,6 +485,8 @@ struct pre_part {
     size_t i0, i1;              /* check[i0 .. i1 - 1] */
     int l;
     double *ws;                 /* bsti_tw_sums_room(w, l) values of room */
+    double *room;               /* rec values for each checked node's up_acct, by check index */
+    size_t rec;
 };
 
 static void *pre_run(void *arg)
@@ -483,18 +497,44 @@ static void *pre_run(void *arg)
         const struct pre_node *nd = &p->nodes[p->check[i]];
         size_t q = node_index(w, p->l, nd->c);
         double sum, *kept = &w->vsum[q - w->off[w->split]];
-        if (bsti_tw_within_bound(w, NULL, p->ws, p->l, nd->c, &sum))
-            *kept = sum;
-        else
+        if (!bsti_tw_within_bound(w, NULL, p->ws, p->l, nd->c, &sum)) {
             w->m[q] = -w->m[q];
+            continue;
+        }
+        *kept = sum;
+        /* the errors of the leaf leaf_merged will write: its value's text as it makes it */
+        struct up_acct *u = &w->up[q - w->off[w->split]];
+        size_t s = (size_t)1 << p->l, live = bsti_tw_live_cells(w, p->l, nd->c);
+        char text[40];
+        float back;
+        value_text(w, live ? sum / (double)live : 0.0, text, &back);
+        struct eacc acc;
+        memset(&acc, 0, sizeof acc);
+        acc.hemi = p->room + i * p->rec;
+        acc.rerr = w->rows ? acc.hemi + (w->D == 4 ? s * s : s) : NULL;
+        memset(acc.hemi, 0, ((w->D == 4 ? s * s : s) + (w->rows ? s * s : 0)) * sizeof *acc.hemi);
+        acc.h0 = nd->c[0], acc.h1 = nd->c[1], acc.hside = s;
+        acc.o0 = nd->c[w->D - 2], acc.o1 = nd->c[w->D - 1];
+        region_pass(w, &acc, p->l, nd->c, 1, back, NULL);
+        u->sum_abs = acc.sum_abs, u->sum_err = acc.sum_err, u->max_error = acc.max_error;
+        u->hemi = acc.hemi, u->rerr = acc.rerr;
     }
     return NULL;
 }
 
-/* BST_OK or BST_ENOMEM (nothing checked then: collect checks on its own). */
-static int precheck(const struct tw *w, int nthreads)
+/* The values of an up_acct's sums for a node of level l. */
+static size_t up_rec(const struct tw *w, int l)
 {
-    if (nthreads < 2 || !w->split || !w->col_budget)
+    size_t s = (size_t)1 << l;
+    return (w->D == 4 ? s * s : s) + (w->rows ? s * s : 0);
+}
+
+/* BST_OK or BST_ENOMEM (the checks left to collect, the errors to emit).  The up_acct sums of
+ * each level's checked nodes in bufs[k - l] (freed by the caller).  Made on one thread too, so
+ * that the error sums are added in one order whatever the threads. */
+static int precheck(const struct tw *w, int nthreads, double **bufs)
+{
+    if (!w->split || !w->col_budget || !w->up)
         return BST_OK;
     size_t most = w->off[w->split + 1] - w->off[w->split], room = bsti_tw_sums_room(w, w->k);
     struct pre_node *cur = bsti_alloc_array(w->ctx, most, sizeof *cur);
@@ -506,18 +546,22 @@ static int precheck(const struct tw *w, int nthreads)
     if (rc == BST_OK)
         cur[0] = (struct pre_node){{0, 0, 0, 0}, 1};
     for (int l = w->k; rc == BST_OK && l >= w->split && ncur; l--) {
-        size_t nc = 0;
+        size_t nc = 0, rec = up_rec(w, l);
         for (size_t i = 0; i < ncur; i++) {
             size_t q = node_index(w, l, cur[i].c);
             if (candidate(w, w->m[q], cur[i].on_path) && w->m[q] != 0.0f &&
                 isnan(w->vsum[q - w->off[w->split]]))
                 check[nc++] = i;
         }
+        if (nc && !(bufs[w->k - l] = bsti_alloc_array(w->ctx, nc * rec, sizeof **bufs))) {
+            rc = BST_ENOMEM;
+            break;
+        }
         size_t np = nc < (size_t)nthreads ? nc : (size_t)nthreads;
         struct pre_part part[BST_THREADS_MAX];
         for (size_t t = 0; t < np; t++)
             part[t] = (struct pre_part){w, cur, check, nc * t / np, nc * (t + 1) / np, l,
-                                        ws + t * room};
+                                        ws + t * room, bufs[w->k - l], rec};
         if (np)
             bsti_run_parts(part, sizeof *part, np, pre_run);
         if (l == w->split)
@@ -689,8 +733,12 @@ static int emit_all(const struct tw *w, int nthreads, struct eacc *top, bsti_sin
         bsti_sink_put(out, top->out->p, top->out->n);
         return BST_OK;
     }
-    if (precheck(w, nthreads) != BST_OK)
+    double *upbuf[BST_K_MAX + 1] = {NULL};
+    if (precheck(w, nthreads, upbuf) != BST_OK) {
+        for (int i = 0; i <= BST_K_MAX; i++)
+            bsti_free(w->ctx, upbuf[i]);
         return BST_ENOMEM;
+    }
     collect(w, &r, w->k, zero, 0, 1);
     size_t ntasks = r.ntasks;
     r.window = (size_t)nthreads * WINDOW;
@@ -754,6 +802,8 @@ static int emit_all(const struct tw *w, int nthreads, struct eacc *top, bsti_sin
     bsti_free(w->ctx, memo);
     bsti_free(w->ctx, ws);
     bsti_free(w->ctx, pyr);
+    for (int i = 0; i <= BST_K_MAX; i++)
+        bsti_free(w->ctx, upbuf[i]);
     top->memo = NULL;
     return rc;
 }
@@ -849,13 +899,14 @@ int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, b
     w.lmean = nsplit ? bsti_alloc_array(ctx, nsplit, sizeof *w.lmean) : NULL;
     size_t nkept = w.col_budget && w.split ? nodes - w.off[w.split] : 0;
     w.vsum = nkept ? bsti_alloc_array(ctx, nkept, sizeof *w.vsum) : NULL;
+    w.up = nkept ? bsti_calloc(ctx, nkept, sizeof *w.up) : NULL;
     w.task_share = w.split ? (double)((size_t)1 << 2 * w.split) / (double)(w.G * w.G) : 1.0;
     size_t nr = w.row_budget && !w.split ? w.G * w.G : 0; /* one level: the top is the task */
     double *ws = w.col_budget ? bsti_alloc_array(ctx, bsti_tw_sums_room(&w, w.k) + nr, sizeof *ws) : NULL;
-    if (!w.m || !hemi || (nsplit && !w.lmean) || (nkept && !w.vsum) || (w.col_budget && !ws) ||
-        (w.rows && !rerr)) {
+    if (!w.m || !hemi || (nsplit && !w.lmean) || (nkept && (!w.vsum || !w.up)) ||
+        (w.col_budget && !ws) || (w.rows && !rerr)) {
         bsti_free(ctx, w.m), bsti_free(ctx, hemi), bsti_free(ctx, w.lmean), bsti_free(ctx, rerr);
-        bsti_free(ctx, w.vsum), bsti_free(ctx, ws);
+        bsti_free(ctx, w.vsum), bsti_free(ctx, w.up), bsti_free(ctx, ws);
         return BST_ENOMEM;
     }
     for (size_t q = 0; q < nkept; q++)
@@ -913,6 +964,7 @@ int bsti_ttree_write(bst_ctx *ctx, const bsti_tensor *t, const bsti_reduce *r, b
     bsti_free(ctx, w.m);
     bsti_free(ctx, w.lmean);
     bsti_free(ctx, w.vsum);
+    bsti_free(ctx, w.up);
     bsti_free(ctx, ws);
     bsti_free(ctx, hemi);
     bsti_free(ctx, rerr);

@@ -17,6 +17,7 @@
 #include "numtext.h"
 #include "sink.h"
 #include "testutil.h"
+#include "ttree.h"
 #include "ttree_write.h"
 
 static const int thread_counts[] = {1, 2, 3, 8};
@@ -31,7 +32,7 @@ static char *tree_text_bounded(const bsti_tensor *t, double pct, const double *c
     tu_membuf m = {0};
     bsti_sink *s = malloc(sizeof *s);
     bsti_sink_init(s, tu_mem_write, &m);
-    bsti_reduce r = {pct, BST_REDUCE_FLOOR, 0, col, row, 0, 0};
+    bsti_reduce r = {pct, BST_REDUCE_FLOOR, 0, col, row, 0, row != NULL};
     int rc = bsti_ttree_write(ctx, t, &r, s, st);
     ck_assert_msg(rc == BST_OK, "tree write: %s", bst_ctx_message(ctx));
     ck_assert_int_eq(bsti_sink_flush(s), 0);
@@ -293,6 +294,33 @@ START_TEST(test_bound_threads)
         free(many);
     }
     ck_assert_uint_lt(s1.leaves, n / 16); /* large nodes merged */
+    /* the error statistics against the tree read back (the leaves above the threads' subtrees
+       have theirs summed apart: precheck) */
+    bst_ctx *ctx = bst_ctx_new();
+    bsti_tparse *p;
+    bsti_ttree *tree;
+    ck_assert_int_eq(bsti_tparse_new(ctx, 4, &p), BST_OK);
+    ck_assert_int_eq(bsti_tparse_feed(p, one, strlen(one)), BST_OK);
+    ck_assert_int_eq(bsti_tparse_finish(p, &tree), BST_OK);
+    double *back = malloc(n * sizeof *back), *re = calloc(G * G, sizeof *re);
+    double sa = 0, se = 0, me = 0, worst = 0, rworst = 0;
+    ck_assert_int_eq(bsti_ttree_expand4(tree, k, back), BST_OK);
+    for (size_t i = 0; i < G * G; i++) {
+        double h = 0;
+        for (size_t o = 0; o < G * G; o++) {
+            double v = t[i * G * G + o], e = v - back[i * G * G + o];
+            sa += fabs(v), se += fabs(e), me = fmax(me, fabs(e)), h += e, re[o] += e;
+        }
+        worst = fmax(worst, fabs(h));
+    }
+    for (size_t o = 0; o < G * G; o++)
+        rworst = fmax(rworst, fabs(re[o]));
+    tu_assert_close(s1.l1_error, se / sa, 1e-9, 1e-15);
+    ck_assert(s1.max_error == me);
+    tu_assert_close(s1.hemi_error, worst * M_PI / (double)(G * G), 1e-9, 1e-15);
+    if (rows)
+        tu_assert_close(s1.row_error, rworst * M_PI / (double)(G * G), 1e-9, 1e-15);
+    bsti_ttree_free(tree), bst_ctx_free(ctx), free(back), free(re);
     free(one), free(t), free(col), free(row);
 }
 END_TEST
