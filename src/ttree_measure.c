@@ -153,17 +153,15 @@ static double build(const struct tw *w, struct bacc *b, const struct pre1 *pre, 
     } else {
         float ms[16], mmax = 0.0f;
         int constant = 1;
-        size_t cn[4] = {0, 0, 0, 0};
+        size_t cn[4];
         for (int j = 0; j < nk; j++) {
-            size_t cc[4] = {0, 0, 0, 0};
-            for (int i = 0; i < D; i++)
-                cc[i] = c[i] + ((size_t)((j >> i) & 1) << (l - 1));
+            size_t cc[4];
+            child_corner(w, l, c, j, cc);
             if (l == 3) { /* the level-2 children: this one's cells at first, then the next's */
                 if (j == 0)
                     prefetch_node2(w, cc, 1);
                 if (j + 1 < nk) {
-                    for (int i = 0; i < D; i++)
-                        cn[i] = c[i] + ((size_t)(((j + 1) >> i) & 1) << (l - 1));
+                    child_corner(w, l, c, j + 1, cn);
                     prefetch_node2(w, cn, 1);
                 }
             }

@@ -168,6 +168,14 @@ static inline void prefetch_region(const struct tw *w, int l, const size_t *c)
 /* Negative BSDF values (round-off of a combination) are written as 0, as readers read them. */
 static inline double clamp0(double v) { return v < 0.0 ? 0.0 : v; }
 
+/* The corner cc of child j of the node of level l at corner c (bit i of j: the upper half along
+ * dimension i); dimensions from D on are 0. */
+static inline void child_corner(const struct tw *w, int l, const size_t *c, int j, size_t *cc)
+{
+    for (int i = 0; i < 4; i++)
+        cc[i] = i < w->D ? c[i] + ((size_t)((j >> i) & 1) << (l - 1)) : 0;
+}
+
 static inline size_t node_index(const struct tw *w, int l, const size_t *c)
 {
     size_t S = w->G >> l, idx = 0;

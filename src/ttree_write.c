@@ -413,24 +413,21 @@ static void emit(const struct tw *w, struct eacc *a, struct run *r, int l, const
      * array (children j and j + 8 share a line: dimension 3 is the array's fastest), so asked for
      * together */
     for (int j = 0; j < (1 << w->D); j++) {
-        size_t cc[4] = {0, 0, 0, 0};
-        for (int i = 0; i < w->D; i++)
-            cc[i] = c[i] + ((size_t)((j >> i) & 1) << (l - 1));
+        size_t cc[4];
+        child_corner(w, l, c, j, cc);
         __builtin_prefetch(&w->m[node_index(w, l - 1, cc)]);
     }
 #endif
     for (int j = 0; j < (1 << w->D); j++) {
-        size_t cc[4] = {0, 0, 0, 0};
-        for (int i = 0; i < w->D; i++)
-            cc[i] = c[i] + ((size_t)((j >> i) & 1) << (l - 1)); /* dimension 0 lowest bit */
+        size_t cc[4];
+        child_corner(w, l, c, j, cc);
         if (l == 3) { /* level-2 children, this one and the next: all their cells unless one
                          constant leaf */
-            size_t cn[4] = {0, 0, 0, 0};
+            size_t cn[4];
             if (j == 0)
                 prefetch_node2(w, cc, w->m[node_index(w, 2, cc)] != 0.0f);
             if (j + 1 < (1 << w->D)) {
-                for (int i = 0; i < w->D; i++)
-                    cn[i] = c[i] + ((size_t)(((j + 1) >> i) & 1) << (l - 1));
+                child_corner(w, l, c, j + 1, cn);
                 prefetch_node2(w, cn, w->m[node_index(w, 2, cn)] != 0.0f);
             }
         }
@@ -572,8 +569,7 @@ static int precheck(const struct tw *w, int nthreads, double **bufs)
                 continue; /* merged: collect does not go below it */
             for (int j = 0; j < (1 << w->D); j++) {
                 struct pre_node *ch = &next[nn++];
-                for (int d = 0; d < 4; d++)
-                    ch->c[d] = cur[i].c[d] + (d < w->D ? (size_t)((j >> d) & 1) << (l - 1) : 0);
+                child_corner(w, l, cur[i].c, j, ch->c);
                 ch->on_path = cur[i].on_path && j == 0;
             }
         }
@@ -599,9 +595,8 @@ static void collect(const struct tw *w, struct run *r, int l, const size_t *c, i
         return;
     }
     for (int j = 0; j < (1 << w->D); j++) {
-        size_t cc[4] = {0, 0, 0, 0};
-        for (int i = 0; i < w->D; i++)
-            cc[i] = c[i] + ((size_t)((j >> i) & 1) << (l - 1));
+        size_t cc[4];
+        child_corner(w, l, c, j, cc);
         collect(w, r, l - 1, cc, depth + 1, on_path && j == 0);
     }
 }
