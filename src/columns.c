@@ -177,7 +177,7 @@ static int system_columns(struct sweep *w, const bst_mat *src, const size_t *col
         if (!*m)
             rc = bst_mat_new_zero(ctx, w->N, w->ncols, m);
     }
-    if (rc >= 0 && (!bst_mat_all_finite(*tf) || !bst_mat_all_finite(*rf))) /* products overflow */
+    if (rc >= 0 && (!bsti_mat_finite(ctx, *tf) || !bsti_mat_finite(ctx, *rf))) /* products overflow */
         rc = bsti_error(ctx, BST_EINVAL, "columns: the result overflows double: input values too "
                         "large");
     return rc;

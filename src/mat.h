@@ -175,6 +175,14 @@ static inline double bsti_dense_get(const bst_mat *m, size_t i, size_t j)
                                  : (double)((const float *)m->dense)[j * m->rows + i];
 }
 
+/* bst_mat_all_finite with a dense matrix read on the threads ctx allows (NULL: one). */
+int bsti_mat_finite(bst_ctx *ctx, const bst_mat *m);
+/* dense_pass.c: whether every value of a dense m is finite, and its column sums out[j] (m->cols)
+ * of w[i] v(i, j) (w NULL: 1), v the value or, with pos, max(value, 0) (a NaN read as 0); on the
+ * threads ctx allows (NULL: one), each column summed in row order (the bits of a plain loop). */
+int bsti_dense_finite(bst_ctx *ctx, const bst_mat *m);
+void bsti_dense_col_sums(bst_ctx *ctx, const bst_mat *m, const double *w, int pos, double *out);
+
 /* Element (i, j) of any matrix as double; NULL or ZERO reads 0 (sparse: a binary search). */
 static inline double bsti_mat_at(const bst_mat *m, size_t i, size_t j)
 {

@@ -156,6 +156,10 @@ int bst_mat_col_weighted_sum(bst_ctx *ctx, const bst_mat *m, const double *w, do
         bsti_free(ctx, t);
         return rc;
     }
+    if (m->s == BST_DENSE) {
+        bsti_dense_col_sums(ctx, m, w, 0, out);
+        return BST_OK;
+    }
     for (size_t j = 0; j < m->cols; j++) {
         double s = 0.0;
         switch (m->s) {
@@ -168,11 +172,7 @@ int bst_mat_col_weighted_sum(bst_ctx *ctx, const bst_mat *m, const double *w, do
                 s += (w ? w[ri[q]] : 1.0) * x[q];
             break;
         }
-        case BST_DENSE:
-            for (size_t i = 0; i < m->rows; i++)
-                s += (w ? w[i] : 1.0) * bsti_dense_get(m, i, j);
-            break;
-        default: break; /* FACTORED: above */
+        default: break; /* DENSE, FACTORED: above */
         }
         out[j] = s;
     }
@@ -328,6 +328,11 @@ int bst_mat_select_cols(bst_ctx *ctx, const bst_mat *m, size_t ncols, const size
 
 int bst_mat_all_finite(const bst_mat *m)
 {
+    return bsti_mat_finite(NULL, m);
+}
+
+int bsti_mat_finite(bst_ctx *ctx, const bst_mat *m)
+{
     if (!m)
         return 0;
     switch (m->s) {
@@ -343,19 +348,14 @@ int bst_mat_all_finite(const bst_mat *m)
                 return 0;
         return 1;
     }
-    case BST_DENSE:
-        for (size_t k = 0; k < m->rows * m->cols; k++)
-            if (!isfinite(m->prec == BST_DOUBLE ? ((const double *)m->dense)[k]
-                                                : (double)((const float *)m->dense)[k]))
-                return 0;
-        return 1;
+    case BST_DENSE: return bsti_dense_finite(ctx, m);
     case BST_FACTORED: return bsti_lr_finite(m->lr);
     case BST_PLUS_LR:
         for (size_t k = 0; k < (m->rows + m->cols) * m->plus->m; k++)
             if (!isfinite(k < m->rows * m->plus->m ? m->plus->u[k]
                                                     : m->plus->w[k - m->rows * m->plus->m]))
                 return 0;
-        return bst_mat_all_finite(m->plus->base);
+        return bsti_mat_finite(ctx, m->plus->base);
     default: return 1;
     }
 }

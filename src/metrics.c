@@ -199,18 +199,31 @@ static inline double dense_at(const bst_mat *m, size_t k)
     return m->prec == BST_DOUBLE ? ((const double *)m->dense)[k] : (double)((const float *)m->dense)[k];
 }
 
-/* The largest |Tf(o, i) - Tb(a(i), a(o))| of two dense n x n transmissions, a one-to-one (the
- * pairs then cover every value of both), and the largest |value| of either in *scale; the worst
- * pair is the first in the order of the element-wise loop (i, then o).  Returns 0 when a value
- * is not finite. */
-static int recip_dense(const bst_mat *tf, const bst_mat *tb, const size_t *a, size_t n,
-                       double *worst, double *scale, size_t *wi, size_t *wo)
+/* One run of Tf's columns [i0, i1) of the dense check below: its largest difference and its place,
+ * its largest |value| and its NaN probe. */
+struct recip_part {
+    const bst_mat *tf, *tb;
+    const size_t *a;
+    size_t n, i0, i1, bi, bo;
+    double w, s, nan_probe;
+};
+
+/* (d, i, o) beats (w, bi, bo): larger, or as large (not 0) and first in the order (i, then o). */
+static inline int recip_beats(double d, size_t i, size_t o, double w, size_t bi, size_t bo)
 {
+    return d > w || (d == w && d > 0.0 && (i < bi || (i == bi && o < bo)));
+}
+
+static void *recip_run(void *opaque)
+{
+    struct recip_part *p = opaque;
+    const bst_mat *tf = p->tf, *tb = p->tb;
+    const size_t *a = p->a, n = p->n;
     double w = 0.0, s = 0.0, nan_probe = 0.0;
     size_t bi = 0, bo = 0;
-    for (size_t i0 = 0; i0 < n; i0 += RECIP_TILE)
+    for (size_t i0 = p->i0; i0 < p->i1; i0 += RECIP_TILE)
         for (size_t o0 = 0; o0 < n; o0 += RECIP_TILE) {
-            size_t i1 = i0 + RECIP_TILE < n ? i0 + RECIP_TILE : n;
+            size_t i1 = i0 + RECIP_TILE < p->i1 ? i0 + RECIP_TILE : p->i1;
             size_t o1 = o0 + RECIP_TILE < n ? o0 + RECIP_TILE : n;
             for (size_t i = i0; i < i1; i++) {
                 size_t ai = a[i];
@@ -220,11 +233,39 @@ static int recip_dense(const bst_mat *tf, const bst_mat *tb, const size_t *a, si
                     nan_probe += x * 0.0 + y * 0.0; /* NaN from then on after an Inf or NaN */
                     s = fabs(x) > s ? fabs(x) : s;
                     s = fabs(y) > s ? fabs(y) : s;
-                    if (d > w || (d == w && d > 0.0 && (i < bi || (i == bi && o < bo))))
+                    if (recip_beats(d, i, o, w, bi, bo))
                         w = d, bi = i, bo = o;
                 }
             }
         }
+    p->w = w, p->s = s, p->nan_probe = nan_probe, p->bi = bi, p->bo = bo;
+    return NULL;
+}
+
+/* The largest |Tf(o, i) - Tb(a(i), a(o))| of two dense n x n transmissions, a one-to-one (the
+ * pairs then cover every value of both), and the largest |value| of either in *scale; the worst
+ * pair is the first in the order of the element-wise loop (i, then o), whatever the runs of
+ * columns the threads take.  Returns 0 when a value is not finite. */
+static int recip_dense(bst_ctx *ctx, const bst_mat *tf, const bst_mat *tb, const size_t *a,
+                       size_t n, double *worst, double *scale, size_t *wi, size_t *wo)
+{
+    struct recip_part part[BST_THREADS_MAX];
+    size_t tiles = (n + RECIP_TILE - 1) / RECIP_TILE;
+    size_t t = (size_t)bsti_ctx_workers_no_alloc(ctx, tiles), per = (tiles + t - 1) / t, np = 0;
+    for (size_t q = 0; q * per < tiles && np < BST_THREADS_MAX; q++, np++) {
+        size_t i1 = (q + 1) * per * RECIP_TILE;
+        part[np] = (struct recip_part){tf, tb, a, n, q * per * RECIP_TILE, i1 < n ? i1 : n,
+                                       0, 0, 0.0, 0.0, 0.0};
+    }
+    bsti_run_parts(part, sizeof *part, np, recip_run);
+    double w = 0.0, s = 0.0, nan_probe = 0.0;
+    size_t bi = 0, bo = 0;
+    for (size_t q = 0; q < np; q++) {
+        if (recip_beats(part[q].w, part[q].bi, part[q].bo, w, bi, bo))
+            w = part[q].w, bi = part[q].bi, bo = part[q].bo;
+        s = part[q].s > s ? part[q].s : s;
+        nan_probe += part[q].nan_probe;
+    }
     *worst = w, *scale = s, *wi = bi, *wo = bo;
     return nan_probe == 0.0;
 }
@@ -374,7 +415,7 @@ static int reciprocity(bst_ctx *ctx, const bst_layer *l, size_t ch, double *err,
             a[p] = bst_basis_antipode(b, p);
         for (size_t p = 0; p < n && one_to_one; p++)
             one_to_one = a[a[p]] == p;
-        int finite = one_to_one && recip_dense(tf, tb, a, n, &worst, &scale, &wi, &wo);
+        int finite = one_to_one && recip_dense(ctx, tf, tb, a, n, &worst, &scale, &wi, &wo);
         bsti_free(ctx, a);
         if (one_to_one) {
             if (!finite)
@@ -383,7 +424,7 @@ static int reciprocity(bst_ctx *ctx, const bst_layer *l, size_t ch, double *err,
             goto done;
         }
     }
-    if ((tf && !bst_mat_all_finite(tf)) || (tb && !bst_mat_all_finite(tb)))
+    if ((tf && !bsti_mat_finite(ctx, tf)) || (tb && !bsti_mat_finite(ctx, tb)))
         return bsti_error(ctx, BST_EINVAL, "reciprocity: channel %s holds a transmission value "
                           "that is not finite", l->channels[ch]);
     if ((tf && (tf->s == BST_FACTORED || tf->s == BST_PLUS_LR)) ||

@@ -1179,7 +1179,7 @@ static int solve_by_inverse(bst_ctx *ctx, struct factor *f, int right, size_t nb
 static int results_checked(bst_ctx *ctx, int rc, size_t nb, bst_mat **out, double rcond)
 {
     for (size_t q = 0; q < nb && rc >= 0; q++)
-        if (!bst_mat_all_finite(out[q]))
+        if (!bsti_mat_finite(ctx, out[q]))
             rc = bsti_error(ctx, BST_ESINGULAR, "solve: the result is not finite (I - A is "
                             "singular to working precision, rcond %.3g)", rcond);
     for (size_t q = 0; q < nb && rc < 0; q++) {

@@ -721,7 +721,7 @@ static int hand_over(struct combiner *cb, struct part *acc, unsigned want, bst_l
                                  bst_mat_precision(acc->m[c]), &m);
         else if (!m)
             rc = bst_mat_new_zero(ctx, N, N, &m);
-        if (rc >= 0 && !bst_mat_all_finite(m)) { /* finite inputs whose products overflow */
+        if (rc >= 0 && !bsti_mat_finite(ctx, m)) { /* finite inputs whose products overflow */
             rc = bsti_error(ctx, BST_EINVAL, "layers 1-%zu, channel %s: %s overflows %s: input "
                             "values too large", cb->n, cb->channel, bst_comp_name((bst_comp)c),
                             bst_mat_precision(m) == BST_FLOAT ? "float" : "double");

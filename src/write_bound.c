@@ -79,6 +79,8 @@ static int sums(bst_ctx *ctx, const bst_mat *m, size_t nr, size_t n, double *col
                 if (row)
                     row[ri[q]] += v;
             }
+    } else if (!row && m->rows == nr && m->cols == n) {
+        bsti_dense_col_sums(ctx, m, NULL, 1, col);
     } else {
         for (size_t i = 0; i < n; i++) {
             double s = 0.0;

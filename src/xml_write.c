@@ -99,7 +99,7 @@ static int validate(struct xw *w)
     for (size_t ch = 0; ch < w->nch; ch++)
         for (int c = 0; c < BST_NCOMP; c++) {
             const bst_mat *m = bst_layer_get(w->l, ch, (bst_comp)c);
-            if (m && !bst_mat_all_finite(m))
+            if (m && !bsti_mat_finite(w->ctx, m))
                 return bsti_error(w->ctx, BST_EINVAL, "writing BSDF XML: %s %s holds a value that "
                                   "is not finite", bst_layer_channel(w->l, ch), bst_comp_name((bst_comp)c));
         }

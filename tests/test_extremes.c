@@ -800,8 +800,9 @@ END_TEST
 
 /* The dense pairs' tiled check against the element-wise definition, written out here: several
  * tiles (k = 4: 256 patches, tiles of 64; Klems full: 145, a partial tile), both precisions, and
- * two equal worst pairs where the tiles meet them out of order, (i, o) = (2, 5) before (1, 100):
- * the one reported is the first of the element-wise loop (i, then o). */
+ * three equal worst pairs where the tiles meet them out of order, (i, o) = (2, 5) before (1, 100),
+ * and (n - 2, 3) in the last run of columns three threads take: the one reported is the first of
+ * the element-wise loop (i, then o), on one thread and on three. */
 START_TEST(test_reciprocity_tiled)
 {
     for (int kb = 0; kb < 2; kb++)
@@ -820,8 +821,8 @@ START_TEST(test_reciprocity_tiled)
                     size_t q = bst_basis_antipode(b, ii) + n * bst_basis_antipode(b, oo);
                     tb[q] = (double)(float)(tf[oo + n * ii] + tb[q]);
                 }
-            size_t pi[2] = {2, 1}, po[2] = {5, 100};
-            for (int t = 0; t < 2; t++) { /* the same, larger difference at two pairs */
+            size_t pi[3] = {2, 1, n - 2}, po[3] = {5, 100, 3};
+            for (int t = 0; t < 3; t++) { /* the same, larger difference at three pairs */
                 tf[po[t] + n * pi[t]] = 0.75;
                 tb[bst_basis_antipode(b, pi[t]) + n * bst_basis_antipode(b, po[t])] = 1.25;
             }
@@ -849,19 +850,25 @@ START_TEST(test_reciprocity_tiled)
                 }
             }
             bst_layer *l = layer4(b, m[0], NULL, m[1], NULL);
-            ck_assert_int_eq(bst_metrics_reciprocity(ctx, l, 0, &err, &i, &o), BST_OK);
             ck_assert_uint_eq(wi, 1);
             ck_assert_uint_eq(wo, 100);
-            ck_assert_uint_eq(i, wi);
-            ck_assert_uint_eq(o, wo);
-            tu_assert_close(err, want / top, 1e-15, 0.0);
+            for (int th = 1; th <= 3; th += 2) { /* one thread; three, the last tie in the last */
+                ck_assert_int_eq(bst_ctx_set_threads(ctx, th), BST_OK);
+                ck_assert_int_eq(bst_metrics_reciprocity(ctx, l, 0, &err, &i, &o), BST_OK);
+                ck_assert_uint_eq(i, wi);
+                ck_assert_uint_eq(o, wo);
+                tu_assert_close(err, want / top, 1e-15, 0.0);
+            }
             /* an infinity in Tb, far from the first tile */
             if (fl)
                 ((float *)bst_mat_dense_data(m[1]))[n * n - 3] = INFINITY;
             else
                 ((double *)bst_mat_dense_data(m[1]))[n * n - 3] = INFINITY;
-            ck_assert_int_eq(bst_metrics_reciprocity(ctx, l, 0, &err, &i, &o), BST_EINVAL);
-            ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "not finite"));
+            for (int th = 1; th <= 3; th += 2) {
+                ck_assert_int_eq(bst_ctx_set_threads(ctx, th), BST_OK);
+                ck_assert_int_eq(bst_metrics_reciprocity(ctx, l, 0, &err, &i, &o), BST_EINVAL);
+                ck_assert_ptr_nonnull(strstr(bst_ctx_message(ctx), "not finite"));
+            }
             bst_layer_free(l);
             free(tf);
             bst_basis_free(b);

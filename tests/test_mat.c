@@ -1,7 +1,7 @@
 /* test_mat.c - every specialized product, sum, scaling, transpose and conversion of the algebra
  * against plain dense loops, for every pair of operand structures (dense in double and float) and
- * sizes 1 .. 300; result structures; the sparse-dense products' bits on any thread count; error
- * paths; injected allocation failures. */
+ * sizes 1 .. 300; result structures; the sparse-dense products' bits on any thread count; the
+ * dense passes' sums and finiteness against plain loops; error paths; injected allocation failures. */
 #include <config.h>
 
 #include <float.h>
@@ -219,6 +219,63 @@ START_TEST(test_spmm_same_bits)
 }
 END_TEST
 
+/* The dense passes (dense_pass.c): column sums, weighted or of the positive values, the bits of
+ * a plain loop on one thread and on three, for column counts around the eight a sweep takes;
+ * finiteness with one Inf or NaN anywhere (the first value, the last, inside a 1024 block and in
+ * the tail after the blocks). _i: (precision, shape). */
+START_TEST(test_dense_passes)
+{
+    static const size_t shapes[][2] = {{7, 1}, {300, 7}, {300, 8}, {300, 9}, {65, 300}, {1030, 17}};
+    int kind = _i % 2 ? TM_FLOAT : TM_DENSE;
+    size_t m = shapes[_i / 2][0], n = shapes[_i / 2][1];
+    tu_rng r;
+    tu_rng_seed(&r, 9100 + (uint64_t)_i);
+    bst_mat *a = tm_random(ctx, kind, m, n, 1.0, &r);
+    double *x = tm_dense(ctx, a), *w = malloc(m * sizeof *w), *got = malloc(n * sizeof *got);
+    for (size_t i = 0; i < m; i++)
+        w[i] = 0.5 + tu_rng_uniform(&r);
+    for (int t = 0; t < 2; t++) {
+        ck_assert_int_eq(bst_ctx_set_threads(ctx, t ? 3 : 1), BST_OK);
+        for (int v = 0; v < 3; v++) { /* weighted, plain, positive values */
+            const double *wv = v == 0 ? w : NULL;
+            bsti_dense_col_sums(ctx, a, wv, v == 2, got);
+            for (size_t j = 0; j < n; j++) {
+                double want = 0.0;
+                for (size_t i = 0; i < m; i++) {
+                    double e = x[j * m + i];
+                    want += v == 0 ? w[i] * e : v == 1 ? e : e > 0.0 ? e : 0.0;
+                }
+                ck_assert_msg(got[j] == want, "%s %zu x %zu, %d threads, sums %d: column %zu %.17g, "
+                              "the loop's %.17g", tm_kind_name[kind], m, n, t ? 3 : 1, v, j,
+                              got[j], want);
+            }
+        }
+        ck_assert(bsti_dense_finite(ctx, a));
+        size_t places[] = {0, m * n - 1, (m * n) / 2, m * n > 1024 ? 1024 + 3 : m * n / 3};
+        for (size_t q = 0; q < sizeof places / sizeof *places; q++)
+            for (int bad = 0; bad < 2; bad++) {
+                double b = bad ? NAN : -INFINITY;
+                void *d = bst_mat_dense_data(a);
+                double keep = x[places[q]];
+                if (kind == TM_FLOAT)
+                    ((float *)d)[places[q]] = (float)b;
+                else
+                    ((double *)d)[places[q]] = b;
+                ck_assert_msg(!bsti_dense_finite(ctx, a) && !bst_mat_all_finite(a),
+                              "%s %zu x %zu: %g at %zu read as finite", tm_kind_name[kind], m, n,
+                              b, places[q]);
+                if (kind == TM_FLOAT)
+                    ((float *)d)[places[q]] = (float)keep;
+                else
+                    ((double *)d)[places[q]] = keep;
+            }
+        ck_assert(bsti_dense_finite(ctx, a) && bst_mat_all_finite(a));
+    }
+    free(x), free(w), free(got);
+    bst_mat_free(a);
+}
+END_TEST
+
 /* Scaling, transpose, conversions, compaction, column selection and sums for each kind. */
 START_TEST(test_unary)
 {
@@ -432,6 +489,7 @@ static Suite *mat_suite(void)
     tcase_add_loop_test(tc, test_transpose_rect, 0, 8);
     tcase_add_loop_test(tc, test_add_take, 0, TM_NKINDS * TM_NKINDS);
     tcase_add_loop_test(tc, test_spmm_same_bits, 0, 6);
+    tcase_add_loop_test(tc, test_dense_passes, 0, 12);
     tcase_add_test(tc, test_spmm_empty_inner);
     tcase_add_test(tc, test_drop_tol);
     tcase_add_test(tc, test_errors);
