@@ -671,11 +671,25 @@ static int write_blocks(struct xw *w)
 /* A component factored over a wide map (mat.h) is read a block of columns at a time by the
  * checks and bounds, and expanded for its own block alone (write_blocks), so that one expanded
  * component is held at a time. */
+static int write_kept(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst_bsdf_write_opts *opts,
+                      const bst_varres *v);
+
+/* The file, the large blocks each component's tree takes (its measures, its text) handed from one
+ * component to the next (bsti_keep_begin): fresh ones cost their pages' faults again. */
 static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst_bsdf_write_opts *opts,
                        const bst_varres *v)
 {
     if (!ctx)
         return BST_EINVAL;
+    bsti_keep_begin(ctx);
+    int rc = write_kept(ctx, l, s, opts, v);
+    bsti_keep_end(ctx);
+    return rc;
+}
+
+static int write_kept(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst_bsdf_write_opts *opts,
+                      const bst_varres *v)
+{
     if (!l)
         return bsti_error(ctx, BST_EINVAL, "writing BSDF XML: NULL layer");
     bst_bsdf_write_opts def;
