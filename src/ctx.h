@@ -16,6 +16,8 @@ struct cholmod_common_struct;
 
 /* How many freed large blocks a context keeps at most (bsti_keep_begin). */
 #define BSTI_KEEP_SLOTS 4
+/* How many sparse patterns whose LU was found too filled a context remembers (solve.c). */
+#define BSTI_REFUSED_SLOTS 8
 
 struct bst_ctx {
     int status;
@@ -30,6 +32,11 @@ struct bst_ctx {
     double flops;           /* bsti_flops_add's count */
     int no_mirror;          /* 1: no mirror split of dense solves (mirror.h; the stack's --dense) */
     double mirror_splits;   /* dense factorizations split by mirror symmetry so far */
+    /* signatures of sparse A whose LU UMFPACK's analysis found too filled (solve.c,
+       factor_sparse), the newest at refused_next - 1, and how often one was met again */
+    unsigned long long refused[BSTI_REFUSED_SLOTS];
+    int refused_next;
+    double refusals_remembered;
     /* large freed blocks kept for reuse while keep_depth > 0 (bsti_keep_begin) */
     pthread_mutex_t keep_lock;
     int keep_depth, nkept;

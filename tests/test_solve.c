@@ -3,7 +3,7 @@
  * as A approaches a singular I - A, singular cases, errors and injected allocation failures; the
  * solves that take their operands (bsti_solve_take*, the stack's): the same bits as the borrowing
  * ones, a dense right-hand side solved in its own storage, nothing leaked on any path; the blocked
- * inverse of large dense factors against getrs. */
+ * inverse of large dense factors against getrs; a pattern whose LU fills remembered. */
 #include <config.h>
 
 #include <float.h>
@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "ctx.h"
 #include "mat.h"
 #include "testmat.h"
 
@@ -367,6 +368,63 @@ START_TEST(test_own_getri)
 }
 END_TEST
 
+/* A sparse A whose LU would fill (random, 5 % of the values: UMFPACK's analysis refuses it) goes
+ * dense; the next A of its pattern (other values: the next channel's) goes dense without a second
+ * analysis, and its solution is the dense path's to the bit; another pattern is analysed again, and
+ * one UMFPACK factors (a diagonal) is not remembered. */
+START_TEST(test_refused_pattern)
+{
+    size_t n = 300;
+    tu_rng r;
+    tu_rng_seed(&r, 8800);
+    bst_mat *a = contraction(TM_SPARSE, n, &r), *b = tm_random(ctx, TM_DENSE, n, 7, 1.0, &r);
+    bst_mat *x, *half, *ad, *xd, *d = contraction(TM_DIAG, n, &r);
+    int next = ctx->refused_next;
+    ck_assert_int_eq(bst_solve_left(ctx, a, b, 0.0, &x, NULL), BST_OK);
+    ck_assert_int_eq(ctx->refused_next, (next + 1) % BSTI_REFUSED_SLOTS); /* analysed, refused */
+    ck_assert_double_eq(ctx->refusals_remembered, 0.0);
+    bst_mat_free(x);
+    double *w = malloc(n * sizeof *w);
+    for (size_t i = 0; i < n; i++)
+        w[i] = 0.25 + 0.5 * tu_rng_uniform(&r);
+    ck_assert_int_eq(bst_mat_scale(ctx, w, a, NULL, &half), BST_OK);
+    ck_assert_int_eq(bst_solve_left(ctx, half, b, 0.0, &x, NULL), BST_OK);
+    ck_assert_double_eq(ctx->refusals_remembered, 1.0);
+    ck_assert_int_eq(ctx->refused_next, (next + 1) % BSTI_REFUSED_SLOTS);
+    ck_assert_int_eq(bst_mat_convert(ctx, half, BST_DENSE, BST_DOUBLE, &ad), BST_OK);
+    ck_assert_int_eq(bst_solve_left(ctx, ad, b, 0.0, &xd, NULL), BST_OK);
+    ck_assert_int_eq(bst_mat_structure(x), BST_DENSE);
+    ck_assert_int_eq(memcmp(bst_mat_dense_data(x), bst_mat_dense_data(xd), n * 7 * sizeof(double)), 0);
+    bst_mat_free(x), bst_mat_free(xd), bst_mat_free(ad);
+    /* one value off the diagonal moved to another row of its column (the same count of values
+       in every column): analysed again */
+    ck_assert_int_eq(bst_mat_convert(ctx, half, BST_DENSE, BST_DOUBLE, &ad), BST_OK);
+    double *v = bst_mat_dense_data(ad);
+    size_t off = 0, to;
+    while (v[off] == 0.0 || off % (n + 1) == 0)
+        off++;
+    for (to = off - off % n; v[to] != 0.0; to++)
+        ;
+    ck_assert_uint_eq(to / n, off / n);
+    v[to] = v[off], v[off] = 0.0;
+    bst_mat *other;
+    ck_assert_int_eq(bst_mat_convert(ctx, ad, BST_SPARSE, BST_DOUBLE, &other), BST_OK);
+    ck_assert_int_eq(bst_solve_left(ctx, other, b, 0.0, &x, NULL), BST_OK);
+    ck_assert_double_eq(ctx->refusals_remembered, 1.0);
+    ck_assert_int_eq(ctx->refused_next, (next + 2) % BSTI_REFUSED_SLOTS);
+    bst_mat_free(x);
+    /* a sparse diagonal: factored by UMFPACK, nothing remembered */
+    bst_mat *ds;
+    ck_assert_int_eq(bst_mat_convert(ctx, d, BST_SPARSE, BST_DOUBLE, &ds), BST_OK);
+    ck_assert_int_eq(bst_solve_left(ctx, ds, b, 0.0, &x, NULL), BST_OK);
+    ck_assert_int_eq(ctx->refused_next, (next + 2) % BSTI_REFUSED_SLOTS);
+    bst_mat_free(x);
+    free(w);
+    bst_mat_free(a), bst_mat_free(b), bst_mat_free(half), bst_mat_free(ad), bst_mat_free(other);
+    bst_mat_free(d), bst_mat_free(ds);
+}
+END_TEST
+
 /* bsti_solve_take_left2 with both right-hand sides taken: the bits of two bst_solve_left, but for
  * a sparse or diagonal B1, which alone may take another path. */
 START_TEST(test_solve_take_left2)
@@ -455,6 +513,7 @@ static Suite *solve_suite(void)
     tcase_add_loop_test(tc, test_alloc_failure, 0, 16);
     tcase_add_loop_test(tc, test_solve_take, 0, 2 * TM_NKINDS * TM_NKINDS * (int)NTAKE);
     tcase_add_loop_test(tc, test_solve_take_left2, 0, TM_NKINDS * TM_NKINDS);
+    tcase_add_test(tc, test_refused_pattern);
     tcase_add_loop_test(tc, test_own_getri, 0, 4);
     tcase_add_loop_test(tc, test_take_alloc_failure, 0, 8);
     suite_add_tcase(s, tc);
