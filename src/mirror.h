@@ -83,9 +83,9 @@ int bsti_mirror_mul(bst_ctx *ctx, void *inv, bst_precision prec, size_t n, size_
  * x axis, or of the y axis (then *turned = 1: Q (I - A) Q's), written split as
  * bsti_mirror_matrix(split 1) would leave the dense I - A: P in lu's top-left quarter, M in its
  * bottom-right one (n x n, precision prec; the other quarters not touched), from A's columns of the
- * first half.  BST_OK, or BSTI_MIRROR_ASYM (nothing written) when A lacks the symmetry to the
- * split's tolerance. */
-int bsti_mirror_split_sparse(const cholmod_sparse *a, bst_precision prec, size_t g, void *lu,
-                             int *turned);
+ * first half; those quarters are cleared first on the threads ctx allows (NULL: one).  BST_OK, or
+ * BSTI_MIRROR_ASYM (nothing written) when A lacks the symmetry to the split's tolerance. */
+int bsti_mirror_split_sparse(bst_ctx *ctx, const cholmod_sparse *a, bst_precision prec, size_t g,
+                             void *lu, int *turned);
 
 #endif

@@ -583,7 +583,7 @@ static int factor_split_sparse(bst_ctx *ctx, const bst_mat *a, bst_precision pre
     if (!(f->ipiv = bsti_alloc_array(ctx, n, sizeof *f->ipiv)) ||
         !(f->lu = bsti_alloc_array(ctx, n * n, es)))
         return BST_ENOMEM;
-    if (bsti_mirror_split_sparse(a->sp, prec, g, f->lu, &f->mirror_turned) != BST_OK)
+    if (bsti_mirror_split_sparse(ctx, a->sp, prec, g, f->lu, &f->mirror_turned) != BST_OK)
         return BSTI_USE_DENSE;
     f->mirror_g = g;
     ctx->mirror_splits++;

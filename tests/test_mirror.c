@@ -259,6 +259,57 @@ START_TEST(test_sparse_split)
 }
 END_TEST
 
+/* bsti_mirror_split_sparse's clearing on threads: into storage full of other values (1e30 and
+ * -7), one thread and three write the same halves to the bit and leave the other quarters as they
+ * were; _i: precision, mirror (x, y). */
+START_TEST(test_split_threads)
+{
+    bst_precision prec = _i & 1 ? BST_FLOAT : BST_DOUBLE;
+    int axis = _i >> 1;
+    tu_rng r;
+    tu_rng_seed(&r, 900 + (uint64_t)_i);
+    size_t g = 16, n = g * g, h = n / 2, es = prec == BST_DOUBLE ? sizeof(double) : sizeof(float);
+    double *av = symmetric_about(g, axis, 0.9, &r);
+    for (size_t i = 0; i < n * n; i++)
+        if (fabs(av[i]) < 0.3 * 0.9 / (0.25 * (double)n))
+            av[i] = 0.0;
+    bst_mat *a = dense_of(av, n, n, BST_DOUBLE), *as;
+    ck_assert_int_eq(bst_mat_convert(ctx, a, BST_SPARSE, BST_DOUBLE, &as), BST_OK);
+    char *lu[2];
+    const double fill[2] = {1e30, -7.0};
+    int turned[2];
+    for (int t = 0; t < 2; t++) {
+        lu[t] = malloc(n * n * es);
+        for (size_t q = 0; q < n * n; q++) {
+            if (prec == BST_DOUBLE)
+                ((double *)lu[t])[q] = fill[t];
+            else
+                ((float *)lu[t])[q] = (float)fill[t];
+        }
+        ck_assert_int_eq(bst_ctx_set_threads(ctx, t ? 3 : 1), BST_OK);
+        ck_assert_int_eq(bsti_mirror_split_sparse(ctx, as->sp, prec, g, lu[t],
+                                                  &turned[t]), BST_OK);
+    }
+    ck_assert_int_eq(turned[0], axis);
+    ck_assert_int_eq(turned[1], axis);
+    for (size_t j = 0; j < n; j++)
+        for (size_t i = 0; i < n; i++) {
+            size_t q = (j * n + i) * es;
+            int half = (i < h) == (j < h); /* top-left or bottom-right */
+            if (half) {
+                ck_assert_msg(memcmp(lu[0] + q, lu[1] + q, es) == 0, "(%zu, %zu) differs", i, j);
+            } else {
+                double v0 = prec == BST_DOUBLE ? ((double *)lu[0])[q / es] : ((float *)lu[0])[q / es];
+                double v1 = prec == BST_DOUBLE ? ((double *)lu[1])[q / es] : ((float *)lu[1])[q / es];
+                ck_assert(v0 == (double)(prec == BST_DOUBLE ? fill[0] : (float)fill[0]));
+                ck_assert(v1 == fill[1]);
+            }
+        }
+    free(lu[0]), free(lu[1]), free(av);
+    bst_mat_free(a), bst_mat_free(as);
+}
+END_TEST
+
 /* Products with an inverse kept in halves (mirror_mul.c), _i: side (right), precision, kind of B
  * (0 sparse, 1 diagonal, 2 thin dense), mirror (x, y): against X B (or B X) of the whole X in
  * plain dense arithmetic; a sparse B one value off its symmetry is left to the whole
@@ -521,6 +572,7 @@ static Suite *mirror_suite(void)
     tcase_add_test(tc, test_kernels);
     tcase_add_loop_test(tc, test_solves, 0, 32);
     tcase_add_loop_test(tc, test_sparse_split, 0, 16);
+    tcase_add_loop_test(tc, test_split_threads, 0, 4);
     tcase_add_loop_test(tc, test_halves_product, 0, 24);
     tcase_add_test(tc, test_kept_and_plain);
     tcase_add_test(tc, test_singular_half);
