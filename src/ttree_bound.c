@@ -27,29 +27,66 @@ size_t bsti_tw_sums_room(const struct tw *w, int l)
     return w->D == 4 ? 2 * s * s : s;
 }
 
-/* The sums of the node of level l at corner c over its cells that hold data, negatives read as 0:
- * cs[x] over the outgoing cells of its incident index x (rank 4: x = x0 s + x1, rank 3: x = x0),
- * and with rs, rs[y] over its incident indices for its outgoing cell y (x2 s + x3).  Returns the
- * sum of them all; *nin the incident indices that hold data. */
-static double bound_sums(const struct tw *w, int l, const size_t *c, double *cs, double *rs,
-                         size_t *nin)
+/* Cell k of the tensor: kind 0 its doubles, 1 its floats, 2 its reader. */
+static inline __attribute__((always_inline)) double cell_of(const struct tw *w, int kind, size_t k)
 {
-    size_t s = (size_t)1 << l, ni = w->D == 4 ? s * s : s, od = (size_t)w->D - 2, x;
+    return kind == 0 ? w->d[k] : kind == 1 ? (double)w->f[k] : w->t->get(w->t->opaque, k);
+}
+
+/* The first cell of incident index x's runs in the node of side s at corner c. */
+static inline size_t incident_base(const struct tw *w, const size_t *c, size_t s, size_t x)
+{
+    return (c[0] + (w->D == 4 ? x / s : x)) * w->stride[0] +
+           (w->D == 4 ? (c[1] + x % s) * w->stride[1] : 0);
+}
+
+/* bound_sums for one kind of storage (inlined with kind known).  Four incident indices are read
+ * side by side: each one's column sum is still a chain of additions in the order of its cells,
+ * and each row sum takes its incident indices in turn, so the sums are those of a loop over one
+ * index at a time, to the bit; the four chains hide the additions' latency, which bounded the
+ * check (a k = 7 component's nodes above the writer's tasks are read once a level). */
+static inline __attribute__((always_inline)) double sums_of(const struct tw *w, int kind, int l,
+                                                            const size_t *c, double *cs,
+                                                            double *rs, size_t *nin)
+{
+    size_t s = (size_t)1 << l, ni = w->D == 4 ? s * s : s, od = (size_t)w->D - 2, nx = ni;
+    if (w->D == 3) /* the incident indices that hold data: a prefix */
+        nx = c[0] >= w->half ? 0 : w->half - c[0] < ni ? w->half - c[0] : ni;
     double total = 0.0;
     if (rs)
         memset(rs, 0, s * s * sizeof *rs);
-    for (x = 0; x < ni; x++) {
-        size_t i0 = c[0] + (w->D == 4 ? x / s : x);
-        if (w->D == 3 && i0 >= w->half)
-            break;
-        size_t ibase = i0 * w->stride[0] + (w->D == 4 ? (c[1] + x % s) * w->stride[1] : 0);
-        double col = 0.0;
+    size_t x = 0;
+    for (; x + 4 <= nx; x += 4) {
+        size_t b0 = incident_base(w, c, s, x), b1 = incident_base(w, c, s, x + 1);
+        size_t b2 = incident_base(w, c, s, x + 2), b3 = incident_base(w, c, s, x + 3);
+        double c0 = 0.0, c1 = 0.0, c2 = 0.0, c3 = 0.0;
         for (size_t a = 0; a < s; a++) { /* the outgoing cells, runs of the last dimension */
+            size_t off = (c[od] + a) * w->stride[od] + c[od + 1];
+            double *r = rs ? rs + a * s : NULL;
+            for (size_t b = 0; b < s; b++) {
+                double v0 = clamp0(cell_of(w, kind, b0 + off + b));
+                double v1 = clamp0(cell_of(w, kind, b1 + off + b));
+                double v2 = clamp0(cell_of(w, kind, b2 + off + b));
+                double v3 = clamp0(cell_of(w, kind, b3 + off + b));
+                c0 += v0, c1 += v1, c2 += v2, c3 += v3;
+                if (r) {
+                    double t = r[b];
+                    t += v0, t += v1, t += v2, t += v3;
+                    r[b] = t;
+                }
+            }
+        }
+        cs[x] = c0, cs[x + 1] = c1, cs[x + 2] = c2, cs[x + 3] = c3;
+        total += c0, total += c1, total += c2, total += c3;
+    }
+    for (; x < nx; x++) {
+        size_t ibase = incident_base(w, c, s, x);
+        double col = 0.0;
+        for (size_t a = 0; a < s; a++) {
             size_t base = ibase + (c[od] + a) * w->stride[od] + c[od + 1];
             double *r = rs ? rs + a * s : NULL;
             for (size_t b = 0; b < s; b++) {
-                double v = clamp0(w->d ? w->d[base + b] : w->f ? (double)w->f[base + b]
-                                                                : w->t->get(w->t->opaque, base + b));
+                double v = clamp0(cell_of(w, kind, base + b));
                 col += v;
                 if (r)
                     r[b] += v;
@@ -58,8 +95,20 @@ static double bound_sums(const struct tw *w, int l, const size_t *c, double *cs,
         cs[x] = col;
         total += col;
     }
-    *nin = x;
+    *nin = nx;
     return total;
+}
+
+/* The sums of the node of level l at corner c over its cells that hold data, negatives read as 0:
+ * cs[x] over the outgoing cells of its incident index x (rank 4: x = x0 s + x1, rank 3: x = x0),
+ * and with rs, rs[y] over its incident indices for its outgoing cell y (x2 s + x3).  Returns the
+ * sum of them all; *nin the incident indices that hold data. */
+static double bound_sums(const struct tw *w, int l, const size_t *c, double *cs, double *rs,
+                         size_t *nin)
+{
+    return w->d ? sums_of(w, 0, l, c, cs, rs, nin)
+           : w->f ? sums_of(w, 1, l, c, cs, rs, nin)
+                  : sums_of(w, 2, l, c, cs, rs, nin);
 }
 
 /* Level l's part of a task's pyramid (l >= 1; side T = 2^split): cs, T^2 (T / 2^l)^2 sums (an
