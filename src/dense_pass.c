@@ -66,75 +66,48 @@ COL_SUMS(sums_f, float)
 COL_SUMS(sums_d, double)
 #undef VAL
 
+/* The kernel with w's presence and pos as constants. */
+#define SUMS_ANY(K, X, P)                                                                        \
+    ((P)->w ? ((P)->pos ? K(X, (P)->m->rows, (P)->w, 1, (P)->j0, (P)->j1, (P)->out)               \
+                        : K(X, (P)->m->rows, (P)->w, 0, (P)->j0, (P)->j1, (P)->out))              \
+            : ((P)->pos ? K(X, (P)->m->rows, NULL, 1, (P)->j0, (P)->j1, (P)->out)                 \
+                        : K(X, (P)->m->rows, NULL, 0, (P)->j0, (P)->j1, (P)->out)))
+
 static void part_sums(const struct pass *p)
 {
-    const bst_mat *m = p->m;
-    if (m->prec == BST_DOUBLE) {
-        const double *x = m->dense;
-        if (p->w)
-            p->pos ? sums_d(x, m->rows, p->w, 1, p->j0, p->j1, p->out)
-                   : sums_d(x, m->rows, p->w, 0, p->j0, p->j1, p->out);
-        else
-            p->pos ? sums_d(x, m->rows, NULL, 1, p->j0, p->j1, p->out)
-                   : sums_d(x, m->rows, NULL, 0, p->j0, p->j1, p->out);
-    } else {
-        const float *x = m->dense;
-        if (p->w)
-            p->pos ? sums_f(x, m->rows, p->w, 1, p->j0, p->j1, p->out)
-                   : sums_f(x, m->rows, p->w, 0, p->j0, p->j1, p->out);
-        else
-            p->pos ? sums_f(x, m->rows, NULL, 1, p->j0, p->j1, p->out)
-                   : sums_f(x, m->rows, NULL, 0, p->j0, p->j1, p->out);
-    }
+    if (p->m->prec == BST_DOUBLE)
+        SUMS_ANY(sums_d, (const double *)p->m->dense, p);
+    else
+        SUMS_ANY(sums_f, (const float *)p->m->dense, p);
 }
 
 /* Whether n values at x are finite, by their exponent bits (all ones: Inf or NaN), in blocks
- * whose test the compiler makes a vector OR. */
-static int finite_f(const float *x, size_t n)
-{
-    const uint32_t e = 0x7f800000u;
-    size_t k = 0;
-    for (; k + 1024 <= n; k += 1024) {
-        uint32_t bad = 0;
-        for (size_t q = 0; q < 1024; q++) {
-            uint32_t u;
-            memcpy(&u, x + k + q, sizeof u);
-            bad |= (u & e) == e;
-        }
-        if (bad)
-            return 0;
+ * whose test the compiler makes a vector OR; U the unsigned integer of T's size. */
+#define FINITE(NAME, T, U, EXP)                                                                  \
+    static int NAME(const T *x, size_t n)                                                        \
+    {                                                                                            \
+        const U e = EXP;                                                                         \
+        size_t k = 0;                                                                            \
+        for (; k + 1024 <= n; k += 1024) {                                                       \
+            U bad = 0;                                                                           \
+            for (size_t q = 0; q < 1024; q++) {                                                  \
+                U u;                                                                             \
+                memcpy(&u, x + k + q, sizeof u);                                                 \
+                bad |= (u & e) == e;                                                             \
+            }                                                                                    \
+            if (bad)                                                                             \
+                return 0;                                                                        \
+        }                                                                                        \
+        for (; k < n; k++) {                                                                     \
+            U u;                                                                                 \
+            memcpy(&u, x + k, sizeof u);                                                         \
+            if ((u & e) == e)                                                                    \
+                return 0;                                                                        \
+        }                                                                                        \
+        return 1;                                                                                \
     }
-    for (; k < n; k++) {
-        uint32_t u;
-        memcpy(&u, x + k, sizeof u);
-        if ((u & e) == e)
-            return 0;
-    }
-    return 1;
-}
-
-static int finite_d(const double *x, size_t n)
-{
-    const uint64_t e = 0x7ff0000000000000u;
-    size_t k = 0;
-    for (; k + 1024 <= n; k += 1024) {
-        uint64_t bad = 0;
-        for (size_t q = 0; q < 1024; q++) {
-            uint64_t u;
-            memcpy(&u, x + k + q, sizeof u);
-            bad |= (u & e) == e;
-        }
-        if (bad)
-            return 0;
-    }
-    for (; k < n; k++) {
-        uint64_t u;
-        memcpy(&u, x + k, sizeof u);
-        if ((u & e) == e)
-            return 0;
-    }
-    return 1;
-}
+FINITE(finite_f, float, uint32_t, 0x7f800000u)
+FINITE(finite_d, double, uint64_t, 0x7ff0000000000000u)
 
 static void *run_part(void *opaque)
 {
