@@ -27,12 +27,6 @@ size_t bsti_tw_sums_room(const struct tw *w, int l)
     return w->D == 4 ? 2 * s * s : s;
 }
 
-/* Cell k of the tensor: kind 0 its doubles, 1 its floats, 2 its reader. */
-static inline __attribute__((always_inline)) double cell_of(const struct tw *w, int kind, size_t k)
-{
-    return kind == 0 ? w->d[k] : kind == 1 ? (double)w->f[k] : w->t->get(w->t->opaque, k);
-}
-
 /* The first cell of incident index x's runs in the node of side s at corner c. */
 static inline size_t incident_base(const struct tw *w, const size_t *c, size_t s, size_t x)
 {
@@ -40,7 +34,7 @@ static inline size_t incident_base(const struct tw *w, const size_t *c, size_t s
            (w->D == 4 ? (c[1] + x % s) * w->stride[1] : 0);
 }
 
-/* bound_sums for one kind of storage (inlined with kind known).  Four incident indices are read
+/* bound_sums for one kind of storage (tw_kind; inlined with kind known).  Four incident indices are read
  * side by side: each one's column sum is still a chain of additions in the order of its cells,
  * and each row sum takes its incident indices in turn, so the sums are those of a loop over one
  * index at a time, to the bit; the four chains hide the additions' latency, which bounded the
@@ -64,10 +58,10 @@ static inline __attribute__((always_inline)) double sums_of(const struct tw *w, 
             size_t off = (c[od] + a) * w->stride[od] + c[od + 1];
             double *r = rs ? rs + a * s : NULL;
             for (size_t b = 0; b < s; b++) {
-                double v0 = clamp0(cell_of(w, kind, b0 + off + b));
-                double v1 = clamp0(cell_of(w, kind, b1 + off + b));
-                double v2 = clamp0(cell_of(w, kind, b2 + off + b));
-                double v3 = clamp0(cell_of(w, kind, b3 + off + b));
+                double v0 = clamp0(cell_at(w, kind, b0 + off + b));
+                double v1 = clamp0(cell_at(w, kind, b1 + off + b));
+                double v2 = clamp0(cell_at(w, kind, b2 + off + b));
+                double v3 = clamp0(cell_at(w, kind, b3 + off + b));
                 c0 += v0, c1 += v1, c2 += v2, c3 += v3;
                 if (r) {
                     double t = r[b];
@@ -86,7 +80,7 @@ static inline __attribute__((always_inline)) double sums_of(const struct tw *w, 
             size_t base = ibase + (c[od] + a) * w->stride[od] + c[od + 1];
             double *r = rs ? rs + a * s : NULL;
             for (size_t b = 0; b < s; b++) {
-                double v = clamp0(cell_of(w, kind, base + b));
+                double v = clamp0(cell_at(w, kind, base + b));
                 col += v;
                 if (r)
                     r[b] += v;
@@ -106,9 +100,10 @@ static inline __attribute__((always_inline)) double sums_of(const struct tw *w, 
 static double bound_sums(const struct tw *w, int l, const size_t *c, double *cs, double *rs,
                          size_t *nin)
 {
-    return w->d ? sums_of(w, 0, l, c, cs, rs, nin)
-           : w->f ? sums_of(w, 1, l, c, cs, rs, nin)
-                  : sums_of(w, 2, l, c, cs, rs, nin);
+    int kind = tw_kind(w);
+    return kind == 0 ? sums_of(w, 0, l, c, cs, rs, nin)
+           : kind == 1 ? sums_of(w, 1, l, c, cs, rs, nin)
+                       : sums_of(w, 2, l, c, cs, rs, nin);
 }
 
 /* Level l's part of a task's pyramid (l >= 1; side T = 2^split): cs, T^2 (T / 2^l)^2 sums (an

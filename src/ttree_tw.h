@@ -67,6 +67,15 @@ struct up_acct {
 
 /* ------------------------------------------------------------------ tensor access */
 
+/* How the tensor's values are held: 0 doubles (w->d), 1 floats (w->f), 2 through its reader. */
+static inline int tw_kind(const struct tw *w) { return w->d ? 0 : w->f ? 1 : 2; }
+
+/* Value at index k of a tensor held as kind says (inlined with kind known, no test per value). */
+static inline __attribute__((always_inline)) double cell_at(const struct tw *w, int kind, size_t k)
+{
+    return kind == 0 ? w->d[k] : kind == 1 ? (double)w->f[k] : w->t->get(w->t->opaque, k);
+}
+
 /* Raw value of cell c (rank 3: 0 in the unused upper half of dimension 0). */
 static inline double cell(const struct tw *w, const size_t *c)
 {
@@ -76,7 +85,7 @@ static inline double cell(const struct tw *w, const size_t *c)
     idx = c[0] * w->stride[0] + c[1] * w->stride[1] + c[2] * w->stride[2];
     if (w->D == 4)
         idx += c[3];
-    return w->d ? w->d[idx] : w->f ? (double)w->f[idx] : w->t->get(w->t->opaque, idx);
+    return cell_at(w, tw_kind(w), idx);
 }
 
 /* The 2^D values of the finest block at corner c, member j at index offset off[j] (w->boff or

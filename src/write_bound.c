@@ -79,30 +79,13 @@ static int sums(bst_ctx *ctx, const bst_mat *m, size_t nr, size_t n, double *col
                 if (row)
                     row[ri[q]] += v;
             }
-    } else if (!row && m->rows == nr && m->cols == n) {
+    } else { /* dense (nr = m->rows): the columns on the context's threads, then the rows */
         bsti_dense_col_sums(ctx, m, NULL, 1, col);
-    } else {
-        for (size_t i = 0; i < n; i++) {
-            double s = 0.0;
-            if (m->prec == BST_DOUBLE) {
-                const double *c = (const double *)m->dense + i * nr;
-                for (size_t o = 0; o < nr; o++) {
-                    double v = c[o] > 0.0 ? c[o] : 0.0;
-                    s += v;
-                    if (row)
-                        row[o] += v;
-                }
-            } else {
-                const float *c = (const float *)m->dense + i * nr;
-                for (size_t o = 0; o < nr; o++) {
-                    double v = c[o] > 0.0f ? (double)c[o] : 0.0;
-                    s += v;
-                    if (row)
-                        row[o] += v;
-                }
+        for (size_t i = 0; row && i < n; i++)
+            for (size_t o = 0; o < nr; o++) {
+                double v = bsti_dense_get(m, o, i);
+                row[o] += v > 0.0 ? v : 0.0;
             }
-            col[i] = s;
-        }
     }
     return BST_OK;
 }

@@ -668,14 +668,14 @@ static int write_blocks(struct xw *w)
 
 /* ------------------------------------------------------------------ entry points */
 
-/* A component factored over a wide map (mat.h) is read a block of columns at a time by the
- * checks and bounds, and expanded for its own block alone (write_blocks), so that one expanded
- * component is held at a time. */
 static int write_kept(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst_bsdf_write_opts *opts,
                       const bst_varres *v);
 
-/* The file, the large blocks each component's tree takes (its measures, its text) handed from one
- * component to the next (bsti_keep_begin): fresh ones cost their pages' faults again. */
+/* The file.  A component factored over a wide map (mat.h) is read a block of columns at a time by
+ * the checks and bounds, and expanded for its own block alone (write_blocks), so that one expanded
+ * component is held at a time; the large blocks each component's tree takes (its measures, its
+ * text) are handed from one component to the next (bsti_keep_begin): fresh ones cost their pages'
+ * faults again. */
 static int write_layer(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst_bsdf_write_opts *opts,
                        const bst_varres *v)
 {
