@@ -32,6 +32,7 @@ struct bst_ctx {
     double flops;           /* bsti_flops_add's count */
     int no_mirror;          /* 1: no mirror split of dense solves (mirror.h; the stack's --dense) */
     double mirror_splits;   /* dense factorizations split by mirror symmetry so far */
+    double mirror_z_products; /* products Z X formed by such a split's halves (solve.c) */
     /* signatures of sparse A whose LU UMFPACK's analysis found too filled (solve.c,
        factor_sparse), the newest at refused_next - 1, and how often one was met again */
     unsigned long long refused[BSTI_REFUSED_SLOTS];

@@ -242,6 +242,13 @@ int bsti_solve_take_left2(bst_ctx *ctx, bst_mat *a, const bst_mat *b1, bst_mat *
                           const bst_mat *b2, bst_mat *b2_own, double rcond_warn,
                           bst_precision prec, bst_mat **x1, bst_mat **x2, double *rcond,
                           bsti_factor **keep);
+/* The same, and zx1 = Z x1, zx2 = Z x2 (Z borrowed; NULL: neither) where a mirror-split inverse's
+ * halves form them before x1 and x2 are made whole (half the flops of Z times each, mirror.h);
+ * else *zx1 and *zx2 are NULL and the products are the caller's to form. */
+int bsti_solve_take_left2_z(bst_ctx *ctx, bst_mat *a, const bst_mat *b1, bst_mat *b1_own,
+                            const bst_mat *b2, bst_mat *b2_own, const bst_mat *z,
+                            double rcond_warn, bst_precision prec, bst_mat **x1, bst_mat **x2,
+                            bst_mat **zx1, bst_mat **zx2, double *rcond, bsti_factor **keep);
 /* Y = B (I - A)^-1 with a kept factorization (no condition estimate); NULL-safe free. */
 int bsti_factor_solve_right(bst_ctx *ctx, bsti_factor *f, const bst_mat *b, bst_mat **y);
 void bsti_factor_free(bsti_factor *f);

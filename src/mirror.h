@@ -79,6 +79,21 @@ void bsti_mirror_rows(void *x, bst_precision prec, size_t n, size_t g, size_t nc
 int bsti_mirror_mul(bst_ctx *ctx, void *inv, bst_precision prec, size_t n, size_t g, int turn,
                     int right, const bst_mat *b, bst_mat **out);
 
+/* Whether B (sparse or diagonal, n x n) commutes with the mirror of side g (turned: Q B Q with
+ * S), to the split's tolerance for prec. */
+int bsti_mirror_commutes(bst_ctx *ctx, const bst_mat *b, bst_precision prec, size_t n, size_t g,
+                         int turn);
+/* *out = X B (right 0) or B X, X any n x n matrix held split in x as bsti_mirror_mul's inverse is
+ * (it commutes with the mirror), B sparse or diagonal and bsti_mirror_commutes: the product of
+ * the halves, left split like X (join 0: products by its halves may follow) or made whole
+ * (join 1).  into: NULL for a new matrix, or an n x n dense one in prec whose storage receives
+ * the result (taken: it is *out, or freed on failure; its values need not be cleared).  BST_OK,
+ * BSTI_MIRROR_ASYM for another structure, or an error. */
+int bsti_mirror_mul_split(bst_ctx *ctx, void *x, bst_precision prec, size_t n, size_t g, int turn,
+                          int right, const bst_mat *b, bst_mat *into, int join, bst_mat **out);
+/* A split n x n matrix (bsti_mirror_mul_split's, join 0) made whole, turned back when turn. */
+void bsti_mirror_join(void *a, bst_precision prec, size_t n, size_t g, int turn);
+
 /* I - A for a sparse A (n = g^2 patches, packed and sorted) that commutes with the mirror of the
  * x axis, or of the y axis (then *turned = 1: Q (I - A) Q's), written split as
  * bsti_mirror_matrix(split 1) would leave the dense I - A: P in lu's top-left quarter, M in its

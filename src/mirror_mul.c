@@ -212,21 +212,60 @@ static void *quarter(void *a, bst_precision prec, size_t n, int half)
     return prec == BST_DOUBLE ? (void *)((double *)a + off) : (void *)((float *)a + off);
 }
 
-static int mul_sparse(bst_ctx *ctx, void *inv, bst_precision prec, size_t n, size_t g, int turn,
-                      int right, const cholmod_sparse *b, bst_mat **out)
+/* B's values as a CHOLMOD matrix in *sb: B's own (SPARSE), or a sparse copy in *tmp (DIAG).
+ * BST_OK, BSTI_MIRROR_ASYM for another structure, or an error. */
+static int sparse_of(bst_ctx *ctx, const bst_mat *b, bst_mat **tmp, const cholmod_sparse **sb)
+{
+    *tmp = NULL, *sb = NULL;
+    if (b->s == BST_SPARSE)
+        *sb = b->sp;
+    else if (b->s != BST_DIAG)
+        return BSTI_MIRROR_ASYM;
+    else {
+        int rc = bst_mat_convert(ctx, b, BST_SPARSE, BST_DOUBLE, tmp);
+        if (rc < 0)
+            return rc;
+        *sb = (*tmp)->sp;
+    }
+    return BST_OK;
+}
+
+static int commutes(const cholmod_sparse *b, bst_precision prec, size_t n, size_t g, int turn)
 {
     double tol = prec == BST_DOUBLE ? BSTI_MIRROR_TOL : BSTI_MIRROR_TOL_FLOAT;
-    if (b->nrow != n || b->ncol != n || !b->packed || !b->sorted)
-        return BSTI_MIRROR_ASYM;
-    if (!sparse_holds(b, g, turn, tol))
-        return BSTI_MIRROR_ASYM;
+    return b->nrow == n && b->ncol == n && b->packed && b->sorted && sparse_holds(b, g, turn, tol);
+}
+
+int bsti_mirror_commutes(bst_ctx *ctx, const bst_mat *b, bst_precision prec, size_t n, size_t g,
+                         int turn)
+{
+    bst_mat *tmp;
+    const cholmod_sparse *sb;
+    int holds = sparse_of(ctx, b, &tmp, &sb) == BST_OK && commutes(sb, prec, n, g, turn);
+    bst_mat_free(tmp);
+    return holds;
+}
+
+void bsti_mirror_join(void *a, bst_precision prec, size_t n, size_t g, int turn)
+{
+    bsti_mirror_matrix(a, prec, n, g, 0);
+    if (turn)
+        bsti_mirror_turn(a, prec, n, g, n, 1);
+}
+
+/* X B (right 0) or B X by the halves, B sparse and commuting with the mirror (checked by the
+ * caller), into into's storage (NULL: a new matrix; else n x n dense in prec, taken: the result
+ * or freed), joined when join is set. */
+static int mul_sparse(bst_ctx *ctx, void *x, bst_precision prec, size_t n, size_t g, int turn,
+                      int right, const cholmod_sparse *b, bst_mat *into, int join, bst_mat **out)
+{
     cholmod_sparse *hp = NULL, *hm = NULL;
-    bst_mat *c = NULL;
+    bst_mat *c = into;
     int rc = sparse_halves(ctx, b, g, turn, right, &hp, &hm);
-    if (rc >= 0)
+    if (rc >= 0 && !c)
         rc = bst_mat_new_dense(ctx, n, n, prec, &c);
     for (int half = 0; half < 2 && rc >= 0; half++)
-        rc = bsti_spmm(ctx, half ? hm : hp, prec, quarter(inv, prec, n, half), n, n / 2, n / 2,
+        rc = bsti_spmm(ctx, half ? hm : hp, prec, quarter(x, prec, n, half), n, n / 2, n / 2,
                        !right, quarter(c->dense, prec, n, half), n);
     cholmod_common *cc = bsti_cholmod(ctx);
     cholmod_l_free_sparse(&hp, cc), cholmod_l_free_sparse(&hm, cc);
@@ -234,11 +273,24 @@ static int mul_sparse(bst_ctx *ctx, void *inv, bst_precision prec, size_t n, siz
         bst_mat_free(c);
         return rc;
     }
-    bsti_mirror_matrix(c->dense, prec, n, g, 0);
-    if (turn)
-        bsti_mirror_turn(c->dense, prec, n, g, n, 1);
+    if (join)
+        bsti_mirror_join(c->dense, prec, n, g, turn);
     *out = c;
     return BST_OK;
+}
+
+int bsti_mirror_mul_split(bst_ctx *ctx, void *x, bst_precision prec, size_t n, size_t g, int turn,
+                          int right, const bst_mat *b, bst_mat *into, int join, bst_mat **out)
+{
+    bst_mat *tmp;
+    const cholmod_sparse *sb;
+    int rc = sparse_of(ctx, b, &tmp, &sb);
+    if (rc == BST_OK)
+        rc = mul_sparse(ctx, x, prec, n, g, turn, right, sb, into, join, out);
+    else
+        bst_mat_free(into);
+    bst_mat_free(tmp);
+    return rc;
 }
 
 /* A thin operand: n x m (left) or m x n (right, through its transpose). */
@@ -306,15 +358,10 @@ int bsti_mirror_mul(bst_ctx *ctx, void *inv, bst_precision prec, size_t n, size_
 {
     if (b->rows != n && b->cols != n)
         return BSTI_MIRROR_ASYM;
-    if (b->s == BST_SPARSE)
-        return mul_sparse(ctx, inv, prec, n, g, turn, right, b->sp, out);
-    if (b->s == BST_DIAG) {
-        bst_mat *s = NULL;
-        int rc = bst_mat_convert(ctx, b, BST_SPARSE, BST_DOUBLE, &s);
-        if (rc >= 0)
-            rc = mul_sparse(ctx, inv, prec, n, g, turn, right, s->sp, out);
-        bst_mat_free(s);
-        return rc;
+    if (b->s == BST_SPARSE || b->s == BST_DIAG) {
+        if (!bsti_mirror_commutes(ctx, b, prec, n, g, turn))
+            return BSTI_MIRROR_ASYM;
+        return bsti_mirror_mul_split(ctx, inv, prec, n, g, turn, right, b, NULL, 1, out);
     }
     if (b->s == BST_DENSE && (right ? b->cols : b->rows) == n)
         return mul_thin(ctx, inv, prec, n, g, turn, right, b, out);

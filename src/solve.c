@@ -1186,13 +1186,78 @@ static void join_inverse(struct factor *f)
     f->mirror_g = 0, f->mirror_turned = 0;
 }
 
+/* The storage of a dense factorization's LU factors (or inverse) handed out as an n x n dense
+ * matrix (its values as they are), the factorization left without it. */
+static int factor_give_lu(bst_ctx *ctx, struct factor *f, bst_mat **out)
+{
+    int rc = BST_OK;
+    if (f->lu_mat) {
+        *out = f->lu_mat;
+    } else if ((rc = bsti_mat_alloc(ctx, BST_DENSE, f->prec, f->n, f->n, out)) >= 0) {
+        (*out)->dense = f->lu;
+    } else {
+        return rc;
+    }
+    f->lu_mat = NULL, f->lu = NULL;
+    return BST_OK;
+}
+
+/* Whether a left solve's products and Z's with them all go by the inverse's halves: a split
+ * inverse, every b[q] and Z sparse or diagonal and commuting with its mirror (mirror.h). */
+static int halves_serve_z(bst_ctx *ctx, const struct factor *f, int right, size_t nb,
+                          const bst_mat *const *b, const bst_mat *z)
+{
+    if (!f->mirror_g || right)
+        return 0;
+    for (size_t q = 0; q <= nb; q++)
+        if (!bsti_mirror_commutes(ctx, q < nb ? b[q] : z, f->prec, f->n, f->mirror_g,
+                                  f->mirror_turned))
+            return 0;
+    return 1;
+}
+
+/* out[q] = (I - A)^-1 b[q] and zout[q] = Z out[q] by the halves (halves_serve_z): the out[q] left
+ * split while Z multiplies them, half the flops of Z times the whole (mirror_mul.c), then made
+ * whole.  Z's first product goes into the inverse's storage, read for the last time by then: a
+ * block whose pages were touched, where a new one costs their first touch (bench/README.md). */
+static int split_products_z(bst_ctx *ctx, struct factor *f, size_t nb, const bst_mat *const *b,
+                            bst_mat **own_b, const bst_mat *z, bst_mat **out, bst_mat **zout)
+{
+    size_t n = f->n, g = f->mirror_g;
+    int turn = f->mirror_turned, rc = BST_OK;
+    bst_precision prec = f->prec;
+    for (size_t q = 0; q < nb && rc >= 0; q++) {
+        rc = bsti_mirror_mul_split(ctx, f->lu, prec, n, g, turn, 0, b[q], NULL, 0, &out[q]);
+        if (own_b) {
+            bst_mat_free(own_b[q]);
+            own_b[q] = NULL;
+        }
+    }
+    bst_mat *spare = NULL;
+    if (rc >= 0)
+        rc = factor_give_lu(ctx, f, &spare);
+    for (size_t q = 0; q < nb && rc >= 0; q++) {
+        rc = bsti_mirror_mul_split(ctx, out[q]->dense, prec, n, g, turn, 1, z, spare, 1,
+                                   &zout[q]);
+        spare = NULL; /* taken */
+        ctx->mirror_z_products += rc >= 0;
+        bsti_mirror_join(out[q]->dense, prec, n, g, turn);
+    }
+    bst_mat_free(spare);
+    return rc;
+}
+
 /* out[q] = (I - A)^-1 b[q] or b[q] (I - A)^-1 by the inverse, the owned right-hand sides freed as
  * read: by its halves while each b[q] has the mirror symmetry or is thin (mirror_mul.c, half the
- * product's flops), else by the whole. */
+ * product's flops), else by the whole.  z (NULL: none): zout[q] = Z out[q] too, where the halves
+ * serve it (split_products_z), else zout left NULL for the caller's product. */
 static int solve_by_inverse(bst_ctx *ctx, struct factor *f, int right, size_t nb,
-                            const bst_mat *const *b, bst_mat **own_b, bst_mat **out)
+                            const bst_mat *const *b, bst_mat **own_b, const bst_mat *z,
+                            bst_mat **out, bst_mat **zout)
 {
     int rc = dense_invert(ctx, f);
+    if (rc >= 0 && z && halves_serve_z(ctx, f, right, nb, b, z))
+        return split_products_z(ctx, f, nb, b, own_b, z, out, zout);
     for (size_t q = 0; q < nb && rc >= 0; q++) {
         rc = BSTI_MIRROR_ASYM;
         if (f->mirror_g)
@@ -1231,7 +1296,7 @@ static int results_checked(bst_ctx *ctx, int rc, size_t nb, bst_mat **out, doubl
 static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a, size_t nb,
                          const bst_mat *const *b, bst_mat **own_b, double rcond_warn,
                          bst_precision dense_prec, bst_mat **out, double *rcond_out,
-                         bsti_factor **keep)
+                         bsti_factor **keep, const bst_mat *z, bst_mat **zout)
 {
     if (keep)
         *keep = NULL;
@@ -1272,7 +1337,7 @@ static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **ow
     if (rcond_out)
         *rcond_out = rcond;
     if (rc >= 0 && !keep && inverse_pays(&f, nb, b))
-        rc = solve_by_inverse(ctx, &f, right, nb, b, own_b, out);
+        rc = solve_by_inverse(ctx, &f, right, nb, b, own_b, z, out, zout);
     else
         for (size_t q = 0; q < nb && rc >= 0; q++) {
             bst_mat *bq = own_b ? own_b[q] : NULL;
@@ -1287,8 +1352,13 @@ static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **ow
     rcond = fmin(rcond, 1.0); /* rounding in the estimate may exceed the bound 1 */
     if (rcond_out)
         *rcond_out = rcond;
-    if ((rc = results_checked(ctx, rc, nb, out, rcond)) < 0)
+    if ((rc = results_checked(ctx, rc, nb, out, rcond)) < 0) {
+        for (size_t q = 0; zout && q < nb; q++) {
+            bst_mat_free(zout[q]);
+            zout[q] = NULL;
+        }
         return rc;
+    }
     /* Single precision keeps about 7 digits: warn from sqrt(eps_float) on, whatever was asked. */
     if (prec == BST_FLOAT && f_dense)
         rcond_warn = fmax(rcond_warn, BSTI_RCOND_WARN_FLOAT);
@@ -1359,7 +1429,7 @@ static int solve_plus(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a
     double rcond = 1.0, rc_c = 1.0;
     if (rc >= 0) { /* the bases and the thin parts, one factorization of E */
         rc = solve_checked(ctx, right, a0, own0 ? &own0 : &none, nb + (mt > 0), b0,
-                           own_b0, rcond_warn, dense_prec, x, &rcond, NULL);
+                           own_b0, rcond_warn, dense_prec, x, &rcond, NULL, NULL, NULL);
         thin = NULL; /* taken */
         if (rc > 0)
             warn = rc, rc = BST_OK;
@@ -1484,10 +1554,12 @@ static int solve_plus(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a
 static int solve_owning(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a, size_t nb,
                         const bst_mat *const *b, bst_mat **own_b, double rcond_warn,
                         bst_precision dense_prec, bst_mat **out, double *rcond_out,
-                        bsti_factor **keep)
+                        bsti_factor **keep, const bst_mat *z, bst_mat **zout)
 {
     for (size_t q = 0; q < nb; q++)
         out[q] = NULL;
+    for (size_t q = 0; zout && q < nb; q++)
+        zout[q] = NULL;
     int plus = a && a->s == BST_PLUS_LR, rc;
     for (size_t q = 0; q < nb; q++)
         plus |= b[q] && b[q]->s == BST_PLUS_LR;
@@ -1497,7 +1569,7 @@ static int solve_owning(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own
         rc = solve_plus(ctx, right, a, own_a, nb, b, own_b, rcond_warn, dense_prec, out, rcond_out);
     else if (!plus)
         rc = solve_checked(ctx, right, a, own_a, nb, b, own_b, rcond_warn, dense_prec, out,
-                           rcond_out, keep);
+                           rcond_out, keep, z, zout);
     bst_mat_free(*own_a); /* when an error came before the factorization */
     *own_a = NULL;
     for (size_t q = 0; own_b && q < nb; q++) { /* when an error came before it was read */
@@ -1515,7 +1587,8 @@ int bst_solve_left(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double rcon
         return BST_EINVAL;
     if (!x)
         return bsti_error(ctx, BST_EINVAL, "solve: NULL result pointer");
-    return solve_owning(ctx, 0, a, &none, 1, &b, NULL, rcond_warn, BST_DOUBLE, x, rcond, NULL);
+    return solve_owning(ctx, 0, a, &none, 1, &b, NULL, rcond_warn, BST_DOUBLE, x, rcond, NULL,
+                        NULL, NULL);
 }
 
 int bst_solve_right(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double rcond_warn,
@@ -1526,7 +1599,8 @@ int bst_solve_right(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double rco
         return BST_EINVAL;
     if (!y)
         return bsti_error(ctx, BST_EINVAL, "solve: NULL result pointer");
-    return solve_owning(ctx, 1, a, &none, 1, &b, NULL, rcond_warn, BST_DOUBLE, y, rcond, NULL);
+    return solve_owning(ctx, 1, a, &none, 1, &b, NULL, rcond_warn, BST_DOUBLE, y, rcond, NULL,
+                        NULL, NULL);
 }
 
 int bsti_solve_take(bst_ctx *ctx, int right, bst_mat *a, const bst_mat *b, bst_mat *b_own,
@@ -1541,7 +1615,8 @@ int bsti_solve_take(bst_ctx *ctx, int right, bst_mat *a, const bst_mat *b, bst_m
         bst_mat_free(b_own);
         return ctx ? bsti_error(ctx, BST_EINVAL, "solve: NULL result pointer") : BST_EINVAL;
     }
-    return solve_owning(ctx, right, a, &own, 1, &b, own_b, rcond_warn, prec, out, rcond, keep);
+    return solve_owning(ctx, right, a, &own, 1, &b, own_b, rcond_warn, prec, out, rcond, keep,
+                        NULL, NULL);
 }
 
 int bsti_solve_take_left2(bst_ctx *ctx, bst_mat *a, const bst_mat *b1, bst_mat *b1_own,
@@ -1549,19 +1624,31 @@ int bsti_solve_take_left2(bst_ctx *ctx, bst_mat *a, const bst_mat *b1, bst_mat *
                           bst_precision prec, bst_mat **x1, bst_mat **x2, double *rcond,
                           bsti_factor **keep)
 {
-    bst_mat *own = a, *x[2] = {NULL, NULL}, *own_b[2] = {b1_own, b2_own};
+    return bsti_solve_take_left2_z(ctx, a, b1, b1_own, b2, b2_own, NULL, rcond_warn, prec, x1, x2,
+                                   NULL, NULL, rcond, keep);
+}
+
+int bsti_solve_take_left2_z(bst_ctx *ctx, bst_mat *a, const bst_mat *b1, bst_mat *b1_own,
+                            const bst_mat *b2, bst_mat *b2_own, const bst_mat *z,
+                            double rcond_warn, bst_precision prec, bst_mat **x1, bst_mat **x2,
+                            bst_mat **zx1, bst_mat **zx2, double *rcond, bsti_factor **keep)
+{
+    bst_mat *own = a, *x[2] = {NULL, NULL}, *own_b[2] = {b1_own, b2_own}, *zx[2] = {NULL, NULL};
     const bst_mat *b[2] = {b1, b2};
     if (keep)
         *keep = NULL;
-    if (!ctx || !x1 || !x2) {
+    if (!ctx || !x1 || !x2 || (z && (!zx1 || !zx2))) {
         bst_mat_free(a);
         bst_mat_free(b1_own);
         bst_mat_free(b2_own);
         return ctx ? bsti_error(ctx, BST_EINVAL, "solve: NULL result pointer") : BST_EINVAL;
     }
-    int rc = solve_owning(ctx, 0, a, &own, 2, b, own_b, rcond_warn, prec, x, rcond, keep);
+    int rc = solve_owning(ctx, 0, a, &own, 2, b, own_b, rcond_warn, prec, x, rcond, keep, z,
+                          z ? zx : NULL);
     *x1 = x[0];
     *x2 = x[1];
+    if (z)
+        *zx1 = zx[0], *zx2 = zx[1];
     return rc;
 }
 

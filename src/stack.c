@@ -370,6 +370,42 @@ static struct term solve2(struct combiner *cb, struct term a, struct term b1, st
     return result(cb, rc, out1);
 }
 
+/* Whether Z's first factor leaves Z sparse (or diagonal): then Z is formed before the solve and
+ * rides with it (solve2_z); a dense Z is formed after it, as it would add an N x N block to the
+ * solve's peak. */
+static int sparse_factor(const bst_mat *m)
+{
+    bst_structure st = bst_mat_structure(m);
+    return st == BST_SPARSE || st == BST_DIAG;
+}
+
+/* solve2 for from_outward and from_inward, with Z's products: *zx1 = Z X1 and *zx2 = Z X2 (Z
+ * read once here), by the halves of a mirror-split inverse where they serve (mat.h), else by
+ * plain products after the solve. */
+static struct term solve2_z(struct combiner *cb, struct term a, struct term b1, struct term b2,
+                            struct term z, const char *what, struct term *x2, struct term *zx1,
+                            struct term *zx2)
+{
+    if (cb->status < 0 || !a.m || !b1.m || !b2.m || !z.m) { /* solve2's zero operands */
+        struct term x1 = solve2(cb, a, b1, b2, what, NULL, x2);
+        *zx2 = mul(cb, keep(z), keep(*x2));
+        *zx1 = mul(cb, z, keep(x1));
+        return x1;
+    }
+    bst_mat *out1 = NULL, *out2 = NULL, *zout1 = NULL, *zout2 = NULL;
+    cb->rcond = 1.0;
+    int rc = bsti_solve_take_left2_z(cb->ctx, a.dies, b1.m, b1.dies, b2.m, b2.dies, z.m,
+                                     cb->opts->rcond_warn, cb->opts->precision, &out1, &out2,
+                                     &zout1, &zout2, &cb->rcond, NULL);
+    rc = solve_status(cb, rc, what);
+    *x2 = result(cb, rc, out2);
+    struct term x1 = result(cb, rc, out1);
+    *zx2 = zout2 ? result(cb, rc, zout2) : mul(cb, keep(z), keep(*x2));
+    *zx1 = zout1 ? result(cb, rc, zout1) : mul(cb, keep(z), keep(x1));
+    bst_mat_free(z.dies);
+    return x1;
+}
+
 /* Component c of S is t: kept, and reported (time since t0, the step's rcond). */
 static void form(struct combiner *cb, struct part *s, bst_comp c, double t0, struct term t)
 {
@@ -516,7 +552,9 @@ static void outward(struct combiner *cb, struct part *u, struct part *v, unsigne
  * before it meets X (Z = Tf2 L Rb1 below: the other part's sparse or dense values scaled, where
  * L Rb1 X would be a scaled copy of X), so that each X is read as it is by the product with Z and
  * then scaled by the pane in its own storage at its last read: no N x N temporary, and two fresh
- * N x N blocks fewer a step.
+ * N x N blocks fewer a step.  A sparse Z is formed before the solve and goes with it
+ * (solve2_z): a mirror-split inverse's halves multiply Z before X is made whole, half the flops
+ * of Z X (a mirror blind's second step at k = 7: two products of 98 GFLOP each).
  *
  * U a pane, from the light going outwards:
  *   X1 = (I - A2)^-1 L Tb2,  X2 = (I - A2)^-1 L Rf2 L Tf1,  Z = Tf2 L Rb1,
@@ -528,13 +566,22 @@ static void from_outward(struct combiner *cb, struct part *u, struct part *v, st
     cb->flops_mark = cb->ctx->flops;
     cb->mirror_mark = cb->ctx->mirror_splits;
     struct term a2 = reflected_outwards(cb, v, u, BST_RB);
-    struct term x2, x1 = solve2(cb, a2, lam_times(cb, use(v, BST_TB)),
-                                reflected_outwards(cb, v, u, BST_TF), what, NULL, &x2);
-    struct term tf2 = use(v, BST_TF);
-    struct term z = mul(cb, keep(tf2), lam_times(cb, use(u, BST_RB)));
-    form(cb, s, BST_RB, t0, add(cb, use(v, BST_RB), mul(cb, keep(z), keep(x1))));
-    t0 = now_seconds();
-    form(cb, s, BST_TF, t0, add(cb, mul(cb, tf2, lam_tf1(cb, u)), mul(cb, z, keep(x2))));
+    struct term tf2 = use(v, BST_TF), x1, x2;
+    if (sparse_factor(tf2.m)) {
+        struct term zx1, zx2, z = mul(cb, keep(tf2), lam_times(cb, use(u, BST_RB)));
+        x1 = solve2_z(cb, a2, lam_times(cb, use(v, BST_TB)), reflected_outwards(cb, v, u, BST_TF),
+                      z, what, &x2, &zx1, &zx2);
+        form(cb, s, BST_RB, t0, add(cb, use(v, BST_RB), zx1));
+        t0 = now_seconds();
+        form(cb, s, BST_TF, t0, add(cb, mul(cb, tf2, lam_tf1(cb, u)), zx2));
+    } else {
+        x1 = solve2(cb, a2, lam_times(cb, use(v, BST_TB)), reflected_outwards(cb, v, u, BST_TF),
+                    what, NULL, &x2);
+        struct term z = mul(cb, keep(tf2), lam_times(cb, use(u, BST_RB)));
+        form(cb, s, BST_RB, t0, add(cb, use(v, BST_RB), mul(cb, keep(z), keep(x1))));
+        t0 = now_seconds();
+        form(cb, s, BST_TF, t0, add(cb, mul(cb, tf2, lam_tf1(cb, u)), mul(cb, z, keep(x2))));
+    }
     t0 = now_seconds();
     struct term tb1 = use(u, BST_TB);
     form(cb, s, BST_TB, t0, mul(cb, keep(tb1), x1));
@@ -553,14 +600,22 @@ static void from_inward(struct combiner *cb, struct part *u, struct part *v, str
     cb->mirror_mark = cb->ctx->mirror_splits;
     struct term llrb1 = lam_both(cb, use(u, BST_RB));
     struct term a1 = mul(cb, keep(llrb1), use(v, BST_RF));
-    struct term x2, x1 = solve2(cb, a1, lam_tf1(cb, u), mul(cb, llrb1, use(v, BST_TB)), what,
-                                NULL, &x2);
-    struct term tb1 = use(u, BST_TB);
-    struct term z = mul(cb, keep(tb1), lam_times(cb, use(v, BST_RF)));
-    form(cb, s, BST_TB, t0,
-         add(cb, mul(cb, tb1, lam_times(cb, use(v, BST_TB))), mul(cb, keep(z), keep(x2))));
-    t0 = now_seconds();
-    form(cb, s, BST_RF, t0, add(cb, use(u, BST_RF), mul(cb, z, keep(x1))));
+    struct term tb1 = use(u, BST_TB), x1, x2;
+    if (sparse_factor(tb1.m)) {
+        struct term zx1, zx2, z = mul(cb, keep(tb1), lam_times(cb, use(v, BST_RF)));
+        x1 = solve2_z(cb, a1, lam_tf1(cb, u), mul(cb, llrb1, use(v, BST_TB)), z, what, &x2, &zx1,
+                      &zx2);
+        form(cb, s, BST_TB, t0, add(cb, mul(cb, tb1, lam_times(cb, use(v, BST_TB))), zx2));
+        t0 = now_seconds();
+        form(cb, s, BST_RF, t0, add(cb, use(u, BST_RF), zx1));
+    } else {
+        x1 = solve2(cb, a1, lam_tf1(cb, u), mul(cb, llrb1, use(v, BST_TB)), what, NULL, &x2);
+        struct term z = mul(cb, keep(tb1), lam_times(cb, use(v, BST_RF)));
+        form(cb, s, BST_TB, t0,
+             add(cb, mul(cb, tb1, lam_times(cb, use(v, BST_TB))), mul(cb, keep(z), keep(x2))));
+        t0 = now_seconds();
+        form(cb, s, BST_RF, t0, add(cb, use(u, BST_RF), mul(cb, z, keep(x1))));
+    }
     t0 = now_seconds();
     struct term tf2 = use(v, BST_TF);
     form(cb, s, BST_TF, t0, mul(cb, keep(tf2), x1));

@@ -7,7 +7,8 @@
  * against the whole's; and
  * the stacks: a venetian blind's layer commutes with its mirror (a physical symmetry: its model
  * sampled a patch and its image at unrelated points until session 53), and a pane + blind + pane
- * split gives what the unsplit baseline (--dense) gives. */
+ * split gives what the unsplit baseline (--dense) gives, Z's products by the halves (stack.c's
+ * solve2_z) among them. */
 #include <config.h>
 
 #include <float.h>
@@ -393,6 +394,86 @@ START_TEST(test_halves_product)
 }
 END_TEST
 
+/* A sparse n x n matrix commuting with the mirror of the axis: one pair of values in about 16
+ * kept of a symmetric one (values for dense_of). */
+static double *sparse_symmetric(size_t g, int axis, double norm, tu_rng *r)
+{
+    size_t (*im)(size_t, size_t) = axis ? mir_y : mir, n = g * g;
+    double *v = symmetric_about(g, axis, norm, r);
+    for (size_t q = 0; q < n; q++)
+        for (size_t p = 0; p < n; p++) {
+            size_t cp = p < im(g, p) ? p : im(g, p), cq = p < im(g, p) ? q : im(g, q);
+            if ((cp * 7919 + cq * 104729) % 16)
+                v[q * n + p] = 0.0;
+        }
+    return v;
+}
+
+static bst_mat *sparse_of_values(const double *v, size_t n)
+{
+    bst_mat *d = dense_of(v, n, n, BST_DOUBLE), *s;
+    ck_assert_int_eq(bst_mat_convert(ctx, d, BST_SPARSE, BST_DOUBLE, &s), BST_OK);
+    bst_mat_free(d);
+    return s;
+}
+
+/* Two left solves with Z's products (bsti_solve_take_left2_z, stack.c's from_inward and
+ * from_outward): a split inverse forms Z X1 and Z X2 by its halves before X1 and X2 are made
+ * whole, the same as Z times the unsplit solves' X1 and X2 (1e-13 of the largest in double, 2e-5
+ * single), and X1, X2 as theirs; a Z without the symmetry (one value moved) is left to the caller
+ * (both products NULL, X1 and X2 still split solves).  _i: precision, mirror (x, y), Z off. */
+START_TEST(test_z_products)
+{
+    bst_precision prec = _i & 1 ? BST_FLOAT : BST_DOUBLE;
+    int axis = (_i >> 1) & 1, off = _i >> 2;
+    tu_rng r;
+    tu_rng_seed(&r, 500 + (uint64_t)_i);
+    size_t g = 16, n = g * g;
+    double *av = symmetric_about(g, axis, 0.9, &r), *b1v = sparse_symmetric(g, axis, 1.0, &r),
+           *b2v = sparse_symmetric(g, axis, 0.5, &r), *zv = sparse_symmetric(g, axis, 2.0, &r);
+    if (off) {
+        size_t q = 0;
+        while (zv[q * n + 3] == 0.0)
+            q++;
+        zv[q * n + 3] *= 1.0 + 1e-4;
+    }
+    bst_mat *b1 = sparse_of_values(b1v, n), *b2 = sparse_of_values(b2v, n),
+            *z = sparse_of_values(zv, n), *x[2][2], *zx[2];
+    for (int no = 0; no < 2; no++) {
+        ctx->no_mirror = no;
+        bst_mat *acopy = dense_of(av, n, n, prec);
+        double rcond, s0 = ctx->mirror_splits, z0 = ctx->mirror_z_products;
+        int rc = no ? bsti_solve_take_left2(ctx, acopy, b1, NULL, b2, NULL, 0.0, prec, &x[no][0],
+                                            &x[no][1], &rcond, NULL)
+                    : bsti_solve_take_left2_z(ctx, acopy, b1, NULL, b2, NULL, z, 0.0, prec,
+                                              &x[no][0], &x[no][1], &zx[0], &zx[1], &rcond, NULL);
+        ck_assert_msg(rc == BST_OK, "%s", bst_ctx_message(ctx));
+        ck_assert_double_eq(ctx->mirror_splits - s0, !no);
+        ck_assert_double_eq(ctx->mirror_z_products - z0, no || off ? 0.0 : 2.0);
+    }
+    double tol = prec == BST_DOUBLE ? 1e-13 : 2e-5;
+    for (int q = 0; q < 2; q++) {
+        double *got = tm_dense(ctx, x[0][q]), *want = tm_dense(ctx, x[1][q]);
+        double big = tm_maxabs(want, n * n);
+        ck_assert_double_le(tm_maxdiff(got, want, n * n), tol * big);
+        if (off) {
+            ck_assert_ptr_null(zx[q]);
+        } else {
+            double *zw = malloc(n * n * sizeof *zw), *zg = tm_dense(ctx, zx[q]);
+            tm_gemm(n, n, n, zv, want, zw);
+            big = tm_maxabs(zw, n * n);
+            ck_assert_msg(tm_maxdiff(zg, zw, n * n) <= tol * big, "Z X%d: %g of %g", q + 1,
+                          tm_maxdiff(zg, zw, n * n), big);
+            free(zw), free(zg);
+        }
+        free(got), free(want);
+        bst_mat_free(x[0][q]), bst_mat_free(x[1][q]), bst_mat_free(zx[q]);
+    }
+    free(av), free(b1v), free(b2v), free(zv);
+    bst_mat_free(b1), bst_mat_free(b2), bst_mat_free(z);
+}
+END_TEST
+
 /* A matrix without the symmetry is not split; a kept split factorization serves the later right
  * solves (the absorptance's). */
 START_TEST(test_kept_and_plain)
@@ -504,19 +585,22 @@ static void on_step(const bst_stack_step *s, void *opaque)
     saw_mirror |= s->mirror;
 }
 
-/* A pane on each side of a mirror and diffuse blind at k = 4, horizontal (x mirror) or vertical
- * (y mirror, the solve turned first): the second step's dense solve split
- * (-v's flag), the system's every value as the unsplit --dense baseline's to 1e-11 of the
- * largest, double; 2e-5 single. */
+/* A pane on each side of a mirror and diffuse blind at k = 4 (or a mirror blind at k = 5),
+ * horizontal (x mirror) or vertical (y mirror, the solve turned first): the second step's dense
+ * solve split (-v's flag; the mirror blind's Z products by the halves, solve2_z), the system's
+ * every value as the unsplit --dense baseline's to 1e-11 of the largest, double; 2e-5 single. */
 START_TEST(test_stack)
 {
     bst_precision prec = _i & 1 ? BST_FLOAT : BST_DOUBLE;
-    const char *spec = _i & 2 ? "width=16mm,spacing=14.5mm,tilt=45,rs=0.765,r=0.085,roughness=0.02,"
-                                "vertical"
-                              : "width=16mm,spacing=14.5mm,tilt=45,rs=0.765,r=0.085,roughness=0.02";
+    int matte = !(_i & 4); /* diffuse slats (a low-rank part), or mirror slats alone (sparse) */
+    char spec[160];
+    snprintf(spec, sizeof spec, "width=16mm,spacing=14.5mm,tilt=45,rs=0.765,%sroughness=0.02%s",
+             matte ? "r=0.085," : "", _i & 2 ? ",vertical" : "");
     const char *ch = "Visible";
     bst_basis *basis;
-    ck_assert_int_eq(bst_basis_new_sc(ctx, 4, &basis), BST_OK);
+    /* k = 5 for the mirror slats: from there the inverse pays (solve.c), which Z's products by
+       the halves need */
+    ck_assert_int_eq(bst_basis_new_sc(ctx, matte ? 4 : 5, &basis), BST_OK);
     size_t n = bst_basis_size(basis);
     bst_venetian v;
     bst_layer *blind, *pane, *sys[2];
@@ -544,9 +628,11 @@ START_TEST(test_stack)
         o.precision = prec;
         o.on_step = on_step;
         saw_mirror = 0;
+        double z0 = ctx->mirror_z_products;
         int rc = bst_stack_combine(ctx, 3, stack, &o, &sys[dense]);
         ck_assert_msg(rc >= 0, "%s", bst_ctx_message(ctx));
         ck_assert_int_eq(saw_mirror, !dense);
+        ck_assert_double_eq(ctx->mirror_z_products - z0, dense || matte ? 0.0 : 2.0);
     }
     double *d0 = malloc(n * n * sizeof *d0), *d1 = malloc(n * n * sizeof *d1);
     for (int c = 0; c < BST_NCOMP; c++) {
@@ -574,10 +660,11 @@ static Suite *mirror_suite(void)
     tcase_add_loop_test(tc, test_sparse_split, 0, 16);
     tcase_add_loop_test(tc, test_split_threads, 0, 4);
     tcase_add_loop_test(tc, test_halves_product, 0, 24);
+    tcase_add_loop_test(tc, test_z_products, 0, 8);
     tcase_add_test(tc, test_kept_and_plain);
     tcase_add_test(tc, test_singular_half);
     tcase_add_test(tc, test_venetian_symmetry);
-    tcase_add_loop_test(tc, test_stack, 0, 4);
+    tcase_add_loop_test(tc, test_stack, 0, 8);
     suite_add_tcase(s, tc);
     return s;
 }
