@@ -62,6 +62,89 @@ static double block_measure(const struct tw *w, struct bacc *b, const size_t *c,
     return mean;
 }
 
+/* On x86-64 with GCC's function multi-versioning, stream_blocks is also compiled for AVX2 (as the
+ * sparse products are, mat_mul.c): four blocks' values then fill one vector register.  No FMA:
+ * each product and sum is rounded as in block_measure. */
+#if defined(__x86_64__) && defined(__has_attribute)
+#if __has_attribute(target_clones)
+#define MEASURE_CLONES __attribute__((target_clones("avx2", "default")))
+#endif
+#endif
+#ifndef MEASURE_CLONES
+#define MEASURE_CLONES
+#endif
+
+/* Four blocks side by side, block t in lane t (GCC's vector extension); the unaligned views the
+ * tensor's rows are read through. */
+#define MEASURE_NB 4
+typedef double mv4d __attribute__((vector_size(32)));
+typedef long long mv4l __attribute__((vector_size(32)));
+typedef float mv8f_u __attribute__((vector_size(32), aligned(4), may_alias));
+typedef double mv4d_u __attribute__((vector_size(32), aligned(8), may_alias));
+
+/* a where mask m is set, else b (lane by lane). */
+#define MV_PICK(m, a, b) ((mv4d)(((mv4l)(a) & (m)) | ((mv4l)(b) & ~(m))))
+
+/* block_measure for the MEASURE_NB finest blocks of corners c + 2 t e_3 (rank 4, t < MEASURE_NB),
+ * whose rows of values start at index row[r] + x (r < 8: member j of block t at row[j & 7] + x +
+ * 2 t + (j >> 3)), in the four lanes of vectors: each block's comparisons and sums over its
+ * values in their order, as block_measure makes them, so the same bits (negatives counted and
+ * read as +0, -0 kept).  Only where every value is finite and at most FLT_MAX: 0, nothing
+ * written, when one is not (block_measure alone reports it). */
+static inline __attribute__((always_inline)) int blocks_measure(const struct tw *w,
+                                                                struct bacc *b,
+                                                                const size_t *row, size_t x,
+                                                                const size_t *c, double *mean)
+{
+    mv4d v[16]; /* member j of the four blocks */
+    for (int r = 0; r < 8; r++) {
+        if (w->f) {
+            mv8f_u raw = *(const mv8f_u *)(w->f + row[r] + x);
+            v[r] = __builtin_convertvector(__builtin_shufflevector(raw, raw, 0, 2, 4, 6), mv4d);
+            v[r + 8] = __builtin_convertvector(__builtin_shufflevector(raw, raw, 1, 3, 5, 7), mv4d);
+        } else {
+            mv4d_u lo = *(const mv4d_u *)(w->d + row[r] + x), hi = *(const mv4d_u *)(w->d + row[r] + x + 4);
+            v[r] = __builtin_shufflevector(lo, hi, 0, 2, 4, 6);
+            v[r + 8] = __builtin_shufflevector(lo, hi, 1, 3, 5, 7);
+        }
+    }
+    mv4l ok = {-1, -1, -1, -1}, neg = {0, 0, 0, 0};
+    for (int j = 0; j < 16; j++) {
+        ok &= (v[j] <= FLT_MAX) & (v[j] >= -DBL_MAX); /* (false for NaN) */
+        mv4l n = v[j] < 0.0;
+        neg -= n; /* (a set mask is -1) */
+        v[j] = (mv4d)((mv4l)v[j] & ~n); /* +0 where negative */
+    }
+    if (!(ok[0] & ok[1] & ok[2] & ok[3]))
+        return 0;
+    b->negatives += (size_t)(neg[0] + neg[1] + neg[2] + neg[3]);
+    mv4d lo = v[0], hi = v[0], sum = 0.0 + v[0], ss, mu;
+    for (int j = 1; j < 16; j++) {
+        lo = MV_PICK(v[j] < lo, v[j], lo);
+        hi = MV_PICK(v[j] > hi, v[j], hi);
+        sum += v[j];
+    }
+    mu = sum / 16.0;
+    ss = 0.0 + (v[0] - mu) * (v[0] - mu);
+    for (int j = 1; j < 16; j++)
+        ss += (v[j] - mu) * (v[j] - mu);
+    for (int t = 0; t < MEASURE_NB; t++) {
+        float m;
+        mean[t] = mu[t];
+        if (lo[t] == hi[t]) {
+            mean[t] = lo[t];
+            m = 0.0f;
+        } else if (w->lossless) {
+            m = FLT_MIN;
+        } else {
+            m = measure(sqrt(ss[t] / 16.0), mu[t], w->floor);
+        }
+        size_t ct[4] = {c[0], c[1], c[2], c[3] + 2 * (size_t)t};
+        w->m[node_index(w, 1, ct)] = m;
+    }
+    return 1;
+}
+
 /* A task's finest blocks measured ahead of the walk (stream_blocks): their means, the block at
  * offset (q_0, .., q_{D-1}) (in blocks from corner c) at index sum q_i side^(D-1-i). */
 struct pre1 {
@@ -93,7 +176,7 @@ static inline void prefetch_row3(const struct tw *w, const struct pre1 *pre, siz
  * dimension 3 while the rows STREAM_AHEAD block rows on are asked for, so the reads follow the
  * memory instead of the tree (whose order left the walk waiting on each block: most of build's
  * time). */
-static void stream_blocks(const struct tw *w, struct bacc *b, const struct pre1 *pre)
+MEASURE_CLONES static void stream_blocks(const struct tw *w, struct bacc *b, const struct pre1 *pre)
 {
     size_t h = pre->side, nt = h * h * h, q = 0;
     for (size_t t = 0; t < STREAM_AHEAD && t < nt; t++)
@@ -111,6 +194,11 @@ static void stream_blocks(const struct tw *w, struct bacc *b, const struct pre1 
             double vals[16]; /* w->boff order: bit i of j is dimension i */
             size_t c[4] = {pre->c[0] + 2 * a[0], pre->c[1] + 2 * a[1], pre->c[2] + 2 * a[2],
                            pre->c[3] + 2 * a3};
+            if (a3 % MEASURE_NB == 0 && h - a3 >= MEASURE_NB &&
+                blocks_measure(w, b, row, 2 * a3, c, pre->mean + q)) {
+                a3 += MEASURE_NB - 1, q += MEASURE_NB - 1;
+                continue;
+            }
             if (w->f)
                 for (int j = 0; j < 16; j++)
                     vals[j] = (double)w->f[row[j & 7] + 2 * a3 + (size_t)(j >> 3)];

@@ -196,6 +196,11 @@ static double get_double(const void *opaque, size_t index)
     return ((const double *)opaque)[index];
 }
 
+static double get_float(const void *opaque, size_t index)
+{
+    return (double)((const float *)opaque)[index];
+}
+
 static void assert_same_stats(const bsti_tree_stats *a, const bsti_tree_stats *b)
 {
     ck_assert_uint_eq(a->values, b->values);
@@ -211,7 +216,9 @@ static void assert_same_stats(const bsti_tree_stats *a, const bsti_tree_stats *b
 }
 
 /* Every access (double, float, function), lossless and two percentiles: the same text and
- * numbers with every thread count; lossless, the independent emitter's text and errors. */
+ * numbers with every thread count; lossless, the independent emitter's text and errors; direct
+ * access (whose finest blocks are measured four at a time in vectors, ttree_measure.c) the text
+ * and numbers of a function's (one block at a time) over the same doubles or floats. */
 START_TEST(test_tree_threads)
 {
     tu_rng r;
@@ -226,9 +233,10 @@ START_TEST(test_tree_threads)
     fill(&r, rank, k, t, n);
     for (size_t q = 0; q < n; q++)
         f[q] = (float)t[q];
-    bsti_tensor access[3] = {{rank, k, t, NULL, NULL, NULL, 0, NULL},
+    bsti_tensor access[4] = {{rank, k, t, NULL, NULL, NULL, 0, NULL},
                              {rank, k, NULL, f, NULL, NULL, 0, NULL},
-                             {rank, k, NULL, NULL, get_double, t, 0, NULL}};
+                             {rank, k, NULL, NULL, get_double, t, 0, NULL},
+                             {rank, k, NULL, NULL, get_float, f, 0, NULL}};
     static const double pcts[] = {-1, 50, 90};
     struct ref ref;
     ref_tree(&ref, t, rank, k);
@@ -249,6 +257,13 @@ START_TEST(test_tree_threads)
                 if (n >= 4096)
                     ck_assert_int_gt(s1.negatives, 0);
             }
+            if (a < 2) { /* the same values through a function */
+                char *through = tree_text(&access[a + 2], pcts[p], 1, &sn);
+                ck_assert_msg(strcmp(one, through) == 0, "rank %d k %d access %d pct %g: text "
+                              "differs from a function's", rank, k, a, pcts[p]);
+                assert_same_stats(&s1, &sn);
+                free(through);
+            }
             for (size_t c = 1; c < NCOUNTS; c++) {
                 char *many = tree_text(&access[a], pcts[p], thread_counts[c], &sn);
                 ck_assert_msg(strcmp(one, many) == 0, "rank %d k %d access %d pct %g: %d threads "
@@ -259,6 +274,83 @@ START_TEST(test_tree_threads)
             free(one);
         }
     free(ref.out.p), free(ref.hemi);
+    free(t), free(f);
+}
+END_TEST
+
+/* A smooth tensor (every node's measure from its children's means as much as from their own
+ * measures): direct access, its finest blocks measured four at a time, writes the text of a
+ * function's, doubles and floats, reduced at two percentiles. */
+START_TEST(test_smooth_direct)
+{
+    int k = 4 + _i;
+    size_t G = (size_t)1 << k, n = G * G * G * G;
+    double *t = malloc(n * sizeof *t);
+    float *f = malloc(n * sizeof *f);
+    ck_assert(t && f);
+    for (size_t q = 0; q < n; q++) {
+        double x[4];
+        for (int i = 0; i < 4; i++)
+            x[i] = (double)((q >> (k * (3 - i))) & (G - 1)) / (double)G;
+        t[q] = exp(2.0 * sin(3.0 * x[0] + x[1]) * cos(2.0 * x[2] - x[3]) + 4.0 * x[3] * x[3]);
+        f[q] = (float)t[q];
+    }
+    bsti_tensor access[4] = {{4, k, t, NULL, NULL, NULL, 0, NULL},
+                             {4, k, NULL, NULL, get_double, t, 0, NULL},
+                             {4, k, NULL, f, NULL, NULL, 0, NULL},
+                             {4, k, NULL, NULL, get_float, f, 0, NULL}};
+    static const double pcts[] = {50, 90};
+    for (int a = 0; a < 4; a += 2)
+        for (int p = 0; p < 2; p++) {
+            bsti_tree_stats s1, s2;
+            char *direct = tree_text(&access[a], pcts[p], 2, &s1);
+            char *through = tree_text(&access[a + 1], pcts[p], 2, &s2);
+            ck_assert_msg(strcmp(direct, through) == 0, "k %d access %d pct %g: direct access "
+                          "writes other text than a function", k, a, pcts[p]);
+            assert_same_stats(&s1, &s2);
+            ck_assert_uint_gt(s1.values, 0);
+            free(direct), free(through);
+        }
+    free(t), free(f);
+}
+END_TEST
+
+/* A value that is not finite in single precision (a double above FLT_MAX, an infinity, a NaN)
+ * among the vectors' blocks: the error names the value of the least finest block holding one,
+ * through direct access as through a function, doubles and floats. */
+START_TEST(test_bad_values)
+{
+    tu_rng r;
+    tu_rng_seed(&r, 77);
+    int k = 5;
+    size_t G = (size_t)1 << k, n = G * G * G * G;
+    double *t = malloc(n * sizeof *t);
+    float *f = malloc(n * sizeof *f);
+    ck_assert(t && f);
+    fill(&r, 4, k, t, n);
+    size_t late = n - 3 * G - 5, early = n / 2 + 2 * G + 7; /* finest blocks in index order */
+    t[late] = NAN;
+    t[early] = _i ? INFINITY : 1e39;
+    for (size_t q = 0; q < n; q++)
+        f[q] = (float)t[q];
+    bsti_tensor access[4] = {{4, k, t, NULL, NULL, NULL, 0, NULL},
+                             {4, k, NULL, NULL, get_double, t, 0, NULL},
+                             {4, k, NULL, f, NULL, NULL, 0, NULL},
+                             {4, k, NULL, NULL, get_float, f, 0, NULL}};
+    for (int a = 0; a < 4; a++) {
+        bst_ctx *ctx = bst_ctx_new();
+        tu_membuf m = {0};
+        bsti_sink *s = malloc(sizeof *s);
+        bsti_sink_init(s, tu_mem_write, &m);
+        bsti_reduce red = {90, BST_REDUCE_FLOOR, 0, NULL, NULL, 0, 0};
+        bsti_tree_stats st;
+        ck_assert_int_eq(bsti_ttree_write(ctx, &access[a], &red, s, &st), BST_EINVAL);
+        const char *want = a < 2 && !_i ? "value 1e+39 is" : "value inf is";
+        ck_assert_msg(strstr(bst_ctx_message(ctx), want), "access %d: %s", a,
+                      bst_ctx_message(ctx));
+        free(s), free(m.p);
+        bst_ctx_free(ctx);
+    }
     free(t), free(f);
 }
 END_TEST
@@ -468,6 +560,8 @@ static Suite *suite(void)
     TCase *tc = tcase_create("core");
     tcase_set_timeout(tc, 120);
     tcase_add_loop_test(tc, test_bound_threads, 0, 4);
+    tcase_add_loop_test(tc, test_bad_values, 0, 2);
+    tcase_add_loop_test(tc, test_smooth_direct, 0, 2);
     tcase_add_loop_test(tc, test_tree_threads, 0, 12);
     tcase_add_test(tc, test_fine_in_and_diagonal);
     tcase_add_loop_test(tc, test_xml_threads, 0, 2);
