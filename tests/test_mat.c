@@ -167,10 +167,11 @@ END_TEST
  * context's threads): each C(i, j) is the sum over the sparse operand's non-zeros, inner index
  * ascending, of their products in the dense operand's precision (the loop written out here), to
  * the bit, on one thread or three, for dense operands of fewer lines than a panel, of several
- * panels and a part, and rectangular operands. */
+ * panels and a part, rectangular operands, and a long inner dimension. */
 START_TEST(test_spmm_same_bits)
 {
-    static const size_t dims[][3] = {{150, 130, 7}, {150, 130, 200}, {64, 64, 129}};
+    static const size_t dims[][3] = {{150, 130, 7}, {150, 130, 200}, {64, 64, 129},
+                                     {150, 2500, 70}};
     int dense_left = _i % 2;
     size_t m = dims[_i / 2][0], k = dims[_i / 2][1], p = dims[_i / 2][2];
     if (dense_left) { /* the dense operand's lines are A's rows: the long side first */
@@ -488,7 +489,7 @@ static Suite *mat_suite(void)
     tcase_add_loop_test(tc, test_unary, 0, TM_NKINDS * (int)NSIZES);
     tcase_add_loop_test(tc, test_transpose_rect, 0, 8);
     tcase_add_loop_test(tc, test_add_take, 0, TM_NKINDS * TM_NKINDS);
-    tcase_add_loop_test(tc, test_spmm_same_bits, 0, 6);
+    tcase_add_loop_test(tc, test_spmm_same_bits, 0, 8);
     tcase_add_loop_test(tc, test_dense_passes, 0, 12);
     tcase_add_test(tc, test_spmm_empty_inner);
     tcase_add_test(tc, test_drop_tol);
