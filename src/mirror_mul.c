@@ -44,27 +44,67 @@ static double value_at(const cholmod_sparse *b, size_t row, size_t col)
     return 0.0;
 }
 
-/* Whether every value of b agrees with its mirror image (the axis's) to tol of the largest. */
-static int sparse_holds(const cholmod_sparse *b, size_t g, int axis, double tol)
+/* Whether every value of b agrees with its mirror image (the axis's) to tol of the largest: the
+ * largest, then the comparisons, each over runs of columns on the threads ctx allows (NULL: one);
+ * the answer does not depend on their number. */
+#define HOLDS_MIN_COLS 256
+struct holds_part {
+    const cholmod_sparse *b;
+    size_t g, j0, j1;
+    int axis;
+    double t;   /* the comparisons' tolerance, or NaN: find the largest value */
+    double big; /* the run's largest magnitude (+Inf for a value that is not finite) */
+    int ok;     /* every value of the run agrees with its image */
+};
+
+static void *holds_run(void *opaque)
 {
-    const SuiteSparse_long *p = b->p, *i = b->i;
-    const double *x = b->x;
-    size_t n = b->ncol;
-    double big = 0.0;
-    for (SuiteSparse_long q = 0; q < p[n]; q++) {
-        double v = fabs(x[q]);
-        if (!(v <= DBL_MAX))
-            return 0;
-        big = v > big ? v : big;
+    struct holds_part *h = opaque;
+    const SuiteSparse_long *p = h->b->p, *i = h->b->i;
+    const double *x = h->b->x;
+    if (isnan(h->t)) {
+        double big = 0.0;
+        for (SuiteSparse_long q = p[h->j0]; q < p[h->j1]; q++) {
+            double v = fabs(x[q]);
+            big = !(v <= DBL_MAX) ? INFINITY : v > big ? v : big;
+        }
+        h->big = big;
+        return NULL;
     }
-    double t = tol * big;
-    for (size_t j = 0; j < n; j++) {
-        size_t sj = bsti_mirror_image(g, j, axis);
+    h->ok = 1;
+    for (size_t j = h->j0; j < h->j1 && h->ok; j++) {
+        size_t sj = bsti_mirror_image(h->g, j, h->axis);
         for (SuiteSparse_long q = p[j]; q < p[j + 1]; q++)
-            if (fabs(x[q] - value_at(b, bsti_mirror_image(g, (size_t)i[q], axis), sj)) > t)
-                return 0;
+            if (fabs(x[q] - value_at(h->b, bsti_mirror_image(h->g, (size_t)i[q], h->axis), sj)) >
+                h->t) {
+                h->ok = 0;
+                break;
+            }
     }
-    return 1;
+    return NULL;
+}
+
+static int sparse_holds(bst_ctx *ctx, const cholmod_sparse *b, size_t g, int axis, double tol)
+{
+    size_t n = b->ncol, nt = ctx ? (size_t)bsti_ctx_workers_no_alloc(ctx, n / HOLDS_MIN_COLS) : 1;
+    struct holds_part part[BST_THREADS_MAX];
+    if (nt < 1)
+        nt = 1;
+    for (size_t k = 0; k < nt; k++)
+        part[k] = (struct holds_part){b, g, n * k / nt, n * (k + 1) / nt, axis, NAN, 0.0, 0};
+    bsti_run_parts(part, sizeof *part, nt, holds_run);
+    double big = 0.0;
+    for (size_t k = 0; k < nt; k++)
+        big = part[k].big > big ? part[k].big : big;
+    if (!(big <= DBL_MAX))
+        return 0;
+    for (size_t k = 0; k < nt; k++)
+        part[k].t = tol * big;
+    bsti_run_parts(part, sizeof *part, nt, holds_run);
+    int ok = 1;
+    for (size_t k = 0; k < nt; k++)
+        ok &= part[k].ok;
+    return ok;
 }
 
 /* Where value (row, column j) of a matrix that commutes with the mirror goes in its split: for a
@@ -193,7 +233,7 @@ int bsti_mirror_split_sparse(bst_ctx *ctx, const cholmod_sparse *a, bst_precisio
     if (a->nrow != n || n != g * g || !a->packed || !a->sorted)
         return BSTI_MIRROR_ASYM;
     int turn = 0;
-    if (!sparse_holds(a, g, 0, tol) && !(turn = sparse_holds(a, g, 1, tol)))
+    if (!sparse_holds(ctx, a, g, 0, tol) && !(turn = sparse_holds(ctx, a, g, 1, tol)))
         return BSTI_MIRROR_ASYM;
     zero_quarters(ctx, lu, n, prec == BST_DOUBLE ? sizeof(double) : sizeof(float));
     if (prec == BST_DOUBLE)
@@ -230,10 +270,12 @@ static int sparse_of(bst_ctx *ctx, const bst_mat *b, bst_mat **tmp, const cholmo
     return BST_OK;
 }
 
-static int commutes(const cholmod_sparse *b, bst_precision prec, size_t n, size_t g, int turn)
+static int commutes(bst_ctx *ctx, const cholmod_sparse *b, bst_precision prec, size_t n, size_t g,
+                    int turn)
 {
     double tol = prec == BST_DOUBLE ? BSTI_MIRROR_TOL : BSTI_MIRROR_TOL_FLOAT;
-    return b->nrow == n && b->ncol == n && b->packed && b->sorted && sparse_holds(b, g, turn, tol);
+    return b->nrow == n && b->ncol == n && b->packed && b->sorted &&
+           sparse_holds(ctx, b, g, turn, tol);
 }
 
 int bsti_mirror_commutes(bst_ctx *ctx, const bst_mat *b, bst_precision prec, size_t n, size_t g,
@@ -241,7 +283,7 @@ int bsti_mirror_commutes(bst_ctx *ctx, const bst_mat *b, bst_precision prec, siz
 {
     bst_mat *tmp;
     const cholmod_sparse *sb;
-    int holds = sparse_of(ctx, b, &tmp, &sb) == BST_OK && commutes(sb, prec, n, g, turn);
+    int holds = sparse_of(ctx, b, &tmp, &sb) == BST_OK && commutes(ctx, sb, prec, n, g, turn);
     bst_mat_free(tmp);
     return holds;
 }

@@ -417,6 +417,36 @@ static bst_mat *sparse_of_values(const double *v, size_t n)
     return s;
 }
 
+/* Whether a sparse matrix commutes with the mirror, read on 1 and 3 threads (runs of columns):
+ * the tolerance is of the largest value anywhere (a pair 1000 times the rest's, in other columns
+ * than the one changed), a change just inside it holds and one just outside does not, as does a
+ * NaN. */
+START_TEST(test_holds_threads)
+{
+    tu_rng r;
+    tu_rng_seed(&r, 950);
+    size_t g = 32, n = g * g, c0 = 5, p0 = 0;
+    double *v = sparse_symmetric(g, 0, 1.0, &r), big = 1000.0 * tm_maxabs(v, n * n);
+    size_t pb = 3, qb = 16 * g + 5; /* (its image 15 g + 5: both in the middle run) */
+    v[qb * n + pb] = v[mir(g, qb) * n + mir(g, pb)] = big;
+    while (v[c0 * n + p0] == 0.0)
+        p0++;
+    double orig = v[c0 * n + p0];
+    const double change[4] = {0.0, 0.5e-12 * big, 2e-12 * big, NAN};
+    for (int k = 0; k < 4; k++) {
+        v[c0 * n + p0] = orig + change[k];
+        bst_mat *m = sparse_of_values(v, n);
+        for (int t = 0; t < 2; t++) {
+            ck_assert_int_eq(bst_ctx_set_threads(ctx, t ? 3 : 1), BST_OK);
+            ck_assert_msg(bsti_mirror_commutes(ctx, m, BST_DOUBLE, n, g, 0) == (k < 2),
+                          "change %d, %d threads", k, t ? 3 : 1);
+        }
+        bst_mat_free(m);
+    }
+    free(v);
+}
+END_TEST
+
 /* Two left solves with Z's products (bsti_solve_take_left2_z, stack.c's from_inward and
  * from_outward): a split inverse forms Z X1 and Z X2 by its halves before X1 and X2 are made
  * whole, the same as Z times the unsplit solves' X1 and X2 (1e-13 of the largest in double, 2e-5
@@ -660,6 +690,7 @@ static Suite *mirror_suite(void)
     tcase_add_loop_test(tc, test_sparse_split, 0, 16);
     tcase_add_loop_test(tc, test_split_threads, 0, 4);
     tcase_add_loop_test(tc, test_halves_product, 0, 24);
+    tcase_add_test(tc, test_holds_threads);
     tcase_add_loop_test(tc, test_z_products, 0, 8);
     tcase_add_test(tc, test_kept_and_plain);
     tcase_add_test(tc, test_singular_half);
