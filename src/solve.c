@@ -1203,14 +1203,15 @@ static int factor_give_lu(bst_ctx *ctx, struct factor *f, bst_mat **out)
 }
 
 /* Whether a left solve's products and Z's with them all go by the inverse's halves: a split
- * inverse, every b[q] and Z sparse or diagonal and commuting with its mirror (mirror.h). */
+ * inverse, Z and every b[q] sparse or diagonal and commuting with its mirror (mirror.h).  Z is
+ * read first: where it lacks the symmetry, the b[q] are read once, by bsti_mirror_mul. */
 static int halves_serve_z(bst_ctx *ctx, const struct factor *f, int right, size_t nb,
                           const bst_mat *const *b, const bst_mat *z)
 {
     if (!f->mirror_g || right)
         return 0;
     for (size_t q = 0; q <= nb; q++)
-        if (!bsti_mirror_commutes(ctx, q < nb ? b[q] : z, f->prec, f->n, f->mirror_g,
+        if (!bsti_mirror_commutes(ctx, q ? b[q - 1] : z, f->prec, f->n, f->mirror_g,
                                   f->mirror_turned))
             return 0;
     return 1;
