@@ -31,6 +31,7 @@ struct bst_ctx {
     int threads;            /* bst_ctx_set_threads: 0 = one per CPU */
     double flops;           /* bsti_flops_add's count */
     int no_mirror;          /* 1: no mirror split of dense solves (mirror.h; the stack's --dense) */
+    int poison_raw;         /* 1: bsti_mat_new_dense_raw fills with NaN (tests: every value written) */
     double mirror_splits;   /* dense factorizations split by mirror symmetry so far */
     double mirror_z_products; /* products Z X formed by such a split's halves (solve.c) */
     /* signatures of sparse A whose LU UMFPACK's analysis found too filled (solve.c,

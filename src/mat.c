@@ -89,7 +89,9 @@ int bst_mat_new_diag(bst_ctx *ctx, size_t n, const double *diag, bst_mat **out)
     return BST_OK;
 }
 
-int bst_mat_new_dense(bst_ctx *ctx, size_t rows, size_t cols, bst_precision prec, bst_mat **out)
+/* bst_mat_new_dense, its values zero (zeroed) or left as they are (raw). */
+static int new_dense(bst_ctx *ctx, size_t rows, size_t cols, bst_precision prec, int zeroed,
+                     bst_mat **out)
 {
     int rc = bsti_mat_check_out(ctx, out);
     if (rc < 0)
@@ -102,12 +104,30 @@ int bst_mat_new_dense(bst_ctx *ctx, size_t rows, size_t cols, bst_precision prec
     bst_mat *m;
     if ((rc = bsti_mat_alloc(ctx, BST_DENSE, prec, rows, cols, &m)) < 0)
         return rc;
-    if (!(m->dense = bsti_calloc(ctx, n, prec == BST_DOUBLE ? sizeof(double) : sizeof(float)))) {
+    size_t es = prec == BST_DOUBLE ? sizeof(double) : sizeof(float);
+    if (!(m->dense = zeroed ? bsti_calloc(ctx, n, es) : bsti_alloc_array(ctx, n, es))) {
         bst_mat_free(m);
         return BST_ENOMEM;
     }
+    if (!zeroed && ctx->poison_raw) /* the tests' check that every value is written */
+        for (size_t k = 0; k < n; k++) {
+            if (prec == BST_DOUBLE)
+                ((double *)m->dense)[k] = NAN;
+            else
+                ((float *)m->dense)[k] = NAN;
+        }
     *out = m;
     return BST_OK;
+}
+
+int bst_mat_new_dense(bst_ctx *ctx, size_t rows, size_t cols, bst_precision prec, bst_mat **out)
+{
+    return new_dense(ctx, rows, cols, prec, 1, out);
+}
+
+int bsti_mat_new_dense_raw(bst_ctx *ctx, size_t rows, size_t cols, bst_precision prec, bst_mat **out)
+{
+    return new_dense(ctx, rows, cols, prec, 0, out);
 }
 
 int bsti_mat_from_cholmod(bst_ctx *ctx, cholmod_sparse *sp, bst_mat **out)

@@ -146,6 +146,8 @@ int bsti_add_plus(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, con
 /* A PLUS_LR m dense in precision prec (base converted, then U W^T added a block of columns at a
  * time through doubles). */
 int bsti_plus_to_dense(bst_ctx *ctx, const bst_mat *m, bst_precision prec, bst_mat **out);
+/* d += U W^T of a PLUS_LR m, for a dense d of m's shape (as bsti_plus_to_dense adds it). */
+int bsti_plus_lowrank_into(bst_ctx *ctx, bst_mat *d, const bst_mat *m);
 /* Element (i, j), column y into out (N doubles), and a copy, transpose, scaling of a PLUS_LR m. */
 double bsti_plus_get(const bst_mat *m, size_t i, size_t j);
 int bsti_plus_copy(bst_ctx *ctx, const bst_mat *m, bst_mat **out);
@@ -202,6 +204,10 @@ int bsti_mat_cholmod_failed(bst_ctx *ctx, const char *what);
 int bsti_mat_drop(bst_ctx *ctx, cholmod_sparse *sp, double drop);
 /* Sparse copy of any matrix (the zeros of a DIAG or DENSE one left out). */
 int bsti_mat_to_sparse(bst_ctx *ctx, const bst_mat *m, bst_mat **out);
+/* A dense matrix whose values are not set, for a kernel that writes every one: a block reused
+ * (ctx.h, bsti_keep_begin) is not cleared first, on one thread, and a fresh one has its pages
+ * faulted in by the kernel's threads.  With ctx->poison_raw set (tests) every value is NaN. */
+int bsti_mat_new_dense_raw(bst_ctx *ctx, size_t rows, size_t cols, bst_precision prec, bst_mat **out);
 /* Dense copy of any matrix in precision prec. */
 int bsti_mat_to_dense(bst_ctx *ctx, const bst_mat *m, bst_precision prec, bst_mat **out);
 /* Dense copies of both operands of a generic product or sum, float when either is dense float;
@@ -211,9 +217,10 @@ int bsti_mat_dense_pair(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, bst_ma
 /* C = diag(dr) A diag(dc) (either NULL = identity), in A's structure. */
 int bsti_mat_scale(bst_ctx *ctx, const double *dr, const bst_mat *a, const double *dc,
                    bst_mat **out);
-/* A + B taking A: a dense A in the sum's precision (float when A or a dense B is float) receives B
- * in its own storage and is returned as *out (the same values as bst_mat_add), any other A is
- * freed after bst_mat_add.  A is gone or is the result on return, whatever the status. */
+/* A + B taking A: a dense A in the sum's precision (float when A or a dense B is float; for a
+ * PLUS_LR B, a dense B's base) receives B in its own storage and is returned as *out (the same
+ * values as bst_mat_add: a PLUS_LR B's base, then its low-rank part), any other A is freed after
+ * bst_mat_add.  A is gone or is the result on return, whatever the status. */
 int bsti_mat_add_take(bst_ctx *ctx, bst_mat *a, const bst_mat *b, bst_mat **out);
 /* The same of a matrix the caller gives up: a DENSE or DIAG a is scaled in its own storage and
  * becomes *out (the same values bsti_mat_scale gives); any other is scaled into a new matrix and

@@ -191,13 +191,21 @@ int bsti_mat_add_take(bst_ctx *ctx, bst_mat *a, const bst_mat *b, bst_mat **out)
         bst_mat_free(a);
         return ctx ? bsti_error(ctx, BST_EINVAL, "sum: NULL matrix") : BST_EINVAL;
     }
-    if (a->s != BST_DENSE || b->s == BST_FACTORED || b->s == BST_PLUS_LR || a->rows != b->rows || a->cols != b->cols ||
-        dense_sum_precision(a, b) != a->prec) { /* no storage to take: the plain sum */
+    /* a PLUS_LR B: bst_mat_add forms A + its base as below, then adds U W^T into that (the base's
+       sum is dense, so bsti_plus_settle makes it plain): the same steps in A's storage */
+    const bst_mat *bb = b->s == BST_PLUS_LR ? b->plus->base : b;
+    if (a->s != BST_DENSE || bb->s == BST_FACTORED || bb->s == BST_PLUS_LR || a->rows != b->rows ||
+        a->cols != b->cols || dense_sum_precision(a, bb) != a->prec) { /* no storage to take */
         int rc = bst_mat_add(ctx, 1.0, a, 1.0, b, out);
         bst_mat_free(a);
         return rc;
     }
-    dense_add_matrix(a, 1.0, b);
+    dense_add_matrix(a, 1.0, bb);
+    int rc = b->s == BST_PLUS_LR ? bsti_plus_lowrank_into(ctx, a, b) : BST_OK;
+    if (rc < 0) {
+        bst_mat_free(a);
+        return rc;
+    }
     *out = a;
     return BST_OK;
 }

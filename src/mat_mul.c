@@ -231,8 +231,9 @@ int bsti_spmm(bst_ctx *ctx, const cholmod_sparse *s, bst_precision prec, const v
 static int mul_sparse_dense(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
 {
     (void)drop;
-    bst_mat *c;
-    int rc = bst_mat_new_dense(ctx, a->rows, b->cols, b->prec, &c);
+    bst_mat *c; /* every value written by bsti_spmm where the inner dimension is not 0 */
+    int rc = a->cols ? bsti_mat_new_dense_raw(ctx, a->rows, b->cols, b->prec, &c)
+                     : bst_mat_new_dense(ctx, a->rows, b->cols, b->prec, &c);
     if (rc < 0)
         return rc;
     cholmod_common *cc = bsti_cholmod(ctx);
@@ -252,8 +253,9 @@ static int mul_sparse_dense(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, do
 static int mul_dense_sparse(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop, bst_mat **out)
 {
     (void)drop;
-    bst_mat *c;
-    int rc = bst_mat_new_dense(ctx, a->rows, b->cols, a->prec, &c);
+    bst_mat *c; /* (as mul_sparse_dense) */
+    int rc = a->cols ? bsti_mat_new_dense_raw(ctx, a->rows, b->cols, a->prec, &c)
+                     : bst_mat_new_dense(ctx, a->rows, b->cols, a->prec, &c);
     if (rc < 0)
         return rc;
     if ((rc = bsti_spmm(ctx, b->sp, a->prec, a->dense, a->rows, a->rows, a->cols, 1, c->dense,

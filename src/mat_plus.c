@@ -306,6 +306,11 @@ static int add_into(bst_ctx *ctx, bst_mat *d, size_t m, const double *u, const d
     return BST_OK;
 }
 
+int bsti_plus_lowrank_into(bst_ctx *ctx, bst_mat *d, const bst_mat *m)
+{
+    return add_into(ctx, d, m->plus->m, m->plus->u, m->plus->w);
+}
+
 int bsti_plus_to_dense(bst_ctx *ctx, const bst_mat *m, bst_precision prec, bst_mat **out)
 {
     const struct bsti_plus *p = m->plus;

@@ -9,6 +9,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "ctx.h"
 #include "mat.h"
 #include "testmat.h"
 
@@ -145,6 +146,7 @@ START_TEST(test_spmm_empty_inner)
 {
     size_t none = 0;
     double one = 1.0;
+    ctx->poison_raw = 1; /* a result left unset would read NaN: no inner values, zeros */
     for (int dense_left = 0; dense_left < 2; dense_left++) {
         bst_mat *d, *s, *c;
         ck_assert_int_eq(bst_mat_new_dense(ctx, dense_left ? 3 : 0, dense_left ? 0 : 4, BST_FLOAT, &d),
@@ -160,6 +162,7 @@ START_TEST(test_spmm_empty_inner)
                 ck_assert(bst_mat_get(c, i, j) == 0.0);
         bst_mat_free(d), bst_mat_free(s), bst_mat_free(c);
     }
+    ctx->poison_raw = 0;
 }
 END_TEST
 
@@ -180,6 +183,7 @@ START_TEST(test_spmm_same_bits)
     }
     tu_rng r;
     tu_rng_seed(&r, 7100 + (uint64_t)_i);
+    ctx->poison_raw = 1; /* the result's storage is not cleared first: a value not written is NaN */
     bst_mat *s = dense_left ? tm_random(ctx, TM_SPARSE, k, p, 1.0, &r)
                             : tm_random(ctx, TM_SPARSE, m, k, 1.0, &r);
     double *ds = tm_dense(ctx, s);
@@ -217,6 +221,7 @@ START_TEST(test_spmm_same_bits)
     }
     free(ds);
     bst_mat_free(s);
+    ctx->poison_raw = 0;
 }
 END_TEST
 

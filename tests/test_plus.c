@@ -179,13 +179,32 @@ START_TEST(test_mul_add)
         ck_assert_msg(rel_err(c, p, N, N) <= tol * 4, "%s %s sum: %g", tm_kind_name[ka],
                       tm_kind_name[kb], rel_err(c, p, N, N));
         bst_mat_free(c);
-        /* a sum taking its first term */
-        bst_mat *xc;
+        /* a sum taking its first term: a dense one (in the sum's precision) is the result, with
+           the bits of the plain sum, also where the other term is PLUS_LR (its base added, then
+           its low-rank part) */
+        bst_mat *xc, *plain;
         ck_assert_int_eq(bst_mat_convert(ctx, x, bst_mat_structure(x), bst_mat_precision(x), &xc), BST_OK);
         for (size_t k = 0; k < N * N; k++)
             p[k] = rx[k] + ry[k];
+        ck_assert_int_eq(bst_mat_add(ctx, 1.0, x, 1.0, y, &plain), BST_OK);
+        const bst_mat *yb = bst_mat_structure(y) == BST_PLUS_LR ? y->plus->base : y;
+        int in_place = bst_mat_structure(xc) == BST_DENSE && bst_mat_structure(yb) != BST_FACTORED &&
+                       (bst_mat_precision(xc) == BST_FLOAT ||
+                        !(bst_mat_structure(yb) == BST_DENSE && bst_mat_precision(yb) == BST_FLOAT));
+        const bst_mat *before = xc;
         ck_assert_int_eq(bsti_mat_add_take(ctx, xc, y, &c), BST_OK);
         ck_assert_double_le(rel_err(c, p, N, N), tol * 4);
+        if (in_place) {
+            ck_assert_msg(c == before, "%s + %s: the dense term's storage not taken",
+                          tm_kind_name[side ? kb : ka], tm_kind_name[side ? ka : kb]);
+            ck_assert_int_eq(bst_mat_structure(plain), BST_DENSE);
+            ck_assert_int_eq(bst_mat_precision(plain), bst_mat_precision(c));
+            size_t es = bst_mat_precision(c) == BST_FLOAT ? sizeof(float) : sizeof(double);
+            ck_assert_msg(memcmp(bst_mat_dense_data(c), bst_mat_dense_data(plain), N * N * es) == 0,
+                          "%s + %s taken: not the bits of the plain sum",
+                          tm_kind_name[side ? kb : ka], tm_kind_name[side ? ka : kb]);
+        }
+        bst_mat_free(plain);
         bst_mat_free(c);
         free(p), free(ra), free(rb);
         bst_mat_free(a), bst_mat_free(b);
