@@ -1205,30 +1205,38 @@ static int factor_give_lu(bst_ctx *ctx, struct factor *f, bst_mat **out)
 /* Whether a left solve's products and Z's with them all go by the inverse's halves: a split
  * inverse, Z and every b[q] sparse or diagonal and commuting with its mirror (mirror.h).  Z is
  * read first: where it lacks the symmetry, the b[q] are read once, by bsti_mirror_mul. */
-static int halves_serve_z(bst_ctx *ctx, const struct factor *f, int right, size_t nb,
+static int halves_serve_z(bst_ctx *ctx, const struct factor *f, int right, size_t nb, size_t nz,
                           const bst_mat *const *b, const bst_mat *z)
 {
     if (!f->mirror_g || right)
         return 0;
-    for (size_t q = 0; q <= nb; q++)
+    for (size_t q = nz; q < nb; q++) /* the others: thin, as bsti_mirror_mul takes them */
+        if (b[q]->s != BST_DENSE || b[q]->rows != f->n)
+            return 0;
+    for (size_t q = 0; q <= nz; q++)
         if (!bsti_mirror_commutes(ctx, q ? b[q - 1] : z, f->prec, f->n, f->mirror_g,
                                   f->mirror_turned))
             return 0;
     return 1;
 }
 
-/* out[q] = (I - A)^-1 b[q] and zout[q] = Z out[q] by the halves (halves_serve_z): the out[q] left
- * split while Z multiplies them, half the flops of Z times the whole (mirror_mul.c), then made
- * whole.  Z's first product goes into the inverse's storage, read for the last time by then: a
+/* out[q] = (I - A)^-1 b[q] and, for q < nz, zout[q] = Z out[q] by the halves (halves_serve_z): those
+ * out[q] left split while Z multiplies them, half the flops of Z times the whole (mirror_mul.c),
+ * then made whole; the others (thin: a Woodbury solve's, solve_plus) as bsti_mirror_mul makes
+ * them.  Z's first product goes into the inverse's storage, read for the last time by then: a
  * block whose pages were touched, where a new one costs their first touch (bench/README.md). */
-static int split_products_z(bst_ctx *ctx, struct factor *f, size_t nb, const bst_mat *const *b,
-                            bst_mat **own_b, const bst_mat *z, bst_mat **out, bst_mat **zout)
+static int split_products_z(bst_ctx *ctx, struct factor *f, size_t nb, size_t nz,
+                            const bst_mat *const *b, bst_mat **own_b, const bst_mat *z,
+                            bst_mat **out, bst_mat **zout)
 {
     size_t n = f->n, g = f->mirror_g;
     int turn = f->mirror_turned, rc = BST_OK;
     bst_precision prec = f->prec;
     for (size_t q = 0; q < nb && rc >= 0; q++) {
-        rc = bsti_mirror_mul_split(ctx, f->lu, prec, n, g, turn, 0, b[q], NULL, 0, &out[q]);
+        rc = q < nz ? bsti_mirror_mul_split(ctx, f->lu, prec, n, g, turn, 0, b[q], NULL, 0, &out[q])
+                    : bsti_mirror_mul(ctx, f->lu, prec, n, g, turn, 0, b[q], &out[q]);
+        if (rc == BSTI_MIRROR_ASYM) /* (halves_serve_z checked the shapes) */
+            rc = bsti_error(ctx, BST_EINTERNAL, "solve: a thin right-hand side the halves refuse");
         if (own_b) {
             bst_mat_free(own_b[q]);
             own_b[q] = NULL;
@@ -1237,7 +1245,7 @@ static int split_products_z(bst_ctx *ctx, struct factor *f, size_t nb, const bst
     bst_mat *spare = NULL;
     if (rc >= 0)
         rc = factor_give_lu(ctx, f, &spare);
-    for (size_t q = 0; q < nb && rc >= 0; q++) {
+    for (size_t q = 0; q < nz && rc >= 0; q++) {
         rc = bsti_mirror_mul_split(ctx, out[q]->dense, prec, n, g, turn, 1, z, spare, 1,
                                    &zout[q]);
         spare = NULL; /* taken */
@@ -1250,15 +1258,15 @@ static int split_products_z(bst_ctx *ctx, struct factor *f, size_t nb, const bst
 
 /* out[q] = (I - A)^-1 b[q] or b[q] (I - A)^-1 by the inverse, the owned right-hand sides freed as
  * read: by its halves while each b[q] has the mirror symmetry or is thin (mirror_mul.c, half the
- * product's flops), else by the whole.  z (NULL: none): zout[q] = Z out[q] too, where the halves
- * serve it (split_products_z), else zout left NULL for the caller's product. */
+ * product's flops), else by the whole.  z (NULL: none): zout[q] = Z out[q] too for q < nz, where
+ * the halves serve it (split_products_z), else zout left NULL for the caller's product. */
 static int solve_by_inverse(bst_ctx *ctx, struct factor *f, int right, size_t nb,
-                            const bst_mat *const *b, bst_mat **own_b, const bst_mat *z,
+                            const bst_mat *const *b, bst_mat **own_b, const bst_mat *z, size_t nz,
                             bst_mat **out, bst_mat **zout)
 {
     int rc = dense_invert(ctx, f);
-    if (rc >= 0 && z && halves_serve_z(ctx, f, right, nb, b, z))
-        return split_products_z(ctx, f, nb, b, own_b, z, out, zout);
+    if (rc >= 0 && z && halves_serve_z(ctx, f, right, nb, nz, b, z))
+        return split_products_z(ctx, f, nb, nz, b, own_b, z, out, zout);
     for (size_t q = 0; q < nb && rc >= 0; q++) {
         rc = BSTI_MIRROR_ASYM;
         if (f->mirror_g)
@@ -1297,7 +1305,7 @@ static int results_checked(bst_ctx *ctx, int rc, size_t nb, bst_mat **out, doubl
 static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a, size_t nb,
                          const bst_mat *const *b, bst_mat **own_b, double rcond_warn,
                          bst_precision dense_prec, bst_mat **out, double *rcond_out,
-                         bsti_factor **keep, const bst_mat *z, bst_mat **zout)
+                         bsti_factor **keep, const bst_mat *z, size_t nz, bst_mat **zout)
 {
     if (keep)
         *keep = NULL;
@@ -1338,7 +1346,7 @@ static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **ow
     if (rcond_out)
         *rcond_out = rcond;
     if (rc >= 0 && !keep && inverse_pays(&f, nb, b))
-        rc = solve_by_inverse(ctx, &f, right, nb, b, own_b, z, out, zout);
+        rc = solve_by_inverse(ctx, &f, right, nb, b, own_b, z, nz, out, zout);
     else
         for (size_t q = 0; q < nb && rc >= 0; q++) {
             bst_mat *bq = own_b ? own_b[q] : NULL;
@@ -1354,7 +1362,7 @@ static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **ow
     if (rcond_out)
         *rcond_out = rcond;
     if ((rc = results_checked(ctx, rc, nb, out, rcond)) < 0) {
-        for (size_t q = 0; zout && q < nb; q++) {
+        for (size_t q = 0; zout && q < nz; q++) {
             bst_mat_free(zout[q]);
             zout[q] = NULL;
         }
@@ -1369,6 +1377,45 @@ static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **ow
     return BST_OK;
 }
 
+/* *out = Z X for Z = Z0 + Uz Wz^T (mz = 0: Z0) and X = X0 + U W^T (n x m thin factors), given
+ * zx0 = Z0 X0 (taken): zx0 + [Z0 U | Uz] [W | X0^T Wz + W (U^T Wz)]^T, settled (mat.h). */
+static int z_times_plus(bst_ctx *ctx, const bst_mat *z0, size_t mz, const double *uz,
+                        const double *wz, const bst_mat *x0, size_t m, const double *u,
+                        const double *w, bst_mat *zx0, bst_mat **out)
+{
+    size_t n = x0->rows, mm = m + mz;
+    double *nu = bsti_alloc_array(ctx, n * mm + 1, sizeof *nu);
+    double *nw = bsti_alloc_array(ctx, n * mm + 1, sizeof *nw);
+    double *core = bsti_alloc_array(ctx, m * mz + 1, sizeof *core);
+    int rc = nu && nw && core ? BST_OK : BST_ENOMEM;
+    if (rc >= 0 && m) {
+        rc = bsti_mul_thin(ctx, z0, u, m, nu); /* Z0 U */
+        memcpy(nw, w, n * m * sizeof *nw);
+    }
+    if (rc >= 0 && mz) {
+        memcpy(nu + n * m, uz, n * mz * sizeof *nu);
+        rc = bsti_mul_thin_t(ctx, x0, wz, mz, nw + n * m); /* X0^T Wz */
+        if (rc >= 0 && m) { /* + W (U^T Wz) */
+            cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, (int)m, (int)mz, (int)n, 1.0, u,
+                        (int)n, wz, (int)n, 0.0, core, (int)m);
+            cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)n, (int)mz, (int)m, 1.0, w,
+                        (int)n, core, (int)m, 1.0, nw + n * m, (int)n);
+        }
+    }
+    bsti_free(ctx, core);
+    *out = NULL;
+    if (rc < 0) {
+        bst_mat_free(zx0);
+        bsti_free(ctx, nu), bsti_free(ctx, nw);
+        return rc;
+    }
+    if ((rc = bsti_mat_plus_new(ctx, zx0, mm, nu, nw, out)) >= 0 && (rc = bsti_plus_settle(ctx, out)) < 0) {
+        bst_mat_free(*out);
+        *out = NULL;
+    }
+    return rc;
+}
+
 /* PLUS_LR operands (mat.h), A = A0 + Ua Wa^T and B = B0 + Ub Wb^T (a plain one with m = 0), by
  * the Woodbury identity with E = I - A0 factored once (solve_checked) for the bases and the thin
  * parts together, C = I - Wa^T E^-1 Ua (ma x ma) the capacitance:
@@ -1379,10 +1426,15 @@ static int solve_checked(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **ow
  * The thin right-hand sides ride with the bases' (columns [Ua | Ub..] of a left solve, rows
  * [Wa^T; Wb^T..] of a right one).  *own_a and own_b[q] (NULL, or the matrix itself) are taken: a
  * taken PLUS_LR's base is given to the bases' solve (a dense one becomes its own factors).
- * *rcond: the lesser of E's estimate and C's (LAPACK gecon). */
+ * *rcond: the lesser of E's estimate and C's (LAPACK gecon).
+ * z (left, NULL: none; Z = Z0 + Uz Wz^T or a plain Z0, sparse or diagonal): zout[q] = Z X where
+ * the bases' solve makes Z0 X0 by the halves (split_products_z), with
+ *   Z X = Z0 X0 + [Z0 U' | Uz] [W' | X0^T Wz + W' (U'^T Wz)]^T  for X = X0 + U' W'^T,
+ * else zout[q] is left NULL for the caller's product. */
 static int solve_plus(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a, size_t nb,
                       const bst_mat *const *b, bst_mat **own_b, double rcond_warn,
-                      bst_precision dense_prec, bst_mat **out, double *rcond_out)
+                      bst_precision dense_prec, bst_mat **out, double *rcond_out,
+                      const bst_mat *z, bst_mat **zout)
 {
     enum { NB_MAX = 2 };
     const bst_mat *a0, *b0[NB_MAX + 1];
@@ -1392,6 +1444,14 @@ static int solve_plus(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a
         return bsti_error(ctx, BST_EINTERNAL, "solve: %zu right-hand sides", nb);
     bsti_plus_parts(a, &a0, &ma, &ua, &wa);
     mt = ma;
+    const bst_mat *z0 = NULL;
+    const double *uz = NULL, *wz = NULL;
+    size_t mz = 0;
+    bst_mat *zx0[NB_MAX] = {NULL, NULL};
+    if (z && zout && !right)
+        bsti_plus_parts(z, &z0, &mz, &uz, &wz);
+    if (z0 && z0->s != BST_SPARSE && z0->s != BST_DIAG)
+        z0 = NULL;
     bst_mat *own0 = NULL, *own_b0[NB_MAX + 1] = {NULL, NULL, NULL}, *x[NB_MAX + 1] = {NULL, NULL, NULL};
     /* taken operands pass on to the bases' solve: a PLUS_LR one's base (its factors are read
        below, the shell freed by the caller), a plain one itself */
@@ -1430,7 +1490,8 @@ static int solve_plus(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a
     double rcond = 1.0, rc_c = 1.0;
     if (rc >= 0) { /* the bases and the thin parts, one factorization of E */
         rc = solve_checked(ctx, right, a0, own0 ? &own0 : &none, nb + (mt > 0), b0,
-                           own_b0, rcond_warn, dense_prec, x, &rcond, NULL, NULL, NULL);
+                           own_b0, rcond_warn, dense_prec, x, &rcond, NULL, z0, nb,
+                           z0 ? zx0 : NULL);
         thin = NULL; /* taken */
         if (rc > 0)
             warn = rc, rc = BST_OK;
@@ -1523,6 +1584,10 @@ static int solve_plus(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a
             }
         }
         bsti_free(ctx, g);
+        if (rc >= 0 && zx0[q]) { /* Z X, while X0 is at hand */
+            rc = z_times_plus(ctx, z0, mz, uz, wz, x[q], m, u, w, zx0[q], &zout[q]);
+            zx0[q] = NULL; /* taken */
+        }
         bst_mat *r = x[q];
         x[q] = NULL;
         if (rc < 0) /* (bsti_mat_plus_new takes r, u and w, also on failure) */
@@ -1532,12 +1597,19 @@ static int solve_plus(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own_a
     }
     for (size_t q = 0; q <= nb; q++)
         bst_mat_free(x[q]);
+    for (size_t q = 0; q < nb; q++)
+        bst_mat_free(zx0[q]);
     bsti_free(ctx, t), bsti_free(ctx, c), bsti_free(ctx, piv);
     rcond = fmin(rcond, rc_c);
     if (rcond_out)
         *rcond_out = rcond;
-    if ((rc = results_checked(ctx, rc, nb, out, rcond)) < 0)
+    if ((rc = results_checked(ctx, rc, nb, out, rcond)) < 0) {
+        for (size_t q = 0; zout && q < nb; q++) {
+            bst_mat_free(zout[q]);
+            zout[q] = NULL;
+        }
         return rc;
+    }
     if (rc_c < rcond_warn)
         return bsti_error(ctx, BST_WILLCOND, "solve: I - A is ill-conditioned (rcond %.3g < %.3g, "
                           "its low-rank part)", rc_c, rcond_warn);
@@ -1567,10 +1639,11 @@ static int solve_owning(bst_ctx *ctx, int right, const bst_mat *a, bst_mat **own
     if (keep)
         *keep = NULL;
     if (plus && (rc = check_operands(ctx, right, a, nb, b, rcond_warn)) >= 0) /* not kept */
-        rc = solve_plus(ctx, right, a, own_a, nb, b, own_b, rcond_warn, dense_prec, out, rcond_out);
+        rc = solve_plus(ctx, right, a, own_a, nb, b, own_b, rcond_warn, dense_prec, out, rcond_out,
+                        z, zout);
     else if (!plus)
         rc = solve_checked(ctx, right, a, own_a, nb, b, own_b, rcond_warn, dense_prec, out,
-                           rcond_out, keep, z, zout);
+                           rcond_out, keep, z, nb, zout);
     bst_mat_free(*own_a); /* when an error came before the factorization */
     *own_a = NULL;
     for (size_t q = 0; own_b && q < nb; q++) { /* when an error came before it was read */

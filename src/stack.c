@@ -370,12 +370,15 @@ static struct term solve2(struct combiner *cb, struct term a, struct term b1, st
     return result(cb, rc, out1);
 }
 
-/* Whether Z's first factor leaves Z sparse (or diagonal): then Z is formed before the solve and
- * rides with it (solve2_z); a dense Z is formed after it, as it would add an N x N block to the
+/* Whether Z's first factor leaves Z sparse (or diagonal), or sparse plus low rank: then Z is formed
+ * before the solve and rides with it (solve2_z; a Woodbury solve's, solve_plus, takes a PLUS_LR
+ * Z's base to the halves); a dense Z is formed after it, as it would add an N x N block to the
  * solve's peak. */
 static int sparse_factor(const bst_mat *m)
 {
     bst_structure st = bst_mat_structure(m);
+    if (st == BST_PLUS_LR)
+        st = bst_mat_structure(m->plus->base);
     return st == BST_SPARSE || st == BST_DIAG;
 }
 
