@@ -119,6 +119,10 @@ int bsti_mat_plus_new(bst_ctx *ctx, bst_mat *base, size_t m, double *u, double *
 #define BSTI_PLUS_TOL 1e-13
 #define BSTI_PLUS_DENSE_SHARE 0.25
 int bsti_plus_settle(bst_ctx *ctx, bst_mat **m);
+/* base + U W^T from its parts (bsti_mat_plus_new), settled, into *out; every part taken, also
+ * when rc (a status from forming them) is an error, which is then returned. */
+int bsti_plus_settled(bst_ctx *ctx, int rc, bst_mat *base, size_t m, double *u, double *w,
+                      bst_mat **out);
 /* Whether a low-rank part of rank m is held apart from a rows x cols base (its thin factors below
  * BSTI_PLUS_DENSE_SHARE of the dense form): the test of bsti_plus_settle, of the venetian layer
  * and of its plan (shade.c), which must agree. */

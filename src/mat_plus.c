@@ -202,9 +202,8 @@ int bsti_plus_settle(bst_ctx *ctx, bst_mat **pm)
     return BST_OK;
 }
 
-/* base + U W^T from its parts, settled; every part taken. */
-static int plus_settled(bst_ctx *ctx, int rc, bst_mat *base, size_t m, double *u, double *w,
-                        bst_mat **out)
+int bsti_plus_settled(bst_ctx *ctx, int rc, bst_mat *base, size_t m, double *u, double *w,
+                      bst_mat **out)
 {
     if (rc < 0) {
         bst_mat_free(base);
@@ -247,7 +246,7 @@ int bsti_mul_plus(bst_ctx *ctx, const bst_mat *a, const bst_mat *b, double drop,
         rc = bsti_mul_thin_t(ctx, bb, wa, ma, w + c * mb);
     }
     bsti_free(ctx, core);
-    return plus_settled(ctx, rc, base, m, u, w, out);
+    return bsti_plus_settled(ctx, rc, base, m, u, w, out);
 }
 
 int bsti_add_plus(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, const bst_mat *b,
@@ -272,7 +271,7 @@ int bsti_add_plus(bst_ctx *ctx, double alpha, const bst_mat *a, double beta, con
         if (mb)
             memcpy(w + c * ma, wb, c * mb * sizeof *w);
     }
-    return plus_settled(ctx, rc, base, m, u, w, out);
+    return bsti_plus_settled(ctx, rc, base, m, u, w, out);
 }
 
 /* ------------------------------------------------------------------ values, copies, transposes */

@@ -1404,16 +1404,7 @@ static int z_times_plus(bst_ctx *ctx, const bst_mat *z0, size_t mz, const double
     }
     bsti_free(ctx, core);
     *out = NULL;
-    if (rc < 0) {
-        bst_mat_free(zx0);
-        bsti_free(ctx, nu), bsti_free(ctx, nw);
-        return rc;
-    }
-    if ((rc = bsti_mat_plus_new(ctx, zx0, mm, nu, nw, out)) >= 0 && (rc = bsti_plus_settle(ctx, out)) < 0) {
-        bst_mat_free(*out);
-        *out = NULL;
-    }
-    return rc;
+    return bsti_plus_settled(ctx, rc, zx0, mm, nu, nw, out);
 }
 
 /* PLUS_LR operands (mat.h), A = A0 + Ua Wa^T and B = B0 + Ub Wb^T (a plain one with m = 0), by
