@@ -1202,9 +1202,10 @@ static int factor_give_lu(bst_ctx *ctx, struct factor *f, bst_mat **out)
     return BST_OK;
 }
 
-/* Whether a left solve's products and Z's with them all go by the inverse's halves: a split
- * inverse, Z and every b[q] sparse or diagonal and commuting with its mirror (mirror.h).  Z is
- * read first: where it lacks the symmetry, the b[q] are read once, by bsti_mirror_mul. */
+/* Whether a left solve's products and Z's with the first nz of them all go by the inverse's
+ * halves: a split inverse, Z and b[0..nz-1] sparse or diagonal and commuting with its mirror
+ * (mirror.h), the others thin dense ones (a Woodbury solve's).  Z is read first: where it lacks
+ * the symmetry, the b[q] are read once, by bsti_mirror_mul. */
 static int halves_serve_z(bst_ctx *ctx, const struct factor *f, int right, size_t nb, size_t nz,
                           const bst_mat *const *b, const bst_mat *z)
 {
