@@ -519,7 +519,7 @@ typedef struct {
     char why[160];          /* which rule chose */
     char note[320];         /* a warning worth printing before a combination, or "": every layer
                                a rank-4 tree of an order below the k asked (their order's system
-                               repeated: 16 times the values to write an order) */
+                               repeated, written as that order's trees) */
 } bst_plan_basis;
 void bst_plan_pick_basis(size_t n, const bst_bsdf *const *files, const bst_basis *const *given,
                          int k, const char *klems, bst_plan_basis *pick);

@@ -68,6 +68,18 @@ int bsti_mat_lr_values(bst_ctx *ctx, const bst_mat *m, double *out);
  * k = 5: 17 s of 18); they read such a matrix's columns by GEMM instead (p r multiply-adds a
  * value, r <= 8 x segments), a block at a time (bsti_cols). */
 int bsti_mat_lr_wide(const bst_mat *m);
+/* The coarser order whose values a FACTORED m holds, or 0: m is P K' P^T, P the prolongation
+ * from order kc < k (lowrank.h; a stack of trees of order kc combined at k), with no diagonal part
+ * and every scaling the same over the order-k patches of each order-kc patch.  Every order-k
+ * patch's values are then those of the order-kc patch holding it, and the tree writer writes the
+ * order-kc tree: the same function, read at k as P K' P^T again (a tree of depth below k). */
+int bsti_mat_lr_coarse(const bst_mat *m);
+/* Such an m's order-kc values K', 4^kc x 4^kc column-major into out, each the bits bsti_lr_get
+ * gives at the order-k patches inside (the same operations in the same order). */
+void bsti_mat_lr_coarse_values(const bst_mat *m, double *out);
+/* Values given per order-k patch (a writer's budgets) per order-kc patch: the least over the
+ * order-k patches inside each, 4^kc into out. */
+void bsti_mat_lr_coarse_least(const double *fine, int k, int kc, double *out);
 /* A FACTORED m as a dense matrix of precision prec, D + (A K) B^T by GEMM (double) over the rows
  * and columns of K that are not zero (the values equal bsti_lr_get's to rounding, not to the
  * bit): bsti_cols's columns, all of them. */

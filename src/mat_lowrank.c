@@ -14,6 +14,7 @@
  * operand makes a float result, as everywhere in mat.c; the factors are double. */
 #include <config.h>
 
+#include <math.h>
 #include <stdatomic.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -337,6 +338,69 @@ int bsti_mat_lr_wide(const bst_mat *m)
         return 0;
     const bsti_lr_map *S = m->lr->S;
     return !S->single && !S->tag[0];
+}
+
+/* The first order-k patch of the order-kc patch J (basis.h's index x 2^k + y): its lower corner. */
+static size_t coarse_corner(size_t cj, int k, int kc)
+{
+    size_t g = (size_t)1 << kc, G = (size_t)1 << k;
+    int s = k - kc;
+    return ((cj / g) << s) * G + ((cj % g) << s);
+}
+
+int bsti_mat_lr_coarse(const bst_mat *m)
+{
+    if (!m || m->s != BST_FACTORED || !m->lr->k)
+        return 0;
+    const bsti_lr *f = m->lr;
+    const bsti_lr_map *S = f->S;
+    if (!S->single || strcmp(S->tag, "P") != 0 || S->d < 1 || S->d >= S->k || S->N != f->N)
+        return 0;
+    size_t N = f->N, G = (size_t)1 << S->k, low = ~(((size_t)1 << (S->k - S->d)) - 1);
+    for (size_t x = 0; f->d && x < N; x++)
+        if (f->d[x] != 0.0)
+            return 0;
+    /* each scaling the same over the patches of each coarse patch: equal to its corner's */
+    for (size_t i = 0; i < f->p + f->q; i++) {
+        const double *v = i < f->p ? f->a + i * N : f->b + (i - f->p) * N;
+        for (size_t x = 0; x < N; x++)
+            if (v[x] != v[((x / G) & low) * G + ((x % G) & low)])
+                return 0;
+    }
+    return S->d;
+}
+
+void bsti_mat_lr_coarse_values(const bst_mat *m, double *out)
+{
+    const bsti_lr *f = m->lr;
+    int k = f->S->k, kc = f->S->d;
+    size_t N = f->N, r = f->r, ld = f->p * r, nc = (size_t)1 << (2 * kc);
+    for (size_t cj = 0; cj < nc; cj++) {
+        size_t y = coarse_corner(cj, k, kc);
+        for (size_t ci = 0; ci < nc; ci++) {
+            size_t x = coarse_corner(ci, k, kc);
+            /* bsti_lr_get's operations at (x, y) for a map of one entry of weight 1 a row: its
+             * c and s are K's value itself (0 + v 1 and 0 + 1 c), and no diagonal */
+            double v = 0.0;
+            for (size_t i = 0; i < f->p; i++)
+                for (size_t j = 0; j < f->q; j++)
+                    v += f->a[i * N + x] * f->k[(j * r + cj) * ld + i * r + ci] * f->b[j * N + y];
+            out[cj * nc + ci] = v;
+        }
+    }
+}
+
+void bsti_mat_lr_coarse_least(const double *fine, int k, int kc, double *out)
+{
+    size_t nc = (size_t)1 << (2 * kc), s = (size_t)1 << (k - kc), G = (size_t)1 << k;
+    for (size_t cj = 0; cj < nc; cj++) {
+        size_t x0 = coarse_corner(cj, k, kc);
+        double least = INFINITY;
+        for (size_t u = 0; u < s; u++)
+            for (size_t v = 0; v < s; v++)
+                least = fmin(least, fine[x0 + u * G + v]);
+        out[cj] = least;
+    }
 }
 
 /* The indices of K's lines (rows: cols 0, columns: 1) holding a value not 0, into idx; their count. */

@@ -6,9 +6,10 @@
  * The basis rule: a rank-4 tree is constant on the cells of its order and the combination keeps
  * that (a finer cell's projected solid angle is its parent's quarter, so every product and inverse
  * of replicated matrices is replicated), so the finest order among the files holds all they say;
- * above it the system is that order's, each value repeated: 16 times the values to write an order
- * (the combination holds such layers factored at their own order, issue #31; with --dense, up to
- * 64 times the time an order).
+ * above it the system is that order's, each value repeated.  The combination holds such layers
+ * factored at their own order (issue #31) and the writer writes the system's trees at that order
+ * (bsti_mat_lr_coarse); with --dense, each order above costs up to 64 times the time and 16 times
+ * the values to write.
  *
  * The spectral plan follows WINDOW and Windows-CalcEngine: a stack whose every layer is a pane with
  * spectral data, or WINDOW's dual-band material (a file layer with Solar and Visible channels), is
@@ -56,8 +57,9 @@ void bst_plan_pick_basis(size_t n, const bst_bsdf *const *files, const bst_basis
         if (all_rank4 && k > pick->finest)
             snprintf(pick->note, sizeof pick->note, "every layer is a rank-4 tensor tree of order "
                      "%d or less: -k %d gives their order-%d system, each patch's values repeated "
-                     "over its %d finer patches, %.0f times the values to write; use -k %d, or "
-                     "layers of order %d", pick->finest, k, pick->finest, 1 << (2 * (k - pick->finest)),
+                     "over its %d finer patches, written as its order-%d trees (with --dense at "
+                     "order %d, %.0f times the values); use -k %d, or layers of order %d",
+                     pick->finest, k, pick->finest, 1 << (2 * (k - pick->finest)), pick->finest, k,
                      (double)(1ull << (4 * (k - pick->finest))), pick->finest, k);
     } else if (pick->finest) {
         pick->k = pick->finest > BST_K_MAX ? BST_K_MAX : pick->finest;

@@ -75,6 +75,9 @@ struct xw {
     size_t worst_ch;
     int worst_c;
     double *full;           /* a FACTORED component's values, n x n (factored_values) */
+    double *coarse;         /* a component of a coarser order (bsti_mat_lr_coarse): its values
+                               and budgets at that order (coarse_values), room for ncoarse */
+    size_t ncoarse;
     bsti_tsums *tsums;      /* nch: transmissions' sums from the reciprocity check (or NULL) */
 };
 
@@ -379,6 +382,8 @@ static const char *spectrum(const char *channel, const char **detector)
     return NULL;
 }
 
+static int tree_order(const struct xw *w, const bst_mat *m);
+
 static void header(struct xw *w)
 {
     const bst_bsdf_write_opts *o = w->o;
@@ -448,6 +453,15 @@ static void header(struct xw *w)
                     bsti_sink_xml_comment(s, bst_layer_channel(w->l, ch), "");
                     bsti_sink_printf(s, " %s: left out, the reciprocal of %s\n", block_label[c],
                                      block_label[c == BST_TF ? BST_TB : BST_TF]);
+                } else if (!w->omit[ch * BST_NCOMP + (size_t)c]) {
+                    int kc = tree_order(w, bst_layer_get(w->l, ch, (bst_comp)c));
+                    if (kc == w->k)
+                        continue;
+                    bsti_sink_puts(s, "  ");
+                    bsti_sink_xml_comment(s, bst_layer_channel(w->l, ch), "");
+                    bsti_sink_printf(s, " %s: a tree of order %d, the order of its values (each "
+                                     "order-%d patch's are those of the order-%d patch holding it)\n",
+                                     block_label[c], kc, w->k, kc);
                 }
     }
     bsti_sink_puts(s, "  Values: BSDF in 1/sr; Front = exterior side (-Z)\n-->\n");
@@ -559,6 +573,30 @@ static const double *factored_values(struct xw *w, const bst_mat *m)
     return bsti_mat_lr_values(w->ctx, m, w->full) >= 0 ? w->full : NULL;
 }
 
+/* The order-kc values of a component of that coarser order, with room after them for two sets of
+ * budgets (4^kc each); NULL: out of memory. */
+static double *coarse_values(struct xw *w, const bst_mat *m, int kc)
+{
+    size_t nc = (size_t)1 << (2 * kc), need = nc * nc + 2 * nc;
+    if (w->ncoarse < need) {
+        bsti_free(w->ctx, w->coarse);
+        w->ncoarse = 0;
+        if (!(w->coarse = bsti_alloc_array(w->ctx, need, sizeof *w->coarse)))
+            return NULL;
+        w->ncoarse = need;
+    }
+    bsti_mat_lr_coarse_values(m, w->coarse);
+    return w->coarse;
+}
+
+/* The order at which component m's tree is written: w->k, or the coarser order of its values
+ * (bsti_mat_lr_coarse) in a rank-4 file of one order. */
+static int tree_order(const struct xw *w, const bst_mat *m)
+{
+    int kc = w->kind == BST_FILE_TT4 && !w->v ? bsti_mat_lr_coarse(m) : 0;
+    return kc > 0 ? kc : w->k;
+}
+
 static int write_blocks(struct xw *w)
 {
     const bst_bsdf_write_opts *o = w->o;
@@ -600,6 +638,11 @@ static int write_blocks(struct xw *w)
                         t.get = bsti_varres_get, t.opaque = &vr, t.fine_in = vr.in;
                     } else if (w->kind == BST_FILE_TT3) {
                         t.d = w->t3[idx];
+                    } else if ((t.k = tree_order(w, m)) < w->k) {
+                        if (!(t.d = coarse_values(w, m, t.k)))
+                            return bsti_error(w->ctx, BST_ENOMEM, "writing BSDF XML: %s %s: out "
+                                              "of memory for its order-%d values", rep.channel,
+                                              block_label[c], t.k);
                     } else if (m && m->s == BST_DENSE && m->prec == BST_DOUBLE)
                         t.d = m->dense;
                     else if ((t.d = factored_values(w, m)) != NULL)
@@ -633,6 +676,16 @@ static int write_blocks(struct xw *w)
                         }
                         if (c == BST_TB && w->omit[ch * BST_NCOMP + BST_TF] == 1)
                             r.row_budget = w->bounds.row + ch * w->bounds.n;
+                        if (t.k < w->k && !w->v) { /* a coarser order's: its patches' least */
+                            size_t nc = (size_t)1 << (2 * t.k);
+                            double *cb = w->coarse + nc * nc;
+                            bsti_mat_lr_coarse_least(r.col_budget, w->k, t.k, cb);
+                            r.col_budget = cb;
+                            if (r.row_budget) {
+                                bsti_mat_lr_coarse_least(r.row_budget, w->k, t.k, cb + nc);
+                                r.row_budget = cb + nc;
+                            }
+                        }
                     }
                     bsti_tree_stats st;
                     int rc = bsti_ttree_write(w->ctx, &t, &r, w->out, &st);
@@ -791,6 +844,7 @@ static int write_kept(bst_ctx *ctx, const bst_layer *l, bsti_sink *s, const bst_
     bsti_bounds_free(ctx, &w.bounds);
     bsti_free(ctx, w.ring);
     bsti_free(ctx, w.full);
+    bsti_free(ctx, w.coarse);
     for (size_t ch = 0; w.tsums && ch < w.nch; ch++)
         bsti_free(ctx, w.tsums[ch].tf_col);
     bsti_free(ctx, w.tsums);

@@ -221,7 +221,7 @@ grep -q "k = 5 needs about 0.11[0-9]* GiB (4 dense components of 0.00781 GiB" "$
 expect_status 0 "convert the blind to order 3" -- "$BSDFSTACK" convert -k 3 -o "$tmpdir/b3.xml" "$ref/L_blind0_t4k5.xml"
 expect_status 0 "convert the pane to order 3" -- "$BSDFSTACK" convert -k 3 -o "$tmpdir/g3.xml" "$ref/L_glass_t4k5.xml"
 "$BSDFSTACK" combine -k 4 --no-reduce -o "$tmpdir/s34.xml" "$tmpdir/g3.xml" "$tmpdir/b3.xml" "$tmpdir/g3.xml" 2>"$tmpdir/err"
-grep -q "warning: every layer is a rank-4 tensor tree of order 3 or less: -k 4 gives their order-3 system, each patch's values repeated over its 4 finer patches, 16 times the values to write; use -k 3, or layers of order 4" "$tmpdir/err" \
+grep -q "warning: every layer is a rank-4 tensor tree of order 3 or less: -k 4 gives their order-3 system, each patch's values repeated over its 4 finer patches, written as its order-3 trees (with --dense at order 4, 16 times the values); use -k 3, or layers of order 4" "$tmpdir/err" \
     && pass "-k above every tree's order: a warning" || fail "-k above the trees' order: $(cat "$tmpdir/err")"
 expect_status 0 "the same at -k 3" -- "$BSDFSTACK" combine -k 3 --no-reduce -o "$tmpdir/s33.xml" "$tmpdir/g3.xml" "$tmpdir/b3.xml" "$tmpdir/g3.xml"
 ! grep -q "every layer is a rank-4" "$tmpdir/err" && pass "no such warning at the trees' order" || fail "warning at the trees' order: $(cat "$tmpdir/err")"
@@ -230,5 +230,23 @@ expect_status 0 "with a pane at -k 4" -- "$BSDFSTACK" combine -k 4 -o "$tmpdir/p
 expect_status 0 "compare the two" -- "$BSDFSTACK" compare -k 4 "$tmpdir/s33.xml" "$tmpdir/s34.xml"
 [ "$(grep -c 'all 256 incident patches: GA mean 100.000, least 100.000 .*FA mean 100.00, least 100.00' "$tmpdir/out")" -eq 4 ] \
     && pass "-k 4 of order-3 trees is the order-3 system repeated" || fail "-k 4 against -k 3: $(grep 'all 256' "$tmpdir/out")"
+# ... and its file holds the order-3 trees (the same bytes after the header, which names the order
+# asked and says which trees are of order 3), reduced or not; with --dense the order-4 ones
+for red in --no-reduce ""; do
+    # shellcheck disable=SC2086
+    "$BSDFSTACK" combine -k 4 $red -o "$tmpdir/c34.xml" "$tmpdir/g3.xml" "$tmpdir/b3.xml" "$tmpdir/g3.xml" 2>/dev/null
+    # shellcheck disable=SC2086
+    "$BSDFSTACK" combine -k 3 $red -o "$tmpdir/c33.xml" "$tmpdir/g3.xml" "$tmpdir/b3.xml" "$tmpdir/g3.xml" 2>/dev/null
+    cmp -s <(sed '1,/^-->/d' "$tmpdir/c33.xml") <(sed '1,/^-->/d' "$tmpdir/c34.xml") \
+        && [ "$(grep -c 'a tree of order 3, the order of its values' "$tmpdir/c34.xml")" -eq "$(grep -c '<ScatteringData>' "$tmpdir/c34.xml")" ] \
+        && grep -q 'k = 4 (16 x 16 patches' "$tmpdir/c34.xml" \
+        && pass "-k 4 ${red:-reduced}: the order-3 trees written" || fail "-k 4 ${red:-reduced}: not the order-3 trees: $(sed -n '/Basis/,/^-->/p' "$tmpdir/c34.xml" | head -8)"
+done
+"$BSDFSTACK" combine -k 4 --dense --no-reduce -o "$tmpdir/d34.xml" "$tmpdir/g3.xml" "$tmpdir/b3.xml" "$tmpdir/g3.xml" 2>/dev/null
+"$BSDFSTACK" info "$tmpdir/d34.xml" > "$tmpdir/out" 2>&1
+grep -q "k = 4" "$tmpdir/out" && ! grep -q "a tree of order 3" "$tmpdir/d34.xml" \
+    && pass "--dense: the order-4 trees" || fail "--dense: $(cat "$tmpdir/out")"
+"$BSDFSTACK" info "$tmpdir/c34.xml" > "$tmpdir/out" 2>&1
+grep -q "k = 3" "$tmpdir/out" && pass "info reads the order-3 trees" || fail "info of the -k 4 file: $(cat "$tmpdir/out")"
 
 finish

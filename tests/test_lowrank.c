@@ -1000,6 +1000,77 @@ START_TEST(test_transpose_take)
 }
 END_TEST
 
+/* A factored matrix over a prolongation whose values are those of its coarse order
+ * (bsti_mat_lr_coarse: no diagonal part, scalings constant over each coarse cell, one or two
+ * terms) gives that order, and its coarse values the bits bsti_lr_get gives at every fine cell
+ * (bsti_mat_lr_coarse_values); a diagonal part, one scaling changed in one fine cell or an overlap
+ * map give 0; the coarse budgets are the least of each cell's fine ones.  _i: map, terms. */
+START_TEST(test_coarse)
+{
+    bsti_lr_map *S = map_of(_i % 3);
+    size_t N = S->N, r = S->r;
+    int two = _i >= 3, want = _i % 3 == 2 ? 0 : S->d;
+    double *a = malloc(N * sizeof *a), *b = malloc(N * sizeof *b), *K = malloc(r * r * sizeof *K);
+    double *va = malloc(r * sizeof *va), *vb = malloc(r * sizeof *vb), *d = calloc(N, sizeof *d);
+    bsti_lr *f = NULL;
+    for (int t = 0; t <= two; t++) {
+        random_vec(va, r, 0.5, 1.0), random_vec(vb, r, 0.5, 1.0), random_vec(K, r * r, -0.1, 1.0);
+        for (size_t x = 0; x < N; x++) /* constant over each coarse cell (its map's first column) */
+            a[x] = va[S->col[S->start[x]]], b[x] = vb[S->col[S->start[x]]];
+        bsti_lr *g, *sum;
+        ck_assert_int_eq(bsti_lr_new(ctx, S, t == 0 ? d : NULL, a, K, b, &g), BST_OK);
+        if (!f) {
+            f = g;
+            continue;
+        }
+        ck_assert_int_eq(bsti_lr_add(ctx, 1.0, f, 1.0, g, &sum), BST_OK);
+        bsti_lr_free(ctx, f), bsti_lr_free(ctx, g);
+        f = sum;
+    }
+    ck_assert_uint_eq(f->p, two ? 2 : 1);
+    bst_mat *m;
+    ck_assert_int_eq(bsti_mat_from_lr(ctx, f, &m), BST_OK);
+    ck_assert_int_eq(bsti_mat_lr_coarse(m), want);
+    if (want) {
+        size_t nc = (size_t)1 << (2 * S->d);
+        ck_assert_uint_eq(nc, r);
+        double *kc = malloc(nc * nc * sizeof *kc);
+        bsti_mat_lr_coarse_values(m, kc);
+        for (size_t y = 0; y < N; y++)
+            for (size_t x = 0; x < N; x++) {
+                double got = kc[S->col[y] * nc + S->col[x]], at = bsti_lr_get(f, x, y);
+                ck_assert_msg(memcmp(&got, &at, sizeof got) == 0, "(%zu, %zu): %.17g, %.17g", x, y,
+                              got, at);
+            }
+        double *fine = malloc(N * sizeof *fine), *least = malloc(nc * sizeof *least);
+        random_vec(fine, N, 0.0, 1.0);
+        bsti_mat_lr_coarse_least(fine, S->k, S->d, least);
+        for (size_t J = 0; J < nc; J++) {
+            double w = INFINITY;
+            for (size_t x = 0; x < N; x++)
+                if (S->col[x] == J)
+                    w = fmin(w, fine[x]);
+            ck_assert_double_eq(least[J], w);
+        }
+        free(kc), free(fine), free(least);
+        /* not of the coarse order: one scaling changed in one fine cell, or a diagonal part */
+        double keep = f->b[N - 1];
+        f->b[N - 1] *= 1.5;
+        ck_assert_int_eq(bsti_mat_lr_coarse(m), 0);
+        f->b[N - 1] = keep;
+        if (f->d) {
+            f->d[N / 2] = 1e-300;
+            ck_assert_int_eq(bsti_mat_lr_coarse(m), 0);
+            f->d[N / 2] = 0.0;
+        }
+        ck_assert_int_eq(bsti_mat_lr_coarse(m), want);
+    }
+    bst_mat_free(m);
+    free(a), free(b), free(K), free(va), free(vb), free(d);
+    bsti_lr_map_free(ctx, S);
+}
+END_TEST
+
 static Suite *suite(void)
 {
     Suite *s = suite_create("lowrank");
@@ -1022,6 +1093,7 @@ static Suite *suite(void)
     tcase_add_test(tc, test_sparse_threads);
     tcase_add_loop_test(tc, test_scale_take, 0, 9);
     tcase_add_loop_test(tc, test_transpose_take, 0, 8);
+    tcase_add_loop_test(tc, test_coarse, 0, 6);
     suite_add_tcase(s, tc);
     return s;
 }

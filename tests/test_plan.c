@@ -61,7 +61,8 @@ START_TEST(test_basis_rule)
     bst_plan_pick_basis(2, r4, NULL, 7, NULL, &p);
     ck_assert_int_eq(p.k, 7);
     ck_assert_ptr_nonnull(strstr(p.note, "order 5 or less: -k 7 gives their order-5 system"));
-    ck_assert_ptr_nonnull(strstr(p.note, "16 finer patches, 256 times the values to write"));
+    ck_assert_ptr_nonnull(strstr(p.note, "16 finer patches, written as its order-5 trees (with "
+                                         "--dense at order 7, 256 times the values)"));
     bst_plan_pick_basis(2, r3, NULL, 7, NULL, &p);
     ck_assert_str_eq(p.note, "");
     bst_plan_pick_basis(2, r4, NULL, 0, "quarter", &p);
