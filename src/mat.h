@@ -77,6 +77,11 @@ int bsti_mat_lr_coarse(const bst_mat *m);
 /* Such an m's order-kc values K', 4^kc x 4^kc column-major into out, each the bits bsti_lr_get
  * gives at the order-k patches inside (the same operations in the same order). */
 void bsti_mat_lr_coarse_values(const bst_mat *m, double *out);
+/* One of them: at order-kc patches (ci, cj); column cj of them (4^kc values, the same bits). */
+double bsti_mat_lr_coarse_at(const bst_mat *m, size_t ci, size_t cj);
+void bsti_mat_lr_coarse_col(const bst_mat *m, size_t cj, double *out);
+/* The order-kc patch holding order-k patch x. */
+size_t bsti_mat_lr_coarse_cell(const bst_mat *m, size_t x);
 /* Values given per order-k patch (a writer's budgets) per order-kc patch: the least over the
  * order-k patches inside each, 4^kc into out. */
 void bsti_mat_lr_coarse_least(const double *fine, int k, int kc, double *out);

@@ -341,11 +341,11 @@ int bsti_mat_lr_wide(const bst_mat *m)
 }
 
 /* The first order-k patch of the order-kc patch J (basis.h's index x 2^k + y): its lower corner. */
-static size_t coarse_corner(size_t cj, int k, int kc)
+static inline size_t coarse_corner(size_t cj, int k, int kc)
 {
-    size_t g = (size_t)1 << kc, G = (size_t)1 << k;
+    size_t low = ((size_t)1 << kc) - 1;
     int s = k - kc;
-    return ((cj / g) << s) * G + ((cj % g) << s);
+    return ((cj >> kc) << (s + k)) + ((cj & low) << s);
 }
 
 int bsti_mat_lr_coarse(const bst_mat *m)
@@ -370,24 +370,48 @@ int bsti_mat_lr_coarse(const bst_mat *m)
     return S->d;
 }
 
-void bsti_mat_lr_coarse_values(const bst_mat *m, double *out)
+double bsti_mat_lr_coarse_at(const bst_mat *m, size_t ci, size_t cj)
 {
     const bsti_lr *f = m->lr;
     int k = f->S->k, kc = f->S->d;
-    size_t N = f->N, r = f->r, ld = f->p * r, nc = (size_t)1 << (2 * kc);
-    for (size_t cj = 0; cj < nc; cj++) {
-        size_t y = coarse_corner(cj, k, kc);
-        for (size_t ci = 0; ci < nc; ci++) {
-            size_t x = coarse_corner(ci, k, kc);
-            /* bsti_lr_get's operations at (x, y) for a map of one entry of weight 1 a row: its
-             * c and s are K's value itself (0 + v 1 and 0 + 1 c), and no diagonal */
-            double v = 0.0;
-            for (size_t i = 0; i < f->p; i++)
-                for (size_t j = 0; j < f->q; j++)
-                    v += f->a[i * N + x] * f->k[(j * r + cj) * ld + i * r + ci] * f->b[j * N + y];
-            out[cj * nc + ci] = v;
+    size_t N = f->N, r = f->r, ld = f->p * r;
+    size_t x = coarse_corner(ci, k, kc), y = coarse_corner(cj, k, kc);
+    /* bsti_lr_get's operations at (x, y) for a map of one entry of weight 1 a row: its c and s
+     * are K's value itself (0 + v 1 and 0 + 1 c), and no diagonal */
+    double v = 0.0;
+    for (size_t i = 0; i < f->p; i++)
+        for (size_t j = 0; j < f->q; j++)
+            v += f->a[i * N + x] * f->k[(j * r + cj) * ld + i * r + ci] * f->b[j * N + y];
+    return v;
+}
+
+void bsti_mat_lr_coarse_col(const bst_mat *m, size_t cj, double *out)
+{
+    const bsti_lr *f = m->lr;
+    int k = f->S->k, kc = f->S->d;
+    size_t N = f->N, r = f->r, ld = f->p * r, y = coarse_corner(cj, k, kc);
+    for (size_t ci = 0; ci < r; ci++)
+        out[ci] = 0.0;
+    /* bsti_mat_lr_coarse_at's terms in its order, each added to every row in turn */
+    for (size_t i = 0; i < f->p; i++)
+        for (size_t j = 0; j < f->q; j++) {
+            const double *kb = f->k + (j * r + cj) * ld + i * r, *a = f->a + i * N;
+            double b = f->b[j * N + y];
+            for (size_t ci = 0; ci < r; ci++)
+                out[ci] += a[coarse_corner(ci, k, kc)] * kb[ci] * b;
         }
-    }
+}
+
+void bsti_mat_lr_coarse_values(const bst_mat *m, double *out)
+{
+    size_t nc = m->lr->r;
+    for (size_t cj = 0; cj < nc; cj++)
+        bsti_mat_lr_coarse_col(m, cj, out + cj * nc);
+}
+
+size_t bsti_mat_lr_coarse_cell(const bst_mat *m, size_t x)
+{
+    return m->lr->S->col[x];
 }
 
 void bsti_mat_lr_coarse_least(const double *fine, int k, int kc, double *out)

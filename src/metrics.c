@@ -6,6 +6,7 @@
 #include <config.h>
 
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -309,6 +310,62 @@ static int recip_col(void *opaque, size_t q, size_t i, const double *xc, const d
     return 0;
 }
 
+/* recip_lines of two transmissions of one coarser order kc (bsti_mat_lr_coarse: every order-k
+ * patch's values are those of the order-kc patch holding it) at that order, where the antipode
+ * maps the patches of each order-kc patch onto those of one (ac): the same differences and
+ * values, 4^(k - kc) times fewer.  The worst pair is the first in the fine loop's order: of equal
+ * ones, the least coarse patches', whose corners (first fine patches) precede every fine patch of
+ * a later one.  The sums are the coarse sums times the fine patches a coarse one holds, the
+ * additions in another order (the same to rounding).  BST_ENOTFOUND when the antipode does not
+ * map the coarse patches so. */
+static int recip_coarse(bst_ctx *ctx, const bst_mat *tf, const bst_mat *tb, const size_t *a,
+                        size_t n, int kc, double *worst, double *scale, size_t *wi, size_t *wo,
+                        bsti_tsums *sums)
+{
+    size_t nc = (size_t)1 << (2 * kc), per = n / nc;
+    size_t *ac = bsti_alloc_array(ctx, nc, sizeof *ac), *corner = bsti_alloc_array(ctx, nc, sizeof *corner);
+    double *cs = bsti_calloc(ctx, 4 * nc, sizeof *cs), *col = cs ? cs + 3 * nc : NULL;
+    int rc = ac && corner && cs ? BST_OK : BST_ENOMEM;
+    for (size_t J = 0; rc >= 0 && J < nc; J++)
+        corner[J] = SIZE_MAX;
+    for (size_t x = 0; rc >= 0 && x < n; x++) { /* corners: the first fine patch of each */
+        size_t J = bsti_mat_lr_coarse_cell(tf, x);
+        if (corner[J] == SIZE_MAX)
+            corner[J] = x, ac[J] = bsti_mat_lr_coarse_cell(tf, a[x]);
+        else if (ac[J] != bsti_mat_lr_coarse_cell(tf, a[x]))
+            rc = BST_ENOTFOUND;
+    }
+    double w = 0.0, sc = 0.0;
+    size_t bi = 0, bo = 0;
+    double *tfc = cs, *tbr = cs ? cs + nc : NULL, *tbc = cs ? cs + 2 * nc : NULL;
+    for (size_t J = 0; rc >= 0 && J < nc; J++) {
+        bsti_mat_lr_coarse_col(tf, J, col);
+        for (size_t I = 0; I < nc; I++) {
+            double x = col[I], y = bsti_mat_lr_coarse_at(tb, ac[J], ac[I]), d = fabs(x - y);
+            sc = fmax(sc, fmax(fabs(x), fabs(y)));
+            if (d > w)
+                w = d, bi = J, bo = I;
+            /* Tf's column J; Tb's row ac[J] and column ac[I] take its (ac[J], ac[I]) */
+            tfc[J] += x > 0.0 ? x : 0.0;
+            tbr[ac[J]] += y > 0.0 ? y : 0.0;
+            tbc[ac[I]] += y > 0.0 ? y : 0.0;
+        }
+    }
+    if (rc >= 0) {
+        *worst = w, *scale = sc, *wi = corner[bi], *wo = corner[bo];
+        for (size_t x = 0; sums && x < n; x++) {
+            size_t J = bsti_mat_lr_coarse_cell(tf, x);
+            sums->tf_col[x] = (double)per * tfc[J];
+            sums->tb_row[x] = (double)per * tbr[J];
+            sums->tb_col[x] = (double)per * tbc[J];
+        }
+        if (sums)
+            sums->have = 1;
+    }
+    bsti_free(ctx, ac), bsti_free(ctx, corner), bsti_free(ctx, cs);
+    return rc;
+}
+
 /* recip_lines of two FACTORED transmissions: Tf's columns i beside Tb's rows a(i) (the columns of
  * its transpose: values to rounding) on the readers' threads (bsti_cols_visit), chunk by chunk,
  * the chunks' results taken in their order (the same result whatever the number of threads, and
@@ -359,6 +416,12 @@ static int recip_lines(bst_ctx *ctx, const bst_mat *tf, const bst_mat *tb, const
                        size_t n, double *worst, double *scale, size_t *wi, size_t *wo,
                        bsti_tsums *sums)
 {
+    int kc = bsti_mat_lr_coarse(tf);
+    if (kc > 0 && bsti_mat_lr_coarse(tb) == kc) {
+        int rc = recip_coarse(ctx, tf, tb, a, n, kc, worst, scale, wi, wo, sums);
+        if (rc != BST_ENOTFOUND)
+            return rc;
+    }
     if (tf && tb && tf->s == BST_FACTORED && tb->s == BST_FACTORED)
         return recip_factored(ctx, tf, tb, a, n, worst, scale, wi, wo, sums);
     struct lines lf, lb;

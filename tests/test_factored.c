@@ -666,6 +666,106 @@ START_TEST(test_wide_result)
 }
 END_TEST
 
+/* A system of trees of order 3 combined at k = 5 (panes and blind, the blind either way round) is
+ * of that order (bsti_mat_lr_coarse) in every component.  Read at that order (the reciprocity
+ * check, its sums, the writer's budgets) it gives what its expansion gives at order 5: the same
+ * worst pair and error, sums and budgets to rounding; and its file holds order-3 trees (the file's
+ * order is 3) that read back at k = 5 are the system, value by value unreduced and within the
+ * reduced tree's promise (every hemispherical value within 0.002). */
+START_TEST(test_coarse_result)
+{
+    bst_basis *b5;
+    ck_assert_int_eq(bst_basis_new_sc(ctx, 5, &b5), BST_OK);
+    bst_layer *layers[8], *sys, *exp;
+    size_t n = build(_i ? "t3^t" : "t3t", b5, layers), N = 1024;
+    ck_assert_int_ge(bst_stack_combine(ctx, n, (const bst_layer *const *)layers, NULL, &sys), 0);
+    const char *ch = bst_layer_channel(sys, 0);
+    ck_assert_int_eq(bst_layer_new(ctx, b5, 1, &ch, &exp), BST_OK);
+    for (int c = 0; c < BST_NCOMP; c++) {
+        const bst_mat *m = bst_layer_get(sys, 0, (bst_comp)c);
+        bst_mat *d;
+        ck_assert_int_eq(bst_mat_structure(m), BST_FACTORED);
+        ck_assert_int_eq(bsti_mat_lr_coarse(m), 3);
+        ck_assert_int_eq(bsti_mat_to_dense(ctx, m, BST_DOUBLE, &d), BST_OK);
+        ck_assert_int_eq(bst_layer_set(ctx, exp, 0, (bst_comp)c, d), BST_OK);
+    }
+    double ef, ed;
+    size_t fi, fo, di, dout;
+    ck_assert_int_eq(bst_metrics_reciprocity(ctx, sys, 0, &ef, &fi, &fo), BST_OK);
+    ck_assert_int_eq(bst_metrics_reciprocity(ctx, exp, 0, &ed, &di, &dout), BST_OK);
+    ck_assert_msg(ef == ed && fi == di && fo == dout && ef > 0, "reciprocity %.17g (%zu, %zu) vs "
+                  "%.17g (%zu, %zu)", ef, fi, fo, ed, di, dout);
+    double *ts = malloc(3 * N * sizeof *ts), es;
+    bsti_tsums sums = {ts, ts + N, ts + 2 * N, 0};
+    ck_assert_int_eq(bsti_reciprocity_sums(ctx, sys, 0, &es, &sums), BST_OK);
+    ck_assert(es == ef && sums.have);
+    const bst_mat *tf = bst_layer_get(exp, 0, BST_TF), *tb = bst_layer_get(exp, 0, BST_TB);
+    for (size_t j = 0; j < N; j++) {
+        double want[3] = {0.0, 0.0, 0.0}; /* Tf's column j, Tb's column j, Tb's row j */
+        for (size_t o = 0; o < N; o++) {
+            want[0] += fmax(bsti_mat_at(tf, o, j), 0.0);
+            want[1] += fmax(bsti_mat_at(tb, o, j), 0.0);
+            want[2] += fmax(bsti_mat_at(tb, j, o), 0.0);
+        }
+        const double got[3] = {sums.tf_col[j], sums.tb_col[j], sums.tb_row[j]};
+        for (int t = 0; t < 3; t++)
+            ck_assert_msg(fabs(got[t] - want[t]) <= 1e-12 * fmax(1.0, want[t]),
+                          "sum %d of line %zu: %.17g vs %.17g", t, j, got[t], want[t]);
+    }
+    free(ts);
+    bsti_bounds bs, bd;
+    int omit_s = 0, omit_d = 0;
+    ck_assert_int_eq(bsti_bounds_layer(ctx, sys, 0.002, bsti_bounds_rho(5), &omit_s, NULL, &bs), BST_OK);
+    ck_assert_int_eq(bsti_bounds_layer(ctx, exp, 0.002, bsti_bounds_rho(5), &omit_d, NULL, &bd), BST_OK);
+    for (size_t i = 0; i < BST_NCOMP * N; i++)
+        ck_assert_msg(fabs(bs.col[i] - bd.col[i]) <= 1e-14, "budget %zu: %.17g vs %.17g", i,
+                      bs.col[i], bd.col[i]);
+    bsti_bounds_free(ctx, &bs), bsti_bounds_free(ctx, &bd);
+    for (int reduce = 0; reduce < 2; reduce++) {
+        char path[64];
+        snprintf(path, sizeof path, "/tmp/bst_factored_XXXXXX");
+        int fd = mkstemp(path);
+        ck_assert_int_ge(fd, 0);
+        close(fd);
+        bst_bsdf_write_opts o;
+        bst_bsdf_write_opts_init(&o);
+        if (!reduce)
+            o.reduce_pct = -1.0, o.digits = 0;
+        ck_assert_int_eq(bst_bsdf_write_path(ctx, sys, path, &o), BST_OK);
+        bst_bsdf *f;
+        bst_layer *back;
+        ck_assert_int_ge(bst_bsdf_read(ctx, path, NULL, &f), 0);
+        ck_assert_int_eq(bst_bsdf_order(f), 3);
+        ck_assert_int_eq(bst_bsdf_to_layer(ctx, f, b5, &back), BST_OK);
+        bst_bsdf_free(f);
+        unlink(path);
+        for (int c = 0; c < BST_NCOMP; c++) {
+            const bst_mat *m = bst_layer_get(exp, 0, (bst_comp)c), *r = bst_layer_get(back, 0, (bst_comp)c);
+            if (!reduce) {
+                for (size_t y = 0; y < N; y++)
+                    for (size_t x = 0; x < N; x++) {
+                        double v = fmax(bsti_mat_at(m, x, y), 0.0), got = bst_mat_get(r, x, y);
+                        ck_assert_msg(fabs(got - v) <= 1e-6 * v, "%s (%zu, %zu): %.9g vs %.9g",
+                                      bst_comp_name((bst_comp)c), x, y, got, v);
+                    }
+                continue;
+            }
+            double hs[1024], hb[1024];
+            ck_assert_int_eq(bst_layer_hemispherical(ctx, exp, 0, (bst_comp)c, hs), BST_OK);
+            ck_assert_int_eq(bst_layer_hemispherical(ctx, back, 0, (bst_comp)c, hb), BST_OK);
+            for (size_t j = 0; j < N; j++)
+                ck_assert_msg(fabs(hs[j] - hb[j]) <= 0.002 + 1e-9, "%s hemispherical %zu: %g vs %g",
+                              bst_comp_name((bst_comp)c), j, hb[j], hs[j]);
+        }
+        bst_layer_free(back);
+    }
+    bst_layer_free(sys), bst_layer_free(exp);
+    for (size_t i = 0; i < n; i++)
+        bst_layer_free(layers[i]);
+    bst_basis_free(b5);
+}
+END_TEST
+
 static double min_rcond;
 static void note_rcond(const bst_stack_step *s, void *opaque)
 {
@@ -751,6 +851,7 @@ static Suite *suite(void)
     tcase_add_test(tc, test_rank3_native);
     tcase_add_test(tc, test_write_expanded);
     tcase_add_loop_test(tc, test_wide_result, 0, 2);
+    tcase_add_loop_test(tc, test_coarse_result, 0, 2);
     tcase_add_test(tc, test_near_mirrors);
     suite_add_tcase(s, tc);
     return s;
