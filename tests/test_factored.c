@@ -521,6 +521,40 @@ static void plain_free(void *p, void *opaque)
     free(p);
 }
 
+/* The reciprocity check of a factored system sys and of its expansion exp (N patches, one
+ * channel): the same worst pair and error; the check's sums of the factored transmissions (the
+ * writer's bound takes them) are the expanded matrices' sums to rounding, negatives read as 0;
+ * none are made from dense ones. */
+static void same_reciprocity(const bst_layer *sys, const bst_layer *exp, size_t N)
+{
+    double ef, ed;
+    size_t fi, fo, di, dout;
+    ck_assert_int_eq(bst_metrics_reciprocity(ctx, sys, 0, &ef, &fi, &fo), BST_OK);
+    ck_assert_int_eq(bst_metrics_reciprocity(ctx, exp, 0, &ed, &di, &dout), BST_OK);
+    ck_assert_msg(ef == ed && fi == di && fo == dout && ef > 0, "reciprocity %.17g (%zu, %zu) vs "
+                  "%.17g (%zu, %zu)", ef, fi, fo, ed, di, dout);
+    double *ts = malloc(3 * N * sizeof *ts), es;
+    bsti_tsums sums = {ts, ts + N, ts + 2 * N, 0};
+    ck_assert_int_eq(bsti_reciprocity_sums(ctx, exp, 0, &es, &sums), BST_OK);
+    ck_assert(es == ed && !sums.have);
+    ck_assert_int_eq(bsti_reciprocity_sums(ctx, sys, 0, &es, &sums), BST_OK);
+    ck_assert(es == ef && sums.have);
+    const bst_mat *tf = bst_layer_get(exp, 0, BST_TF), *tb = bst_layer_get(exp, 0, BST_TB);
+    for (size_t j = 0; j < N; j++) {
+        double want[3] = {0.0, 0.0, 0.0}; /* Tf's column j, Tb's column j, Tb's row j */
+        for (size_t o = 0; o < N; o++) {
+            want[0] += fmax(bsti_mat_at(tf, o, j), 0.0);
+            want[1] += fmax(bsti_mat_at(tb, o, j), 0.0);
+            want[2] += fmax(bsti_mat_at(tb, j, o), 0.0);
+        }
+        const double got[3] = {sums.tf_col[j], sums.tb_col[j], sums.tb_row[j]};
+        for (int t = 0; t < 3; t++)
+            ck_assert_msg(fabs(got[t] - want[t]) <= 1e-12 * fmax(1.0, want[t]),
+                          "sum %d of line %zu: %.17g vs %.17g", t, j, got[t], want[t]);
+    }
+    free(ts);
+}
+
 /* A factored system's tree: the writer expands a factored component to write it, or reads it
  * value by value through the factors when that memory is refused; the same bytes either way,
  * reduced (budgets, reciprocity: lines through the factors) and not. */
@@ -605,33 +639,7 @@ START_TEST(test_wide_result)
         for (int t = 0; t < 4; t++)
             free(g[t]);
     }
-    double ef, ed;
-    size_t fi, fo, di, dout;
-    ck_assert_int_eq(bst_metrics_reciprocity(ctx, sys, 0, &ef, &fi, &fo), BST_OK);
-    ck_assert_int_eq(bst_metrics_reciprocity(ctx, exp, 0, &ed, &di, &dout), BST_OK);
-    ck_assert_msg(ef == ed && fi == di && fo == dout && ef > 0, "reciprocity %.17g vs %.17g", ef, ed);
-    /* the check's sums of the factored transmissions (the writer's bound takes them) are the
-     * expanded matrices' sums, negatives read as 0; none are made from dense ones */
-    double *ts = malloc(3 * N * sizeof *ts), es;
-    bsti_tsums sums = {ts, ts + N, ts + 2 * N, 0};
-    ck_assert_int_eq(bsti_reciprocity_sums(ctx, exp, 0, &es, &sums), BST_OK);
-    ck_assert(es == ed && !sums.have);
-    ck_assert_int_eq(bsti_reciprocity_sums(ctx, sys, 0, &es, &sums), BST_OK);
-    ck_assert(es == ef && sums.have);
-    const bst_mat *tf = bst_layer_get(exp, 0, BST_TF), *tb = bst_layer_get(exp, 0, BST_TB);
-    for (size_t j = 0; j < N; j++) {
-        double want[3] = {0.0, 0.0, 0.0}; /* Tf's column j, Tb's column j, Tb's row j */
-        for (size_t o = 0; o < N; o++) {
-            want[0] += fmax(bsti_mat_at(tf, o, j), 0.0);
-            want[1] += fmax(bsti_mat_at(tb, o, j), 0.0);
-            want[2] += fmax(bsti_mat_at(tb, j, o), 0.0);
-        }
-        const double got[3] = {sums.tf_col[j], sums.tb_col[j], sums.tb_row[j]};
-        for (int t = 0; t < 3; t++)
-            ck_assert_msg(fabs(got[t] - want[t]) <= 1e-12 * fmax(1.0, want[t]),
-                          "sum %d of line %zu: %.17g vs %.17g", t, j, got[t], want[t]);
-    }
-    free(ts);
+    same_reciprocity(sys, exp, N);
     for (int reduce = 0; reduce < 2; reduce++)
         for (int recip = 0; recip < 2; recip++) {
             bst_bsdf_write_opts o;
@@ -689,30 +697,7 @@ START_TEST(test_coarse_result)
         ck_assert_int_eq(bsti_mat_to_dense(ctx, m, BST_DOUBLE, &d), BST_OK);
         ck_assert_int_eq(bst_layer_set(ctx, exp, 0, (bst_comp)c, d), BST_OK);
     }
-    double ef, ed;
-    size_t fi, fo, di, dout;
-    ck_assert_int_eq(bst_metrics_reciprocity(ctx, sys, 0, &ef, &fi, &fo), BST_OK);
-    ck_assert_int_eq(bst_metrics_reciprocity(ctx, exp, 0, &ed, &di, &dout), BST_OK);
-    ck_assert_msg(ef == ed && fi == di && fo == dout && ef > 0, "reciprocity %.17g (%zu, %zu) vs "
-                  "%.17g (%zu, %zu)", ef, fi, fo, ed, di, dout);
-    double *ts = malloc(3 * N * sizeof *ts), es;
-    bsti_tsums sums = {ts, ts + N, ts + 2 * N, 0};
-    ck_assert_int_eq(bsti_reciprocity_sums(ctx, sys, 0, &es, &sums), BST_OK);
-    ck_assert(es == ef && sums.have);
-    const bst_mat *tf = bst_layer_get(exp, 0, BST_TF), *tb = bst_layer_get(exp, 0, BST_TB);
-    for (size_t j = 0; j < N; j++) {
-        double want[3] = {0.0, 0.0, 0.0}; /* Tf's column j, Tb's column j, Tb's row j */
-        for (size_t o = 0; o < N; o++) {
-            want[0] += fmax(bsti_mat_at(tf, o, j), 0.0);
-            want[1] += fmax(bsti_mat_at(tb, o, j), 0.0);
-            want[2] += fmax(bsti_mat_at(tb, j, o), 0.0);
-        }
-        const double got[3] = {sums.tf_col[j], sums.tb_col[j], sums.tb_row[j]};
-        for (int t = 0; t < 3; t++)
-            ck_assert_msg(fabs(got[t] - want[t]) <= 1e-12 * fmax(1.0, want[t]),
-                          "sum %d of line %zu: %.17g vs %.17g", t, j, got[t], want[t]);
-    }
-    free(ts);
+    same_reciprocity(sys, exp, N);
     bsti_bounds bs, bd;
     int omit_s = 0, omit_d = 0;
     ck_assert_int_eq(bsti_bounds_layer(ctx, sys, 0.002, bsti_bounds_rho(5), &omit_s, NULL, &bs), BST_OK);
