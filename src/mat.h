@@ -82,6 +82,10 @@ double bsti_mat_lr_coarse_at(const bst_mat *m, size_t ci, size_t cj);
 void bsti_mat_lr_coarse_col(const bst_mat *m, size_t cj, double *out);
 /* The order-kc patch holding order-k patch x. */
 size_t bsti_mat_lr_coarse_cell(const bst_mat *m, size_t x);
+/* Such an m's column sums col[x] and row sums row[x] (row may be NULL) at every order-k patch x,
+ * negatives read as 0 (as a tree reader stores them): its coarse sums times the order-k patches
+ * an order-kc patch holds (the fine sums to rounding).  BST_ENOMEM, or BST_OK. */
+int bsti_mat_lr_coarse_sums(bst_ctx *ctx, const bst_mat *m, double *col, double *row);
 /* Values given per order-k patch (a writer's budgets) per order-kc patch: the least over the
  * order-k patches inside each, 4^kc into out. */
 void bsti_mat_lr_coarse_least(const double *fine, int k, int kc, double *out);

@@ -414,6 +414,31 @@ size_t bsti_mat_lr_coarse_cell(const bst_mat *m, size_t x)
     return m->lr->S->col[x];
 }
 
+int bsti_mat_lr_coarse_sums(bst_ctx *ctx, const bst_mat *m, double *col, double *row)
+{
+    size_t n = m->rows, nc = m->lr->r, per = n / nc;
+    double *cc = bsti_calloc(ctx, 3 * nc, sizeof *cc), *rc = cc ? cc + nc : NULL;
+    double *v = cc ? cc + 2 * nc : NULL;
+    if (!cc)
+        return BST_ENOMEM;
+    for (size_t cj = 0; cj < nc; cj++) {
+        bsti_mat_lr_coarse_col(m, cj, v);
+        for (size_t ci = 0; ci < nc; ci++) {
+            double x = v[ci] > 0.0 ? v[ci] : 0.0;
+            cc[cj] += x;
+            rc[ci] += x;
+        }
+    }
+    for (size_t x = 0; x < n; x++) {
+        size_t c = m->lr->S->col[x];
+        col[x] = (double)per * cc[c];
+        if (row)
+            row[x] = (double)per * rc[c];
+    }
+    bsti_free(ctx, cc);
+    return BST_OK;
+}
+
 void bsti_mat_lr_coarse_least(const double *fine, int k, int kc, double *out)
 {
     size_t nc = (size_t)1 << (2 * kc), s = (size_t)1 << (k - kc), G = (size_t)1 << k;

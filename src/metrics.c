@@ -315,17 +315,16 @@ static int recip_col(void *opaque, size_t q, size_t i, const double *xc, const d
  * maps the patches of each order-kc patch onto those of one (ac): the same differences and
  * values, 4^(k - kc) times fewer.  The worst pair is the first in the fine loop's order: of equal
  * ones, the least coarse patches', whose corners (first fine patches) precede every fine patch of
- * a later one.  The sums are the coarse sums times the fine patches a coarse one holds, the
- * additions in another order (the same to rounding).  BST_ENOTFOUND when the antipode does not
+ * a later one.  The sums are bsti_mat_lr_coarse_sums's.  BST_ENOTFOUND when the antipode does not
  * map the coarse patches so. */
 static int recip_coarse(bst_ctx *ctx, const bst_mat *tf, const bst_mat *tb, const size_t *a,
                         size_t n, int kc, double *worst, double *scale, size_t *wi, size_t *wo,
                         bsti_tsums *sums)
 {
-    size_t nc = (size_t)1 << (2 * kc), per = n / nc;
+    size_t nc = (size_t)1 << (2 * kc);
     size_t *ac = bsti_alloc_array(ctx, nc, sizeof *ac), *corner = bsti_alloc_array(ctx, nc, sizeof *corner);
-    double *cs = bsti_calloc(ctx, 4 * nc, sizeof *cs), *col = cs ? cs + 3 * nc : NULL;
-    int rc = ac && corner && cs ? BST_OK : BST_ENOMEM;
+    double *col = bsti_alloc_array(ctx, nc, sizeof *col);
+    int rc = ac && corner && col ? BST_OK : BST_ENOMEM;
     for (size_t J = 0; rc >= 0 && J < nc; J++)
         corner[J] = SIZE_MAX;
     for (size_t x = 0; rc >= 0 && x < n; x++) { /* corners: the first fine patch of each */
@@ -337,7 +336,6 @@ static int recip_coarse(bst_ctx *ctx, const bst_mat *tf, const bst_mat *tb, cons
     }
     double w = 0.0, sc = 0.0;
     size_t bi = 0, bo = 0;
-    double *tfc = cs, *tbr = cs ? cs + nc : NULL, *tbc = cs ? cs + 2 * nc : NULL;
     for (size_t J = 0; rc >= 0 && J < nc; J++) {
         bsti_mat_lr_coarse_col(tf, J, col);
         for (size_t I = 0; I < nc; I++) {
@@ -345,24 +343,14 @@ static int recip_coarse(bst_ctx *ctx, const bst_mat *tf, const bst_mat *tb, cons
             sc = fmax(sc, fmax(fabs(x), fabs(y)));
             if (d > w)
                 w = d, bi = J, bo = I;
-            /* Tf's column J; Tb's row ac[J] and column ac[I] take its (ac[J], ac[I]) */
-            tfc[J] += x > 0.0 ? x : 0.0;
-            tbr[ac[J]] += y > 0.0 ? y : 0.0;
-            tbc[ac[I]] += y > 0.0 ? y : 0.0;
         }
     }
-    if (rc >= 0) {
+    if (rc >= 0)
         *worst = w, *scale = sc, *wi = corner[bi], *wo = corner[bo];
-        for (size_t x = 0; sums && x < n; x++) {
-            size_t J = bsti_mat_lr_coarse_cell(tf, x);
-            sums->tf_col[x] = (double)per * tfc[J];
-            sums->tb_row[x] = (double)per * tbr[J];
-            sums->tb_col[x] = (double)per * tbc[J];
-        }
-        if (sums)
-            sums->have = 1;
-    }
-    bsti_free(ctx, ac), bsti_free(ctx, corner), bsti_free(ctx, cs);
+    if (rc >= 0 && sums && (rc = bsti_mat_lr_coarse_sums(ctx, tf, sums->tf_col, NULL)) >= 0 &&
+        (rc = bsti_mat_lr_coarse_sums(ctx, tb, sums->tb_col, sums->tb_row)) >= 0)
+        sums->have = 1;
+    bsti_free(ctx, ac), bsti_free(ctx, corner), bsti_free(ctx, col);
     return rc;
 }
 

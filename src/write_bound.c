@@ -52,34 +52,6 @@ static int factored_sums(bst_ctx *ctx, const bst_mat *m, size_t nr, size_t n, do
     return rc;
 }
 
-/* factored_sums of a matrix of a coarser order kc (bsti_mat_lr_coarse) at that order: the coarse
- * sums times the fine patches a coarse one holds (the additions in another order: the same to
- * rounding).  BST_ENOMEM, or BST_OK. */
-static int coarse_sums(bst_ctx *ctx, const bst_mat *m, int kc, size_t n, double *col, double *row)
-{
-    size_t nc = (size_t)1 << (2 * kc), per = n / nc;
-    double *cc = bsti_calloc(ctx, 3 * nc, sizeof *cc), *rc = cc ? cc + nc : NULL;
-    double *v = cc ? cc + 2 * nc : NULL;
-    if (!cc)
-        return BST_ENOMEM;
-    for (size_t J = 0; J < nc; J++) {
-        bsti_mat_lr_coarse_col(m, J, v);
-        for (size_t I = 0; I < nc; I++) {
-            double x = v[I] > 0.0 ? v[I] : 0.0;
-            cc[J] += x;
-            rc[I] += x;
-        }
-    }
-    for (size_t x = 0; x < n; x++) {
-        size_t J = bsti_mat_lr_coarse_cell(m, x);
-        col[x] = (double)per * cc[J];
-        if (row)
-            row[x] = (double)per * rc[J];
-    }
-    bsti_free(ctx, cc);
-    return BST_OK;
-}
-
 /* col[i] = sum over o of m(o, i), row[o] = sum over i (row may be NULL), negatives read as 0, as
  * a tree reader stores them; m (NULL: zeros) has nr rows and n columns. */
 static int sums(bst_ctx *ctx, const bst_mat *m, size_t nr, size_t n, double *col, double *row)
@@ -96,7 +68,7 @@ static int sums(bst_ctx *ctx, const bst_mat *m, size_t nr, size_t n, double *col
                 row[i] = col[i];
         }
     } else if (m->s == BST_FACTORED && nr == n && bsti_mat_lr_coarse(m) > 0) {
-        return coarse_sums(ctx, m, bsti_mat_lr_coarse(m), n, col, row);
+        return bsti_mat_lr_coarse_sums(ctx, m, col, row);
     } else if (m->s == BST_FACTORED || m->s == BST_PLUS_LR) {
         return factored_sums(ctx, m, nr, n, col, row);
     } else if (m->s == BST_SPARSE) {
